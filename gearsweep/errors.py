@@ -1,0 +1,21 @@
+"""The package's own exceptions. The CLI maps every ``GearsweepError`` to one line and exit code 2."""
+
+
+class GearsweepError(Exception):
+    """Base class of every error that is the user's input, not a bug: one clear line, exit 2."""
+
+
+class StudyError(GearsweepError):
+    """A study file that cannot be run: ``file: field.path: value -- what is allowed``."""
+
+    def __init__(self, file: str, field: str, value: object, allowed: str) -> None:
+        self.file, self.field, self.value, self.allowed = file, field, value, allowed
+        super().__init__(f"{file}: {field}: {value!r} -- {allowed}")
+
+
+class GeometryError(GearsweepError):
+    """A gear pair that cannot exist (interference, pointed teeth, contact ratio below 1, ...)."""
+
+
+class ResultError(GearsweepError):
+    """A results file that is missing, unreadable, or not a gearsweep result."""
