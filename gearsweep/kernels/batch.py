@@ -1,0 +1,136 @@
+"""Public entry to the batch kernel: plain NumPy arrays in SI units in, plain arrays out.
+
+``simulate`` broadcasts scalars, makes arrays contiguous float64, switches terms off with ``None``
+(each combination is its own compiled specialisation, cached on disk) and returns a
+``BatchResult``. It knows nothing of studies, units, xarray or files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gearsweep.kernels import rk
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Per-case results of one kernel call (arrays of length ``n``)."""
+
+    stats: dict[str, np.ndarray]
+    """Steady-state statistics, keyed by ``rk.STAT_NAMES`` [m] or [1]."""
+    x_final: np.ndarray
+    """Displacement p at the end [m] (NaN for diverged cases)."""
+    v_final: np.ndarray
+    """Velocity p' at the end [m/s]."""
+    status: np.ndarray
+    """``rk.STATUS_OK`` or ``rk.STATUS_DIVERGED`` (int8)."""
+    signal: np.ndarray | None
+    """p at every ``stride``-th recorded step, shape (n, n_samples) [m], if asked for."""
+
+
+def _vec(x, n: int) -> np.ndarray:
+    a = np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)))
+    return a
+
+
+def _tab(t) -> np.ndarray | None:
+    if t is None:
+        return None
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    if t.ndim != 2 or t.shape[1] != len(rk.NODES):
+        raise ValueError(f"a coefficient table must have shape (S, {len(rk.NODES)}), got {t.shape}")
+    return t
+
+
+def simulate(
+    h,
+    *,
+    method: str = "rk4",
+    damping=0.0,
+    k_mean=0.0,
+    k_scale=None,
+    k_table=None,
+    force=0.0,
+    ste_scale=0.0,
+    ste_table=None,
+    fluct_scale=0.0,
+    fluct_table=None,
+    half_gap=None,
+    bound=np.inf,
+    x0=0.0,
+    v0=0.0,
+    n_transient: int,
+    n_record: int,
+    steps_per_period: int,
+    signal_stride: int = 0,
+) -> BatchResult:
+    """Integrate ``p'' = G(t) - damping p' - K(t) f(p)`` for a batch of cases.
+
+    Parameters
+    ----------
+    h : array_like (n,)
+        Fixed step [s]; it must divide the excitation cycle of the tables into ``S`` steps.
+    method : {"rk4", "rk5"}
+    damping : array_like
+        c / m [1/s].
+    k_mean, k_scale, k_table :
+        Stiffness / mass: ``k_mean + k_scale * k_table`` [1/s^2]. ``k_table=None``: constant
+        ``k_mean``. ``k_scale=None``: ``k_table`` alone, shared by every case (fastest).
+    force, ste_scale, ste_table, fluct_scale, fluct_table :
+        Force / mass: ``force + ste_scale * ste_table + fluct_scale * fluct_table`` [m/s^2].
+    half_gap : array_like or None
+        Half the backlash [m]; ``None``: no backlash (f(p) = p).
+    bound : array_like
+        A case whose |p| exceeds it [m] (or turns non-finite) is stopped and flagged.
+    x0, v0 : array_like
+        Initial state [m], [m/s].
+    n_transient, n_record, steps_per_period : int
+        Steps discarded, steps recorded, steps per mesh period.
+    signal_stride : int
+        If > 0, also return p at every ``signal_stride``-th recorded step.
+    """
+    h = np.ascontiguousarray(np.atleast_1d(np.asarray(h, dtype=np.float64)))
+    n = h.shape[0]
+    if method not in rk.METHODS:
+        raise ValueError(f"method must be one of {sorted(rk.METHODS)}, got {method!r}")
+    if n_transient < 0 or n_record < 0 or steps_per_period < 1:
+        raise ValueError("step counts must be non-negative and steps_per_period >= 1")
+    tables = [_tab(k_table), _tab(ste_table), _tab(fluct_table)]
+    sizes = {t.shape[0] for t in tables if t is not None}
+    if len(sizes) > 1:
+        raise ValueError(f"coefficient tables cover different cycles: {sorted(sizes)} steps")
+    signal = None
+    stride = max(int(signal_stride), 1)
+    if signal_stride > 0:
+        signal = np.full((n, (n_record + stride - 1) // stride), np.nan)
+    stats, xf, vf, status = rk.integrate(
+        rk.METHODS[method],
+        h,
+        _vec(damping, n),
+        _vec(k_mean, n),
+        None if k_scale is None else _vec(k_scale, n),
+        tables[0],
+        _vec(force, n),
+        _vec(ste_scale, n),
+        tables[1],
+        _vec(fluct_scale, n),
+        tables[2],
+        None if half_gap is None else _vec(half_gap, n),
+        _vec(bound, n),
+        _vec(x0, n),
+        _vec(v0, n),
+        int(n_transient),
+        int(n_record),
+        int(steps_per_period),
+        signal,
+        stride,
+    )
+    return BatchResult(
+        stats={name: stats[:, q] for q, name in enumerate(rk.STAT_NAMES)},
+        x_final=xf,
+        v_final=vf,
+        status=status,
+        signal=signal,
+    )
