@@ -137,16 +137,16 @@ def test_undamped_tongue_boundaries_match_mathieu_characteristic_values():
     for n in (1, 2, 3):
         curves[f"b{n}"] = mathieu_b(n, q) / 4
         curves[f"a{n}"] = mathieu_a(n, q) / 4
-    allc = np.array(list(curves.values()))
-    for name, curve in curves.items():
-        # bracket: a quarter of the distance to the nearest other curve (at most 0.01) each side;
-        # the bisection checks that the flag really differs at the two ends
-        others = np.abs(allc - curve)
-        gap = np.min(np.where(others > 0, others, np.inf), axis=0)
-        d = np.minimum(0.25 * gap, 0.01)
-        edge = _bisect(lambda al: floquet(al, beta, 0.0, rtol=1e-11, tol=1e-8).unstable,
-                       curve - d, curve + d)
-        assert_allclose(edge, curve, rtol=0, atol=1e-6, err_msg=name)
+    allc = np.array(list(curves.values()))  # (7 curves, 3 betas)
+    # bracket: a quarter of the distance to the nearest other curve (at most 0.01) each side;
+    # _bisect checks that the stability flag really differs at the two ends
+    dist = np.abs(allc[:, None, :] - allc[None, :, :])
+    dist[np.arange(7), np.arange(7)] = np.inf
+    d = np.minimum(0.25 * dist.min(axis=1), 0.01)
+    b = np.broadcast_to(beta, allc.shape).ravel()
+    edge = _bisect(lambda al: floquet(al, b, 0.0, rtol=1e-11, tol=1e-8, spp_max=2048).unstable,
+                   (allc - d).ravel(), (allc + d).ravel())
+    assert_allclose(edge.reshape(allc.shape), allc, rtol=0, atol=1e-6)
 
 
 def test_damping_is_exact_exponential_factor():
