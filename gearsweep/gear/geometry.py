@@ -213,11 +213,15 @@ class GearPair:
     def tip_radius(self) -> tuple[float, float]:
         """Tip radii of gears 1 and 2 [m]."""
         m = self.module
-        ra1 = self.tip_radius1 if self.tip_radius1 is not None else self.pitch_radius1 + m * (
-            1.0 + self.x1
+        ra1 = (
+            self.tip_radius1
+            if self.tip_radius1 is not None
+            else self.pitch_radius1 + m * (1.0 + self.x1)
         )
-        ra2 = self.tip_radius2 if self.tip_radius2 is not None else self.pitch_radius2 + m * (
-            1.0 + self.x2
+        ra2 = (
+            self.tip_radius2
+            if self.tip_radius2 is not None
+            else self.pitch_radius2 + m * (1.0 + self.x2)
         )
         return ra1, ra2
 
@@ -225,11 +229,15 @@ class GearPair:
     def root_radius(self) -> tuple[float, float]:
         """Root radii of gears 1 and 2 [m]."""
         m = self.module
-        rf1 = self.root_radius1 if self.root_radius1 is not None else self.pitch_radius1 - m * (
-            1.25 - self.x1
+        rf1 = (
+            self.root_radius1
+            if self.root_radius1 is not None
+            else self.pitch_radius1 - m * (1.25 - self.x1)
         )
-        rf2 = self.root_radius2 if self.root_radius2 is not None else self.pitch_radius2 - m * (
-            1.25 - self.x2
+        rf2 = (
+            self.root_radius2
+            if self.root_radius2 is not None
+            else self.pitch_radius2 - m * (1.25 - self.x2)
         )
         return rf1, rf2
 
@@ -267,14 +275,16 @@ class GearPair:
         """Operating (working) transverse pressure angle ``alpha_w`` [rad].
 
         From the given centre distance (``cos alpha_w = (rb1 + rb2) / a``), or else from the
-        profile shifts by solving ``inv(alpha_w) = inv(alpha) + 2 tan(alpha) (x1 + x2) / (z1 + z2)``.
+        profile shifts by solving
+        ``inv(alpha_w) = inv(alpha) + 2 tan(alpha) (x1 + x2) / (z1 + z2)``.
         """
         if self.centre_distance is not None:
-            c = (self.base_radius1 + self.base_radius2) / self.centre_distance
+            rb_sum = self.base_radius1 + self.base_radius2
+            c = rb_sum / self.centre_distance
             if c >= 1.0:
                 raise GeometryError(
                     f"{self.name}: centre distance {self.centre_distance * 1e3:.4g} mm is not "
-                    f"more than the sum of base radii {(self.base_radius1 + self.base_radius2) * 1e3:.4g} mm"
+                    f"more than the sum of base radii {rb_sum * 1e3:.4g} mm"
                 )
             return math.acos(c)
         a = self.pressure_angle
@@ -495,7 +505,8 @@ class GearPair:
             ra, rf = self.tip_radius[g - 1], self.root_radius[g - 1]
             if not rf < ra:
                 basic.append(
-                    f"gear {g}: root radius {rf * mm:.4g} mm is not below tip radius {ra * mm:.4g} mm"
+                    f"gear {g}: root radius {rf * mm:.4g} mm is not below tip radius "
+                    f"{ra * mm:.4g} mm"
                 )
             if ra <= rb[g - 1]:
                 basic.append(
@@ -533,8 +544,9 @@ class GearPair:
         eps = self.contact_ratio
         if eps < 1.0:
             out.append(
-                f"contact ratio {eps:.3f} is below 1: path of contact {self.path_of_contact * mm:.4g}"
-                f" mm is shorter than the base pitch {self.base_pitch * mm:.4g} mm"
+                f"contact ratio {eps:.3f} is below 1: path of contact "
+                f"{self.path_of_contact * mm:.4g} mm is shorter than the base pitch "
+                f"{self.base_pitch * mm:.4g} mm"
             )
         if self.contact_ratio_range is not None:
             lo, hi = self.contact_ratio_range
@@ -558,8 +570,8 @@ class GearPair:
             if theta_f > math.pi / z:
                 out.append(
                     f"fillet radius {self.fillet * mm:.4g} mm does not fit the tooth space of gear "
-                    f"{g} at its root circle: fillet centre at {math.degrees(theta_f):.3g} deg from "
-                    f"the tooth centre line, beyond the space centre at {180.0 / z:.3g} deg"
+                    f"{g} at its root circle: fillet centre at {math.degrees(theta_f):.3g} deg "
+                    f"from the tooth centre line, beyond the space centre at {180.0 / z:.3g} deg"
                 )
                 continue
             r_low = math.hypot(rb[g - 1], s_low[g - 1])
@@ -576,7 +588,9 @@ class GearPair:
         s1, s2 = self.thickness
         j = self.circumferential_backlash
         p_w = 2.0 * math.pi * self.operating_pitch_radius[0] / self.z1
-        if self.backlash is not None and (self.thickness1 is not None or self.thickness2 is not None):
+        if self.backlash is not None and (
+            self.thickness1 is not None or self.thickness2 is not None
+        ):
             if abs(j - self.backlash) > _TOL_BACKLASH:
                 out.append(
                     f"tooth thickness and backlash cannot coexist at centre distance "
@@ -588,8 +602,8 @@ class GearPair:
         if j < 0:
             out.append(
                 f"tooth thicknesses {s1 * mm:.4g} + {s2 * mm:.4g} mm do not fit the circular pitch "
-                f"{p_w * mm:.4g} mm at centre distance {self.operating_centre_distance * mm:.4g} mm "
-                f"(backlash would be {j * mm:.4g} mm)"
+                f"{p_w * mm:.4g} mm at centre distance "
+                f"{self.operating_centre_distance * mm:.4g} mm (backlash would be {j * mm:.4g} mm)"
             )
         return out
 
