@@ -519,7 +519,8 @@ class GearPair:
         for g in (1, 2):
             r = self.pitch_radius1 if g == 1 else self.pitch_radius2
             x = self.x1 if g == 1 else self.x2
-            h_straight = (r + x * self.module - self.root_radius[g - 1]) - self.fillet * (
+            # Rack tip line sits r - r_f inside the rolling (reference) circle.
+            h_straight = (r - self.root_radius[g - 1]) - self.fillet * (
                 1.0 - math.sin(self.pressure_angle)
             )
             limit = r * math.sin(self.pressure_angle) ** 2
@@ -527,8 +528,8 @@ class GearPair:
                 out.append(
                     f"undercut: gear {g} (z = {self.z1 if g == 1 else self.z2}, x = {x:.3g}) is "
                     f"undercut by the generating rack: straight rack flank reaches "
-                    f"{h_straight * mm:.3g} mm above the datum, more than r sin^2(alpha) = "
-                    f"{limit * mm:.3g} mm"
+                    f"{h_straight * mm:.3g} mm inside the reference circle, more than "
+                    f"r sin^2(alpha) = {limit * mm:.3g} mm"
                 )
         # Involute interference: contact outside the segment T1 T2.
         if self.s_start < 0:
@@ -599,7 +600,7 @@ class GearPair:
                     f"{p_w * mm:.4g} mm), not the given {self.backlash * mm:.4g} mm"
                 )
                 return out
-        if j < 0:
+        if j < -1e-12:  # [m] round-off of a zero-backlash pair
             out.append(
                 f"tooth thicknesses {s1 * mm:.4g} + {s2 * mm:.4g} mm do not fit the circular pitch "
                 f"{p_w * mm:.4g} mm at centre distance "
