@@ -1,4 +1,4 @@
-"""Tooth compliance, load sharing, STE, mesh stiffness, Fourier series and ISO 6336-1 cross-check."""
+"""Tooth compliance, load sharing, STE, mesh stiffness, Fourier series, ISO 6336-1 check."""
 
 import dataclasses
 import math
@@ -105,7 +105,7 @@ def test_thinner_rim_lowers_stiffness():
 def test_tooth_profile_root_section():
     pair = table1_consistent()
     prof = tooth_profile(pair, 2)
-    # The root section is the chord through the fillet-root tangency points: S_f = 2 r_f sin(theta_f).
+    # Root section: the chord through the fillet-root tangency points, S_f = 2 r_f sin(theta_f).
     assert prof.half_width[0] == pytest.approx(prof.root_radius * math.sin(prof.theta_f), rel=1e-6)
     assert np.all(np.diff(prof.j0) > 0)
 
