@@ -262,3 +262,80 @@ def test_speed_one_cycle_and_50_load_sweep():
     assert len(cycles) == 50
     assert one < 0.5
     assert sweep < 10.0
+
+
+# --------------------------------------------------------------------------- more mesh cases
+
+
+def test_contact_ratio_above_two_uses_three_pairs():
+    # Long addenda (1.3 m) on 60/90 teeth, m = 1 mm: epsilon = 2.31, two or three pairs in contact.
+    pair = GearPair(
+        module=1e-3, z1=60, z2=90, face_width=10e-3, tip_radius1=31.3e-3, tip_radius2=46.3e-3,
+        root_radius1=28.6e-3, root_radius2=43.6e-3, fillet_radius=0.25e-3,
+    )  # fmt: skip
+    mc = mesh_cycle(pair, 20.0)
+    n_pairs = mc.in_contact.sum(axis=1)
+    assert set(np.unique(n_pairs)) == {2, 3}
+    # Three pairs during (epsilon - 2) of the cycle, +- one sample.
+    assert abs((n_pairs == 3).mean() - (pair.contact_ratio - 2)) <= 1.0 / mc.phase.size
+    assert_allclose(mc.load_share.sum(axis=1), 1.0, rtol=1e-12)
+
+
+def test_tip_relief_shapes_and_start_forms():
+    pair = table1_consistent()
+    rb, ra = pair.base_radius1, pair.tip_radius[0]
+    r_start = 61.0e-3
+    xi_s, xi_a = math.sqrt(r_start**2 - rb**2) / rb, math.sqrt(ra**2 - rb**2) / rb
+    xi_mid = 0.5 * (xi_s + xi_a)
+    r = np.array([60.0e-3, r_start, rb * math.sqrt(1 + xi_mid**2), ra])
+    lin = TipRelief(10e-6, start_radius=r_start).separation(pair, 1, r)
+    par = TipRelief(10e-6, start_diameter=2 * r_start, shape="parabolic").separation(pair, 1, r)
+    by_roll = TipRelief(10e-6, start_roll_angle=xi_s).separation(pair, 1, r)
+    # Linear in roll angle: 0 below the start, half at mid roll angle, all at the tip.
+    assert_allclose(lin, [0.0, 0.0, 5e-6, 10e-6], atol=1e-15)
+    assert_allclose(par, [0.0, 0.0, 2.5e-6, 10e-6], atol=1e-15)
+    assert_allclose(by_roll, lin, atol=1e-15)
+
+
+def test_as_arrays_uses_data_names():
+    mc = mesh_cycle(table1_consistent(), 50.0)
+    arrays = mc.as_arrays(n_harmonics=5)
+    expected = {"mesh_phase", "ste", "load_share", "mesh_stiffness", "k_harmonic", "k_phase"}
+    assert expected | {"ste_harmonic", "ste_phase"} == set(arrays)
+    assert arrays["k_harmonic"].shape == (6,)
+    assert arrays["k_harmonic"][0] == pytest.approx(mc.mesh_stiffness.mean(), rel=1e-12)
+    assert np.all((arrays["mesh_phase"] >= 0) & (arrays["mesh_phase"] < 1))
+
+
+# --------------------------------------------------------------------------- plots (data only)
+
+
+def test_plots_draw_the_computed_data():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gearsweep.plot.mesh import plot_backlash_stiffness, plot_load_sharing, plot_ste
+
+    mc = mesh_cycle(table1_consistent(), 50.0)
+    fig, axes = plt.subplots(1, 3)
+    try:
+        assert plot_ste(axes[0], mc, cycles=1) is fig
+        x, y = axes[0].lines[0].get_data()
+        assert_allclose(y[:-1], mc.ste * 1e6, rtol=1e-12)  # um
+        assert "[um]" in axes[0].get_ylabel()
+        plot_load_sharing(axes[1], mc)
+        (pair_line,) = [ln for ln in axes[1].lines if ln.get_label() == "one tooth pair"]
+        pos_mm, share = pair_line.get_data()
+        assert share.max() == pytest.approx(1.0, rel=1e-12)
+        path_mm = mc.pair.path_of_contact * 1e3
+        assert pos_mm.min() == 0.0 and pos_mm.max() == pytest.approx(path_mm, rel=1e-12)
+        k, backlash = 2e8, 0.4e-3
+        plot_backlash_stiffness(axes[2], k, backlash)
+        p, force = axes[2].lines[0].get_data()
+        # Eq. (8): zero inside +-b (b = 0.2 mm), slope k outside; p in mm, force in kN.
+        assert_allclose(p, [-0.5, -0.2, 0.2, 0.5], rtol=1e-12)
+        assert_allclose(force, [-k * 0.3e-3 / 1e3, 0.0, 0.0, k * 0.3e-3 / 1e3], rtol=1e-12)
+    finally:
+        plt.close(fig)

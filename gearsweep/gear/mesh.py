@@ -33,7 +33,7 @@ from typing import Literal
 import numpy as np
 
 from gearsweep.errors import GeometryError
-from gearsweep.gear.compliance import pair_compliance
+from gearsweep.gear.compliance import pair_compliance, rim_factor
 from gearsweep.gear.geometry import GearPair
 from gearsweep.jit import jit
 
@@ -57,9 +57,11 @@ class TipRelief:
     amount : float
         Relief at the tip ``C_a`` [m].
     start_radius : float or None
-        Radius where relief starts [m] (``start_diameter / 2``).
+        Radius where relief starts [m].
     start_roll_angle : float or None
-        Roll angle where relief starts [rad]; give this or ``start_radius``.
+        Roll angle where relief starts [rad].
+    start_diameter : float or None
+        Diameter where relief starts [m]. Give exactly one of the three start values.
     shape : {"linear", "parabolic"}
         Relief grows linearly or quadratically with roll angle from start to tip.
     """
@@ -68,12 +70,16 @@ class TipRelief:
     start_radius: float | None = None
     start_roll_angle: float | None = None
     shape: Literal["linear", "parabolic"] = "linear"
+    start_diameter: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.amount) and self.amount >= 0):
             raise GeometryError(f"tip relief amount {self.amount!r} m must be >= 0")
-        if (self.start_radius is None) == (self.start_roll_angle is None):
-            raise GeometryError("tip relief: give exactly one of start_radius, start_roll_angle")
+        starts = (self.start_radius, self.start_roll_angle, self.start_diameter)
+        if sum(v is not None for v in starts) != 1:
+            raise GeometryError(
+                "tip relief: give exactly one of start_radius, start_roll_angle, start_diameter"
+            )
         if self.shape not in ("linear", "parabolic"):
             raise GeometryError(
                 f"tip relief shape {self.shape!r} is not one of 'linear', 'parabolic'"
@@ -101,12 +107,13 @@ class TipRelief:
         if self.start_roll_angle is not None:
             xi_s = self.start_roll_angle
         else:
-            if not (rb <= self.start_radius < ra):
+            r_s = self.start_radius if self.start_radius is not None else 0.5 * self.start_diameter
+            if not (rb <= r_s < ra):
                 raise GeometryError(
-                    f"tip relief start radius {self.start_radius * 1e3:.4g} mm of gear {gear} "
+                    f"tip relief start radius {r_s * 1e3:.4g} mm of gear {gear} "
                     f"must lie between base {rb * 1e3:.4g} mm and tip {ra * 1e3:.4g} mm"
                 )
-            xi_s = math.sqrt(self.start_radius**2 - rb**2) / rb
+            xi_s = math.sqrt(r_s**2 - rb**2) / rb
         xi_a = math.sqrt(ra**2 - rb**2) / rb
         if not xi_s < xi_a:
             raise GeometryError(
@@ -169,10 +176,33 @@ class MeshCycle:
     mesh_stiffness: np.ndarray
     secant_stiffness: np.ndarray
 
-    @property
-    def roll_position(self) -> np.ndarray:
-        """Position along the path of contact of slot 0 in mesh cycles, ``phase`` [-]."""
-        return self.phase
+    def as_arrays(self, n_harmonics: int = 10) -> dict[str, np.ndarray]:
+        """The mesh cycle under the names of ``shared/DATA.md`` (plain arrays, SI units).
+
+        Parameters
+        ----------
+        n_harmonics : int
+            Highest Fourier harmonic kept [-].
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``mesh_phase`` (n,), ``ste`` [m] (n,), ``load_share`` [1] (n, pair),
+            ``mesh_stiffness`` [N/m] (n,), ``k_harmonic`` [N/m], ``k_phase`` [rad],
+            ``ste_harmonic`` [m], ``ste_phase`` [rad] (harmonic, 0 = mean).
+        """
+        k_amp, k_ph = fourier(self.mesh_stiffness, n_harmonics)
+        e_amp, e_ph = fourier(self.ste, n_harmonics)
+        return {
+            "mesh_phase": self.phase,
+            "ste": self.ste,
+            "load_share": self.load_share,
+            "mesh_stiffness": self.mesh_stiffness,
+            "k_harmonic": k_amp,
+            "k_phase": k_ph,
+            "ste_harmonic": e_amp,
+            "ste_phase": e_ph,
+        }
 
 
 @jit
@@ -440,8 +470,6 @@ def iso6336_stiffness(pair: GearPair) -> tuple[float, float]:
     c_prime, c_gamma : float
         Single-pair and mean mesh stiffness [N/m].
     """
-    from gearsweep.gear.compliance import rim_factor
-
     if pair.z1 <= pair.z2:
         (z1, x1), (z2, x2) = (pair.z1, pair.x1), (pair.z2, pair.x2)
     else:
