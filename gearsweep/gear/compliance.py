@@ -142,15 +142,15 @@ def tooth_profile(pair: GearPair, gear: int, n: int = 2000) -> ToothProfile:
         a1 += 2.0 * math.pi
     if a1 - a0 > math.pi:
         a1 -= 2.0 * math.pi
-    ang = np.linspace(a0, a1, 200)
+    ang = np.linspace(a0, a1, max(n // 10, 20))
     fx, fy = cx + rho * np.cos(ang), cy + rho * np.sin(ang)
     parts_x, parts_y = [fx], [fy]
     if r_tan < rb:
         psi_b = float(pair.half_angle(rb, gear))
-        rr = np.linspace(r_tan, rb, 50)[1:]
+        rr = np.linspace(r_tan, rb, max(n // 40, 5))[1:]
         parts_x.append(rr * math.sin(psi_b))
         parts_y.append(rr * math.cos(psi_b))
-    rr = np.linspace(max(rb, r_tan), ra, 600)[1:]
+    rr = np.linspace(max(rb, r_tan), ra, max(n // 3, 50))[1:]
     psi = pair.half_angle(rr, gear)
     parts_x.append(rr * np.sin(psi))
     parts_y.append(rr * np.cos(psi))
@@ -224,7 +224,9 @@ def rim_factor(pair: GearPair, gear: int) -> float:
     return 1.0 + math.log(bs_b) / (5.0 * math.exp(sr_m / 5.0))
 
 
-def tooth_compliance(pair: GearPair, gear: int, r: np.ndarray | float) -> ToothCompliance:
+def tooth_compliance(
+    pair: GearPair, gear: int, r: np.ndarray | float, n: int = 2000
+) -> ToothCompliance:
     """Compliance of one tooth for a load normal to the involute at contact radius ``r``.
 
     Parameters
@@ -235,13 +237,15 @@ def tooth_compliance(pair: GearPair, gear: int, r: np.ndarray | float) -> ToothC
         Which gear.
     r : float or ndarray
         Contact radius, between base and tip radius [m].
+    n : int
+        Grid points along the tooth centre line (see :func:`tooth_profile`) [-].
 
     Returns
     -------
     ToothCompliance
         Bending, shear, axial and foundation compliance along the load line [m/N].
     """
-    prof = tooth_profile(pair, gear)
+    prof = tooth_profile(pair, gear, n)
     r = np.atleast_1d(np.asarray(r, dtype=float))
     rb = pair.base_radius1 if gear == 1 else pair.base_radius2
     e, b, nu = pair.youngs_modulus, pair.face_width, pair.poisson
@@ -299,7 +303,7 @@ def hertz_compliance(pair: GearPair) -> float:
     return 4.0 * (1.0 - pair.poisson**2) / (math.pi * pair.youngs_modulus * pair.face_width)
 
 
-def pair_compliance(pair: GearPair, s: np.ndarray | float) -> np.ndarray:
+def pair_compliance(pair: GearPair, s: np.ndarray | float, n: int = 2000) -> np.ndarray:
     """Compliance of one tooth pair in contact at line-of-action position ``s``.
 
     Parameters
@@ -308,6 +312,8 @@ def pair_compliance(pair: GearPair, s: np.ndarray | float) -> np.ndarray:
         The gear pair.
     s : float or ndarray
         Position on the line of action measured from ``T1`` [m], within the path of contact.
+    n : int
+        Grid points along each tooth centre line [-].
 
     Returns
     -------
@@ -315,6 +321,6 @@ def pair_compliance(pair: GearPair, s: np.ndarray | float) -> np.ndarray:
         Tooth 1 + tooth 2 + Hertz compliance [m/N].
     """
     r1, r2 = pair.contact_radii(s)
-    c1 = tooth_compliance(pair, 1, r1).total
-    c2 = tooth_compliance(pair, 2, r2).total
+    c1 = tooth_compliance(pair, 1, r1, n).total
+    c2 = tooth_compliance(pair, 2, r2, n).total
     return c1 + c2 + hertz_compliance(pair)
