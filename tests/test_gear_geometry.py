@@ -133,6 +133,17 @@ INCONSISTENT = [
 ]
 
 
+def test_tip_fillet_interference_is_named():
+    # 60/60 teeth with tips at r + 1.25 m: the mating tip reaches down to 58.11 mm, while a 1 mm
+    # fillet runs up the flank to 58.24 mm.
+    pair = GearPair(
+        module=2e-3, z1=60, z2=60, face_width=10e-3, fillet_radius=1e-3,
+        tip_radius1=62.5e-3, tip_radius2=62.5e-3,
+    )  # fmt: skip
+    with pytest.raises(GeometryError, match="tip-fillet interference: gear 1 fillet reaches"):
+        pair.check()
+
+
 @pytest.mark.parametrize(("kwargs", "text"), INCONSISTENT)
 def test_inconsistent_geometry_names_the_problem(kwargs, text):
     args = {"module": 2e-3, "z1": 20, "z2": 40, "face_width": 10e-3} | kwargs
