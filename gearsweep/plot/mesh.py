@@ -223,8 +223,12 @@ def plot_ste_vs_load(
         torque, np.asarray(first_harmonic) * UM, lw=1.5, ls="--", color=line.get_color(),
         label=f"1st harmonic {label}",
     )  # fmt: skip
-    if design_torque is not None:
-        ax.axvline(design_torque, color="0.4", ls=":", lw=0.8)
+    if design_torque is not None and not any(ln.get_gid() == "design" for ln in ax.lines):
+        ax.axvline(design_torque, color="0.4", ls=":", lw=0.8, gid="design")
+        ax.text(
+            design_torque, 0.38, f" design load {design_torque:g} N m", rotation=90,
+            transform=ax.get_xaxis_transform(), va="bottom", ha="left", fontsize=8, color="0.3",
+        )  # fmt: skip
     ax.set_xlabel("torque on the driving gear [N m]")
     ax.set_ylabel("static transmission error [um]")
     ax.set_xlim(0, torque.max())
