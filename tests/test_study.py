@@ -234,3 +234,13 @@ def test_cli_refuses_unwritable_output_before_running(tmp_path, capsys):
     assert cli(["run", str(study), "-o", str(blocker / "sub" / "out.nc")]) == 2
     assert "--output" in capsys.readouterr().err
     assert cli(["inspect", str(tmp_path / "nothing.nc")]) == 2
+
+
+def test_up_sweep_is_the_same_alone_or_beside_the_down_sweep():
+    both = run_study(_study(RATTLE), "")
+    up = run_study(_study(RATTLE.replace("continuation: [up, down]", "continuation: [up]")), "")
+    down = run_study(_study(RATTLE.replace("continuation: [up, down]", "continuation: [down]")), "")
+    np.testing.assert_array_equal(both["p_pp"].sel(direction="up").values,
+                                  up["p_pp"].sel(direction="up").values)
+    np.testing.assert_array_equal(both["p_pp"].sel(direction="down").values,
+                                  down["p_pp"].sel(direction="down").values)
