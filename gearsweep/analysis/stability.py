@@ -53,6 +53,8 @@ __all__ = [
     "check_step",
     "integrator_unstable",
     "max_stable_step",
+    "measured_step_limit",
+    "operating_map",
     "ray_limit",
     "require_stable_step",
     "stability_polynomial",
@@ -337,9 +339,115 @@ def integrator_unstable(alpha, beta, gamma, steps_per_period: int, *, method: st
     """
     from gearsweep.kernels import floquet as fq
 
+    shape = np.broadcast_shapes(np.shape(alpha), np.shape(beta), np.shape(gamma))
     M = fq.monodromy(alpha, beta, gamma, steps_per_period, method=method, harmonics=harmonics)
-    disc = fq.largest_multiplier(M)
+    disc = fq.largest_multiplier(M).reshape(shape)
     if floquet is None:
         floquet = fq.floquet(alpha, beta, gamma, method=method, harmonics=harmonics)
     flag = (disc > 1 + tol) & ~(floquet.multiplier > 1 + tol)
     return flag, disc
+
+
+def measured_step_limit(method: str, zeta, n_steps: int = 2_000_000, bound: float = 10.0,
+                        lo: float = 0.05, hi: float = 6.0, iterations: int = 22) -> np.ndarray:
+    """Largest h omega_n at which an integration of the oscillator does not blow up.
+
+    Bisection on h omega_n (vectorised over ``zeta``): the oscillator p'' + 2 zeta p' + p = 0 is
+    integrated ``n_steps`` steps from (1, 1) with the batch kernel, and the step counts as
+    unstable when |p| passes ``bound`` (the kernel's divergence flag). This is the measurement
+    that the stability polynomial predicts (``step_limit_hw``); it lies slightly above the
+    prediction, by the step at which |R|^n_steps reaches ``bound``.
+
+    Parameters
+    ----------
+    method : {"rk4", "rk5"}
+    zeta : array_like
+        Damping ratios [-].
+    n_steps : int
+        Steps integrated per trial.
+    bound : float
+        Growth factor that counts as divergence.
+    lo, hi : float
+        Initial bracket of h omega_n (must be stable at ``lo`` and unstable at ``hi``).
+    iterations : int
+        Bisection steps (bracket / 2^iterations).
+
+    Returns
+    -------
+    ndarray
+        Measured limit of h omega_n [-].
+    """
+    from gearsweep.kernels import STATUS_DIVERGED, simulate
+
+    zeta = np.atleast_1d(np.asarray(zeta, dtype=float))
+    a = np.full(zeta.shape, lo)
+    b = np.full(zeta.shape, hi)
+    for _ in range(iterations):
+        mid = 0.5 * (a + b)
+        res = simulate(mid, method=_method(method), damping=2.0 * zeta, k_mean=1.0, bound=bound,
+                       x0=1.0, v0=1.0, n_transient=int(n_steps), n_record=0,
+                       steps_per_period=1000)
+        bad = res.status == STATUS_DIVERGED
+        b = np.where(bad, mid, b)
+        a = np.where(bad, a, mid)
+    return 0.5 * (a + b)
+
+
+def operating_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teeth: int,
+                  method: str = "rk5", coarse_spp: int = 200, fine_spp: int = 2048,
+                  n_periods: int = 100, threshold: float = 1e3, tol: float = 1e-6,
+                  rtol: float = 1e-7) -> dict:
+    """Stability of the paper's rig over speed x damping, four ways (the data of Fig. 7.2).
+
+    Parameters
+    ----------
+    speed_rpm : array_like (ns,)
+        Driving-gear (gear 1) shaft speed [rpm].
+    damping : array_like (nc,)
+        Mesh viscous damping c [N s/m].
+    k0, k1 : float
+        Mean and first-harmonic mesh stiffness [N/m].
+    mass : float
+        Equivalent mass m_eq [kg].
+    teeth : int
+        Teeth of the driving gear (mesh frequency = teeth x speed / 60).
+    method : {"rk4", "rk5"}
+        Integrator of the paper's criterion.
+    coarse_spp, fine_spp : int
+        Steps per mesh period of the coarse and the fine fixed-step runs.
+    n_periods, threshold : int, float
+        Paper's criterion: growth by ``threshold`` within ``n_periods`` mesh periods.
+    tol : float
+        Multipliers count as > 1 above 1 + tol.
+    rtol : float
+        Convergence tolerance of the Floquet multipliers (well below ``tol``).
+
+    Returns
+    -------
+    dict of ndarray (nc, ns)
+        ``alpha``, ``beta``, ``gamma``; ``floquet`` (FloquetResult), ``unstable`` (converged
+        Floquet), ``paper_coarse``, ``paper_fine`` (the growth criterion at the two steps),
+        ``integrator_unstable`` (coarse step), ``discrete_multiplier`` (coarse step), and
+        ``limit_speed`` (nc,): the speed [rpm] below which ``check_step`` refuses the coarse step.
+    """
+    from gearsweep.kernels.floquet import floquet, mathieu_parameters, paper_criterion
+
+    speed = np.asarray(speed_rpm, dtype=float)
+    c = np.asarray(damping, dtype=float)
+    S, C = np.meshgrid(speed, c)
+    fmesh = teeth * S / 60.0
+    alpha, beta, gamma = mathieu_parameters(k0, k1, mass, C, fmesh)
+    fl = floquet(alpha, beta, gamma, method=method, tol=tol, rtol=rtol)
+    flag, disc = integrator_unstable(alpha, beta, gamma, coarse_spp, method=method, floquet=fl,
+                                     tol=tol)
+    coarse = paper_criterion(alpha, beta, gamma, coarse_spp, method=method,
+                             n_periods=n_periods, threshold=threshold)
+    fine = paper_criterion(alpha, beta, gamma, fine_spp, method=method, n_periods=n_periods,
+                           threshold=threshold)
+    # Guard rail: h* at the largest stiffness (k0 + k1) gives the slowest mesh period that the
+    # coarse step resolves stably: T / coarse_spp = h*  ->  speed = 60 / (teeth coarse_spp h*).
+    h_star = max_stable_step(method, (k0 + k1) / mass, c / mass)
+    limit_speed = 60.0 / (teeth * coarse_spp * h_star)
+    return dict(alpha=alpha, beta=beta, gamma=gamma, floquet=fl, unstable=fl.unstable,
+                paper_coarse=coarse, paper_fine=fine, integrator_unstable=flag,
+                discrete_multiplier=disc, limit_speed=limit_speed)

@@ -121,10 +121,10 @@ def monodromy(alpha, beta, gamma, steps_per_period: int, *, method: str = "rk5",
 
 def largest_multiplier(M: np.ndarray) -> np.ndarray:
     """Largest |mu| of 2x2 matrices (n, 2, 2), from trace and determinant; ``inf`` for NaN input."""
-    tr = M[:, 0, 0] + M[:, 1, 1]
-    det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
-    disc = 0.25 * tr * tr - det
     with np.errstate(invalid="ignore", over="ignore"):
+        tr = M[:, 0, 0] + M[:, 1, 1]
+        det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
+        disc = 0.25 * tr * tr - det
         real = 0.5 * np.abs(tr) + np.sqrt(np.maximum(disc, 0.0))
         cplx = np.sqrt(np.abs(det))
     mu = np.where(disc >= 0, real, cplx)
