@@ -141,7 +141,8 @@ def plot_rig_strutt(alpha: np.ndarray, ratio: np.ndarray, unstable: np.ndarray,
 
 def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
                        ax: Axes | None = None, title: str = "", color: str = UNSTABLE_COLOR,
-                       limit_speed: np.ndarray | None = None, label: str = "unstable") -> Figure:
+                       limit_speed: np.ndarray | None = None, label: str = "unstable",
+                       log: bool = True) -> Figure:
     """A yes/no map over driving-gear speed [rpm] and mesh damping c [N s/m].
 
     Parameters
@@ -153,6 +154,8 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
     flag : ndarray of bool (nc, ns)
     limit_speed : ndarray (nc,), optional
         Speed below which the guard rail refuses the step, drawn as a line.
+    log : bool
+        Log speed axis and symmetric-log damping axis (linear below 0.01 N s/mm).
     """
     fig, ax = axes(ax)
     _mask_image(ax, speed, damping / 1e3, flag, color)
@@ -164,10 +167,18 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
                               label="step limit of the stability polynomial"))
     ax.set_xlabel("speed of the driving gear (48 teeth) [rpm]")
     ax.set_ylabel("mesh damping c [N s/mm]")
+    if log:
+        from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
+
+        ax.set_xscale("log")
+        ax.xaxis.set_major_locator(FixedLocator([100, 200, 300, 500, 1000, 2000]))
+        ax.xaxis.set_minor_locator(NullLocator())
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.set_yscale("symlog", linthresh=0.01, linscale=0.5)
     ax.set_xlim(speed.min(), speed.max())
     ax.set_ylim(damping.min() / 1e3, damping.max() / 1e3)
     ax.set_title(title, fontsize=9)
-    ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.9)
+    ax.legend(handles=handles, loc="lower right", fontsize=7, framealpha=0.9)
     return fig
 
 
