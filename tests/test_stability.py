@@ -240,3 +240,74 @@ def test_monodromy_determinant_is_liouville():
     """det M = exp(-2 pi gamma) for any alpha, beta (Liouville's formula), at a resolved step."""
     M = monodromy([0.3, 1.7, -0.1], [0.5, 1.2, 0.9], [0.0, 0.1, 0.4], 1024)
     assert_allclose(np.linalg.det(M), np.exp(-2 * np.pi * np.array([0.0, 0.1, 0.4])), rtol=1e-11)
+
+
+# --- the study layer's ``floquet`` output ----------------------------------------------------
+
+MATHIEU_STUDY = """
+title: tiny Strutt chart
+scene: {kind: mathieu}
+sweep:
+  alpha: [0.25, 0.6, 1.0]
+  beta: [0.0, 0.3]
+  gamma: [0.0, 0.02]
+solver: {method: rk5, steps_per_period: 64, transient_periods: 20, record_periods: 1,
+         initial_displacement: 1.0, settle_tolerance: 1.0e9}
+outputs: [floquet]
+"""
+
+RIG_STUDY = """
+title: rig at two speeds, coarse step
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  stiffness_harmonics: [{amplitude: 179 kN/mm}]
+sweep:
+  speed: [150 rpm, 1500 rpm]
+  damping: [0 N*s/m, 5.5 N*s/mm]
+solver: {method: rk5, steps_per_period: 200, transient_periods: 100, record_periods: 1,
+         divergence_factor: 1000, settle_tolerance: 1.0e9, initial_displacement: 1 um}
+outputs: [stats, floquet]
+"""
+
+
+def test_floquet_output_of_a_mathieu_study_matches_direct_analysis():
+    """The runner's floquet_multiplier / unstable equal a tighter ``floquet`` on the same grid
+    (the output converges to rtol 1e-8: 5e-8 allows the Richardson estimate's slack), and the
+    paper's criterion (status 1) fires only where the equation is unstable."""
+    from gearsweep.study.runner import run_study
+    from gearsweep.study.schema import parse_study
+
+    ds = run_study(parse_study(MATHIEU_STUDY))
+    A, B, G = np.meshgrid(ds.alpha, ds.beta, ds.gamma, indexing="ij")
+    direct = floquet(A, B, G, rtol=1e-11)
+    mu = ds["floquet_multiplier"].transpose("alpha", "beta", "gamma").values
+    assert_allclose(mu, direct.multiplier, rtol=5e-8)
+    unst = ds["unstable"].transpose("alpha", "beta", "gamma").values
+    assert np.array_equal(unst, direct.unstable)
+    assert unst[0, 1, 0]  # alpha = 1/4, beta = 0.3: inside the principal tongue
+    diverged = (ds["status"] == 1).transpose("alpha", "beta", "gamma").values
+    assert not np.any(diverged & ~unst)
+    assert not ds["integrator_unstable"].any()
+
+
+def test_floquet_output_flags_the_integrator_on_the_rig():
+    """150 rpm at 200 steps per period: h w_n = 2 pi 13342 / (120 x 200) = 3.5 is past every
+    RK5 limit, so the run diverges (status 1) while the equation is stable: integrator_unstable,
+    and min_steps_per_period is above 200. At 1500 rpm (h w_n = 0.35) nothing is flagged."""
+    from gearsweep.study.runner import run_study
+    from gearsweep.study.schema import parse_study
+
+    ds = run_study(parse_study(RIG_STUDY))
+    slow, fast = ds.sel(speed=150.0), ds.sel(speed=1500.0)
+    assert not ds["unstable"].any()
+    assert slow["integrator_unstable"].all() and (slow["status"] == 1).all()
+    assert (slow["min_steps_per_period"] > 200).all()
+    assert not fast["integrator_unstable"].any() and (fast["status"] == 0).all()
+    assert (fast["min_steps_per_period"] < 200).all()
+    fmesh = 48 * 150 / 60
+    a, b, g = mathieu_parameters(1073e6, 179e6, 0.1527, ds.damping.values, fmesh)
+    assert_allclose(slow["floquet_multiplier"], floquet(a, b, g, rtol=1e-11).multiplier,
+                    rtol=5e-8)
