@@ -20,6 +20,7 @@ CANONICAL = {
     "damping": "N*s/m",
     "stiffness": "N/m",
     "inertia": "kg*m**2",
+    "pressure": "Pa",
     "angle": "rad",
     "dimensionless": "",
 }
