@@ -17,6 +17,11 @@ values it sweeps, how the speed axis is continued, the solver and the outputs::
     continuation: [up, down]
     solver: {method: rk4, steps_per_period: 64, transient_periods: 100, record_periods: 50}
 
+A scene of the gear drive may name a gear pair (``gear: table1_consistent`` or a mapping of
+``GearPair`` fields) instead of ``teeth``, ``stiffness``, ``stiffness_harmonics`` and ``ste``: they
+are then computed from its static mesh at the scene's mean load (``gearsweep.study.gearscene``).
+A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh_runner``).
+
 Every model forbids unknown keys. ``load_study`` turns any problem into one ``StudyError`` line:
 file, field path, value, and what is allowed.
 """
