@@ -216,26 +216,30 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
         _, out, status = _integrate(plan, params, n, None, None)
         out["status"] = status
         return out
+    # Continued sweeps: the up and the down sweep of every lane advance side by side as lanes of
+    # one kernel call (step k is speed k going up and speed n-1-k going down).
     speeds = plan.grids["speed"]
-    per_dir = []
-    x_init = plan.study.solver.initial_displacement
-    for direction in plan.directions:
-        order = range(len(speeds)) if direction == "up" else range(len(speeds) - 1, -1, -1)
-        cols: dict[str, list] = {}
-        x = np.full(n, x_init)
-        v = np.full(n, plan.study.solver.initial_velocity)
-        for k in order:
-            p = dict(params, speed=np.full(n, speeds[k]))
-            res, out, status = _integrate(plan, p, n, x, v)
-            out["status"] = status
-            for name, arr in out.items():
-                cols.setdefault(name, [None] * len(speeds))[k] = arr
-            # Carry the state; a diverged lane restarts from the initial state at the next speed.
-            dead = res.status == STATUS_DIVERGED
-            x = np.where(dead, x_init, res.x_final)
-            v = np.where(dead, plan.study.solver.initial_velocity, res.v_final)
-        per_dir.append({name: np.stack(a, axis=1) for name, a in cols.items()})
-    return {name: np.stack([d[name] for d in per_dir]) for name in per_dir[0]}
+    ns, nd = len(speeds), len(plan.directions)
+    s = plan.study.solver
+    both = {name: np.tile(vals, nd) for name, vals in params.items()}
+    x = np.full(n * nd, s.initial_displacement)
+    v = np.full(n * nd, s.initial_velocity)
+    cols: dict[str, np.ndarray] = {}
+    for k in range(ns):
+        idx = np.concatenate([np.full(n, k if d == "up" else ns - 1 - k) for d in plan.directions])
+        res, out, status = _integrate(plan, dict(both, speed=speeds[idx]), n * nd, x, v)
+        out["status"] = status
+        for name, arr in out.items():
+            if name not in cols:
+                cols[name] = np.empty((nd, n, ns, *arr.shape[1:]), dtype=arr.dtype)
+            a = arr.reshape(nd, n, *arr.shape[1:])
+            for di in range(nd):
+                cols[name][di, :, idx[di * n]] = a[di]
+        # Carry the state; a diverged lane restarts from the initial state at the next speed.
+        dead = res.status == STATUS_DIVERGED
+        x = np.where(dead, s.initial_displacement, res.x_final)
+        v = np.where(dead, s.initial_velocity, res.v_final)
+    return cols
 
 
 def empty_results(plan: Plan) -> dict[str, np.ndarray]:

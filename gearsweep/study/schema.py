@@ -325,7 +325,11 @@ def _loc(loc: tuple) -> str:
 
 
 def _first_error(exc: ValidationError, file: str) -> StudyError:
-    err = exc.errors()[0]
+    # Of the branches of a union (a list or a {start, stop, num} range), report the one the
+    # user evidently meant: a type mismatch of another branch is the least specific error.
+    errs = exc.errors()
+    err = min(errs, key=lambda e: (e["type"].endswith("_type") or e["type"] == "union_tag_invalid"
+                                   and len(errs) > 1, -len(e["loc"])))
     msg = err["msg"].removeprefix("Value error, ")
     value = err.get("input")
     if isinstance(value, dict | list):
