@@ -98,6 +98,15 @@ def test_gear_fields_with_units_and_tip_relief():
     # The relief designed for 50 N m removes most of the first STE harmonic (1.33 -> 0.21 um).
     assert e_amp[1] < 0.2 * fourier(mesh_cycle(pair, 50.0).ste, 1)[0][1]
 
+    # Relief of the driven gear only, its start given as a diameter.
+    relief = ("{preset: table1_consistent, tip_relief: {amount: 4 um, shape: parabolic,"
+              " start_diameter: 82 mm, gears: driven}}")
+    study = parse_study(whine(relief, "  torque: 50 N*m\n", kind="rattle"))
+    mc = mesh_cycle(pair, 50.0, tip_relief=(None, TipRelief(4e-6, start_diameter=82e-3,
+                                                            shape="parabolic")))
+    assert_allclose([h.amplitude for h in build_model(study).ste_harmonics],
+                    fourier(mc.ste, 10)[0][1:], rtol=1e-12)
+
 
 def test_whine_gear_scene_integrates_to_an_independent_ode_solution():
     """The whole chain YAML -> model -> kernel against scipy's solve_ivp of Eq. (6) written from
@@ -267,6 +276,7 @@ def test_mesh_study_netcdf_has_data_md_names_dims_units_and_mesh_cycle_values(tm
         phase = ds["mesh_phase"].values
         assert phase.size == 64 and phase.min() == 0.0 and phase.max() < 1.0
         assert ds.attrs["Conventions"] == "CF-1.10" and "type: mesh" in ds.attrs["study"]
+        assert ds.attrs["study_sha256"] and ds.attrs["history"].startswith("[")
         pair = table1_consistent()
         for variant, relief in (("plain", None), ("relieved", single_contact_relief(pair, 6e-6))):
             cycles = mesh_cycles(pair, [10.0, 50.0, 100.0], n=64, tip_relief=relief)
@@ -279,6 +289,8 @@ def test_mesh_study_netcdf_has_data_md_names_dims_units_and_mesh_cycle_values(tm
                 # The stored Fourier series reproduces the stored STE to the truncation error.
                 e = fourier_series(v["ste_harmonic"].values, v["ste_phase"].values, phase)
                 assert np.abs(e - v["ste"].values).max() < 0.5 * np.ptp(mc.ste) + 1e-12
+    assert main(["inspect", str(tmp_path / "out.nc")]) == 0
+    assert "static mesh study, 64 positions per mesh cycle" in capsys.readouterr().out
 
 
 def test_single_torque_mesh_study_has_no_torque_dim():

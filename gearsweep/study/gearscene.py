@@ -85,7 +85,7 @@ class TipReliefSpec(_Strict):
     start_radius: _Length | None = Field(None, gt=0, description="radius where relief starts [m]")
     start_diameter: _Length | None = Field(None, gt=0, description="diameter where it starts [m]")
     start_roll_angle: _Angle | None = Field(None, gt=0, description="roll angle of the start [rad]")
-    on: Literal["both", "driving", "driven"] = Field("both", description="which gears are relieved")
+    gears: Literal["both", "driving", "driven"] = Field("both", description="which gears are relieved")
 
     @model_validator(mode="after")
     def _one_start(self) -> TipReliefSpec:
@@ -165,7 +165,7 @@ def tip_reliefs(spec: GearSpec, pair: GearPair) -> tuple[TipRelief | None, TipRe
         return None, None
     out: list[TipRelief | None] = []
     for g, side in ((1, "driving"), (2, "driven")):
-        if r.on not in ("both", side):
+        if r.gears not in ("both", side):
             out.append(None)
             continue
         if r.start_at == "single_contact":
