@@ -325,3 +325,11 @@ def test_mesh_study_problems_are_one_study_error(text, message):
 def test_every_study_file_validates(path, capsys):
     assert main(["validate", str(path)]) == 0
     assert capsys.readouterr().out.startswith(f"{path}: ok -- ")
+
+
+def test_scene_without_gear_still_needs_teeth_and_stiffness():
+    with pytest.raises(StudyError, match=r"scene: '\{...\}' -- 'stiffness' required \(or a 'gear'"):
+        parse_study("title: t\nscene: {kind: whine, mass: 1 kg, teeth: 20}\nsweep: {speed: [100]}\n")
+    with pytest.raises(StudyError, match=r"'harmonics' is the number of Fourier terms of a 'gear'"):
+        parse_study("title: t\nscene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8,"
+                    " harmonics: 3}\nsweep: {speed: [100]}\n")

@@ -140,8 +140,10 @@ class _Driven(Strict):
         if self.drive is not None and self.base_radius is not None:
             raise ValueError("'base_radius' is already given by 'drive.base_radius_1'")
         if self.gear is None:
-            if self.teeth is None or self.stiffness is None:
-                raise ValueError("give 'teeth' and 'stiffness' (or a 'gear' that gives them)")
+            missing = [f"'{f}'" for f in ("teeth", "stiffness") if getattr(self, f) is None]
+            if missing:
+                raise ValueError(f"{' and '.join(missing)} required (or a 'gear' that gives"
+                                 " teeth, stiffness and their harmonics)")
             if self.harmonics is not None:
                 raise ValueError("'harmonics' is the number of Fourier terms of a 'gear'; no gear")
             return self
