@@ -186,6 +186,20 @@ def tip_reliefs(spec: GearSpec, pair: GearPair) -> tuple[TipRelief | None, TipRe
 def static_mesh(spec: GearSpec, torque: float, n: int = POSITIONS) -> MeshCycle:
     """Check the pair and compute its static mesh over one cycle at ``torque`` [N m].
 
+    Parameters
+    ----------
+    spec : GearSpec
+        The gear pair and its tip relief.
+    torque : float
+        Torque on the driving gear 1 [N m].
+    n : int
+        Positions per mesh cycle [-].
+
+    Returns
+    -------
+    MeshCycle
+        Load share, STE [m] and mesh stiffness [N/m] over the cycle.
+
     Raises
     ------
     GeometryError
