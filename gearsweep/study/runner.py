@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
@@ -22,9 +23,13 @@ from gearsweep.kernels import LANES, STATUS_DIVERGED, simulate
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, mesh_frequency
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.dataset import build_dataset
+from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.outputs import OUTPUTS, VarSpec
 from gearsweep.study.schema import Study
 from gearsweep.study.units import to_si
+
+if TYPE_CHECKING:
+    from gearsweep.study.mesh_runner import MeshStudy
 
 STATUS_NOT_SETTLED = 2
 CHUNK_STEPS = 4e8
@@ -42,6 +47,9 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
     else:
         mass = sc.mass
     r1 = sc.r1
+    gear = scene_excitation(sc) if getattr(sc, "gear", None) is not None else None
+    if gear is not None:
+        r1 = gear.base_radius_1
     mean_force = sc.mean_force if sc.mean_force is not None else 0.0
     if sc.torque is not None:
         mean_force = sc.torque / r1
@@ -65,16 +73,25 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
         return tuple(Harmonic(h.amplitude, h.order if h.order is not None else i + 1, h.phase)
                      for i, h in enumerate(items))
 
+    if gear is not None:  # k(t), e(t) of the gear pair at the mean load (gearscene.py)
+        teeth, k0, k_h, e_h = (gear.teeth, gear.stiffness, gear.stiffness_harmonics,
+                               gear.no_load_te_harmonics)
+        if sc.kind == "rattle":  # Eq. (13): constant k0, so e(t) is the loaded STE
+            k_h, e_h = (), gear.ste_harmonics
+    else:
+        teeth, k0 = sc.teeth, sc.stiffness
+        k_h = harmonics(getattr(sc, "stiffness_harmonics", []))
+        e_h = harmonics(getattr(sc, "ste", []))
     return MeshModel(
         mass=mass,
-        teeth=sc.teeth,
-        stiffness=sc.stiffness,
+        teeth=teeth,
+        stiffness=k0,
         damping=sc.damping,
         mean_force=mean_force,
         base_radius=r1,
         backlash=getattr(sc, "backlash", 0.0),
-        stiffness_harmonics=harmonics(getattr(sc, "stiffness_harmonics", [])),
-        ste_harmonics=harmonics(getattr(sc, "ste", [])),
+        stiffness_harmonics=k_h,
+        ste_harmonics=e_h,
         force_harmonics=tuple(fluct),
     )
 
@@ -297,8 +314,12 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
     return ds
 
 
-def run_study(study: Study, text: str = "", progress: bool = False) -> xr.Dataset:
+def run_study(study: Study | MeshStudy, text: str = "", progress: bool = False) -> xr.Dataset:
     """Run every chunk of a study in this process and return its Dataset."""
+    if getattr(study, "type", None) == "mesh":  # a static mesh study: no integration
+        from gearsweep.study.mesh_runner import run_mesh_study
+
+        return run_mesh_study(study, text)
     plan = make_plan(study, text)
     results = empty_results(plan)
     t0 = time.perf_counter()
