@@ -29,6 +29,7 @@ COARSE, FINE, METHOD = 200, 2048, "rk5"
 
 p = argparse.ArgumentParser(description=__doc__)
 p.add_argument("--figures", type=Path, default=Path("figures"))
+p.add_argument("--results", type=Path, default=Path("results"), help="(unused: computes directly)")
 p.add_argument("--quick", action="store_true", help="coarser grids (for a smoke run)")
 p.add_argument("--only", nargs="*", default=["7.1", "7.2", "steps"], help="figures to make")
 args = p.parse_args()
