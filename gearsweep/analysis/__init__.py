@@ -1,0 +1,1 @@
+"""Numerics on arrays beyond time stepping: spectra, harmonic balance, stability, references."""
