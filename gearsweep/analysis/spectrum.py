@@ -30,8 +30,10 @@ def kept_bins(n_samples: int, periods: int, max_order: float) -> int:
     max_order : float
         Highest order kept [-]; bins above the Nyquist bin ``n_samples // 2`` are never kept.
     """
-    k = int(np.floor(max_order * periods + 1e-9))
-    return min(k, n_samples // 2) + 1
+    nyquist = n_samples // 2
+    if max_order * periods >= nyquist:
+        return nyquist + 1
+    return int(np.floor(max_order * periods + 1e-9)) + 1
 
 
 def line_spectrum(signal: np.ndarray, periods: int, max_order: float | None = None
