@@ -33,11 +33,19 @@ def main() -> None:
     if not path.exists():
         raise SystemExit(f"{path} not found: run `gearsweep run studies/{STUDY}.yaml` first")
     with xr.open_dataset(path) as ds:
-        fig, ax = plt.subplots(figsize=(7.2, 4.6), layout="constrained")
-        plot_response_vs_speed(ax, ds, by="torque", variable="p_rms",
-                               natural_frequency_hz=natural_frequency(ds))
-        ax.set_title("Fig. 6: effect of the mean driving torque (m_eq = 0.1527 kg, "
-                     "c = 5.5 N s/mm);\ndotted: mesh order n meets f_n", fontsize=9)
+        f_n = natural_frequency(ds)
+        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7.2, 7.0), sharex=True,
+                                      height_ratios=[1.5, 1.0], layout="constrained")
+        plot_response_vs_speed(ax, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n)
+        ax.get_legend().set_loc("lower right")
+        ax.set_title("Fig. 6: effect of the mean driving torque on the whine response "
+                     "(m_eq = 0.1527 kg, c = 5.5 N s/mm);\ndotted: mesh order n meets f_n at "
+                     "60 f_n / (48 n) rpm", fontsize=9)
+        ax.set_xlabel("")
+        plot_response_vs_speed(ax2, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n,
+                               relative=True, log=False)
+        ax2.get_legend().remove()
+        ax2.set_title("the same, relative to the lowest torque", fontsize=9)
         fig.savefig(args.figures / "fig06_mean_torque.png", dpi=150)
         plt.close(fig)
 

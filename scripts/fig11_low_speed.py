@@ -37,7 +37,7 @@ def main() -> None:
     if not path.exists():
         raise SystemExit(f"{path} not found: run `gearsweep run studies/{STUDY}.yaml` first")
     with xr.open_dataset(path) as ds:
-        fig = plt.figure(figsize=(12.0, 5.2), layout="constrained")
+        fig = plt.figure(figsize=(13.0, 6.0), layout="constrained")
         grid = fig.add_gridspec(2, 2, width_ratios=[1.25, 1.0])
         ax3 = fig.add_subplot(grid[:, 0], projection="3d")
         plot_waterfall(ax3, ds, traces=31, driven_teeth=DRIVEN_TEETH)
@@ -46,10 +46,11 @@ def main() -> None:
         ax_d = fig.add_subplot(grid[0, 1])
         plot_order_lines(ax_d, ds, driven_teeth=DRIVEN_TEETH)
         ax_d.set_title("mesh orders 1-3: displacement of p", fontsize=9)
+        ax_d.set_xlabel("")
         ax_v = fig.add_subplot(grid[1, 1], sharex=ax_d)
         plot_order_lines(ax_v, ds, derivative=1, driven_teeth=DRIVEN_TEETH)
-        ax_v.set_title("the same lines as velocity (2 pi f x amplitude): what a magnetic "
-                       "pick-up's voltage follows", fontsize=9)
+        ax_v.set_title("the same lines as velocity, 2 pi f x amplitude\n(a magnetic pick-up's"
+                       " voltage follows velocity)", fontsize=9)
         fig.suptitle("Fig. 11 counterpart: driven pinion (32 teeth) at 200-800 rpm = driving gear"
                      " (48 teeth) at 133-533 rpm, mesh 107-427 Hz", fontsize=10)
         fig.savefig(args.figures / "fig11_low_speed.png", dpi=150)

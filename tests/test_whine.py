@@ -226,8 +226,8 @@ def test_superharmonic_resonances_where_theory_puts_them(n):
     Light damping (c = 0.5 N s/mm, zeta = 0.02) so the peak is sharp. Theory moves it by
     1/sqrt(1 - 2 zeta^2) - 1 = 4e-4 (the STE force grows as W^2) and by the stiffness ripple
     (k1/k0 = 1/6) by a few 1e-3; harmonic balance puts it at +0.15 %, -0.21 %, -0.16 % for
-    n = 1, 2, 3 (simulated on the grid: +0.1 %, -0.2 %, -0.2 %). Tolerance 0.5 %; the simulated peak must also sit within one grid step
-    (0.1 %) of the harmonic-balance peak.
+    n = 1, 2, 3 (simulated on the grid: +0.1 %, -0.2 %, -0.2 %). Tolerance 0.5 %; the
+    simulated peak must also sit within one grid step (0.1 %) of the harmonic-balance peak.
     """
     damping = 500.0
     theory = 60 * FN / (n * TEETH)

@@ -184,6 +184,7 @@ def plot_response_vs_speed(
     natural_frequency_hz: float | None = None,
     orders: Sequence[int] = (1, 2, 3),
     log: bool = True,
+    relative: bool = False,
 ) -> Figure:
     """A response statistic against speed, one line per value of ``by`` (paper Fig. 6).
 
@@ -202,24 +203,30 @@ def plot_response_vs_speed(
         The orders n of those marks.
     log : bool
         Logarithmic amplitude axis.
+    relative : bool
+        Draw each line divided by the line of the first value of ``by`` [-].
     """
     da = ds[variable]
     speed = ds["speed"].values
     unit = ds[by].attrs.get("units", "")
+    base = da.isel({by: 0}).values
     for v in ds[by].values:
-        ax.plot(speed, da.sel({by: v}).values * UM, lw=1.2, label=f"{by} = {v:g} {unit}")
+        y = da.sel({by: v}).values
+        ax.plot(speed, y / base if relative else y * UM, lw=1.2, label=f"{by} = {v:g} {unit}")
     if natural_frequency_hz is not None:
         f_per_rpm = float(ds["mesh_frequency"].values[-1] / speed[-1])
         for n in orders:
             s_n = natural_frequency_hz / (n * f_per_rpm)
             if speed[0] <= s_n <= speed[-1]:
                 ax.axvline(s_n, color="0.5", ls=":", lw=0.8)
-                ax.text(s_n, 1.0, f"{n}x", transform=ax.get_xaxis_transform(), ha="center",
-                        va="bottom", fontsize=8, color="0.3")
+                ax.text(s_n, 0.97, f" order {n}", transform=ax.get_xaxis_transform(),
+                        ha="left", va="top", fontsize=8, color="0.3")
     if log:
         ax.set_yscale("log")
     ax.set_xlabel(f"speed of the {ds['speed'].attrs.get('gear', 'driving gear')} [rpm]")
-    ax.set_ylabel(f"{da.attrs.get('long_name', variable)} [um]")
+    name = da.attrs.get("long_name", variable)
+    first = f"{float(ds[by].values[0]):g} {unit}"
+    ax.set_ylabel(f"{variable} / {variable} at {by} {first} [-]" if relative else f"{name} [um]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     return ax.figure
