@@ -49,9 +49,9 @@ def main() -> None:
         ax = fig.add_subplot(projection="3d")
         plot_waterfall(ax, ds, traces=40)
         ax.view_init(elev=28, azim=-62)
-        ax.set_title("Fig. 5: waterfall of the dynamic transmission error p (Eq. 9), orders 0-4;\n"
+        ax.set_title("Fig. 5: waterfall of the dynamic transmission error p (Eq. 9), orders 0.05-4;\n"
                      f"driving gear: 48 teeth; 40 of {ds.sizes['speed']} speeds drawn;"
-                     " mean F_m/k0 left out", fontsize=9)
+                     " order 0 (mean of p) left out", fontsize=9)
         fig.savefig(args.figures / "fig05_waterfall.png", dpi=150)
         plt.close(fig)
 

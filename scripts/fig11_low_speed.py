@@ -42,7 +42,7 @@ def main() -> None:
         ax3 = fig.add_subplot(grid[:, 0], projection="3d")
         plot_waterfall(ax3, ds, traces=31, driven_teeth=DRIVEN_TEETH)
         ax3.view_init(elev=28, azim=-62)
-        ax3.set_title("waterfall of p (mean F_m/k0 left out)", fontsize=9)
+        ax3.set_title("waterfall of p (order 0, the mean of p, left out)", fontsize=9)
         ax_d = fig.add_subplot(grid[0, 1])
         plot_order_lines(ax_d, ds, driven_teeth=DRIVEN_TEETH)
         ax_d.set_title("mesh orders 1-3: displacement of p", fontsize=9)

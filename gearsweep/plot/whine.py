@@ -83,7 +83,7 @@ def plot_waterfall(
     driven_teeth : int, optional
         Label the speed axis with the driven gear's speed (mesh frequency x 60 / teeth).
     skip_mean : bool
-        Leave out order 0 (the static deflection F_m / k0 would dwarf the lines).
+        Leave out order 0 (the mean of p, about F_m / k0, would dwarf the lines).
     """
     da = ds[variable]
     if "speed" not in da.dims or "order" not in da.dims or da.ndim != 2:
