@@ -5,6 +5,9 @@ figures/fig05_campbell.png (order/speed colour map with mesh orders 1-3 and f_n)
 repository root after ``gearsweep run studies/fig05_waterfall.yaml``:
 
     python scripts/fig05_waterfall.py [--results results] [--figures figures]
+
+``--study fig05_waterfall_mesh`` draws the variant with the mesh model's k(t) and e(t) into
+figures/fig05_waterfall_mesh.png and figures/fig05_campbell_mesh.png.
 """
 
 from __future__ import annotations
@@ -41,32 +44,33 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--results", type=Path, default=Path("results"))
     parser.add_argument("--figures", type=Path, default=Path("figures"))
+    parser.add_argument("--study", default=STUDY, help="result name (default %(default)s)")
     args = parser.parse_args()
     args.figures.mkdir(parents=True, exist_ok=True)
-    with open_result(args.results, STUDY) as ds:
+    suffix = args.study.removeprefix(STUDY)
+    with open_result(args.results, args.study) as ds:
         f_n = natural_frequency(ds)
         fig = plt.figure(figsize=(8.0, 6.4), layout="constrained")
         ax = fig.add_subplot(projection="3d")
         plot_waterfall(ax, ds, traces=40)
         ax.view_init(elev=28, azim=-62)
-        ax.set_title("Fig. 5: waterfall of the dynamic transmission error p (Eq. 9), orders 0.05-4;\n"
-                     f"driving gear: 48 teeth; 40 of {ds.sizes['speed']} speeds drawn;"
-                     " order 0 (mean of p) left out", fontsize=9)
-        fig.savefig(args.figures / "fig05_waterfall.png", dpi=150)
+        ax.set_title(f"{ds.attrs['title']}\nwaterfall of the dynamic transmission error p (Eq. 9);"
+                     f" 40 of {ds.sizes['speed']} speeds drawn; order 0 (mean of p) left out",
+                     fontsize=9)
+        fig.savefig(args.figures / f"fig05_waterfall{suffix}.png", dpi=150)
         plt.close(fig)
 
         fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 7.6), sharex=True,
                                       height_ratios=[1.4, 1.0], layout="constrained")
         plot_campbell(ax, ds, natural_frequency_hz=f_n)
-        ax.set_title("Fig. 5 as an order/speed map: f_n = sqrt(k0/m)/2pi as order f_n / f_mesh "
-                     "(dashed);\ncircles: mesh order n meets f_n at 60 f_n / (48 n) rpm "
-                     "(super-harmonic resonance for n > 1)", fontsize=9)
+        ax.set_title(f"{ds.attrs['title']}\ndashed: order f_n / f_mesh, f_n = sqrt(k0/m)/2pi;"
+                     " circles: order n meets f_n at 60 f_n / (48 n) rpm", fontsize=9)
         ax.set_xlabel("")
         plot_order_lines(ax2, ds, orders=(1, 2, 3, 4), log=True)
         for n in (1, 2, 3, 4):
             ax2.axvline(60 * f_n / (48 * n), color="0.4", ls=":", lw=0.8)
         ax2.set_title("the mesh-order lines; dotted: 60 f_n / (48 n)", fontsize=9)
-        fig.savefig(args.figures / "fig05_campbell.png", dpi=150)
+        fig.savefig(args.figures / f"fig05_campbell{suffix}.png", dpi=150)
         plt.close(fig)
 
 
