@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -23,9 +23,13 @@ from gearsweep.kernels import LANES, STATUS_DIVERGED, simulate
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, mesh_frequency
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.dataset import build_dataset
+from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
 from gearsweep.study.schema import Study
 from gearsweep.study.units import to_si
+
+if TYPE_CHECKING:
+    from gearsweep.study.mesh_runner import MeshStudy
 
 STATUS_NOT_SETTLED = 2
 CHUNK_STEPS = 4e8
@@ -45,6 +49,9 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
     else:
         mass = sc.mass
     r1 = sc.r1
+    gear = scene_excitation(sc) if getattr(sc, "gear", None) is not None else None
+    if gear is not None:
+        r1 = gear.base_radius_1
     mean_force = sc.mean_force if sc.mean_force is not None else 0.0
     if sc.torque is not None:
         mean_force = sc.torque / r1
@@ -68,16 +75,25 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
         return tuple(Harmonic(h.amplitude, h.order if h.order is not None else i + 1, h.phase)
                      for i, h in enumerate(items))
 
+    if gear is not None:  # k(t), e(t) of the gear pair at the mean load (gearscene.py)
+        teeth, k0, k_h, e_h = (gear.teeth, gear.stiffness, gear.stiffness_harmonics,
+                               gear.no_load_te_harmonics)
+        if sc.kind == "rattle":  # Eq. (13): constant k0, so e(t) is the loaded STE
+            k_h, e_h = (), gear.ste_harmonics
+    else:
+        teeth, k0 = sc.teeth, sc.stiffness
+        k_h = harmonics(getattr(sc, "stiffness_harmonics", []))
+        e_h = harmonics(getattr(sc, "ste", []))
     return MeshModel(
         mass=mass,
-        teeth=sc.teeth,
-        stiffness=sc.stiffness,
+        teeth=teeth,
+        stiffness=k0,
         damping=sc.damping,
         mean_force=mean_force,
         base_radius=r1,
         backlash=getattr(sc, "backlash", 0.0),
-        stiffness_harmonics=harmonics(getattr(sc, "stiffness_harmonics", [])),
-        ste_harmonics=harmonics(getattr(sc, "ste", [])),
+        stiffness_harmonics=k_h,
+        ste_harmonics=e_h,
         force_harmonics=tuple(fluct),
     )
 
@@ -143,7 +159,9 @@ class Plan:
         if lanes_per_chunk is None:
             per_lane = self.steps_per_case * self.chain * max(len(self.directions), 1)
             lanes_per_chunk = max(4 * LANES, int(CHUNK_STEPS // max(per_lane, 1)))
-            signal = self.samples_per_period() * self.study.solver.record_periods * 8
+            # Up and down sweeps of a lane run side by side: one signal per direction.
+            signal = (self.samples_per_period() * self.study.solver.record_periods * 8
+                      * max(len(self.directions), 1))
             if signal:
                 lanes_per_chunk = min(lanes_per_chunk,
                                       max(4 * LANES, int(CHUNK_SIGNAL_BYTES // signal)))
@@ -209,26 +227,30 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
         _, out, status = _integrate(plan, params, n, None, None)
         out["status"] = status
         return out
+    # Continued sweeps: the up and the down sweep of every lane advance side by side as lanes of
+    # one kernel call (step k is speed k going up and speed n-1-k going down).
     speeds = plan.grids["speed"]
-    per_dir = []
-    x_init = plan.study.solver.initial_displacement
-    for direction in plan.directions:
-        order = range(len(speeds)) if direction == "up" else range(len(speeds) - 1, -1, -1)
-        cols: dict[str, list] = {}
-        x = np.full(n, x_init)
-        v = np.full(n, plan.study.solver.initial_velocity)
-        for k in order:
-            p = dict(params, speed=np.full(n, speeds[k]))
-            res, out, status = _integrate(plan, p, n, x, v)
-            out["status"] = status
-            for name, arr in out.items():
-                cols.setdefault(name, [None] * len(speeds))[k] = arr
-            # Carry the state; a diverged lane restarts from the initial state at the next speed.
-            dead = res.status == STATUS_DIVERGED
-            x = np.where(dead, x_init, res.x_final)
-            v = np.where(dead, plan.study.solver.initial_velocity, res.v_final)
-        per_dir.append({name: np.stack(a, axis=1) for name, a in cols.items()})
-    return {name: np.stack([d[name] for d in per_dir]) for name in per_dir[0]}
+    ns, nd = len(speeds), len(plan.directions)
+    s = plan.study.solver
+    both = {name: np.tile(vals, nd) for name, vals in params.items()}
+    x = np.full(n * nd, s.initial_displacement)
+    v = np.full(n * nd, s.initial_velocity)
+    cols: dict[str, np.ndarray] = {}
+    for k in range(ns):
+        idx = np.concatenate([np.full(n, k if d == "up" else ns - 1 - k) for d in plan.directions])
+        res, out, status = _integrate(plan, dict(both, speed=speeds[idx]), n * nd, x, v)
+        out["status"] = status
+        for name, arr in out.items():
+            if name not in cols:
+                cols[name] = np.empty((nd, n, ns, *arr.shape[1:]), dtype=arr.dtype)
+            a = arr.reshape(nd, n, *arr.shape[1:])
+            for di in range(nd):
+                cols[name][di, :, idx[di * n]] = a[di]
+        # Carry the state; a diverged lane restarts from the initial state at the next speed.
+        dead = res.status == STATUS_DIVERGED
+        x = np.where(dead, s.initial_displacement, res.x_final)
+        v = np.where(dead, s.initial_velocity, res.v_final)
+    return cols
 
 
 def empty_results(plan: Plan) -> dict[str, np.ndarray]:
@@ -305,8 +327,12 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
     return ds
 
 
-def run_study(study: Study, text: str = "", progress: bool = False) -> xr.Dataset:
+def run_study(study: Study | MeshStudy, text: str = "", progress: bool = False) -> xr.Dataset:
     """Run every chunk of a study in this process and return its Dataset."""
+    if getattr(study, "type", None) == "mesh":  # a static mesh study: no integration
+        from gearsweep.study.mesh_runner import run_mesh_study
+
+        return run_mesh_study(study, text)
     plan = make_plan(study, text)
     results = empty_results(plan)
     t0 = time.perf_counter()
