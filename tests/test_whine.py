@@ -38,10 +38,10 @@ FN = math.sqrt(K0 / M) / (2 * math.pi)  # undamped natural frequency [Hz], 13.34
 
 def whine(speeds, *, spp: int, sps: int = 16, max_order: float = 4, varying: bool = True,
           damping: float = C, transient: int = 60, record: int = 4, method: str = "rk4",
-          extra: str = "") -> str:
+          extra: str = "", ste: bool = True, sweep_force: str = "") -> str:
     """YAML text of a whine study over ``speeds`` [rpm] with the spectrum output."""
     kh = ", ".join(f"{{amplitude: {k} N/m}}" for k in KH)
-    ste = ", ".join(f"{{amplitude: {e} m}}" for e in E)
+    e_n = ", ".join(f"{{amplitude: {e} m}}" for e in E)
     return f"""
 title: whine test
 scene:
@@ -51,9 +51,10 @@ scene:
   stiffness: {K0} N/m
   {"stiffness_harmonics: [" + kh + "]" if varying else ""}
   damping: {damping} N*s/m
-  mean_force: {FM} N
-  ste: [{ste}]
+  {"" if sweep_force else f"mean_force: {FM} N"}
+  {"ste: [" + e_n + "]" if ste else ""}
 sweep:
+  {f"mean_force: {sweep_force}" if sweep_force else ""}
   speed: {[float(s) for s in speeds]}
 solver: {{method: {method}, steps_per_period: {spp}, transient_periods: {transient},
           record_periods: {record}}}
@@ -274,7 +275,7 @@ def test_inconsistent_spectrum_settings_are_refused():
     with pytest.raises(StudyError, match="multiple of 16"):
         make_plan(parse_study(whine([5000.0], spp=40, sps=16)))
     # A shaft-order torque fluctuation repeats every 48 mesh periods: record whole cycles.
-    fluct = whine([5000.0], spp=64).replace("mean_force:", "fluctuation: [{amplitude: 10 N,"
+    fluct = whine([5000.0], spp=64).replace("  mean_force:", "  fluctuation: [{amplitude: 10 N,"
                                             " order: 0.0208333333333333}]\n  mean_force:")
     with pytest.raises(StudyError, match="multiple of 48"):
         make_plan(parse_study(fluct))
@@ -322,3 +323,18 @@ def test_spectrum_with_continuation_and_netcdf_round_trip(tmp_path):
         assert back.frequency.dims == ("speed", "order") and "frequency" in back.coords
         assert back.frequency.attrs["units"] == "Hz" and back.spectrum.attrs["units"] == "m"
         assert_allclose(back.spectrum, ds.spectrum)
+
+
+def test_error_free_teeth_respond_in_proportion_to_the_mean_force():
+    """e = 0: Eq. (9) is linear in F_m, so every line (order 0 included) scales with it (Fig. 6).
+
+    Tolerance 1e-12: the kernel scales force / mass by the same factor at every step, so only
+    round-off separates the cases.
+    """
+    ds = run(whine(np.linspace(2000, 20000, 7), spp=64, ste=False,
+                   sweep_force="[200 N, 800 N, 3200 N]"))
+    assert list(ds.spectrum.dims) == ["mean_force", "speed", "order"]
+    spec = ds.spectrum.transpose("mean_force", "speed", "order").values
+    assert_allclose(spec[1], 4 * spec[0], rtol=1e-12, atol=1e-30)
+    assert_allclose(spec[2], 16 * spec[0], rtol=1e-12, atol=1e-30)
+    assert np.all(spec[0][:, 4] > 0)  # order 1 present: the stiffness ripple alone excites it
