@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from gearsweep.analysis.spectrum import kept_bins, line_spectrum
 from gearsweep.errors import StudyError
@@ -48,6 +48,7 @@ class VarSpec:
 class Output(Protocol):
     name: str
     options_model: type[BaseModel] | None
+    """Pydantic model of the output's options (``None``: it takes none)."""
 
     def signal_samples_per_period(self, plan: Plan) -> int: ...
 
@@ -96,6 +97,14 @@ class SpectrumOptions(BaseModel):
         " into the kept bins)")
     force: bool = Field(True, description="also the spectrum of the dynamic mesh force"
                         " k(t) f(p) + c p' (variable force_spectrum) [N]")
+
+    @model_validator(mode="after")
+    def _nyquist(self) -> SpectrumOptions:
+        sps = self.samples_per_period
+        if sps is not None and self.max_order > sps / 2:
+            raise ValueError(f"max_order {self.max_order:g} is above the Nyquist order"
+                             f" samples_per_period / 2 = {sps / 2:g}")
+        return self
 
 
 class Spectrum:
@@ -233,6 +242,9 @@ def configure(name: str, options: dict[str, Any], file: str = "<study>",
         err = exc.errors()[0]
         loc = ".".join(str(p) for p in err["loc"])
         msg = err["msg"].removeprefix("Value error, ")
+        value = err.get("input")
+        if isinstance(value, dict):
+            value = options
         if err["type"] == "extra_forbidden":
             msg = f"unknown option; allowed: {', '.join(model.model_fields)}"
-        raise StudyError(file, f"{where}.{loc}" if loc else where, err.get("input"), msg) from None
+        raise StudyError(file, f"{where}.{loc}" if loc else where, value, msg) from None
