@@ -295,6 +295,15 @@ def test_signal_memory_is_bounded_per_chunk():
     a, b = big.chunks()[0]
     assert (b - a) * 500 * 16 * 8 <= CHUNK_SIGNAL_BYTES
     assert len(big.chunks()) >= 20000 * 500 * 16 * 8 // CHUNK_SIGNAL_BYTES
+    # Continued sweeps: a lane is a whole up-and-down sweep, and both directions are integrated
+    # side by side, so a chunk holds 2 signals per lane.
+    sweep = whine([1000.0, 20000.0], spp=64, sps=16, max_order=0.25, record=500,
+                  extra="continuation: [up, down]").replace(
+        "speed: [1000.0, 20000.0]", "speed: [1000.0, 20000.0]\n  damping: {start: 1 N*s/m,"
+        " stop: 5500 N*s/m, num: 2000}")
+    cont = make_plan(parse_study(sweep))
+    a, b = cont.chunks()[0]
+    assert (b - a) * 2 * 500 * 16 * 8 <= CHUNK_SIGNAL_BYTES < (b - a + 1) * 2 * 500 * 16 * 8
     small_text = whine(np.linspace(1000, 20000, 300), spp=64)
     plan = make_plan(parse_study(small_text), small_text)
     from gearsweep.study.runner import assemble, empty_results, run_chunk, store_chunk
