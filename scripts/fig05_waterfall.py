@@ -30,10 +30,10 @@ def draw(ds: xr.Dataset, figures: Path, suffix: str = "") -> None:
     teeth = int(round(float(ds.mesh_frequency[-1] / ds.speed[-1] * 60)))
     fig = plt.figure(figsize=(8.0, 6.4), layout="constrained")
     ax = fig.add_subplot(projection="3d")
-    plot_waterfall(ax, ds, traces=40)
+    plot_waterfall(ax, ds, traces=40, natural_frequency_hz=f_n)
     ax.view_init(elev=28, azim=-62)
-    ax.set_title(f"{ds.attrs['title']}\nwaterfall of the dynamic transmission error p (Eq. 9);"
-                 f" 40 of {ds.sizes['speed']} speeds drawn; order 0 (mean of p) left out",
+    ax.set_title(f"{ds.attrs['title']}\ndynamic transmission error p (Eq. 9); 40 of"
+                 f" {ds.sizes['speed']} speeds drawn; order 0 (mean of p) left out",
                  fontsize=9)
     print(save(fig, figures / f"fig05_waterfall{suffix}.png", dpi=150))
 

@@ -65,6 +65,7 @@ def plot_waterfall(
     variable: str = "spectrum",
     driven_teeth: int | None = None,
     skip_mean: bool = True,
+    natural_frequency_hz: float | None = None,
 ) -> Figure:
     """3-D waterfall (paper Fig. 5 and Fig. 11): amplitude over frequency, one trace per speed.
 
@@ -84,6 +85,8 @@ def plot_waterfall(
         Label the speed axis with the driven gear's speed (mesh frequency x 60 / teeth).
     skip_mean : bool
         Leave out order 0 (the mean of p, about F_m / k0, would dwarf the lines).
+    natural_frequency_hz : float, optional
+        Draw f_n [Hz] on the floor of the plot (dashed), where the order lines resonate.
     """
     da = ds[variable]
     if "speed" not in da.dims or "order" not in da.dims or da.ndim != 2:
@@ -102,6 +105,14 @@ def plot_waterfall(
         xs = (ds["frequency"].values[i, cols] * f_scale if x == "frequency" else orders[cols])
         ax.plot(xs, np.full(xs.shape, speed[i]), amp, lw=0.8,
                 color=cmap(0.9 * q / max(len(pick) - 1, 1)))
+    if natural_frequency_hz is not None:
+        f_line = (np.full(speed.shape, natural_frequency_hz * f_scale) if x == "frequency"
+                  else natural_frequency_hz / ds["mesh_frequency"].values)
+        keep = f_line <= (float(ds["frequency"].max()) * f_scale if x == "frequency"
+                          else float(orders[-1]))
+        ax.plot(f_line[keep], speed[keep], np.zeros(int(keep.sum())), color="tab:red", ls="--",
+                lw=1.0, label=f"f_n = {natural_frequency_hz / 1e3:.2f} kHz")
+        ax.legend(loc="upper left", fontsize=8)
     ax.set_xlabel(f"frequency [{f_unit}]" if x == "frequency" else "mesh order [-]")
     ax.set_ylabel(speed_label)
     ax.set_zlabel("force amplitude [N]" if is_force else "amplitude of p [um]")
