@@ -67,6 +67,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     ds = run_study(study, text, progress=progress)
     write_netcdf(ds, out)
+    if "beyond_step_limit" in ds and bool(ds["beyond_step_limit"].any()):
+        n_bad = int(ds["beyond_step_limit"].sum())
+        print(f"gearsweep: warning: {out}: {n_bad} case(s) use a step beyond the stability limit"
+              f" of {study.solver.method} at {study.solver.steps_per_period} steps/period; their"
+              " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
+              " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
     if not args.quiet:
         bad = int((ds["status"].values != 0).sum()) if "status" in ds else 0
         print(f"{out}: {int(ds.attrs['cases'])} cases in {time.perf_counter() - t0:.2f} s"

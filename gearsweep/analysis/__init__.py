@@ -1,1 +1,1 @@
-"""Numerics on arrays beyond time stepping: spectra, harmonic balance, stability, references."""
+"""Numerics on arrays other than time stepping: no files, YAML, xarray, dask or plotting here."""

@@ -48,7 +48,7 @@ class VarSpec:
 class Output(Protocol):
     name: str
     options_model: type[BaseModel] | None
-    """Pydantic model of the output's options (``None``: it takes none)."""
+    """Pydantic model of the output's options (``None`` or absent: it takes none)."""
 
     def signal_samples_per_period(self, plan: Plan) -> int: ...
 
@@ -231,7 +231,7 @@ def configure(name: str, options: dict[str, Any], file: str = "<study>",
     The output's options model instance, or ``None`` for an output that takes no options.
     """
     where = where or f"outputs.{name}"
-    model = OUTPUTS[name].options_model
+    model = getattr(OUTPUTS[name], "options_model", None)
     if model is None:
         if options:
             raise StudyError(file, where, options, f"the {name!r} output takes no options")
@@ -248,3 +248,8 @@ def configure(name: str, options: dict[str, Any], file: str = "<study>",
         if err["type"] == "extra_forbidden":
             msg = f"unknown option; allowed: {', '.join(model.model_fields)}"
         raise StudyError(file, f"{where}.{loc}" if loc else where, value, msg) from None
+
+
+from gearsweep.study.stability_output import Floquet  # noqa: E402 -- needs VarSpec above
+
+OUTPUTS["floquet"] = Floquet()

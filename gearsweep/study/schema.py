@@ -227,6 +227,9 @@ class Solver(Strict):
     settle_tolerance: float = Field(1e-2, gt=0, description="settle_error above it: status 2")
     initial_displacement: Length = Field(0.0, description="p at t = 0 [m] (Mathieu: 1)")
     initial_velocity: float = Field(0.0, description="p' at t = 0 [m/s]")
+    step_guard: Literal["warn", "skip", "off"] = Field(
+        "warn", description="cases whose step is beyond the method's stability limit: flag them"
+        " (warn), do not integrate them (skip, status 3), or do not check (off)")
 
 
 def _output_request(v: Any) -> Any:
