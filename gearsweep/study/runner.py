@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -24,7 +24,7 @@ from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, me
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.dataset import build_dataset
 from gearsweep.study.gearscene import scene_excitation
-from gearsweep.study.outputs import OUTPUTS, VarSpec
+from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
 from gearsweep.study.schema import Study
 from gearsweep.study.units import to_si
 
@@ -34,6 +34,8 @@ if TYPE_CHECKING:
 STATUS_NOT_SETTLED = 2
 CHUNK_STEPS = 4e8
 """Target integration steps per chunk (about half a second of kernel time on this machine)."""
+CHUNK_SIGNAL_BYTES = 64e6
+"""At most this much recorded time history per chunk (outputs reduce it per chunk)."""
 
 
 def build_model(study: Study) -> MeshModel | MathieuModel:
@@ -110,6 +112,8 @@ class Plan:
     """``["up"]``, ``["down"]``, both, or ``[]`` (no continuation)."""
     outputs: list[str]
     specs: dict[str, VarSpec] = field(default_factory=dict)
+    options: dict[str, Any] = field(default_factory=dict)
+    """Validated options of the outputs that take some (``outputs.configure``), by name."""
 
     @property
     def continued(self) -> bool:
@@ -155,6 +159,12 @@ class Plan:
         if lanes_per_chunk is None:
             per_lane = self.steps_per_case * self.chain * max(len(self.directions), 1)
             lanes_per_chunk = max(4 * LANES, int(CHUNK_STEPS // max(per_lane, 1)))
+            # Up and down sweeps of a lane run side by side: one signal per direction.
+            signal = (self.samples_per_period() * self.study.solver.record_periods * 8
+                      * max(len(self.directions), 1))
+            if signal:
+                lanes_per_chunk = min(lanes_per_chunk,
+                                      max(4 * LANES, int(CHUNK_SIGNAL_BYTES // signal)))
         n = self.n_lanes
         return [(a, min(a + lanes_per_chunk, n)) for a in range(0, n, lanes_per_chunk)]
 
@@ -167,7 +177,8 @@ def make_plan(study: Study, text: str = "") -> Plan:
         grids["speed"] = np.array([study.scene.speed])
         dims.append("speed")
     plan = Plan(study, text, build_model(study), dims, grids, list(study.continuation),
-                list(study.outputs))
+                [o.name for o in study.outputs],
+                options={o.name: configure(o.name, o.options) for o in study.outputs})
     for o in plan.outputs:
         plan.specs.update(OUTPUTS[o].variables(plan))
     if study.solver.step_guard == "warn":
@@ -350,6 +361,8 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
     for spec in plan.specs.values():
         for d, v in spec.extra_coords.items():
             coords.setdefault(d, ((d,), v))
+        for name, c in spec.aux_coords.items():
+            coords.setdefault(name, c)
     s = plan.study.solver
     settings = {
         "scene": plan.study.scene.kind,

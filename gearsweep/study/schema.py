@@ -16,6 +16,7 @@ values it sweeps, how the speed axis is continued, the solver and the outputs::
       speed: {start: 5000 rpm, stop: 10000 rpm, num: 400}
     continuation: [up, down]
     solver: {method: rk4, steps_per_period: 64, transient_periods: 100, record_periods: 50}
+    outputs: [stats, {spectrum: {max_order: 4}}]   # a name, or {name: {options}}
 
 A scene of the gear drive may name a gear pair (``gear: table1_consistent`` or a mapping of
 ``GearPair`` fields) instead of ``teeth``, ``stiffness``, ``stiffness_harmonics`` and ``ste``: they
@@ -231,6 +232,28 @@ class Solver(Strict):
         " (warn), do not integrate them (skip, status 3), or do not check (off)")
 
 
+def _output_request(v: Any) -> Any:
+    """``"stats"`` -> ``{name: stats}``; ``{spectrum: {max_order: 4}}`` -> name + options."""
+    if isinstance(v, str):
+        return {"name": v}
+    if isinstance(v, dict) and "name" not in v:
+        if len(v) != 1:
+            raise ValueError("an output name, or a mapping of one output name to its options")
+        ((name, options),) = v.items()
+        return {"name": name, "options": {} if options is None else options}
+    return v
+
+
+class OutputRequest(Strict):
+    """One entry of ``outputs:``: a name (``stats``) or ``{name: {option: value}}``.
+
+    The options are checked by the output itself (``gearsweep.study.outputs.configure``).
+    """
+
+    name: str
+    options: dict[str, Any] = Field(default_factory=dict)
+
+
 class Study(Strict):
     title: str = Field(min_length=1)
     description: str = ""
@@ -238,7 +261,8 @@ class Study(Strict):
     sweep: dict[str, list[float | str] | Range] = Field(default_factory=dict)
     continuation: list[Literal["up", "down"]] = Field(default_factory=list)
     solver: Solver = Field(default_factory=Solver)
-    outputs: list[str] = Field(default_factory=lambda: ["stats"])
+    outputs: list[Annotated[OutputRequest, BeforeValidator(_output_request)]] = Field(
+        default_factory=lambda: [OutputRequest(name="stats")])
 
     @model_validator(mode="after")
     def _consistent(self) -> Study:
@@ -271,10 +295,13 @@ class Study(Strict):
                 raise ValueError("continuation lists each direction at most once")
         from gearsweep.study.outputs import OUTPUTS
 
-        for name in self.outputs:
+        names = [o.name for o in self.outputs]
+        for name in names:
             if name not in OUTPUTS:
                 raise ValueError(f"outputs: {name!r} is not an output; allowed:"
                                  f" {', '.join(sorted(OUTPUTS))}")
+        if len(set(names)) != len(names):
+            raise ValueError("outputs: list each output at most once")
         return self
 
     def grid(self, name: str) -> np.ndarray:
@@ -374,6 +401,10 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy:
         raise _first_error(exc, file) from None
     _check_grids(study, file)
     _check_gear(study, file)
+    from gearsweep.study.outputs import configure
+
+    for i, req in enumerate(study.outputs):
+        configure(req.name, req.options, file, f"outputs[{i}].{req.name}")
     return study
 
 
