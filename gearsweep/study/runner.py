@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -204,19 +205,34 @@ def _lane_params(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
 STATUS_SKIPPED = 3
 
 
+@lru_cache(maxsize=4096)
+def _stable_step(method: str, k_over_m: float, c_over_m: float) -> float:
+    """Largest stable step [s] of ``method`` (root of |R(h lambda)| = 1), memoised: a continued
+    sweep asks for the same (k/m, c/m) at every speed."""
+    from gearsweep.analysis.stability import max_stable_step
+
+    return float(np.asarray(max_stable_step(method, k_over_m, c_over_m)).ravel()[0])
+
+
 def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
     """The guard rail: is the study's step within the method's stability limit, per case?
 
     Frozen-coefficient estimate at the largest stiffness of the cycle, from the method's
-    stability polynomial (``gearsweep.analysis.stability.check_step``).
+    stability polynomial (``gearsweep.analysis.stability``; the same rule as its ``check_step``:
+    steps per period >= T / h*).
     """
-    from gearsweep.analysis.stability import check_step
     from gearsweep.study.stability_output import hill_parameters
 
     s = plan.study.solver
     *_, kmax, cm, period = hill_parameters(plan, params, n)
-    ok, _ = check_step(s.method, s.steps_per_period, period, kmax, cm)
-    return np.broadcast_to(ok, (n,))
+    kmax, cm, period = (np.broadcast_to(np.asarray(a, dtype=float), (n,)) for a in (kmax, cm, period))
+    # h* depends on (k_max/m, c/m) only, which few studies vary: solve the stability polynomial
+    # once per distinct pair, not once per case.
+    pairs, inverse = np.unique(np.stack([kmax, cm]), axis=1, return_inverse=True)
+    h_star = np.array([_stable_step(s.method, float(k), float(c)) for k, c in pairs.T])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.ceil(period / h_star[inverse.ravel()])
+    return ~(need > s.steps_per_period)
 
 
 def _integrate(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
