@@ -1,0 +1,1 @@
+"""Numerics on arrays outside the time-stepping kernels: harmonic balance, jump detection, ..."""
