@@ -264,6 +264,42 @@ def df_curve(amplitudes, *, mass: float, stiffness: float, damping: float, half_
     return DFCurve(amplitude=amp, omega=omega, mean=mean, phase=phase, stable=dg > 0)
 
 
+def df_solutions(omega: float, *, mass: float, stiffness: float, damping: float,
+                 half_gap: float, force_amp: float, force_mean: float = 0.0,
+                 amplitude_max: float | None = None, n_grid: int = 4000
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Every single-harmonic amplitude at one frequency, with its stability.
+
+    Roots of ``G(A) = A^2 ((k N1 - m w^2)^2 + c^2 w^2) - F0^2`` (see ``df_curve``), bracketed on a
+    grid of ``n_grid`` amplitudes up to ``amplitude_max`` (default ``F0 / (c w) + 2 b``, above
+    which G > 0 because c w A <= F0 on the curve) and refined with Brent's method to round-off.
+
+    Returns
+    -------
+    amplitudes : ndarray
+        A [m], increasing.
+    stable : ndarray of bool
+        ``dG/dA > 0`` (the averaged equations are stable).
+    """
+    from scipy.optimize import brentq
+
+    w2 = float(omega) ** 2
+    args = (mass, stiffness, damping, half_gap, force_amp, force_mean)
+    if amplitude_max is None and damping <= 0:
+        raise ValueError("without damping give amplitude_max (the amplitude is unbounded)")
+    top = amplitude_max or force_amp / (damping * float(omega)) + 2.0 * half_gap
+    grid = np.r_[np.linspace(1e-6 * half_gap, half_gap, n_grid // 4),
+                 half_gap * (1.0 + np.geomspace(1e-9, top / half_gap, n_grid))]
+    g = _df_balance(grid, w2, *args)
+    roots, stable = [], []
+    for i in np.nonzero(np.sign(g[:-1]) != np.sign(g[1:]))[0]:
+        a = brentq(lambda x: float(_df_balance(x, w2, *args)), grid[i], grid[i + 1],
+                   xtol=1e-16, rtol=1e-14)
+        roots.append(a)
+        stable.append(g[i + 1] > g[i])
+    return np.asarray(roots), np.asarray(stable, dtype=bool)
+
+
 def turning_points(curve_omega: np.ndarray, curve_amp: np.ndarray) -> np.ndarray:
     """Frequencies [rad/s] where a curve ordered along its arc turns back (``dw`` changes sign),
     refined by a parabola through the three points around each turn."""
@@ -558,7 +594,7 @@ def _monodromy(p, kappa, gamma, b, dt):
 
 def aft_continuation(system: MeshSystem, omega_start: float, omega_end: float, *,
                      guess: np.ndarray | None = None, harmonics: int = 20, n_time: int = 1024,
-                     step: float = 0.02, max_step: float = 0.05, min_step: float = 1e-5,
+                     step: float = 0.005, max_step: float = 0.01, min_step: float = 1e-6,
                      max_points: int = 2000, length: float | None = None) -> HBBranch:
     """Follow the periodic solutions of ``system`` from ``omega_start`` to ``omega_end``.
 
@@ -625,13 +661,15 @@ def aft_continuation(system: MeshSystem, omega_start: float, omega_end: float, *
         pred = y + h * t
         yn = pred.copy()
         ok = False
-        for it in range(12):
+        it = 0
+        while it < 12:
             r, J = sys(yn)
             F = np.concatenate([r, [t @ (yn - pred)]])
             if np.max(np.abs(F)) < 1e-10:
                 ok = True
                 break
             yn = yn - np.linalg.solve(np.vstack([J, t]), F)
+            it += 1
         if not ok:
             h *= 0.5
             if h < min_step:
