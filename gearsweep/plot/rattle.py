@@ -80,6 +80,30 @@ def plot_fig8(ax: Axes, speed, amp_up, amp_down, *, half_gap: float,
     return ax.figure
 
 
+def plot_contact(ax: Axes, speed, loss_up, loss_down, back_up, back_down) -> Figure:
+    """Contact-loss and back-flank fractions of the up and down sweeps versus speed.
+
+    Parameters
+    ----------
+    speed : array_like
+        [rpm].
+    loss_up, loss_down, back_up, back_down : array_like
+        Fractions of the recorded time with the teeth apart / on the back flank [1].
+    """
+    ax.plot(speed, loss_up, "^", ms=3, color="tab:red", mew=0, label="contact loss, run-up")
+    ax.plot(speed, loss_down, "v", ms=3, color="tab:blue", mew=0,
+            label="contact loss, run-down")
+    ax.plot(speed, back_up, "-", color="tab:red", lw=0.8, label="back-flank contact, run-up")
+    ax.plot(speed, back_down, "-", color="tab:blue", lw=0.8,
+            label="back-flank contact, run-down")
+    ax.set_ylabel("fraction of time [1]")
+    ax.set_xlabel("driving-gear speed [rpm]")
+    ax.set_ylim(-0.02, 1.02)
+    ax.legend(fontsize=7, ncol=2, loc="lower right", bbox_to_anchor=(1.0, 0.1))
+    ax.grid(alpha=0.3)
+    return ax.figure
+
+
 def plot_fig9(ax: Axes, *, stiffness: float, mass: float, force_amp: float, half_gap: float,
               omegas: Sequence[float], labels: Sequence[str], roots: np.ndarray,
               p_range: float) -> Figure:
@@ -145,7 +169,9 @@ def plot_rms_vs_speed(ax: Axes, speed, rms_up, rms_down, loads, *, load_label: s
                 label=f"{load_label} = {load:g}, run-down")
     ax.set_xlabel("driving-gear speed [rpm]")
     ax.set_ylabel("rms of p about its mean [mm]")
-    ax.legend(fontsize=7, ncol=2)
+    top = np.nanmax([np.nanmax(rms_up), np.nanmax(rms_down)]) * MM
+    ax.set_ylim(0, 1.35 * top)  # room for the legend above the curves
+    ax.legend(fontsize=7, ncol=2, loc="upper right")
     ax.grid(alpha=0.3)
     return ax.figure
 
