@@ -246,6 +246,31 @@ def test_multi_harmonic_balance_with_ste_and_stiffness_harmonics_matches_integra
     assert bal.monodromy_multiplier(x, w) < 1
 
 
+def test_aft_jacobian_matches_the_matrix_product_and_finite_differences():
+    """The FFT-built Jacobian P diag(w) E equals the explicit matrix product to round-off, and
+    the full residual Jacobian (coefficients and omega) matches central differences to 1e-6:
+    the AFT residual is piecewise linear in the coefficients and smooth in omega, and the
+    perturbation (1e-9 b) moves no sample across +/- b."""
+    rng = np.random.default_rng(1)
+    system = hb.MeshSystem(mass=M, stiffness=K, damping=C, half_gap=B, force_mean=FM,
+                           force_harmonics=(F0,), ste_harmonics=(2e-6j,),
+                           stiffness_harmonics=(1e8 + 2e7j,))
+    bal = hb.AFTBalance(system, 12, 64)
+    w = rng.normal(size=64)
+    assert_allclose(bal._weighted_jacobian(w), (bal.P * w) @ bal.E, rtol=0, atol=1e-13)
+    x = np.r_[0.3 * B, 1.4 * B, 0.2 * B, rng.normal(size=22) * 0.05 * B]
+    omega = 7000 * RPM2W
+    _r, jx, jw = bal.residual(x, omega)
+    eps = 1e-9 * B
+    fd = np.column_stack([(bal.residual(x + eps * e, omega)[0] - bal.residual(x - eps * e,
+                                                                              omega)[0])
+                          / (2 * eps) for e in np.eye(x.size)])
+    assert_allclose(jx, fd, rtol=0, atol=1e-6 * np.abs(jx).max())
+    dw = 1e-6 * omega
+    fdw = (bal.residual(x, omega + dw)[0] - bal.residual(x, omega - dw)[0]) / (2 * dw)
+    assert_allclose(jw, fdw, rtol=0, atol=1e-6 * np.abs(jw).max())
+
+
 # --------------------------------------------------------------------------------------------
 # Floquet multipliers
 
@@ -429,3 +454,51 @@ def test_sweep_rejects_bad_input():
                     force_mean=0.0, force_amp=F0)
     with pytest.raises(ValueError, match="increase"):
         jumps.find_jumps([2.0, 1.0], [1.0, 1.0], [1.0, 1.0])
+
+
+# --------------------------------------------------------------------------------------------
+# the study files and the Dataset-level jump summary
+
+
+def test_fig08_study_puts_the_turning_points_at_the_papers_speeds():
+    """The scene in studies/fig08_rattle.yaml (as the study layer reads it) has describing-
+    function turning points within 10 rpm of the paper's 7500 and 8000 rpm (its c and F0 are the
+    exact solution rounded to 2 and 2 significant digits, which moves them by 5 and 2 rpm)."""
+    from pathlib import Path
+
+    from gearsweep.model import RPM
+    from gearsweep.study.runner import build_model
+    from gearsweep.study.schema import load_study
+
+    study, _text = load_study(Path(__file__).parent.parent / "studies" / "fig08_rattle.yaml")
+    model = build_model(study)
+    (fh,) = model.force_harmonics
+    b = model.backlash / 2
+    amps = np.unique(np.r_[np.linspace(0.01, 0.999, 300) * b,
+                           b * (1 + np.geomspace(1e-8, 3, 4000))])
+    cv = hb.df_curve(amps, mass=model.mass, stiffness=model.stiffness, damping=model.damping,
+                     half_gap=b, force_amp=fh.amplitude, force_mean=model.mean_force)
+    tp = np.sort(hb.turning_points(cv.omega, cv.amplitude)) / (fh.order * model.teeth * RPM)
+    assert_allclose(tp, [7500.0, 8000.0], atol=10.0)
+    assert_allclose([model.mass, model.stiffness, model.backlash, model.mean_force],
+                    [M, K, 2 * B, FM], rtol=1e-4)
+
+
+def test_jump_summary_of_a_dataset():
+    """Two sweeps (lanes over damping) with a jump at known places and one without: the summary
+    has the study's other dims, CF attributes and the jump speeds at the midpoints."""
+    import xarray as xr
+
+    from gearsweep.study.jumps import jump_summary
+
+    speed = np.arange(10.0) * 100 + 1000
+    up = np.array([[3, 3, 3, 3, 3, 3, 1, 1, 1, 1], [2, 2, 2, 2, 2, 2, 2, 2, 2, 2]], float)
+    down = np.array([[3, 3, 3, 1, 1, 1, 1, 1, 1, 1], [2, 2, 2, 2, 2, 2, 2, 2, 2, 2]], float)
+    ds = xr.Dataset({"p_pp": (("direction", "damping", "speed"), 2 * np.stack([up, down]))},
+                    coords={"direction": ["up", "down"], "damping": [1.0, 2.0], "speed": speed})
+    js = jump_summary(ds)
+    assert js["jump_up_speed"].dims == ("damping",)
+    assert_allclose(js["jump_up_speed"].values, [1550.0, np.nan])
+    assert_allclose(js["jump_down_speed"].values, [1250.0, np.nan])
+    assert_allclose(js["hysteresis_width"].values, [300.0, 0.0])
+    assert js["hysteresis_width"].attrs["units"] == "rpm"
