@@ -68,6 +68,18 @@ def fig8(ds, figures):
                     curves=curves, eq15=eq15)
     ax.set_xlim(speed[0], speed[-1])
     ax.set_ylim(0, 0.6)
+    # where the lower branch loses period-1 stability (a multiplier through -1)
+    turns = np.nonzero(np.diff(np.sign(np.diff(aft.omega))))[0] + 1
+    flip = None
+    if turns.size == 2:
+        after = np.nonzero(~aft.stable[turns[1] + 2:])[0]
+        if after.size:
+            flip = aft.omega[turns[1] + 2 + after[0]] / w_per_rpm
+            ax.annotate(f"period-1 lower branch unstable above {flip:.0f} rpm (flip):\n"
+                        "the integration there is not periodic",
+                        (flip, float(np.interp(flip, speed, amp.sel(direction="down")) * 1e3)),
+                        xytext=(8550.0, 0.03), fontsize=7.5,
+                        arrowprops={"arrowstyle": "->", "color": "0.3"})
     ax.set_title(f"Fig. 8: rattle jump, k = {model.stiffness / 1e6:g} kN/mm, m_eq = "
                  f"{model.mass:g} kg, backlash {model.backlash * 1e3:g} mm,\nF0 = {f0 / 1e3:g} kN "
                  f"at mesh order 1, F_m = {model.mean_force:.0f} N, c = "
@@ -90,6 +102,7 @@ def fig8(ds, figures):
     w_t = np.sqrt(f0 / (model.mass * b)) / w_per_rpm
     w_n = np.sqrt(model.stiffness / model.mass) / w_per_rpm
     print(f"Eq. (15): three roots between {w_t:.0f} and {w_n:.0f} rpm")
+    print(f"AFT lower branch: period-1 unstable (flip) above {flip} rpm")
     settle = float(ds["settle_error"].max())
     print(f"largest settle_error {settle:.3g}; status != 0 at {int((ds.status != 0).sum())} "
           "case-speeds")
