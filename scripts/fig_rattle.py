@@ -76,9 +76,9 @@ def fig8(ds, figures):
         if after.size:
             flip = aft.omega[turns[1] + 2 + after[0]] / w_per_rpm
             ax.annotate(f"period-1 lower branch unstable above {flip:.0f} rpm (flip):\n"
-                        "the integration there is not periodic",
+                        "the integration follows period-2, -4 or irregular motions",
                         (flip, float(np.interp(flip, speed, amp.sel(direction="down")) * 1e3)),
-                        xytext=(8550.0, 0.03), fontsize=7.5,
+                        xytext=(8300.0, 0.03), fontsize=7.5,
                         arrowprops={"arrowstyle": "->", "color": "0.3"})
     ax.set_title(f"Fig. 8: rattle jump, k = {model.stiffness / 1e6:g} kN/mm, m_eq = "
                  f"{model.mass:g} kg, backlash {model.backlash * 1e3:g} mm,\nF0 = {f0 / 1e3:g} kN "
