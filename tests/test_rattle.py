@@ -502,3 +502,24 @@ def test_jump_summary_of_a_dataset():
     assert_allclose(js["jump_down_speed"].values, [1250.0, np.nan])
     assert_allclose(js["hysteresis_width"].values, [300.0, 0.0])
     assert js["hysteresis_width"].attrs["units"] == "rpm"
+
+
+def test_fig08_study_runs_through_the_study_layer():
+    """studies/fig08_rattle.yaml through the runner on a shorter speed grid (7000-8600 rpm, 81
+    speeds, 20 rpm apart): the Dataset's jump summary puts the run-up drop and the run-down rise
+    within 1.5 grid steps of the AFT turning points (8025 and 7521 rpm, test above)."""
+    from pathlib import Path
+
+    from gearsweep.study.jumps import jump_summary
+    from gearsweep.study.runner import run_study
+    from gearsweep.study.schema import parse_study
+
+    text = (Path(__file__).parent.parent / "studies" / "fig08_rattle.yaml").read_text()
+    text = text.replace("speed: {start: 5000 rpm, stop: 11000 rpm, num: 400}",
+                        "speed: {start: 7000 rpm, stop: 8600 rpm, num: 81}")
+    assert "num: 81" in text
+    ds = run_study(parse_study(text), text)
+    js = jump_summary(ds)
+    assert abs(float(js.jump_up_speed) - 8025.0) < 30.0
+    assert abs(float(js.jump_down_speed) - 7521.0) < 30.0
+    assert float(js.jump_up_size) < 0 < float(js.jump_down_size)
