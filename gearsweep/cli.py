@@ -41,6 +41,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
+    if getattr(study, "type", None) == "mesh":
+        from gearsweep.study.mesh_runner import summary
+
+        print(f"{args.study}: ok -- {summary(study)}")
+        return 0
     plan = make_plan(study, text)
     dims = ", ".join(f"{d}={len(plan.grids[d])}" for d in plan.dims)
     extra = f" x directions {plan.directions}" if plan.continued else ""
@@ -62,9 +67,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     ds = run_study(study, text, progress=progress)
     write_netcdf(ds, out)
+    if "beyond_step_limit" in ds and bool(ds["beyond_step_limit"].any()):
+        n_bad = int(ds["beyond_step_limit"].sum())
+        print(f"gearsweep: warning: {out}: {n_bad} case(s) use a step beyond the stability limit"
+              f" of {study.solver.method} at {study.solver.steps_per_period} steps/period; their"
+              " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
+              " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
     if not args.quiet:
-        status = ds["status"].values
-        bad = int((status != 0).sum())
+        bad = int((ds["status"].values != 0).sum()) if "status" in ds else 0
         print(f"{out}: {int(ds.attrs['cases'])} cases in {time.perf_counter() - t0:.2f} s"
               + (f"; {bad} flagged in 'status' (see its 'codes' attribute)" if bad else ""))
     return 0
@@ -81,11 +91,15 @@ def describe(path: str | Path) -> str:
         raise ResultError(f"{path}: cannot open as a netCDF result ({exc})") from None
     with ds:
         lines = [f"{path}: {ds.attrs.get('title', '(no title)')}"]
-        lines.append(f"  made by {ds.attrs.get('history', '?')}; scene "
-                     f"{ds.attrs.get('scene', '?')}, {ds.attrs.get('method', '?')} at "
-                     f"{ds.attrs.get('steps_per_period', '?')} steps per mesh period, "
-                     f"{ds.attrs.get('transient_periods', '?')} transient + "
-                     f"{ds.attrs.get('recorded_periods', '?')} recorded periods")
+        if ds.attrs.get("scene") == "mesh":
+            lines.append(f"  made by {ds.attrs.get('history', '?')}; static mesh study,"
+                         f" {ds.attrs.get('positions', '?')} positions per mesh cycle")
+        else:
+            lines.append(f"  made by {ds.attrs.get('history', '?')}; scene "
+                         f"{ds.attrs.get('scene', '?')}, {ds.attrs.get('method', '?')} at "
+                         f"{ds.attrs.get('steps_per_period', '?')} steps per mesh period, "
+                         f"{ds.attrs.get('transient_periods', '?')} transient + "
+                         f"{ds.attrs.get('recorded_periods', '?')} recorded periods")
         lines.append("  swept:")
         for d in ds.dims:
             c = ds[d] if d in ds.coords else None

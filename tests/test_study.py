@@ -244,3 +244,21 @@ def test_up_sweep_is_the_same_alone_or_beside_the_down_sweep():
                                   up["p_pp"].sel(direction="up").values)
     np.testing.assert_array_equal(both["p_pp"].sel(direction="down").values,
                                   down["p_pp"].sel(direction="down").values)
+
+
+def test_step_guard_warns_or_skips_cases_beyond_the_stability_limit(tmp_path, capsys):
+    # 100 rpm with 10 teeth and 128 steps per mesh period: h w_n = 14.8, beyond any RK limit;
+    # the other speeds are within it (h w_n <= 0.25).
+    text = LINEAR.replace("speed: [6000 rpm,", "speed: [100 rpm, 6000 rpm,")
+    warn = run_study(_study(text), "")
+    np.testing.assert_array_equal(warn["beyond_step_limit"].values, [True, False, False, False])
+    skip = run_study(_study(text.replace("method: rk5,", "method: rk5, step_guard: skip,")), "")
+    assert "beyond_step_limit" not in skip
+    np.testing.assert_array_equal(skip["status"].values, [3, 0, 0, 0])
+    assert np.isnan(skip["p_rms"].values[0])
+    np.testing.assert_array_equal(skip["p_rms"].values[1:], warn["p_rms"].values[1:])
+    study = tmp_path / "coarse.yaml"
+    study.write_text(text)
+    assert cli(["run", str(study), "-o", str(tmp_path / "c.nc"), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "1 case(s) use a step beyond the stability limit" in err

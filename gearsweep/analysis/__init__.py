@@ -1,1 +1,1 @@
-"""Numerics on arrays outside the time-stepping kernels: harmonic balance, jump detection, ..."""
+"""Numerics on arrays other than time stepping: no files, YAML, xarray, dask or plotting here."""

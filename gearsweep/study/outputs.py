@@ -71,3 +71,7 @@ class Stats:
 
 OUTPUTS: dict[str, Output] = {"stats": Stats()}
 """Registered outputs by name."""
+
+from gearsweep.study.stability_output import Floquet  # noqa: E402 -- needs VarSpec above
+
+OUTPUTS["floquet"] = Floquet()

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
@@ -22,9 +23,13 @@ from gearsweep.kernels import LANES, STATUS_DIVERGED, simulate
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, mesh_frequency
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.dataset import build_dataset
+from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.outputs import OUTPUTS, VarSpec
 from gearsweep.study.schema import Study
 from gearsweep.study.units import to_si
+
+if TYPE_CHECKING:
+    from gearsweep.study.mesh_runner import MeshStudy
 
 STATUS_NOT_SETTLED = 2
 CHUNK_STEPS = 4e8
@@ -42,6 +47,9 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
     else:
         mass = sc.mass
     r1 = sc.r1
+    gear = scene_excitation(sc) if getattr(sc, "gear", None) is not None else None
+    if gear is not None:
+        r1 = gear.base_radius_1
     mean_force = sc.mean_force if sc.mean_force is not None else 0.0
     if sc.torque is not None:
         mean_force = sc.torque / r1
@@ -65,16 +73,25 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
         return tuple(Harmonic(h.amplitude, h.order if h.order is not None else i + 1, h.phase)
                      for i, h in enumerate(items))
 
+    if gear is not None:  # k(t), e(t) of the gear pair at the mean load (gearscene.py)
+        teeth, k0, k_h, e_h = (gear.teeth, gear.stiffness, gear.stiffness_harmonics,
+                               gear.no_load_te_harmonics)
+        if sc.kind == "rattle":  # Eq. (13): constant k0, so e(t) is the loaded STE
+            k_h, e_h = (), gear.ste_harmonics
+    else:
+        teeth, k0 = sc.teeth, sc.stiffness
+        k_h = harmonics(getattr(sc, "stiffness_harmonics", []))
+        e_h = harmonics(getattr(sc, "ste", []))
     return MeshModel(
         mass=mass,
-        teeth=sc.teeth,
-        stiffness=sc.stiffness,
+        teeth=teeth,
+        stiffness=k0,
         damping=sc.damping,
         mean_force=mean_force,
         base_radius=r1,
         backlash=getattr(sc, "backlash", 0.0),
-        stiffness_harmonics=harmonics(getattr(sc, "stiffness_harmonics", [])),
-        ste_harmonics=harmonics(getattr(sc, "ste", [])),
+        stiffness_harmonics=k_h,
+        ste_harmonics=e_h,
         force_harmonics=tuple(fluct),
     )
 
@@ -153,6 +170,10 @@ def make_plan(study: Study, text: str = "") -> Plan:
                 list(study.outputs))
     for o in plan.outputs:
         plan.specs.update(OUTPUTS[o].variables(plan))
+    if study.solver.step_guard == "warn":
+        plan.specs["beyond_step_limit"] = VarSpec(dtype="bool", attrs={
+            "units": "1", "long_name": "step beyond the method's stability limit (results may be"
+            " spoiled by the integrator)"})
     spp, sps = study.solver.steps_per_period, plan.samples_per_period()
     if sps and spp % sps:
         from gearsweep.errors import StudyError
@@ -169,8 +190,62 @@ def _lane_params(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
     return {d: plan.grids[d][i] for d, i in zip(plan.lane_dims, idx, strict=True)}
 
 
+STATUS_SKIPPED = 3
+
+
+def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """The guard rail: is the study's step within the method's stability limit, per case?
+
+    Frozen-coefficient estimate at the largest stiffness of the cycle, from the method's
+    stability polynomial (``gearsweep.analysis.stability.check_step``).
+    """
+    from gearsweep.analysis.stability import check_step
+    from gearsweep.study.stability_output import hill_parameters
+
+    s = plan.study.solver
+    *_, kmax, cm, period = hill_parameters(plan, params, n)
+    ok, _ = check_step(s.method, s.steps_per_period, period, kmax, cm)
+    return np.broadcast_to(ok, (n,))
+
+
 def _integrate(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
     """One kernel call for ``n`` cases; returns (BatchResult, per-output arrays, status)."""
+    guard = plan.study.solver.step_guard
+    ok = _step_ok(plan, params, n) if guard != "off" else np.ones(n, bool)
+    if guard == "skip" and not ok.all():
+        return _integrate_subset(plan, params, n, x0, v0, ok)
+    res, out, status = _integrate_all(plan, params, n, x0, v0)
+    if guard == "warn":
+        out["beyond_step_limit"] = ~ok
+    return res, out, status
+
+
+def _integrate_subset(plan: Plan, params, n: int, x0, v0, ok: np.ndarray) -> tuple:
+    """Integrate only the cases whose step is stable; the others get status 3 and NaN."""
+    idx = np.flatnonzero(ok)
+    sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+    sx0 = None if x0 is None else np.asarray(x0)[idx]
+    sv0 = None if v0 is None else np.asarray(v0)[idx]
+    res, out, status = _integrate_all(plan, sub, len(idx), sx0, sv0)
+    full = {}
+    for name, arr in out.items():
+        fill = False if arr.dtype == bool else np.nan
+        a = np.full((n, *arr.shape[1:]), fill, dtype=arr.dtype)
+        a[idx] = arr
+        full[name] = a
+    st = np.full(n, STATUS_SKIPPED, np.int8)
+    st[idx] = status
+    xf = np.full(n, np.nan)
+    vf = np.full(n, np.nan)
+    xf[idx], vf[idx] = res.x_final, res.v_final
+    rs = np.full(n, STATUS_DIVERGED, np.int8)  # a skipped lane restarts a continued sweep
+    rs[idx] = res.status
+    from gearsweep.kernels import BatchResult
+
+    return BatchResult(stats={}, x_final=xf, v_final=vf, status=rs, signal=None), full, st
+
+
+def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
     s = plan.study.solver
     spp = s.steps_per_period
     x_init = s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
@@ -284,6 +359,7 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
         "recorded_periods": s.record_periods,
         "divergence_factor": s.divergence_factor,
         "settle_tolerance": s.settle_tolerance,
+        "step_guard": s.step_guard,
         "cases": plan.n_cases,
     }
     if elapsed is not None:
@@ -297,8 +373,12 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
     return ds
 
 
-def run_study(study: Study, text: str = "", progress: bool = False) -> xr.Dataset:
+def run_study(study: Study | MeshStudy, text: str = "", progress: bool = False) -> xr.Dataset:
     """Run every chunk of a study in this process and return its Dataset."""
+    if getattr(study, "type", None) == "mesh":  # a static mesh study: no integration
+        from gearsweep.study.mesh_runner import run_mesh_study
+
+        return run_mesh_study(study, text)
     plan = make_plan(study, text)
     results = empty_results(plan)
     t0 = time.perf_counter()

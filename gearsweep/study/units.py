@@ -6,6 +6,7 @@ taken in the quantity's canonical unit (SI, except shaft speed, which is in rpm 
 
 from __future__ import annotations
 
+import math
 from functools import cache
 
 import pint
@@ -20,6 +21,7 @@ CANONICAL = {
     "damping": "N*s/m",
     "stiffness": "N/m",
     "inertia": "kg*m**2",
+    "pressure": "Pa",
     "angle": "rad",
     "dimensionless": "",
 }
@@ -50,6 +52,12 @@ def to_si(value: object, kind: str) -> float:
         return float(value)
     if not isinstance(value, str):
         raise UnitParseError(f"expected a number or a string with {kind} units, e.g. '1 {target}'")
+    try:  # a bare number in a string, e.g. YAML reads 1e8 (no dot) as text
+        number = float(value)
+    except ValueError:
+        number = math.nan
+    if math.isfinite(number):
+        return number
     ureg = registry()
     try:
         q = ureg.Quantity(value.strip())
