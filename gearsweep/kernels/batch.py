@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from gearsweep.kernels import rk
@@ -105,7 +106,28 @@ def simulate(
     stride = max(int(signal_stride), 1)
     if signal_stride > 0:
         signal = np.full((n, (n_record + stride - 1) // stride), np.nan)
-    stats, xf, vf, status = rk.integrate(
+    # No more threads than blocks of lanes: waking an idle thread costs milliseconds, which
+    # dominates the many small calls of a continued sweep with few lanes.
+    threads = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(threads, -(-n // rk.LANES))))
+    try:
+        stats, xf, vf, status = _call(method, h, n, damping, k_mean, k_scale, tables, force,
+                                      ste_scale, fluct_scale, half_gap, bound, x0, v0,
+                                      n_transient, n_record, steps_per_period, signal, stride)
+    finally:
+        numba.set_num_threads(threads)
+    return BatchResult(
+        stats={name: stats[:, q] for q, name in enumerate(rk.STAT_NAMES)},
+        x_final=xf,
+        v_final=vf,
+        status=status,
+        signal=signal,
+    )
+
+
+def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluct_scale,
+          half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride):
+    return rk.integrate(
         rk.METHODS[method],
         h,
         _vec(damping, n),
@@ -126,11 +148,4 @@ def simulate(
         int(steps_per_period),
         signal,
         stride,
-    )
-    return BatchResult(
-        stats={name: stats[:, q] for q, name in enumerate(rk.STAT_NAMES)},
-        x_final=xf,
-        v_final=vf,
-        status=status,
-        signal=signal,
     )
