@@ -1,0 +1,1 @@
+"""Numerics on arrays beyond the time-stepping kernels (spectra, references, stability, advice)."""
