@@ -19,14 +19,19 @@ How
 2. A branch-free pass flags the lanes whose region at the step's end differs from the region at
    its start (sign of p - b and of p + b at both ends). Only if a lane is flagged, a scalar
    fix-up loop redoes the step of each flagged lane from its saved start state:
-   a. locate the crossing time inside the step on the cubic Hermite interpolant of the trial
-      step's end points (p and p' at both ends; bisection on the cubic), then refine
-      it by Newton iterations on the substep itself (substep to theta, correction
-      -(p - b) / (p' h)) until the correction is below ``THETA_TOL`` of a step (at most
-      ``NEWTON_MAX`` substeps);
-   b. keep the state of the substep that ends on the boundary, and finish the step with a
-      substep from the crossing to the step's end; if that remainder crosses again, repeat
-      (at most ``MAX_CROSSINGS`` crossings per step).
+   a. estimate the crossing time inside the step from the cubic Hermite interpolant of the
+      trial step's end points (p and p' at both ends; Newton's method on the cubic);
+   b. take a substep of the same method to that time, with the force law of the region being
+      left, extended smoothly past the boundary (so no stage sees the kink);
+   c. from the substep's end, a degree-4 Taylor polynomial in time (derivatives of p up to the
+      fourth from the same force law and the coefficient quartics below) gives the time left to
+      the boundary by Newton's method; if that time tau is short (|tau| omega < ``TAYLOR_MAX``)
+      the polynomial moves the state onto the boundary (error ~ (tau omega)^4 / 24), otherwise
+      the substep is redone to the new estimate (at most ``NEWTON_MAX`` substeps);
+   d. finish the step with a substep from the crossing to the step's end with the new
+      region's force law; if that remainder crosses again, repeat from a (at most
+      ``MAX_CROSSINGS`` crossings per step).
+   A typical crossing costs two substeps.
    Steps of lanes that do not cross are untouched, so a case without crossings gives results
    identical bit for bit to the plain kernel.
 
@@ -34,7 +39,8 @@ Coefficients inside a step
 --------------------------
 The tables hold K(t) and G(t) only at the five quarter-step nodes of each step. Substeps need
 them at other times; they are taken from the quartic through the five node values of the step
-(Lagrange interpolation). For smooth periodic coefficients its error is O(h^5) relative to the
+(its monomial coefficients in the step fraction, which also give the time derivatives needed
+by the Taylor polynomial). For smooth periodic coefficients its error is O(h^5) relative to the
 coefficient; it acts only over the substeps of crossing steps (a bounded number per period), so
 it adds O(h^6) to the global error: below the order of both methods. (A linear interpolant
 would add O(h^2) per crossing and undo the gain.) This keeps ``simulate``'s table conventions;
@@ -63,8 +69,6 @@ from gearsweep.kernels.rk import (
     _accumulate,
     _check,
     _finish,
-    _g,
-    _k,
     _rk4_lanes,
     _rk5_lanes,
     _row,
@@ -73,27 +77,45 @@ from gearsweep.kernels.rk import (
 MAX_CROSSINGS = 4
 """Crossings handled within one step; further ones are stepped over as in the plain kernel."""
 NEWTON_MAX = 4
-"""Newton substeps used to refine one crossing time."""
-THETA_TOL = 1e-12
-"""Newton stops when the crossing time correction is below this fraction of a step."""
-BISECTIONS = 20
-"""Bisections on the Hermite cubic (first estimate of the crossing to 1e-6 of a step; the
-Newton substeps then converge quadratically from it)."""
+"""Substeps used at most to reach one crossing."""
+TAYLOR_MAX = 2e-3
+"""The last stretch to a crossing, tau, is covered by a degree-4 Taylor polynomial when
+|tau| * (sqrt(K) + c/m) is below this: its error, about (that)^4 / 24 relative in p', is then
+below 1e-12."""
+
+
+_MONO = np.array([[3.0, 0.0, 0.0, 0.0, 0.0],
+                  [-25.0, 48.0, -36.0, 16.0, -3.0],
+                  [70.0, -208.0, 228.0, -112.0, 22.0],
+                  [-80.0, 288.0, -384.0, 224.0, -48.0],
+                  [32.0, -128.0, 192.0, -128.0, 32.0]]) / 3.0
+"""Inverse Vandermonde matrix of the nodes 0, 1/4, 1/2, 3/4, 1: monomial coefficients in theta
+of the quartic through five node values."""
 
 
 @jit_inline
-def _lagrange5(y, theta, on):
-    """Quartic through y[0..4] at theta = 0, 1/4, 1/2, 3/4, 1, evaluated at ``theta``."""
-    if not on:
-        return 0.0
-    u = 4.0 * theta
-    a = u - 1.0
-    b = u - 2.0
-    c = u - 3.0
-    d = u - 4.0
-    return (y[0] * (a * b * c * d) / 24.0 - y[1] * (u * b * c * d) / 6.0
-            + y[2] * (u * a * c * d) / 4.0 - y[3] * (u * a * b * d) / 6.0
-            + y[4] * (u * a * b * c) / 24.0)
+def _monomials(row, P, q):
+    """P[q, :] = coefficients of the quartic in theta through the five node values ``row``."""
+    for k in range(5):
+        acc = 0.0
+        for i in range(5):
+            acc += _MONO[k, i] * row[i]
+        P[q, k] = acc
+
+
+@jit_inline
+def _val(P, q, th):
+    return (((P[q, 4] * th + P[q, 3]) * th + P[q, 2]) * th + P[q, 1]) * th + P[q, 0]
+
+
+@jit_inline
+def _d1(P, q, th):
+    return ((4.0 * P[q, 4] * th + 3.0 * P[q, 3]) * th + 2.0 * P[q, 2]) * th + P[q, 1]
+
+
+@jit_inline
+def _d2(P, q, th):
+    return (12.0 * P[q, 4] * th + 6.0 * P[q, 3]) * th + 2.0 * P[q, 2]
 
 
 @jit_inline
@@ -106,137 +128,205 @@ def _region(x, b):
 
 
 @jit_inline
-def _acc(X, V, th, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F):
-    """Right-hand side p'' at fraction ``th`` of the step with the linear force law of one
-    region, f(p) = sw * (p - sh) (sw = 0 in the gap), coefficients from the quartic."""
-    kk = _k(kl, kal, _lagrange5(K, th, ktab is not None), ktab, kamp)
-    et = _lagrange5(E, th, etab is not None)
-    ft = _lagrange5(F, th, ftab is not None)
-    gg = _g(gl, el, et, etab, fl, ft, ftab)
-    return gg - c * V - kk * (sw * (X - sh))
+def _kg(P, th, kmode, kl, kal, has_e, has_f, gl, el, fl):
+    """Stiffness/mass and force/mass at fraction ``th`` of the step, from the quartics.
+    kmode: 0 constant ``kl``, 1 the table alone, 2 ``kl + kal * table``."""
+    if kmode == 0:
+        kk = kl
+    elif kmode == 1:
+        kk = _val(P, 0, th)
+    else:
+        kk = kl + kal * _val(P, 0, th)
+    gg = gl
+    if has_e:
+        gg += el * _val(P, 1, th)
+    if has_f:
+        gg += fl * _val(P, 2, th)
+    return kk, gg
 
 
 @jit_inline
-def _substep(method, X, V, ta, tb, h, reg, b, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab,
-             F):
+def _substep(method, X, V, ta, tb, h, sw, sh, c, P, kmode, kl, kal, has_e, has_f, gl, el, fl):
     """One RK step of the same method from fraction ``ta`` to ``tb`` of the step ``h``, with the
-    force law of region ``reg`` extended smoothly beyond its boundary: the stages never see the
-    kink (a stage on the far side of the boundary with the dead zone itself would cost O(H^4)
-    per crossing and cap RK5 at order 4)."""
-    sw = 0.0 if reg == 0 else 1.0
-    sh = b if reg == 1 else -b
+    force law f(p) = sw (p - sh) of one region extended smoothly beyond its boundary: the stages
+    never see the kink (a stage on the far side of the boundary evaluated with the dead zone
+    itself would cost O(H^4) per crossing and cap RK5 at order 4)."""
     eta = tb - ta
     H = eta * h
     if method == RK4:
-        k1v = _acc(X, V, ta, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+        tm = ta + 0.5 * eta
+        K1, G1 = _kg(P, ta, kmode, kl, kal, has_e, has_f, gl, el, fl)
+        K2, G2 = _kg(P, tm, kmode, kl, kal, has_e, has_f, gl, el, fl)
+        K3, G3 = _kg(P, tb, kmode, kl, kal, has_e, has_f, gl, el, fl)
+        k1v = G1 - c * V - K1 * sw * (X - sh)
         k1x = V
         x2 = X + 0.5 * H * k1x
         v2 = V + 0.5 * H * k1v
-        tm = ta + 0.5 * eta
-        k2v = _acc(x2, v2, tm, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+        k2v = G2 - c * v2 - K2 * sw * (x2 - sh)
         k2x = v2
         x3 = X + 0.5 * H * k2x
         v3 = V + 0.5 * H * k2v
-        k3v = _acc(x3, v3, tm, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+        k3v = G2 - c * v3 - K2 * sw * (x3 - sh)
         k3x = v3
         x4 = X + H * k3x
         v4 = V + H * k3v
-        k4v = _acc(x4, v4, tb, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+        k4v = G3 - c * v4 - K3 * sw * (x4 - sh)
         k4x = v4
         return (X + H / 6 * (k1x + 2 * k2x + 2 * k3x + k4x),
                 V + H / 6 * (k1v + 2 * k2v + 2 * k3v + k4v))
-    t1 = ta + 0.25 * eta
-    t2 = ta + 0.5 * eta
-    t3 = ta + 0.75 * eta
+    K1, G1 = _kg(P, ta, kmode, kl, kal, has_e, has_f, gl, el, fl)
+    K2, G2 = _kg(P, ta + 0.25 * eta, kmode, kl, kal, has_e, has_f, gl, el, fl)
+    K4, G4 = _kg(P, ta + 0.5 * eta, kmode, kl, kal, has_e, has_f, gl, el, fl)
+    K5, G5 = _kg(P, ta + 0.75 * eta, kmode, kl, kal, has_e, has_f, gl, el, fl)
+    K6, G6 = _kg(P, tb, kmode, kl, kal, has_e, has_f, gl, el, fl)
     a1 = V
-    b1 = _acc(X, V, ta, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+    b1 = G1 - c * V - K1 * sw * (X - sh)
     x2 = X + H * (0.25 * a1)
     v2 = V + H * (0.25 * b1)
     a2 = v2
-    b2 = _acc(x2, v2, t1, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+    b2 = G2 - c * v2 - K2 * sw * (x2 - sh)
     x3 = X + H * (0.125 * a1 + 0.125 * a2)
     v3 = V + H * (0.125 * b1 + 0.125 * b2)
     a3 = v3
-    b3 = _acc(x3, v3, t1, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+    b3 = G2 - c * v3 - K2 * sw * (x3 - sh)
     x4 = X + H * (-0.5 * a2 + a3)
     v4 = V + H * (-0.5 * b2 + b3)
     a4 = v4
-    b4 = _acc(x4, v4, t2, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+    b4 = G4 - c * v4 - K4 * sw * (x4 - sh)
     x5 = X + H * (0.1875 * a1 + 0.5625 * a4)
     v5 = V + H * (0.1875 * b1 + 0.5625 * b4)
     a5 = v5
-    b5 = _acc(x5, v5, t3, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+    b5 = G5 - c * v5 - K5 * sw * (x5 - sh)
     x6 = X + H * (-3.0 * a1 + 2.0 * a2 + 12.0 * a3 - 12.0 * a4 + 8.0 * a5) / 7.0
     v6 = V + H * (-3.0 * b1 + 2.0 * b2 + 12.0 * b3 - 12.0 * b4 + 8.0 * b5) / 7.0
     a6 = v6
-    b6 = _acc(x6, v6, tb, sw, sh, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F)
+    b6 = G6 - c * v6 - K6 * sw * (x6 - sh)
     return (X + H * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) / 90.0,
             V + H * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0)
 
 
 @jit_inline
-def _hermite_root(X, V, TX, TV, H, bd, sigma):
+def _hermite_root(X, V, TX, TV, H, bd):
     """Fraction s in (0, 1] where the cubic Hermite interpolant of (X, V) -> (TX, TV) over a
-    step H meets ``bd``, by ``BISECTIONS`` bisections; sigma * (p - bd) > 0 inside the region
-    being left. The start counts as inside even when it lies on the boundary (just after a
-    crossing), so a return to the same boundary is found, not the start itself."""
-    lo = 0.0
-    hi = 1.0
-    for _ in range(BISECTIONS):
-        s = 0.5 * (lo + hi)
-        s2 = s * s
-        s3 = s2 * s
-        p = ((2 * s3 - 3 * s2 + 1) * X + (s3 - 2 * s2 + s) * H * V + (-2 * s3 + 3 * s2) * TX
-             + (s3 - s2) * H * TV)
-        if sigma * (p - bd) > 0:
-            lo = s
+    step H meets ``bd`` (the start and the end lie on opposite sides, or the start on ``bd``).
+
+    In monomial form g(s) = c0 + c1 s + c2 s^2 + c3 s^3. When the start lies on the boundary
+    (just after a crossing, |c0| tiny) the root sought is the return, a root of the quadratic
+    g(s) / s; otherwise Newton's method on g from the secant estimate, kept inside [0, 1]. The
+    estimate needs no high accuracy: the Taylor projection in ``_fixup`` corrects it."""
+    c0 = X - bd
+    c1 = H * V
+    c2 = 3.0 * (TX - X) - H * (2.0 * V + TV)
+    c3 = 2.0 * (X - TX) + H * (V + TV)
+    g1 = c0 + c1 + c2 + c3
+    if abs(c0) <= 1e-9 * abs(g1):
+        # c1 + c2 s + c3 s^2 = 0: the smallest root in (0, 1]
+        if c3 == 0.0:
+            s = -c1 / c2 if c2 != 0.0 else 1.0
         else:
-            hi = s
-    return 0.5 * (lo + hi)
+            disc = c2 * c2 - 4.0 * c3 * c1
+            if disc < 0.0:
+                return 1.0
+            sq = np.sqrt(disc)
+            q = -0.5 * (c2 + (sq if c2 >= 0.0 else -sq))
+            r1 = q / c3
+            r2 = c1 / q if q != 0.0 else 2.0
+            s = 2.0
+            if 0.0 < r1 <= 1.0:
+                s = r1
+            if 0.0 < r2 <= 1.0 and r2 < s:
+                s = r2
+        return min(max(s, 0.0), 1.0)
+    s = c0 / (c0 - g1)
+    for _ in range(3):
+        g = c0 + s * (c1 + s * (c2 + s * c3))
+        dg = c1 + s * (2.0 * c2 + s * 3.0 * c3)
+        if dg == 0.0:
+            break
+        s = min(max(s - g / dg, 0.0), 1.0)
+    return s
 
 
-@jit
-def _fixup(method, X0, V0, TX, TV, h, b, c, kl, kal, kamp, ktab, K, gl, el, etab, E, fl, ftab, F):
-    """Redo one step of one lane that crossed a boundary; returns (x, v, substeps taken)."""
+@jit_inline
+def _fixup(method, X0, V0, TX, TV, h, b, c, P, kmode, kl, kal, has_e, has_f, gl, el, fl):
+    """Redo one step of one lane that crossed a boundary; returns (x, v, substeps taken).
+
+    Per crossing: a substep (force law of the region being left) to the estimate from the
+    Hermite cubic; then a Taylor polynomial of degree 4 in time about its end (derivatives from
+    the same force law and the quartic coefficients) gives the remaining time to the boundary,
+    and, if that time is short (|tau| omega < ``TAYLOR_MAX``), moves the state onto the boundary;
+    otherwise the substep is redone to the Newton estimate. Then a substep with the new region's
+    law finishes the step."""
     th = 0.0
     X = X0
     V = V0
     reg = _region(X0, b)
     nsub = 0
+    w = np.sqrt(abs(kl) + abs(kal) * abs(_val(P, 0, 0.5)) if kmode > 0 else abs(kl)) + abs(c)
     for _ in range(MAX_CROSSINGS):
         treg = _region(TX, b)
         if treg == reg:
             break
         if reg == 1:
             bd = b
-            sigma = 1.0
             new = 0
         elif reg == -1:
             bd = -b
-            sigma = -1.0
             new = 0
         elif treg == 1:
             bd = b
-            sigma = -1.0
             new = 1
         else:
             bd = -b
-            sigma = 1.0
             new = -1
+        sw = 0.0 if reg == 0 else 1.0
+        sh = b if reg == 1 else -b
         rem = 1.0 - th
-        s = _hermite_root(X, V, TX, TV, rem * h, bd, sigma)
-        tc = th + s * rem
+        tc = th + rem * _hermite_root(X, V, TX, TV, rem * h, bd)
         CX = X
         CV = V
-        for r in range(NEWTON_MAX):
-            CX, CV = _substep(method, X, V, th, tc, h, reg, b, c, kl, kal, kamp, ktab, K, gl, el,
-                              etab, E, fl, ftab, F)
+        for _r in range(NEWTON_MAX):
+            CX, CV = _substep(method, X, V, th, tc, h, sw, sh, c, P, kmode, kl, kal, has_e, has_f,
+                              gl, el, fl)
             nsub += 1
-            if CV == 0.0 or r == NEWTON_MAX - 1:
+            # time derivatives at the substep's end, old force law
+            K0, G0 = _kg(P, tc, kmode, kl, kal, has_e, has_f, gl, el, fl)
+            ih = 1.0 / h
+            K1 = 0.0
+            K2 = 0.0
+            if kmode == 1:
+                K1 = _d1(P, 0, tc) * ih
+                K2 = _d2(P, 0, tc) * ih * ih
+            elif kmode == 2:
+                K1 = kal * _d1(P, 0, tc) * ih
+                K2 = kal * _d2(P, 0, tc) * ih * ih
+            G1 = 0.0
+            G2 = 0.0
+            if has_e:
+                G1 += el * _d1(P, 1, tc) * ih
+                G2 += el * _d2(P, 1, tc) * ih * ih
+            if has_f:
+                G1 += fl * _d1(P, 2, tc) * ih
+                G2 += fl * _d2(P, 2, tc) * ih * ih
+            f = sw * (CX - sh)
+            a = G0 - c * CV - K0 * f
+            j = G1 - c * a - K1 * f - K0 * sw * CV
+            sn = G2 - c * j - K2 * f - 2.0 * K1 * sw * CV - K0 * sw * a
+            # Newton on the Taylor polynomial for the time tau to the boundary
+            tau = -(CX - bd) / CV if CV != 0.0 else 0.0
+            for _q in range(2):
+                gx = CX - bd + tau * (CV + tau * (0.5 * a + tau * (j / 6.0 + tau * sn / 24.0)))
+                gv = CV + tau * (a + tau * (0.5 * j + tau * sn / 6.0))
+                if gv == 0.0:
+                    break
+                tau -= gx / gv
+            tn = tc + tau / h
+            if abs(tau) * w < TAYLOR_MAX and tn <= 1.0:
+                CX = CX + tau * (CV + tau * (0.5 * a + tau * (j / 6.0 + tau * sn / 24.0)))
+                CV = CV + tau * (a + tau * (0.5 * j + tau * sn / 6.0))
+                tc = tn
                 break
-            d = -(CX - bd) / (CV * h)
-            tn = tc + d
-            if abs(d) < THETA_TOL or not (tn > th and tn <= 1.0):
+            if not (tn > th and tn <= 1.0) or _r == NEWTON_MAX - 1:
                 break
             tc = tn
         X = CX
@@ -247,10 +337,25 @@ def _fixup(method, X0, V0, TX, TV, h, b, c, kl, kal, kamp, ktab, K, gl, el, etab
             TX = X
             TV = V
             break
-        TX, TV = _substep(method, X, V, th, 1.0, h, reg, b, c, kl, kal, kamp, ktab, K, gl, el, etab,
-                          E, fl, ftab, F)
+        sw = 0.0 if reg == 0 else 1.0
+        sh = b if reg == 1 else -b
+        TX, TV = _substep(method, X, V, th, 1.0, h, sw, sh, c, P, kmode, kl, kal, has_e, has_f, gl,
+                          el, fl)
         nsub += 1
     return TX, TV, nsub
+
+
+@jit
+def _fixup_lanes(method, xo, vo, x, v, cross, dead, live, hl, bl, cl, P, kmode, km, ka, has_e,
+                 has_f, gm, es, fs, nsub):
+    """Redo the steps of the flagged lanes of a block (one call per step with crossings)."""
+    for l in range(live):
+        if cross[l] != 0 and not dead[l]:
+            X, V, m = _fixup(method, xo[l], vo[l], x[l], v[l], hl[l], bl[l], cl[l], P, kmode, km[l],
+                             ka[l], has_e, has_f, gm[l], es[l], fs[l])
+            x[l] = X
+            v[l] = V
+            nsub[l] += m
 
 
 @jit_parallel
@@ -282,6 +387,9 @@ def integrate(method, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, fta
     vf = np.empty(n)
     status = np.zeros(n, np.int8)
     substeps = np.zeros(n, np.int64)
+    kmode = 0
+    if ktab is not None:
+        kmode = 1 if kamp is None else 2
     nblocks = (n + LANES - 1) // LANES
     for blk in prange(nblocks):
         i0 = blk * LANES
@@ -300,7 +408,8 @@ def integrate(method, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, fta
         fs = np.empty(LANES)
         bl = np.zeros(LANES)
         bd = np.empty(LANES)
-        cross = np.zeros(LANES, np.bool_)
+        cross = np.zeros(LANES, np.int64)
+        P = np.zeros((3, 5))
         nsub = np.zeros(LANES, np.int64)
         K = np.empty(5)
         E = np.empty(5)
@@ -342,21 +451,23 @@ def integrate(method, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, fta
                 _rk5_lanes(x, v, hl, bl, half_gap, cl, km, ka, kamp, ktab, K, gm, es, etab, E, fs,
                            ftab, F)
             if half_gap is not None:
-                anyc = False
+                ncross = 0
                 for l in range(LANES):
                     b = bl[l]
-                    c = ((xo[l] > b) != (x[l] > b)) or ((xo[l] < -b) != (x[l] < -b))
-                    cross[l] = c
-                    anyc = anyc or c
-                if anyc:
-                    for l in range(live):
-                        if cross[l] and not dead[l]:
-                            X, V, m = _fixup(method, xo[l], vo[l], x[l], v[l], hl[l], bl[l], cl[l],
-                                             km[l], ka[l], kamp, ktab, K, gm[l], es[l], etab, E,
-                                             fs[l], ftab, F)
-                            x[l] = X
-                            v[l] = V
-                            nsub[l] += m
+                    ro = (1 if xo[l] > b else 0) - (1 if xo[l] < -b else 0)
+                    rn = (1 if x[l] > b else 0) - (1 if x[l] < -b else 0)
+                    d = 1 if ro != rn else 0
+                    cross[l] = d
+                    ncross += d
+                if ncross > 0:
+                    if ktab is not None:
+                        _monomials(K, P, 0)
+                    if etab is not None:
+                        _monomials(E, P, 1)
+                    if ftab is not None:
+                        _monomials(F, P, 2)
+                    _fixup_lanes(method, xo, vo, x, v, cross, dead, live, hl, bl, cl, P, kmode, km,
+                                 ka, etab is not None, ftab is not None, gm, es, fs, nsub)
             if s >= n_transient:
                 _accumulate(acc, prev, x, bl, half_gap, s >= half, s == n_transient)
                 if signal is not None:
