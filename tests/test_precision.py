@@ -157,21 +157,30 @@ def test_advice_warns_beyond_stability_limit():
 
 
 HELD_OUT = [
-    ("whine", 5000.0, "rk4", False, 1e-6),
-    ("whine", 7500.0, "rk5", False, 1e-6),
-    ("whine", 5000.0, "rk4", False, 1e-4),
-    ("rattle", 7500.0, "rk4", True, 1e-6),
-    ("rattle", 11000.0, "rk5", True, 1e-6),
-    ("rattle", 11000.0, "rk4", False, 1e-4),
+    # scene, speed [rpm], damping [N s/m], k0 [N/m], method, kink-aware, target
+    ("whine", 5000.0, pr.DAMPING, pr.K0, "rk4", False, 1e-6),
+    ("whine", 7500.0, pr.DAMPING, pr.K0, "rk5", False, 1e-6),
+    ("whine", 5000.0, pr.DAMPING, pr.K0, "rk4", False, 1e-4),
+    ("whine", 5000.0, 3000.0, 0.8e9, "rk4", False, 1e-6),
+    ("whine", 8000.0, 3000.0, 0.8e9, "rk5", False, 1e-6),
+    ("rattle", 7500.0, pr.DAMPING, pr.K0, "rk4", True, 1e-6),
+    ("rattle", 11000.0, pr.DAMPING, pr.K0, "rk5", True, 1e-6),
+    ("rattle", 11000.0, pr.DAMPING, pr.K0, "rk4", False, 1e-4),
+    ("rattle", 9500.0, 4000.0, 1.2e9, "rk4", True, 1e-6),
+    ("rattle", 12000.0, 4000.0, 1.2e9, "rk5", True, 1e-6),
 ]
 
 
-@pytest.mark.parametrize(("kind", "rpm", "method", "kink", "target"), HELD_OUT)
-def test_advised_step_meets_target_on_held_out_cases(kind, rpm, method, kink, target):
-    """Speeds not used in the calibration (``scripts/work_precision.py``): the advised step
-    count must reach the target trajectory error against the reference."""
-    scene = (pr.whine_scene if kind == "whine" else pr.rattle_scene)(rpm)
-    adv = advise(mass=pr.MASS, k0=pr.K0, damping=pr.DAMPING, speed_rpm=[rpm], teeth=pr.TEETH,
+@pytest.mark.parametrize(("kind", "rpm", "damping", "k0", "method", "kink", "target"), HELD_OUT)
+def test_advised_step_meets_target_on_held_out_cases(kind, rpm, damping, k0, method, kink, target):
+    """Speeds, dampings and stiffnesses not used in the calibration
+    (``scripts/work_precision.py --calibrate``: 3000-12000 rpm whine, 7000-13000 rpm rattle, both
+    at c = 5500 N s/m, k0 = 1.073e9 N/m): the advised step count must reach the target
+    trajectory error against the reference. Measured errors are 0.16-0.5 of the target (the
+    advisor aims at target / 2)."""
+    make = pr.whine_scene if kind == "whine" else pr.rattle_scene
+    scene = make(rpm, damping=damping, k0=k0)
+    adv = advise(mass=pr.MASS, k0=k0, damping=damping, speed_rpm=[rpm], teeth=pr.TEETH,
                  k_harmonics=pr.K_HARMONICS if kind == "whine" else (),
                  backlash=4e-6 if kind == "rattle" else None, method=method, kink_aware=kink,
                  target=target)
