@@ -60,7 +60,7 @@ right-hand-side evaluations as one step).
 import numpy as np
 from numba import prange
 
-from gearsweep.jit import jit, jit_inline, jit_parallel
+from gearsweep.jit import jit_inline, jit_parallel
 from gearsweep.kernels.rk import (
     _N_ACC,
     LANES,
@@ -172,8 +172,8 @@ def _substep(method, X, V, ta, tb, h, sw, sh, c, P, kmode, kl, kal, has_e, has_f
         v4 = V + H * k3v
         k4v = G3 - c * v4 - K3 * sw * (x4 - sh)
         k4x = v4
-        return (X + H / 6 * (k1x + 2 * k2x + 2 * k3x + k4x),
-                V + H / 6 * (k1v + 2 * k2v + 2 * k3v + k4v))
+        return (X + H * (1.0 / 6.0) * (k1x + 2 * k2x + 2 * k3x + k4x),
+                V + H * (1.0 / 6.0) * (k1v + 2 * k2v + 2 * k3v + k4v))
     K1, G1 = _kg(P, ta, kmode, kl, kal, has_e, has_f, gl, el, fl)
     K2, G2 = _kg(P, ta + 0.25 * eta, kmode, kl, kal, has_e, has_f, gl, el, fl)
     K4, G4 = _kg(P, ta + 0.5 * eta, kmode, kl, kal, has_e, has_f, gl, el, fl)
@@ -197,12 +197,12 @@ def _substep(method, X, V, ta, tb, h, sw, sh, c, P, kmode, kl, kal, has_e, has_f
     v5 = V + H * (0.1875 * b1 + 0.5625 * b4)
     a5 = v5
     b5 = G5 - c * v5 - K5 * sw * (x5 - sh)
-    x6 = X + H * (-3.0 * a1 + 2.0 * a2 + 12.0 * a3 - 12.0 * a4 + 8.0 * a5) / 7.0
-    v6 = V + H * (-3.0 * b1 + 2.0 * b2 + 12.0 * b3 - 12.0 * b4 + 8.0 * b5) / 7.0
+    x6 = X + H * (-3.0 * a1 + 2.0 * a2 + 12.0 * a3 - 12.0 * a4 + 8.0 * a5) * (1.0 / 7.0)
+    v6 = V + H * (-3.0 * b1 + 2.0 * b2 + 12.0 * b3 - 12.0 * b4 + 8.0 * b5) * (1.0 / 7.0)
     a6 = v6
     b6 = G6 - c * v6 - K6 * sw * (x6 - sh)
-    return (X + H * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) / 90.0,
-            V + H * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0)
+    return (X + H * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) * (1.0 / 90.0),
+            V + H * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) * (1.0 / 90.0))
 
 
 @jit_inline
@@ -238,7 +238,7 @@ def _hermite_root(X, V, TX, TV, H, bd):
                 s = r2
         return min(max(s, 0.0), 1.0)
     s = c0 / (c0 - g1)
-    for _ in range(3):
+    for _ in range(2):
         g = c0 + s * (c1 + s * (c2 + s * c3))
         dg = c1 + s * (2.0 * c2 + s * 3.0 * c3)
         if dg == 0.0:
@@ -262,6 +262,7 @@ def _fixup(method, X0, V0, TX, TV, h, b, c, P, kmode, kl, kal, has_e, has_f, gl,
     V = V0
     reg = _region(X0, b)
     nsub = 0
+    ih = 1.0 / h
     w = np.sqrt(abs(kl) + abs(kal) * abs(_val(P, 0, 0.5)) if kmode > 0 else abs(kl)) + abs(c)
     for _ in range(MAX_CROSSINGS):
         treg = _region(TX, b)
@@ -291,7 +292,6 @@ def _fixup(method, X0, V0, TX, TV, h, b, c, P, kmode, kl, kal, has_e, has_f, gl,
             nsub += 1
             # time derivatives at the substep's end, old force law
             K0, G0 = _kg(P, tc, kmode, kl, kal, has_e, has_f, gl, el, fl)
-            ih = 1.0 / h
             K1 = 0.0
             K2 = 0.0
             if kmode == 1:
@@ -312,18 +312,23 @@ def _fixup(method, X0, V0, TX, TV, h, b, c, P, kmode, kl, kal, has_e, has_f, gl,
             a = G0 - c * CV - K0 * f
             j = G1 - c * a - K1 * f - K0 * sw * CV
             sn = G2 - c * j - K2 * f - 2.0 * K1 * sw * CV - K0 * sw * a
+            a2 = 0.5 * a
+            j2 = 0.5 * j
+            j6 = j * (1.0 / 6.0)
+            s6 = sn * (1.0 / 6.0)
+            s24 = sn * (1.0 / 24.0)
             # Newton on the Taylor polynomial for the time tau to the boundary
             tau = -(CX - bd) / CV if CV != 0.0 else 0.0
             for _q in range(2):
-                gx = CX - bd + tau * (CV + tau * (0.5 * a + tau * (j / 6.0 + tau * sn / 24.0)))
-                gv = CV + tau * (a + tau * (0.5 * j + tau * sn / 6.0))
+                gx = CX - bd + tau * (CV + tau * (a2 + tau * (j6 + tau * s24)))
+                gv = CV + tau * (a + tau * (j2 + tau * s6))
                 if gv == 0.0:
                     break
                 tau -= gx / gv
-            tn = tc + tau / h
+            tn = tc + tau * ih
             if abs(tau) * w < TAYLOR_MAX and tn <= 1.0:
-                CX = CX + tau * (CV + tau * (0.5 * a + tau * (j / 6.0 + tau * sn / 24.0)))
-                CV = CV + tau * (a + tau * (0.5 * j + tau * sn / 6.0))
+                CX = CX + tau * (CV + tau * (a2 + tau * (j6 + tau * s24)))
+                CV = CV + tau * (a + tau * (j2 + tau * s6))
                 tc = tn
                 break
             if not (tn > th and tn <= 1.0) or _r == NEWTON_MAX - 1:
@@ -345,12 +350,12 @@ def _fixup(method, X0, V0, TX, TV, h, b, c, P, kmode, kl, kal, has_e, has_f, gl,
     return TX, TV, nsub
 
 
-@jit
+@jit_inline
 def _fixup_lanes(method, xo, vo, x, v, cross, dead, live, hl, bl, cl, P, kmode, km, ka, has_e,
                  has_f, gm, es, fs, nsub):
     """Redo the steps of the flagged lanes of a block (one call per step with crossings)."""
     for l in range(live):
-        if cross[l] != 0 and not dead[l]:
+        if cross[l] < 0.0 and not dead[l]:
             X, V, m = _fixup(method, xo[l], vo[l], x[l], v[l], hl[l], bl[l], cl[l], P, kmode, km[l],
                              ka[l], has_e, has_f, gm[l], es[l], fs[l])
             x[l] = X
@@ -408,7 +413,7 @@ def integrate(method, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, fta
         fs = np.empty(LANES)
         bl = np.zeros(LANES)
         bd = np.empty(LANES)
-        cross = np.zeros(LANES, np.int64)
+        cross = np.zeros(LANES)
         P = np.zeros((3, 5))
         nsub = np.zeros(LANES, np.int64)
         K = np.empty(5)
@@ -451,15 +456,14 @@ def integrate(method, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, fta
                 _rk5_lanes(x, v, hl, bl, half_gap, cl, km, ka, kamp, ktab, K, gm, es, etab, E, fs,
                            ftab, F)
             if half_gap is not None:
-                ncross = 0
+                dmin = 0.0
                 for l in range(LANES):
                     b = bl[l]
-                    ro = (1 if xo[l] > b else 0) - (1 if xo[l] < -b else 0)
-                    rn = (1 if x[l] > b else 0) - (1 if x[l] < -b else 0)
-                    d = 1 if ro != rn else 0
+                    # negative iff p - b or p + b changed sign over the step
+                    d = min((xo[l] - b) * (x[l] - b), (xo[l] + b) * (x[l] + b))
                     cross[l] = d
-                    ncross += d
-                if ncross > 0:
+                    dmin = min(dmin, d)
+                if dmin < 0.0:
                     if ktab is not None:
                         _monomials(K, P, 0)
                     if etab is not None:
