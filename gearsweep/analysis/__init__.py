@@ -1,1 +1,1 @@
-"""Numerics on arrays beyond the time-stepping kernels (spectra, references, stability, advice)."""
+"""Numerics on arrays other than time stepping: no files, YAML, xarray, dask or plotting here."""

@@ -1,0 +1,691 @@
+"""Involute spur gear pair geometry: radii, line of action, contact ratio, backlash, checks.
+
+All lengths are in metres, angles in radians, moduli in pascals. Gear 1 drives gear 2.
+
+Conventions
+-----------
+* Tooth thickness ``thickness1/2`` is the circular (arc) thickness at the reference (cutting)
+  pitch circle ``r = m z / 2``.
+* ``backlash`` (input) is the circumferential (transverse) backlash at the operating pitch
+  circle, the figure usually written on a drawing. :attr:`GearPair.backlash_loa` is the same
+  backlash measured along the line of action (``j_t cos(alpha_w)``), which is what the dynamic
+  model's dead zone uses (its half-width is ``backlash_loa / 2``).
+* Positions on the line of action are measured from ``T1``, the tangency point of the line of
+  action with the base circle of gear 1, towards ``T2``. Contact runs from ``s_start`` (where
+  the tip circle of gear 2 cuts the line of action) to ``s_end`` (tip circle of gear 1).
+* Tooth flank: involute above the base circle, radial line below it, joined to the root circle
+  by a circular fillet of radius ``fillet_radius`` tangent to both (the gear's own fillet, not
+  the cutter's trochoid).
+
+References
+----------
+ISO 21771:2007 (gear geometry); Litvin & Fuentes, *Gear Geometry and Applied Theory*, 2004.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from scipy.optimize import brentq
+
+from gearsweep.errors import GeometryError
+
+__all__ = [
+    "GearPair",
+    "GeometryWarning",
+    "involute",
+    "inverse_involute",
+    "table1_as_printed",
+    "table1_consistent",
+]
+
+_TOL_BACKLASH = 1e-6  # [m] given and computed backlash agree within 1 um
+
+
+class GeometryWarning(UserWarning):
+    """A gear pair that can exist but is poor practice (e.g. nearly pointed teeth)."""
+
+
+def involute(alpha: float | np.ndarray) -> float | np.ndarray:
+    """Involute function ``inv(alpha) = tan(alpha) - alpha``.
+
+    Parameters
+    ----------
+    alpha : float or ndarray
+        Pressure angle [rad].
+
+    Returns
+    -------
+    float or ndarray
+        Involute polar angle [rad].
+    """
+    return np.tan(alpha) - alpha
+
+
+def inverse_involute(value: float) -> float:
+    """Pressure angle whose involute is ``value`` (Brent's method on [0, 1.5] rad).
+
+    Parameters
+    ----------
+    value : float
+        Involute function value [rad], must be >= 0.
+
+    Returns
+    -------
+    float
+        Pressure angle [rad].
+    """
+    if not (0.0 <= value < involute(1.5)):
+        raise GeometryError(f"involute value {value:.6g} rad is outside [0, {involute(1.5):.3g})")
+    if value == 0.0:
+        return 0.0
+    return brentq(lambda a: math.tan(a) - a - value, 0.0, 1.5, xtol=1e-15, rtol=1e-15)
+
+
+@dataclass(frozen=True)
+class GearPair:
+    """An external involute spur gear pair (gear 1 drives gear 2).
+
+    Parameters
+    ----------
+    module : float
+        Module [m].
+    z1, z2 : int
+        Tooth numbers of the driving gear 1 and the driven gear 2 [-].
+    face_width : float
+        Face width [m].
+    pressure_angle : float
+        Reference (rack) pressure angle [rad].
+    x1, x2 : float
+        Profile shift coefficients [-].
+    tip_radius1, tip_radius2 : float or None
+        Tip radii [m]; default ``r + m (1 + x)``.
+    root_radius1, root_radius2 : float or None
+        Root radii [m]; default ``r - m (1.25 - x)``.
+    fillet_radius : float or None
+        Radius of the root fillet of both gears [m]; default ``0.38 m``.
+    centre_distance : float or None
+        Operating centre distance [m]; default from the shifts through ``inv(alpha_w)``.
+    backlash : float or None
+        Circumferential backlash at the operating pitch circle [m]. If given without thicknesses,
+        the standard thicknesses are reduced equally to produce it.
+    thickness1, thickness2 : float or None
+        Circular tooth thickness at the reference circle [m]. If given with ``backlash``, both
+        must agree at the centre distance.
+    youngs_modulus : float
+        Young's modulus of both gears [Pa].
+    poisson : float
+        Poisson's ratio [-].
+    bore_radius1, bore_radius2 : float or None
+        Radius where the gear body is clamped to its shaft [m] (Sainsot's ``r_int``); default
+        half the root radius.
+    rim_thickness1, rim_thickness2 : float or None
+        Rim thickness below the root circle of a webbed gear [m]; ``None`` for a solid body.
+    web_width1, web_width2 : float or None
+        Web width of a webbed gear [m]; default ``face_width`` (i.e. a full web).
+    contact_ratio_range : tuple of float or None
+        Contact ratio range the source states [-]; :meth:`check` reports a pair outside it.
+    name : str
+        A label for messages.
+    """
+
+    module: float
+    z1: int
+    z2: int
+    face_width: float
+    pressure_angle: float = math.radians(20.0)
+    x1: float = 0.0
+    x2: float = 0.0
+    tip_radius1: float | None = None
+    tip_radius2: float | None = None
+    root_radius1: float | None = None
+    root_radius2: float | None = None
+    fillet_radius: float | None = None
+    centre_distance: float | None = None
+    backlash: float | None = None
+    thickness1: float | None = None
+    thickness2: float | None = None
+    youngs_modulus: float = 206e9
+    poisson: float = 0.3
+    bore_radius1: float | None = None
+    bore_radius2: float | None = None
+    rim_thickness1: float | None = None
+    rim_thickness2: float | None = None
+    web_width1: float | None = None
+    web_width2: float | None = None
+    contact_ratio_range: tuple[float, float] | None = None
+    name: str = "gear pair"
+
+    def __post_init__(self) -> None:
+        for field in ("module", "face_width", "pressure_angle", "youngs_modulus"):
+            value = getattr(self, field)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise GeometryError(f"{self.name}: {field} = {value!r} must be a positive number")
+        for field in ("z1", "z2"):
+            value = getattr(self, field)
+            if not (isinstance(value, int | np.integer) and value >= 3):
+                raise GeometryError(f"{self.name}: {field} = {value!r} must be an integer >= 3")
+        if not (0.0 <= self.poisson < 0.5):
+            raise GeometryError(f"{self.name}: poisson = {self.poisson!r} must be in [0, 0.5)")
+        if not (0.0 < self.pressure_angle < math.radians(45.0)):
+            raise GeometryError(
+                f"{self.name}: pressure angle {math.degrees(self.pressure_angle):.3g} deg "
+                "must be in (0, 45) deg"
+            )
+        optional_positive = (
+            "tip_radius1", "tip_radius2", "root_radius1", "root_radius2", "fillet_radius",
+            "centre_distance", "thickness1", "thickness2", "bore_radius1", "bore_radius2",
+            "rim_thickness1", "rim_thickness2", "web_width1", "web_width2",
+        )  # fmt: skip
+        for field in optional_positive:
+            value = getattr(self, field)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise GeometryError(f"{self.name}: {field} = {value!r} must be positive")
+        if self.backlash is not None and not (math.isfinite(self.backlash) and self.backlash >= 0):
+            raise GeometryError(f"{self.name}: backlash = {self.backlash!r} must be >= 0")
+
+    # ---------------------------------------------------------------- radii
+    @property
+    def pitch_radius1(self) -> float:
+        """Reference pitch radius of gear 1 [m]."""
+        return 0.5 * self.module * self.z1
+
+    @property
+    def pitch_radius2(self) -> float:
+        """Reference pitch radius of gear 2 [m]."""
+        return 0.5 * self.module * self.z2
+
+    @property
+    def base_radius1(self) -> float:
+        """Base radius of gear 1 [m]."""
+        return self.pitch_radius1 * math.cos(self.pressure_angle)
+
+    @property
+    def base_radius2(self) -> float:
+        """Base radius of gear 2 [m]."""
+        return self.pitch_radius2 * math.cos(self.pressure_angle)
+
+    @property
+    def tip_radius(self) -> tuple[float, float]:
+        """Tip radii of gears 1 and 2 [m]."""
+        m = self.module
+        ra1 = (
+            self.tip_radius1
+            if self.tip_radius1 is not None
+            else self.pitch_radius1 + m * (1.0 + self.x1)
+        )
+        ra2 = (
+            self.tip_radius2
+            if self.tip_radius2 is not None
+            else self.pitch_radius2 + m * (1.0 + self.x2)
+        )
+        return ra1, ra2
+
+    @property
+    def root_radius(self) -> tuple[float, float]:
+        """Root radii of gears 1 and 2 [m]."""
+        m = self.module
+        rf1 = (
+            self.root_radius1
+            if self.root_radius1 is not None
+            else self.pitch_radius1 - m * (1.25 - self.x1)
+        )
+        rf2 = (
+            self.root_radius2
+            if self.root_radius2 is not None
+            else self.pitch_radius2 - m * (1.25 - self.x2)
+        )
+        return rf1, rf2
+
+    @property
+    def fillet(self) -> float:
+        """Root fillet radius [m]."""
+        return self.fillet_radius if self.fillet_radius is not None else 0.38 * self.module
+
+    @property
+    def bore_radius(self) -> tuple[float, float]:
+        """Clamped bore radii of gears 1 and 2 [m] (default half the root radius)."""
+        rf1, rf2 = self.root_radius
+        b1 = self.bore_radius1 if self.bore_radius1 is not None else 0.5 * rf1
+        b2 = self.bore_radius2 if self.bore_radius2 is not None else 0.5 * rf2
+        return b1, b2
+
+    @property
+    def base_pitch(self) -> float:
+        """Base (normal) pitch ``pi m cos(alpha)`` [m]."""
+        return math.pi * self.module * math.cos(self.pressure_angle)
+
+    @property
+    def circular_pitch(self) -> float:
+        """Circular pitch at the reference circle ``pi m`` [m]."""
+        return math.pi * self.module
+
+    @property
+    def standard_centre_distance(self) -> float:
+        """Reference centre distance ``m (z1 + z2) / 2`` [m]."""
+        return self.pitch_radius1 + self.pitch_radius2
+
+    # ---------------------------------------------------------- operating mesh
+    @cached_property
+    def operating_pressure_angle(self) -> float:
+        """Operating (working) transverse pressure angle ``alpha_w`` [rad].
+
+        From the given centre distance (``cos alpha_w = (rb1 + rb2) / a``), or else from the
+        profile shifts by solving
+        ``inv(alpha_w) = inv(alpha) + 2 tan(alpha) (x1 + x2) / (z1 + z2)``.
+        """
+        if self.centre_distance is not None:
+            rb_sum = self.base_radius1 + self.base_radius2
+            c = rb_sum / self.centre_distance
+            if c >= 1.0:
+                raise GeometryError(
+                    f"{self.name}: centre distance {self.centre_distance * 1e3:.4g} mm is not "
+                    f"more than the sum of base radii {rb_sum * 1e3:.4g} mm"
+                )
+            return math.acos(c)
+        a = self.pressure_angle
+        inv_w = involute(a) + 2.0 * math.tan(a) * (self.x1 + self.x2) / (self.z1 + self.z2)
+        return inverse_involute(float(inv_w))
+
+    @cached_property
+    def operating_centre_distance(self) -> float:
+        """Operating centre distance ``a`` [m]."""
+        if self.centre_distance is not None:
+            return self.centre_distance
+        return (self.base_radius1 + self.base_radius2) / math.cos(self.operating_pressure_angle)
+
+    @property
+    def operating_pitch_radius(self) -> tuple[float, float]:
+        """Operating pitch radii ``r_w = r_b / cos(alpha_w)`` of gears 1 and 2 [m]."""
+        c = math.cos(self.operating_pressure_angle)
+        return self.base_radius1 / c, self.base_radius2 / c
+
+    @property
+    def line_of_action_length(self) -> float:
+        """Length ``T1 T2`` of the line of action between the base tangency points [m]."""
+        return self.operating_centre_distance * math.sin(self.operating_pressure_angle)
+
+    @property
+    def s_start(self) -> float:
+        """Start of contact on the line of action, measured from ``T1`` [m]."""
+        ra2 = self.tip_radius[1]
+        return self.line_of_action_length - math.sqrt(max(ra2**2 - self.base_radius2**2, 0.0))
+
+    @property
+    def s_end(self) -> float:
+        """End of contact on the line of action, measured from ``T1`` [m]."""
+        ra1 = self.tip_radius[0]
+        return math.sqrt(max(ra1**2 - self.base_radius1**2, 0.0))
+
+    @property
+    def s_pitch(self) -> float:
+        """Pitch point on the line of action, measured from ``T1`` [m]."""
+        return self.base_radius1 * math.tan(self.operating_pressure_angle)
+
+    @property
+    def path_of_contact(self) -> float:
+        """Length of the path of contact ``g_alpha`` [m]."""
+        return self.s_end - self.s_start
+
+    @property
+    def path_of_approach(self) -> float:
+        """Approach part of the path of contact (start to pitch point) [m]."""
+        return self.s_pitch - self.s_start
+
+    @property
+    def path_of_recess(self) -> float:
+        """Recess part of the path of contact (pitch point to end) [m]."""
+        return self.s_end - self.s_pitch
+
+    @property
+    def contact_ratio(self) -> float:
+        """Transverse contact ratio ``epsilon_alpha = g_alpha / p_b`` [-]."""
+        return self.path_of_contact / self.base_pitch
+
+    def contact_radii(self, s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Radii of the contact point on gear 1 and gear 2 at line-of-action positions ``s``.
+
+        Parameters
+        ----------
+        s : float or ndarray
+            Position on the line of action measured from ``T1`` [m].
+
+        Returns
+        -------
+        tuple of ndarray
+            Contact radius on gear 1 and on gear 2 [m].
+        """
+        s = np.asarray(s, dtype=float)
+        r1 = np.sqrt(self.base_radius1**2 + s**2)
+        r2 = np.sqrt(self.base_radius2**2 + (self.line_of_action_length - s) ** 2)
+        return r1, r2
+
+    # ---------------------------------------------------------- thickness
+    def _standard_thickness(self, x: float) -> float:
+        return self.module * (0.5 * math.pi + 2.0 * x * math.tan(self.pressure_angle))
+
+    def _thickness_at_operating_circle(self, s_ref: float, r_ref: float, r_w: float) -> float:
+        a, aw = self.pressure_angle, self.operating_pressure_angle
+        return 2.0 * r_w * (s_ref / (2.0 * r_ref) + involute(a) - involute(aw))
+
+    def _backlash_from(self, s1: float, s2: float) -> float:
+        rw1, rw2 = self.operating_pitch_radius
+        sw1 = self._thickness_at_operating_circle(s1, self.pitch_radius1, rw1)
+        sw2 = self._thickness_at_operating_circle(s2, self.pitch_radius2, rw2)
+        return 2.0 * math.pi * rw1 / self.z1 - sw1 - sw2
+
+    @cached_property
+    def thickness(self) -> tuple[float, float]:
+        """Circular tooth thicknesses at the reference circles of gears 1 and 2 [m]."""
+        s1 = self.thickness1 if self.thickness1 is not None else self._standard_thickness(self.x1)
+        s2 = self.thickness2 if self.thickness2 is not None else self._standard_thickness(self.x2)
+        if self.backlash is not None and self.thickness1 is None and self.thickness2 is None:
+            extra = self.backlash - self._backlash_from(s1, s2)
+            # A thinning ds at the reference circle is ds * r_w / r at the operating circle.
+            scale = math.cos(self.operating_pressure_angle) / math.cos(self.pressure_angle)
+            s1 -= 0.5 * extra * scale
+            s2 -= 0.5 * extra * scale
+        return float(s1), float(s2)
+
+    @property
+    def circumferential_backlash(self) -> float:
+        """Circumferential backlash at the operating pitch circle from the thicknesses [m]."""
+        return self._backlash_from(*self.thickness)
+
+    @property
+    def backlash_loa(self) -> float:
+        """Total backlash along the line of action ``j_t cos(alpha_w)`` [m]."""
+        return self.circumferential_backlash * math.cos(self.operating_pressure_angle)
+
+    def half_angle(self, r: np.ndarray | float, gear: int) -> np.ndarray:
+        """Half tooth-thickness angle ``psi(r)`` of the involute flank at radius ``r``.
+
+        Parameters
+        ----------
+        r : float or ndarray
+            Radius >= base radius [m].
+        gear : {1, 2}
+            Which gear.
+
+        Returns
+        -------
+        ndarray
+            Angle between the tooth centre line and the flank point [rad].
+        """
+        rb = self.base_radius1 if gear == 1 else self.base_radius2
+        rp = self.pitch_radius1 if gear == 1 else self.pitch_radius2
+        s = self.thickness[gear - 1]
+        r = np.asarray(r, dtype=float)
+        alpha_r = np.arccos(np.clip(rb / r, -1.0, 1.0))
+        return s / (2.0 * rp) + involute(self.pressure_angle) - involute(alpha_r)
+
+    def tip_thickness(self, gear: int) -> float:
+        """Chordal-free (arc) tooth thickness at the tip circle [m]."""
+        ra = self.tip_radius[gear - 1]
+        return float(2.0 * ra * self.half_angle(ra, gear))
+
+    # ---------------------------------------------------------- tooth outline
+    def fillet_geometry(self, gear: int) -> tuple[float, float, float]:
+        """Fillet circle tangent to the root circle and to the flank.
+
+        Parameters
+        ----------
+        gear : {1, 2}
+            Which gear.
+
+        Returns
+        -------
+        tuple of float
+            ``(theta_f, r_tangent, psi_tangent)``: angle of the fillet centre (and of the
+            fillet-root tangency) from the tooth centre line [rad], radius [m] and angle [rad]
+            of the point where the fillet meets the flank.
+        """
+        rf = self.root_radius[gear - 1]
+        rb = self.base_radius1 if gear == 1 else self.base_radius2
+        rho = self.fillet
+        rc = rf + rho  # fillet centre lies on this circle
+        psi_b = float(self.half_angle(rb, gear))
+        # Flank below the base circle: radial line at psi_b. Fillet tangent to it:
+        theta_radial = psi_b + math.asin(rho / rc)
+        r_tan_radial = math.sqrt(rc**2 - rho**2)
+        if rf >= rb or r_tan_radial > rb:
+            # The fillet meets the involute part: find the centre angle theta for which the
+            # distance from the centre to the involute equals rho (Brent on theta).
+            ra = self.tip_radius[gear - 1]
+            rr = np.linspace(max(rb, rf), ra, 4001)
+            psi = self.half_angle(rr, gear)
+            px, py = rr * np.sin(psi), rr * np.cos(psi)
+
+            def gap(theta: float) -> float:
+                cx, cy = rc * math.sin(theta), rc * math.cos(theta)
+                return float(np.min(np.hypot(px - cx, py - cy))) - rho
+
+            lo = float(self.half_angle(max(rb, rf), gear))
+            hi = lo + math.pi / 2
+            if rf < rb:  # radial segment below rb still constrains from below
+                lo = psi_b
+            if gap(lo) > 0:
+                theta = lo
+            else:
+                theta = brentq(gap, lo, hi, xtol=1e-13)
+            cx, cy = rc * math.sin(theta), rc * math.cos(theta)
+            k = int(np.argmin(np.hypot(px - cx, py - cy)))
+            return theta, float(rr[k]), float(psi[k])
+        return theta_radial, r_tan_radial, psi_b
+
+    # ---------------------------------------------------------- checks
+    def problems(self) -> list[str]:
+        """Every reason this pair cannot exist as specified, each with its numbers.
+
+        Returns
+        -------
+        list of str
+            Empty for a consistent pair.
+        """
+        out: list[str] = []
+        mm = 1e3
+        a = self.operating_centre_distance
+        ra1, ra2 = self.tip_radius
+        rf1, rf2 = self.root_radius
+        rb = (self.base_radius1, self.base_radius2)
+        for g, (ra, rf_mate) in enumerate(((ra1, rf2), (ra2, rf1)), start=1):
+            overlap = ra + rf_mate - a
+            if overlap > 1e-9:
+                out.append(
+                    f"tip-root interference: tip radius of gear {g} ({ra * mm:.4g} mm) + root "
+                    f"radius of gear {3 - g} ({rf_mate * mm:.4g} mm) exceeds the centre distance "
+                    f"{a * mm:.4g} mm by {overlap * mm:.3g} mm"
+                )
+        basic: list[str] = []
+        for g in (1, 2):
+            ra, rf = self.tip_radius[g - 1], self.root_radius[g - 1]
+            if not rf < ra:
+                basic.append(
+                    f"gear {g}: root radius {rf * mm:.4g} mm is not below tip radius "
+                    f"{ra * mm:.4g} mm"
+                )
+            if ra <= rb[g - 1]:
+                basic.append(
+                    f"gear {g}: tip radius {ra * mm:.4g} mm is not above base radius "
+                    f"{rb[g - 1] * mm:.4g} mm"
+                )
+        if basic:
+            return out + basic + self._thickness_problems()
+        # Undercut in generation by a rack whose tip radius equals the fillet radius.
+        for g in (1, 2):
+            r = self.pitch_radius1 if g == 1 else self.pitch_radius2
+            x = self.x1 if g == 1 else self.x2
+            # Rack tip line sits r - r_f inside the rolling (reference) circle.
+            h_straight = (r - self.root_radius[g - 1]) - self.fillet * (
+                1.0 - math.sin(self.pressure_angle)
+            )
+            limit = r * math.sin(self.pressure_angle) ** 2
+            if h_straight > limit + 1e-12:
+                out.append(
+                    f"undercut: gear {g} (z = {self.z1 if g == 1 else self.z2}, x = {x:.3g}) is "
+                    f"undercut by the generating rack: straight rack flank reaches "
+                    f"{h_straight * mm:.3g} mm inside the reference circle, more than "
+                    f"r sin^2(alpha) = {limit * mm:.3g} mm"
+                )
+        # Involute interference: contact outside the segment T1 T2.
+        if self.s_start < 0:
+            out.append(
+                f"involute interference: the tip of gear 2 meets gear 1 below its base circle "
+                f"(start of contact {self.s_start * mm:.3g} mm before T1)"
+            )
+        if self.s_end > self.line_of_action_length:
+            out.append(
+                f"involute interference: the tip of gear 1 meets gear 2 below its base circle "
+                f"(end of contact {(self.s_end - self.line_of_action_length) * mm:.3g} mm past T2)"
+            )
+        eps = self.contact_ratio
+        if eps < 1.0:
+            out.append(
+                f"contact ratio {eps:.3f} is below 1: path of contact "
+                f"{self.path_of_contact * mm:.4g} mm is shorter than the base pitch "
+                f"{self.base_pitch * mm:.4g} mm"
+            )
+        if self.contact_ratio_range is not None:
+            lo, hi = self.contact_ratio_range
+            if not (lo <= eps <= hi):
+                out.append(f"contact ratio {eps:.3f} is outside the stated range [{lo:g}, {hi:g}]")
+        out += self._thickness_problems()
+        for g in (1, 2):
+            sa = self.tip_thickness(g)
+            if sa <= 0:
+                out.append(
+                    f"pointed teeth: gear {g} tip thickness {sa * mm:.3g} mm <= 0 at tip radius "
+                    f"{self.tip_radius[g - 1] * mm:.4g} mm"
+                )
+        if any(p.startswith(("pointed", "tooth", "tip-root")) for p in out):
+            return out
+        # Fillet: must fit in the tooth space and stay below the active profile.
+        s_low = (self.s_start, self.line_of_action_length - self.s_end)
+        for g in (1, 2):
+            z = self.z1 if g == 1 else self.z2
+            theta_f, r_tan, _ = self.fillet_geometry(g)
+            if theta_f > math.pi / z:
+                out.append(
+                    f"fillet radius {self.fillet * mm:.4g} mm does not fit the tooth space of gear "
+                    f"{g} at its root circle: fillet centre at {math.degrees(theta_f):.3g} deg "
+                    f"from the tooth centre line, beyond the space centre at {180.0 / z:.3g} deg"
+                )
+                continue
+            r_low = math.hypot(rb[g - 1], s_low[g - 1])
+            if r_tan > r_low + 1e-12:
+                out.append(
+                    f"tip-fillet interference: gear {g} fillet reaches radius {r_tan * mm:.4g} mm, "
+                    f"above the lowest contact point at {r_low * mm:.4g} mm"
+                )
+        return out
+
+    def _thickness_problems(self) -> list[str]:
+        out: list[str] = []
+        mm = 1e3
+        s1, s2 = self.thickness
+        j = self.circumferential_backlash
+        p_w = 2.0 * math.pi * self.operating_pitch_radius[0] / self.z1
+        if self.backlash is not None and (
+            self.thickness1 is not None or self.thickness2 is not None
+        ):
+            if abs(j - self.backlash) > _TOL_BACKLASH:
+                out.append(
+                    f"tooth thickness and backlash cannot coexist at centre distance "
+                    f"{self.operating_centre_distance * mm:.4g} mm: thicknesses {s1 * mm:.4g} + "
+                    f"{s2 * mm:.4g} mm leave a backlash of {j * mm:.4g} mm (circular pitch "
+                    f"{p_w * mm:.4g} mm), not the given {self.backlash * mm:.4g} mm"
+                )
+                return out
+        if j < -1e-12:  # [m] round-off of a zero-backlash pair
+            out.append(
+                f"tooth thicknesses {s1 * mm:.4g} + {s2 * mm:.4g} mm do not fit the circular pitch "
+                f"{p_w * mm:.4g} mm at centre distance "
+                f"{self.operating_centre_distance * mm:.4g} mm (backlash would be {j * mm:.4g} mm)"
+            )
+        return out
+
+    def check(self) -> GearPair:
+        """Raise :class:`GeometryError` naming every problem; warn about nearly pointed teeth.
+
+        Returns
+        -------
+        GearPair
+            ``self``, for chaining.
+
+        Raises
+        ------
+        GeometryError
+            If :meth:`problems` is not empty; the message lists all of them.
+        """
+        found = self.problems()
+        if found:
+            raise GeometryError(f"{self.name}: " + "; ".join(found))
+        for g in (1, 2):
+            sa = self.tip_thickness(g)
+            if sa < 0.2 * self.module:
+                warnings.warn(
+                    f"{self.name}: gear {g} tip thickness {sa * 1e3:.3g} mm is below 0.2 m = "
+                    f"{0.2 * self.module * 1e3:.3g} mm (nearly pointed teeth)",
+                    GeometryWarning,
+                    stacklevel=2,
+                )
+        return self
+
+
+def table1_as_printed() -> GearPair:
+    """The paper's Table 1 taken literally (gear, 48 teeth, drives the 32-tooth pinion).
+
+    Tip radii 63.7 / 43.8 mm, root radii 57.7 / 37.8 mm, fillet 1.4224 mm, thickness 4 mm at the
+    pitch circle on both, backlash 0.5 mm, b = 10 mm, m = 2.5 mm, 20 deg, standard centre
+    distance 100 mm; E = 206 GPa, nu = 0.3 (steel, not given in the paper). The text says the
+    contact ratio lies between 1 and 2. :meth:`GearPair.check` rejects it: tip-root interference
+    of 1.5 mm on both gears, contact ratio about 2.43 against the stated 1..2, and 4 + 4 mm of
+    thickness exceeding the 7.854 mm circular pitch (no room for 0.5 mm of backlash).
+
+    Returns
+    -------
+    GearPair
+        The pair as printed (construction succeeds, ``check()`` raises).
+    """
+    return GearPair(
+        module=2.5e-3, z1=48, z2=32, face_width=10e-3, pressure_angle=math.radians(20.0),
+        tip_radius1=63.7e-3, tip_radius2=43.8e-3, root_radius1=57.7e-3, root_radius2=37.8e-3,
+        fillet_radius=1.4224e-3, centre_distance=100e-3, backlash=0.5e-3,
+        thickness1=4e-3, thickness2=4e-3, contact_ratio_range=(1.0, 2.0),
+        name="Table 1 as printed",
+    )  # fmt: skip
+
+
+def table1_consistent() -> GearPair:
+    """The documented consistent interpretation of Table 1 used by gearsweep.
+
+    Kept from the paper: m = 2.5 mm, z = 48 (gear, driving) and 32 (pinion, driven), 20 deg,
+    b = 10 mm, pitch radii 60 / 40 mm at the standard centre distance 100 mm, fillet radius
+    1.4224 mm, backlash 0.5 mm (taken as circumferential at the pitch circle, 0.470 mm along the
+    line of action). Changed, because the printed values cannot coexist:
+
+    * standard tip radii r + m = 62.5 / 42.5 mm (printed 63.7 / 43.8 mm interfere with the mating
+      roots by 1.5 mm and give a contact ratio ~2.43, against the text's 1..2); the contact
+      ratio becomes ~1.71;
+    * standard root radii r - 1.25 m = 56.875 / 36.875 mm (the printed 57.7 / 37.8 mm would still
+      interfere by 0.3 mm with the standard tips);
+    * tooth thicknesses are not the printed 4 mm (4 + 4 > 7.854 mm circular pitch) but the
+      standard pi m / 2 = 3.927 mm each, reduced equally by 0.25 mm to give the 0.5 mm backlash.
+
+    Steel, E = 206 GPa, nu = 0.3 (not given in the paper). Gear bodies solid, clamped at half
+    the root radius (not given in the paper).
+
+    Returns
+    -------
+    GearPair
+        A pair for which ``check()`` passes.
+    """
+    return GearPair(
+        module=2.5e-3, z1=48, z2=32, face_width=10e-3, pressure_angle=math.radians(20.0),
+        fillet_radius=1.4224e-3, centre_distance=100e-3, backlash=0.5e-3,
+        contact_ratio_range=(1.0, 2.0), name="Table 1 (consistent interpretation)",
+    )  # fmt: skip

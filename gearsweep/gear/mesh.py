@@ -1,0 +1,493 @@
+"""Load sharing, static transmission error and mesh stiffness over one mesh cycle.
+
+Model
+-----
+Phase ``phi`` in [0, 1) runs over one mesh cycle (one base pitch ``p_b`` of travel along the
+line of action); at ``phi = 0`` a new tooth pair enters contact at the start of the path of
+contact ``s_start``. Pair slot ``j`` (0, 1, ...) is the tooth pair at ``s = s_start + (phi + j)
+p_b``; it is in contact while ``s <= s_end``. A tooth pair that enters in slot 0 moves to slot 1
+one mesh cycle later, so stitching slots shows one pair's whole engagement.
+
+Each pair in contact has compliance ``c_j`` (tooth 1 + tooth 2 + Hertz, see
+:mod:`gearsweep.gear.compliance`) and an initial separation ``e_j >= 0`` along the line of
+action (tip relief of both flanks plus profile error). With ``delta`` the approach of the gears
+along the line of action, compatibility gives ``F_j = max(0, (delta - e_j) / c_j)`` and
+``sum F_j = F``; ``delta`` is solved exactly (water filling over pairs sorted by ``e_j``).
+
+* **STE** ``= delta`` [m]: transmission error under load, as a displacement along the line of
+  action (``r_b1 theta_1 - r_b2 theta_2``, positive when gear 2 lags).
+* **mesh stiffness** ``k = dF/d(delta) = sum_{loaded j} 1/c_j`` [N/m]: the tangent stiffness of
+  the loaded mesh, the ``k(t)`` of the dynamic model. Without profile modification or error it
+  equals the secant ``F / STE`` (also stored, :attr:`MeshCycle.secant_stiffness`).
+
+Fourier convention (the paper's Eq. (1)): ``x(phi) = a_0 + sum_n a_n cos(2 pi n phi + phi_n)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from gearsweep.errors import GeometryError
+from gearsweep.gear.compliance import pair_compliance, rim_factor
+from gearsweep.gear.geometry import GearPair
+from gearsweep.jit import jit
+
+__all__ = [
+    "MeshCycle",
+    "TipRelief",
+    "fourier",
+    "fourier_series",
+    "iso6336_stiffness",
+    "mesh_cycle",
+    "mesh_cycles",
+]
+
+
+@dataclass(frozen=True)
+class TipRelief:
+    """Tip relief of one gear's flank, measured along the line of action (normal to profile).
+
+    Parameters
+    ----------
+    amount : float
+        Relief at the tip ``C_a`` [m].
+    start_radius : float or None
+        Radius where relief starts [m].
+    start_roll_angle : float or None
+        Roll angle where relief starts [rad].
+    start_diameter : float or None
+        Diameter where relief starts [m]. Give exactly one of the three start values.
+    shape : {"linear", "parabolic"}
+        Relief grows linearly or quadratically with roll angle from start to tip.
+    """
+
+    amount: float
+    start_radius: float | None = None
+    start_roll_angle: float | None = None
+    shape: Literal["linear", "parabolic"] = "linear"
+    start_diameter: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.amount) and self.amount >= 0):
+            raise GeometryError(f"tip relief amount {self.amount!r} m must be >= 0")
+        starts = (self.start_radius, self.start_roll_angle, self.start_diameter)
+        if sum(v is not None for v in starts) != 1:
+            raise GeometryError(
+                "tip relief: give exactly one of start_radius, start_roll_angle, start_diameter"
+            )
+        if self.shape not in ("linear", "parabolic"):
+            raise GeometryError(
+                f"tip relief shape {self.shape!r} is not one of 'linear', 'parabolic'"
+            )
+
+    def separation(self, pair: GearPair, gear: int, r: np.ndarray) -> np.ndarray:
+        """Relief at contact radii ``r`` of ``gear`` [m].
+
+        Parameters
+        ----------
+        pair : GearPair
+            The gear pair.
+        gear : {1, 2}
+            The relieved gear.
+        r : ndarray
+            Contact radii [m].
+
+        Returns
+        -------
+        ndarray
+            Material removed normal to the profile [m].
+        """
+        rb = pair.base_radius1 if gear == 1 else pair.base_radius2
+        ra = pair.tip_radius[gear - 1]
+        if self.start_roll_angle is not None:
+            xi_s = self.start_roll_angle
+        else:
+            r_s = self.start_radius if self.start_radius is not None else 0.5 * self.start_diameter
+            if not (rb <= r_s < ra):
+                raise GeometryError(
+                    f"tip relief start radius {r_s * 1e3:.4g} mm of gear {gear} "
+                    f"must lie between base {rb * 1e3:.4g} mm and tip {ra * 1e3:.4g} mm"
+                )
+            xi_s = math.sqrt(r_s**2 - rb**2) / rb
+        xi_a = math.sqrt(ra**2 - rb**2) / rb
+        if not xi_s < xi_a:
+            raise GeometryError(
+                f"tip relief start roll angle {xi_s:.4g} rad of gear {gear} is not below the tip "
+                f"roll angle {xi_a:.4g} rad"
+            )
+        xi = np.sqrt(np.maximum(r**2 - rb**2, 0.0)) / rb
+        u = np.clip((xi - xi_s) / (xi_a - xi_s), 0.0, None)
+        return self.amount * (u if self.shape == "linear" else u**2)
+
+
+ProfileError = Callable[[np.ndarray], np.ndarray] | np.ndarray | Sequence[float] | None
+
+
+@dataclass(frozen=True)
+class MeshCycle:
+    """Static mesh over one mesh cycle at one load (arrays over ``phase`` and pair slot).
+
+    Attributes
+    ----------
+    pair : GearPair
+        The gear pair.
+    torque : float
+        Torque on the driving gear 1 [N m].
+    load : float
+        Total normal load along the line of action ``T / r_b1`` [N].
+    phase : ndarray, shape (n,)
+        Mesh phase, ``i / n`` [-].
+    s : ndarray, shape (n, P)
+        Line-of-action position of pair slot ``j`` from ``T1`` [m].
+    in_contact : ndarray of bool, shape (n, P)
+        Slot within the geometric path of contact.
+    separation : ndarray, shape (n, P)
+        Initial separation (relief + profile error) [m]; ``inf`` where not in contact.
+    pair_stiffness : ndarray, shape (n, P)
+        ``1/c_j`` of each pair in contact, 0 otherwise [N/m].
+    pair_load : ndarray, shape (n, P)
+        Load carried by each pair [N].
+    load_share : ndarray, shape (n, P)
+        ``pair_load / load`` [-].
+    ste : ndarray, shape (n,)
+        Static transmission error along the line of action [m].
+    mesh_stiffness : ndarray, shape (n,)
+        Tangent mesh stiffness, sum of the stiffnesses of loaded pairs [N/m].
+    secant_stiffness : ndarray, shape (n,)
+        ``load / ste`` [N/m].
+    """
+
+    pair: GearPair
+    torque: float
+    load: float
+    phase: np.ndarray
+    s: np.ndarray
+    in_contact: np.ndarray
+    separation: np.ndarray
+    pair_stiffness: np.ndarray
+    pair_load: np.ndarray
+    load_share: np.ndarray
+    ste: np.ndarray
+    mesh_stiffness: np.ndarray
+    secant_stiffness: np.ndarray
+
+    def as_arrays(self, n_harmonics: int = 10) -> dict[str, np.ndarray]:
+        """The mesh cycle under the names of ``shared/DATA.md`` (plain arrays, SI units).
+
+        Parameters
+        ----------
+        n_harmonics : int
+            Highest Fourier harmonic kept [-].
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``mesh_phase`` (n,), ``ste`` [m] (n,), ``load_share`` [1] (n, pair),
+            ``mesh_stiffness`` [N/m] (n,), ``k_harmonic`` [N/m], ``k_phase`` [rad],
+            ``ste_harmonic`` [m], ``ste_phase`` [rad] (harmonic, 0 = mean).
+        """
+        k_amp, k_ph = fourier(self.mesh_stiffness, n_harmonics)
+        e_amp, e_ph = fourier(self.ste, n_harmonics)
+        return {
+            "mesh_phase": self.phase,
+            "ste": self.ste,
+            "load_share": self.load_share,
+            "mesh_stiffness": self.mesh_stiffness,
+            "k_harmonic": k_amp,
+            "k_phase": k_ph,
+            "ste_harmonic": e_amp,
+            "ste_phase": e_ph,
+        }
+
+
+@jit
+def _share_kernel(compliance, separation, loads, ste, pair_load, stiffness):  # pragma: no cover
+    """Water-filling load share for every load and position (numba; writes into outputs)."""
+    n_load = loads.shape[0]
+    n_pos, n_slot = compliance.shape
+    order = np.empty(n_slot, dtype=np.int64)
+    for i in range(n_pos):
+        # Sort slots by separation (insertion sort; n_slot is 2-3).
+        for j in range(n_slot):
+            order[j] = j
+        for j in range(1, n_slot):
+            key = order[j]
+            m = j - 1
+            while m >= 0 and separation[i, order[m]] > separation[i, key]:
+                order[m + 1] = order[m]
+                m -= 1
+            order[m + 1] = key
+        for q in range(n_load):
+            force = loads[q]
+            sum_k = 0.0
+            sum_ke = 0.0
+            delta = np.inf
+            n_act = 0
+            for m in range(n_slot):
+                j = order[m]
+                e = separation[i, j]
+                if not np.isfinite(e):
+                    break
+                if m > 0 and delta <= e:
+                    break
+                k = 1.0 / compliance[i, j]
+                sum_k += k
+                sum_ke += k * e
+                delta = (force + sum_ke) / sum_k
+                n_act = m + 1
+            ste[q, i] = delta
+            stiffness[q, i] = sum_k
+            for j in range(n_slot):
+                pair_load[q, i, j] = 0.0
+            for m in range(n_act):
+                j = order[m]
+                pair_load[q, i, j] = (delta - separation[i, j]) / compliance[i, j]
+
+
+def _separation_function(
+    pair: GearPair,
+    tip_relief: TipRelief | tuple[TipRelief | None, TipRelief | None] | None,
+    profile_error: ProfileError,
+) -> Callable[[np.ndarray], np.ndarray]:
+    if tip_relief is None or isinstance(tip_relief, TipRelief):
+        reliefs = (tip_relief, tip_relief)
+    else:
+        reliefs = tuple(tip_relief)
+        if len(reliefs) != 2:
+            raise GeometryError("tip_relief must be one TipRelief or a pair (gear 1, gear 2)")
+    if profile_error is None:
+        err = None
+    elif callable(profile_error):
+        err = profile_error
+    else:
+        table = np.asarray(profile_error, dtype=float)
+        if table.ndim != 1 or table.size < 2 or not np.all(np.isfinite(table)):
+            raise GeometryError(
+                "profile_error must be a callable of the line-of-action position [m] or a 1-D "
+                f"array of >= 2 finite values [m] over the path of contact; got shape {table.shape}"
+            )
+        grid = np.linspace(pair.s_start, pair.s_end, table.size)
+
+        def err(s: np.ndarray) -> np.ndarray:
+            return np.interp(s, grid, table)
+
+    def separation(s: np.ndarray) -> np.ndarray:
+        r1, r2 = pair.contact_radii(s)
+        out = np.zeros_like(s)
+        for g, (rel, r) in enumerate(zip(reliefs, (r1, r2), strict=True), start=1):
+            if rel is not None:
+                out += rel.separation(pair, g, r)
+        if err is not None:
+            out += np.asarray(err(s), dtype=float)
+        return out
+
+    return separation
+
+
+def mesh_cycles(
+    pair: GearPair,
+    torques: Sequence[float] | np.ndarray,
+    n: int = 200,
+    tip_relief: TipRelief | tuple[TipRelief | None, TipRelief | None] | None = None,
+    profile_error: ProfileError = None,
+) -> list[MeshCycle]:
+    """Static mesh over one mesh cycle for several torques (compliance computed once).
+
+    Parameters
+    ----------
+    pair : GearPair
+        A consistent gear pair (``pair.check()`` is called).
+    torques : sequence of float
+        Torques on the driving gear 1 [N m], each > 0.
+    n : int
+        Positions per mesh cycle [-].
+    tip_relief : TipRelief or (TipRelief | None, TipRelief | None) or None
+        Relief of both gears (one value) or of gear 1 and gear 2.
+    profile_error : callable or array or None
+        Combined profile deviation of a tooth pair as a separation [m] (positive removes
+        material), either ``f(s)`` of the line-of-action position ``s`` [m] measured from
+        ``T1`` or values at equally spaced positions from ``s_start`` to ``s_end``.
+
+    Returns
+    -------
+    list of MeshCycle
+        One per torque.
+    """
+    pair.check()
+    torques = np.atleast_1d(np.asarray(torques, dtype=float))
+    if not (np.all(np.isfinite(torques)) and np.all(torques > 0)):
+        raise GeometryError(f"torques must be positive and finite [N m]; got {torques}")
+    if not (isinstance(n, int | np.integer) and n >= 8):
+        raise GeometryError(f"n = {n!r} positions per mesh cycle must be an integer >= 8")
+    n_slot = math.ceil(pair.contact_ratio - 1e-12)
+    phase = np.arange(n) / n
+    s = pair.s_start + (phase[:, None] + np.arange(n_slot)[None, :]) * pair.base_pitch
+    in_contact = s <= pair.s_end * (1 + 1e-12)
+    s_eval = np.where(in_contact, s, pair.s_start)
+    compliance = np.where(
+        in_contact, pair_compliance(pair, s_eval.ravel()).reshape(s.shape), np.inf
+    )
+    sep_fun = _separation_function(pair, tip_relief, profile_error)
+    separation = np.where(in_contact, sep_fun(s_eval.ravel()).reshape(s.shape), np.inf)
+    loads = torques / pair.base_radius1
+    ste = np.empty((loads.size, n))
+    stiffness = np.empty((loads.size, n))
+    pair_load = np.empty((loads.size, n, n_slot))
+    _share_kernel(compliance, separation, loads, ste, pair_load, stiffness)
+    k_pair = np.where(in_contact, 1.0 / compliance, 0.0)
+    return [
+        MeshCycle(
+            pair=pair,
+            torque=float(torques[q]),
+            load=float(loads[q]),
+            phase=phase,
+            s=s,
+            in_contact=in_contact,
+            separation=separation,
+            pair_stiffness=k_pair,
+            pair_load=pair_load[q],
+            load_share=pair_load[q] / loads[q],
+            ste=ste[q],
+            mesh_stiffness=stiffness[q],
+            secant_stiffness=loads[q] / ste[q],
+        )  # fmt: skip
+        for q in range(loads.size)
+    ]
+
+
+def mesh_cycle(
+    pair: GearPair,
+    torque: float,
+    n: int = 200,
+    tip_relief: TipRelief | tuple[TipRelief | None, TipRelief | None] | None = None,
+    profile_error: ProfileError = None,
+) -> MeshCycle:
+    """Static mesh over one mesh cycle at one torque; see :func:`mesh_cycles`.
+
+    Parameters
+    ----------
+    pair : GearPair
+        A consistent gear pair.
+    torque : float
+        Torque on the driving gear 1 [N m].
+    n : int
+        Positions per mesh cycle [-].
+    tip_relief : TipRelief or pair of TipRelief or None
+        Tip relief (see :func:`mesh_cycles`).
+    profile_error : callable or array or None
+        Profile error as a separation [m] (see :func:`mesh_cycles`).
+
+    Returns
+    -------
+    MeshCycle
+        Load share, STE and mesh stiffness over the cycle.
+    """
+    return mesh_cycles(pair, [torque], n, tip_relief, profile_error)[0]
+
+
+def fourier(x: np.ndarray, n_harmonics: int) -> tuple[np.ndarray, np.ndarray]:
+    """Amplitudes and phases of a periodic signal sampled at ``phase = i / N``.
+
+    ``x(phase) = a[0] + sum_{k=1}^{n_harmonics} a[k] cos(2 pi k phase + phi[k])`` (Eq. (1) of
+    the paper, phase in mesh cycles). With ``n_harmonics = N // 2`` the series reproduces the
+    samples exactly.
+
+    Parameters
+    ----------
+    x : ndarray, shape (N,)
+        Samples over one period at ``phase = i / N`` [any unit].
+    n_harmonics : int
+        Highest harmonic, ``1 <= n_harmonics <= N // 2``.
+
+    Returns
+    -------
+    amplitude : ndarray, shape (n_harmonics + 1,)
+        ``a[0]`` is the mean; ``a[k] >= 0`` [unit of x].
+    phase : ndarray, shape (n_harmonics + 1,)
+        ``phi[k]`` [rad]; ``phi[0] = 0`` (or pi for a negative mean).
+    """
+    x = np.asarray(x, dtype=float)
+    n = x.size
+    if not (1 <= n_harmonics <= n // 2):
+        raise GeometryError(f"n_harmonics = {n_harmonics} must be in [1, {n // 2}] for {n} samples")
+    spec = np.fft.rfft(x)[: n_harmonics + 1] / n
+    amp = 2.0 * np.abs(spec)
+    amp[0] = abs(spec[0].real)
+    if n % 2 == 0 and n_harmonics == n // 2:
+        amp[-1] = abs(spec[-1].real)
+    phase = np.angle(spec)
+    phase[0] = 0.0 if spec[0].real >= 0 else math.pi
+    return amp, phase
+
+
+def fourier_series(amplitude: np.ndarray, phase: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Evaluate ``a0 cos(phi_0) + sum a_k cos(2 pi k phi + phi_k)`` at mesh phases ``phi``.
+
+    Parameters
+    ----------
+    amplitude, phase : ndarray
+        As returned by :func:`fourier` [unit, rad].
+    phi : ndarray
+        Mesh phase [-].
+
+    Returns
+    -------
+    ndarray
+        The series [unit].
+    """
+    k = np.arange(amplitude.size)
+    phi = np.asarray(phi, dtype=float)
+    return np.sum(amplitude * np.cos(2.0 * np.pi * k * phi[..., None] + phase), axis=-1)
+
+
+# ISO 6336-1:2006, 9.3 Method B, Table 10 (coefficients of q' for external spur gears).
+_ISO_C = (0.04723, 0.15551, 0.25791, -0.00635, -0.11654, -0.00193, -0.24188, 0.00529, 0.00182)
+
+
+def iso6336_stiffness(pair: GearPair) -> tuple[float, float]:
+    """Single stiffness ``c'`` and mesh stiffness ``c_gamma`` by ISO 6336-1 Method B [N/m].
+
+    ``q' = C1 + C2/zn1 + C3/zn2 + C4 x1 + C5 x1/zn1 + C6 x2 + C7 x2/zn2 + C8 x1^2 + C9 x2^2``
+    [mm um/N] with index 1 the pinion (fewer teeth); ``c'_th = 1/q'``;
+    ``c' = c'_th C_M C_R C_B cos(beta)`` with ``C_M = 0.8``, ``C_R`` the rim factor (mean of
+    both gears), ``C_B = mean over gears of (1 + 0.5 (1.2 - h_fP/m)) (1 - 0.02 (20 deg -
+    alpha_P))`` with ``h_fP = r + x m - r_f``; ``c_gamma = c' (0.75 eps_alpha + 0.25)``.
+    ISO's values are per mm face width [N/(mm um)]; here multiplied by the face width: N/m.
+    Valid for ``F_t K_A / b >= 100 N/mm`` (ISO scales ``c'`` down below that; not applied).
+
+    Parameters
+    ----------
+    pair : GearPair
+        The gear pair (spur, ``beta = 0``).
+
+    Returns
+    -------
+    c_prime, c_gamma : float
+        Single-pair and mean mesh stiffness [N/m].
+    """
+    if pair.z1 <= pair.z2:
+        (z1, x1), (z2, x2) = (pair.z1, pair.x1), (pair.z2, pair.x2)
+    else:
+        (z1, x1), (z2, x2) = (pair.z2, pair.x2), (pair.z1, pair.x1)
+    c1, c2, c3, c4, c5, c6, c7, c8, c9 = _ISO_C
+    q = c1 + c2 / z1 + c3 / z2 + c4 * x1 + c5 * x1 / z1 + c6 * x2 + c7 * x2 / z2
+    q += c8 * x1**2 + c9 * x2**2
+    c_th = 1.0 / q
+    alpha_deg = math.degrees(pair.pressure_angle)
+    cb = []
+    for g in (1, 2):
+        r = pair.pitch_radius1 if g == 1 else pair.pitch_radius2
+        x = pair.x1 if g == 1 else pair.x2
+        h_fp = (r + x * pair.module - pair.root_radius[g - 1]) / pair.module
+        cb.append((1.0 + 0.5 * (1.2 - h_fp)) * (1.0 - 0.02 * (20.0 - alpha_deg)))
+    c_b = 0.5 * (cb[0] + cb[1])
+    c_r = 0.5 * (rim_factor(pair, 1) + rim_factor(pair, 2))
+    c_prime = c_th * 0.8 * c_r * c_b  # [N/(mm um)]
+    c_gamma = c_prime * (0.75 * pair.contact_ratio + 0.25)
+    per_metre = pair.face_width * 1e3 * 1e6  # N/(mm um) * b[mm] = N/um -> N/m
+    return c_prime * per_metre, c_gamma * per_metre

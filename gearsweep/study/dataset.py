@@ -1,0 +1,138 @@
+"""The one function that builds every result Dataset, and the atomic netCDF writer (DATA.md)."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+import gearsweep
+
+COORDS = {
+    "speed": ("rpm", "shaft speed of the driving gear (gear 1)"),
+    "mesh_frequency": ("Hz", "tooth-mesh frequency"),
+    "torque": ("N m", "mean driving torque T1m"),
+    "mean_force": ("N", "mean mesh force F_m"),
+    "damping": ("N s m-1", "mesh viscous damping c"),
+    "backlash": ("m", "total backlash along the line of action"),
+    "mass": ("kg", "equivalent mass m_eq"),
+    "stiffness": ("N m-1", "mean mesh stiffness k0"),
+    "direction": ("-", "order in which speed was swept, state carried between speeds"),
+    "frequency": ("Hz", "spectrum frequency"),
+    "order": ("-", "spectrum frequency / mesh frequency"),
+    "alpha": ("-", "Mathieu parameter alpha = k0 / (m (N w)^2)"),
+    "beta": ("-", "Mathieu parameter beta = k1 / (m (N w)^2)"),
+    "gamma": ("-", "Mathieu parameter gamma = c / (m N w)"),
+    "mesh_phase": ("-", "position in one mesh cycle"),
+    "method": ("-", "integrator name"),
+    "steps_per_period": ("-", "integration steps per mesh period"),
+}
+"""Units and long names of the coordinates of DATA.md (units as CF/UDUNITS strings)."""
+
+VARIABLES = {
+    "p_rms": ("m", "rms of p about its mean, steady state"),
+    "p_pp": ("m", "peak-to-peak of p, steady state"),
+    "p_max": ("m", "maximum of p, steady state"),
+    "p_min": ("m", "minimum of p, steady state"),
+    "p_mean": ("m", "mean of p, steady state"),
+    "contact_loss_fraction": ("1", "fraction of steady-state time with |p| < backlash/2"),
+    "backside_contact_fraction": ("1", "fraction of steady-state time on the back flank"),
+    "impacts_per_period": ("1", "entries into contact from the gap per mesh period"),
+    "settle_error": ("1", "change of the extremes of p between the halves of the window / p_pp"),
+    "spectrum": ("m", "single-sided amplitude spectrum of p over whole mesh periods"),
+    "floquet_multiplier": ("1", "largest |mu| of the monodromy matrix"),
+    "unstable": ("1", "the equation is unstable (floquet_multiplier > 1)"),
+    "integrator_unstable": ("1", "the method and step diverge where the equation does not"),
+    "status": ("1", "0 ok; nonzero flags a diverged, unsettled or skipped case"),
+}
+
+STATUS_CODES = {
+    0: "ok",
+    1: "diverged: p became non-finite or exceeded divergence_factor x its static scale",
+    2: "not settled: settle_error above solver.settle_tolerance (results kept)",
+    3: "skipped: the step is beyond the method's stability limit for this case",
+}
+
+
+def build_dataset(
+    data_vars: dict[str, tuple[tuple[str, ...], np.ndarray]],
+    coords: dict[str, tuple[tuple[str, ...], np.ndarray]],
+    *,
+    title: str,
+    study_text: str = "",
+    settings: dict | None = None,
+    source: str = "gearsweep",
+    var_attrs: dict[str, dict] | None = None,
+) -> xr.Dataset:
+    """Build a result Dataset per DATA.md: named dims, units and long names, global attributes.
+
+    Parameters
+    ----------
+    data_vars, coords : dict name -> (dims, values)
+        Values in SI (speed in rpm). Units and long names come from ``COORDS``/``VARIABLES``
+        unless ``var_attrs`` gives them.
+    title : str
+    study_text : str
+        The study YAML as run (kept verbatim with its sha256).
+    settings : dict
+        Solver settings, written as global attributes.
+    """
+    var_attrs = var_attrs or {}
+
+    def attrs(name: str, table: dict) -> dict:
+        a = {}
+        if name in table:
+            a["units"], a["long_name"] = table[name]
+        a.update(var_attrs.get(name, {}))
+        a.setdefault("units", "1")
+        a.setdefault("long_name", name.replace("_", " "))
+        return a
+
+    ds = xr.Dataset(
+        {k: xr.Variable(d, v, attrs(k, VARIABLES)) for k, (d, v) in data_vars.items()},
+        coords={k: xr.Variable(d, v, attrs(k, COORDS)) for k, (d, v) in coords.items()},
+    )
+    if "status" in ds:
+        ds["status"].attrs["flag_values"] = np.array(sorted(STATUS_CODES), dtype=np.int8)
+        ds["status"].attrs["flag_meanings"] = " ".join(
+            STATUS_CODES[k].split(":")[0].replace(" ", "_") for k in sorted(STATUS_CODES))
+        ds["status"].attrs["codes"] = "; ".join(f"{k} {v}" for k, v in STATUS_CODES.items())
+    now = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+    ds.attrs.update(
+        Conventions="CF-1.10",
+        title=title,
+        history=f"[{now}] gearsweep {gearsweep.__version__}",
+        source=source,
+        study=study_text,
+        study_sha256=hashlib.sha256(study_text.encode()).hexdigest(),
+    )
+    for k, v in (settings or {}).items():
+        ds.attrs[k] = v
+    return ds
+
+
+def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
+    """Write ``ds`` to ``path`` atomically: a temporary file in the same folder, then rename.
+
+    A reader never sees a half-written file at ``path``; a crash leaves the old file (if any).
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    os.close(fd)
+    try:
+        encoding = {k: {"zlib": True, "complevel": 1} for k in ds.data_vars
+                    if ds[k].dtype.kind in "fiub"}
+        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

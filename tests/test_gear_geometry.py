@@ -1,0 +1,168 @@
+"""Gear pair geometry against closed forms, and every inconsistent geometry as a GeometryError."""
+
+import math
+
+import pytest
+from numpy.testing import assert_allclose
+from scipy.optimize import brentq
+
+from gearsweep.errors import GeometryError
+from gearsweep.gear.geometry import (
+    GearPair,
+    GeometryWarning,
+    inverse_involute,
+    involute,
+    table1_as_printed,
+    table1_consistent,
+)
+
+DEG20 = math.radians(20.0)
+
+# (module [m], z1, z2, x1, x2): standard and shifted pairs, all consistent.
+PAIRS = [
+    (2.5e-3, 48, 32, 0.0, 0.0),
+    (2e-3, 20, 40, 0.0, 0.0),
+    (3e-3, 30, 90, 0.0, 0.0),
+    (3e-3, 18, 36, 0.3, -0.3),
+    (3e-3, 18, 36, 0.4, 0.2),
+    (2e-3, 14, 40, 0.2, 0.0),
+]
+
+
+def _inv(a: float) -> float:
+    return math.tan(a) - a
+
+
+def _alpha_w_reference(z1: int, z2: int, x1: float, x2: float) -> float:
+    """Operating pressure angle from inv(alpha_w) solved independently with scipy's brentq."""
+    target = _inv(DEG20) + 2.0 * math.tan(DEG20) * (x1 + x2) / (z1 + z2)
+    return brentq(lambda a: _inv(a) - target, 1e-6, 1.2, xtol=1e-14)
+
+
+@pytest.mark.parametrize(("m", "z1", "z2", "x1", "x2"), PAIRS)
+def test_operating_pressure_angle_and_centre_distance(m, z1, z2, x1, x2):
+    pair = GearPair(module=m, z1=z1, z2=z2, face_width=10e-3, x1=x1, x2=x2)
+    aw = _alpha_w_reference(z1, z2, x1, x2)
+    # Both sides solve inv(alpha_w) to ~1e-14 rad; 1e-10 relative leaves room for round-off.
+    assert_allclose(pair.operating_pressure_angle, aw, rtol=1e-10)
+    a_ref = 0.5 * m * (z1 + z2) * math.cos(DEG20) / math.cos(aw)
+    assert_allclose(pair.operating_centre_distance, a_ref, rtol=1e-10)
+    # Given the centre distance instead of deriving it: cos(alpha_w) = (rb1 + rb2) / a.
+    pair_a = GearPair(module=m, z1=z1, z2=z2, face_width=10e-3, x1=x1, x2=x2, centre_distance=a_ref)
+    assert_allclose(pair_a.operating_pressure_angle, aw, rtol=1e-10)
+
+
+def test_shifted_pair_has_larger_operating_pressure_angle():
+    pair = GearPair(module=3e-3, z1=18, z2=36, face_width=10e-3, x1=0.4, x2=0.2)
+    # inv(alpha_w) = 0.014904 + 2 tan20 * 0.6 / 54 = 0.022992 -> alpha_w = 22.98 deg (hand value).
+    assert math.degrees(pair.operating_pressure_angle) == pytest.approx(22.98, abs=0.01)
+
+
+@pytest.mark.parametrize(("m", "z1", "z2", "x1", "x2"), PAIRS)
+def test_contact_ratio_and_base_pitch_closed_form(m, z1, z2, x1, x2):
+    pair = GearPair(module=m, z1=z1, z2=z2, face_width=10e-3, x1=x1, x2=x2)
+    aw = _alpha_w_reference(z1, z2, x1, x2)
+    a = 0.5 * m * (z1 + z2) * math.cos(DEG20) / math.cos(aw)
+    rb1, rb2 = 0.5 * m * z1 * math.cos(DEG20), 0.5 * m * z2 * math.cos(DEG20)
+    ra1, ra2 = 0.5 * m * z1 + m * (1 + x1), 0.5 * m * z2 + m * (1 + x2)
+    pb = math.pi * m * math.cos(DEG20)
+    eps = (math.sqrt(ra1**2 - rb1**2) + math.sqrt(ra2**2 - rb2**2) - a * math.sin(aw)) / pb
+    assert_allclose(pair.base_pitch, pb, rtol=1e-14)
+    assert_allclose(pair.contact_ratio, eps, rtol=1e-10)
+    assert_allclose(pair.path_of_approach + pair.path_of_recess, pair.path_of_contact, rtol=1e-12)
+
+
+def test_contact_ratio_textbook_value():
+    # 20/40 teeth, 20 deg, m = 2, standard, by hand: (sqrt(22^2 - 18.794^2) + sqrt(42^2 - 37.588^2)
+    # - 60 sin 20) / (2 pi cos 20) = (11.435 + 18.739 - 20.521) / 5.904 = 1.635.
+    pair = GearPair(module=2e-3, z1=20, z2=40, face_width=10e-3)
+    assert pair.contact_ratio == pytest.approx(1.635, abs=0.001)
+
+
+def test_involute_inverse_round_trip():
+    for a in (0.05, DEG20, 0.6, 1.2):
+        assert_allclose(inverse_involute(float(involute(a))), a, rtol=1e-12)
+
+
+def test_table1_consistent_numbers():
+    pair = table1_consistent().check()
+    assert pair.tip_radius == pytest.approx((62.5e-3, 42.5e-3), rel=1e-12)
+    assert pair.root_radius == pytest.approx((56.875e-3, 36.875e-3), rel=1e-12)
+    assert pair.contact_ratio == pytest.approx(1.7076, abs=1e-4)
+    # 0.5 mm circumferential backlash, shared equally: each tooth 0.25 mm thinner than pi m / 2.
+    assert_allclose(pair.circumferential_backlash, 0.5e-3, rtol=1e-9)
+    assert_allclose(pair.backlash_loa, 0.5e-3 * math.cos(DEG20), rtol=1e-9)
+    assert_allclose(pair.thickness, (math.pi * 2.5e-3 / 2 - 0.25e-3,) * 2, rtol=1e-9)
+
+
+def test_thickness_gives_backlash_and_back():
+    base = GearPair(module=2e-3, z1=20, z2=40, face_width=10e-3, backlash=0.2e-3)
+    s1, s2 = base.thickness
+    again = GearPair(module=2e-3, z1=20, z2=40, face_width=10e-3, thickness1=s1, thickness2=s2)
+    assert_allclose(again.circumferential_backlash, 0.2e-3, rtol=1e-9)
+    both = GearPair(
+        module=2e-3, z1=20, z2=40, face_width=10e-3, thickness1=s1, thickness2=s2, backlash=0.2e-3
+    )
+    assert both.problems() == []
+
+
+def test_table1_as_printed_fails_with_reasons():
+    pair = table1_as_printed()
+    with pytest.raises(GeometryError) as err:
+        pair.check()
+    msg = str(err.value)
+    assert "Table 1 as printed" in msg
+    assert msg.count("tip-root interference") == 2
+    assert "by 1.5 mm" in msg
+    assert "contact ratio 2.429 is outside the stated range [1, 2]" in msg
+    assert "thicknesses 4 + 4 mm" in msg and "circular pitch 7.854 mm" in msg
+    assert "cannot coexist" in msg
+
+
+# (GearPair keyword arguments, text the message must contain)
+INCONSISTENT = [
+    ({"tip_radius1": 22.9e-3}, "tip-root interference"),
+    ({"tip_radius1": 20.6e-3, "tip_radius2": 40.6e-3}, "contact ratio 0.552 is below 1"),
+    ({"z1": 12}, "undercut: gear 1 (z = 12"),
+    ({"z1": 12}, "involute interference"),
+    ({"z1": 14, "x1": 1.0}, "pointed teeth: gear 1 tip thickness"),
+    ({"thickness1": 3.3e-3, "thickness2": 3.3e-3}, "do not fit the circular pitch 6.283 mm"),
+    ({"thickness1": 3.0e-3, "thickness2": 3.0e-3, "backlash": 0.5e-3}, "cannot coexist"),
+    ({"fillet_radius": 1.5e-3}, "does not fit the tooth space"),
+    ({"contact_ratio_range": (1.0, 1.5)}, "outside the stated range [1, 1.5]"),
+]
+
+
+def test_tip_fillet_interference_is_named():
+    # 60/60 teeth with tips at r + 1.25 m: the mating tip reaches down to 58.11 mm, while a 1 mm
+    # fillet runs up the flank to 58.24 mm.
+    pair = GearPair(
+        module=2e-3, z1=60, z2=60, face_width=10e-3, fillet_radius=1e-3,
+        tip_radius1=62.5e-3, tip_radius2=62.5e-3,
+    )  # fmt: skip
+    with pytest.raises(GeometryError, match="tip-fillet interference: gear 1 fillet reaches"):
+        pair.check()
+
+
+@pytest.mark.parametrize(("kwargs", "text"), INCONSISTENT)
+def test_inconsistent_geometry_names_the_problem(kwargs, text):
+    args = {"module": 2e-3, "z1": 20, "z2": 40, "face_width": 10e-3} | kwargs
+    with pytest.raises(GeometryError) as err:
+        GearPair(**args).check()
+    assert text in str(err.value)
+
+
+def test_nearly_pointed_teeth_warn():
+    pair = GearPair(module=2e-3, z1=14, z2=40, face_width=10e-3, x1=0.8)
+    with pytest.warns(GeometryWarning, match="below 0.2 m"):
+        pair.check()
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"module": -1.0}, {"z1": 2}, {"face_width": 0.0}, {"poisson": 0.5}, {"backlash": -1e-4}],
+)
+def test_bad_numbers_rejected_at_construction(kwargs):
+    args = {"module": 2e-3, "z1": 20, "z2": 40, "face_width": 10e-3} | kwargs
+    with pytest.raises(GeometryError):
+        GearPair(**args)
