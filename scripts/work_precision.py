@@ -180,6 +180,9 @@ def plot(ds: xr.Dataset, path: Path) -> None:
             desc = ("time-varying stiffness + STE, no backlash" if s == "whine"
                     else "constant stiffness, backlash 4 um, contact loss")
             ax.set_title(f"{s} scene, {rpm:.0f} rpm: {desc}", fontsize=10)
+            if s == "whine":
+                ax.text(0.98, 0.98, "rk4-kink, rk5-kink: identical to rk4, rk5\n(no backlash)",
+                        transform=ax.transAxes, ha="right", va="top", fontsize=8)
             ax.grid(True, which="major", alpha=0.3)
             ax.legend(fontsize=8, loc="lower left" if row == 0 else "lower left")
     fig.suptitle("Work-precision: error against cost (labels on rk4 points: steps per mesh "
