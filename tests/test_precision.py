@@ -232,3 +232,15 @@ def test_study_solver_kink_aware_reaches_the_kernel():
             plain = float(ds["false"][name].isel(speed=i))
             assert got == pytest.approx(r.stats[name][0], rel=1e-9)
             assert abs(plain - got) > 1e-6 * abs(got)
+
+
+@pytest.mark.parametrize("method", ["rk4", "rk5"])
+def test_stability_limit_agrees_with_the_stability_module(method):
+    """``advise.stability_limit`` (float polynomial, scan + brentq) and
+    ``analysis.stability.step_limit_hw`` (exact rational coefficients, polynomial roots on the
+    ray), written independently, agree to 1e-9 over the damping range."""
+    from gearsweep.analysis.stability import step_limit_hw
+
+    for zeta in (0.0, 0.02, 0.1, 0.215, 0.5, 0.9):
+        assert stability_limit(method, zeta) == pytest.approx(float(step_limit_hw(method, zeta)),
+                                                              rel=1e-9)
