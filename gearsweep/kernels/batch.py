@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from gearsweep.kernels import kink, rk
@@ -114,8 +115,32 @@ def simulate(
     stride = max(int(signal_stride), 1)
     if signal_stride > 0:
         signal = np.full((n, (n_record + stride - 1) // stride), np.nan)
+    # No more threads than blocks of lanes: waking an idle thread costs milliseconds, which
+    # dominates the many small calls of a continued sweep with few lanes.
+    threads = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(threads, -(-n // rk.LANES))))
+    try:
+        out = _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale,
+                    fluct_scale, half_gap, bound, x0, v0, n_transient, n_record,
+                    steps_per_period, signal, stride, kink_aware)
+    finally:
+        numba.set_num_threads(threads)
+    stats, xf, vf, status = out[:4]
+    return BatchResult(
+        stats={name: stats[:, q] for q, name in enumerate(rk.STAT_NAMES)},
+        x_final=xf,
+        v_final=vf,
+        status=status,
+        signal=signal,
+        substeps=out[4] if kink_aware else None,
+    )
+
+
+def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluct_scale,
+          half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride,
+          kink_aware=False):
     kernel = kink.integrate if kink_aware else rk.integrate
-    out = kernel(
+    return kernel(
         rk.METHODS[method],
         h,
         _vec(damping, n),
@@ -136,13 +161,4 @@ def simulate(
         int(steps_per_period),
         signal,
         stride,
-    )
-    stats, xf, vf, status = out[:4]
-    return BatchResult(
-        stats={name: stats[:, q] for q, name in enumerate(rk.STAT_NAMES)},
-        x_final=xf,
-        v_final=vf,
-        status=status,
-        signal=signal,
-        substeps=out[4] if kink_aware else None,
     )
