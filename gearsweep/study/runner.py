@@ -305,7 +305,7 @@ def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) ->
     sps = plan.samples_per_period()
     res = simulate(method=s.method, n_transient=s.transient_periods * spp,
                    n_record=s.record_periods * spp, steps_per_period=spp,
-                   signal_stride=spp // sps if sps else 0, **kin)
+                   signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
     out: dict[str, np.ndarray] = {}
     for o in plan.outputs:
         out.update(OUTPUTS[o].compute(plan, params, res))
@@ -406,6 +406,7 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
         "scene": plan.study.scene.kind,
         "method": s.method,
         "steps_per_period": s.steps_per_period,
+        "kink_aware": int(s.kink_aware),
         "transient_periods": s.transient_periods,
         "recorded_periods": s.record_periods,
         "divergence_factor": s.divergence_factor,
