@@ -12,6 +12,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from gearsweep import __version__
 from gearsweep.errors import GearsweepError, ResultError, StudyError
 
@@ -128,6 +130,36 @@ def describe(path: str | Path) -> str:
     return "\n".join(lines)
 
 
+def cmd_advise(args: argparse.Namespace) -> int:
+    """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
+    from gearsweep.analysis.advise import advise
+    from gearsweep.model import MeshModel
+    from gearsweep.study.runner import make_plan
+    from gearsweep.study.schema import load_study
+
+    study, text = load_study(args.study)
+    plan = make_plan(study, text)
+    model = plan.model
+    if not isinstance(model, MeshModel):
+        raise StudyError(args.study, "scene.kind", study.scene.kind,
+                         "a gear scene (whine, rattle, full): the Mathieu scene has no accuracy model")
+    s = study.solver
+    grids = plan.grids
+    k0 = float(np.max(grids["stiffness"])) if "stiffness" in grids else model.stiffness
+    mass = float(np.min(grids["mass"])) if "mass" in grids else model.mass
+    damping = float(np.min(grids["damping"])) if "damping" in grids else model.damping
+    backlash = None
+    if plan.has_backlash:
+        backlash = float(np.min(grids["backlash"])) if "backlash" in grids else model.backlash
+    a = advise(mass=mass, k0=k0, damping=damping, speed_rpm=grids["speed"], teeth=model.teeth,
+               k_harmonics=[(h.amplitude, h.order, h.phase) for h in model.stiffness_harmonics],
+               backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=args.target,
+               steps_per_period=s.steps_per_period,
+               periods=s.transient_periods + s.record_periods)
+    print(f"{args.study}: {a.report()}")
+    return 0
+
+
 def cmd_inspect(args: argparse.Namespace) -> int:
     print(describe(args.result))
     return 0
@@ -146,6 +178,11 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="check a study file without running it")
     v.add_argument("study")
     v.set_defaults(func=cmd_validate)
+    a = sub.add_parser("advise", help="steps per period for a target accuracy, cost, warnings")
+    a.add_argument("study")
+    a.add_argument("--target", type=float, default=1e-6,
+                   help="trajectory error relative to the amplitude (default 1e-6)")
+    a.set_defaults(func=cmd_advise)
     i = sub.add_parser("inspect", help="describe a result file in words")
     i.add_argument("result")
     i.set_defaults(func=cmd_inspect)

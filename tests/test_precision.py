@@ -174,7 +174,7 @@ HELD_OUT = [
 @pytest.mark.parametrize(("kind", "rpm", "damping", "k0", "method", "kink", "target"), HELD_OUT)
 def test_advised_step_meets_target_on_held_out_cases(kind, rpm, damping, k0, method, kink, target):
     """Speeds, dampings and stiffnesses not used in the calibration
-    (``scripts/work_precision.py --calibrate``: 3000-12000 rpm whine, 7000-13000 rpm rattle, both
+    (``scripts/fig_work_precision.py --calibrate``: 3000-12000 rpm whine, 7000-13000 rpm rattle, both
     at c = 5500 N s/m, k0 = 1.073e9 N/m): the advised step count must reach the target
     trajectory error against the reference. Measured errors are 0.16-0.5 of the target (the
     advisor aims at target / 2)."""

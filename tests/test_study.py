@@ -281,3 +281,15 @@ def test_guard_step_is_a_tight_lower_bound_of_the_exact_stability_limit(method):
     # Negative stiffness: limited by the decaying real pole only.
     np.testing.assert_allclose(_stable_steps(method, np.array([-4.0]), np.array([3.0])),
                                max_stable_step(method, -4.0, 3.0), rtol=1e-12)
+
+
+def test_cli_advise_reports_steps_cost_and_stability(tmp_path, capsys):
+    study = tmp_path / "lin.yaml"
+    study.write_text(LINEAR.replace("speed: [6000 rpm,", "speed: [100 rpm, 6000 rpm,"))
+    assert cli(["advise", str(study), "--target", "1e-6"]) == 0
+    out = capsys.readouterr().out
+    assert "steps per mesh period" in out and "Msteps" in out
+    assert "beyond the rk5 stability limit" in out  # 100 rpm at 128 steps: h w_n = 14.8
+    mathieu = tmp_path / "m.yaml"
+    mathieu.write_text("title: m\nscene: {kind: mathieu, alpha: 1, beta: 0.2}\n")
+    assert cli(["advise", str(mathieu)]) == 2

@@ -5,7 +5,7 @@ Runs every method on the smooth whine scene and the rattle scene of
 ``figures/work_precision.png``, and (``--calibrate``) refits the error constants used by
 ``gearsweep.analysis.advise`` into ``gearsweep/analysis/data/error_constants.json``.
 
-    PYTHONPATH=. python scripts/work_precision.py [--calibrate] [--threads 1]
+    PYTHONPATH=. python scripts/fig_work_precision.py [--calibrate] [--threads 1]
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
 from gearsweep.analysis import precision as pr  # noqa: E402
+from gearsweep.study.dataset import write_netcdf  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXED = ("rk4", "rk5", "rk4-kink", "rk5-kink")
@@ -122,7 +123,7 @@ def study(window: pr.Window) -> xr.Dataset:
         "Conventions": "CF-1.10",
         "title": "Work-precision study of the gearsweep kernels",
         "history": f"{dt.datetime.now(dt.UTC).isoformat(timespec='seconds')} "
-                   f"scripts/work_precision.py - gearsweep {_commit()}",
+                   f"scripts/fig_work_precision.py - gearsweep {_commit()}",
         "source": "gearsweep kernels (rk, kink) and scipy.integrate.solve_ivp",
         "window": f"{window.transient_periods} transient + {window.record_periods} recorded mesh "
                   f"periods from p = p' = 0, {pr.SAMPLES_PER_PERIOD} samples per period",
@@ -219,7 +220,7 @@ def calibrate(window: pr.Window) -> dict:
         "description": "trajectory error <= C (h omega_n)^order, C = upper envelope over the "
                        "calibration runs; error relative to the amplitude (see "
                        "gearsweep.analysis.precision)",
-        "source": f"scripts/work_precision.py --calibrate, gearsweep {_commit()}, "
+        "source": f"scripts/fig_work_precision.py --calibrate, gearsweep {_commit()}, "
                   f"{dt.datetime.now(dt.UTC).date().isoformat()}",
         "calibration_speeds_rpm": CALIBRATION_RPM,
         "window_periods": [window.transient_periods, window.record_periods],
@@ -231,15 +232,17 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--calibrate", action="store_true", help="refit the advisor's constants")
     ap.add_argument("--threads", type=int, default=1, help="numba threads for the kernels")
+    ap.add_argument("--results", type=Path, default=ROOT / "results", help="folder for the .nc")
+    ap.add_argument("--figures", type=Path, default=ROOT / "figures", help="folder for the PNG")
     args = ap.parse_args()
     numba.set_num_threads(args.threads)
     window = pr.Window()
     t0 = time.perf_counter()
     ds = study(window)
-    (ROOT / "results").mkdir(exist_ok=True)
-    (ROOT / "figures").mkdir(exist_ok=True)
-    ds.to_netcdf(ROOT / "results" / "work_precision.nc")
-    plot(ds, ROOT / "figures" / "work_precision.png")
+    args.results.mkdir(parents=True, exist_ok=True)
+    args.figures.mkdir(parents=True, exist_ok=True)
+    write_netcdf(ds, args.results / "work_precision.nc")
+    plot(ds, args.figures / "work_precision.png")
     for k, v in ds.attrs.items():
         if k.startswith("order_") and k.endswith("trajectory_error"):
             print(f"{k}: {v}")

@@ -8,11 +8,12 @@ to zero. Polynomial: ``gearsweep.analysis.advise.stability_limit`` (first h omeg
 eigenvalue ray where |R| reaches 1). The kink-aware kernel takes the plain step wherever no
 boundary is crossed, so inside one contact region its limit is the plain method's.
 
-    PYTHONPATH=. python scripts/method_stability.py
+    PYTHONPATH=. python scripts/fig_method_stability.py
 """
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import matplotlib
@@ -52,6 +53,10 @@ def measured_limit(method: str, zeta: float, lo: float = 0.5, hi: float = 4.0,
 
 
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--results", type=Path, default=ROOT / "results", help="(unused)")
+    ap.add_argument("--figures", type=Path, default=ROOT / "figures", help="folder for the PNG")
+    args = ap.parse_args()
     fig, ax = plt.subplots(figsize=(7.5, 5), constrained_layout=True)
     zfine = np.linspace(0, 0.6, 121)
     for method, color in (("rk4", "C0"), ("rk5", "C1")):
@@ -73,8 +78,8 @@ def main() -> None:
     ax.set_ylim(0, 4)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right")
-    (ROOT / "figures").mkdir(exist_ok=True)
-    fig.savefig(ROOT / "figures" / "method_stability.png", dpi=130)
+    args.figures.mkdir(parents=True, exist_ok=True)
+    fig.savefig(args.figures / "method_stability.png", dpi=130)
 
 
 if __name__ == "__main__":
