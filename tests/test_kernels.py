@@ -95,8 +95,8 @@ def test_linear_steady_state_matches_frequency_response(method):
     # The amplitude is sqrt(2) * p_rms: for a sinusoid sampled at N > 2 equidistant points per
     # period over whole periods, mean(cos^2) = 1/2 exactly, so sampling adds no error (the sampled
     # extremes would be low by up to 1 - cos(pi/N)). 256 steps per forcing period: wn h = 0.031,
-    # and RK4's error in the steady-state amplitude, O((wn h)^4), is about 2e-8 (2e-5 at 64 steps
-    # per period: too coarse for 1e-6); RK5's is smaller still. The transient has decayed by
+    # and RK4's error in the steady-state amplitude, O((wn h)^4), is 2e-8 (5e-6 at 64 steps per
+    # period: too coarse for 1e-6); RK5's is 1e-12. The transient has decayed by
     # exp(-zeta wn t) = exp(-47) after 60 periods.
     res, amp, static = _lti_case(method, 256)
     assert res.status[0] == STATUS_OK
