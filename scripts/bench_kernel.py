@@ -279,6 +279,7 @@ def main(argv: list[str] | None = None) -> int:
             ref_times = build_reference(args.bench_dir, ref_dir)
 
     seconds_b1_1 = None
+    one_thread = math.nan
     for problem in problems:
         inputs = problem_inputs(problem, indices)
         amp = amplitudes(inputs)  # also the warm-up (compiles or loads the specialisation)
@@ -306,8 +307,12 @@ def main(argv: list[str] | None = None) -> int:
                 rec["reference_msteps_per_s"] = round(c_msteps, 1)
                 rec["ratio_to_reference"] = round(rec["msteps_per_s"] / c_msteps, 3)
                 rec["max_rel_diff_vs_reference"] = float(np.max(np.abs(amp - ref_amp) / ref_amp))
-            if problem == "B1" and threads == 1:
-                seconds_b1_1 = best
+            if threads == 1:
+                one_thread = best
+                if problem == "B1":
+                    seconds_b1_1 = best
+            else:
+                rec["speedup_vs_1_thread"] = round(one_thread / best, 2)
             print(json.dumps(rec), flush=True)
     numba.set_num_threads(all_cores)
 

@@ -37,8 +37,9 @@ from numba import prange
 
 from gearsweep.jit import jit_inline, jit_parallel
 
-LANES = 32
-"""Cases advanced together in one vectorised block (four AVX-512 or eight AVX2 registers)."""
+LANES = 64
+"""Cases advanced together in one vectorised block (eight AVX-512 or sixteen AVX2 registers;
+64 rather than 32 halves the per-step overhead per case: B2 0.170 s -> 0.162 s, B1 unchanged)."""
 
 NODES = (0.0, 0.25, 0.5, 0.75, 1.0)
 """Stage nodes (fractions of a step) at which the periodic shapes are tabulated."""
