@@ -13,8 +13,10 @@ periods from rest, 10,000 speeds) by ``gearsweep.kernels.simulate`` (no copy of 
 Timings are the best of 3 after a warm-up, with 1 thread and with all cores. One JSON line per
 problem and thread count. ``--reference`` builds and runs the C reference kernel in the same run
 (interleaved with ours, ``--rounds`` times, best of each: the machine is shared, and the best of
-several runs is the least disturbed estimate) and adds the ratio ours/C and the largest relative
-difference of the 10,000 amplitudes. Unless ``--no-scipy``, a few B1 cases are also solved with
+several runs is the least disturbed estimate) and adds the ratio ours/C of Msteps/s
+(``ratio_to_reference``), for 1 thread also of CPU time per step (``cpu_ratio_to_reference``,
+the steadier figure when other processes share the cores), and the largest relative difference
+of the 10,000 amplitudes. Unless ``--no-scipy``, a few B1 cases are also solved with
 ``scipy.integrate.solve_ivp`` (RK45, DOP853, LSODA) at tolerances that reach our accuracy, and
 the per-case speed-up of our kernel on one thread over the fastest of them is printed.
 
@@ -30,6 +32,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -107,16 +110,19 @@ def amplitudes(inputs: dict) -> np.ndarray:
     return np.maximum(stats["p_max"], -stats["p_min"])
 
 
-def best_time(inputs: dict, threads: int, repeats: int = 3) -> float:
-    """Best wall time [s] of ``repeats`` kernel calls on ``threads`` threads, after a warm-up."""
+def best_time(inputs: dict, threads: int, repeats: int = 3) -> tuple[float, float]:
+    """Best wall time and mean CPU time [s] of ``repeats`` kernel calls on ``threads`` threads,
+    after a warm-up. (On a shared machine the CPU time of a 1-thread run is the steadier figure:
+    time slices lost to other processes do not count.)"""
     numba.set_num_threads(threads)
     simulate(**inputs)
-    best = math.inf
+    best, cpu = math.inf, 0.0
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         simulate(**inputs)
         best = min(best, time.perf_counter() - t0)
-    return best
+        cpu += (time.process_time() - c0) / repeats
+    return best, cpu
 
 
 # ----------------------------------------------------------------------------- C reference
@@ -131,12 +137,16 @@ def build_reference(bench_dir: Path, outdir: Path) -> dict[tuple[str, int], floa
     return times
 
 
-def time_reference(outdir: Path, problem: str, threads: int) -> float:
-    """One more run of the built reference binary (best of its 3 runs) [s]."""
+def time_reference(outdir: Path, problem: str, threads: int) -> tuple[float, float]:
+    """One more run of the built reference binary: its best wall time of 3 runs and the mean CPU
+    time of the 3 (user + system time of the process / 3, which includes its table set-up) [s]."""
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     out = subprocess.run([str(outdir / "reference_kernel"), problem], check=True,
                          capture_output=True, text=True, env=env).stdout
-    return json.loads(out)["seconds"]
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime) / 3
+    return json.loads(out)["seconds"], cpu
 
 
 # ----------------------------------------------------------------------------- scipy
@@ -165,6 +175,9 @@ def _signal_error(p: np.ndarray, ref: np.ndarray) -> float:
 def scipy_comparison(indices: list[int], our_seconds_per_case: float, budget: float) -> list[dict]:
     """Time solve_ivp (RK45, DOP853, LSODA) on B1 cases at our accuracy; JSON records.
 
+    ``our_seconds_per_case``: CPU time of one B1 case in our kernel on one thread (the 1-thread
+    batch CPU time / cases), compared with the CPU time of each solve.
+
     Accuracy is the largest error of p over the 6400 recorded states (t = s h, s = 6401..12800)
     relative to max|p|, against DOP853 at rtol = 1e-13. For each method the tolerance
     (rtol, and atol = rtol times the static deflection F/k0 and F/k0 * sqrt(k0/m) for p and p')
@@ -176,6 +189,7 @@ def scipy_comparison(indices: list[int], our_seconds_per_case: float, budget: fl
 
     p_scale = FORCE / K0
     scale = np.array([p_scale, p_scale * math.sqrt(K0 / MASS)])
+    simulate(**problem_inputs("B1", np.array(indices[:1])), signal_stride=1)  # compile/load first
     t_start = time.perf_counter()
     records = []
     guess: dict[str, float] = {}
@@ -235,7 +249,7 @@ def scipy_comparison(indices: list[int], our_seconds_per_case: float, budget: fl
         if fastest is not None:
             records.append({**case, "fastest_scipy": fastest[0],
                             "scipy_seconds": round(fastest[1], 4),
-                            "our_seconds_per_case": our_seconds_per_case,
+                            "our_cpu_seconds_per_case": our_seconds_per_case,
                             "speedup": round(fastest[1] / our_seconds_per_case)})
     return records
 
@@ -291,12 +305,15 @@ def main(argv: list[str] | None = None) -> int:
             ref_amp = np.loadtxt(ref_dir / f"{problem}.txt")[indices]
         for threads in thread_counts:
             c_threads = os.cpu_count() if threads == all_cores else threads
-            best = math.inf
+            best = cpu = math.inf
             best_c = ref_times.get((problem, c_threads), math.inf)
+            cpu_c = math.inf
             for _ in range(args.rounds if ref_dir is not None else 1):
-                best = min(best, best_time(inputs, threads))
+                wall, used = best_time(inputs, threads)
+                best, cpu = min(best, wall), min(cpu, used)
                 if ref_dir is not None:
-                    best_c = min(best_c, time_reference(ref_dir, problem, c_threads))
+                    wall, used = time_reference(ref_dir, problem, c_threads)
+                    best_c, cpu_c = min(best_c, wall), min(cpu_c, used)
             steps = len(indices) * (N_TRANSIENT + N_RECORD)
             rec = {"problem": problem, "threads": threads, "cases": len(indices), "steps": steps,
                    "seconds": round(best, 4), "msteps_per_s": round(steps / best / 1e6, 1),
@@ -308,9 +325,15 @@ def main(argv: list[str] | None = None) -> int:
                 rec["ratio_to_reference"] = round(rec["msteps_per_s"] / c_msteps, 3)
                 rec["max_rel_diff_vs_reference"] = float(np.max(np.abs(amp - ref_amp) / ref_amp))
             if threads == 1:
+                rec["cpu_seconds"] = round(cpu, 4)
+                if ref_dir is not None:
+                    # same workload per step: ratio of CPU time per step, C / ours
+                    rec["reference_cpu_seconds"] = round(cpu_c, 4)
+                    rec["cpu_ratio_to_reference"] = round(
+                        cpu_c / N_CASES / (cpu / len(indices)), 3)
                 one_thread = best
                 if problem == "B1":
-                    seconds_b1_1 = best
+                    seconds_b1_1 = cpu
             else:
                 rec["speedup_vs_1_thread"] = round(one_thread / best, 2)
             print(json.dumps(rec), flush=True)
@@ -318,7 +341,7 @@ def main(argv: list[str] | None = None) -> int:
 
     if not args.no_scipy:
         if seconds_b1_1 is None:
-            seconds_b1_1 = best_time(problem_inputs("B1", indices), 1)
+            seconds_b1_1 = best_time(problem_inputs("B1", indices), 1)[1]
         numba.set_num_threads(all_cores)
         per_case = seconds_b1_1 / len(indices)
         sample = [int(s) for s in args.scipy_cases.split(",") if s]
