@@ -236,6 +236,9 @@ def scipy_comparison(indices: list[int], our_seconds_per_case: float, budget: fl
                     if passing is not None:
                         break
                     q += 1  # tighten
+            if not tried:
+                records.append({**case, "scipy": method, "skipped": "time budget spent"})
+                continue
             if passing is None:
                 errors = {f"{10.0 ** (-k / 2):.3g}": v[0] for k, v in tried.items()}
                 records.append({**case, "scipy": method, "reached": False, "tried": errors})
