@@ -66,6 +66,7 @@ def _errors(scene, method, spps, kink, window):
 SPPS = (32, 64, 128, 256, 512)
 
 
+@pytest.mark.slow  # compiles kink-kernel specialisations: 1-3 min on a cold cache
 def test_kink_aware_rk4_restores_order_4_on_rattle():
     """Rattle scene at 9000 rpm (4 crossings per mesh period). Measured on this machine:
     plain RK4 order 1.96, kink-aware RK4 order 4.0 (trajectory error over periods 40-60). The
@@ -100,6 +101,7 @@ def test_kink_equals_plain_without_backlash():
     np.testing.assert_array_equal(a.x_final, b.x_final)
 
 
+@pytest.mark.slow  # compiles kink-kernel specialisations: 1-3 min on a cold cache
 @pytest.mark.parametrize("method", ["rk4", "rk5"])
 def test_kink_equals_plain_when_nothing_crosses(method):
     """Backlash present but the teeth stay in contact (3000 rpm, started at the static
@@ -211,6 +213,7 @@ solver: {method: rk4, steps_per_period: 32, kink_aware: KINK, transient_periods:
 """
 
 
+@pytest.mark.slow  # compiles kink-kernel specialisations: 1-3 min on a cold cache
 def test_study_solver_kink_aware_reaches_the_kernel():
     """``solver.kink_aware`` in a study selects the kink-aware kernel: its statistics equal a
     direct kink-aware ``simulate`` of the same scene (1e-9 relative: the study builds its tables
@@ -246,6 +249,7 @@ def test_stability_limit_agrees_with_the_stability_module(method):
                                                               rel=1e-9)
 
 
+@pytest.mark.slow  # compiles kink-kernel specialisations: 1-3 min on a cold cache
 @pytest.mark.parametrize(("method", "lo", "hi"), [("rk4", 3.5, 4.5), ("rk5", 4.5, 5.5)])
 def test_kink_aware_order_with_time_varying_stiffness_and_all_tables(method, lo, hi):
     """Every term on: stiffness table with per-case scale, STE table, torque-fluctuation table and

@@ -80,7 +80,9 @@ def inverse_involute(value: float) -> float:
         Pressure angle [rad].
     """
     if not (0.0 <= value < involute(1.5)):
-        raise GeometryError(f"involute value {value:.6g} rad is outside [0, {involute(1.5):.3g})")
+        raise GeometryError(f"gear pair: involute value {value:.6g} rad is outside [0, "
+                            f"{involute(1.5):.3g}): the profile shifts give no valid operating "
+                            "pressure angle")
     if value == 0.0:
         return 0.0
     return brentq(lambda a: math.tan(a) - a - value, 0.0, 1.5, xtol=1e-15, rtol=1e-15)
