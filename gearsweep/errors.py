@@ -19,3 +19,11 @@ class GeometryError(GearsweepError):
 
 class ResultError(GearsweepError):
     """A results file that is missing, unreadable, or not a gearsweep result."""
+
+
+class ClusterError(GearsweepError):
+    """A dask cluster that cannot be reached or used, or a chunk that failed on it."""
+
+
+class LimitError(GearsweepError):
+    """A study predicted beyond the time, memory or output limits, not confirmed with --yes."""
