@@ -10,7 +10,8 @@ class StudyError(GearsweepError):
 
     def __init__(self, file: str, field: str, value: object, allowed: str) -> None:
         self.file, self.field, self.value, self.allowed = file, field, value, allowed
-        super().__init__(f"{file}: {field}: {value!r} -- {allowed}")
+        line = f"{file}: {field}: {value!r} -- {allowed}"
+        super().__init__(" ".join(line.splitlines()))  # one line, whatever the parts hold
 
 
 class GeometryError(GearsweepError):

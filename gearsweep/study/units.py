@@ -6,6 +6,7 @@ taken in the quantity's canonical unit (SI, except shaft speed, which is in rpm 
 
 from __future__ import annotations
 
+import re
 from functools import cache
 
 import pint
@@ -23,6 +24,10 @@ CANONICAL = {
     "angle": "rad",
     "dimensionless": "",
 }
+
+
+_INTEGER = re.compile(r"(?<![\w.])(?<![eE][-+])(\d[\d_]*)(?![\w.])")
+"""An integer literal on its own (not part of a float, an exponent or a name)."""
 
 
 @cache
@@ -47,12 +52,17 @@ def to_si(value: object, kind: str) -> float:
     if isinstance(value, bool):
         raise UnitParseError(f"expected a {kind} quantity such as '1 {target or '(no unit)'}'")
     if isinstance(value, int | float):
-        return float(value)
+        try:
+            return float(value)
+        except OverflowError:
+            raise UnitParseError("a number too large for a float (at most about 1e308)") from None
     if not isinstance(value, str):
         raise UnitParseError(f"expected a number or a string with {kind} units, e.g. '1 {target}'")
     ureg = registry()
     try:
-        q = ureg.Quantity(value.strip())
+        # Integer literals become floats before pint evaluates the text: with Python integers a
+        # power tower such as "10**10**10 N" would take forever; with floats it overflows at once.
+        q = ureg.Quantity(_INTEGER.sub(r"\1.0", value.strip()))
     except Exception as exc:  # pint raises many kinds of errors for malformed text
         raise UnitParseError(f"cannot read {value!r} as a quantity ({type(exc).__name__})") from None
     if not isinstance(q, pint.Quantity):
