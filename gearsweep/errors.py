@@ -10,7 +10,9 @@ class StudyError(GearsweepError):
 
     def __init__(self, file: str, field: str, value: object, allowed: str) -> None:
         self.file, self.field, self.value, self.allowed = file, field, value, allowed
-        line = f"{file}: {field}: {value!r} -- {allowed}"
+        shown = repr(value)
+        shown = shown if len(shown) <= 80 else shown[:60] + "..." + shown[-10:]
+        line = f"{file}: {field}: {shown} -- {allowed}"
         super().__init__(" ".join(line.splitlines()))  # one line, whatever the parts hold
 
 

@@ -291,7 +291,7 @@ def _loc(loc: tuple) -> str:
             parts.append(f"[{p}]")
         elif p in ("whine", "rattle", "full", "mathieu") and parts and parts[-1] == "scene":
             continue  # the discriminator's tag is not part of the user's path
-        elif p.startswith("function-") or p in ("list[union[float,str]]", "Range"):
+        elif p.startswith("function-") or p in ("list[union[float,str]]", "Range", "float", "str"):
             continue
         else:
             parts.append(("." if parts else "") + str(p))
