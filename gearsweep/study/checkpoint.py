@@ -119,7 +119,7 @@ class ChunkStore:
     def load(self, lane0: int, lane1: int) -> dict[str, np.ndarray] | None:
         """The arrays of one chunk, or ``None`` if its file is missing or unreadable."""
         try:
-            with np.load(self.path(lane0, lane1), allow_pickle=False) as z:
+            with open(self.path(lane0, lane1), "rb") as fh, np.load(fh, allow_pickle=False) as z:
                 return {k: z[k] for k in z.files}
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
             return None

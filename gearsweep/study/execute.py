@@ -32,6 +32,7 @@ import os
 import sys
 import threading
 import time
+from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -127,8 +128,9 @@ class Estimate:
                 f" per core ({self.rate_source}), peak memory {_size(self.memory_bytes)},"
                 f" output at most {_size(self.output_bytes)}")
 
-    def over(self, limits: Limits = LIMITS) -> list[str]:
+    def over(self, limits: Limits | None = None) -> list[str]:
         """The limits this estimate exceeds, in words (empty if none)."""
+        limits = limits or LIMITS
         out = []
         if self.seconds > limits.seconds:
             out.append(f"time > {_duration(limits.seconds)}")
@@ -163,10 +165,13 @@ def _case_bytes(plan: Plan) -> int:
     return total
 
 
-def _calls(plan: Plan, chunks: list[tuple[int, int]]) -> list[int]:
-    """Cases of every kernel call of the study (one call per chunk, or per speed and direction)."""
-    per_chunk = plan.chain * max(len(plan.directions), 1)
-    return [b - a for a, b in chunks for _ in range(per_chunk)]
+def _lane_steps(plan: Plan, chunks: list[tuple[int, int]], threads: int) -> float:
+    """Lane-steps the kernel advances per thread over all calls (a partly filled block of
+    ``LANES`` costs a full one; blocks are shared out over ``threads``)."""
+    calls_per_chunk = plan.chain * max(len(plan.directions), 1)  # continued: per speed and way
+    sizes = Counter(b - a for a, b in chunks)
+    rounds = sum(k * math.ceil(math.ceil(n / LANES) / threads) for n, k in sizes.items())
+    return float(rounds) * calls_per_chunk * LANES * plan.steps_per_case
 
 
 def measure_rate(plan: Plan, threads: int, seconds: float = 0.3) -> float:
@@ -219,10 +224,9 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     source = "stated" if rate is None else "measured"
     rate = rate or STATED_RATE[plan.study.solver.method]
     steps_case = plan.steps_per_case
-    lane_steps = sum(math.ceil(math.ceil(n / LANES) / threads) * LANES for n in _calls(plan, chunks))
     per_case = _case_bytes(plan)
     results = plan.n_cases * per_case
-    seconds = lane_steps * steps_case / (rate * 1e6) + FIXED_SECONDS + results / WRITE_RATE
+    seconds = _lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS + results / WRITE_RATE
     biggest = max((b - a for a, b in chunks), default=0) * plan.chain * max(len(plan.directions), 1)
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
@@ -233,9 +237,9 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
                     memory_bytes=memory, output_bytes=results + coords)
 
 
-def check_limits(est: Estimate, where: str, limits: Limits = LIMITS) -> None:
+def check_limits(est: Estimate, where: str, limits: Limits | None = None) -> None:
     """Raise ``LimitError`` (one line, with the estimate) if ``est`` is beyond ``limits``."""
-    over = est.over(limits)
+    over = est.over(limits or LIMITS)
     if over:
         raise LimitError(f"{where}: refused ({', '.join(over)}): {est.line()};"
                          f" run with --yes to go ahead")
