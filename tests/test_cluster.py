@@ -20,11 +20,10 @@ from pathlib import Path
 
 import pytest
 import xarray as xr
+from test_execute import LONG, RATTLE, assert_same, plan_of  # the tests folder is on sys.path
 
 from gearsweep.study.checkpoint import chunk_folder
 from gearsweep.study.execute import run_plan
-
-from test_execute import LONG, RATTLE, assert_same, plan_of  # noqa: I001 (tests folder on sys.path)
 
 pytestmark = pytest.mark.cluster
 
@@ -101,24 +100,33 @@ def _run_cli(args: list[str], **kw) -> subprocess.Popen:
                             cwd=ROOT, **kw)
 
 
-def test_scheduler_and_local_cluster_identical_to_in_process(tmp_path):
+@pytest.fixture(scope="module")
+def rattle_reference():
+    return run_plan(plan_of(RATTLE))
+
+
+def test_scheduler_identical_to_in_process(tmp_path, rattle_reference):
     """The continued rattle study (6 chunks of whole sweeps) through --scheduler on two real
-    worker processes with two dask threads each, and through --workers 2: bitwise identical to
-    one in-process chunk."""
+    worker processes with two dask threads each: bitwise identical to one in-process chunk."""
     study = tmp_path / "rattle.yaml"
     study.write_text(RATTLE, encoding="utf-8")
-    reference = run_plan(plan_of(RATTLE))
     with dask_cluster(tmp_path, n_workers=2, nthreads=2) as (address, _):
         out = tmp_path / "sched.nc"
         proc = _run_cli([str(study), "-o", str(out), "--scheduler", address, "--chunk-size", "48"])
         assert proc.wait(timeout=600) == 0
     with xr.open_dataset(out) as ds:
-        assert_same(ds.load(), reference)
+        assert_same(ds.load(), rattle_reference)
+
+
+def test_local_cluster_identical_to_in_process(tmp_path, rattle_reference):
+    """The same study through --workers 2 (a LocalCluster started and closed by the CLI)."""
+    study = tmp_path / "rattle.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
     out = tmp_path / "local.nc"
     proc = _run_cli([str(study), "-o", str(out), "--workers", "2", "--chunk-size", "48"])
     assert proc.wait(timeout=600) == 0
     with xr.open_dataset(out) as ds:
-        assert_same(ds.load(), reference)
+        assert_same(ds.load(), rattle_reference)
 
 
 def test_unreachable_scheduler_is_one_line(tmp_path):

@@ -305,7 +305,7 @@ class DaskBackend:
     workers : int
         Start a ``LocalCluster`` of this many single-threaded worker processes instead.
     timeout : float
-        Seconds to wait for the scheduler and for a first worker [s].
+        Seconds to wait for a first worker (for the scheduler: at most 10) [s].
     """
 
     def __init__(self, scheduler: str | None = None, workers: int | None = None,
@@ -327,7 +327,7 @@ class DaskBackend:
                                             silence_logs=logging.ERROR)
                 self.client = Client(self.cluster)
             else:
-                self.client = Client(self.scheduler, timeout=f"{self.timeout}s")
+                self.client = Client(self.scheduler, timeout=f"{min(self.timeout, 10.0)}s")
             self.client.wait_for_workers(1, timeout=self.timeout)
         except (OSError, TimeoutError) as exc:
             self.__exit__()
