@@ -161,6 +161,7 @@ def test_changed_study_does_not_reuse_chunks(tmp_path, monkeypatch):
     assert read_log(log) == plan2.chunks(execute.lanes_per_chunk(plan2, CHUNK))  # all of them
     assert_same(ds, run_plan(plan2))
     assert "backlash: 0.3 mm" in ds.attrs["study"]
+    assert not chunk_folder(out).exists()  # the stale chunks of the first study went too
 
 
 def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path, monkeypatch):
@@ -331,3 +332,13 @@ def test_pathological_cases_are_flagged_not_fatal():
 def assert_same_values(a: xr.Dataset, b: xr.Dataset) -> None:
     for name in b.data_vars:
         np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+
+
+def test_progress_per_chunk_on_stderr_only_when_asked(capsys):
+    plan = plan_of(RATTLE)
+    run_plan(plan, chunk_cases=CHUNK, progress=True)
+    err = capsys.readouterr().err
+    assert "288/288" in err and "case" in err  # tqdm's final state: every case counted
+    run_plan(plan, chunk_cases=CHUNK, progress=False)
+    captured = capsys.readouterr()
+    assert captured.err == "" and captured.out == ""
