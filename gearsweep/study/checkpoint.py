@@ -128,6 +128,8 @@ class ChunkStore:
         """Remove one chunk file (an unreadable one, so that it is computed again)."""
         self.path(lane0, lane1).unlink(missing_ok=True)
 
-    def remove(self) -> None:
-        """Remove every checkpoint of ``output`` (this study's and stale ones of other studies)."""
-        shutil.rmtree(self.root, ignore_errors=True)
+
+
+def remove_checkpoints(output: str | Path) -> None:
+    """Remove every checkpoint of ``output`` (its study's and stale ones of other studies)."""
+    shutil.rmtree(chunk_folder(output), ignore_errors=True)

@@ -43,7 +43,7 @@ import xarray as xr
 
 from gearsweep.errors import ClusterError, LimitError
 from gearsweep.kernels import LANES
-from gearsweep.study.checkpoint import ChunkStore
+from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
 from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.runner import (
     Plan,
@@ -496,5 +496,5 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     ds = run_plan(plan, backend=backend, checkpoint=output, chunk_cases=chunk_cases,
                   progress=progress)
     write_netcdf(ds, output)
-    ChunkStore(output, "", 0, []).remove()
+    remove_checkpoints(output)
     return ds
