@@ -49,6 +49,34 @@ def bare_kernel_seconds(plan, chunks: list[tuple[int, int]]) -> float:
     return total
 
 
+def paired_chunks(plan, folder: Path) -> tuple[float, float]:
+    """(bare kernel seconds, study chunk-phase seconds) timed chunk by chunk, alternately.
+
+    For each chunk: ``simulate`` alone, then what ``run_plan`` does for it (``run_chunk``: kernel
+    inputs, kernel, outputs, status; the checkpoint file; the copy into the full arrays). Pairing
+    the two within seconds of each other cancels most of the drift of other load.
+    """
+    from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
+    from gearsweep.study.execute import _run_chunk
+    from gearsweep.study.runner import empty_results, store_chunk
+
+    chunks = plan.chunks()
+    out = folder / "paired.nc"
+    store = ChunkStore(out, "paired", plan.n_lanes, chunks)
+    store.open()
+    results = empty_results(plan)
+    bare = study = 0.0
+    for a, b in chunks:
+        bare += bare_kernel_seconds(plan, [(a, b)])
+        t0 = time.perf_counter()
+        arrays = _run_chunk(plan, a, b)
+        store.save(a, b, arrays)
+        store_chunk(results, plan, a, b, arrays)
+        study += time.perf_counter() - t0
+    remove_checkpoints(out)
+    return bare, study
+
+
 def study_run(study: Path, out: Path) -> tuple[float, float, float, int]:
     """(chunk-phase seconds, wall seconds, peak RSS [bytes], output bytes) of one CLI run."""
     rss_file = out.with_suffix(".rss")
@@ -85,6 +113,12 @@ def main() -> None:
     bare, chunk, wall, rss = [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "scale.nc"
+        pairs = []
+        for r in range(args.repeats):
+            pb, ps = paired_chunks(plan, Path(tmp))
+            pairs.append(ps / pb)
+            print(f"  paired {r}: bare kernel {pb:.2f} s, study chunk work {ps:.2f} s"
+                  f" (ratio {ps / pb:.3f})", flush=True)
         for r in range(args.repeats):
             bare.append(bare_kernel_seconds(plan, chunks))
             c, w, m, size = study_run(Path(args.study), out)
@@ -101,6 +135,8 @@ def main() -> None:
           f"  (median ratio of times to the bare kernel's in the same repeat: {ratio:.3f})")
     print(f"study, whole run:   {mw:.2f} s  {steps / mw / 1e6:.0f} Msteps/s"
           f" (process start, plan, chunks, assembly, netCDF write)")
+    print(f"paired chunk by chunk in one process: median ratio {statistics.median(pairs):.3f}"
+          f" (study chunk work / bare kernel)")
     print(f"peak RSS {max(rss) / 1e6:.0f} MB, output {size / 1e6:.1f} MB")
 
 
