@@ -342,3 +342,14 @@ def test_progress_per_chunk_on_stderr_only_when_asked(capsys):
     run_plan(plan, chunk_cases=CHUNK, progress=False)
     captured = capsys.readouterr()
     assert captured.err == "" and captured.out == ""
+
+
+def test_result_file_has_ordinary_permissions(tmp_path):
+    """The atomic writer's temporary file is private (mkstemp: 0600); the result must not be."""
+    umask = os.umask(0o022)
+    try:
+        out = tmp_path / "r.nc"
+        execute.run_to_file(plan_of(RATTLE), out)
+        assert out.stat().st_mode & 0o777 == 0o644
+    finally:
+        os.umask(umask)
