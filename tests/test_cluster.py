@@ -166,5 +166,7 @@ def test_killed_worker_chunks_are_rerun(tmp_path):
         assert saved == 0 and out.exists()
     log = (tmp_path / "worker0.log").read_text()
     assert workers[0].returncode == -signal.SIGKILL, log[-2000:]
+    # The scheduler saw the worker go (and released its processing chunks to the other one).
+    assert "Remove worker" in (tmp_path / "scheduler.log").read_text()
     with xr.open_dataset(out) as ds:
         assert_same(ds.load(), run_plan(plan_of(LONG)))
