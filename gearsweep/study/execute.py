@@ -123,7 +123,8 @@ class Estimate:
 
     def line(self) -> str:
         """The estimate in one line."""
-        return (f"{self.cases:,} cases, {self.steps:.3g} steps in {self.chunks} chunks: about"
+        chunks = f"{self.chunks} chunk" + ("s" if self.chunks != 1 else "")
+        return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
                 f" {_duration(self.seconds)} on {self.threads} cores at {self.rate:.0f} Msteps/s"
                 f" per core ({self.rate_source}), peak memory {_size(self.memory_bytes)},"
                 f" output at most {_size(self.output_bytes)}")
