@@ -41,6 +41,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
+    if getattr(study, "type", None) == "mesh":
+        from gearsweep.study.mesh_runner import summary
+
+        print(f"{args.study}: ok -- {summary(study)}")
+        return 0
     plan = make_plan(study, text)
     dims = ", ".join(f"{d}={len(plan.grids[d])}" for d in plan.dims)
     extra = f" x directions {plan.directions}" if plan.continued else ""
@@ -75,10 +80,22 @@ def cmd_run(args: argparse.Namespace) -> int:
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
-    plan = make_plan(study, text)
     out = Path(args.output) if args.output else _default_output(args.study)
     if not args.estimate:
         _check_writable(out)
+    if getattr(study, "type", None) == "mesh":  # a static mesh study: no integration, no chunks
+        from gearsweep.study.dataset import write_netcdf
+        from gearsweep.study.runner import run_study
+
+        if args.estimate:
+            print(f"{args.study}: a static mesh study, no time integration: about a second")
+            return 0
+        t0 = time.perf_counter()
+        write_netcdf(run_study(study, text), out)
+        if not args.quiet:
+            print(f"{out}: static mesh study in {time.perf_counter() - t0:.2f} s")
+        return 0
+    plan = make_plan(study, text)
     if args.chunk_size is not None and args.chunk_size < 1:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
     if args.workers is not None and args.workers < 1:
@@ -101,9 +118,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         t0 = time.perf_counter()
         ds = run_to_file(plan, out, backend=backend, chunk_cases=args.chunk_size,
                          progress=progress)
+        if "beyond_step_limit" in ds and bool(ds["beyond_step_limit"].any()):
+            n_bad = int(ds["beyond_step_limit"].sum())
+            print(f"gearsweep: warning: {out}: {n_bad} case(s) use a step beyond the stability limit"
+                  f" of {study.solver.method} at {study.solver.steps_per_period} steps/period; their"
+                  " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
+                  " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
     if not args.quiet:
-        status = ds["status"].values
-        bad = int((status != 0).sum())
+        bad = int((ds["status"].values != 0).sum()) if "status" in ds else 0
         print(f"{out}: {int(ds.attrs['cases'])} cases in {time.perf_counter() - t0:.2f} s"
               + (f"; {bad} flagged in 'status' (see its 'codes' attribute)" if bad else ""))
     return 0
@@ -120,11 +142,15 @@ def describe(path: str | Path) -> str:
         raise ResultError(f"{path}: cannot open as a netCDF result ({exc})") from None
     with ds:
         lines = [f"{path}: {ds.attrs.get('title', '(no title)')}"]
-        lines.append(f"  made by {ds.attrs.get('history', '?')}; scene "
-                     f"{ds.attrs.get('scene', '?')}, {ds.attrs.get('method', '?')} at "
-                     f"{ds.attrs.get('steps_per_period', '?')} steps per mesh period, "
-                     f"{ds.attrs.get('transient_periods', '?')} transient + "
-                     f"{ds.attrs.get('recorded_periods', '?')} recorded periods")
+        if ds.attrs.get("scene") == "mesh":
+            lines.append(f"  made by {ds.attrs.get('history', '?')}; static mesh study,"
+                         f" {ds.attrs.get('positions', '?')} positions per mesh cycle")
+        else:
+            lines.append(f"  made by {ds.attrs.get('history', '?')}; scene "
+                         f"{ds.attrs.get('scene', '?')}, {ds.attrs.get('method', '?')} at "
+                         f"{ds.attrs.get('steps_per_period', '?')} steps per mesh period, "
+                         f"{ds.attrs.get('transient_periods', '?')} transient + "
+                         f"{ds.attrs.get('recorded_periods', '?')} recorded periods")
         lines.append("  swept:")
         for d in ds.dims:
             c = ds[d] if d in ds.coords else None

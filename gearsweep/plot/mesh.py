@@ -1,31 +1,63 @@
 """Figures of the static mesh: STE (Fig. 1), load sharing (Fig. 2), backlash spring (Fig. 3),
 STE versus load and the effect of tip relief.
 
-Every function takes a matplotlib ``ax`` and plain arrays or a
-:class:`gearsweep.gear.mesh.MeshCycle`, draws on ``ax`` and returns its figure. Arrays are in SI
-units; axes are labelled in engineering units (um, mm, N m, kN).
+Every function takes a matplotlib ``ax`` and plain arrays, a
+:class:`gearsweep.gear.mesh.MeshCycle`, or one mesh cycle of a mesh study's Dataset (``gearsweep
+run`` of a ``type: mesh`` study, selected down to one gear variant and one torque), draws on
+``ax`` and returns its figure. Arrays are in SI units; axes are labelled in engineering units
+(um, mm, N m, kN).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
+import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from gearsweep.errors import ResultError
 from gearsweep.gear.mesh import MeshCycle
 
 __all__ = [
     "plot_backlash_stiffness",
     "plot_load_sharing",
     "plot_ste",
+    "plot_ste_harmonics",
     "plot_ste_vs_load",
     "plot_tip_relief",
 ]
 
 UM = 1e6  # m -> um
 MM = 1e3  # m -> mm
+
+
+@dataclass(frozen=True)
+class _Cycle:
+    """The arrays of one mesh cycle the plots need, from a MeshCycle or a Dataset."""
+
+    phase: np.ndarray
+    ste: np.ndarray
+    load_share: np.ndarray
+    in_contact: np.ndarray
+    contact_ratio: float
+    base_pitch: float
+    torque: float
+
+
+def _cycle(data: MeshCycle | xr.Dataset) -> _Cycle:
+    if isinstance(data, MeshCycle):
+        return _Cycle(data.phase, data.ste, data.load_share, data.in_contact,
+                      data.pair.contact_ratio, data.pair.base_pitch, data.torque)
+    extra = set(data["ste"].dims) - {"mesh_phase"}
+    if extra:
+        raise ResultError(f"select one mesh cycle first (e.g. .sel(...)); extra dims {sorted(extra)}")
+    keep = data["in_contact"].values.any(axis=0)  # drop pair slots padded for other variants
+    return _Cycle(data["mesh_phase"].values, data["ste"].values,
+                  data["load_share"].values[:, keep], data["in_contact"].values[:, keep],
+                  float(data["contact_ratio"]), float(data["base_pitch"]), float(data["torque"]))
 
 
 def _shade_single_contact(ax: Axes, phase: np.ndarray, n_pairs: np.ndarray, cycles: int) -> None:
@@ -53,7 +85,7 @@ def plot_ste(
     ----------
     ax : Axes
         Where to draw.
-    phase : ndarray or MeshCycle
+    phase : ndarray or MeshCycle or Dataset
         Mesh phase in [0, 1) [-], or a mesh cycle (then ``ste`` is taken from it and single
         contact is shaded).
     ste : ndarray, optional
@@ -68,8 +100,8 @@ def plot_ste(
     Figure
         The figure of ``ax``.
     """
-    if isinstance(phase, MeshCycle):
-        mc = phase
+    if isinstance(phase, MeshCycle | xr.Dataset):
+        mc = _cycle(phase)
         phase, ste = mc.phase, mc.ste
         _shade_single_contact(ax, phase, mc.in_contact.sum(axis=1), cycles)
         if label is None:
@@ -84,7 +116,7 @@ def plot_ste(
     return ax.figure
 
 
-def plot_load_sharing(ax: Axes, cycle: MeshCycle) -> Figure:
+def plot_load_sharing(ax: Axes, cycle: MeshCycle | xr.Dataset) -> Figure:
     """Load share of one tooth pair through its whole engagement (paper Fig. 2).
 
     The pair enters at the start of the path of contact (position 0) and leaves at its end
@@ -94,7 +126,7 @@ def plot_load_sharing(ax: Axes, cycle: MeshCycle) -> Figure:
     ----------
     ax : Axes
         Where to draw.
-    cycle : MeshCycle
+    cycle : MeshCycle or Dataset
         A computed mesh cycle.
 
     Returns
@@ -102,13 +134,14 @@ def plot_load_sharing(ax: Axes, cycle: MeshCycle) -> Figure:
     Figure
         The figure of ``ax``.
     """
-    pb = cycle.pair.base_pitch
-    n_slot = cycle.s.shape[1]
+    cycle = _cycle(cycle)
+    pb = cycle.base_pitch
+    n_slot = cycle.load_share.shape[1]
     pos = np.concatenate([cycle.phase + j for j in range(n_slot)])
     share = np.concatenate([cycle.load_share[:, j] for j in range(n_slot)])
     inside = np.concatenate([cycle.in_contact[:, j] for j in range(n_slot)])
     pos, share = pos[inside], share[inside]
-    eps = cycle.pair.contact_ratio
+    eps = cycle.contact_ratio
     # Close the curve at the end of the path of contact (last sample -> eps).
     pos = np.append(pos, eps)
     share = np.append(share, share[-1])
@@ -237,16 +270,17 @@ def plot_ste_vs_load(
     return ax.figure
 
 
-def plot_tip_relief(ax: Axes, plain: MeshCycle, relieved: MeshCycle, *, cycles: int = 2) -> Figure:
-    """STE through the mesh cycle without and with tip relief at the same torque.
+def plot_tip_relief(ax: Axes, cycles: Mapping[str, MeshCycle | xr.Dataset], *,
+                    cycles_shown: int = 2) -> Figure:
+    """STE through the mesh cycle of several gear variants (e.g. with and without tip relief).
 
     Parameters
     ----------
     ax : Axes
         Where to draw.
-    plain, relieved : MeshCycle
-        Mesh cycles without and with relief.
-    cycles : int
+    cycles : mapping of label to MeshCycle or Dataset
+        One mesh cycle per variant (at the same torque).
+    cycles_shown : int
         Mesh cycles to show [-].
 
     Returns
@@ -254,7 +288,38 @@ def plot_tip_relief(ax: Axes, plain: MeshCycle, relieved: MeshCycle, *, cycles: 
     Figure
         The figure of ``ax``.
     """
-    plot_ste(ax, plain.phase, plain.ste, cycles=cycles, label="no relief")
-    plot_ste(ax, relieved.phase, relieved.ste, cycles=cycles, label="with tip relief")
-    ax.set_title(f"T = {plain.torque:g} N m", fontsize=9)
+    for label, data in cycles.items():
+        c = _cycle(data)
+        plot_ste(ax, c.phase, c.ste, cycles=cycles_shown, label=label)
+    return ax.figure
+
+
+def plot_ste_harmonics(ax: Axes, amplitudes: Mapping[str, np.ndarray], *, orders: int = 5
+                       ) -> Figure:
+    """Bars of the STE Fourier amplitudes of mesh orders 1..``orders`` for several variants.
+
+    Parameters
+    ----------
+    ax : Axes
+        Where to draw.
+    amplitudes : mapping of label to ndarray
+        ``ste_harmonic`` of each variant (index 0 = mean, not drawn) [m].
+    orders : int
+        Highest mesh order shown [-].
+
+    Returns
+    -------
+    Figure
+        The figure of ``ax``.
+    """
+    n = len(amplitudes)
+    width = 0.8 / max(n, 1)
+    k = np.arange(1, orders + 1)
+    for i, (label, amp) in enumerate(amplitudes.items()):
+        ax.bar(k + (i - (n - 1) / 2) * width, np.asarray(amp)[1:orders + 1] * UM, width,
+               label=label)
+    ax.set_xticks(k)
+    ax.set_xlabel("mesh order [-]")
+    ax.set_ylabel("STE harmonic amplitude [um]")
+    ax.grid(True, axis="y", alpha=0.3)
     return ax.figure

@@ -168,10 +168,15 @@ def _case_bytes(plan: Plan) -> int:
 
 def _lane_steps(plan: Plan, chunks: list[tuple[int, int]], threads: int) -> float:
     """Lane-steps the kernel advances per thread over all calls (a partly filled block of
-    ``LANES`` costs a full one; blocks are shared out over ``threads``)."""
-    calls_per_chunk = plan.chain * max(len(plan.directions), 1)  # continued: per speed and way
+    ``LANES`` costs a full one; blocks are shared out over ``threads``).
+
+    A chunk is one kernel call, or, for continued sweeps, one call per speed in which the up and
+    the down sweeps of its lanes advance side by side (``runner.run_chunk``).
+    """
+    calls_per_chunk = plan.chain
+    ways = max(len(plan.directions), 1)
     sizes = Counter(b - a for a, b in chunks)
-    rounds = sum(k * math.ceil(math.ceil(n / LANES) / threads) for n, k in sizes.items())
+    rounds = sum(k * math.ceil(math.ceil(n * ways / LANES) / threads) for n, k in sizes.items())
     return float(rounds) * calls_per_chunk * LANES * plan.steps_per_case
 
 

@@ -6,17 +6,27 @@ an ``Output`` here (e.g. spectra, Floquet multipliers); the runner, chunking and
 builder need no change.
 
 ``signal_samples_per_period`` > 0 asks the runner to record p at that many samples per mesh period
-over the recorded window (``steps_per_period`` must be a multiple of it).
+over the recorded window (``steps_per_period`` must be a multiple of it). The signal exists only
+for one chunk of cases at a time: an output reduces it to what it keeps (e.g. a few spectral bins).
+
+An output that takes options (``outputs: [{spectrum: {max_order: 4}}]`` in the YAML) names a
+pydantic model in ``options_model``; ``configure`` validates the options against it and the plan
+keeps the result in ``plan.options[name]``.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from gearsweep.analysis.spectrum import kept_bins, line_spectrum
+from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
+from gearsweep.model import RPM, MeshModel, mesh_frequency
 
 if TYPE_CHECKING:
     from gearsweep.study.runner import Plan
@@ -30,10 +40,15 @@ class VarSpec:
     extra_coords: dict[str, np.ndarray] = field(default_factory=dict)
     dtype: str = "float64"
     attrs: dict = field(default_factory=dict)
+    aux_coords: dict[str, tuple[tuple[str, ...], np.ndarray]] = field(default_factory=dict)
+    """Non-index coordinates ``name -> (dims, values)`` over the study's dims and the extra dims
+    (e.g. ``frequency`` on ``(speed, order)``)."""
 
 
 class Output(Protocol):
     name: str
+    options_model: type[BaseModel] | None
+    """Pydantic model of the output's options (``None`` or absent: it takes none)."""
 
     def signal_samples_per_period(self, plan: Plan) -> int: ...
 
@@ -47,6 +62,7 @@ class Stats:
     """Steady-state statistics of p (DATA.md): rms, peak-to-peak, extremes, mean, contact."""
 
     name = "stats"
+    options_model = None
 
     def signal_samples_per_period(self, plan: Plan) -> int:
         return 0
@@ -69,5 +85,171 @@ class Stats:
         return out
 
 
-OUTPUTS: dict[str, Output] = {"stats": Stats()}
+class SpectrumOptions(BaseModel):
+    """Options of the ``spectrum`` output."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    max_order: float = Field(4.0, gt=0, description="highest mesh order kept [-]")
+    samples_per_period: int | None = Field(
+        None, ge=2, description="samples of p per mesh period (a divisor of steps_per_period;"
+        " default: the smallest divisor >= 4 max_order, so orders below 3 max_order cannot alias"
+        " into the kept bins)")
+    force: bool = Field(True, description="also the spectrum of the dynamic mesh force"
+                        " k(t) f(p) + c p' (variable force_spectrum) [N]")
+
+    @model_validator(mode="after")
+    def _nyquist(self) -> SpectrumOptions:
+        sps = self.samples_per_period
+        if sps is not None and self.max_order > sps / 2:
+            raise ValueError(f"max_order {self.max_order:g} is above the Nyquist order"
+                             f" samples_per_period / 2 = {sps / 2:g}")
+        return self
+
+
+class Spectrum:
+    """Single-sided amplitude spectrum of p over the whole recorded mesh periods (DATA.md).
+
+    p is sampled ``samples_per_period`` times per mesh period over the ``record_periods`` whole
+    periods, so mesh order r falls on bin ``r * record_periods`` exactly: no window, no leakage
+    for a periodic steady state. Bins up to ``max_order`` are kept on the ``order`` coordinate
+    (``k / record_periods``, exact), with ``frequency`` = order x mesh frequency [Hz] as a 2-D
+    auxiliary coordinate on ``(speed, order)``. Memory: the signal of one chunk, then
+    cases x kept bins.
+
+    ``force_spectrum`` [N] is the spectrum of the dynamic mesh force ``k(t) f(p) + c p'``:
+    ``k(t) f(p)`` is formed from the samples (k(t) is known at every sample), and ``c p'`` is
+    added bin by bin as ``i c w_k`` times the spectrum of p (exact for a periodic, band-limited
+    p; the Nyquist bin of ``c p'``, whose phase is not observable, is taken as zero).
+    """
+
+    name = "spectrum"
+    options_model = SpectrumOptions
+
+    @staticmethod
+    def _opts(plan: Plan) -> SpectrumOptions:
+        opts = plan.options.get("spectrum")
+        return opts if isinstance(opts, SpectrumOptions) else SpectrumOptions()
+
+    def signal_samples_per_period(self, plan: Plan) -> int:
+        o = self._opts(plan)
+        if o.samples_per_period is not None:
+            return o.samples_per_period
+        spp = plan.study.solver.steps_per_period
+        for d in range(1, spp + 1):
+            if spp % d == 0 and d >= 4 * o.max_order:
+                return d
+        return spp
+
+    def _force(self, plan: Plan) -> bool:
+        return self._opts(plan).force and isinstance(plan.model, MeshModel)
+
+    def variables(self, plan: Plan) -> dict[str, VarSpec]:
+        o = self._opts(plan)
+        sps = self.signal_samples_per_period(plan)
+        rec = plan.study.solver.record_periods
+        where = "outputs.spectrum"
+        if o.max_order > sps / 2:
+            raise StudyError("<study>", f"{where}.max_order", o.max_order,
+                             f"at most samples_per_period / 2 = {sps / 2:g} (the Nyquist order)")
+        if isinstance(plan.model, MeshModel) and rec % plan.model.cycle_periods:
+            raise StudyError("<study>", "solver.record_periods", rec,
+                             f"a multiple of {plan.model.cycle_periods} mesh periods (the cycle of"
+                             " the excitation) for a spectrum without leakage")
+        order = np.arange(kept_bins(rec * sps, rec, o.max_order)) / rec
+        aux = {}
+        if isinstance(plan.model, MeshModel):
+            f_mesh = mesh_frequency(plan.grids["speed"], plan.model.teeth)
+            aux["frequency"] = (("speed", "order"), f_mesh[:, None] * order[None, :])
+        common = dict(extra_dims=("order",), extra_coords={"order": order}, aux_coords=aux)
+        unit = {"units": "1"} if plan.dimensionless else {}
+        specs = {"spectrum": VarSpec(**common, attrs={
+            **unit, "samples_per_period": sps, "window": "none (whole mesh periods)"})}
+        if self._force(plan):
+            specs["force_spectrum"] = VarSpec(**common, attrs={
+                "units": "N", "samples_per_period": sps,
+                "long_name": "single-sided amplitude spectrum of the dynamic mesh force"
+                             " k(t) f(p) + c p' over whole mesh periods"})
+        return specs
+
+    def compute(self, plan: Plan, params: dict[str, np.ndarray],
+                result: BatchResult) -> dict[str, np.ndarray]:
+        o = self._opts(plan)
+        s = plan.study.solver
+        rec = s.record_periods
+        sig = result.signal
+        order, c = line_spectrum(sig, rec, o.max_order)
+        bad = result.status != 0
+        amp = np.abs(c)
+        amp[bad] = np.nan
+        out = {"spectrum": amp}
+        if self._force(plan):
+            out["force_spectrum"] = self._force_spectrum(plan, params, sig, order, c)
+            out["force_spectrum"][bad] = np.nan
+        return out
+
+    def _force_spectrum(self, plan: Plan, params: dict[str, np.ndarray], sig: np.ndarray,
+                        order: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """|spectrum| of k(t) f(p) + c p' for every case of the chunk [N]."""
+        model: MeshModel = plan.model  # type: ignore[assignment]
+        s = plan.study.solver
+        n = sig.shape[0]
+        spp = s.steps_per_period
+        stride = spp // self.signal_samples_per_period(plan)
+        # Sample j holds the state after step n_transient + j * stride: phase in mesh periods.
+        phi = s.transient_periods + (1.0 + stride * np.arange(sig.shape[1])) / spp
+
+        def per_case(name: str, default: float) -> np.ndarray:
+            return np.asarray(params[name], float) if name in params else np.full(n, default)
+
+        k_t = per_case("stiffness", model.stiffness)[:, None] + sum(
+            (hm.amplitude * np.cos(2.0 * math.pi * hm.order * phi + hm.phase)
+             for hm in model.stiffness_harmonics), np.zeros_like(phi))[None, :]
+        f_p = sig
+        if plan.has_backlash:
+            b = per_case("backlash", model.backlash)[:, None] / 2.0
+            f_p = sig - np.clip(sig, -b, b)
+        _, c_spring = line_spectrum(k_t * f_p, s.record_periods, self._opts(plan).max_order)
+        omega = model.teeth * per_case("speed", math.nan) * RPM  # mesh angular frequency [rad/s]
+        dp = 1j * omega[:, None] * order[None, :] * c  # spectrum of p'
+        n_samples = sig.shape[1]
+        if n_samples % 2 == 0 and len(order) == n_samples // 2 + 1:
+            dp[:, -1] = 0.0
+        return np.abs(c_spring + per_case("damping", model.damping)[:, None] * dp)
+
+
+OUTPUTS: dict[str, Output] = {"stats": Stats(), "spectrum": Spectrum()}
 """Registered outputs by name."""
+
+
+def configure(name: str, options: dict[str, Any], file: str = "<study>",
+              where: str | None = None) -> BaseModel | None:
+    """Validate the options of output ``name``; a problem raises one ``StudyError`` line.
+
+    Returns
+    -------
+    The output's options model instance, or ``None`` for an output that takes no options.
+    """
+    where = where or f"outputs.{name}"
+    model = getattr(OUTPUTS[name], "options_model", None)
+    if model is None:
+        if options:
+            raise StudyError(file, where, options, f"the {name!r} output takes no options")
+        return None
+    try:
+        return model.model_validate(options)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        loc = ".".join(str(p) for p in err["loc"])
+        msg = err["msg"].removeprefix("Value error, ")
+        value = err.get("input")
+        if isinstance(value, dict):
+            value = options
+        if err["type"] == "extra_forbidden":
+            msg = f"unknown option; allowed: {', '.join(model.model_fields)}"
+        raise StudyError(file, f"{where}.{loc}" if loc else where, value, msg) from None
+
+
+from gearsweep.study.stability_output import Floquet  # noqa: E402 -- needs VarSpec above
+
+OUTPUTS["floquet"] = Floquet()

@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -22,13 +24,19 @@ from gearsweep.kernels import LANES, STATUS_DIVERGED, simulate
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, mesh_frequency
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.dataset import build_dataset
-from gearsweep.study.outputs import OUTPUTS, VarSpec
+from gearsweep.study.gearscene import scene_excitation
+from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
 from gearsweep.study.schema import Study
 from gearsweep.study.units import to_si
+
+if TYPE_CHECKING:
+    from gearsweep.study.mesh_runner import MeshStudy
 
 STATUS_NOT_SETTLED = 2
 CHUNK_STEPS = 4e8
 """Target integration steps per chunk (about half a second of kernel time on this machine)."""
+CHUNK_SIGNAL_BYTES = 64e6
+"""At most this much recorded time history per chunk (outputs reduce it per chunk)."""
 
 
 def build_model(study: Study) -> MeshModel | MathieuModel:
@@ -42,6 +50,9 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
     else:
         mass = sc.mass
     r1 = sc.r1
+    gear = scene_excitation(sc) if getattr(sc, "gear", None) is not None else None
+    if gear is not None:
+        r1 = gear.base_radius_1
     mean_force = sc.mean_force if sc.mean_force is not None else 0.0
     if sc.torque is not None:
         mean_force = sc.torque / r1
@@ -65,16 +76,25 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
         return tuple(Harmonic(h.amplitude, h.order if h.order is not None else i + 1, h.phase)
                      for i, h in enumerate(items))
 
+    if gear is not None:  # k(t), e(t) of the gear pair at the mean load (gearscene.py)
+        teeth, k0, k_h, e_h = (gear.teeth, gear.stiffness, gear.stiffness_harmonics,
+                               gear.no_load_te_harmonics)
+        if sc.kind == "rattle":  # Eq. (13): constant k0, so e(t) is the loaded STE
+            k_h, e_h = (), gear.ste_harmonics
+    else:
+        teeth, k0 = sc.teeth, sc.stiffness
+        k_h = harmonics(getattr(sc, "stiffness_harmonics", []))
+        e_h = harmonics(getattr(sc, "ste", []))
     return MeshModel(
         mass=mass,
-        teeth=sc.teeth,
-        stiffness=sc.stiffness,
+        teeth=teeth,
+        stiffness=k0,
         damping=sc.damping,
         mean_force=mean_force,
         base_radius=r1,
         backlash=getattr(sc, "backlash", 0.0),
-        stiffness_harmonics=harmonics(getattr(sc, "stiffness_harmonics", [])),
-        ste_harmonics=harmonics(getattr(sc, "ste", [])),
+        stiffness_harmonics=k_h,
+        ste_harmonics=e_h,
         force_harmonics=tuple(fluct),
     )
 
@@ -93,6 +113,8 @@ class Plan:
     """``["up"]``, ``["down"]``, both, or ``[]`` (no continuation)."""
     outputs: list[str]
     specs: dict[str, VarSpec] = field(default_factory=dict)
+    options: dict[str, Any] = field(default_factory=dict)
+    """Validated options of the outputs that take some (``outputs.configure``), by name."""
 
     @property
     def continued(self) -> bool:
@@ -138,6 +160,12 @@ class Plan:
         if lanes_per_chunk is None:
             per_lane = self.steps_per_case * self.chain * max(len(self.directions), 1)
             lanes_per_chunk = max(4 * LANES, int(CHUNK_STEPS // max(per_lane, 1)))
+            # Up and down sweeps of a lane run side by side: one signal per direction.
+            signal = (self.samples_per_period() * self.study.solver.record_periods * 8
+                      * max(len(self.directions), 1))
+            if signal:
+                lanes_per_chunk = min(lanes_per_chunk,
+                                      max(4 * LANES, int(CHUNK_SIGNAL_BYTES // signal)))
         n = self.n_lanes
         return [(a, min(a + lanes_per_chunk, n)) for a in range(0, n, lanes_per_chunk)]
 
@@ -150,9 +178,14 @@ def make_plan(study: Study, text: str = "") -> Plan:
         grids["speed"] = np.array([study.scene.speed])
         dims.append("speed")
     plan = Plan(study, text, build_model(study), dims, grids, list(study.continuation),
-                list(study.outputs))
+                [o.name for o in study.outputs],
+                options={o.name: configure(o.name, o.options) for o in study.outputs})
     for o in plan.outputs:
         plan.specs.update(OUTPUTS[o].variables(plan))
+    if study.solver.step_guard == "warn":
+        plan.specs["beyond_step_limit"] = VarSpec(dtype="bool", attrs={
+            "units": "1", "long_name": "step beyond the method's stability limit (results may be"
+            " spoiled by the integrator)"})
     spp, sps = study.solver.steps_per_period, plan.samples_per_period()
     if sps and spp % sps:
         from gearsweep.errors import StudyError
@@ -169,8 +202,77 @@ def _lane_params(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
     return {d: plan.grids[d][i] for d, i in zip(plan.lane_dims, idx, strict=True)}
 
 
+STATUS_SKIPPED = 3
+
+
+@lru_cache(maxsize=4096)
+def _stable_step(method: str, k_over_m: float, c_over_m: float) -> float:
+    """Largest stable step [s] of ``method`` (root of |R(h lambda)| = 1), memoised: a continued
+    sweep asks for the same (k/m, c/m) at every speed."""
+    from gearsweep.analysis.stability import max_stable_step
+
+    return float(np.asarray(max_stable_step(method, k_over_m, c_over_m)).ravel()[0])
+
+
+def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """The guard rail: is the study's step within the method's stability limit, per case?
+
+    Frozen-coefficient estimate at the largest stiffness of the cycle, from the method's
+    stability polynomial (``gearsweep.analysis.stability``; the same rule as its ``check_step``:
+    steps per period >= T / h*).
+    """
+    from gearsweep.study.stability_output import hill_parameters
+
+    s = plan.study.solver
+    *_, kmax, cm, period = hill_parameters(plan, params, n)
+    kmax, cm, period = (np.broadcast_to(np.asarray(a, dtype=float), (n,)) for a in (kmax, cm, period))
+    # h* depends on (k_max/m, c/m) only, which few studies vary: solve the stability polynomial
+    # once per distinct pair, not once per case.
+    pairs, inverse = np.unique(np.stack([kmax, cm]), axis=1, return_inverse=True)
+    h_star = np.array([_stable_step(s.method, float(k), float(c)) for k, c in pairs.T])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.ceil(period / h_star[inverse.ravel()])
+    return ~(need > s.steps_per_period)
+
+
 def _integrate(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
     """One kernel call for ``n`` cases; returns (BatchResult, per-output arrays, status)."""
+    guard = plan.study.solver.step_guard
+    ok = _step_ok(plan, params, n) if guard != "off" else np.ones(n, bool)
+    if guard == "skip" and not ok.all():
+        return _integrate_subset(plan, params, n, x0, v0, ok)
+    res, out, status = _integrate_all(plan, params, n, x0, v0)
+    if guard == "warn":
+        out["beyond_step_limit"] = ~ok
+    return res, out, status
+
+
+def _integrate_subset(plan: Plan, params, n: int, x0, v0, ok: np.ndarray) -> tuple:
+    """Integrate only the cases whose step is stable; the others get status 3 and NaN."""
+    idx = np.flatnonzero(ok)
+    sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+    sx0 = None if x0 is None else np.asarray(x0)[idx]
+    sv0 = None if v0 is None else np.asarray(v0)[idx]
+    res, out, status = _integrate_all(plan, sub, len(idx), sx0, sv0)
+    full = {}
+    for name, arr in out.items():
+        fill = False if arr.dtype == bool else np.nan
+        a = np.full((n, *arr.shape[1:]), fill, dtype=arr.dtype)
+        a[idx] = arr
+        full[name] = a
+    st = np.full(n, STATUS_SKIPPED, np.int8)
+    st[idx] = status
+    xf = np.full(n, np.nan)
+    vf = np.full(n, np.nan)
+    xf[idx], vf[idx] = res.x_final, res.v_final
+    rs = np.full(n, STATUS_DIVERGED, np.int8)  # a skipped lane restarts a continued sweep
+    rs[idx] = res.status
+    from gearsweep.kernels import BatchResult
+
+    return BatchResult(stats={}, x_final=xf, v_final=vf, status=rs, signal=None), full, st
+
+
+def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
     s = plan.study.solver
     spp = s.steps_per_period
     x_init = s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
@@ -199,26 +301,30 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
         _, out, status = _integrate(plan, params, n, None, None)
         out["status"] = status
         return out
+    # Continued sweeps: the up and the down sweep of every lane advance side by side as lanes of
+    # one kernel call (step k is speed k going up and speed n-1-k going down).
     speeds = plan.grids["speed"]
-    per_dir = []
-    x_init = plan.study.solver.initial_displacement
-    for direction in plan.directions:
-        order = range(len(speeds)) if direction == "up" else range(len(speeds) - 1, -1, -1)
-        cols: dict[str, list] = {}
-        x = np.full(n, x_init)
-        v = np.full(n, plan.study.solver.initial_velocity)
-        for k in order:
-            p = dict(params, speed=np.full(n, speeds[k]))
-            res, out, status = _integrate(plan, p, n, x, v)
-            out["status"] = status
-            for name, arr in out.items():
-                cols.setdefault(name, [None] * len(speeds))[k] = arr
-            # Carry the state; a diverged lane restarts from the initial state at the next speed.
-            dead = res.status == STATUS_DIVERGED
-            x = np.where(dead, x_init, res.x_final)
-            v = np.where(dead, plan.study.solver.initial_velocity, res.v_final)
-        per_dir.append({name: np.stack(a, axis=1) for name, a in cols.items()})
-    return {name: np.stack([d[name] for d in per_dir]) for name in per_dir[0]}
+    ns, nd = len(speeds), len(plan.directions)
+    s = plan.study.solver
+    both = {name: np.tile(vals, nd) for name, vals in params.items()}
+    x = np.full(n * nd, s.initial_displacement)
+    v = np.full(n * nd, s.initial_velocity)
+    cols: dict[str, np.ndarray] = {}
+    for k in range(ns):
+        idx = np.concatenate([np.full(n, k if d == "up" else ns - 1 - k) for d in plan.directions])
+        res, out, status = _integrate(plan, dict(both, speed=speeds[idx]), n * nd, x, v)
+        out["status"] = status
+        for name, arr in out.items():
+            if name not in cols:
+                cols[name] = np.empty((nd, n, ns, *arr.shape[1:]), dtype=arr.dtype)
+            a = arr.reshape(nd, n, *arr.shape[1:])
+            for di in range(nd):
+                cols[name][di, :, idx[di * n]] = a[di]
+        # Carry the state; a diverged lane restarts from the initial state at the next speed.
+        dead = res.status == STATUS_DIVERGED
+        x = np.where(dead, s.initial_displacement, res.x_final)
+        v = np.where(dead, s.initial_velocity, res.v_final)
+    return cols
 
 
 def empty_results(plan: Plan) -> dict[str, np.ndarray]:
@@ -271,6 +377,8 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
     for spec in plan.specs.values():
         for d, v in spec.extra_coords.items():
             coords.setdefault(d, ((d,), v))
+        for name, c in spec.aux_coords.items():
+            coords.setdefault(name, c)
     s = plan.study.solver
     settings = {
         "scene": plan.study.scene.kind,
@@ -280,6 +388,7 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
         "recorded_periods": s.record_periods,
         "divergence_factor": s.divergence_factor,
         "settle_tolerance": s.settle_tolerance,
+        "step_guard": s.step_guard,
         "cases": plan.n_cases,
     }
     if elapsed is not None:
@@ -293,8 +402,12 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
     return ds
 
 
-def run_study(study: Study, text: str = "", progress: bool = False) -> xr.Dataset:
+def run_study(study: Study | MeshStudy, text: str = "", progress: bool = False) -> xr.Dataset:
     """Run every chunk of a study in this process and return its Dataset."""
+    if getattr(study, "type", None) == "mesh":  # a static mesh study: no integration
+        from gearsweep.study.mesh_runner import run_mesh_study
+
+        return run_mesh_study(study, text)
     plan = make_plan(study, text)
     results = empty_results(plan)
     t0 = time.perf_counter()

@@ -16,6 +16,12 @@ values it sweeps, how the speed axis is continued, the solver and the outputs::
       speed: {start: 5000 rpm, stop: 10000 rpm, num: 400}
     continuation: [up, down]
     solver: {method: rk4, steps_per_period: 64, transient_periods: 100, record_periods: 50}
+    outputs: [stats, {spectrum: {max_order: 4}}]   # a name, or {name: {options}}
+
+A scene of the gear drive may name a gear pair (``gear: table1_consistent`` or a mapping of
+``GearPair`` fields) instead of ``teeth``, ``stiffness``, ``stiffness_harmonics`` and ``ste``: they
+are then computed from its static mesh at the scene's mean load (``gearsweep.study.gearscene``).
+A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh_runner``).
 
 Every model forbids unknown keys. ``load_study`` turns any problem into one ``StudyError`` line:
 file, field path, value, and what is allowed.
@@ -26,7 +32,7 @@ from __future__ import annotations
 import math
 from functools import partial
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 import yaml
@@ -40,9 +46,13 @@ from pydantic import (
     model_validator,
 )
 
-from gearsweep.errors import StudyError
+from gearsweep.errors import GeometryError, StudyError
 from gearsweep.model import SWEEPABLE
+from gearsweep.study.gearscene import GearField
 from gearsweep.study.units import CANONICAL, UnitParseError, to_si
+
+if TYPE_CHECKING:
+    from gearsweep.study.mesh_runner import MeshStudy
 
 
 def _parse(kind: str, value: Any) -> Any:
@@ -118,8 +128,10 @@ class _Driven(Strict):
 
     mass: Mass | None = Field(None, gt=0, description="equivalent mass m_eq [kg]")
     drive: Drive | None = None
-    teeth: int = Field(gt=0, le=1000, description="teeth of the driving gear N1")
-    stiffness: Stiffness = Field(gt=0, description="mean mesh stiffness k0 [N/m]")
+    teeth: int | None = Field(None, gt=0, le=1000, description="teeth of the driving gear N1")
+    stiffness: Stiffness | None = Field(None, gt=0, description="mean mesh stiffness k0 [N/m]")
+    gear: GearField | None = Field(None, description="gear pair giving k(t), e(t), N1, r1")
+    harmonics: int | None = Field(None, ge=1, le=100, description="Fourier harmonics of a gear")
     damping: Damping = Field(0.0, ge=0, description="mesh viscous damping c [N s/m]")
     speed: Speed | None = Field(None, gt=0, description="driving-gear speed if not swept [rpm]")
     mean_force: Force | None = Field(None, description="mean mesh force F_m [N]")
@@ -135,6 +147,23 @@ class _Driven(Strict):
             raise ValueError("give at most one of 'mean_force' and 'torque'")
         if self.drive is not None and self.base_radius is not None:
             raise ValueError("'base_radius' is already given by 'drive.base_radius_1'")
+        if self.gear is None:
+            missing = [f"'{f}'" for f in ("teeth", "stiffness") if getattr(self, f) is None]
+            if missing:
+                raise ValueError(f"{' and '.join(missing)} required (or a 'gear' that gives"
+                                 " teeth, stiffness and their harmonics)")
+            if self.harmonics is not None:
+                raise ValueError("'harmonics' is the number of Fourier terms of a 'gear'; no gear")
+            return self
+        typed = [f for f in ("teeth", "stiffness", "stiffness_harmonics", "ste", "base_radius")
+                 if getattr(self, f, None)]
+        if typed:
+            raise ValueError(f"give either 'gear' or typed-in {', '.join(typed)}, not both: the"
+                             " gear pair gives teeth, stiffness, stiffness_harmonics, ste and"
+                             " base_radius")
+        if self.torque is None and self.mean_force is None:
+            raise ValueError("a 'gear' needs the mean load (scene.torque or scene.mean_force):"
+                             " its stiffness and STE are computed at that load")
         return self
 
     @property
@@ -205,6 +234,31 @@ class Solver(Strict):
     settle_tolerance: float = Field(1e-2, gt=0, description="settle_error above it: status 2")
     initial_displacement: Length = Field(0.0, description="p at t = 0 [m] (Mathieu: 1)")
     initial_velocity: float = Field(0.0, allow_inf_nan=False, description="p' at t = 0 [m/s]")
+    step_guard: Literal["warn", "skip", "off"] = Field(
+        "warn", description="cases whose step is beyond the method's stability limit: flag them"
+        " (warn), do not integrate them (skip, status 3), or do not check (off)")
+
+
+def _output_request(v: Any) -> Any:
+    """``"stats"`` -> ``{name: stats}``; ``{spectrum: {max_order: 4}}`` -> name + options."""
+    if isinstance(v, str):
+        return {"name": v}
+    if isinstance(v, dict) and "name" not in v:
+        if len(v) != 1:
+            raise ValueError("an output name, or a mapping of one output name to its options")
+        ((name, options),) = v.items()
+        return {"name": name, "options": {} if options is None else options}
+    return v
+
+
+class OutputRequest(Strict):
+    """One entry of ``outputs:``: a name (``stats``) or ``{name: {option: value}}``.
+
+    The options are checked by the output itself (``gearsweep.study.outputs.configure``).
+    """
+
+    name: str
+    options: dict[str, Any] = Field(default_factory=dict)
 
 
 class Study(Strict):
@@ -214,7 +268,8 @@ class Study(Strict):
     sweep: dict[str, list[float | str] | Range] = Field(default_factory=dict)
     continuation: list[Literal["up", "down"]] = Field(default_factory=list)
     solver: Solver = Field(default_factory=Solver)
-    outputs: list[str] = Field(default_factory=lambda: ["stats"])
+    outputs: list[Annotated[OutputRequest, BeforeValidator(_output_request)]] = Field(
+        default_factory=lambda: [OutputRequest(name="stats")])
 
     @model_validator(mode="after")
     def _consistent(self) -> Study:
@@ -226,7 +281,14 @@ class Study(Strict):
         if self.scene.kind != "mathieu":
             if "speed" not in self.sweep and self.scene.speed is None:
                 raise ValueError("the speed must be swept (sweep.speed) or given (scene.speed)")
-            if "torque" in self.sweep or self.scene.torque is not None:
+            if self.scene.gear is not None:
+                for name in ("torque", "mean_force", "stiffness"):
+                    if name in self.sweep:
+                        raise ValueError(
+                            f"sweep.{name}: a gear scene computes stiffness and STE at one mean"
+                            " load; sweeping it is not supported (one study per load, or type"
+                            " in the coefficients)")
+            elif "torque" in self.sweep or self.scene.torque is not None:
                 if self.scene.r1 is None:
                     raise ValueError("a torque needs the driving gear's base radius:"
                                      " scene.base_radius or scene.drive")
@@ -240,10 +302,13 @@ class Study(Strict):
                 raise ValueError("continuation lists each direction at most once")
         from gearsweep.study.outputs import OUTPUTS
 
-        for name in self.outputs:
+        names = [o.name for o in self.outputs]
+        for name in names:
             if name not in OUTPUTS:
                 raise ValueError(f"outputs: {name!r} is not an output; allowed:"
                                  f" {', '.join(sorted(OUTPUTS))}")
+        if len(set(names)) != len(names):
+            raise ValueError("outputs: list each output at most once")
         return self
 
     def grid(self, name: str) -> np.ndarray:
@@ -299,9 +364,11 @@ def _loc(loc: tuple) -> str:
 
 
 def _first_error(exc: ValidationError, file: str) -> StudyError:
-    # The most specific problem: for a value that matches no member of a union (a sweep given as
-    # a malformed range) the member that got furthest tells the user what is wrong.
-    err = max(exc.errors(), key=lambda e: len(e["loc"]))
+    # Of the branches of a union (a list or a {start, stop, num} range), report the one the
+    # user evidently meant: a type mismatch of another branch is the least specific error.
+    errs = exc.errors()
+    err = min(errs, key=lambda e: (e["type"].endswith("_type") or e["type"] == "union_tag_invalid"
+                                   and len(errs) > 1, -len(e["loc"])))
     msg = err["msg"].removeprefix("Value error, ")
     value = err.get("input")
     if isinstance(value, dict | list):
@@ -313,8 +380,11 @@ def _first_error(exc: ValidationError, file: str) -> StudyError:
     return StudyError(file, _loc(err["loc"]), value, msg)
 
 
-def parse_study(text: str, file: str = "<study>") -> Study:
-    """Validate a study from its YAML text; any problem raises one ``StudyError``."""
+def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy:
+    """Validate a study from its YAML text; any problem raises one ``StudyError``.
+
+    A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh_runner``).
+    """
     try:
         raw = yaml.safe_load(text)
     except RecursionError:
@@ -327,6 +397,13 @@ def parse_study(text: str, file: str = "<study>") -> Study:
     if not isinstance(raw, dict):
         raise StudyError(file, "(top level)", type(raw).__name__,
                          "a mapping with title, scene, sweep, solver, outputs")
+    if "type" in raw and raw["type"] != "mesh":
+        raise StudyError(file, "type", raw["type"],
+                         "'mesh' (a static mesh study), or no 'type' for a dynamic study")
+    if raw.get("type") == "mesh":
+        from gearsweep.study.mesh_runner import parse_mesh_study
+
+        return parse_mesh_study(raw, file)
     try:
         study = Study.model_validate(raw)
     except ValidationError as exc:
@@ -334,10 +411,35 @@ def parse_study(text: str, file: str = "<study>") -> Study:
     except RecursionError:
         raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
     _check_grids(study, file)
+    _check_gear(study, file)
+    from gearsweep.study.outputs import configure
+
+    for i, req in enumerate(study.outputs):
+        configure(req.name, req.options, file, f"outputs[{i}].{req.name}")
     return study
 
 
-def load_study(path: str | Path) -> tuple[Study, str]:
+def _check_gear(study: Study, file: str) -> None:
+    """Geometry of a scene's gear pair: checked here, so ``validate`` refuses what ``run`` would."""
+    sc = study.scene
+    if getattr(sc, "gear", None) is None:
+        return
+    from gearsweep.study.gearscene import scene_excitation
+
+    try:
+        ex = scene_excitation(sc)
+    except GeometryError as exc:
+        raise GeometryError(f"{file}: scene.gear: {exc}") from None
+    if sc.drive is not None:
+        for g, given, gear in ((1, sc.drive.base_radius_1, ex.base_radius_1),
+                               (2, sc.drive.base_radius_2, ex.base_radius_2)):
+            if abs(given / gear - 1.0) > 1e-3:
+                raise StudyError(file, f"scene.drive.base_radius_{g}", given,
+                                 f"the gear's base radius {gear:.6g} m (within 0.1 %), or omit"
+                                 " the gear and type in the coefficients")
+
+
+def load_study(path: str | Path) -> tuple[Study | MeshStudy, str]:
     """Read and validate a study file; returns the study and its text (kept in the results)."""
     path = Path(path)
     try:

@@ -6,6 +6,7 @@ taken in the quantity's canonical unit (SI, except shaft speed, which is in rpm 
 
 from __future__ import annotations
 
+import math
 import re
 from functools import cache
 
@@ -21,6 +22,7 @@ CANONICAL = {
     "damping": "N*s/m",
     "stiffness": "N/m",
     "inertia": "kg*m**2",
+    "pressure": "Pa",
     "angle": "rad",
     "dimensionless": "",
 }
@@ -58,6 +60,12 @@ def to_si(value: object, kind: str) -> float:
             raise UnitParseError("a number too large for a float (at most about 1e308)") from None
     if not isinstance(value, str):
         raise UnitParseError(f"expected a number or a string with {kind} units, e.g. '1 {target}'")
+    try:  # a bare number in a string, e.g. YAML reads 1e8 (no dot) as text
+        number = float(value)
+    except ValueError:
+        number = math.nan
+    if math.isfinite(number):
+        return number
     ureg = registry()
     try:
         # Integer literals become floats before pint evaluates the text: with Python integers a

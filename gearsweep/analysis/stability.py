@@ -1,0 +1,453 @@
+"""Linear stability of the time-stepping methods, and the step guard rail for every study.
+
+Stability polynomial
+--------------------
+One step of an explicit Runge-Kutta method with tableau (A, b) applied to y' = lambda y maps
+y_n to R(z) y_n, z = h lambda, with
+
+    R(z) = 1 + z b^T (I - z A)^{-1} 1 = 1 + sum_{k=0}^{s-1} (b^T A^k 1) z^(k+1)
+
+(A is strictly lower triangular, hence nilpotent, and the Neumann series stops after s terms).
+The coefficients are computed here exactly, in rational arithmetic, from the tableaux below:
+
+* RK4:  R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24.
+* RK5 (Butcher's six-stage method of ``gearsweep.kernels.rk``): the Taylor polynomial of e^z to
+  z^5/120 plus z^6/640 (= b6 a65 a54 a43 a32 a21; e^z has 1/720 there).
+
+Oscillator
+----------
+p'' + (c/m) p' + (k/m) p = 0 is y' = J y with eigenvalues
+lambda = omega_n (-zeta +- i sqrt(1 - zeta^2)), omega_n = sqrt(k/m), zeta = (c/m) / (2 omega_n).
+The RK map of a linear system is R(hJ), so the discrete solution stays bounded exactly when
+|R(h lambda)| <= 1 for both eigenvalues. Along the ray z = r e^{i theta} of a pole, the step
+limit is the first r > 0 with |R(r e^{i theta})| = 1 (``ray_limit``). For an undamped oscillator
+(theta = pi/2):
+
+* RK4: |R(iy)|^2 = 1 - y^6/72 + y^8/576, stable for h omega_n <= 2 sqrt(2) = 2.828;
+* RK5: |R(iy)|^2 = 1 - y^6/2880 + y^8/1920 - 7 y^10/115200 + y^12/409600, which exceeds 1 from
+  h omega_n = 0.852 on: Butcher's method *amplifies* an undamped oscillation by a few parts in
+  1e5 per step at h omega_n = 1 and 3 % per step at 2. A little damping moves the limit out
+  (zeta = 0.1: 2.72; zeta = 0.5: 3.46), so for this method damping itself decides where a
+  fixed-step integration blows up.
+
+For the mesh stiffness k(t) the frozen-coefficient argument uses the largest stiffness, k_max/m:
+the step must resolve the stiffest instant of the mesh cycle (``max_stable_step``, ``check_step``).
+The exact statement for a periodic linear equation is made by ``integrator_unstable``: the
+discrete monodromy matrix at the chosen step has a multiplier > 1 while the converged Floquet
+multiplier of the equation does not.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction as Fr
+from functools import cache
+
+import numpy as np
+
+from gearsweep.errors import GearsweepError
+
+__all__ = [
+    "TABLEAUX",
+    "UnstableStepError",
+    "amplification",
+    "check_step",
+    "integrator_unstable",
+    "max_stable_step",
+    "measured_step_limit",
+    "operating_map",
+    "ray_limit",
+    "require_stable_step",
+    "stability_polynomial",
+    "step_limit_hw",
+]
+
+
+class UnstableStepError(GearsweepError):
+    """The chosen method and steps per mesh period cannot integrate the case stably."""
+
+
+TABLEAUX: dict[str, tuple[tuple[tuple[Fr, ...], ...], tuple[Fr, ...]]] = {
+    "rk4": (
+        (
+            (),
+            (Fr(1, 2),),
+            (Fr(0), Fr(1, 2)),
+            (Fr(0), Fr(0), Fr(1)),
+        ),
+        (Fr(1, 6), Fr(1, 3), Fr(1, 3), Fr(1, 6)),
+    ),
+    "rk5": (
+        (
+            (),
+            (Fr(1, 4),),
+            (Fr(1, 8), Fr(1, 8)),
+            (Fr(0), Fr(-1, 2), Fr(1)),
+            (Fr(3, 16), Fr(0), Fr(0), Fr(9, 16)),
+            (Fr(-3, 7), Fr(2, 7), Fr(12, 7), Fr(-12, 7), Fr(8, 7)),
+        ),
+        (Fr(7, 90), Fr(0), Fr(32, 90), Fr(12, 90), Fr(32, 90), Fr(7, 90)),
+    ),
+}
+"""Butcher tableaux (strictly lower rows of A, weights b) of the kernel's methods, exactly as
+``gearsweep.kernels.rk`` implements them (tests check the kernel's one-step map against R(z))."""
+
+ORDER = {"rk4": 4, "rk5": 5}
+"""Order of accuracy of each method (for Richardson error estimates)."""
+
+
+def _method(method: str) -> str:
+    if method not in TABLEAUX:
+        raise GearsweepError(f"method must be one of {sorted(TABLEAUX)}, got {method!r}")
+    return method
+
+
+@cache
+def stability_polynomial(method: str) -> tuple[Fr, ...]:
+    """Exact coefficients of R(z), lowest power first: ``R(z) = sum coef[k] z^k``.
+
+    Parameters
+    ----------
+    method : {"rk4", "rk5"}
+
+    Returns
+    -------
+    tuple of Fraction
+        ``s + 1`` coefficients for an ``s``-stage method.
+    """
+    rows, b = TABLEAUX[_method(method)]
+    s = len(b)
+    A = [[Fr(0)] * s for _ in range(s)]
+    for i, row in enumerate(rows):
+        for j, a in enumerate(row):
+            A[i][j] = a
+    vec = [Fr(1)] * s  # A^k 1, starting with k = 0
+    coef = [Fr(1)]
+    for _ in range(s):
+        coef.append(sum((bi * vi for bi, vi in zip(b, vec, strict=True)), Fr(0)))
+        vec = [sum((A[i][j] * vec[j] for j in range(s)), Fr(0)) for i in range(s)]
+    return tuple(coef)
+
+
+def amplification(method: str, z) -> np.ndarray:
+    """R(z) of the method at complex z = h lambda (array_like), as a complex array."""
+    z = np.asarray(z, dtype=complex)
+    out = np.zeros_like(z)
+    for c in reversed(stability_polynomial(method)):
+        out = out * z + float(c)
+    return out
+
+
+def _ray_poly(method: str, theta: np.ndarray) -> np.ndarray:
+    """Coefficients d_n(theta), n = 0..2s, of |R(r e^{i theta})|^2 - 1 as a polynomial in r,
+    shape (len(theta), 2s + 1): d_n = sum_{j+k=n} c_j c_k cos((j - k) theta)."""
+    c = np.array([float(x) for x in stability_polynomial(method)])
+    deg = len(c) - 1
+    d = np.zeros((theta.size, 2 * deg + 1))
+    for j in range(deg + 1):
+        for k in range(deg + 1):
+            d[:, j + k] += c[j] * c[k] * np.cos((j - k) * theta)
+    d[:, 0] -= 1.0
+    return d
+
+
+def _horner(d: np.ndarray, r: np.ndarray) -> np.ndarray:
+    out = np.zeros(np.broadcast_shapes(d.shape[:1], r.shape))
+    for n in range(d.shape[1] - 1, -1, -1):
+        out = out * r + d[:, n]
+    return out
+
+
+def ray_limit(method: str, theta, r_max: float = 10.0) -> np.ndarray:
+    """Largest r with |R(r' e^{i theta})| <= 1 for every 0 < r' <= r (the step limit h |lambda|
+    of a pole at angle theta).
+
+    Parameters
+    ----------
+    method : {"rk4", "rk5"}
+    theta : array_like
+        Angle of the pole in the complex plane [rad], pi/2 (undamped) .. pi (real, decaying).
+        Angles below pi/2 (growing poles) give 0.
+    r_max : float
+        Search range; no limit below it gives ``inf``.
+
+    Returns
+    -------
+    ndarray
+        r* [-], to about 1e-13 relative.
+
+    Notes
+    -----
+    ``|R|^2 - 1`` is scanned from r = 0.02 (below that |R|^2 - 1 ~ -r^6/72 on the imaginary axis is
+    still far above rounding) on a grid of step 0.005 and the first sign change to positive is
+    bisected. Both methods' stability regions are star-shaped along these rays at that resolution.
+    """
+    theta = np.asarray(theta, dtype=float)
+    shape = theta.shape
+    theta = np.atleast_1d(theta).ravel()
+    d = _ray_poly(method, theta)
+    r = np.arange(0.02, r_max, 0.005)
+    vals = np.stack([_horner(d, np.full(theta.size, ri)) for ri in r], axis=1)  # (n, nr)
+    pos = vals > 0
+    first = np.where(pos.any(axis=1), pos.argmax(axis=1), -1)
+    out = np.full(theta.size, np.inf)
+    out[first == 0] = 0.0  # |R| > 1 right from the start: a growing pole
+    sel = first > 0
+    lo = r[first[sel] - 1]
+    hi = r[first[sel]]
+    ds = d[sel]
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        up = _horner(ds, mid) > 0
+        hi = np.where(up, mid, hi)
+        lo = np.where(up, lo, mid)
+    out[sel] = 0.5 * (lo + hi)
+    return out.reshape(shape)
+
+
+def step_limit_hw(method: str, zeta) -> np.ndarray:
+    """Largest stable h omega_n of the oscillator p'' + 2 zeta omega_n p' + omega_n^2 p = 0.
+
+    Parameters
+    ----------
+    method : {"rk4", "rk5"}
+    zeta : array_like
+        Damping ratio [-], >= 0.
+
+    Returns
+    -------
+    ndarray
+        (h omega_n)* [-]: the discrete map is stable for h omega_n below it.
+    """
+    zeta = np.asarray(zeta, dtype=float)
+    if np.any(zeta < 0):
+        raise GearsweepError("the damping ratio must be >= 0")
+    z = np.minimum(zeta, 1.0)
+    under = ray_limit(method, np.arccos(-z))  # |lambda| = omega_n on the ray
+    # Over-damped: two real poles -omega_n (zeta -+ sqrt(zeta^2 - 1)); the faster one binds.
+    real_lim = ray_limit(method, np.pi)
+    fast = np.maximum(zeta + np.sqrt(np.maximum(zeta * zeta - 1.0, 0.0)), 1.0)
+    return np.where(zeta < 1.0, under, real_lim / fast)
+
+
+def max_stable_step(method: str, k_over_m, c_over_m=0.0) -> np.ndarray:
+    """Largest stable fixed step [s] of ``method`` for p'' + (c/m) p' + (k/m) p = 0.
+
+    Parameters
+    ----------
+    method : {"rk4", "rk5"}
+    k_over_m : array_like
+        Stiffness / mass [1/s^2]; for a periodic stiffness pass its largest value k_max/m
+        (frozen-coefficient estimate). Values <= 0 (no oscillation, the equation itself grows)
+        are limited by the decaying pole only.
+    c_over_m : array_like
+        Damping / mass [1/s], >= 0.
+
+    Returns
+    -------
+    ndarray
+        h* [s]; ``inf`` when no pole limits the step (k = c = 0).
+    """
+    k, c = np.broadcast_arrays(np.asarray(k_over_m, float), np.asarray(c_over_m, float))
+    if np.any(c < 0):
+        raise GearsweepError("damping c/m must be >= 0")
+    out = np.full(k.shape, np.inf)
+    osc = k > 0
+    wn = np.sqrt(np.where(osc, k, 1.0))
+    hw = step_limit_hw(method, np.where(osc, c / (2 * wn), 0.0))
+    out = np.where(osc, hw / wn, out)
+    # k <= 0: real poles -c/2 +- sqrt(c^2/4 - k); only the negative one can limit the step.
+    neg = -0.5 * c - np.sqrt(np.maximum(0.25 * c * c - k, 0.0))
+    real_lim = ray_limit(method, np.pi)
+    with np.errstate(divide="ignore"):
+        out = np.where(~osc & (neg < 0), real_lim / np.abs(neg), out)
+    return out
+
+
+def check_step(method: str, steps_per_period, mesh_period, k_max_over_m, c_over_m=0.0,
+               margin: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """The guard rail: is ``steps_per_period`` fine enough for the method to be stable?
+
+    Call it before integrating a study (frozen-coefficient estimate at the largest stiffness).
+
+    Parameters
+    ----------
+    method : {"rk4", "rk5"}
+    steps_per_period : array_like of int
+        Steps per mesh period.
+    mesh_period : array_like
+        Mesh period 1 / f_mesh [s].
+    k_max_over_m : array_like
+        Largest mesh stiffness over the cycle / equivalent mass [1/s^2].
+    c_over_m : array_like
+        Viscous damping / mass [1/s].
+    margin : float
+        Safety factor >= 1 on the step limit (1: exactly at the limit of the stability polynomial).
+
+    Returns
+    -------
+    ok : ndarray of bool
+        True where ``steps_per_period >= limit_spp``.
+    limit_spp : ndarray of int
+        Fewest steps per mesh period that are stable (times ``margin``).
+    """
+    h_star = max_stable_step(method, k_max_over_m, c_over_m)
+    T = np.asarray(mesh_period, dtype=float)
+    with np.errstate(divide="ignore"):
+        need = np.where(np.isfinite(h_star), np.ceil(margin * T / h_star), 1.0)
+    spp = np.asarray(steps_per_period)
+    limit = np.broadcast_to(np.maximum(need, 1.0).astype(np.int64),
+                            np.broadcast_shapes(need.shape, spp.shape)).copy()
+    return spp >= limit, limit
+
+
+def require_stable_step(method: str, steps_per_period, mesh_period, k_max_over_m,
+                        c_over_m=0.0, margin: float = 1.0) -> None:
+    """Raise ``UnstableStepError`` naming the worst case when ``check_step`` fails anywhere."""
+    ok, limit = check_step(method, steps_per_period, mesh_period, k_max_over_m, c_over_m, margin)
+    if not np.all(ok):
+        worst = int(np.max(limit))
+        raise UnstableStepError(
+            f"steps_per_period {int(np.min(steps_per_period))} is too coarse for {method}: "
+            f"{int(np.count_nonzero(~ok))} case(s) need at least {worst} steps per mesh period "
+            f"(stability polynomial at the largest stiffness)"
+        )
+
+
+def integrator_unstable(alpha, beta, gamma, steps_per_period: int, *, method: str = "rk5",
+                        floquet=None, tol: float = 1e-6, harmonics=None):
+    """Cases where the discrete map diverges although the equation does not.
+
+    Parameters
+    ----------
+    alpha, beta, gamma : array_like
+        Mathieu parameters of Eq. (11)-(12) [-].
+    steps_per_period : int
+        The step to judge, per mesh period.
+    method : {"rk4", "rk5"}
+    floquet : FloquetResult, optional
+        The converged Floquet analysis of the same cases (computed here if not given).
+    tol : float
+        A multiplier counts as > 1 above ``1 + tol``.
+    harmonics : see ``gearsweep.kernels.floquet.monodromy``.
+
+    Returns
+    -------
+    flag : ndarray of bool
+        Discrete multiplier > 1 + tol and the equation's multiplier <= 1 + tol.
+    discrete : ndarray
+        Largest |multiplier| of the discrete monodromy matrix at this step (inf when it overflows).
+    """
+    from gearsweep.kernels import floquet as fq
+
+    shape = np.broadcast_shapes(np.shape(alpha), np.shape(beta), np.shape(gamma))
+    M = fq.monodromy(alpha, beta, gamma, steps_per_period, method=method, harmonics=harmonics)
+    disc = fq.largest_multiplier(M).reshape(shape)
+    if floquet is None:
+        floquet = fq.floquet(alpha, beta, gamma, method=method, harmonics=harmonics)
+    flag = (disc > 1 + tol) & ~(floquet.multiplier > 1 + tol)
+    return flag, disc
+
+
+def measured_step_limit(method: str, zeta, n_steps: int = 2_000_000, bound: float = 10.0,
+                        lo: float = 0.05, hi: float = 6.0, iterations: int = 22) -> np.ndarray:
+    """Largest h omega_n at which an integration of the oscillator does not blow up.
+
+    Bisection on h omega_n (vectorised over ``zeta``): the oscillator p'' + 2 zeta p' + p = 0 is
+    integrated ``n_steps`` steps from (1, 1) with the batch kernel, and the step counts as
+    unstable when |p| passes ``bound`` (the kernel's divergence flag). This is the measurement
+    that the stability polynomial predicts (``step_limit_hw``); it lies slightly above the
+    prediction, by the step at which |R|^n_steps reaches ``bound``.
+
+    Parameters
+    ----------
+    method : {"rk4", "rk5"}
+    zeta : array_like
+        Damping ratios [-].
+    n_steps : int
+        Steps integrated per trial.
+    bound : float
+        Growth factor that counts as divergence.
+    lo, hi : float
+        Initial bracket of h omega_n (must be stable at ``lo`` and unstable at ``hi``).
+    iterations : int
+        Bisection steps (bracket / 2^iterations).
+
+    Returns
+    -------
+    ndarray
+        Measured limit of h omega_n [-].
+    """
+    from gearsweep.kernels import STATUS_DIVERGED, simulate
+
+    zeta = np.atleast_1d(np.asarray(zeta, dtype=float))
+    a = np.full(zeta.shape, lo)
+    b = np.full(zeta.shape, hi)
+    for _ in range(iterations):
+        mid = 0.5 * (a + b)
+        res = simulate(mid, method=_method(method), damping=2.0 * zeta, k_mean=1.0, bound=bound,
+                       x0=1.0, v0=1.0, n_transient=int(n_steps), n_record=0,
+                       steps_per_period=1000)
+        bad = res.status == STATUS_DIVERGED
+        b = np.where(bad, mid, b)
+        a = np.where(bad, a, mid)
+    return 0.5 * (a + b)
+
+
+def operating_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teeth: int,
+                  method: str = "rk5", coarse_spp: int = 200, fine_spp: int = 2048,
+                  n_periods: int = 100, threshold: float = 1e3, tol: float = 1e-6,
+                  rtol: float = 1e-7) -> dict:
+    """Stability of the paper's rig over speed x damping, four ways (the data of Fig. 7.2).
+
+    Parameters
+    ----------
+    speed_rpm : array_like (ns,)
+        Driving-gear (gear 1) shaft speed [rpm].
+    damping : array_like (nc,)
+        Mesh viscous damping c [N s/m].
+    k0, k1 : float
+        Mean and first-harmonic mesh stiffness [N/m].
+    mass : float
+        Equivalent mass m_eq [kg].
+    teeth : int
+        Teeth of the driving gear (mesh frequency = teeth x speed / 60).
+    method : {"rk4", "rk5"}
+        Integrator of the paper's criterion.
+    coarse_spp, fine_spp : int
+        Steps per mesh period of the coarse and the fine fixed-step runs.
+    n_periods, threshold : int, float
+        Paper's criterion: growth by ``threshold`` within ``n_periods`` mesh periods.
+    tol : float
+        Multipliers count as > 1 above 1 + tol.
+    rtol : float
+        Convergence tolerance of the Floquet multipliers (well below ``tol``).
+
+    Returns
+    -------
+    dict of ndarray (nc, ns)
+        ``alpha``, ``beta``, ``gamma``; ``floquet`` (FloquetResult), ``unstable`` (converged
+        Floquet), ``paper_coarse``, ``paper_fine`` (the growth criterion at the two steps),
+        ``integrator_unstable`` (coarse step), ``discrete_multiplier`` (coarse step), and
+        ``limit_speed`` (nc,): the speed [rpm] below which ``check_step`` refuses the coarse step.
+    """
+    from gearsweep.kernels.floquet import floquet, mathieu_parameters, paper_criterion
+
+    speed = np.asarray(speed_rpm, dtype=float)
+    c = np.asarray(damping, dtype=float)
+    S, C = np.meshgrid(speed, c)
+    fmesh = teeth * S / 60.0
+    alpha, beta, gamma = mathieu_parameters(k0, k1, mass, C, fmesh)
+    fl = floquet(alpha, beta, gamma, method=method, tol=tol, rtol=rtol)
+    flag, disc = integrator_unstable(alpha, beta, gamma, coarse_spp, method=method, floquet=fl,
+                                     tol=tol)
+    coarse = paper_criterion(alpha, beta, gamma, coarse_spp, method=method,
+                             n_periods=n_periods, threshold=threshold)
+    fine = paper_criterion(alpha, beta, gamma, fine_spp, method=method, n_periods=n_periods,
+                           threshold=threshold)
+    # Guard rail: h* at the largest stiffness (k0 + k1) gives the slowest mesh period that the
+    # coarse step resolves stably: T / coarse_spp = h*  ->  speed = 60 / (teeth coarse_spp h*).
+    h_star = max_stable_step(method, (k0 + k1) / mass, c / mass)
+    limit_speed = 60.0 / (teeth * coarse_spp * h_star)
+    return dict(alpha=alpha, beta=beta, gamma=gamma, floquet=fl, unstable=fl.unstable,
+                paper_coarse=coarse, paper_fine=fine, integrator_unstable=flag,
+                discrete_multiplier=disc, limit_speed=limit_speed)

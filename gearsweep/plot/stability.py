@@ -1,0 +1,250 @@
+"""Stability charts: Strutt diagrams (Fig. 7.1), operating maps over speed and damping
+(Fig. 7.2), and the stability of the integrators themselves.
+
+Every function takes arrays (or a Dataset) and an ``ax`` and returns the figure.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.colors import ListedColormap
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from gearsweep.plot.common import axes
+
+UNSTABLE_COLOR = "#c0392b"
+INTEGRATOR_COLOR = "#e67e22"
+
+
+def _mask_image(ax: Axes, x: np.ndarray, y: np.ndarray, mask: np.ndarray, color: str,
+                alpha: float = 1.0) -> None:
+    cmap = ListedColormap([(1, 1, 1, 0), color])
+    ax.pcolormesh(x, y, np.asarray(mask, dtype=float), cmap=cmap, vmin=0, vmax=1,
+                  shading="nearest", alpha=alpha, rasterized=True)
+
+
+def mathieu_transition_curves(beta_max: float, alpha_min: float, alpha_max: float,
+                              n_max: int = 8, num: int = 400) -> list[tuple[str, np.ndarray,
+                                                                             np.ndarray]]:
+    """Transition curves of p'' + (alpha + beta cos tau) p = 0 from Mathieu characteristic values.
+
+    With tau = 2z the equation is y'' + (a - 2q cos 2z) y = 0 with a = 4 alpha, q = -2 beta, so the
+    curves are alpha = a_n(q)/4 (even solutions) and alpha = b_n(q)/4 (odd), beta = |q|/2
+    (``scipy.special.mathieu_a``, ``mathieu_b``).
+
+    Returns
+    -------
+    list of (label, alpha, beta)
+        Curves clipped to ``alpha_min <= alpha <= alpha_max``.
+    """
+    from scipy.special import mathieu_a, mathieu_b
+
+    beta = np.linspace(0.0, beta_max, num)
+    q = 2.0 * beta
+    out = []
+    for n in range(n_max + 1):
+        for label, fn in (("a", mathieu_a), ("b", mathieu_b)):
+            if label == "b" and n == 0:
+                continue
+            al = fn(n, q) / 4.0
+            al = np.where((al >= alpha_min) & (al <= alpha_max), al, np.nan)
+            out.append((f"{label}{n}", al, beta))
+    return out
+
+
+def plot_strutt(alpha: np.ndarray, beta: np.ndarray, unstable: np.ndarray,
+                ax: Axes | None = None, gamma: float | None = None, curves: bool = True,
+                color: str = UNSTABLE_COLOR) -> Figure:
+    """Unstable region of the damped Mathieu equation in the (alpha, beta) plane.
+
+    Parameters
+    ----------
+    alpha, beta : ndarray (na,), (nb,)
+        Grid axes [-].
+    unstable : ndarray of bool (nb, na)
+        Converged Floquet verdict (largest |mu| > 1).
+    gamma : float, optional
+        Damping of the chart [-], for the title.
+    curves : bool
+        Overlay the undamped transition curves alpha = a_n(q)/4, b_n(q)/4 (q = 2 beta).
+    """
+    fig, ax = axes(ax)
+    _mask_image(ax, alpha, beta, unstable, color)
+    handles = [Patch(color=color, label="unstable (Floquet, |mu| > 1)")]
+    if curves:
+        for _, al, be in mathieu_transition_curves(float(beta.max()), float(alpha.min()),
+                                                   float(alpha.max())):
+            ax.plot(al, be, color="k", lw=0.7)
+        handles.append(Line2D([], [], color="k", lw=0.7,
+                              label="a_n(q)/4, b_n(q)/4 (scipy), gamma = 0"))
+    ax.set_xlabel(r"$\alpha = k_0 / (m (N\omega)^2)$ [-]")
+    ax.set_ylabel(r"$\beta = k_1 / (m (N\omega)^2)$ [-]")
+    ax.set_xlim(alpha.min(), alpha.max())
+    ax.set_ylim(beta.min(), beta.max())
+    if gamma is not None:
+        ax.set_title(rf"$\gamma$ = {gamma:g}")
+    ax.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.9)
+    return fig
+
+
+def plot_rig_strutt(alpha: np.ndarray, ratio: np.ndarray, unstable: np.ndarray,
+                    ax: Axes | None = None, gamma: float | None = None,
+                    rig_ratio: float | None = None, speed_of_alpha=None,
+                    color: str = UNSTABLE_COLOR) -> Figure:
+    """Unstable region at large alpha, drawn over (alpha, beta/alpha) with alpha on a log axis.
+
+    Parameters
+    ----------
+    alpha : ndarray (na,)
+        Mean stiffness parameter [-] (log-spaced).
+    ratio : ndarray (nr,)
+        beta / alpha = k1 / k0 [-].
+    unstable : ndarray of bool (nr, na)
+    rig_ratio : float, optional
+        k1/k0 of the rig, drawn as a line.
+    speed_of_alpha : (callable, callable), optional
+        Forward and inverse maps alpha -> speed [rpm] for a secondary axis.
+    """
+    fig, ax = axes(ax)
+    _mask_image(ax, alpha, ratio, unstable, color)
+    handles = [Patch(color=color, label="unstable (Floquet)")]
+    if rig_ratio is not None:
+        ax.axhline(rig_ratio, color="k", lw=1.0, ls="--")
+        handles.append(Line2D([], [], color="k", ls="--",
+                              label=f"rig: k1/k0 = {rig_ratio:.3f}"))
+    ax.set_xscale("log")
+    ax.set_xlabel(r"$\alpha$ [-]")
+    ax.set_ylabel(r"$\beta / \alpha = k_1 / k_0$ [-]")
+    ax.set_xlim(alpha.min(), alpha.max())
+    ax.set_ylim(ratio.min(), ratio.max())
+    if ratio.max() > 1.0:
+        ax.axhline(1.0, color="0.2", lw=0.6)
+        ax.annotate("k(t) < 0 in part of the cycle above this line", (alpha.max(), 1.0),
+                    xytext=(-4, -10), textcoords="offset points", ha="right", fontsize=7)
+    if speed_of_alpha is not None:
+        from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
+
+        sec = ax.secondary_xaxis("top", functions=speed_of_alpha)
+        sec.set_xlabel("speed of the driving gear (48 teeth) [rpm]", fontsize=8)
+        sec.xaxis.set_major_locator(FixedLocator([100, 200, 300, 500, 1000, 2000]))
+        sec.xaxis.set_minor_locator(NullLocator())
+        sec.xaxis.set_major_formatter(ScalarFormatter())
+        sec.tick_params(labelsize=7)
+    if gamma is not None:
+        ax.set_title(rf"$\gamma$ = {gamma:g}", fontsize=9, loc="left")
+    ax.legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.9)
+    return fig
+
+
+def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
+                       ax: Axes | None = None, title: str = "", color: str = UNSTABLE_COLOR,
+                       limit_speed: np.ndarray | None = None, label: str = "unstable",
+                       log: bool = True) -> Figure:
+    """A yes/no map over driving-gear speed [rpm] and mesh damping c [N s/m].
+
+    Parameters
+    ----------
+    speed : ndarray (ns,)
+        Driving-gear speed [rpm].
+    damping : ndarray (nc,)
+        Mesh viscous damping [N s/m].
+    flag : ndarray of bool (nc, ns)
+    limit_speed : ndarray (nc,), optional
+        Speed below which the guard rail refuses the step, drawn as a line.
+    log : bool
+        Log speed axis and symmetric-log damping axis (linear below 0.01 N s/mm).
+    """
+    fig, ax = axes(ax)
+    _mask_image(ax, speed, damping / 1e3, flag, color)
+    handles = [Patch(color=color, label=f"{label} ({int(np.count_nonzero(flag))} of "
+                                        f"{flag.size})")]
+    if limit_speed is not None:
+        ax.plot(limit_speed, damping / 1e3, color="k", lw=1.2, ls="--")
+        handles.append(Line2D([], [], color="k", ls="--",
+                              label="step limit of the stability polynomial"))
+    ax.set_xlabel("speed of the driving gear (48 teeth) [rpm]")
+    ax.set_ylabel("mesh damping c [N s/mm]")
+    if log:
+        from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
+
+        ax.set_xscale("log")
+        ax.xaxis.set_major_locator(FixedLocator([100, 200, 300, 500, 1000, 2000]))
+        ax.xaxis.set_minor_locator(NullLocator())
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.set_yscale("symlog", linthresh=0.01, linscale=0.5)
+    ax.set_xlim(speed.min(), speed.max())
+    ax.set_ylim(damping.min() / 1e3, damping.max() / 1e3)
+    ax.set_title(title, fontsize=9)
+    ax.legend(handles=handles, loc="lower right", fontsize=7, framealpha=0.9)
+    return fig
+
+
+def plot_stability_regions(methods: dict[str, np.ndarray], ax: Axes | None = None,
+                           zetas: tuple[float, ...] = (0.0, 0.05, 0.2, 0.5),
+                           extent: float = 4.0) -> Figure:
+    """|R(z)| = 1 for each method in the complex z = h lambda plane, with the rays of damped
+    poles (angle arccos(-zeta)).
+
+    Parameters
+    ----------
+    methods : dict name -> coefficients
+        Stability polynomial coefficients, lowest power first.
+    """
+    fig, ax = axes(ax)
+    x = np.linspace(-extent, 1.0, 500)
+    y = np.linspace(0.0, extent, 400)
+    Z = x[None, :] + 1j * y[:, None]
+    colors = ["C0", "C1", "C2"]
+    handles = []
+    for (name, coef), col in zip(methods.items(), colors, strict=False):
+        R = np.zeros_like(Z)
+        for c in reversed(coef):
+            R = R * Z + float(c)
+        ax.contour(x, y, np.abs(R), levels=[1.0], colors=[col], linewidths=1.3)
+        ax.contourf(x, y, np.abs(R), levels=[0, 1.0], colors=[col], alpha=0.12)
+        handles.append(Line2D([], [], color=col, label=f"{name}: |R(z)| = 1"))
+    for i, z in enumerate(zetas):
+        th = np.arccos(-z)
+        ax.plot([0, extent * np.cos(th) * 1.2], [0, extent * np.sin(th) * 1.2], color="0.4",
+                lw=0.6, ls=":")
+        r = (0.95 - 0.08 * (i % 2)) * extent
+        ax.annotate(rf"$\zeta$={z:g}", (r * np.cos(th), r * np.sin(th)), fontsize=7, color="0.3")
+    ax.axvline(0, color="k", lw=0.5)
+    ax.set_xlim(-extent, 1.0)
+    ax.set_ylim(0, extent)
+    ax.set_aspect("equal")
+    ax.set_xlabel(r"Re $h\lambda$ [-]")
+    ax.set_ylabel(r"Im $h\lambda$ [-]")
+    ax.legend(handles=handles, loc="lower left", fontsize=7)
+    ax.set_title("stability regions (shaded) and rays of damped poles", fontsize=9)
+    return fig
+
+
+def plot_step_limits(zeta_curve: np.ndarray, predicted: dict[str, np.ndarray],
+                     zeta_points: np.ndarray, measured: dict[str, np.ndarray],
+                     ax: Axes | None = None) -> Figure:
+    """Largest stable h omega_n versus damping ratio: polynomial (lines) and integration (dots).
+
+    Parameters
+    ----------
+    zeta_curve, zeta_points : ndarray
+        Damping ratios [-] of the predicted curve and of the measured points.
+    predicted, measured : dict name -> ndarray
+        Step limits h omega_n [-].
+    """
+    fig, ax = axes(ax)
+    for i, name in enumerate(predicted):
+        ax.plot(zeta_curve, predicted[name], color=f"C{i}", lw=1.3,
+                label=f"{name}: stability polynomial")
+        ax.plot(zeta_points, measured[name], "o", color=f"C{i}", ms=4, mfc="none",
+                label=f"{name}: integration diverges")
+    ax.set_xlabel(r"damping ratio $\zeta = c / (2\sqrt{k m})$ [-]")
+    ax.set_ylabel(r"largest stable $h\,\omega_n$ [-]")
+    ax.set_ylim(0, None)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    ax.set_title("step limit of the fixed-step methods", fontsize=9)
+    return fig

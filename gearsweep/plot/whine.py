@@ -1,0 +1,285 @@
+"""Whine figures from study results: waterfall (Fig. 5, Fig. 11), order/speed map (Campbell-style)
+and response versus speed for several mean torques (Fig. 6).
+
+Every function takes a matplotlib ``ax`` and a result Dataset of ``gearsweep run`` (DATA.md names:
+``spectrum`` on ``(speed, order)`` with ``frequency`` and ``mesh_frequency`` coordinates, ``p_rms``
+...), draws on ``ax`` and returns its figure. Data are in SI units; axes are labelled in
+engineering units (um, mm/s, kHz, rpm). ``plot_waterfall`` needs a 3-D axes
+(``fig.add_subplot(projection="3d")``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import matplotlib
+import numpy as np
+import xarray as xr
+from matplotlib.axes import Axes
+from matplotlib.colors import LogNorm
+from matplotlib.figure import Figure
+
+__all__ = [
+    "driven_speed",
+    "natural_frequency",
+    "plot_campbell",
+    "plot_order_lines",
+    "plot_response_vs_speed",
+    "plot_waterfall",
+]
+
+UM = 1e6  # m -> um
+
+
+def natural_frequency(ds: xr.Dataset) -> float:
+    """Undamped natural frequency f_n = sqrt(k0 / m_eq) / (2 pi) [Hz] of the study in ``ds``.
+
+    Read from the study text the result file keeps (``attrs["study"]``), so a figure marks the
+    frequency of the run that made it.
+    """
+    from gearsweep.study.runner import build_model
+    from gearsweep.study.schema import parse_study
+
+    model = build_model(parse_study(ds.attrs["study"]))
+    return math.sqrt(model.stiffness / model.mass) / (2 * math.pi)
+
+
+def driven_speed(ds: xr.Dataset, driven_teeth: int) -> np.ndarray:
+    """Speed of the driven gear [rpm]: mesh frequency x 60 / its teeth (z1 n1 = z2 n2)."""
+    return ds["mesh_frequency"].values * 60.0 / driven_teeth
+
+
+def _speed_axis(ds: xr.Dataset, driven_teeth: int | None) -> tuple[np.ndarray, str]:
+    if driven_teeth is None:
+        return ds["speed"].values, "driving gear speed [rpm]"
+    return driven_speed(ds, driven_teeth), f"driven gear ({driven_teeth} teeth) speed [rpm]"
+
+
+def plot_waterfall(
+    ax: Axes,
+    ds: xr.Dataset,
+    *,
+    traces: int = 40,
+    x: str = "frequency",
+    variable: str = "spectrum",
+    driven_teeth: int | None = None,
+    skip_mean: bool = True,
+    natural_frequency_hz: float | None = None,
+) -> Figure:
+    """3-D waterfall (paper Fig. 5 and Fig. 11): amplitude over frequency, one trace per speed.
+
+    Parameters
+    ----------
+    ax : Axes3D
+        A 3-D axes.
+    ds : Dataset
+        A result with ``variable`` on ``(speed, order)``.
+    traces : int
+        Number of speeds drawn, evenly picked from the study's speeds [-].
+    x : {"frequency", "order"}
+        Horizontal axis: frequency [kHz or Hz] or mesh order [-].
+    variable : str
+        ``spectrum`` [m] (drawn in um) or ``force_spectrum`` [N].
+    driven_teeth : int, optional
+        Label the speed axis with the driven gear's speed (mesh frequency x 60 / teeth).
+    skip_mean : bool
+        Leave out order 0 (the mean of p, about F_m / k0, would dwarf the lines).
+    natural_frequency_hz : float, optional
+        Draw f_n [Hz] on the floor of the plot (dashed), where the order lines resonate.
+    """
+    da = ds[variable]
+    if "speed" not in da.dims or "order" not in da.dims or da.ndim != 2:
+        raise ValueError(f"{variable} must be on (speed, order) only, got {da.dims}")
+    speed, speed_label = _speed_axis(ds, driven_teeth)
+    pick = np.unique(np.linspace(0, len(speed) - 1, traces).round().astype(int))
+    orders = ds["order"].values
+    cols = orders > 0 if skip_mean else np.ones(orders.shape, bool)
+    is_force = da.attrs.get("units") == "N"
+    scale = 1.0 if is_force else UM
+    f_max = float(ds["frequency"].max()) if x == "frequency" else 0.0
+    f_scale, f_unit = (1e-3, "kHz") if f_max > 5e3 else (1.0, "Hz")
+    cmap = matplotlib.colormaps["viridis"]
+    for q, i in enumerate(pick):
+        amp = da.values[i, cols] * scale
+        xs = (ds["frequency"].values[i, cols] * f_scale if x == "frequency" else orders[cols])
+        ax.plot(xs, np.full(xs.shape, speed[i]), amp, lw=0.8,
+                color=cmap(0.9 * q / max(len(pick) - 1, 1)))
+    if natural_frequency_hz is not None:
+        f_line = (np.full(speed.shape, natural_frequency_hz * f_scale) if x == "frequency"
+                  else natural_frequency_hz / ds["mesh_frequency"].values)
+        keep = f_line <= (float(ds["frequency"].max()) * f_scale if x == "frequency"
+                          else float(orders[-1]))
+        ax.plot(f_line[keep], speed[keep], np.zeros(int(keep.sum())), color="tab:red", ls="--",
+                lw=1.0, label=f"f_n = {natural_frequency_hz / 1e3:.2f} kHz")
+        ax.legend(loc="upper left", fontsize=8)
+    ax.set_xlabel(f"frequency [{f_unit}]" if x == "frequency" else "mesh order [-]")
+    ax.set_ylabel(speed_label)
+    ax.set_zlabel("force amplitude [N]" if is_force else "amplitude of p [um]")
+    return ax.figure
+
+
+def plot_campbell(
+    ax: Axes,
+    ds: xr.Dataset,
+    *,
+    variable: str = "spectrum",
+    orders: Sequence[int] = (1, 2, 3),
+    natural_frequency_hz: float | None = None,
+    floor: float = 1e-3,
+    driven_teeth: int | None = None,
+) -> Figure:
+    """Order/speed colour map of the spectrum (Campbell-style) with mesh orders and f_n marked.
+
+    Parameters
+    ----------
+    ax : Axes
+    ds : Dataset
+        A result with ``variable`` on ``(speed, order)``.
+    variable : str
+        ``spectrum`` [m] (shown in um) or ``force_spectrum`` [N].
+    orders : sequence of int
+        Mesh orders labelled at the right edge [-] (no line over the data: the lines of the
+        spectrum are one bin, 1 / record_periods, tall).
+    natural_frequency_hz : float, optional
+        f_n [Hz]: drawn as the curve order = f_n / f_mesh(speed); where it meets mesh order n
+        (speed 60 f_n / (n N1)) order n resonates (a super-harmonic resonance for n > 1).
+    floor : float
+        Smallest amplitude coloured [um or N]; the bins between mesh orders hold only round-off.
+    driven_teeth : int, optional
+        Speed axis in the driven gear's speed.
+    """
+    da = ds[variable]
+    is_force = da.attrs.get("units") == "N"
+    scale = 1.0 if is_force else UM
+    speed, speed_label = _speed_axis(ds, driven_teeth)
+    order = ds["order"].values
+    amp = np.clip(da.transpose("order", "speed").values * scale, floor, None)
+    mesh = ax.pcolormesh(_edges(speed), _edges(order), amp, norm=LogNorm(vmin=floor,
+                         vmax=float(amp.max())), cmap="inferno", shading="flat",
+                         rasterized=True)
+    cb = ax.figure.colorbar(mesh, ax=ax, pad=0.02)
+    cb.set_label("force amplitude [N]" if is_force else "amplitude of p [um]")
+    ax.set_yticks(list(orders), minor=True)
+    ax.tick_params(axis="y", which="minor", length=8, color="tab:cyan", width=1.5)
+    if natural_frequency_hz is not None:
+        f_mesh = ds["mesh_frequency"].values
+        ax.plot(speed, natural_frequency_hz / f_mesh, color="tab:cyan", lw=1.0, ls="--",
+                label=f"f_n / f_mesh, f_n = {natural_frequency_hz / 1e3:.2f} kHz")
+        for n in orders:
+            s_n = np.interp(natural_frequency_hz / n, f_mesh, speed, left=np.nan, right=np.nan)
+            if np.isfinite(s_n):
+                ax.plot(s_n, n, "o", mfc="none", mec="tab:cyan", ms=9, mew=1.2)
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_ylim(order[0], order[-1])
+    ax.set_xlabel(speed_label)
+    ax.set_ylabel("order = frequency / mesh frequency [-]")
+    return ax.figure
+
+
+def _edges(c: np.ndarray) -> np.ndarray:
+    """Cell edges around centres ``c`` (midpoints, ends extended by half a step)."""
+    c = np.asarray(c, float)
+    if c.size == 1:
+        return np.array([c[0] - 0.5, c[0] + 0.5])
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])
+
+
+def plot_response_vs_speed(
+    ax: Axes,
+    ds: xr.Dataset,
+    *,
+    by: str = "torque",
+    variable: str = "p_rms",
+    natural_frequency_hz: float | None = None,
+    orders: Sequence[int] = (1, 2, 3),
+    log: bool = True,
+    relative: bool = False,
+) -> Figure:
+    """A response statistic against speed, one line per value of ``by`` (paper Fig. 6).
+
+    Parameters
+    ----------
+    ax : Axes
+    ds : Dataset
+        A result with ``variable`` on ``(speed, by)``.
+    by : str
+        The other swept dim (``torque`` [N m], ``mean_force`` [N], ``damping`` ...).
+    variable : str
+        A DATA.md statistic of p [m] (drawn in um), e.g. ``p_rms`` or ``p_pp``.
+    natural_frequency_hz : float, optional
+        Mark the speeds 60 f_n / (n N1) where mesh order n meets f_n [Hz].
+    orders : sequence of int
+        The orders n of those marks.
+    log : bool
+        Logarithmic amplitude axis.
+    relative : bool
+        Draw each line divided by the line of the first value of ``by`` [-].
+    """
+    da = ds[variable]
+    speed = ds["speed"].values
+    unit = ds[by].attrs.get("units", "")
+    base = da.isel({by: 0}).values
+    for v in ds[by].values:
+        y = da.sel({by: v}).values
+        ax.plot(speed, y / base if relative else y * UM, lw=1.2, label=f"{by} = {v:g} {unit}")
+    if natural_frequency_hz is not None:
+        f_per_rpm = float(ds["mesh_frequency"].values[-1] / speed[-1])
+        for n in orders:
+            s_n = natural_frequency_hz / (n * f_per_rpm)
+            if speed[0] <= s_n <= speed[-1]:
+                ax.axvline(s_n, color="0.5", ls=":", lw=0.8)
+                ax.text(s_n, 0.97, f" order {n}", transform=ax.get_xaxis_transform(),
+                        ha="left", va="top", fontsize=8, color="0.3")
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel(f"speed of the {ds['speed'].attrs.get('gear', 'driving gear')} [rpm]")
+    name = da.attrs.get("long_name", variable)
+    first = f"{float(ds[by].values[0]):g} {unit}"
+    ax.set_ylabel(f"{variable} / {variable} at {by} {first} [-]" if relative else f"{name} [um]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax.figure
+
+
+def plot_order_lines(
+    ax: Axes,
+    ds: xr.Dataset,
+    *,
+    orders: Sequence[int] = (1, 2, 3),
+    derivative: int = 0,
+    driven_teeth: int | None = None,
+    log: bool = False,
+) -> Figure:
+    """Amplitude of mesh-order lines against speed (the tracked orders of a waterfall).
+
+    Parameters
+    ----------
+    ax : Axes
+    ds : Dataset
+        A result with ``spectrum`` on ``(speed, order)``.
+    orders : sequence of int
+        Mesh orders drawn [-].
+    derivative : {0, 1, 2}
+        Displacement [um], velocity [mm/s] or acceleration [m/s^2] of the line: the amplitude
+        times (2 pi f)^derivative, f the line's frequency.
+    driven_teeth : int, optional
+        Speed axis in the driven gear's speed.
+    log : bool
+        Logarithmic amplitude axis.
+    """
+    speed, speed_label = _speed_axis(ds, driven_teeth)
+    scale, unit, what = {0: (UM, "um", "displacement"), 1: (1e3, "mm/s", "velocity"),
+                         2: (1.0, "m/s^2", "acceleration")}[derivative]
+    for n in orders:
+        line = ds["spectrum"].sel(order=float(n))
+        w = 2 * math.pi * ds["frequency"].sel(order=float(n)).values
+        ax.plot(speed, line.values * w**derivative * scale, lw=1.2, label=f"order {n}")
+    ax.set_xlabel(speed_label)
+    ax.set_ylabel(f"{what} amplitude of p [{unit}]")
+    if log:
+        ax.set_yscale("log")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax.figure

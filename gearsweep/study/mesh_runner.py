@@ -1,0 +1,216 @@
+"""Static mesh studies (``type: mesh``): STE, load sharing and mesh stiffness to netCDF.
+
+A mesh study computes :func:`gearsweep.gear.mesh_cycles` for one gear pair (``gear``) or several
+labelled variants (``gears``, a ``variant`` dim) at one torque or a swept torque (a ``torque``
+dim), and writes the DATA.md variables ``ste``, ``load_share`` (dim ``pair``) and
+``mesh_stiffness`` over ``mesh_phase`` and ``k_harmonic``, ``k_phase``, ``ste_harmonic``,
+``ste_phase`` over ``harmonic``::
+
+    type: mesh
+    title: STE versus load, Table 1 (consistent interpretation)
+    gears:
+      no relief: table1_consistent
+      6 um tip relief: {preset: table1_consistent, tip_relief: {amount: 6 um, start_at: single_contact}}
+    sweep:
+      torque: {start: 2 N*m, stop: 150 N*m, num: 50}
+    positions: 200      # per mesh cycle
+    harmonics: 10
+
+``gearsweep run STUDY.yaml`` runs it like any other study (no integration, no solver).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Literal
+
+import numpy as np
+import xarray as xr
+from pydantic import Field, ValidationError, model_validator
+
+from gearsweep.errors import GeometryError, StudyError
+from gearsweep.gear import iso6336_stiffness, mesh_cycles
+from gearsweep.study.dataset import build_dataset
+from gearsweep.study.gearscene import GearField, GearSpec, gear_pair, static_mesh, tip_reliefs
+from gearsweep.study.schema import Range, Strict, Torque, _check_grids, _first_error
+from gearsweep.study.units import to_si
+
+
+class MeshStudy(Strict):
+    """A static mesh study: gear pair(s) x torque(s) -> mesh cycle, Fourier series."""
+
+    type: Literal["mesh"]
+    title: str = Field(min_length=1)
+    description: str = ""
+    gear: GearField | None = None
+    gears: dict[str, GearField] | None = Field(None, description="labelled variants")
+    torque: Torque | None = Field(None, gt=0, description="driving torque T1 [N m]")
+    sweep: dict[Literal["torque"], list[float | str] | Range] = Field(default_factory=dict)
+    positions: int = Field(200, ge=8, le=100_000, description="positions per mesh cycle")
+    harmonics: int = Field(10, ge=1, description="Fourier harmonics kept")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> MeshStudy:
+        if (self.gear is None) == (self.gears is None):
+            raise ValueError("give exactly one of 'gear' (one pair) and 'gears' (labelled variants)")
+        if self.gears is not None and not self.gears:
+            raise ValueError("'gears' needs at least one labelled gear pair")
+        if (self.torque is None) == ("torque" not in self.sweep):
+            raise ValueError("give exactly one of 'torque' and 'sweep.torque'")
+        if self.harmonics > self.positions // 2:
+            raise ValueError(f"harmonics {self.harmonics} must be <= positions / 2 ="
+                             f" {self.positions // 2}")
+        return self
+
+    @property
+    def variants(self) -> dict[str, GearSpec]:
+        """Label -> gear spec (one unnamed entry ``""`` for a single ``gear``)."""
+        return dict(self.gears) if self.gears is not None else {"": self.gear}
+
+    @property
+    def swept_torque(self) -> bool:
+        return "torque" in self.sweep
+
+    def torques(self) -> np.ndarray:
+        """Driving torques [N m]."""
+        if not self.swept_torque:
+            return np.array([self.torque])
+        spec = self.sweep["torque"]
+        if isinstance(spec, Range):
+            a, b = to_si(spec.start, "torque"), to_si(spec.stop, "torque")
+            return np.geomspace(a, b, spec.num) if spec.spacing == "log" else np.linspace(
+                a, b, spec.num)
+        return np.array([to_si(v, "torque") for v in spec], dtype=float)
+
+
+def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
+    """Validate a ``type: mesh`` study and every gear pair in it (one error line per problem)."""
+    try:
+        study = MeshStudy.model_validate(raw)
+    except ValidationError as exc:
+        raise _first_error(exc, file) from None
+    _check_grids(study, file)
+    torques = study.torques()
+    bad = torques[~(np.isfinite(torques) & (torques > 0))]
+    if bad.size:
+        raise StudyError(file, "sweep.torque", float(bad[0]), "positive torques (they load the mesh)")
+    for label, spec in study.variants.items():
+        where = f"gears.{label}" if label else "gear"
+        try:
+            static_mesh(spec, float(torques[0]), n=study.positions)
+        except GeometryError as exc:
+            raise GeometryError(f"{file}: {where}: {exc}") from None
+    return study
+
+
+def summary(study: MeshStudy) -> str:
+    """One line describing the cases of a mesh study (for ``gearsweep validate``)."""
+    nv, nt = len(study.variants), len(study.torques())
+    return (f"mesh study, {nv} gear pair{'s' if nv > 1 else ''} x {nt} torque{'s' if nt > 1 else ''},"
+            f" {study.positions} positions per mesh cycle, {study.harmonics} harmonics")
+
+
+_ATTRS = {
+    "ste": ("m", "static transmission error along the line of action"),
+    "load_share": ("1", "share of the load on each tooth pair"),
+    "mesh_stiffness": ("N m-1", "mesh stiffness (tangent, sum over loaded pairs)"),
+    "k_harmonic": ("N m-1", "Fourier amplitude of mesh stiffness (0 = mean)"),
+    "k_phase": ("rad", "Fourier phase of mesh stiffness, cos(2 pi n phase + k_phase)"),
+    "ste_harmonic": ("m", "Fourier amplitude of STE (0 = mean)"),
+    "ste_phase": ("rad", "Fourier phase of STE, cos(2 pi n phase + ste_phase)"),
+    "in_contact": ("1", "tooth pair slot inside the geometric path of contact"),
+    "mean_force": ("N", "normal load along the line of action T / r_b1"),
+    "contact_ratio": ("1", "transverse contact ratio"),
+    "base_pitch": ("m", "base pitch"),
+    "base_radius_1": ("m", "base radius of the driving gear"),
+    "base_radius_2": ("m", "base radius of the driven gear"),
+    "gear_backlash": ("m", "backlash of the gear pair along the line of action"),
+    "iso_single_stiffness": ("N m-1", "ISO 6336-1 single stiffness c'"),
+    "iso_mesh_stiffness": ("N m-1", "ISO 6336-1 mesh stiffness c_gamma"),
+    "pair": ("1", "tooth pair slot: slot j is at s_start + (mesh_phase + j) base pitch"),
+    "harmonic": ("1", "Fourier harmonic order in mesh orders (0 = mean)"),
+    "variant": ("-", "gear pair variant (label from the study)"),
+}
+
+
+def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
+    """Compute every mesh cycle of a mesh study and return its Dataset (DATA.md names).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims ``variant`` (with ``gears``), ``torque`` (when swept), ``mesh_phase``, ``pair``,
+        ``harmonic``; SI units.
+    """
+    t0 = time.perf_counter()
+    torques = study.torques()
+    variants = study.variants
+    h = study.harmonics
+    per: list[dict[str, np.ndarray]] = []
+    described = []
+    for label, spec in variants.items():
+        pair = gear_pair(spec).check()
+        cycles = mesh_cycles(pair, torques, n=study.positions, tip_relief=tip_reliefs(spec, pair))
+        arrays = [c.as_arrays(h) for c in cycles]
+        c_prime, c_gamma = iso6336_stiffness(pair)
+        rec = {k: np.stack([a[k] for a in arrays]) for k in
+               ("ste", "load_share", "mesh_stiffness", "k_harmonic", "k_phase", "ste_harmonic",
+                "ste_phase")}
+        rec["mean_force"] = np.array([c.load for c in cycles])
+        rec["in_contact"] = cycles[0].in_contact
+        rec.update(contact_ratio=pair.contact_ratio, base_pitch=pair.base_pitch,
+                   base_radius_1=pair.base_radius1, base_radius_2=pair.base_radius2,
+                   gear_backlash=pair.backlash_loa, iso_single_stiffness=c_prime,
+                   iso_mesh_stiffness=c_gamma)
+        per.append(rec)
+        relief = f", tip relief {spec.tip_relief.model_dump(exclude_none=True)}" if (
+            spec.tip_relief is not None) else ""
+        described.append(f"{label + ': ' if label else ''}{pair.name}, z {pair.z1}/{pair.z2},"
+                         f" m {pair.module * 1e3:g} mm, b {pair.face_width * 1e3:g} mm, contact"
+                         f" ratio {pair.contact_ratio:.4f}{relief}")
+    # Pad the pair-slot axis to the largest contact ratio among the variants.
+    n_slot = max(r["load_share"].shape[-1] for r in per)
+    for r in per:
+        pad = n_slot - r["load_share"].shape[-1]
+        if pad:
+            r["load_share"] = np.pad(r["load_share"], [(0, 0), (0, 0), (0, pad)],
+                                     constant_values=np.nan)
+            r["in_contact"] = np.pad(r["in_contact"], [(0, 0), (0, pad)], constant_values=False)
+
+    multi = study.gears is not None
+    lead = (("variant",) if multi else ()) + (("torque",) if study.swept_torque else ())
+
+    def stack(name: str) -> np.ndarray:
+        a = np.stack([r[name] for r in per])  # (variant, torque, ...)
+        if not study.swept_torque:
+            a = a[:, 0]
+        return a if multi else a[0]
+
+    trailing = {"ste": ("mesh_phase",), "mesh_stiffness": ("mesh_phase",),
+                "load_share": ("mesh_phase", "pair"), "k_harmonic": ("harmonic",),
+                "k_phase": ("harmonic",), "ste_harmonic": ("harmonic",),
+                "ste_phase": ("harmonic",), "mean_force": ()}
+    data_vars: dict[str, tuple] = {n: ((*lead, *d), stack(n)) for n, d in trailing.items()}
+    vdim = ("variant",) if multi else ()
+    data_vars["in_contact"] = ((*vdim, "mesh_phase", "pair"),
+                               np.stack([r["in_contact"] for r in per]) if multi
+                               else per[0]["in_contact"])
+    for name in ("contact_ratio", "base_pitch", "base_radius_1", "base_radius_2", "gear_backlash",
+                 "iso_single_stiffness", "iso_mesh_stiffness"):
+        vals = np.array([r[name] for r in per])
+        data_vars[name] = (vdim, vals if multi else vals[0])
+    coords: dict[str, tuple] = {
+        "mesh_phase": (("mesh_phase",), np.arange(study.positions) / study.positions),
+        "pair": (("pair",), np.arange(n_slot)),
+        "harmonic": (("harmonic",), np.arange(h + 1)),
+        "torque": (("torque",), torques) if study.swept_torque else ((), torques[0]),
+    }
+    if multi:
+        coords["variant"] = (("variant",), np.array(list(variants), dtype=str))
+    var_attrs = {k: {"units": u, "long_name": ln} for k, (u, ln) in _ATTRS.items()}
+    settings = {"scene": "mesh", "positions": study.positions, "harmonics": h,
+                "gears": "; ".join(described), "cases": len(variants) * len(torques),
+                "elapsed_seconds": round(time.perf_counter() - t0, 3)}
+    ds = build_dataset(data_vars, coords, title=study.title, study_text=text, settings=settings,
+                       var_attrs=var_attrs, source="gearsweep mesh study (gearsweep.gear)")
+    return ds

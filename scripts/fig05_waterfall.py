@@ -1,0 +1,55 @@
+"""Fig. 5: waterfall of the whine response and its order/speed map (studies/fig05_waterfall.yaml).
+
+Writes figures/fig05_waterfall.png (3-D waterfall: frequency x speed x amplitude) and
+figures/fig05_campbell.png (order/speed colour map with mesh orders 1-3 and f_n, and the order
+lines). Run from the repository root after ``gearsweep run studies/fig05_waterfall.yaml``:
+
+    python scripts/fig05_waterfall.py [--results results] [--figures figures]
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import xarray as xr
+from _common import open_result, parse
+
+from gearsweep.plot.common import save
+from gearsweep.plot.whine import (
+    natural_frequency,
+    plot_campbell,
+    plot_order_lines,
+    plot_waterfall,
+)
+
+
+def draw(ds: xr.Dataset, figures: Path, suffix: str = "") -> None:
+    """Write fig05_waterfall{suffix}.png and fig05_campbell{suffix}.png from one result."""
+    f_n = natural_frequency(ds)
+    teeth = int(round(float(ds.mesh_frequency[-1] / ds.speed[-1] * 60)))
+    fig = plt.figure(figsize=(8.0, 6.4), layout="constrained")
+    ax = fig.add_subplot(projection="3d")
+    plot_waterfall(ax, ds, traces=40, natural_frequency_hz=f_n)
+    ax.view_init(elev=28, azim=-62)
+    ax.set_title(f"{ds.attrs['title']}\ndynamic transmission error p (Eq. 9); 40 of"
+                 f" {ds.sizes['speed']} speeds drawn; order 0 (mean of p) left out",
+                 fontsize=9)
+    print(save(fig, figures / f"fig05_waterfall{suffix}.png", dpi=150))
+
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 7.6), sharex=True,
+                                  height_ratios=[1.4, 1.0], layout="constrained")
+    plot_campbell(ax, ds, natural_frequency_hz=f_n)
+    ax.set_title(f"{ds.attrs['title']}\ndashed: order f_n / f_mesh, f_n = sqrt(k0/m)/2pi;"
+                 f" circles: order n meets f_n at 60 f_n / ({teeth} n) rpm", fontsize=9)
+    ax.set_xlabel("")
+    plot_order_lines(ax2, ds, orders=(1, 2, 3, 4), log=True)
+    for n in (1, 2, 3, 4):
+        ax2.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
+    ax2.set_title(f"the mesh-order lines; dotted: 60 f_n / ({teeth} n)", fontsize=9)
+    print(save(fig, figures / f"fig05_campbell{suffix}.png", dpi=150))
+
+
+if __name__ == "__main__":
+    args = parse(__doc__.splitlines()[0])
+    draw(open_result(args.results, "fig05_waterfall"), args.figures)

@@ -1,0 +1,62 @@
+"""The main job: run every study under studies/ (not its subfolders), then every figure script.
+
+    python scripts/main_job.py [--results results] [--figures figures] [--only PATTERN]
+
+Runs in-process on the embedded default (no cluster). A study or figure script that fails is
+reported and the others still run; the exit code is 1 if anything failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--results", type=Path, default=ROOT / "results")
+    p.add_argument("--figures", type=Path, default=ROOT / "figures")
+    p.add_argument("--only", default="*", help="glob on study and script names")
+    args = p.parse_args()
+
+    from gearsweep.cli import main as gearsweep
+
+    failed: list[str] = []
+    t_all = time.perf_counter()
+    studies = sorted(s for s in (ROOT / "studies").glob("*.yaml") if fnmatch.fnmatch(s.stem, args.only))
+    print(f"== {len(studies)} studies", flush=True)
+    for study in studies:
+        t0 = time.perf_counter()
+        out = args.results / f"{study.stem}.nc"
+        code = gearsweep(["run", str(study), "-o", str(out), "-q"])
+        dt = time.perf_counter() - t0
+        print(f"   {'ok  ' if code == 0 else 'FAIL'} {study.name:<40} {dt:7.1f} s", flush=True)
+        if code:
+            failed.append(study.name)
+    scripts = sorted(s for s in (ROOT / "scripts").glob("fig*.py") if fnmatch.fnmatch(s.stem, args.only))
+    print(f"== {len(scripts)} figure scripts", flush=True)
+    env = dict(os.environ, MPLBACKEND="Agg")
+    for script in scripts:
+        t0 = time.perf_counter()
+        r = subprocess.run([sys.executable, str(script), "--results", str(args.results),
+                            "--figures", str(args.figures)], cwd=ROOT, env=env,
+                           capture_output=True, text=True)
+        dt = time.perf_counter() - t0
+        print(f"   {'ok  ' if r.returncode == 0 else 'FAIL'} {script.name:<40} {dt:7.1f} s", flush=True)
+        if r.returncode:
+            failed.append(script.name)
+            print("     " + (r.stderr.strip().splitlines() or ["(no output)"])[-1], flush=True)
+    print(f"== done in {time.perf_counter() - t_all:.1f} s; "
+          + (f"FAILED: {', '.join(failed)}" if failed else "all ok"), flush=True)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,335 @@
+"""From a gear pair in YAML to the dynamics and to mesh-study netCDF files; CLI errors (exit 2)."""
+
+import math
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from numpy.testing import assert_allclose
+from scipy.integrate import solve_ivp
+
+from gearsweep.cli import main
+from gearsweep.errors import GeometryError, StudyError
+from gearsweep.gear import GearPair, TipRelief, table1_consistent
+from gearsweep.gear.mesh import fourier, fourier_series, mesh_cycle, mesh_cycles
+from gearsweep.kernels import simulate
+from gearsweep.model import RPM, kernel_inputs
+from gearsweep.study.runner import build_model
+from gearsweep.study.schema import parse_study
+
+STUDIES = Path(__file__).resolve().parent.parent / "studies"
+
+
+def whine(gear: str, extra: str = "", kind: str = "whine") -> str:
+    """A small dynamic study whose scene has ``gear: <gear>`` (and ``extra`` scene lines)."""
+    backlash = "  backlash: 0.5 mm\n" if kind == "rattle" else ""
+    return (f"title: gear scene\nscene:\n  kind: {kind}\n  gear: {gear}\n  mass: 0.1527 kg\n"
+            f"  damping: 5.5 N*s/mm\n{backlash}{extra}"
+            "sweep:\n  speed: [1000 rpm, 2000 rpm]\n")
+
+
+def single_contact_relief(pair: GearPair, amount: float) -> tuple[TipRelief, TipRelief]:
+    """Linear relief of both gears from where single-tooth contact ends on each flank."""
+    xi1 = (pair.s_start + pair.base_pitch) / pair.base_radius1
+    xi2 = (pair.line_of_action_length - (pair.s_end - pair.base_pitch)) / pair.base_radius2
+    return TipRelief(amount, start_roll_angle=xi1), TipRelief(amount, start_roll_angle=xi2)
+
+
+# --------------------------------------------------------------------------- YAML -> model
+
+
+def test_gear_line_gives_the_mesh_cycle_coefficients():
+    """k0, k_n, a_n, N1, r_b1 and F_m of ``gear: table1_consistent`` are mesh_cycle's (to 1e-12:
+    the same numbers through a different path), and e(t) of the time-varying-stiffness scene is
+    STE - F/k(phase), which vanishes for unmodified error-free teeth."""
+    study = parse_study(whine("table1_consistent", "  torque: 50 N*m\n  harmonics: 6\n"))
+    model = build_model(study)
+    pair = table1_consistent()
+    mc = mesh_cycle(pair, 50.0, n=200)
+    k_amp, k_ph = fourier(mc.mesh_stiffness, 6)
+    assert model.teeth == 48
+    assert model.base_radius == pytest.approx(pair.base_radius1, rel=1e-15)
+    assert model.mean_force == pytest.approx(50.0 / pair.base_radius1, rel=1e-15)
+    assert model.stiffness == pytest.approx(k_amp[0], rel=1e-12)
+    assert [h.order for h in model.stiffness_harmonics] == [1, 2, 3, 4, 5, 6]
+    assert_allclose([h.amplitude for h in model.stiffness_harmonics], k_amp[1:], rtol=1e-12)
+    assert_allclose([h.phase for h in model.stiffness_harmonics], k_ph[1:], rtol=1e-12)
+    # No relief, no error: STE = F / k exactly, so e(t) = 0 to round-off (1e-9 of the STE).
+    assert max(h.amplitude for h in model.ste_harmonics) < 1e-9 * mc.ste.mean()
+
+
+def test_mean_force_gives_the_same_load_as_torque():
+    pair = table1_consistent()
+    force = 50.0 / pair.base_radius1
+    by_force = build_model(parse_study(whine("table1_consistent", f"  mean_force: {force!r} N\n")))
+    by_torque = build_model(parse_study(whine("table1_consistent", "  torque: 50 N*m\n")))
+    assert by_force.stiffness == pytest.approx(by_torque.stiffness, rel=1e-12)
+    assert by_force.mean_force == pytest.approx(force, rel=1e-12)
+
+
+def test_rattle_gear_scene_has_constant_k0_and_the_loaded_ste():
+    """Eq. (13): constant stiffness k0, so e(t) is the loaded STE itself (harmonics 1..n)."""
+    study = parse_study(whine("table1_consistent", "  torque: 50 N*m\n", kind="rattle"))
+    model = build_model(study)
+    mc = mesh_cycle(table1_consistent(), 50.0)
+    e_amp, e_ph = fourier(mc.ste, 10)
+    assert model.stiffness_harmonics == ()
+    assert model.stiffness == pytest.approx(mc.mesh_stiffness.mean(), rel=1e-12)
+    assert_allclose([h.amplitude for h in model.ste_harmonics], e_amp[1:], rtol=1e-12)
+    assert_allclose([h.phase for h in model.ste_harmonics], e_ph[1:], rtol=1e-12)
+
+
+def test_gear_fields_with_units_and_tip_relief():
+    """A mapping of GearPair fields in YAML units, and a preset with a relief, match direct calls."""
+    study = parse_study(whine("{module: 2 mm, z1: 20, z2: 40, face_width: 20 mm, x1: 0.1}",
+                              "  torque: 20 N*m\n  harmonics: 3\n"))
+    mc = mesh_cycle(GearPair(module=2e-3, z1=20, z2=40, face_width=20e-3, x1=0.1), 20.0)
+    assert build_model(study).stiffness == pytest.approx(mc.mesh_stiffness.mean(), rel=1e-12)
+
+    relief = "{preset: table1_consistent, tip_relief: {amount: 6 um, start_at: single_contact}}"
+    study = parse_study(whine(relief, "  torque: 50 N*m\n", kind="rattle"))
+    pair = table1_consistent()
+    mc = mesh_cycle(pair, 50.0, tip_relief=single_contact_relief(pair, 6e-6))
+    e_amp = fourier(mc.ste, 10)[0]
+    assert_allclose([h.amplitude for h in build_model(study).ste_harmonics], e_amp[1:],
+                    rtol=1e-12)
+    # The relief designed for 50 N m removes most of the first STE harmonic (1.33 -> 0.21 um).
+    assert e_amp[1] < 0.2 * fourier(mesh_cycle(pair, 50.0).ste, 1)[0][1]
+
+    # Relief of the driven gear only, its start given as a diameter.
+    relief = ("{preset: table1_consistent, tip_relief: {amount: 4 um, shape: parabolic,"
+              " start_diameter: 82 mm, gears: driven}}")
+    study = parse_study(whine(relief, "  torque: 50 N*m\n", kind="rattle"))
+    mc = mesh_cycle(pair, 50.0, tip_relief=(None, TipRelief(4e-6, start_diameter=82e-3,
+                                                            shape="parabolic")))
+    assert_allclose([h.amplitude for h in build_model(study).ste_harmonics],
+                    fourier(mc.ste, 10)[0][1:], rtol=1e-12)
+
+
+def test_whine_gear_scene_integrates_to_an_independent_ode_solution():
+    """The whole chain YAML -> model -> kernel against scipy's solve_ivp of Eq. (6) written from
+    the mesh cycle directly: m p'' + c p' + k(t) p = F - m e''(t), k and e the 10-harmonic
+    series of k(phase) and STE - F/k(phase) with tip relief (so e is not zero), at 6000 rpm
+    (mesh 4800 Hz, near the 6030 Hz natural frequency, where phases of k and e matter).
+    RK4 at 256 steps per period: omega_n h = 0.03 and the 10th harmonic advances 0.25 rad
+    per step; measured difference 4e-7 of p_pp, tolerance 1e-4 of p_pp (a 0.1 rad phase error
+    of k alone gives 6e-2, an e(t) of the wrong sign 2)."""
+    relief = "{preset: table1_consistent, tip_relief: {amount: 6 um, start_at: single_contact}}"
+    study = parse_study(whine(relief, "  torque: 50 N*m\n"))
+    model = build_model(study)
+    spp, n_tr = 256, 10  # transient: zeta = 0.47 decays e^-3.7 per mesh period
+    kin = kernel_inputs(model, {"speed": np.array([6000.0])}, 1, spp)
+    res = simulate(method="rk4", n_transient=n_tr * spp, n_record=spp, steps_per_period=spp,
+                   signal_stride=1, **kin)
+    p_kernel = res.signal[0]
+
+    pair = table1_consistent()
+    mc = mesh_cycle(pair, 50.0, tip_relief=single_contact_relief(pair, 6e-6))
+    k_a, k_p = fourier(mc.mesh_stiffness, 10)
+    e_a, e_p = fourier(mc.ste - mc.load / mc.mesh_stiffness, 10)
+    n = np.arange(11)
+    f_mesh = 48 * 6000.0 * RPM / (2 * math.pi)
+    m, c, force = 0.1527, 5.5e3, mc.load
+
+    def rhs(t, y):
+        phi = f_mesh * t
+        k = np.sum(k_a * np.cos(2 * np.pi * n * phi + k_p))
+        e_dd = -np.sum(e_a[1:] * (2 * np.pi * n[1:] * f_mesh) ** 2
+                       * np.cos(2 * np.pi * n[1:] * phi + e_p[1:]))
+        return [y[1], (force - m * e_dd - c * y[1] - k * y[0]) / m]
+
+    # Kernel sample r of the record is the state after step n_tr * spp + r.
+    t = (n_tr * spp + np.arange(spp) + 1) / (spp * f_mesh)
+    ref = solve_ivp(rhs, (0.0, t[-1]), [0.0, 0.0], method="DOP853", t_eval=t, rtol=1e-10,
+                    atol=1e-16, max_step=1 / (16 * f_mesh)).y[0]
+    assert np.ptp(e_a[1:]) > 1e-7  # e(t) is really there (relief): ~1.5 um first harmonic
+    assert_allclose(p_kernel, ref, atol=1e-4 * np.ptp(ref))
+
+
+# --------------------------------------------------------------------------- refusals
+
+
+def _run_cli(tmp_path, capsys, text: str, command: str = "validate") -> tuple[int, str, str]:
+    path = tmp_path / "study.yaml"
+    path.write_text(textwrap.dedent(text))
+    argv = [command, str(path)] + (["-o", str(tmp_path / "out.nc"), "-q"] if command == "run" else [])
+    rc = main(argv)
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+BAD_GEARS = {
+    "table1_as_printed": ("table1_as_printed",
+                          ["tip-root interference", ("contact ratio 2.429 is outside the stated "
+                           "range [1, 2]"), "thickness and backlash cannot coexist"]),
+    "tip_root": ("{module: 2 mm, z1: 20, z2: 40, face_width: 20 mm, tip_radius1: 23.5 mm}",
+                 ["tip-root interference: tip radius of gear 1 (23.5 mm)"]),
+    "undercut": ("{module: 2 mm, z1: 8, z2: 40, face_width: 20 mm}", ["undercut: gear 1 (z = 8"]),
+    "pointed": ("{module: 2 mm, z1: 12, z2: 40, face_width: 20 mm, x1: 1.2}",
+                ["pointed teeth: gear 1"]),
+    "thickness": (("{module: 2 mm, z1: 20, z2: 40, face_width: 20 mm, thickness1: 4 mm,"
+                  " thickness2: 3 mm, backlash: 0.1 mm}"), ["cannot coexist"]),
+    "contact_ratio": (("{module: 2 mm, z1: 20, z2: 40, face_width: 20 mm, tip_radius1: 20.6 mm,"
+                      " tip_radius2: 40.6 mm}"), ["contact ratio 0.552 is below 1"]),
+    "relief": ("{preset: table1_consistent, tip_relief: {amount: 5 um, start_radius: 10 mm}}",
+               ["tip relief start radius 10 mm of gear 1 must lie between base"]),
+}
+
+
+@pytest.mark.parametrize("name", list(BAD_GEARS))
+def test_bad_geometry_is_one_line_and_exit_2(tmp_path, capsys, name):
+    """``gearsweep validate`` (not only ``run``) refuses every inconsistent geometry in one line
+    naming the file, the field and each problem."""
+    gear, fragments = BAD_GEARS[name]
+    rc, out, err = _run_cli(tmp_path, capsys, whine(gear, "  torque: 50 N*m\n"))
+    assert rc == 2 and out == ""
+    assert err.endswith("\n") and err.count("\n") == 1
+    assert err.startswith(f"gearsweep: error: {tmp_path / 'study.yaml'}: scene.gear: ")
+    for fragment in fragments:
+        assert fragment in err
+
+
+def test_run_refuses_table1_as_printed_before_computing(tmp_path, capsys):
+    rc, _, err = _run_cli(tmp_path, capsys, whine("table1_as_printed", "  torque: 50 N*m\n"),
+                          command="run")
+    assert rc == 2 and "tip-root interference" in err and err.count("\n") == 1
+    assert not (tmp_path / "out.nc").exists()
+
+
+def test_mesh_study_refuses_table1_as_printed(tmp_path, capsys):
+    text = "type: mesh\ntitle: t\ngears:\n  printed: table1_as_printed\ntorque: 50 N*m\n"
+    rc, _, err = _run_cli(tmp_path, capsys, text)
+    assert rc == 2 and err.count("\n") == 1
+    assert ": gears.printed: Table 1 as printed: tip-root interference" in err
+
+
+@pytest.mark.parametrize("extra, message", [
+    ("  torque: 50 N*m\n  stiffness: 1073 kN/mm\n", "give either 'gear' or typed-in stiffness"),
+    ("  torque: 50 N*m\n  ste: [{amplitude: 5 um}]\n", "give either 'gear' or typed-in ste"),
+    ("  torque: 50 N*m\n  teeth: 48\n", "give either 'gear' or typed-in teeth"),
+    ("  torque: 50 N*m\n  base_radius: 56 mm\n", "typed-in base_radius"),
+    ("", "a 'gear' needs the mean load"),
+])
+def test_gear_with_typed_in_coefficients_is_refused(tmp_path, capsys, extra, message):
+    rc, _, err = _run_cli(tmp_path, capsys, whine("table1_consistent", extra))
+    assert rc == 2 and err.count("\n") == 1
+    assert ": scene: " in err and message in err
+
+
+def test_gear_scene_refuses_a_torque_sweep():
+    text = whine("table1_consistent", "  torque: 50 N*m\n") + "  torque: [10 N*m, 50 N*m]\n"
+    with pytest.raises(StudyError, match=r"sweep.torque: a gear scene computes stiffness and STE"
+                                         r" at one mean load"):
+        parse_study(text)
+
+
+def test_drive_radii_must_match_the_gear():
+    text = whine("table1_consistent", "  torque: 50 N*m\n").replace(
+        "  mass: 0.1527 kg\n", "  drive: {inertia_1: 1e-3 kg*m**2, inertia_2: 1e-3 kg*m**2,"
+        " base_radius_1: 60 mm, base_radius_2: 40 mm}\n")
+    with pytest.raises(StudyError, match=r"scene.drive.base_radius_1: 0.06 -- the gear's base"
+                                         r" radius 0.0563816 m"):
+        parse_study(text)
+
+
+def test_geometry_error_is_a_gearsweep_error_raised_by_parse_study():
+    with pytest.raises(GeometryError, match=r"^<study>: scene.gear: Table 1 as printed: "):
+        parse_study(whine("table1_as_printed", "  torque: 50 N*m\n"))
+
+
+# --------------------------------------------------------------------------- mesh studies
+
+MESH_UNITS = {"ste": "m", "load_share": "1", "mesh_stiffness": "N m-1", "k_harmonic": "N m-1",
+              "k_phase": "rad", "ste_harmonic": "m", "ste_phase": "rad"}
+
+
+def test_mesh_study_netcdf_has_data_md_names_dims_units_and_mesh_cycle_values(tmp_path, capsys):
+    """``gearsweep run`` of a ``type: mesh`` study: DATA.md names, dims and units; the values are
+    those of mesh_cycles called directly (to round-off); the file opens with no arguments."""
+    text = """\
+        type: mesh
+        title: two variants, three torques
+        gears:
+          plain: table1_consistent
+          relieved: {preset: table1_consistent, tip_relief: {amount: 6 um, start_at: single_contact}}
+        sweep:
+          torque: [10 N*m, 50 N*m, 100 N*m]
+        positions: 64
+        harmonics: 5
+        """
+    rc, out, err = _run_cli(tmp_path, capsys, text, command="run")
+    assert rc == 0 and err == ""
+    with xr.open_dataset(tmp_path / "out.nc") as ds:
+        for name, unit in MESH_UNITS.items():
+            assert ds[name].attrs["units"] == unit, name
+        assert ds["ste"].dims == ("variant", "torque", "mesh_phase")
+        assert ds["mesh_stiffness"].dims == ("variant", "torque", "mesh_phase")
+        assert ds["load_share"].dims == ("variant", "torque", "mesh_phase", "pair")
+        for name in ("k_harmonic", "k_phase", "ste_harmonic", "ste_phase"):
+            assert ds[name].dims == ("variant", "torque", "harmonic")
+        assert ds["torque"].attrs["units"] == "N m"
+        assert list(ds["torque"].values) == [10.0, 50.0, 100.0]
+        assert list(ds["variant"].values) == ["plain", "relieved"]
+        assert list(ds["harmonic"].values) == list(range(6))
+        phase = ds["mesh_phase"].values
+        assert phase.size == 64 and phase.min() == 0.0 and phase.max() < 1.0
+        assert ds.attrs["Conventions"] == "CF-1.10" and "type: mesh" in ds.attrs["study"]
+        assert ds.attrs["study_sha256"] and ds.attrs["history"].startswith("[")
+        pair = table1_consistent()
+        for variant, relief in (("plain", None), ("relieved", single_contact_relief(pair, 6e-6))):
+            cycles = mesh_cycles(pair, [10.0, 50.0, 100.0], n=64, tip_relief=relief)
+            for q, mc in enumerate(cycles):
+                v = ds.sel(variant=variant).isel(torque=q)
+                assert_allclose(v["ste"].values, mc.ste, rtol=1e-12)
+                assert_allclose(v["load_share"].values, mc.load_share, rtol=1e-12)
+                amp, ph = fourier(mc.mesh_stiffness, 5)
+                assert_allclose(v["k_harmonic"].values, amp, rtol=1e-12)
+                # The stored Fourier series reproduces the stored STE to the truncation error.
+                e = fourier_series(v["ste_harmonic"].values, v["ste_phase"].values, phase)
+                assert np.abs(e - v["ste"].values).max() < 0.5 * np.ptp(mc.ste) + 1e-12
+    assert main(["inspect", str(tmp_path / "out.nc")]) == 0
+    assert "static mesh study, 64 positions per mesh cycle" in capsys.readouterr().out
+
+
+def test_single_torque_mesh_study_has_no_torque_dim():
+    from gearsweep.study.runner import run_study
+
+    study = parse_study("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 50 N*m\n"
+                        "positions: 50\nharmonics: 3\n")
+    ds = run_study(study)
+    assert ds["ste"].dims == ("mesh_phase",)
+    assert ds["load_share"].dims == ("mesh_phase", "pair")
+    assert float(ds["torque"]) == 50.0 and ds["torque"].dims == ()
+    assert float(ds["k_harmonic"][0]) == pytest.approx(
+        mesh_cycle(table1_consistent(), 50.0, n=50).mesh_stiffness.mean(), rel=1e-12)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("type: mesh\ntitle: t\ngear: table1_consistent\n", "give exactly one of 'torque' and"),
+    ("type: mesh\ntitle: t\ntorque: 5 N*m\n", "give exactly one of 'gear' (one pair) and 'gears'"),
+    (("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 5 N*m\npositions: 10\n"
+     "harmonics: 6\n"), "harmonics 6 must be <= positions / 2 = 5"),
+    ("type: mesh\ntitle: t\ngear: table1_consistent\nsweep: {torque: [-5 N*m]}\n",
+     "positive torques"),
+    ("type: meshes\ntitle: t\n", "'mesh' (a static mesh study)"),
+])
+def test_mesh_study_problems_are_one_study_error(text, message):
+    with pytest.raises(StudyError, match=None) as info:
+        parse_study(text)
+    assert message in str(info.value)
+
+
+@pytest.mark.parametrize("path", sorted(STUDIES.glob("*.yaml")), ids=lambda p: p.stem)
+def test_every_study_file_validates(path, capsys):
+    assert main(["validate", str(path)]) == 0
+    assert capsys.readouterr().out.startswith(f"{path}: ok -- ")
+
+
+def test_scene_without_gear_still_needs_teeth_and_stiffness():
+    with pytest.raises(StudyError, match=r"scene: '\{...\}' -- 'stiffness' required \(or a 'gear'"):
+        parse_study("title: t\nscene: {kind: whine, mass: 1 kg, teeth: 20}\nsweep: {speed: [100]}\n")
+    with pytest.raises(StudyError, match=r"'harmonics' is the number of Fourier terms of a 'gear'"):
+        parse_study("title: t\nscene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8,"
+                    " harmonics: 3}\nsweep: {speed: [100]}\n")

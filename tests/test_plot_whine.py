@@ -1,0 +1,101 @@
+"""Whine figures: the plotted data are the Dataset's (checked on the artists, not on pixels)."""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from numpy.testing import assert_allclose  # noqa: E402
+
+from gearsweep.plot.whine import (  # noqa: E402
+    driven_speed,
+    natural_frequency,
+    plot_campbell,
+    plot_order_lines,
+    plot_response_vs_speed,
+    plot_waterfall,
+)
+from gearsweep.study.runner import run_study  # noqa: E402
+from gearsweep.study.schema import parse_study  # noqa: E402
+
+STUDY = """
+title: plot test
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  stiffness_harmonics: [{amplitude: 179 kN/mm}]
+  ste: [{amplitude: 5 um, phase: 180 deg}, {amplitude: 1 um, phase: 180 deg}]
+  damping: 5.5 N*s/mm
+  base_radius: 56.38 mm
+sweep:
+  speed: {start: 2000 rpm, stop: 18000 rpm, num: 41}
+  torque: [25 N*m, 50 N*m]
+solver: {method: rk4, steps_per_period: 64, transient_periods: 40, record_periods: 4}
+outputs: [stats, {spectrum: {max_order: 4}}]
+"""
+
+
+@pytest.fixture(scope="module")
+def ds():
+    out = run_study(parse_study(STUDY), STUDY)
+    yield out
+    plt.close("all")
+
+
+def test_natural_frequency_and_driven_speed(ds):
+    assert natural_frequency(ds) == pytest.approx(math.sqrt(1.073e9 / 0.1527) / (2 * math.pi),
+                                                  rel=1e-12)
+    assert_allclose(driven_speed(ds, 32), ds.speed.values * 48 / 32, rtol=1e-14)
+
+
+def test_waterfall_draws_the_spectrum(ds):
+    one = ds.sel(torque=50.0)
+    fig = plt.figure()
+    ax = fig.add_subplot(projection="3d")
+    assert plot_waterfall(ax, one, traces=5) is fig
+    lines = ax.get_lines()
+    assert len(lines) == 5
+    x, y, z = lines[-1].get_data_3d()
+    assert_allclose(z, one.spectrum.values[-1, 1:] * 1e6)  # order 0 left out, in um
+    assert_allclose(x, one.frequency.values[-1, 1:] * 1e-3)  # kHz above 5 kHz
+    assert np.all(y == 18000.0)
+    assert "[um]" in ax.get_zlabel() and "[rpm]" in ax.get_ylabel()
+
+
+def test_campbell_map_and_natural_frequency_curve(ds):
+    one = ds.sel(torque=50.0)
+    fig, ax = plt.subplots()
+    f_n = natural_frequency(one)
+    plot_campbell(ax, one, natural_frequency_hz=f_n, floor=1e-3)
+    mesh = ax.collections[0]
+    assert_allclose(np.asarray(mesh.get_array()).reshape(17, 41),
+                    np.clip(one.spectrum.values.T * 1e6, 1e-3, None))
+    curve = ax.get_lines()[0]
+    assert_allclose(curve.get_ydata(), f_n / one.mesh_frequency.values)
+    # The circles sit where order n meets f_n: speed 60 f_n / (48 n).
+    circles = [ln for ln in ax.get_lines()[1:]]
+    for n, c in zip((1, 2, 3), circles, strict=True):
+        assert c.get_xdata()[0] == pytest.approx(60 * f_n / (48 * n), rel=1e-9)
+        assert c.get_ydata()[0] == n
+
+
+def test_response_and_order_lines(ds):
+    fig, ax = plt.subplots()
+    plot_response_vs_speed(ax, ds, by="torque", variable="p_rms")
+    assert_allclose(ax.get_lines()[1].get_ydata(), ds.p_rms.sel(torque=50.0).values * 1e6)
+    fig, ax = plt.subplots()
+    plot_order_lines(ax, ds.sel(torque=50.0), derivative=1, driven_teeth=32)
+    line = ax.get_lines()[0]
+    amp = ds.spectrum.sel(torque=50.0, order=1.0).values
+    f = ds.frequency.sel(order=1.0).values
+    assert_allclose(line.get_ydata(), 2 * np.pi * f * amp * 1e3)  # mm/s
+    assert_allclose(line.get_xdata(), ds.speed.values * 48 / 32)
+    assert "[mm/s]" in ax.get_ylabel()

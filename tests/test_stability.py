@@ -1,0 +1,313 @@
+"""Floquet multipliers, the stability polynomials and the integrator guard rail against
+independent truth: exponentials, Mathieu characteristic values (scipy), perturbation theory."""
+
+from fractions import Fraction
+from math import factorial
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy.special import mathieu_a, mathieu_b
+
+from gearsweep.analysis import stability as st
+from gearsweep.errors import GearsweepError
+from gearsweep.kernels import simulate
+from gearsweep.kernels.floquet import floquet, mathieu_parameters, monodromy, paper_criterion
+
+
+def _bisect(flag, lo, hi, n=40):
+    """Vectorised bisection on a boolean ``flag(x)`` that differs at ``lo`` and ``hi``."""
+    lo, hi = np.array(lo, float), np.array(hi, float)
+    f_lo = flag(lo)
+    if np.any(f_lo == flag(hi)):
+        raise RuntimeError("bracket does not straddle the transition")
+    for _ in range(n):
+        mid = 0.5 * (lo + hi)
+        same = flag(mid) == f_lo
+        lo = np.where(same, mid, lo)
+        hi = np.where(same, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+# --- stability polynomials ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("method,order", [("rk4", 4), ("rk5", 5)])
+def test_polynomial_matches_exponential_to_order(method, order):
+    """A method of order p has R(z) = e^z + O(z^(p+1)): the coefficients are 1/k! up to p."""
+    c = st.stability_polynomial(method)
+    assert all(isinstance(x, Fraction) for x in c)
+    assert c[: order + 1] == tuple(Fraction(1, factorial(k)) for k in range(order + 1))
+
+
+def test_rk5_sixth_coefficient_is_product_of_subdiagonal():
+    """For six stages b^T A^5 1 = b6 a65 a54 a43 a32 a21 = (7/90)(8/7)(9/16)(1)(1/8)(1/4)."""
+    assert st.stability_polynomial("rk5")[6] == Fraction(1, 640)
+    assert len(st.stability_polynomial("rk4")) == 5
+
+
+@pytest.mark.parametrize("method", ["rk4", "rk5"])
+@pytest.mark.parametrize("zeta", [0.0, 0.3, 2.0])
+def test_kernel_one_step_map_is_stability_polynomial(method, zeta):
+    """The kernel's one-step matrix for p'' + 2 zeta w p' + w^2 p = 0 has eigenvalues
+    R(h lambda) (to rounding, 1e-13)."""
+    w, h = 3.0, 0.37
+    res = simulate(np.full(2, h), method=method, damping=2 * zeta * w, k_mean=w * w,
+                   x0=[1.0, 0.0], v0=[0.0, 1.0], n_transient=1, n_record=0, steps_per_period=1)
+    P = np.array([res.x_final, res.v_final])
+    lam = np.roots([1.0, 2 * zeta * w, w * w])
+    expect = np.sort_complex(st.amplification(method, h * lam))
+    assert_allclose(np.sort_complex(np.linalg.eigvals(P)), expect, rtol=0, atol=1e-13)
+
+
+def test_undamped_rk4_limit_is_two_sqrt_two():
+    """|R(iy)|^2 = 1 - y^6/72 + y^8/576 for RK4: unit modulus again at y^2 = 8."""
+    assert_allclose(st.step_limit_hw("rk4", 0.0), 2 * np.sqrt(2), rtol=1e-12)
+    assert_allclose(abs(st.amplification("rk4", 2j * np.sqrt(2))), 1.0, rtol=1e-14)
+
+
+@pytest.mark.parametrize("method", ["rk4", "rk5"])
+@pytest.mark.parametrize("zeta", [0.0, 0.05, 0.3, 0.8, 1.5])
+def test_predicted_step_limit_matches_integration(method, zeta):
+    """Integrating the oscillator stays bounded at 0.99 of the predicted h w_n limit and
+    diverges at 1.01 of it (the 1 % tolerance of the issue).
+
+    N steps from (1, 1) with a bound of 10: growth is detected once |R|^N > 10. The slowest case is
+    RK5 undamped, where |R| - 1 ~ 1.3e-6 at 1.01 x 0.852 (computed from the exact polynomial):
+    N = 4e6 steps grow by exp(5) > 10 there.
+    """
+    hw = float(st.step_limit_hw(method, zeta))
+    n = 4_000_000 if (method == "rk5" and zeta == 0.0) else 200_000
+    res = simulate(np.array([0.99, 1.01]) * hw, method=method, damping=2 * zeta, k_mean=1.0,
+                   bound=10.0, x0=1.0, v0=1.0, n_transient=n, n_record=0, steps_per_period=1000)
+    assert list(res.status) == [0, 1]
+
+
+def test_max_stable_step_and_check_step_si():
+    """SI form: h* = (h w_n)* / w_n; check_step's limit brackets the stable step count."""
+    k_over_m, c_over_m, T = 1073e6 / 0.1527, 5500 / 0.1527, 1 / 160.0
+    wn = np.sqrt(k_over_m)
+    zeta = c_over_m / (2 * wn)
+    h = st.max_stable_step("rk5", k_over_m, c_over_m)
+    assert_allclose(h * wn, st.step_limit_hw("rk5", zeta), rtol=1e-14)
+    ok, limit = st.check_step("rk5", [10, 10_000], T, k_over_m, c_over_m)
+    assert list(ok) == [False, True]
+    assert T / limit[0] <= h < T / (limit[0] - 1)
+    with pytest.raises(st.UnstableStepError, match="too coarse"):
+        st.require_stable_step("rk5", 10, T, k_over_m, c_over_m)
+    with pytest.raises(GearsweepError):
+        st.stability_polynomial("euler")
+
+
+# --- Floquet multipliers ----------------------------------------------------------------
+
+
+def test_constant_coefficient_multiplier_is_exponential():
+    """beta = 0: M = exp(2 pi J), so the largest |mu| = max |exp(2 pi lambda)| (to 1e-10)."""
+    alpha = np.array([0.3, 1.0, 2.2, -0.2, 0.5, 0.01])
+    gamma = np.array([0.0, 0.01, 0.3, 0.1, 2.0, 0.0])
+    res = floquet(alpha, 0.0, gamma, rtol=1e-12)
+    disc = np.sqrt((gamma**2 / 4 - alpha).astype(complex))
+    expect = np.maximum(abs(np.exp(2 * np.pi * (-gamma / 2 + disc))),
+                        abs(np.exp(2 * np.pi * (-gamma / 2 - disc))))
+    assert res.converged.all()
+    assert_allclose(res.multiplier, expect, rtol=1e-10)
+    assert np.all(res.error < 1e-10 * expect)
+
+
+def test_error_estimate_bounds_actual_error():
+    """The stored Richardson error is of the size of the true error of the constant case
+    (within a factor of 10 either way when the error is above rounding)."""
+    alpha = np.array([0.7, 1.9])
+    res = floquet(alpha, 0.0, 0.05, rtol=1e-6)
+    lam = -0.025 + 1j * np.sqrt(alpha - 0.025**2)
+    true = abs(res.multiplier - abs(np.exp(2 * np.pi * lam)))
+    assert np.all(true < 10 * res.error) and np.all(res.error < 10 * true)
+
+
+def test_undamped_tongue_boundaries_match_mathieu_characteristic_values():
+    """p'' + (alpha + beta cos tau) p = 0 is y'' + (a - 2 q cos 2z) y = 0 with tau = 2z,
+    a = 4 alpha, q = -2 beta (the sign of q does not matter); the transition curves are
+    alpha = a_n(q)/4 and b_n(q)/4. Bisection to 1e-12 on the converged flag mu > 1 + 1e-8 (which
+    moves an edge by ~ (1e-8)^2 / slope, nothing); scipy's
+    characteristic values at q <= 1 agree to 1e-6 (the issue's tolerance)."""
+    beta = np.array([0.1, 0.25, 0.5])
+    q = 2 * beta
+    curves = {"a0": mathieu_a(0, q) / 4}
+    for n in (1, 2, 3):
+        curves[f"b{n}"] = mathieu_b(n, q) / 4
+        curves[f"a{n}"] = mathieu_a(n, q) / 4
+    allc = np.array(list(curves.values()))  # (7 curves, 3 betas)
+    # bracket: a quarter of the distance to the nearest other curve (at most 0.01) each side;
+    # _bisect checks that the stability flag really differs at the two ends
+    dist = np.abs(allc[:, None, :] - allc[None, :, :])
+    dist[np.arange(7), np.arange(7)] = np.inf
+    d = np.minimum(0.25 * dist.min(axis=1), 0.01)
+    b = np.broadcast_to(beta, allc.shape).ravel()
+    edge = _bisect(lambda al: floquet(al, b, 0.0, rtol=1e-11, tol=1e-8, spp_max=2048).unstable,
+                   (allc - d).ravel(), (allc + d).ravel())
+    assert_allclose(edge.reshape(allc.shape), allc, rtol=0, atol=1e-6)
+
+
+def test_damping_is_exact_exponential_factor():
+    """p = exp(-gamma tau / 2) y turns the damped equation into the undamped one with
+    alpha - gamma^2/4: mu(alpha, beta, gamma) = exp(-pi gamma) mu(alpha - gamma^2/4, beta, 0)."""
+    rng = np.random.default_rng(5)
+    alpha = rng.uniform(-0.3, 3.0, 40)
+    beta = rng.uniform(0.0, 2.0, 40)
+    gamma = rng.uniform(0.0, 0.5, 40)
+    damped = floquet(alpha, beta, gamma, rtol=1e-11)
+    undamped = floquet(alpha - gamma**2 / 4, beta, 0.0, rtol=1e-11)
+    expect = np.exp(-np.pi * gamma) * undamped.multiplier
+    assert_allclose(damped.multiplier, expect, rtol=1e-8)
+
+
+@pytest.mark.parametrize("gamma", [0.01, 0.02])
+def test_damped_principal_tongue_threshold(gamma):
+    """Near alpha = 1/4 the undamped y-equation grows as exp(s tau) with
+    s = sqrt(beta^2 - 4 (alpha - 1/4)^2) / 2 (first-order averaging; the tongue edges are
+    alpha = 1/4 +- beta/2). The damped solution is exp(-gamma tau / 2) y, so instability needs
+    s > gamma / 2, i.e. beta > beta_c = sqrt(gamma^2 + 4 (alpha - 1/4)^2): beta_c = gamma at
+    the tip (2 gamma sqrt(alpha) in Landau's form). At alpha = 1/4 the neglected terms
+    (the gamma^2/4 shift and the -beta^2/8 bend of the tongue) change beta_c by O(gamma^2)
+    relative: 1e-3 is a generous bound. At alpha = 1/4 +- gamma the bend is an O(gamma) relative
+    change of opposite sign on each side: 1 gamma (1 % at gamma = 0.01) is the tolerance."""
+    alpha = np.array([0.25, 0.25 - gamma, 0.25 + gamma])
+    bc = _bisect(lambda b: floquet(alpha, b, gamma, rtol=1e-11, tol=1e-9).unstable,
+                 np.zeros(3), np.full(3, 0.5))
+    pred = np.sqrt(gamma**2 + 4 * (alpha - 0.25) ** 2)
+    assert abs(bc[0] / pred[0] - 1) < 1e-3
+    assert_allclose(bc[1:], pred[1:], rtol=gamma)
+    assert bc[1] < pred[1] < bc[2]  # the tongue bends to lower alpha: -beta^2/8
+
+
+def test_damping_shrinks_every_tongue():
+    """At beta = 0.6 (q = 1.2), over alpha in [-0.3, 2.6]: every point unstable with
+    gamma = 0.01 is unstable without damping, and each of the resonance tongues 1..3 loses points
+    (windows between the tongues placed with the characteristic values; step 1e-4 in alpha).
+
+    The region alpha < a0/4 is a static divergence, not a resonance: at beta = 0 its edge alpha = 0
+    does not depend on damping at all, and at beta = 0.6 the gamma^2/4 shift and the e^(-pi gamma)
+    factor move its edge by less than the grid step; only the subset property is checked there."""
+    q = 1.2
+    alpha = np.linspace(-0.3, 2.6, 29001)
+    u0 = floquet(alpha, q / 2, 0.0).unstable
+    u1 = floquet(alpha, q / 2, 0.01).unstable
+    assert not np.any(u1 & ~u0)
+    cuts = [-0.3, (mathieu_a(0, q) + mathieu_b(1, q)) / 8, (mathieu_a(1, q) + mathieu_b(2, q)) / 8,
+            (mathieu_a(2, q) + min(mathieu_a(3, q), mathieu_b(3, q))) / 8, 2.6]
+    for lo, hi in zip(cuts[1:-1], cuts[2:], strict=True):
+        sel = (alpha >= lo) & (alpha < hi)
+        assert u0[sel].sum() > u1[sel].sum(), (lo, hi)  # tongue 3 (0.013 wide) vanishes
+        assert u0[sel].sum() > 0
+
+
+def test_monodromy_from_si_equals_mathieu_form():
+    """mathieu_parameters: Eq. (12) numbers for the paper's rig at 200 rpm of the 48-tooth gear
+    (mesh frequency 160 Hz): alpha = k0 / (m (2 pi 160)^2)."""
+    a, b, g = mathieu_parameters(1073e6, 179e6, 0.1527, 5500.0, 48 * 200 / 60)
+    Nw = 2 * np.pi * 160.0
+    assert_allclose([a, b, g], [1073e6 / 0.1527 / Nw**2, 179e6 / 0.1527 / Nw**2,
+                                5500 / 0.1527 / Nw], rtol=1e-15)
+    assert 6900 < a < 7000
+
+
+def test_integrator_instability_is_told_apart():
+    """At alpha = 7000 (the rig at 200 rpm) the equation is stable (converged Floquet); with
+    S = 200 steps per period RK5 has h w_n = 2 pi sqrt(7000) / 200 = 2.63 > 0.852 (undamped limit):
+    the discrete map grows and the paper's criterion reports instability; integrator_unstable
+    flags it; a step within the limit (S = 800) reports stable."""
+    alpha, beta, gamma = 7000.0, 7000.0 * 179 / 1073, 0.0
+    fl = floquet(alpha, beta, gamma)
+    assert not fl.unstable
+    flag, disc = st.integrator_unstable(alpha, beta, gamma, 200, floquet=fl)
+    assert flag and disc > 1
+    assert paper_criterion(alpha, beta, gamma, 200, n_periods=200)
+    assert not paper_criterion(alpha, beta, gamma, 800, n_periods=200)
+    flag, disc = st.integrator_unstable(alpha, beta, gamma, 800, floquet=fl)
+    assert not flag
+
+
+def test_paper_criterion_sees_a_real_tongue():
+    """Inside the principal tongue (alpha = 1/4, beta = 0.3: mu = exp(2 pi 0.15) ~ 2.6 per
+    period) the fixed-step criterion agrees with Floquet at a resolving step."""
+    assert paper_criterion(0.25, 0.3, 0.0, 64, n_periods=50)
+    assert floquet(0.25, 0.3, 0.0).unstable
+    assert not paper_criterion(0.6, 0.3, 0.05, 64, n_periods=50)
+
+
+def test_monodromy_determinant_is_liouville():
+    """det M = exp(-2 pi gamma) for any alpha, beta (Liouville's formula), at a resolved step."""
+    M = monodromy([0.3, 1.7, -0.1], [0.5, 1.2, 0.9], [0.0, 0.1, 0.4], 1024)
+    assert_allclose(np.linalg.det(M), np.exp(-2 * np.pi * np.array([0.0, 0.1, 0.4])), rtol=1e-11)
+
+
+# --- the study layer's ``floquet`` output ----------------------------------------------------
+
+MATHIEU_STUDY = """
+title: tiny Strutt chart
+scene: {kind: mathieu}
+sweep:
+  alpha: [0.25, 0.6, 1.0]
+  beta: [0.0, 0.3]
+  gamma: [0.0, 0.02]
+solver: {method: rk5, steps_per_period: 64, transient_periods: 20, record_periods: 1,
+         initial_displacement: 1.0, settle_tolerance: 1.0e9}
+outputs: [floquet]
+"""
+
+RIG_STUDY = """
+title: rig at two speeds, coarse step
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  stiffness_harmonics: [{amplitude: 179 kN/mm}]
+sweep:
+  speed: [150 rpm, 1500 rpm]
+  damping: [0 N*s/m, 5.5 N*s/mm]
+solver: {method: rk5, steps_per_period: 200, transient_periods: 100, record_periods: 1,
+         divergence_factor: 1000, settle_tolerance: 1.0e9, initial_displacement: 1 um}
+outputs: [stats, floquet]
+"""
+
+
+def test_floquet_output_of_a_mathieu_study_matches_direct_analysis():
+    """The runner's floquet_multiplier / unstable equal a tighter ``floquet`` on the same grid
+    (the output converges to rtol 1e-8: 5e-8 allows the Richardson estimate's slack), and the
+    paper's criterion (status 1) fires only where the equation is unstable."""
+    from gearsweep.study.runner import run_study
+    from gearsweep.study.schema import parse_study
+
+    ds = run_study(parse_study(MATHIEU_STUDY))
+    A, B, G = np.meshgrid(ds.alpha, ds.beta, ds.gamma, indexing="ij")
+    direct = floquet(A, B, G, rtol=1e-11)
+    mu = ds["floquet_multiplier"].transpose("alpha", "beta", "gamma").values
+    assert_allclose(mu, direct.multiplier, rtol=5e-8)
+    unst = ds["unstable"].transpose("alpha", "beta", "gamma").values
+    assert np.array_equal(unst, direct.unstable)
+    assert unst[0, 1, 0]  # alpha = 1/4, beta = 0.3: inside the principal tongue
+    diverged = (ds["status"] == 1).transpose("alpha", "beta", "gamma").values
+    assert not np.any(diverged & ~unst)
+    assert not ds["integrator_unstable"].any()
+
+
+def test_floquet_output_flags_the_integrator_on_the_rig():
+    """150 rpm at 200 steps per period: h w_n = 2 pi 13342 / (120 x 200) = 3.5 is past every
+    RK5 limit, so the run diverges (status 1) while the equation is stable: integrator_unstable,
+    and min_steps_per_period is above 200. At 1500 rpm (h w_n = 0.35) nothing is flagged."""
+    from gearsweep.study.runner import run_study
+    from gearsweep.study.schema import parse_study
+
+    ds = run_study(parse_study(RIG_STUDY))
+    slow, fast = ds.sel(speed=150.0), ds.sel(speed=1500.0)
+    assert not ds["unstable"].any()
+    assert slow["integrator_unstable"].all() and (slow["status"] == 1).all()
+    assert (slow["min_steps_per_period"] > 200).all()
+    assert not fast["integrator_unstable"].any() and (fast["status"] == 0).all()
+    assert (fast["min_steps_per_period"] < 200).all()
+    fmesh = 48 * 150 / 60
+    a, b, g = mathieu_parameters(1073e6, 179e6, 0.1527, ds.damping.values, fmesh)
+    assert_allclose(slow["floquet_multiplier"], floquet(a, b, g, rtol=1e-11).multiplier,
+                    rtol=5e-8)

@@ -1,0 +1,264 @@
+"""Study files, units, grids, the runner, result files and the CLI, end to end."""
+
+from __future__ import annotations
+
+import math
+import textwrap
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from gearsweep.cli import main as cli
+from gearsweep.errors import StudyError
+from gearsweep.study.dataset import write_netcdf
+from gearsweep.study.runner import build_model, run_study
+from gearsweep.study.schema import parse_study
+from gearsweep.study.units import to_si
+
+RATTLE = """
+title: tiny rattle sweep
+scene:
+  kind: rattle
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  damping: 200 N*s/m
+  backlash: 4 um
+  mean_force: 100 N
+  fluctuation: [{amplitude: 2000 N, order: 1}]
+sweep:
+  speed: {start: 12000 rpm, stop: 18000 rpm, num: 13}
+  damping: [1500 N*s/m, 3000 N*s/m]
+continuation: [up, down]
+solver: {method: rk4, steps_per_period: 32, transient_periods: 100, record_periods: 20}
+"""
+
+LINEAR = """
+title: linear check
+scene:
+  kind: whine
+  mass: 0.2 kg
+  teeth: 10
+  stiffness: 2.0e8 N/m
+  damping: 400 N*s/m
+  mean_force: 50 N
+  fluctuation: [{amplitude: 10 N, order: 1}]
+sweep:
+  speed: [6000 rpm, 12000 rpm, 24000 rpm]
+solver: {method: rk5, steps_per_period: 128, transient_periods: 200, record_periods: 10}
+"""
+
+
+def _study(text: str, file: str = "s.yaml"):
+    return parse_study(textwrap.dedent(text), file)
+
+
+# ---------------------------------------------------------------- units and grids
+@pytest.mark.parametrize(
+    ("value", "kind", "expected"),
+    [
+        ("5.5 N*s/mm", "damping", 5500.0),
+        ("50 N*m", "torque", 50.0),
+        ("0.5 mm", "length", 5e-4),
+        ("8000 rpm", "speed", 8000.0),
+        ("1073 kN/mm", "stiffness", 1.073e9),
+        ("0.1527 kg", "mass", 0.1527),
+        (3, "length", 3.0),
+        ("90 deg", "angle", math.pi / 2),
+    ],
+)
+def test_units_are_parsed_into_si(value, kind, expected):
+    assert to_si(value, kind) == pytest.approx(expected, rel=1e-12)
+
+
+def test_grids_linear_log_and_lists():
+    s = _study(RATTLE.replace("{start: 12000 rpm, stop: 18000 rpm, num: 13}",
+                              "{start: 100 rpm, stop: 10000 rpm, num: 3, spacing: log}"))
+    np.testing.assert_allclose(s.grid("speed"), [100.0, 1000.0, 10000.0], rtol=1e-12)
+    np.testing.assert_allclose(s.grid("damping"), [1500.0, 3000.0])
+    s2 = _study(RATTLE)
+    np.testing.assert_allclose(s2.grid("speed"), np.linspace(12000, 18000, 13))
+
+
+# ---------------------------------------------------------------- bad files: one clear line
+BAD = [
+    ("mass: 0.1527 kg", "mass: -1 kg", "scene.mass", "greater than 0"),
+    ("mass: 0.1527 kg", "mass: 5 m", "scene.mass", "expected mass"),
+    ("mass: 0.1527 kg", "mass: 0.15 kg\n  colour: red", "scene.colour", "unknown field"),
+    ("steps_per_period: 32", "steps_per_period: 0", "solver.steps_per_period", "greater than or equal to 4"),
+    ("record_periods: 20", "record_periods: 0", "solver.record_periods", "greater than or equal to 1"),
+    ("method: rk4", "method: euler", "solver.method", "'rk4' or 'rk5'"),
+    ("kind: rattle", "kind: hum", "scene", "kind"),
+    ("num: 13}", "num: 0}", "sweep.speed.num", "greater than or equal to 1"),
+    ("damping: [1500 N*s/m, 3000 N*s/m]", "damping: [-5 N*s/m]", "sweep.damping", ">= 0"),
+    ("damping: [1500 N*s/m, 3000 N*s/m]", "damping: [5 kg]", "sweep.damping", "damping"),
+    ("damping: [1500 N*s/m, 3000 N*s/m]", "alpha: [1, 2]", "alpha", "not a parameter"),
+    ("continuation: [up, down]", "continuation: [sideways]", "continuation[0]", "'up' or 'down'"),
+    ("backlash: 4 um", "backlash: 0 um", "scene.backlash", "greater than 0"),
+    ("title: tiny rattle sweep", "title: ''", "title", "at least 1"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "field", "allowed"), BAD)
+def test_bad_study_gets_one_clear_line(old, new, field, allowed):
+    text = RATTLE.replace(old, new)
+    assert text != RATTLE
+    with pytest.raises(StudyError) as err:
+        _study(text, "bad.yaml")
+    msg = str(err.value)
+    assert "\n" not in msg
+    assert msg.startswith("bad.yaml: ")
+    assert field in msg, msg
+    assert allowed in msg, msg
+
+
+@pytest.mark.parametrize("text", ["", "- just\n- a list\n", "title: [unclosed", "42"])
+def test_malformed_yaml_is_one_line(text):
+    with pytest.raises(StudyError) as err:
+        parse_study(text, "x.yaml")
+    assert "\n" not in str(err.value) and str(err.value).startswith("x.yaml: ")
+
+
+def test_torque_needs_base_radius_and_continuation_needs_speed():
+    with pytest.raises(StudyError, match="base radius"):
+        _study(RATTLE.replace("mean_force: 100 N", "torque: 5 N*m"))
+    s = _study(RATTLE.replace("mean_force: 100 N", "torque: 5 N*m\n  base_radius: 30 mm"))
+    assert build_model(s).mean_force == pytest.approx(5 / 0.03)
+    with pytest.raises(StudyError, match="continuation"):
+        _study(RATTLE.replace("  speed: {start: 12000 rpm, stop: 18000 rpm, num: 13}\n", "")
+               .replace("stiffness: 1073 kN/mm", "stiffness: 1073 kN/mm\n  speed: 9000 rpm"))
+
+
+def test_drive_gives_eq7_equivalent_mass_and_forces():
+    s = _study(LINEAR.replace("mass: 0.2 kg", "drive: {inertia_1: 2e-3 kg*m**2, inertia_2: 1e-3 "
+                              "kg*m**2, base_radius_1: 50 mm, base_radius_2: 40 mm}")
+               .replace("amplitude: 10 N", "amplitude: 1 N*m"))
+    m = build_model(s)
+    m_eq = 1 / (0.05**2 / 2e-3 + 0.04**2 / 1e-3)
+    assert m.mass == pytest.approx(m_eq, rel=1e-12)
+    # Eq. (7): F_v = m_eq T1v r1 / I1
+    assert m.force_harmonics[0].amplitude == pytest.approx(m_eq * 1.0 * 0.05 / 2e-3, rel=1e-12)
+
+
+# ---------------------------------------------------------------- the runner
+def test_linear_study_matches_the_analytic_frequency_response():
+    ds = run_study(_study(LINEAR), "")
+    m, k, c, f0 = 0.2, 2.0e8, 400.0, 10.0
+    w = 10 * ds["speed"].values * 2 * np.pi / 60
+    amp = f0 / np.sqrt((k - m * w**2) ** 2 + (c * w) ** 2)
+    # rk5 at 128 steps/period: integration error ~ (h w_n)^5 / 1000 << 1e-6 here (h w_n < 0.25).
+    # The rms over whole periods of uniform samples of a sinusoid is exact (sum of cos^2 = N/2),
+    # so it carries the integration error alone:
+    np.testing.assert_allclose(ds["p_rms"].values * np.sqrt(2), amp, rtol=1e-6)
+    np.testing.assert_allclose(ds["p_mean"].values, 50.0 / k, rtol=1e-9)
+    # Peaks are sampled at the steps: the extremes may miss the true peak by up to
+    # 1 - cos(pi / 128) = 3.0e-4 of the amplitude, and never exceed it.
+    half_pp = ds["p_pp"].values / 2
+    assert np.all(half_pp <= amp * (1 + 1e-6))
+    assert np.all(half_pp >= amp * (1 - (1 - np.cos(np.pi / 128)) - 1e-6))
+    assert (ds["status"].values == 0).all()
+
+
+def test_continuation_dataset_layout_and_hysteresis_bookkeeping():
+    ds = run_study(_study(RATTLE), "text")
+    assert ds["p_pp"].dims == ("direction", "speed", "damping")
+    assert list(ds["direction"].values) == ["up", "down"]
+    assert ds["mesh_frequency"].dims == ("speed",)
+    np.testing.assert_allclose(ds["mesh_frequency"].values, ds["speed"].values * 48 / 60)
+    for name in ("contact_loss_fraction", "backside_contact_fraction", "impacts_per_period"):
+        assert name in ds
+    # The two ends of a sweep, far from the jumps, do not depend on the direction.
+    up, down = ds["p_pp"].sel(direction="up"), ds["p_pp"].sel(direction="down")
+    np.testing.assert_allclose(up.isel(speed=0), down.isel(speed=0), rtol=1e-6)
+    assert ds.attrs["study"] == "text" and len(ds.attrs["study_sha256"]) == 64
+
+
+def test_diverging_case_is_flagged_and_neighbours_are_untouched():
+    ds_ok = run_study(_study(LINEAR), "")
+    # At 100 rpm the step is h w_n = 14.8, far beyond RK5's stability limit (~3.4): that case
+    # blows up. It must be stopped and flagged, and the other speeds must not change (bitwise).
+    bad = _study(LINEAR.replace("speed: [6000 rpm,", "speed: [100 rpm, 6000 rpm,"))
+    ds = run_study(bad, "")
+    assert ds["status"].sel(speed=100.0).item() == 1
+    assert np.isnan(ds["p_pp"].sel(speed=100.0).item())
+    np.testing.assert_array_equal(ds["p_pp"].isel(speed=slice(1, None)).values, ds_ok["p_pp"].values)
+    assert (ds["status"].isel(speed=slice(1, None)).values == 0).all()
+
+
+def test_netcdf_round_trip_keeps_values_and_attributes(tmp_path):
+    ds = run_study(_study(RATTLE), "the study text")
+    path = write_netcdf(ds, tmp_path / "r.nc")
+    back = xr.open_dataset(path)
+    xr.testing.assert_identical(ds, back.load())
+    back.close()
+    for v in list(back.data_vars) + list(back.coords):
+        assert "units" in back[v].attrs and "long_name" in back[v].attrs, v
+    for key in ("Conventions", "title", "history", "source", "study", "study_sha256", "method",
+                "steps_per_period", "transient_periods", "recorded_periods"):
+        assert key in back.attrs, key
+    assert back.attrs["Conventions"] == "CF-1.10"
+    assert not list(tmp_path.glob("*.partial"))
+
+
+# ---------------------------------------------------------------- the CLI
+def test_cli_end_to_end(tmp_path, capsys):
+    study = tmp_path / "lin.yaml"
+    study.write_text(LINEAR)
+    assert cli(["validate", str(study)]) == 0
+    assert "3 cases" in capsys.readouterr().out
+    out = tmp_path / "out" / "lin.nc"
+    assert cli(["run", str(study), "-o", str(out)]) == 0
+    assert out.exists()
+    assert cli(["inspect", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "speed" in text and "p_rms" in text and "rpm" in text
+
+
+@pytest.mark.parametrize("cmd", ["validate", "run"])
+def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys, cmd):
+    study = tmp_path / "bad.yaml"
+    study.write_text(LINEAR.replace("mass: 0.2 kg", "mass: -0.2 kg"))
+    assert cli([cmd, str(study)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "scene.mass" in err and "bad.yaml" in err
+    assert cli([cmd, str(tmp_path / "missing.yaml")]) == 2
+    assert "missing.yaml" in capsys.readouterr().err
+
+
+def test_cli_refuses_unwritable_output_before_running(tmp_path, capsys):
+    study = tmp_path / "lin.yaml"
+    study.write_text(LINEAR)
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert cli(["run", str(study), "-o", str(blocker / "sub" / "out.nc")]) == 2
+    assert "--output" in capsys.readouterr().err
+    assert cli(["inspect", str(tmp_path / "nothing.nc")]) == 2
+
+
+def test_up_sweep_is_the_same_alone_or_beside_the_down_sweep():
+    both = run_study(_study(RATTLE), "")
+    up = run_study(_study(RATTLE.replace("continuation: [up, down]", "continuation: [up]")), "")
+    down = run_study(_study(RATTLE.replace("continuation: [up, down]", "continuation: [down]")), "")
+    np.testing.assert_array_equal(both["p_pp"].sel(direction="up").values,
+                                  up["p_pp"].sel(direction="up").values)
+    np.testing.assert_array_equal(both["p_pp"].sel(direction="down").values,
+                                  down["p_pp"].sel(direction="down").values)
+
+
+def test_step_guard_warns_or_skips_cases_beyond_the_stability_limit(tmp_path, capsys):
+    # 100 rpm with 10 teeth and 128 steps per mesh period: h w_n = 14.8, beyond any RK limit;
+    # the other speeds are within it (h w_n <= 0.25).
+    text = LINEAR.replace("speed: [6000 rpm,", "speed: [100 rpm, 6000 rpm,")
+    warn = run_study(_study(text), "")
+    np.testing.assert_array_equal(warn["beyond_step_limit"].values, [True, False, False, False])
+    skip = run_study(_study(text.replace("method: rk5,", "method: rk5, step_guard: skip,")), "")
+    assert "beyond_step_limit" not in skip
+    np.testing.assert_array_equal(skip["status"].values, [3, 0, 0, 0])
+    assert np.isnan(skip["p_rms"].values[0])
+    np.testing.assert_array_equal(skip["p_rms"].values[1:], warn["p_rms"].values[1:])
+    study = tmp_path / "coarse.yaml"
+    study.write_text(text)
+    assert cli(["run", str(study), "-o", str(tmp_path / "c.nc"), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "1 case(s) use a step beyond the stability limit" in err
