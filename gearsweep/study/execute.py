@@ -475,7 +475,7 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
 
     bar = tqdm(total=plan.n_cases, initial=done * per_lane, unit="case", unit_scale=True,
                desc=plan.study.title[:30], file=sys.stderr, disable=not progress, leave=False,
-               smoothing=0.1)
+               smoothing=0.1, mininterval=0, miniters=1)  # a refresh per finished chunk
     t0 = time.perf_counter()
     be = backend if backend is not None else InProcess()
     if todo and isinstance(be, InProcess):
