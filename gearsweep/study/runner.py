@@ -228,8 +228,9 @@ def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
     kmax, cm, period = (np.broadcast_to(np.asarray(a, dtype=float), (n,)) for a in (kmax, cm, period))
     # h* depends on (k_max/m, c/m) only, which few studies vary: solve the stability polynomial
     # once per distinct pair, not once per case.
-    pairs, inverse = np.unique(np.stack([kmax, cm]), axis=1, return_inverse=True)
-    h_star = np.array([_stable_step(s.method, float(k), float(c)) for k, c in pairs.T])
+    # (np.unique of complex k + i c: the same sorted pairs as axis=1, several times faster)
+    pairs, inverse = np.unique(kmax + 1j * cm, return_inverse=True)
+    h_star = np.array([_stable_step(s.method, float(z.real), float(z.imag)) for z in pairs])
     with np.errstate(divide="ignore", invalid="ignore"):
         need = np.ceil(period / h_star[inverse.ravel()])
     return ~(need > s.steps_per_period)
