@@ -34,6 +34,7 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 from urllib.parse import urlparse
@@ -480,15 +481,26 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     be = backend if backend is not None else InProcess()
     if todo and isinstance(be, InProcess):
         warm_up(plan)
+    # One background thread writes the checkpoint files while the next chunk computes (the
+    # kernel releases the GIL); at most two saves wait, so at most two chunks more are held.
+    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-checkpoint")
+    saves: list = []
     try:
         for a, b, arrays in be.run(plan, todo):
-            if store is not None:
-                store.save(a, b, arrays)
             store_chunk(results, plan, a, b, arrays)
+            if store is not None:
+                saves.append(writer.submit(store.save, a, b, arrays))
+                while len(saves) > 2:
+                    saves.pop(0).result()
             del arrays
             bar.update((b - a) * per_lane)
     finally:
-        bar.close()
+        try:
+            for f in saves:  # what was computed is saved, even if the run is failing
+                f.result()
+        finally:
+            writer.shutdown()
+            bar.close()
     return assemble(plan, results, time.perf_counter() - t0)
 
 
