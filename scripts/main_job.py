@@ -11,12 +11,29 @@ from __future__ import annotations
 import argparse
 import fnmatch
 import os
+import re
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def listed_figures() -> list[str]:
+    """Figure files named in docs/REPRODUCTION.md."""
+    text = (ROOT / "docs" / "REPRODUCTION.md").read_text(encoding="utf-8")
+    return sorted(set(re.findall(r"figures/([A-Za-z0-9_.-]+\.png)", text)))
+
+
+def check_reproduction(figures: Path, since: float) -> list[str]:
+    """Every figure that docs/REPRODUCTION.md lists must have been written by this run."""
+    missing = [f for f in listed_figures()
+               if not (figures / f).exists() or (figures / f).stat().st_mtime < since - 1]
+    print(f"== docs/REPRODUCTION.md lists {len(listed_figures())} figures: "
+          + (f"NOT PRODUCED: {', '.join(missing)}" if missing else "all produced by this run"),
+          flush=True)
+    return [f"REPRODUCTION.md: {f}" for f in missing]
 
 
 def main() -> int:
@@ -30,6 +47,7 @@ def main() -> int:
 
     failed: list[str] = []
     t_all = time.perf_counter()
+    t_start = time.time()
     studies = sorted(s for s in (ROOT / "studies").glob("*.yaml") if fnmatch.fnmatch(s.stem, args.only))
     print(f"== {len(studies)} studies", flush=True)
     for study in studies:
@@ -53,6 +71,8 @@ def main() -> int:
         if r.returncode:
             failed.append(script.name)
             print("     " + (r.stderr.strip().splitlines() or ["(no output)"])[-1], flush=True)
+    if args.only == "*":
+        failed += check_reproduction(args.figures, t_start)
     print(f"== done in {time.perf_counter() - t_all:.1f} s; "
           + (f"FAILED: {', '.join(failed)}" if failed else "all ok"), flush=True)
     return 1 if failed else 0

@@ -262,3 +262,22 @@ def test_step_guard_warns_or_skips_cases_beyond_the_stability_limit(tmp_path, ca
     assert cli(["run", str(study), "-o", str(tmp_path / "c.nc"), "-q"]) == 0
     err = capsys.readouterr().err
     assert "1 case(s) use a step beyond the stability limit" in err
+
+
+@pytest.mark.parametrize("method", ["rk4", "rk5"])
+def test_guard_step_is_a_tight_lower_bound_of_the_exact_stability_limit(method):
+    from gearsweep.analysis.stability import max_stable_step
+    from gearsweep.study.runner import _stable_steps
+
+    rng = np.random.default_rng(1)
+    k = 10 ** rng.uniform(2, 10, 400)
+    zeta = np.concatenate([[0.0, 1e-4, 0.01, 0.2, 1.0, 3.0], 10 ** rng.uniform(-4, 1, 394)])
+    c = 2 * zeta * np.sqrt(k)
+    exact = max_stable_step(method, k, c)
+    fast = _stable_steps(method, k, c)
+    assert np.all(fast <= exact * (1 + 1e-12))
+    # The tabulated bound is within 0.5 % of the exact limit (grid of 1/20000 in zeta near 0).
+    assert np.all(fast >= exact * (1 - 5e-3)), np.max(1 - fast / exact)
+    # Negative stiffness: limited by the decaying real pole only.
+    np.testing.assert_allclose(_stable_steps(method, np.array([-4.0]), np.array([3.0])),
+                               max_stable_step(method, -4.0, 3.0), rtol=1e-12)

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
-from gearsweep.kernels import rk
+from gearsweep.kernels import kink, rk
 
 
 @dataclass(frozen=True)
@@ -28,6 +29,9 @@ class BatchResult:
     """``rk.STATUS_OK`` or ``rk.STATUS_DIVERGED`` (int8)."""
     signal: np.ndarray | None
     """p at every ``stride``-th recorded step, shape (n, n_samples) [m], if asked for."""
+    substeps: np.ndarray | None = None
+    """Kink-aware kernel only: extra substeps taken at backlash crossings per case (each costs
+    one step's right-hand-side evaluations); ``None`` for the plain kernel."""
 
 
 def _vec(x, n: int) -> np.ndarray:
@@ -65,6 +69,7 @@ def simulate(
     n_record: int,
     steps_per_period: int,
     signal_stride: int = 0,
+    kink_aware: bool = False,
 ) -> BatchResult:
     """Integrate ``p'' = G(t) - damping p' - K(t) f(p)`` for a batch of cases.
 
@@ -90,6 +95,11 @@ def simulate(
         Steps discarded, steps recorded, steps per mesh period.
     signal_stride : int
         If > 0, also return p at every ``signal_stride``-th recorded step.
+    kink_aware : bool
+        Use ``gearsweep.kernels.kink``: a step that crosses a backlash boundary p = +-b is
+        redone in pieces that end on the boundary, so the method keeps its order through the
+        kinks of the dead zone (the plain step falls to order 2 there). Steps without crossings
+        are the plain kernel's, bit for bit; without backlash the two are identical.
     """
     h = np.ascontiguousarray(np.atleast_1d(np.asarray(h, dtype=np.float64)))
     n = h.shape[0]
@@ -105,7 +115,32 @@ def simulate(
     stride = max(int(signal_stride), 1)
     if signal_stride > 0:
         signal = np.full((n, (n_record + stride - 1) // stride), np.nan)
-    stats, xf, vf, status = rk.integrate(
+    # No more threads than blocks of lanes: waking an idle thread costs milliseconds, which
+    # dominates the many small calls of a continued sweep with few lanes.
+    threads = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(threads, -(-n // rk.LANES))))
+    try:
+        out = _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale,
+                    fluct_scale, half_gap, bound, x0, v0, n_transient, n_record,
+                    steps_per_period, signal, stride, kink_aware)
+    finally:
+        numba.set_num_threads(threads)
+    stats, xf, vf, status = out[:4]
+    return BatchResult(
+        stats={name: stats[:, q] for q, name in enumerate(rk.STAT_NAMES)},
+        x_final=xf,
+        v_final=vf,
+        status=status,
+        signal=signal,
+        substeps=out[4] if kink_aware else None,
+    )
+
+
+def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluct_scale,
+          half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride,
+          kink_aware=False):
+    kernel = kink.integrate if kink_aware else rk.integrate
+    return kernel(
         rk.METHODS[method],
         h,
         _vec(damping, n),
@@ -126,11 +161,4 @@ def simulate(
         int(steps_per_period),
         signal,
         stride,
-    )
-    return BatchResult(
-        stats={name: stats[:, q] for q, name in enumerate(rk.STAT_NAMES)},
-        x_final=xf,
-        v_final=vf,
-        status=status,
-        signal=signal,
     )

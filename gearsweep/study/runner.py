@@ -205,35 +205,56 @@ def _lane_params(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
 STATUS_SKIPPED = 3
 
 
-@lru_cache(maxsize=4096)
-def _stable_step(method: str, k_over_m: float, c_over_m: float) -> float:
-    """Largest stable step [s] of ``method`` (root of |R(h lambda)| = 1), memoised: a continued
-    sweep asks for the same (k/m, c/m) at every speed."""
-    from gearsweep.analysis.stability import max_stable_step
+@lru_cache(maxsize=4)
+def _hw_table(method: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """(zeta grid, largest stable h w_n on it, largest stable h|lambda| on the negative real
+    axis) of ``method``, solved once from its stability polynomial."""
+    from gearsweep.analysis.stability import ray_limit, step_limit_hw
 
-    return float(np.asarray(max_stable_step(method, k_over_m, c_over_m)).ravel()[0])
+    # The limit has square-root behaviour at zeta -> 0 (RK5) and zeta -> 1+ (the fast over-damped
+    # pole), and the pole's angle arccos(-zeta) has it at zeta -> 1-: below 1 a cosine grid
+    # (quadratic at both ends), above 1 geometric in zeta - 1 (steps of 0.4 %).
+    u = np.linspace(0.0, 1.0, 8001)
+    zeta = np.unique(np.concatenate([0.5 * (1.0 - np.cos(np.pi * u)),
+                                     1.0 + np.geomspace(1e-12, 1e4, 8000)]))
+    return zeta, np.asarray(step_limit_hw(method, zeta), float), float(ray_limit(method, np.pi))
+
+
+def _stable_steps(method: str, k_over_m: np.ndarray, c_over_m: np.ndarray) -> np.ndarray:
+    """Largest stable step h* [s] per case, a lower bound of ``analysis.stability.max_stable_step``.
+
+    h* = (h w_n)*(zeta) / w_n with (h w_n)* tabulated once on a fine zeta grid; each case takes
+    the smaller of its two neighbouring grid values, so the guard never passes a step the
+    polynomial would reject. Vectorised: a Mathieu chart has as many distinct zeta as cases.
+    """
+    zeta_grid, hw_grid, real_lim = _hw_table(method)
+    k, c = np.broadcast_arrays(np.asarray(k_over_m, float), np.asarray(c_over_m, float))
+    osc = k > 0
+    wn = np.sqrt(np.where(osc, k, 1.0))
+    zeta = np.clip(np.where(osc, c / (2.0 * wn), 0.0), 0.0, zeta_grid[-1])
+    j = np.clip(np.searchsorted(zeta_grid, zeta), 1, len(zeta_grid) - 1)
+    hw = np.minimum(hw_grid[j - 1], hw_grid[j])
+    # k <= 0: real poles -c/2 +- sqrt(c^2/4 - k); only the negative one can limit the step.
+    neg = 0.5 * c + np.sqrt(np.maximum(0.25 * c * c - k, 0.0))
+    with np.errstate(divide="ignore"):
+        return np.where(osc, hw / wn, np.where(neg > 0, real_lim / neg, np.inf))
 
 
 def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
     """The guard rail: is the study's step within the method's stability limit, per case?
 
     Frozen-coefficient estimate at the largest stiffness of the cycle, from the method's
-    stability polynomial (``gearsweep.analysis.stability``; the same rule as its ``check_step``:
-    steps per period >= T / h*).
+    stability polynomial (the rule of ``gearsweep.analysis.stability.check_step``: steps per
+    period >= T / h*).
     """
     from gearsweep.study.stability_output import hill_parameters
 
     s = plan.study.solver
     *_, kmax, cm, period = hill_parameters(plan, params, n)
-    kmax, cm, period = (np.broadcast_to(np.asarray(a, dtype=float), (n,)) for a in (kmax, cm, period))
-    # h* depends on (k_max/m, c/m) only, which few studies vary: solve the stability polynomial
-    # once per distinct pair, not once per case.
-    # (np.unique of complex k + i c: the same sorted pairs as axis=1, several times faster)
-    pairs, inverse = np.unique(kmax + 1j * cm, return_inverse=True)
-    h_star = np.array([_stable_step(s.method, float(z.real), float(z.imag)) for z in pairs])
+    h_star = _stable_steps(s.method, kmax, cm)
     with np.errstate(divide="ignore", invalid="ignore"):
-        need = np.ceil(period / h_star[inverse.ravel()])
-    return ~(need > s.steps_per_period)
+        need = np.ceil(np.asarray(period, float) / h_star)
+    return np.broadcast_to(~(need > s.steps_per_period), (n,))
 
 
 def _integrate(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
@@ -284,7 +305,7 @@ def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) ->
     sps = plan.samples_per_period()
     res = simulate(method=s.method, n_transient=s.transient_periods * spp,
                    n_record=s.record_periods * spp, steps_per_period=spp,
-                   signal_stride=spp // sps if sps else 0, **kin)
+                   signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
     out: dict[str, np.ndarray] = {}
     for o in plan.outputs:
         out.update(OUTPUTS[o].compute(plan, params, res))
@@ -385,6 +406,7 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
         "scene": plan.study.scene.kind,
         "method": s.method,
         "steps_per_period": s.steps_per_period,
+        "kink_aware": int(s.kink_aware),
         "transient_periods": s.transient_periods,
         "recorded_periods": s.record_periods,
         "divergence_factor": s.divergence_factor,

@@ -228,6 +228,10 @@ class Range(Strict):
 class Solver(Strict):
     method: Literal["rk4", "rk5"] = "rk4"
     steps_per_period: int = Field(64, ge=4, le=65536, description="steps per mesh period")
+    kink_aware: bool = Field(
+        False, description="redo steps that cross the backlash boundaries in pieces that end on "
+        "them (gearsweep.kernels.kink): keeps the method's order 4/5 with backlash, where the "
+        "plain step falls to order 2; no effect without backlash")
     transient_periods: int = Field(100, ge=0, description="mesh periods discarded")
     record_periods: int = Field(50, ge=1, description="mesh periods recorded for statistics")
     divergence_factor: float = Field(1e6, gt=1, description="|p| bound / static scale")

@@ -1,0 +1,222 @@
+"""Step advice: the steps per mesh period a case needs for a target accuracy, its cost, and a
+warning when a chosen step lies beyond the method's stability limit.
+
+Error model (measured, ``scripts/work_precision.py --calibrate``): the trajectory error over the
+steady-state window, relative to the response amplitude, obeys
+
+    err <= C (h omega_n)^p,      h = T_mesh / steps_per_period,  omega_n = sqrt(k_max / m)
+
+with p = 4 (RK4) or 5 (RK5) on smooth scenes and with the kink-aware step on backlash scenes,
+and p = 2 for the plain step on backlash scenes (the kinks of the dead zone). C is the upper
+envelope over the calibration runs, stored with its provenance in ``data/error_constants.json``.
+h omega_n is largest at the lowest speed, so the lowest speed sets the step count:
+
+    steps_per_period >= 2 pi omega_n / (Omega_min (target / (SAFETY C))^(1/p))
+
+rounded up to a multiple of 8 (SAFETY = 2). Stability: the step must also satisfy h omega_n
+below the limit of the method's stability polynomial on the ray of the eigenvalues
+omega_n (-zeta +- i sqrt(1 - zeta^2)), zeta = c / (2 m omega_n).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import brentq
+
+CONSTANTS_FILE = Path(__file__).parent / "data" / "error_constants.json"
+SAFETY = 2.0
+"""The advised step aims at target / SAFETY: the constants are envelopes over a few speeds, and
+a held-out case can sit slightly above them (one held-out RK5 whine case reached 0.9 of the
+envelope's prediction)."""
+
+_RK5_A = np.array([[0, 0, 0, 0, 0, 0],
+                   [1 / 4, 0, 0, 0, 0, 0],
+                   [1 / 8, 1 / 8, 0, 0, 0, 0],
+                   [0, -1 / 2, 1, 0, 0, 0],
+                   [3 / 16, 0, 0, 9 / 16, 0, 0],
+                   [-3 / 7, 2 / 7, 12 / 7, -12 / 7, 8 / 7, 0]])
+_RK5_B = np.array([7, 0, 32, 12, 32, 7]) / 90.0
+
+
+def stability_polynomial(method: str) -> np.ndarray:
+    """Coefficients (ascending powers of z = h lambda) of the stability function R(z) of the
+    kernel's explicit method: sum_k b^T A^(k-1) 1 z^k (the kernel's own Butcher tableau for
+    RK5, whose z^6 coefficient is b^T A^5 1)."""
+    if method == "rk4":
+        return np.array([1, 1, 1 / 2, 1 / 6, 1 / 24])
+    if method == "rk5":
+        coef = [1.0]
+        v = np.ones(6)
+        for _ in range(6):
+            coef.append(float(_RK5_B @ v))
+            v = _RK5_A @ v
+        return np.array(coef)
+    raise ValueError(f"method must be 'rk4' or 'rk5', got {method!r}")
+
+
+@cache
+def stability_limit(method: str, zeta: float) -> float:
+    """Largest h omega_n [1] for which |R(h lambda)| <= 1 along the eigenvalue ray
+    lambda / omega_n = -zeta + i sqrt(1 - zeta^2) (0 <= zeta < 1): the first crossing of 1."""
+    if not 0.0 <= zeta < 1.0:
+        raise ValueError(f"damping ratio must lie in [0, 1), got {zeta}")
+    coef = stability_polynomial(method)
+    d = complex(-zeta, math.sqrt(1.0 - zeta * zeta))
+
+    def g(x: float) -> float:
+        return abs(np.polynomial.polynomial.polyval(x * d, coef)) - 1.0
+
+    xs = np.linspace(1e-3, 6.0, 6000)
+    vals = np.array([g(x) for x in xs])
+    out = np.nonzero(vals > 0)[0]
+    if len(out) == 0:
+        return math.inf
+    k = out[0]
+    if k == 0:
+        return 0.0
+    return float(brentq(g, xs[k - 1], xs[k], xtol=1e-12))
+
+
+def load_constants(path: Path = CONSTANTS_FILE) -> dict:
+    """The measured error constants and their provenance."""
+    return json.loads(Path(path).read_text())
+
+
+@dataclass(frozen=True)
+class Advice:
+    """Result of ``advise`` (see there)."""
+
+    method: str
+    kink_aware: bool
+    scene_kind: str
+    target: float
+    steps_per_period: int
+    h_omega_n: float
+    expected_error: float
+    stability_limit: float
+    msteps: float
+    order: float
+    constant: float
+    omega_n: float
+    zeta: float
+    chosen: int | None = None
+    chosen_error: float | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    def report(self) -> str:
+        """One paragraph for a person."""
+        name = self.method + (" kink-aware" if self.kink_aware else "")
+        text = (
+            f"For a {self.scene_kind} case (omega_n = {self.omega_n:.4g} rad/s, damping ratio "
+            f"{self.zeta:.3f}) integrated with {name}, a trajectory error of "
+            f"{self.target:.1e} of the amplitude needs {self.steps_per_period} steps per mesh "
+            f"period (h omega_n = {self.h_omega_n:.3f} at the lowest speed, expected error "
+            f"{self.expected_error:.1e} from err <= {self.constant:.3g} (h omega_n)^"
+            f"{self.order:g}), costing {self.msteps:.3g} Msteps. The method is stable for "
+            f"h omega_n < {self.stability_limit:.3f}."
+        )
+        if self.chosen is not None:
+            text += (f" The chosen {self.chosen} steps per period give an expected error of "
+                     f"{self.chosen_error:.1e}.")
+        for w in self.warnings:
+            text += f" WARNING: {w}"
+        return text
+
+
+def advise(
+    *,
+    mass: float,
+    k0: float,
+    damping: float,
+    speed_rpm,
+    teeth: int,
+    k_harmonics=(),
+    backlash: float | None = None,
+    method: str = "rk4",
+    kink_aware: bool = False,
+    target: float = 1e-6,
+    steps_per_period: int | None = None,
+    periods: int = 200,
+    constants: dict | None = None,
+) -> Advice:
+    """Steps per mesh period for a target accuracy, the cost, and stability warnings.
+
+    Parameters
+    ----------
+    mass : float
+        Equivalent mass m_eq [kg].
+    k0 : float
+        Mean mesh stiffness [N/m].
+    damping : float
+        Mesh viscous damping c [N s/m].
+    speed_rpm : array_like
+        Speeds of the study [rpm] (of the gear with ``teeth`` teeth); the lowest sets the step.
+    teeth : int
+        Teeth of that gear (mesh frequency = teeth * rpm / 60).
+    k_harmonics : sequence of (amplitude [N/m], order, phase [rad])
+        Stiffness harmonics; omega_n uses the largest stiffness k0 + sum |k_n|.
+    backlash : float or None
+        Total backlash [m]; selects the rattle error constants.
+    method : {"rk4", "rk5"}
+    kink_aware : bool
+        Kink-aware stepping (matters only with backlash).
+    target : float
+        Trajectory error relative to the response amplitude [1].
+    steps_per_period : int or None
+        A step count already chosen: its expected error is reported, with warnings if it misses
+        the target or is unstable.
+    periods : int
+        Mesh periods integrated per speed (transient + record), for the cost.
+    constants : dict or None
+        Error constants (default: ``load_constants()``).
+
+    Returns
+    -------
+    Advice
+    """
+    if method not in ("rk4", "rk5"):
+        raise ValueError(f"method must be 'rk4' or 'rk5', got {method!r}")
+    if not target > 0:
+        raise ValueError(f"target must be positive, got {target}")
+    speeds = np.atleast_1d(np.asarray(speed_rpm, dtype=float))
+    if np.any(speeds <= 0):
+        raise ValueError("speeds must be positive")
+    k_max = k0 + sum(abs(a) for a, _, _ in k_harmonics)
+    wn = math.sqrt(k_max / mass)
+    zeta = damping / (2.0 * mass * wn)
+    omega_min = 2.0 * math.pi * teeth * speeds.min() / 60.0
+    kind = "rattle" if backlash is not None else "whine"
+    key = f"{kind}/{method}" + ("-kink" if kink_aware and kind == "rattle" else "")
+    table = (constants or load_constants())["constants"][key]
+    C, p = table["C"], table["order"]
+    hw_target = (target / (SAFETY * C)) ** (1.0 / p)
+    limit = stability_limit(method, min(zeta, 0.999))
+    warnings = []
+    hw = min(hw_target, 0.9 * limit)
+    spp = int(8 * math.ceil(2.0 * math.pi * wn / (omega_min * hw) / 8.0 - 1e-9))
+    hw_adv = 2.0 * math.pi * wn / (omega_min * spp)
+    msteps = len(speeds) * periods * spp / 1e6
+    chosen_err = None
+    if steps_per_period is not None:
+        hw_c = 2.0 * math.pi * wn / (omega_min * steps_per_period)
+        chosen_err = C * hw_c**p
+        if hw_c >= limit:
+            warnings.append(
+                f"{steps_per_period} steps per period give h omega_n = {hw_c:.3f} at "
+                f"{speeds.min():.0f} rpm, beyond the {method} stability limit {limit:.3f}: the "
+                "integration diverges there whatever the physics.")
+        elif chosen_err > target:
+            warnings.append(
+                f"{steps_per_period} steps per period miss the target ({chosen_err:.1e} > "
+                f"{target:.1e}).")
+    if kind == "rattle" and not kink_aware:
+        warnings.append("with backlash the plain step converges only as h^2; kink-aware "
+                        "stepping restores order " + ("4." if method == "rk4" else "5."))
+    return Advice(method, kink_aware, kind, target, spp, hw_adv, C * hw_adv**p, limit, msteps,
+                  p, C, wn, zeta, steps_per_period, chosen_err, warnings)
