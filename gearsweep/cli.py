@@ -57,24 +57,75 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _backend(args: argparse.Namespace):
+    from gearsweep.study.execute import DaskBackend, InProcess
+
+    if args.scheduler:
+        return DaskBackend(scheduler=args.scheduler)
+    if args.workers:
+        return DaskBackend(workers=args.workers)
+    return InProcess()
+
+
 def cmd_run(args: argparse.Namespace) -> int:
-    from gearsweep.study.dataset import write_netcdf
-    from gearsweep.study.runner import run_study
+    import numba
+
+    from gearsweep.study.execute import (
+        check_limits,
+        cores,
+        estimate,
+        lanes_per_chunk,
+        measure_rate,
+        run_to_file,
+    )
+    from gearsweep.study.runner import make_plan
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
     out = Path(args.output) if args.output else _default_output(args.study)
-    _check_writable(out)
+    if not args.estimate:
+        _check_writable(out)
+    if getattr(study, "type", None) == "mesh":  # a static mesh study: no integration, no chunks
+        from gearsweep.study.dataset import write_netcdf
+        from gearsweep.study.runner import run_study
+
+        if args.estimate:
+            print(f"{args.study}: a static mesh study, no time integration: about a second")
+            return 0
+        t0 = time.perf_counter()
+        write_netcdf(run_study(study, text), out)
+        if not args.quiet:
+            print(f"{out}: static mesh study in {time.perf_counter() - t0:.2f} s")
+        return 0
+    plan = make_plan(study, text)
+    if args.chunk_size is not None and args.chunk_size < 1:
+        raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
+    if args.workers is not None and args.workers < 1:
+        raise StudyError(args.study, "--workers", args.workers, "a positive number of workers")
+    chunks = plan.chunks(lanes_per_chunk(plan, args.chunk_size))
     progress = not args.quiet and sys.stderr.isatty()
-    t0 = time.perf_counter()
-    ds = run_study(study, text, progress=progress)
-    write_netcdf(ds, out)
-    if "beyond_step_limit" in ds and bool(ds["beyond_step_limit"].any()):
-        n_bad = int(ds["beyond_step_limit"].sum())
-        print(f"gearsweep: warning: {out}: {n_bad} case(s) use a step beyond the stability limit"
-              f" of {study.solver.method} at {study.solver.steps_per_period} steps/period; their"
-              " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
-              " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
+    with _backend(args) as backend:
+        threads = backend.threads if args.scheduler else cores()
+        est = estimate(plan, chunks, threads=threads)
+        if args.estimate or est.seconds > 30:
+            est = estimate(plan, chunks, threads=threads,
+                           rate=measure_rate(plan, numba.get_num_threads()))
+        if args.estimate:
+            print(f"{args.study}: {est.line()}")
+            return 0
+        if not args.yes:
+            check_limits(est, args.study)
+        if not args.quiet and est.seconds > 30:
+            print(f"{args.study}: {est.line()}", file=sys.stderr)
+        t0 = time.perf_counter()
+        ds = run_to_file(plan, out, backend=backend, chunk_cases=args.chunk_size,
+                         progress=progress)
+        if "beyond_step_limit" in ds and bool(ds["beyond_step_limit"].any()):
+            n_bad = int(ds["beyond_step_limit"].sum())
+            print(f"gearsweep: warning: {out}: {n_bad} case(s) use a step beyond the stability limit"
+                  f" of {study.solver.method} at {study.solver.steps_per_period} steps/period; their"
+                  " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
+                  " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
     if not args.quiet:
         bad = int((ds["status"].values != 0).sum()) if "status" in ds else 0
         print(f"{out}: {int(ds.attrs['cases'])} cases in {time.perf_counter() - t0:.2f} s"
@@ -174,6 +225,17 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("study")
     r.add_argument("-o", "--output", help="result file (default results/STUDY.nc)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary")
+    where = r.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                       help="run the chunks on this existing dask.distributed cluster")
+    where.add_argument("--workers", type=int, metavar="N",
+                       help="run the chunks on a local dask cluster of N worker processes")
+    r.add_argument("--estimate", action="store_true",
+                   help="print the estimated time, memory and output size; do not run")
+    r.add_argument("--yes", action="store_true",
+                   help="run even if the estimate is beyond the limits (10 min, 2 GB)")
+    r.add_argument("--chunk-size", type=int, metavar="CASES",
+                   help="about this many cases per chunk (checkpoint and progress unit)")
     r.set_defaults(func=cmd_run)
     v = sub.add_parser("validate", help="check a study file without running it")
     v.add_argument("study")

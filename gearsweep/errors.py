@@ -10,7 +10,10 @@ class StudyError(GearsweepError):
 
     def __init__(self, file: str, field: str, value: object, allowed: str) -> None:
         self.file, self.field, self.value, self.allowed = file, field, value, allowed
-        super().__init__(f"{file}: {field}: {value!r} -- {allowed}")
+        shown = repr(value)
+        shown = shown if len(shown) <= 80 else shown[:60] + "..." + shown[-10:]
+        line = f"{file}: {field}: {shown} -- {allowed}"
+        super().__init__(" ".join(line.splitlines()))  # one line, whatever the parts hold
 
 
 class GeometryError(GearsweepError):
@@ -19,3 +22,11 @@ class GeometryError(GearsweepError):
 
 class ResultError(GearsweepError):
     """A results file that is missing, unreadable, or not a gearsweep result."""
+
+
+class ClusterError(GearsweepError):
+    """A dask cluster that cannot be reached or used, or a chunk that failed on it."""
+
+
+class LimitError(GearsweepError):
+    """A study predicted beyond the time, memory or output limits, not confirmed with --yes."""

@@ -57,9 +57,12 @@ if TYPE_CHECKING:
 
 def _parse(kind: str, value: Any) -> Any:
     try:
-        return to_si(value, kind)
+        out = to_si(value, kind)
     except UnitParseError as exc:
         raise ValueError(str(exc)) from None
+    if not math.isfinite(out):
+        raise ValueError("expected a finite number")
+    return out
 
 
 def Q(kind: str) -> Any:  # noqa: N802 -- reads as a type in the models below
@@ -87,13 +90,15 @@ class Drive(Strict):
 
 class StiffnessHarmonic(Strict):
     amplitude: Stiffness = Field(ge=0, description="k_n of Eq. (1) [N/m]")
-    order: float | None = Field(None, gt=0, description="mesh order (default: position + 1)")
+    order: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                description="mesh order (default: position + 1)")
     phase: Angle = Field(0.0, description="phase a_n [rad]")
 
 
 class SteHarmonic(Strict):
     amplitude: Length = Field(ge=0, description="STE harmonic e_n [m]")
-    order: float | None = Field(None, gt=0, description="mesh order (default: position + 1)")
+    order: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                description="mesh order (default: position + 1)")
     phase: Angle = Field(0.0, description="phase [rad]")
 
 
@@ -101,7 +106,8 @@ class Fluctuation(Strict):
     """A harmonic of the driving-torque fluctuation: a force [N] or a torque [N m] (Eq. 7)."""
 
     amplitude: float | str = Field(description="force [N] or driving torque [N m] amplitude")
-    order: float = Field(gt=0, description="mesh order (1 = mesh frequency; 1/teeth = shaft)")
+    order: float = Field(gt=0, allow_inf_nan=False,
+                         description="mesh order (1 = mesh frequency; 1/teeth = shaft)")
     phase: Angle = Field(0.0, description="phase [rad]")
 
     @field_validator("amplitude")
@@ -109,7 +115,8 @@ class Fluctuation(Strict):
     def _force_or_torque(cls, v: Any) -> Any:
         for kind in ("force", "torque"):
             try:
-                to_si(v, kind)
+                if not math.isfinite(to_si(v, kind)):
+                    raise ValueError("expected a finite amplitude")
                 return v
             except UnitParseError:
                 pass
@@ -230,7 +237,7 @@ class Solver(Strict):
     divergence_factor: float = Field(1e6, gt=1, description="|p| bound / static scale")
     settle_tolerance: float = Field(1e-2, gt=0, description="settle_error above it: status 2")
     initial_displacement: Length = Field(0.0, description="p at t = 0 [m] (Mathieu: 1)")
-    initial_velocity: float = Field(0.0, description="p' at t = 0 [m/s]")
+    initial_velocity: float = Field(0.0, allow_inf_nan=False, description="p' at t = 0 [m/s]")
     step_guard: Literal["warn", "skip", "off"] = Field(
         "warn", description="cases whose step is beyond the method's stability limit: flag them"
         " (warn), do not integrate them (skip, status 3), or do not check (off)")
@@ -353,7 +360,7 @@ def _loc(loc: tuple) -> str:
             parts.append(f"[{p}]")
         elif p in ("whine", "rattle", "full", "mathieu") and parts and parts[-1] == "scene":
             continue  # the discriminator's tag is not part of the user's path
-        elif p.startswith("function-") or p in ("list[union[float,str]]", "Range"):
+        elif p.startswith("function-") or p in ("list[union[float,str]]", "Range", "float", "str"):
             continue
         else:
             parts.append(("." if parts else "") + str(p))
@@ -384,6 +391,8 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy:
     """
     try:
         raw = yaml.safe_load(text)
+    except RecursionError:
+        raise StudyError(file, "(yaml)", "(text)", "YAML nested less deeply") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else "(yaml)"
@@ -403,6 +412,8 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy:
         study = Study.model_validate(raw)
     except ValidationError as exc:
         raise _first_error(exc, file) from None
+    except RecursionError:
+        raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
     _check_grids(study, file)
     _check_gear(study, file)
     from gearsweep.study.outputs import configure

@@ -7,6 +7,7 @@ taken in the quantity's canonical unit (SI, except shaft speed, which is in rpm 
 from __future__ import annotations
 
 import math
+import re
 from functools import cache
 
 import pint
@@ -25,6 +26,10 @@ CANONICAL = {
     "angle": "rad",
     "dimensionless": "",
 }
+
+
+_INTEGER = re.compile(r"(?<![\w.])(?<![eE][-+])(\d[\d_]*)(?![\w.])")
+"""An integer literal on its own (not part of a float, an exponent or a name)."""
 
 
 @cache
@@ -49,7 +54,10 @@ def to_si(value: object, kind: str) -> float:
     if isinstance(value, bool):
         raise UnitParseError(f"expected a {kind} quantity such as '1 {target or '(no unit)'}'")
     if isinstance(value, int | float):
-        return float(value)
+        try:
+            return float(value)
+        except OverflowError:
+            raise UnitParseError("a number too large for a float (at most about 1e308)") from None
     if not isinstance(value, str):
         raise UnitParseError(f"expected a number or a string with {kind} units, e.g. '1 {target}'")
     try:  # a bare number in a string, e.g. YAML reads 1e8 (no dot) as text
@@ -60,7 +68,9 @@ def to_si(value: object, kind: str) -> float:
         return number
     ureg = registry()
     try:
-        q = ureg.Quantity(value.strip())
+        # Integer literals become floats before pint evaluates the text: with Python integers a
+        # power tower such as "10**10**10 N" would take forever; with floats it overflows at once.
+        q = ureg.Quantity(_INTEGER.sub(r"\1.0", value.strip()))
     except Exception as exc:  # pint raises many kinds of errors for malformed text
         raise UnitParseError(f"cannot read {value!r} as a quantity ({type(exc).__name__})") from None
     if not isinstance(q, pint.Quantity):

@@ -1,0 +1,135 @@
+"""Checkpoints of a running study: every finished chunk on disk, so a re-run resumes.
+
+Next to the output ``OUT.nc`` a run keeps ``OUT.nc.chunks/<study_sha256>/``:
+
+* ``manifest.json``: the study's sha256, the gearsweep version, the number of lanes and the chunk
+  layout (lane ranges). A folder whose manifest does not match the run (another layout, another
+  version) is emptied before use; a changed study has another sha256, hence another folder, and
+  never reads stale chunks.
+* ``chunk_<lane0>_<lane1>.npz``: the arrays ``run_chunk`` returned for lanes ``[lane0, lane1)``,
+  written to a temporary file, flushed to disk, then renamed (``os.replace``), so a chunk file is
+  either complete or absent, whatever kills the run (SIGKILL, power loss).
+
+A re-run of the same study to the same output loads the chunk files that are there and computes
+only the missing ones; after the netCDF is written, the whole ``OUT.nc.chunks`` folder is removed.
+
+Setting the environment variable ``GEARSWEEP_CHUNK_LOG`` to a file path appends one line
+``<lane0> <lane1>`` to it per chunk computed and saved (read when a chunk is saved, not at import):
+tests use it to check that a resumed run computes no chunk twice.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+import gearsweep
+
+MANIFEST = "manifest.json"
+FORMAT = 1
+"""Version of the folder layout (bump when chunk files change meaning)."""
+
+
+def chunk_folder(output: str | Path) -> Path:
+    """The folder that holds the checkpoints of every study written to ``output``."""
+    output = Path(output)
+    return output.with_name(output.name + ".chunks")
+
+
+def _atomic_write(path: Path, write) -> None:
+    """Call ``write(file_object)`` on a temporary file next to ``path``, fsync, then rename."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+class ChunkStore:
+    """The chunk files of one study (by sha256) written to one output.
+
+    Parameters
+    ----------
+    output : path
+        The result file the study writes (the checkpoints live in ``<output>.chunks``).
+    study_sha256 : str
+        Hex digest of the study text; the folder's name.
+    n_lanes : int
+        Lanes of the study (see ``gearsweep.study.runner``).
+    chunks : list of (int, int)
+        Lane ranges ``[lane0, lane1)`` of the chunks, in order.
+    """
+
+    def __init__(self, output: str | Path, study_sha256: str, n_lanes: int,
+                 chunks: list[tuple[int, int]]) -> None:
+        self.root = chunk_folder(output)
+        self.folder = self.root / study_sha256
+        self.manifest = {
+            "format": FORMAT,
+            "study_sha256": study_sha256,
+            "gearsweep_version": gearsweep.__version__,
+            "n_lanes": int(n_lanes),
+            "chunks": [[int(a), int(b)] for a, b in chunks],
+        }
+        self.chunks = [(int(a), int(b)) for a, b in chunks]
+
+    def path(self, lane0: int, lane1: int) -> Path:
+        """File of the chunk of lanes ``[lane0, lane1)``."""
+        return self.folder / f"chunk_{lane0}_{lane1}.npz"
+
+    def open(self) -> list[tuple[int, int]]:
+        """Create or check the folder; return the chunks whose files are present.
+
+        A folder left by a run with another chunk layout or gearsweep version is emptied first.
+        """
+        self.folder.mkdir(parents=True, exist_ok=True)
+        mpath = self.folder / MANIFEST
+        try:
+            old = json.loads(mpath.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            old = None
+        if old != self.manifest:
+            for f in self.folder.iterdir():
+                if f.is_file():
+                    f.unlink()
+            _atomic_write(mpath, lambda fh: fh.write(
+                json.dumps(self.manifest, indent=1).encode("utf-8")))
+            return []
+        return [c for c in self.chunks if self.path(*c).is_file()]
+
+    def save(self, lane0: int, lane1: int, arrays: dict[str, np.ndarray]) -> None:
+        """Write one chunk's arrays atomically (and log it when ``GEARSWEEP_CHUNK_LOG`` is set)."""
+        _atomic_write(self.path(lane0, lane1), lambda fh: np.savez(fh, **arrays))
+        log = os.environ.get("GEARSWEEP_CHUNK_LOG")
+        if log:
+            with open(log, "a", encoding="utf-8") as fh:
+                fh.write(f"{lane0} {lane1}\n")
+
+    def load(self, lane0: int, lane1: int) -> dict[str, np.ndarray] | None:
+        """The arrays of one chunk, or ``None`` if its file is missing or unreadable."""
+        try:
+            with open(self.path(lane0, lane1), "rb") as fh, np.load(fh, allow_pickle=False) as z:
+                return {k: z[k] for k in z.files}
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+            return None
+
+    def discard(self, lane0: int, lane1: int) -> None:
+        """Remove one chunk file (an unreadable one, so that it is computed again)."""
+        self.path(lane0, lane1).unlink(missing_ok=True)
+
+
+
+def remove_checkpoints(output: str | Path) -> None:
+    """Remove every checkpoint of ``output`` (its study's and stale ones of other studies)."""
+    shutil.rmtree(chunk_folder(output), ignore_errors=True)

@@ -1,0 +1,528 @@
+"""Where the chunks of a study run: in this process, on an existing dask cluster, or on a local one.
+
+A ``Plan`` (``gearsweep.study.runner``) is cut into chunks of lanes (a lane is one case, or one
+whole continued sweep along speed, so a sweep direction never spans two chunks). ``run_plan``
+computes the chunks that are not yet on disk with one of three backends and puts the results
+together:
+
+* ``InProcess`` (the default): chunk after chunk in this process, each kernel call spread over all
+  cores by Numba's ``prange``.
+* ``DaskBackend(scheduler="tcp://HOST:PORT")``: an existing ``dask.distributed`` cluster.
+* ``DaskBackend(workers=N)``: a ``LocalCluster`` of N single-threaded worker processes started on
+  the spot and closed afterwards.
+
+On a cluster every task sets Numba's thread count to ``cores // worker processes on its host``
+(``numba.set_num_threads`` inside the task: the setting is per thread) and a worker process runs
+one chunk at a time, so dask threads and Numba threads never oversubscribe the cores. The kernel's
+arithmetic for one case does not depend on the block, thread or process that runs it, so the
+results are bitwise identical whichever backend runs a study. A task that raises is retried twice
+(``retries=2``); the chunks of a worker that dies are rescheduled by the dask scheduler.
+
+With an output path ``run_to_file`` checkpoints every finished chunk (``gearsweep.study.checkpoint``)
+and a re-run of the same study resumes. ``estimate`` predicts time, memory and output size
+before a run; ``check_limits`` refuses a study beyond ``LIMITS`` unless confirmed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import math
+import os
+import sys
+import threading
+import time
+from collections import Counter
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, replace
+from pathlib import Path
+from urllib.parse import urlparse
+
+import numpy as np
+import xarray as xr
+
+from gearsweep.errors import ClusterError, LimitError
+from gearsweep.kernels import LANES
+from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
+from gearsweep.study.dataset import write_netcdf
+from gearsweep.study.runner import (
+    Plan,
+    _integrate,
+    _lane_params,
+    _step_ok,
+    assemble,
+    empty_results,
+    run_chunk,
+    store_chunk,
+)
+
+STATED_RATE = {"rk4": 90.0, "rk5": 60.0}
+"""Bare-kernel throughput per core [Msteps/s] assumed when none is measured (rattle scene, 2-core
+x86-64 with AVX2, see docs/scale.md): the estimate's fallback, not a promise."""
+
+BASELINE_MEMORY = 300e6
+"""Resident memory of the interpreter with numpy, numba, xarray and the compiled kernels [bytes]."""
+
+FIXED_SECONDS = 3.0
+"""Time of a run that does not depend on its size: loading the compiled kernel, netCDF setup [s]."""
+
+WRITE_RATE = 100e6
+"""Bytes of results written per second (netCDF4 with zlib level 1) [bytes/s]."""
+
+
+@dataclass(frozen=True)
+class Limits:
+    """A study predicted beyond any of these is refused unless the user confirms (``--yes``)."""
+
+    seconds: float = 600.0
+    """Wall time [s]."""
+    output_bytes: float = 2e9
+    """Size of the result file [bytes]."""
+    memory_bytes: float = 2e9
+    """Peak resident memory of the process that assembles the results [bytes]."""
+
+
+LIMITS = Limits()
+
+
+def cores() -> int:
+    """CPU cores this process may use (its affinity mask where the OS has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def lanes_per_chunk(plan: Plan, chunk_cases: int | None) -> int | None:
+    """Lanes per chunk for about ``chunk_cases`` cases per chunk (``None``: the runner's default)."""
+    if chunk_cases is None:
+        return None
+    per_lane = plan.chain * max(len(plan.directions), 1)
+    return max(1, int(chunk_cases) // per_lane)
+
+
+# ------------------------------------------------------------------------------------ estimate
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Predicted cost of a study on a given number of cores."""
+
+    cases: int
+    steps: float
+    """Integration steps of all cases."""
+    chunks: int
+    threads: int
+    """Cores the kernel runs on (all workers together)."""
+    rate: float
+    """Bare-kernel throughput per core [Msteps/s]."""
+    rate_source: str
+    """``"measured"`` or ``"stated"``."""
+    seconds: float
+    memory_bytes: float
+    output_bytes: float
+
+    def line(self) -> str:
+        """The estimate in one line."""
+        chunks = f"{self.chunks} chunk" + ("s" if self.chunks != 1 else "")
+        return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
+                f" {_duration(self.seconds)} on {self.threads} cores at {self.rate:.0f} Msteps/s"
+                f" per core ({self.rate_source}), peak memory {_size(self.memory_bytes)},"
+                f" output at most {_size(self.output_bytes)}")
+
+    def over(self, limits: Limits | None = None) -> list[str]:
+        """The limits this estimate exceeds, in words (empty if none)."""
+        limits = limits or LIMITS
+        out = []
+        if self.seconds > limits.seconds:
+            out.append(f"time > {_duration(limits.seconds)}")
+        if self.memory_bytes > limits.memory_bytes:
+            out.append(f"memory > {_size(limits.memory_bytes)}")
+        if self.output_bytes > limits.output_bytes:
+            out.append(f"output > {_size(limits.output_bytes)}")
+        return out
+
+
+def _duration(s: float) -> str:
+    if s < 90:
+        return f"{s:.1f} s"
+    if s < 5400:
+        return f"{s / 60:.1f} min"
+    return f"{s / 3600:.1f} h"
+
+
+def _size(b: float) -> str:
+    for unit, f in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if b >= f:
+            return f"{b / f:.3g} {unit}"
+    return f"{b:.0f} B"
+
+
+def _case_bytes(plan: Plan) -> int:
+    """Bytes of results per case (every variable, with its extra dims, and status)."""
+    total = 1  # status, int8
+    for spec in plan.specs.values():
+        extra = math.prod(len(spec.extra_coords[d]) for d in spec.extra_dims)
+        total += extra * np.dtype(spec.dtype).itemsize
+    return total
+
+
+def _lane_steps(plan: Plan, chunks: list[tuple[int, int]], threads: int) -> float:
+    """Lane-steps the kernel advances per thread over all calls (a partly filled block of
+    ``LANES`` costs a full one; blocks are shared out over ``threads``).
+
+    A chunk is one kernel call, or, for continued sweeps, one call per speed in which the up and
+    the down sweeps of its lanes advance side by side (``runner.run_chunk``).
+    """
+    calls_per_chunk = plan.chain
+    ways = max(len(plan.directions), 1)
+    sizes = Counter(b - a for a, b in chunks)
+    rounds = sum(k * math.ceil(math.ceil(n * ways / LANES) / threads) for n, k in sizes.items())
+    return float(rounds) * calls_per_chunk * LANES * plan.steps_per_case
+
+
+def measure_rate(plan: Plan, threads: int, seconds: float = 0.3) -> float:
+    """Throughput per core [Msteps/s] of this study's kernel and outputs, measured here.
+
+    Runs ``4 LANES threads`` cases of the study (its first lanes, first speed) for about
+    ``seconds`` at the stated rate, after one short warm-up call that loads the compiled kernel.
+    """
+    n = min(4 * LANES * threads, max(plan.n_lanes, 1) * 4 * LANES)
+    s = plan.study.solver
+    per_case = seconds * STATED_RATE[s.method] * 1e6 * threads / n
+    periods = max(2, int(per_case // s.steps_per_period))
+    lanes = np.arange(n) % max(plan.n_lanes, 1)
+    params = {k: v[lanes] for k, v in _lane_params(plan, 0, plan.n_lanes).items()}
+    if plan.continued:
+        params["speed"] = np.full(n, plan.grids["speed"][0])
+    trial = None
+    for record in (1, periods // 2):
+        solver = s.model_copy(update={"transient_periods": periods - record,
+                                      "record_periods": record})
+        trial = replace(plan, study=plan.study.model_copy(update={"solver": solver}))
+        t0 = time.perf_counter()
+        _integrate(trial, params, n, None, None)
+        dt = time.perf_counter() - t0
+    steps = n * periods * s.steps_per_period
+    return steps / dt / threads / 1e6
+
+
+def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None = None,
+             rate: float | None = None) -> Estimate:
+    """Predict wall time, peak memory and output size of running ``chunks`` of ``plan``.
+
+    Parameters
+    ----------
+    threads : int
+        Cores the kernel runs on (default: this process's cores).
+    rate : float
+        Bare-kernel throughput per core [Msteps/s]; default ``STATED_RATE`` of the method.
+
+    Notes
+    -----
+    Time: every kernel call advances ``ceil(blocks / threads)`` rounds of ``LANES`` lanes (a
+    partly filled block costs a full one), at ``rate`` per core; plus ``FIXED_SECONDS`` and the
+    writing of the results at ``WRITE_RATE``. Memory: the full result arrays
+    twice (results and the copies made while writing the file), three chunks' worth (one being
+    computed, one arriving, one being saved) and the interpreter's baseline. Output: the result
+    arrays uncompressed (zlib makes the file smaller).
+    """
+    threads = threads or cores()
+    source = "stated" if rate is None else "measured"
+    rate = rate or STATED_RATE[plan.study.solver.method]
+    steps_case = plan.steps_per_case
+    per_case = _case_bytes(plan)
+    results = plan.n_cases * per_case
+    seconds = _lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS + results / WRITE_RATE
+    biggest = max((b - a for a, b in chunks), default=0) * plan.chain * max(len(plan.directions), 1)
+    sps = plan.samples_per_period()
+    signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
+    memory = BASELINE_MEMORY + 2 * results + 3 * biggest * per_case + signal
+    coords = sum(g.nbytes for g in plan.grids.values())
+    return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
+                    threads=threads, rate=rate, rate_source=source, seconds=seconds,
+                    memory_bytes=memory, output_bytes=results + coords)
+
+
+def check_limits(est: Estimate, where: str, limits: Limits | None = None) -> None:
+    """Raise ``LimitError`` (one line, with the estimate) if ``est`` is beyond ``limits``."""
+    over = est.over(limits or LIMITS)
+    if over:
+        raise LimitError(f"{where}: refused ({', '.join(over)}): {est.line()};"
+                         f" run with --yes to go ahead")
+
+
+# ------------------------------------------------------------------------------------ backends
+
+
+def warm_up(plan: Plan, first: tuple[int, int] | None = None) -> None:
+    """Load (or compile) this study's kernel specialisation with a one-case, two-period call,
+    and solve the step guard's stability polynomial for the (k/m, c/m) pairs of the ``first``
+    chunk (memoised in ``runner``), so that the timed chunk phase measures integration, not
+    one-time set-up."""
+    s = plan.study.solver
+    if first is not None and s.step_guard != "off":
+        params = _lane_params(plan, *first)
+        n = first[1] - first[0]
+        if plan.continued:
+            params["speed"] = np.full(n, plan.grids["speed"][0])
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            _step_ok(plan, params, n)
+    solver = s.model_copy(update={"transient_periods": 1, "record_periods": 1})
+    trial = replace(plan, study=plan.study.model_copy(update={"solver": solver}))
+    params = _lane_params(plan, 0, 1)
+    if plan.continued:
+        params["speed"] = plan.grids["speed"][:1]
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        _integrate(trial, params, 1, None, None)
+
+
+def _run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
+    """``run_chunk`` without NumPy's overflow warnings: a case whose coefficients overflow (an
+    absurd force, say) is integrated to non-finite values, which the kernel flags in ``status``."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return run_chunk(plan, lane0, lane1)
+
+
+class InProcess:
+    """Run chunks one after another in this process (each kernel call uses all cores)."""
+
+    def __enter__(self) -> InProcess:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    @property
+    def threads(self) -> int:
+        import numba
+
+        return numba.get_num_threads()
+
+    def run(self, plan: Plan, todo: list[tuple[int, int]]
+            ) -> Iterator[tuple[int, int, dict[str, np.ndarray]]]:
+        for a, b in todo:
+            yield a, b, _run_chunk(plan, a, b)
+
+
+_KERNEL_LOCK = threading.Lock()
+"""One chunk at a time per worker process: its Numba threads already fill its share of cores."""
+
+
+def _chunk_task(plan: Plan, lane0: int, lane1: int, procs_per_host: dict[str, int]
+                ) -> dict[str, np.ndarray]:
+    """A chunk on a dask worker, with Numba's threads set to this worker's share of the cores."""
+    import numba
+    from distributed import get_worker
+
+    host = urlparse(get_worker().address).hostname or ""
+    procs = procs_per_host.get(host) or max(procs_per_host.values(), default=1)
+    threads = max(1, min(numba.config.NUMBA_NUM_THREADS, cores() // procs))
+    with _KERNEL_LOCK:
+        numba.set_num_threads(threads)
+        return _run_chunk(plan, lane0, lane1)
+
+
+class DaskBackend:
+    """Run chunks on a dask.distributed cluster: an existing one or a local one started here.
+
+    Parameters
+    ----------
+    scheduler : str
+        Address of an existing scheduler, ``tcp://HOST:PORT``. Its workers must import the same
+        gearsweep version.
+    workers : int
+        Start a ``LocalCluster`` of this many single-threaded worker processes instead.
+    timeout : float
+        Seconds to wait for a first worker (for the scheduler: at most 10) [s].
+    """
+
+    def __init__(self, scheduler: str | None = None, workers: int | None = None,
+                 timeout: float = 30.0) -> None:
+        if (scheduler is None) == (workers is None):
+            raise ValueError("give exactly one of scheduler and workers")
+        self.scheduler, self.workers, self.timeout = scheduler, workers, timeout
+        self.cluster = None
+        self.client = None
+
+    def __enter__(self) -> DaskBackend:
+        from distributed import Client, LocalCluster
+
+        where = self.scheduler or f"a local cluster of {self.workers} workers"
+        try:
+            if self.workers is not None:
+                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
+                                            processes=True, dashboard_address=None,
+                                            silence_logs=logging.ERROR)
+                self.client = Client(self.cluster)
+            else:
+                self.client = Client(self.scheduler, timeout=f"{min(self.timeout, 10.0)}s")
+            self.client.wait_for_workers(1, timeout=self.timeout)
+        except (OSError, TimeoutError) as exc:
+            self.__exit__()
+            raise ClusterError(f"{where}: cannot use the dask cluster ({type(exc).__name__}:"
+                               f" {str(exc).splitlines()[0] if str(exc) else 'no reason given'})"
+                               ) from None
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+        if self.cluster is not None:
+            self.cluster.close()
+            self.cluster = None
+
+    def _procs_per_host(self) -> dict[str, int]:
+        info = self.client.scheduler_info(n_workers=-1)["workers"]
+        out: dict[str, int] = {}
+        for addr in info:
+            host = urlparse(addr).hostname or ""
+            out[host] = out.get(host, 0) + 1
+        return out
+
+    @property
+    def threads(self) -> int:
+        """Cores of the cluster: its dask threads (dask's default is one per core)."""
+        if self.cluster is not None:
+            return cores()  # the local workers share this machine's cores
+        info = self.client.scheduler_info(n_workers=-1)["workers"]
+        return max(1, sum(int(w.get("nthreads", 1)) for w in info.values()))
+
+    def run(self, plan: Plan, todo: list[tuple[int, int]]
+            ) -> Iterator[tuple[int, int, dict[str, np.ndarray]]]:
+        from distributed import as_completed
+
+        if self.client is None:
+            raise RuntimeError("enter the backend first: with DaskBackend(...) as backend: ...")
+        procs = self._procs_per_host()
+        window = 2 * sum(procs.values()) + 2  # keeps every worker busy, bounds memory in flight
+        sha = hashlib.sha256(plan.text.encode()).hexdigest()[:16]
+        pending = iter(todo)
+        where: dict[str, tuple[int, int]] = {}
+        queue = as_completed()
+
+        def submit() -> bool:
+            chunk = next(pending, None)
+            if chunk is None:
+                return False
+            fut = self.client.submit(_chunk_task, plan, chunk[0], chunk[1], procs, retries=2,
+                                     key=f"gearsweep-{sha}-{chunk[0]}-{chunk[1]}", pure=False)
+            where[fut.key] = chunk
+            queue.add(fut)
+            return True
+
+        for _ in range(window):
+            if not submit():
+                break
+        for fut in queue:
+            a, b = where.pop(fut.key)
+            try:
+                arrays = fut.result()
+            except Exception as exc:
+                msg = str(exc).splitlines()[0] if str(exc) else ""
+                raise ClusterError(f"{self.scheduler or 'local cluster'}: chunk of lanes {a}-{b}"
+                                   f" failed: {type(exc).__name__}: {msg}") from exc
+            fut.release()
+            yield a, b, arrays
+            submit()
+
+
+# ------------------------------------------------------------------------------------ runs
+
+
+def _fits(results: dict[str, np.ndarray], plan: Plan, a: int, b: int,
+          arrays: dict[str, np.ndarray]) -> bool:
+    """Whether a loaded chunk has exactly the variables, shapes and dtypes the study expects."""
+    if set(arrays) != set(results):
+        return False
+    for name, arr in arrays.items():
+        full = results[name]
+        want = full[:, a:b] if plan.continued else full[a:b]
+        if arr.shape != want.shape or arr.dtype != want.dtype:
+            return False
+    return True
+
+
+def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
+             checkpoint: str | Path | None = None, chunk_cases: int | None = None,
+             progress: bool = False) -> xr.Dataset:
+    """Run every chunk of ``plan`` (those not already checkpointed) and return the Dataset.
+
+    Parameters
+    ----------
+    backend : InProcess or DaskBackend
+        Where the chunks run (default ``InProcess()``); a ``DaskBackend`` must be entered
+        (``with DaskBackend(...) as backend:``).
+    checkpoint : path
+        The result file the study will be written to: chunks are saved next to it as they finish
+        and reused by a re-run (see ``gearsweep.study.checkpoint``). ``None``: no checkpoints.
+    chunk_cases : int
+        About this many cases per chunk (default: about ``runner.CHUNK_STEPS`` steps per chunk).
+    progress : bool
+        Show a progress bar (tqdm, on stderr) updated per finished chunk.
+
+    The Dataset's ``elapsed_seconds`` is the chunk phase: computing the chunks and saving their
+    checkpoints (in-process, after ``warm_up`` has loaded the compiled kernel).
+    """
+    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
+    results = empty_results(plan)
+    per_lane = plan.chain * max(len(plan.directions), 1)
+    store = None
+    todo = list(chunks)
+    if checkpoint is not None:
+        sha = hashlib.sha256(plan.text.encode()).hexdigest()
+        store = ChunkStore(checkpoint, sha, plan.n_lanes, chunks)
+        for a, b in store.open():
+            arrays = store.load(a, b)
+            if arrays is None or not _fits(results, plan, a, b, arrays):
+                store.discard(a, b)
+                continue
+            store_chunk(results, plan, a, b, arrays)
+            todo.remove((a, b))
+    done = sum(b - a for a, b in chunks) - sum(b - a for a, b in todo)
+    from tqdm import tqdm
+
+    bar = tqdm(total=plan.n_cases, initial=done * per_lane, unit="case", unit_scale=True,
+               desc=plan.study.title[:30], file=sys.stderr, disable=not progress, leave=False,
+               smoothing=0.1, mininterval=0, miniters=1)  # a refresh per finished chunk
+    t0 = time.perf_counter()
+    be = backend if backend is not None else InProcess()
+    if todo and isinstance(be, InProcess):
+        warm_up(plan, todo[0])
+    # One background thread writes the checkpoint files while the next chunk computes (the
+    # kernel releases the GIL); at most two saves wait, so at most two chunks more are held.
+    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-checkpoint")
+    saves: list = []
+    try:
+        for a, b, arrays in be.run(plan, todo):
+            store_chunk(results, plan, a, b, arrays)
+            if store is not None:
+                saves.append(writer.submit(store.save, a, b, arrays))
+                while len(saves) > 2:
+                    saves.pop(0).result()
+            del arrays
+            bar.update((b - a) * per_lane)
+    finally:
+        try:
+            for f in saves:  # what was computed is saved, even if the run is failing
+                f.result()
+        finally:
+            writer.shutdown()
+            bar.close()
+    return assemble(plan, results, time.perf_counter() - t0)
+
+
+def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
+                chunk_cases: int | None = None, progress: bool = False) -> xr.Dataset:
+    """Run ``plan`` with checkpoints next to ``output``, write the netCDF atomically, clean up.
+
+    A run killed at any point leaves the chunks it finished; running the same study to the same
+    output again computes only the others and writes the same file.
+    """
+    ds = run_plan(plan, backend=backend, checkpoint=output, chunk_cases=chunk_cases,
+                  progress=progress)
+    write_netcdf(ds, output)
+    remove_checkpoints(output)
+    return ds

@@ -1,0 +1,144 @@
+"""Throughput of a large study run by the CLI against the bare kernel on the same chunks.
+
+For each repeat, in turn: (1) the bare kernel, ``gearsweep.kernels.simulate`` on exactly the
+study's chunks (same cases, same kernel inputs, warm, all cores), timed around ``simulate`` only;
+(2) the study through ``gearsweep run`` in a fresh process (checkpoints, outputs, netCDF), timed
+three ways: its chunk phase (the file's ``elapsed_seconds``: kernel calls, outputs, checkpoint
+files), the whole run (process start to exit) and its peak resident memory. Alternating the two
+halves the effect of other load on this shared machine; medians are printed.
+
+    PYTHONPATH=. python scripts/bench_scale.py [studies/heavy/scale_1e6.yaml] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from gearsweep.kernels import simulate
+from gearsweep.model import kernel_inputs
+from gearsweep.study.runner import _lane_params, make_plan
+from gearsweep.study.schema import load_study
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def bare_kernel_seconds(plan, chunks: list[tuple[int, int]]) -> float:
+    """Seconds spent in ``simulate`` over these chunks of a (non-continued) study."""
+    s = plan.study.solver
+    total = 0.0
+    for a, b in chunks:
+        kin = kernel_inputs(plan.model, _lane_params(plan, a, b), b - a, s.steps_per_period,
+                            s.divergence_factor, s.initial_displacement, s.initial_velocity)
+        with np.errstate(all="ignore"):
+            t0 = time.perf_counter()
+            simulate(method=s.method, n_transient=s.transient_periods * s.steps_per_period,
+                     n_record=s.record_periods * s.steps_per_period,
+                     steps_per_period=s.steps_per_period, **kin)
+            total += time.perf_counter() - t0
+    return total
+
+
+def paired_chunks(plan, folder: Path) -> tuple[float, float]:
+    """(bare kernel seconds, study chunk-phase seconds) timed chunk by chunk, alternately.
+
+    For each chunk: ``simulate`` alone, then what ``run_plan`` does for it (``run_chunk``: kernel
+    inputs, kernel, outputs, status; the checkpoint file; the copy into the full arrays). Pairing
+    the two within seconds of each other cancels most of the drift of other load.
+    """
+    from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
+    from gearsweep.study.execute import _run_chunk
+    from gearsweep.study.runner import empty_results, store_chunk
+
+    chunks = plan.chunks()
+    out = folder / "paired.nc"
+    store = ChunkStore(out, "paired", plan.n_lanes, chunks)
+    store.open()
+    results = empty_results(plan)
+    bare = study = 0.0
+    for a, b in chunks:
+        bare += bare_kernel_seconds(plan, [(a, b)])
+        t0 = time.perf_counter()
+        arrays = _run_chunk(plan, a, b)
+        store.save(a, b, arrays)
+        store_chunk(results, plan, a, b, arrays)
+        study += time.perf_counter() - t0
+    remove_checkpoints(out)
+    return bare, study
+
+
+def study_run(study: Path, out: Path) -> tuple[float, float, float, int]:
+    """(chunk-phase seconds, wall seconds, peak RSS [bytes], output bytes) of one CLI run."""
+    rss_file = out.with_suffix(".rss")
+    timer = ["/usr/bin/time", "-f", "%M", "-o", str(rss_file)] if Path("/usr/bin/time").exists() \
+        else []
+    t0 = time.perf_counter()
+    subprocess.run([*timer, sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o",
+                    str(out), "-q"], check=True, cwd=ROOT,
+                   env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    wall = time.perf_counter() - t0
+    if timer:
+        rss = int(rss_file.read_text().split()[-1]) * 1024  # GNU time: peak RSS in kB
+    else:  # largest peak of any child so far (an upper bound of this run's)
+        rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024
+    with xr.open_dataset(out) as ds:
+        chunk = float(ds.attrs["elapsed_seconds"])
+    return chunk, wall, rss, out.stat().st_size
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("study", nargs="?", default=str(ROOT / "studies/heavy/scale_1e6.yaml"))
+    p.add_argument("--repeats", type=int, default=3)
+    args = p.parse_args()
+    study, text = load_study(args.study)
+    plan = make_plan(study, text)
+    if plan.continued:
+        sys.exit("bench_scale compares non-continued studies (one kernel call per chunk)")
+    steps = plan.n_cases * plan.steps_per_case
+    print(f"{args.study}: {plan.n_cases:,} cases x {plan.steps_per_case} steps = {steps:.3g}"
+          f" steps in {len(plan.chunks())} chunks")
+    chunks = plan.chunks()
+    bare_kernel_seconds(plan, [(0, min(1000, plan.n_lanes))])  # warm-up: load the compiled kernel
+    bare, chunk, wall, rss = [], [], [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "scale.nc"
+        pairs = []
+        for r in range(args.repeats):
+            pb, ps = paired_chunks(plan, Path(tmp))
+            pairs.append(ps / pb)
+            print(f"  paired {r}: bare kernel {pb:.2f} s, study chunk work {ps:.2f} s"
+                  f" (ratio {ps / pb:.3f})", flush=True)
+        for r in range(args.repeats):
+            bare.append(bare_kernel_seconds(plan, chunks))
+            c, w, m, size = study_run(Path(args.study), out)
+            chunk.append(c)
+            wall.append(w)
+            rss.append(m)
+            print(f"  repeat {r}: bare kernel {bare[-1]:.2f} s, study chunks {c:.2f} s"
+                  f" (ratio {c / bare[-1]:.3f}), study wall {w:.2f} s, peak RSS {m / 1e6:.0f} MB",
+                  flush=True)
+    mb, mc, mw = (statistics.median(x) for x in (bare, chunk, wall))
+    print(f"bare kernel:        {mb:.2f} s  {steps / mb / 1e6:.0f} Msteps/s")
+    ratio = statistics.median(c / b for c, b in zip(chunk, bare, strict=True))
+    print(f"study, chunk phase: {mc:.2f} s  {steps / mc / 1e6:.0f} Msteps/s"
+          f"  (median ratio of times to the bare kernel's in the same repeat: {ratio:.3f})")
+    print(f"study, whole run:   {mw:.2f} s  {steps / mw / 1e6:.0f} Msteps/s"
+          f" (process start, plan, chunks, assembly, netCDF write)")
+    print(f"paired chunk by chunk in one process: median ratio {statistics.median(pairs):.3f}"
+          f" (study chunk work / bare kernel)")
+    print(f"peak RSS {max(rss) / 1e6:.0f} MB, output {size / 1e6:.1f} MB")
+
+
+if __name__ == "__main__":
+    main()

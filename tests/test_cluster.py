@@ -1,0 +1,172 @@
+"""Real dask clusters on 127.0.0.1: a scheduler and two worker processes, started with the ``dask``
+command line, no dashboards, random free ports, stopped in the fixture's finaliser.
+
+Checks: a study run through ``gearsweep run --scheduler`` and ``--workers 2`` is identical
+(bitwise) to the in-process run; a worker killed with SIGKILL mid-run has its chunks re-run and
+the study still completes with identical results.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+import xarray as xr
+from test_execute import LONG, RATTLE, assert_same, plan_of  # the tests folder is on sys.path
+
+from gearsweep.study.checkpoint import chunk_folder
+from gearsweep.study.execute import run_plan
+
+pytestmark = pytest.mark.cluster
+
+ROOT = Path(__file__).resolve().parents[1]
+DASK = shutil.which("dask", path=str(Path(sys.executable).parent)) or shutil.which("dask")
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=15)
+
+
+@contextmanager
+def dask_cluster(tmp: Path, n_workers: int = 2, nthreads: int = 1):
+    """Start ``dask scheduler`` and ``n_workers`` x ``dask worker`` (no nanny, so that killing a
+    worker's process kills the worker); yield the address and the worker processes."""
+    if DASK is None:
+        pytest.fail("the 'dask' command is not installed next to the Python interpreter")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    procs: list[subprocess.Popen] = []
+    logs = []
+    try:
+        log = open(tmp / "scheduler.log", "w")  # noqa: SIM115 -- closed in the finaliser
+        logs.append(log)
+        procs.append(subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port",
+                                       str(port), "--no-dashboard"], env=env, stdout=log,
+                                      stderr=subprocess.STDOUT))
+        workers = []
+        for i in range(n_workers):
+            log = open(tmp / f"worker{i}.log", "w")  # noqa: SIM115
+            logs.append(log)
+            w = subprocess.Popen([DASK, "worker", address, "--host", "127.0.0.1", "--nthreads",
+                                  str(nthreads), "--no-nanny", "--no-dashboard",
+                                  "--death-timeout", "60"], env=env, stdout=log,
+                                 stderr=subprocess.STDOUT)
+            procs.append(w)
+            workers.append(w)
+        from distributed import Client
+
+        deadline = time.monotonic() + 120
+        while True:
+            try:
+                with Client(address, timeout="10s") as client:
+                    client.wait_for_workers(n_workers, timeout=60)
+                break
+            except (OSError, TimeoutError):
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.5)
+        yield address, workers
+    finally:
+        for p in reversed(procs):
+            _stop(p)
+        for log in logs:
+            log.close()
+
+
+def _run_cli(args: list[str], **kw) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.Popen([sys.executable, "-m", "gearsweep.cli", "run", *args, "-q"], env=env,
+                            cwd=ROOT, **kw)
+
+
+@pytest.fixture(scope="module")
+def rattle_reference():
+    return run_plan(plan_of(RATTLE))
+
+
+def test_scheduler_identical_to_in_process(tmp_path, rattle_reference):
+    """The continued rattle study (6 chunks of whole sweeps) through --scheduler on two real
+    worker processes with two dask threads each: bitwise identical to one in-process chunk."""
+    study = tmp_path / "rattle.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+    with dask_cluster(tmp_path, n_workers=2, nthreads=2) as (address, _):
+        out = tmp_path / "sched.nc"
+        proc = _run_cli([str(study), "-o", str(out), "--scheduler", address, "--chunk-size", "48"])
+        assert proc.wait(timeout=600) == 0
+    with xr.open_dataset(out) as ds:
+        assert_same(ds.load(), rattle_reference)
+
+
+def test_local_cluster_identical_to_in_process(tmp_path, rattle_reference):
+    """The same study through --workers 2 (a LocalCluster started and closed by the CLI)."""
+    study = tmp_path / "rattle.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+    out = tmp_path / "local.nc"
+    proc = _run_cli([str(study), "-o", str(out), "--workers", "2", "--chunk-size", "48"])
+    assert proc.wait(timeout=600) == 0
+    with xr.open_dataset(out) as ds:
+        assert_same(ds.load(), rattle_reference)
+
+
+def test_unreachable_scheduler_is_one_line(tmp_path):
+    study = tmp_path / "rattle.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+    port = _free_port()  # nothing listens there
+    proc = _run_cli([str(study), "-o", str(tmp_path / "o.nc"), "--scheduler",
+                     f"tcp://127.0.0.1:{port}"], stderr=subprocess.PIPE, text=True)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 2
+    assert err.count("\n") == 1 and "cannot use the dask cluster" in err, err
+
+
+@pytest.mark.slow
+def test_killed_worker_chunks_are_rerun(tmp_path):
+    """SIGKILL one of two workers once the first chunks are saved: the scheduler re-runs its
+    chunk on the other worker and the study completes, identical to the in-process result."""
+    study = tmp_path / "long.yaml"
+    study.write_text(LONG, encoding="utf-8")
+    out = tmp_path / "long.nc"
+    with dask_cluster(tmp_path, n_workers=2) as (address, workers):
+        proc = _run_cli([str(study), "-o", str(out), "--scheduler", address, "--chunk-size",
+                         "100"])
+        folder = chunk_folder(out)
+        deadline = time.monotonic() + 300
+        try:
+            while len(list(folder.glob("*/chunk_*.npz"))) < 2:
+                assert proc.poll() is None, "the run ended before a worker could be killed"
+                assert time.monotonic() < deadline
+                time.sleep(0.01)
+            workers[0].send_signal(signal.SIGKILL)
+            workers[0].wait(timeout=30)
+            assert proc.wait(timeout=600) == 0
+        finally:
+            _stop(proc)
+        saved = len(list(folder.glob("*/chunk_*.npz")))
+        assert saved == 0 and out.exists()
+    log = (tmp_path / "worker0.log").read_text()
+    assert workers[0].returncode == -signal.SIGKILL, log[-2000:]
+    # The scheduler saw the worker go (and released its processing chunks to the other one).
+    assert "Remove worker" in (tmp_path / "scheduler.log").read_text()
+    with xr.open_dataset(out) as ds:
+        assert_same(ds.load(), run_plan(plan_of(LONG)))
