@@ -139,9 +139,11 @@ def simulate(
 def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluct_scale,
           half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride,
           kink_aware=False):
-    kernel = kink.integrate if kink_aware else rk.integrate
-    return kernel(
-        rk.METHODS[method],
+    # Without backlash there are no kinks: the kink-aware kernel would be the plain one.
+    kinks = kink_aware and half_gap is not None
+    drivers = kink.INTEGRATE if kinks else rk.INTEGRATE
+    extra = (kink.sub_blocks(n, numba.get_num_threads()),) if kinks else ()
+    out = drivers[rk.METHODS[method]](
         h,
         _vec(damping, n),
         _vec(k_mean, n),
@@ -161,4 +163,8 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
         int(steps_per_period),
         signal,
         stride,
+        *extra,
     )
+    if len(out) == 4:  # plain kernel: no substeps
+        out = (*out, np.zeros(n, np.int64))
+    return out

@@ -38,7 +38,9 @@ from numba import prange
 from gearsweep.jit import jit_inline, jit_parallel
 
 LANES = 32
-"""Cases advanced together in one vectorised block (four AVX-512 or eight AVX2 registers)."""
+"""Cases advanced together in one vectorised block (four AVX-512 or eight AVX2 registers). 64
+lanes would save 5 % on B2 but double the wasted lanes of continued sweeps, whose blocks are
+mostly empty (one lane per sweep direction)."""
 
 NODES = (0.0, 0.25, 0.5, 0.75, 1.0)
 """Stage nodes (fractions of a step) at which the periodic shapes are tabulated."""
@@ -68,9 +70,18 @@ STATUS_OK = 0
 STATUS_DIVERGED = 1
 """The state became non-finite or left ``|p| <= bound``: the case was stopped, statistics NaN."""
 
-# Rows of the per-block accumulator.
-_A_MAX1, _A_MIN1, _A_MAX2, _A_MIN2, _A_SUM, _A_SUM2, _A_GAP, _A_BACK, _A_IMP, _A_SHIFT = range(10)
-_N_ACC = 10
+# Rows of the per-block scratch array ``w`` (row r of lane l at r * LANES + l): the state, the constants and
+# the running statistics of the LANES cases of one block live in ONE allocation, so every access is
+# at a constant offset from one base pointer. LLVM can then prove the rows disjoint and vectorise
+# the lane loops without run-time alias checks (with one array per row it had to emit, and run
+# every step, pairwise overlap checks, and gave up on the statistics loop altogether).
+(_X, _V, _H, _H2, _H6, _C, _KM, _KA, _GM, _ES, _FS, _B, _BD, _DEAD,  # state and constants
+ _MAX1, _MIN1, _MAX2, _MIN2,  # extremes over the first / second half of the recorded window
+ _SUM, _SUM2, _SHIFT,  # sums of (p - shift) and (p - shift)^2, shift = first recorded p
+ _GAP, _BACK, _IMP, _PREV,  # counts of steps apart / on the back flank / impacts
+ _XO, _VO, _NSUB) = range(28)  # kink-aware kernel: state at the start of the step, substeps
+_N_ROWS = 28
+_BLOCK = _N_ROWS * LANES
 
 
 @jit_inline
@@ -111,26 +122,53 @@ def _g(gm, es, et, etab, fs, ft, ftab):
 
 
 @jit_inline
-def _rk4_lanes(x, v, hl, h2, h6, bl, half_gap, cl, km, ka, kamp, ktab, K, gm, es, etab, E, fs, ftab, F):
-    """One classic RK4 step for every lane; K, E, F: table rows of the step (5 nodes)."""
+def _row(tab, j):
+    """The 5 node values of step ``j`` as a tuple (registers, not memory); zeros when off."""
+    if tab is None:
+        return (0.0, 0.0, 0.0, 0.0, 0.0)
+    return (tab[j, 0], tab[j, 1], tab[j, 2], tab[j, 3], tab[j, 4])
+
+
+@jit_inline
+def _scratch(nsub):
+    """Zeroed scratch of ``nsub`` blocks, one flat array starting on a 64-byte boundary (Numba
+    aligns to 32 bytes only; an AVX-512 load or store that straddles two cache lines is slower).
+    Block q's row r, lane l is at q * _BLOCK + r * LANES + l; ``_block`` gives block q's part."""
+    size = nsub * _BLOCK
+    buf = np.zeros(size + 8)
+    off = ((-buf.ctypes.data) % 64) // 8
+    return buf[off:off + size]
+
+
+@jit_inline
+def _block(w, q):
+    """Block ``q`` of a scratch array: a 1-D slice, so rows are at constant offsets from its
+    start (a 2-D view would carry its row stride as a run-time value that LLVM cannot see)."""
+    return w[q * _BLOCK:(q + 1) * _BLOCK]
+
+
+@jit_inline
+def _rk4_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, rec):
+    """One classic RK4 step for every lane; K, E, F: table rows of the step (5 nodes). With
+    ``rec``, the new p also enters the running statistics."""
     for l in range(LANES):
-        hh = hl[l]
-        q2 = h2[l]
-        b = bl[l]
-        c = cl[l]
-        kl = km[l]
-        kal = ka[l]
+        hh = w[_H * LANES + l]
+        q2 = w[_H2 * LANES + l]
+        b = w[_B * LANES + l]
+        c = w[_C * LANES + l]
+        kl = w[_KM * LANES + l]
+        kal = w[_KA * LANES + l]
         Ka = _k(kl, kal, K[0], ktab, kamp)
         Kb = _k(kl, kal, K[2], ktab, kamp)
         Kc = _k(kl, kal, K[4], ktab, kamp)
-        gl = gm[l]
-        el = es[l]
-        fl = fs[l]
+        gl = w[_GM * LANES + l]
+        el = w[_ES * LANES + l]
+        fl = w[_FS * LANES + l]
         Ga = _g(gl, el, E[0], etab, fl, F[0], ftab)
         Gb = _g(gl, el, E[2], etab, fl, F[2], ftab)
         Gc = _g(gl, el, E[4], etab, fl, F[4], ftab)
-        X = x[l]
-        V = v[l]
+        X = w[_X * LANES + l]
+        V = w[_V * LANES + l]
         k1x = V
         k1v = Ga - c * V - Ka * _spring(X, b, half_gap)
         x2 = X + q2 * k1x
@@ -145,82 +183,138 @@ def _rk4_lanes(x, v, hl, h2, h6, bl, half_gap, cl, km, ka, kamp, ktab, K, gm, es
         v4 = V + hh * k3v
         k4x = v4
         k4v = Gc - c * v4 - Kc * _spring(x4, b, half_gap)
-        x[l] = X + h6[l] * (k1x + 2 * k2x + 2 * k3x + k4x)
-        v[l] = V + h6[l] * (k1v + 2 * k2v + 2 * k3v + k4v)
+        Xn = X + w[_H6 * LANES + l] * (k1x + 2 * k2x + 2 * k3x + k4x)
+        w[_X * LANES + l] = Xn
+        w[_V * LANES + l] = V + w[_H6 * LANES + l] * (k1v + 2 * k2v + 2 * k3v + k4v)
+        if rec:
+            _record(w, l, Xn, half_gap)
 
 
 @jit_inline
-def _rk5_lanes(x, v, hl, bl, half_gap, cl, km, ka, kamp, ktab, K, gm, es, etab, E, fs, ftab, F):
-    """One step of Butcher's six-stage fifth-order method for every lane."""
+def _rk5_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, rec):
+    """One step of Butcher's six-stage fifth-order method for every lane (``rec``: as RK4)."""
     for l in range(LANES):
-        h = hl[l]
-        b = bl[l]
-        c = cl[l]
-        kl = km[l]
-        kal = ka[l]
-        gl = gm[l]
-        el = es[l]
-        fl = fs[l]
-        X = x[l]
-        V = v[l]
+        h = w[_H * LANES + l]
+        b = w[_B * LANES + l]
+        c = w[_C * LANES + l]
+        kl = w[_KM * LANES + l]
+        kal = w[_KA * LANES + l]
+        gl = w[_GM * LANES + l]
+        el = w[_ES * LANES + l]
+        fl = w[_FS * LANES + l]
+        X = w[_X * LANES + l]
+        V = w[_V * LANES + l]
+        G0 = _g(gl, el, E[0], etab, fl, F[0], ftab)
+        G1 = _g(gl, el, E[1], etab, fl, F[1], ftab)
+        G2 = _g(gl, el, E[2], etab, fl, F[2], ftab)
+        G3 = _g(gl, el, E[3], etab, fl, F[3], ftab)
+        G4 = _g(gl, el, E[4], etab, fl, F[4], ftab)
+        K0 = _k(kl, kal, K[0], ktab, kamp)
+        K1 = _k(kl, kal, K[1], ktab, kamp)
+        K2 = _k(kl, kal, K[2], ktab, kamp)
+        K3 = _k(kl, kal, K[3], ktab, kamp)
+        K4 = _k(kl, kal, K[4], ktab, kamp)
         # stage 1, c = 0
         a1 = V
-        b1 = _g(gl, el, E[0], etab, fl, F[0], ftab) - c * V - _k(kl, kal, K[0], ktab, kamp) * _spring(
-            X, b, half_gap)
+        b1 = G0 - c * V - K0 * _spring(X, b, half_gap)
         # stage 2, c = 1/4
-        g1 = _g(gl, el, E[1], etab, fl, F[1], ftab)
-        k1 = _k(kl, kal, K[1], ktab, kamp)
         x2 = X + h * (0.25 * a1)
         v2 = V + h * (0.25 * b1)
         a2 = v2
-        b2 = g1 - c * v2 - k1 * _spring(x2, b, half_gap)
+        b2 = G1 - c * v2 - K1 * _spring(x2, b, half_gap)
         # stage 3, c = 1/4
         x3 = X + h * (0.125 * a1 + 0.125 * a2)
         v3 = V + h * (0.125 * b1 + 0.125 * b2)
         a3 = v3
-        b3 = g1 - c * v3 - k1 * _spring(x3, b, half_gap)
+        b3 = G1 - c * v3 - K1 * _spring(x3, b, half_gap)
         # stage 4, c = 1/2
         x4 = X + h * (-0.5 * a2 + a3)
         v4 = V + h * (-0.5 * b2 + b3)
         a4 = v4
-        b4 = _g(gl, el, E[2], etab, fl, F[2], ftab) - c * v4 - _k(kl, kal, K[2], ktab, kamp) * _spring(
-            x4, b, half_gap)
+        b4 = G2 - c * v4 - K2 * _spring(x4, b, half_gap)
         # stage 5, c = 3/4
         x5 = X + h * (0.1875 * a1 + 0.5625 * a4)
         v5 = V + h * (0.1875 * b1 + 0.5625 * b4)
         a5 = v5
-        b5 = _g(gl, el, E[3], etab, fl, F[3], ftab) - c * v5 - _k(kl, kal, K[3], ktab, kamp) * _spring(
-            x5, b, half_gap)
+        b5 = G3 - c * v5 - K3 * _spring(x5, b, half_gap)
         # stage 6, c = 1
         x6 = X + h * (-3.0 * a1 + 2.0 * a2 + 12.0 * a3 - 12.0 * a4 + 8.0 * a5) / 7.0
         v6 = V + h * (-3.0 * b1 + 2.0 * b2 + 12.0 * b3 - 12.0 * b4 + 8.0 * b5) / 7.0
         a6 = v6
-        b6 = _g(gl, el, E[4], etab, fl, F[4], ftab) - c * v6 - _k(kl, kal, K[4], ktab, kamp) * _spring(
-            x6, b, half_gap)
-        x[l] = X + h * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) / 90.0
-        v[l] = V + h * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0
+        b6 = G4 - c * v6 - K4 * _spring(x6, b, half_gap)
+        Xn = X + h * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) / 90.0
+        w[_X * LANES + l] = Xn
+        w[_V * LANES + l] = V + h * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0
+        if rec:
+            _record(w, l, Xn, half_gap)
 
 
-@jit_inline
-def _row(tab, j, buf):
-    """Copy the 5 node values of step ``j`` (zeros when the term is off)."""
-    if tab is None:
-        for c in range(5):
-            buf[c] = 0.0
-    else:
-        for c in range(5):
-            buf[c] = tab[j, c]
+def _driver(method):
+    """The batch driver of one method (a separate compiled function per method, so that a scene
+    compiles only the method it uses: Butcher's RK5 loop takes twice as long to compile as RK4's).
+    """
+    rk4 = method == RK4
+
+    def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
+                  v0, n_transient, n_record, steps_per_period, signal, stride):
+        n = h.shape[0]
+        S = _cycle(ktab, etab, ftab)
+        stats = np.empty((n, N_STATS))
+        xf = np.empty(n)
+        vf = np.empty(n)
+        status = np.zeros(n, np.int8)
+        nblocks = (n + LANES - 1) // LANES
+        for blk in prange(nblocks):
+            i0 = blk * LANES
+            w = _scratch(1)
+            _load(w, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0)
+            half = n_transient + n_record // 2
+            j = 0  # step index within the excitation cycle: s % S
+            jp = 0  # step index within the mesh period: s % steps_per_period
+            for s in range(n_transient + n_record):
+                K = _row(ktab, j)
+                E = _row(etab, j)
+                F = _row(ftab, j)
+                # Recorded steps update the statistics inside the lane loop, while the new p is
+                # in registers. ``rec`` is a literal at each call site, so each of the two inlined
+                # copies is one branch-free vector loop (a run-time flag stops LLVM from
+                # vectorising the dead-zone case: B2 0.16 s -> 0.25 s). The first recorded step
+                # sets the origin of the sums and the contact state the statistics start from.
+                rec = s > n_transient
+                if s == half and rec:
+                    _split(w)
+                if rk4:
+                    if rec:
+                        _rk4_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
+                    else:
+                        _rk4_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
+                elif rec:
+                    _rk5_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
+                else:
+                    _rk5_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
+                j = j + 1 if j + 1 < S else 0
+                jp = jp + 1 if jp + 1 < steps_per_period else 0
+                if s == n_transient:
+                    _start_record(w, half_gap)
+                    if half == n_transient:
+                        _split(w)
+                    _accumulate(w, half_gap)
+                if signal is not None and s >= n_transient:
+                    _sample(w, signal, s - n_transient, stride, i0, n)
+                if jp == 0:
+                    _check(w)
+            _finish(w, i0, n, n_record, steps_per_period, stats, xf, vf, status)
+        return stats, xf, vf, status
+
+    integrate.__name__ = integrate.__qualname__ = f"integrate_rk{method}"
+    integrate.__doc__ = _INTEGRATE_DOC
+    return jit_parallel(integrate)
 
 
-@jit_parallel
-def integrate(method, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap,
-              bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride):
-    """Integrate a batch of cases; see the module docstring for the model.
+_INTEGRATE_DOC = """Integrate a batch of cases; see the module docstring for the model.
 
     Parameters
     ----------
-    method : int
-        ``RK4`` or ``RK5``.
     h, cm, kmean, kamp, gmean, escale, fscale, bound, x0, v0 : ndarray (n,)
         Step [s]; damping/mass [1/s]; stiffness/mass mean [1/s^2] and scale of ``ktab``
         (``kamp=None``: ``ktab`` is the stiffness/mass itself, shared by every case);
@@ -245,159 +339,145 @@ def integrate(method, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, fta
         State at the end [m], [m/s] (for continuation and monodromy matrices).
     status : ndarray (n,) int8
     """
-    n = h.shape[0]
-    S = 1
+
+
+@jit_inline
+def _cycle(ktab, etab, ftab):
+    """Steps per excitation cycle: the length of whichever table is present (1 if none)."""
     if ktab is not None:
-        S = ktab.shape[0]
-    elif etab is not None:
-        S = etab.shape[0]
-    elif ftab is not None:
-        S = ftab.shape[0]
-    stats = np.empty((n, N_STATS))
-    xf = np.empty(n)
-    vf = np.empty(n)
-    status = np.zeros(n, np.int8)
-    nblocks = (n + LANES - 1) // LANES
-    for blk in prange(nblocks):
-        i0 = blk * LANES
-        x = np.empty(LANES)
-        v = np.empty(LANES)
-        hl = np.empty(LANES)
-        h2 = np.empty(LANES)
-        h6 = np.empty(LANES)
-        cl = np.empty(LANES)
-        km = np.empty(LANES)
-        ka = np.empty(LANES)
-        gm = np.empty(LANES)
-        es = np.empty(LANES)
-        fs = np.empty(LANES)
-        bl = np.zeros(LANES)
-        bd = np.empty(LANES)
-        K = np.empty(5)
-        E = np.empty(5)
-        F = np.empty(5)
-        acc = np.zeros((_N_ACC, LANES))
-        prev = np.zeros(LANES)
-        dead = np.zeros(LANES, np.bool_)
-        for l in range(LANES):
-            i = min(i0 + l, n - 1)
-            x[l] = x0[i]
-            v[l] = v0[i]
-            hl[l] = h[i]
-            h2[l] = 0.5 * h[i]
-            h6[l] = h[i] / 6
-            cl[l] = cm[i]
-            km[l] = kmean[i]
-            ka[l] = kamp[i] if kamp is not None else 1.0
-            gm[l] = gmean[i]
-            es[l] = escale[i]
-            fs[l] = fscale[i]
-            bd[l] = bound[i]
-            if half_gap is not None:
-                bl[l] = half_gap[i]
-        half = n_transient + n_record // 2
-        for s in range(n_transient + n_record):
-            j = s % S
-            _row(ktab, j, K)
-            _row(etab, j, E)
-            _row(ftab, j, F)
-            if method == RK4:
-                _rk4_lanes(x, v, hl, h2, h6, bl, half_gap, cl, km, ka, kamp, ktab, K, gm, es, etab, E,
-                           fs, ftab, F)
-            else:
-                _rk5_lanes(x, v, hl, bl, half_gap, cl, km, ka, kamp, ktab, K, gm, es, etab, E, fs,
-                           ftab, F)
-            if s >= n_transient:
-                _accumulate(acc, prev, x, bl, half_gap, s >= half, s == n_transient)
-                if signal is not None:
-                    r = s - n_transient
-                    if r % stride == 0:
-                        for l in range(LANES):
-                            if i0 + l < n:
-                                signal[i0 + l, r // stride] = x[l]
-            if (s + 1) % steps_per_period == 0:
-                _check(x, v, bd, dead)
-        _finish(acc, x, v, dead, i0, n, n_record, steps_per_period, stats, xf, vf, status)
-    return stats, xf, vf, status
+        return ktab.shape[0]
+    if etab is not None:
+        return etab.shape[0]
+    if ftab is not None:
+        return ftab.shape[0]
+    return 1
 
 
 @jit_inline
-def _accumulate(acc, prev, x, bl, half_gap, second_half, first):
-    """Running steady-state statistics after one recorded step: one fused pass over the lanes."""
-    if first:
-        for l in range(LANES):
-            for q in range(_N_ACC):
-                acc[q, l] = 0.0
-            acc[_A_MAX1, l] = -np.inf
-            acc[_A_MAX2, l] = -np.inf
-            acc[_A_MIN1, l] = np.inf
-            acc[_A_MIN2, l] = np.inf
-            acc[_A_SHIFT, l] = x[l]  # sums about the first sample: no cancellation in the rms
-            if half_gap is not None:
-                prev[l] = 1.0 if abs(x[l]) < bl[l] else 0.0
-    if second_half:
-        for l in range(LANES):
-            acc[_A_MAX2, l] = max(acc[_A_MAX2, l], x[l])
-            acc[_A_MIN2, l] = min(acc[_A_MIN2, l], x[l])
-    else:
-        for l in range(LANES):
-            acc[_A_MAX1, l] = max(acc[_A_MAX1, l], x[l])
-            acc[_A_MIN1, l] = min(acc[_A_MIN1, l], x[l])
+def _load(w, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0):
+    """Fill the scratch array of the block starting at case ``i0`` (lanes past ``n`` repeat the
+    last case; their results are discarded)."""
     for l in range(LANES):
-        X = x[l]
-        d = X - acc[_A_SHIFT, l]
-        acc[_A_SUM, l] += d
-        acc[_A_SUM2, l] += d * d
+        i = min(i0 + l, n - 1)
+        w[_X * LANES + l] = x0[i]
+        w[_V * LANES + l] = v0[i]
+        w[_H * LANES + l] = h[i]
+        w[_H2 * LANES + l] = 0.5 * h[i]
+        w[_H6 * LANES + l] = h[i] / 6
+        w[_C * LANES + l] = cm[i]
+        w[_KM * LANES + l] = kmean[i]
+        w[_KA * LANES + l] = kamp[i] if kamp is not None else 1.0
+        w[_GM * LANES + l] = gmean[i]
+        w[_ES * LANES + l] = escale[i]
+        w[_FS * LANES + l] = fscale[i]
+        w[_BD * LANES + l] = bound[i]
         if half_gap is not None:
-            b = bl[l]
-            gap = abs(X) < b
-            was = prev[l]
-            acc[_A_GAP, l] += 1.0 if gap else 0.0
-            acc[_A_BACK, l] += 1.0 if X < -b else 0.0
-            acc[_A_IMP, l] += 1.0 if was > 0.5 and not gap else 0.0  # gap -> contact: an impact
-            prev[l] = 1.0 if gap else 0.0
+            w[_B * LANES + l] = half_gap[i]
 
 
 @jit_inline
-def _check(x, v, bd, dead):
+def _sample(w, signal, r, stride, i0, n):
+    """Store p of the block's cases as recorded step ``r`` if it falls on the stride."""
+    if r % stride == 0:
+        for l in range(LANES):
+            if i0 + l < n:
+                signal[i0 + l, r // stride] = w[_X * LANES + l]
+
+
+@jit_inline
+def _start_record(w, half_gap):
+    """Reset the running statistics at the first recorded step."""
+    for l in range(LANES):
+        for q in range(_MAX1, _PREV + 1):
+            w[q * LANES + l] = 0.0
+        w[_MAX1 * LANES + l] = -np.inf
+        w[_MAX2 * LANES + l] = -np.inf
+        w[_MIN1 * LANES + l] = np.inf
+        w[_MIN2 * LANES + l] = np.inf
+        w[_SHIFT * LANES + l] = w[_X * LANES + l]  # sums about the first sample: no cancellation in the rms
+        if half_gap is not None:
+            w[_PREV * LANES + l] = 1.0 if abs(w[_X * LANES + l]) < w[_B * LANES + l] else 0.0
+
+
+@jit_inline
+def _accumulate(w, half_gap):
+    """Enter the current state of every lane into the running statistics."""
+    for l in range(LANES):
+        _record(w, l, w[_X * LANES + l], half_gap)
+
+
+@jit_inline
+def _split(w):
+    """Halfway through the window: keep the extremes so far as the first half's, restart."""
+    for l in range(LANES):
+        w[_MAX1 * LANES + l] = w[_MAX2 * LANES + l]
+        w[_MIN1 * LANES + l] = w[_MIN2 * LANES + l]
+        w[_MAX2 * LANES + l] = -np.inf
+        w[_MIN2 * LANES + l] = np.inf
+
+
+@jit_inline
+def _record(w, l, X, half_gap):
+    """Enter p = X of lane ``l`` into its running statistics, branch-free (counts are sums of
+    0.0/1.0; an impact is a step from the gap into contact)."""
+    w[_MAX2 * LANES + l] = max(w[_MAX2 * LANES + l], X)  # the running extremes (see _split)
+    w[_MIN2 * LANES + l] = min(w[_MIN2 * LANES + l], X)
+    d = X - w[_SHIFT * LANES + l]
+    w[_SUM * LANES + l] += d
+    w[_SUM2 * LANES + l] += d * d
+    if half_gap is not None:
+        b = w[_B * LANES + l]
+        gap = 1.0 if abs(X) < b else 0.0
+        w[_GAP * LANES + l] += gap
+        w[_BACK * LANES + l] += 1.0 if X < -b else 0.0
+        w[_IMP * LANES + l] += w[_PREV * LANES + l] * (1.0 - gap)  # gap -> contact: an impact
+        w[_PREV * LANES + l] = gap
+
+
+@jit_inline
+def _check(w):
     """Stop lanes whose state is non-finite or beyond the bound (checked once per mesh period)."""
     for l in range(LANES):
-        if not (abs(x[l]) <= bd[l] and abs(v[l]) < np.inf):
-            dead[l] = True
-            x[l] = 0.0
-            v[l] = 0.0
+        if not (abs(w[_X * LANES + l]) <= w[_BD * LANES + l] and abs(w[_V * LANES + l]) < np.inf):
+            w[_DEAD * LANES + l] = 1.0
+            w[_X * LANES + l] = 0.0
+            w[_V * LANES + l] = 0.0
 
 
 @jit_inline
-def _finish(acc, x, v, dead, i0, n, n_record, spp, stats, xf, vf, status):
+def _finish(w, i0, n, n_record, spp, stats, xf, vf, status):
     """Turn the accumulators of one block into per-case statistics and final states."""
     for l in range(LANES):
         i = i0 + l
         if i >= n:
             break
-        if dead[l]:
+        if w[_DEAD * LANES + l] != 0.0:
             for q in range(N_STATS):
                 stats[i, q] = np.nan
             xf[i] = np.nan
             vf[i] = np.nan
             status[i] = STATUS_DIVERGED
             continue
-        xf[i] = x[l]
-        vf[i] = v[l]
+        xf[i] = w[_X * LANES + l]
+        vf[i] = w[_V * LANES + l]
         if n_record == 0:
             for q in range(N_STATS):
                 stats[i, q] = np.nan
             continue
-        mean_d = acc[_A_SUM, l] / n_record
-        pmax = max(acc[_A_MAX1, l], acc[_A_MAX2, l])
-        pmin = min(acc[_A_MIN1, l], acc[_A_MIN2, l])
+        mean_d = w[_SUM * LANES + l] / n_record
+        pmax = max(w[_MAX1 * LANES + l], w[_MAX2 * LANES + l])
+        pmin = min(w[_MIN1 * LANES + l], w[_MIN2 * LANES + l])
         stats[i, ST_MAX] = pmax
         stats[i, ST_MIN] = pmin
-        stats[i, ST_MEAN] = acc[_A_SHIFT, l] + mean_d
-        stats[i, ST_RMS] = np.sqrt(max(acc[_A_SUM2, l] / n_record - mean_d * mean_d, 0.0))
-        stats[i, ST_CONTACT_LOSS] = acc[_A_GAP, l] / n_record
-        stats[i, ST_BACKSIDE] = acc[_A_BACK, l] / n_record
-        stats[i, ST_IMPACTS] = acc[_A_IMP, l] * spp / n_record
-        drift = max(abs(acc[_A_MAX2, l] - acc[_A_MAX1, l]), abs(acc[_A_MIN2, l] - acc[_A_MIN1, l]))
+        stats[i, ST_MEAN] = w[_SHIFT * LANES + l] + mean_d
+        stats[i, ST_RMS] = np.sqrt(max(w[_SUM2 * LANES + l] / n_record - mean_d * mean_d, 0.0))
+        stats[i, ST_CONTACT_LOSS] = w[_GAP * LANES + l] / n_record
+        stats[i, ST_BACKSIDE] = w[_BACK * LANES + l] / n_record
+        stats[i, ST_IMPACTS] = w[_IMP * LANES + l] * spp / n_record
+        drift = max(abs(w[_MAX2 * LANES + l] - w[_MAX1 * LANES + l]), abs(w[_MIN2 * LANES + l] - w[_MIN1 * LANES + l]))
         pp = pmax - pmin
         stats[i, ST_SETTLE] = drift / pp if pp > 0 else 0.0
+
+
+INTEGRATE = {RK4: _driver(RK4), RK5: _driver(RK5)}
+"""The compiled batch driver of each method (``METHODS`` value -> function)."""
