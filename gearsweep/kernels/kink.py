@@ -14,32 +14,33 @@ piece of the step inside one region restores the method's order.
 
 How
 ---
-1. A kink block is up to ``SUB_MAX`` plain blocks of ``LANES`` cases (same scratch layout and
-   lane code as the plain kernel, ``rk._rk4_lanes`` / ``rk._rk5_lanes``); each takes the plain
-   vectorised step.
-2. A branch-free pass per plain block makes a bit mask of the lanes whose region at the step's
-   end differs from the region at its start: (p0 - b)(p1 - b) < 0 or (p0 + b)(p1 + b) < 0 for
-   the start and end values p0, p1 (a step that ends exactly on a boundary is not a crossing).
-   The flagged lanes of the whole kink block are gathered into groups of ``GROUP``, and
-   ``_fixup_group`` redoes their steps from the saved start states, branch-free and vectorised
-   across the group; the few lanes it cannot finish (a second crossing within the step, a start
-   on a boundary, no convergence in ``NEWTON_MAX`` substeps) go through the scalar ``_fixup``.
-   Both do:
+1. A kink block is up to ``SUB_MAX`` plain blocks of ``LANES`` cases in one scratch array (same
+   layout and lane code as the plain kernel, ``rk._rk4_lanes`` / ``rk._rk5_lanes``); each takes
+   the plain vectorised step. In the same lane loop (``rk._after_step``) every lane keeps its
+   start state and sets its bit in a crossing mask if its region at the step's end differs from
+   the region at its start: (p0 - b)(p1 - b) < 0 or (p0 + b)(p1 + b) < 0 for the start and end
+   values p0, p1 (a step that ends exactly on a boundary is not a crossing). The statistics take
+   each step's start state there too, so no extra pass over the lanes is needed.
+2. The flagged lanes of the whole kink block are gathered into groups of ``GROUP``, and
+   ``_fixup_group`` redoes their steps from the saved start states in one branch-free pass
+   vectorised across the group:
    a. estimate the crossing time inside the step from the cubic Hermite interpolant of the
-      trial step's end points (p and p' at both ends; Newton's method on the cubic);
+      trial step's end points (p and p' at both ends; secant and Newton steps on the cubic);
    b. take a substep of the same method to that time, with the force law of the region being
       left, extended smoothly past the boundary (so no stage sees the kink);
-   c. from the substep's end, a degree-4 Taylor polynomial in time (derivatives of p up to the
-      fourth from the same force law and the coefficient quartics below) gives the time left to
-      the boundary by Newton's method; if that time tau is short (|tau| omega < ``TAYLOR_MAX``)
-      the polynomial moves the state onto the boundary (error ~ (tau omega)^4 / 24), otherwise
-      the substep is redone to the new estimate (at most ``NEWTON_MAX`` substeps);
+   c. ``_project``: from the substep's end, a Taylor polynomial in time of the method's order
+      (derivatives of p from the same force law and the coefficient quartics below) gives the
+      time tau left to the boundary by Newton's method and moves the state onto the boundary,
+      accepted if |tau| <= ``TAU_MAX`` h (its error is then far below the step's own);
    d. finish the step with a substep from the crossing to the step's end with the new
-      region's force law; if that remainder crosses again, repeat from a (at most
-      ``MAX_CROSSINGS`` crossings per step).
-   A typical crossing costs two substeps.
-   Steps of lanes that do not cross are untouched, so a case without crossings gives results
-   identical bit for bit to the plain kernel.
+      region's force law.
+   A crossing costs two substeps and a projection (counted as three substeps).
+3. The few lanes the group cannot finish (a second crossing within the step, a start on a
+   boundary, |tau| too long or no converged root) go through the scalar ``_fixup``: the same
+   steps, with the substep of (b) redone to the projection's estimate until it is accepted (at
+   most ``NEWTON_MAX`` times), and (a)-(d) repeated for up to ``MAX_CROSSINGS`` crossings.
+Steps of lanes that do not cross are untouched, so a case without crossings gives results
+identical bit for bit to the plain kernel.
 
 Coefficients inside a step
 --------------------------
@@ -60,14 +61,13 @@ excursion lasts less than one step. A crossing at which p' is tiny (tangential) 
 converge in ``NEWTON_MAX`` substeps; the last estimate is kept.
 
 Cost counter: ``integrate`` also returns the number of substeps per case (each costs as many
-right-hand-side evaluations as one step).
+right-hand-side evaluations as one step; a projection is counted as one).
 
-Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 4 times the
-plain kernel's wall time (``scripts/bench_kink.py``; docs/precision.md). About half of the extra
-time is the bookkeeping around the plain step (saving the start state, the crossing mask, the
-statistics pass that cannot be fused into the step because the fix-up changes p afterwards), the
-other half the group fix-up (two substeps and the root finding per crossing). Without backlash
-(``half_gap=None``) the detection is compiled out and the cost is the plain kernel's.
+Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 2.4 times
+the plain kernel's wall time (``scripts/bench_kink.py``; docs/precision.md). A profile (perf,
+one thread) puts about two thirds of the time in the vectorised lane loops, gather and
+bookkeeping and one third in the group fix-ups. Without backlash (``half_gap=None``) the
+detection is compiled out and the cost is the plain kernel's.
 """
 
 import numpy as np
@@ -106,7 +106,6 @@ from gearsweep.kernels.rk import (
     _rk5_lanes,
     _row,
     _sample,
-    _block,
     _scratch,
     _split,
     _start_record,
@@ -116,15 +115,18 @@ MAX_CROSSINGS = 4
 """Crossings handled within one step; further ones are stepped over as in the plain kernel."""
 NEWTON_MAX = 4
 """Substeps used at most to reach one crossing."""
-TAYLOR_MAX = 2e-3
-"""The last stretch to a crossing, tau, is covered by a degree-4 Taylor polynomial when
-|tau| * (sqrt(K) + c/m) is below this: its error, about (that)^4 / 24 relative in p', is then
-below 1e-12."""
 SUB_MAX = 8
 """A kink block is up to this many plain blocks of ``LANES`` stepped one after the other, so that
 its crossings fill the vectorised fix-up groups (B2: about 12 crossings per step of 256 lanes)."""
 GROUP = 16
 """Crossing lanes fixed up together in one branch-free, vectorised pass."""
+TAU_MAX = 0.125
+"""A substep's end is moved onto the boundary by ``_project`` only if it is at most this fraction
+of the step away from it in time; farther, the substep is redone to the new estimate."""
+ROOT_TOL = 1e-7
+"""Newton's method for the crossing time has converged when its last update is below this
+fraction of the step. A crossing time off by delta switches the force law where the two laws
+differ by K p' delta: an error of order K p' delta^2 in p', far below the step's own."""
 
 _MONO = np.array([[3.0, 0.0, 0.0, 0.0, 0.0],
                   [-25.0, 48.0, -36.0, 16.0, -3.0],
@@ -139,8 +141,8 @@ of the quartic through five node values."""
 # disjoint and vectorise the group's lane loops (with the row stride of a 2-D argument it would
 # need more run-time overlap checks than it is willing to emit, and stays scalar).
 (_GX0, _GV0, _GTX, _GTV, _GH, _GB, _GC, _GKM, _GKA, _GGM, _GES, _GFS,  # inputs
- _GTH, _GCX, _GCV, _GREDO, _GNSUB) = range(17)  # crossing time, state there, progress
-_G_ROWS = 17
+ _GREDO) = range(13)  # lanes left to the scalar fix-up
+_G_ROWS = 13
 
 
 @jit_inline
@@ -268,7 +270,7 @@ def _hermite_root(X, V, TX, TV, H, bd):
     """Fraction s in [0, 1] where the cubic Hermite interpolant of (X, V) -> (TX, TV) over a
     step H meets ``bd`` (start and end on opposite sides), branch-free: the secant estimate and
     two Newton steps on g(s) = c0 + c1 s + c2 s^2 + c3 s^3, kept inside [0, 1]. It needs no high
-    accuracy: the Taylor projection in ``_taylor`` corrects it."""
+    accuracy: ``_project`` corrects it."""
     c0 = X - bd
     c1 = H * V
     c2 = 3.0 * (TX - X) - H * (2.0 * V + TV)
@@ -314,43 +316,6 @@ def _hermite_return(X, V, TX, TV, H, bd):
     return min(max(s, 0.0), 1.0)
 
 
-@jit_inline
-def _taylor(CX, CV, tc, bd, ih, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
-    """From the state (CX, CV) at fraction ``tc`` (force law sw (p - sh)): the time tau to the
-    boundary ``bd`` by Newton's method on the degree-4 Taylor polynomial (derivatives of p up to
-    the fourth from the force law and the coefficient quartics), and the state moved by tau."""
-    K0, G0 = _kg(P, tc, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
-    K1, K2, G1, G2 = _kg_dt(P, tc, ih, ktab, kamp, etab, ftab, kal, el, fl)
-    f = sw * (CX - sh)
-    a = G0 - c * CV - K0 * f
-    j = G1 - c * a - K1 * f - K0 * sw * CV
-    sn = G2 - c * j - K2 * f - 2.0 * K1 * sw * CV - K0 * sw * a
-    a2 = 0.5 * a
-    j2 = 0.5 * j
-    j6 = j * (1.0 / 6.0)
-    s6 = sn * (1.0 / 6.0)
-    s24 = sn * (1.0 / 24.0)
-    tau = -(CX - bd) / CV if CV != 0.0 else 0.0
-    tau = _newton_taylor(tau, CX - bd, CV, a, a2, j2, j6, s6, s24)  # two steps, written out
-    tau = _newton_taylor(tau, CX - bd, CV, a, a2, j2, j6, s6, s24)
-    return (tau, CX + tau * (CV + tau * (a2 + tau * (j6 + tau * s24))),
-            CV + tau * (a + tau * (j2 + tau * s6)))
-
-
-@jit_inline
-def _newton_taylor(tau, dx, CV, a, a2, j2, j6, s6, s24):
-    """One Newton step for the root of dx + CV tau + a2 tau^2 + j6 tau^3 + s24 tau^4."""
-    gx = dx + tau * (CV + tau * (a2 + tau * (j6 + tau * s24)))
-    gv = CV + tau * (a + tau * (j2 + tau * s6))
-    return tau - gx / gv if gv != 0.0 else tau
-
-
-@jit_inline
-def _omega(P, ktab, kamp, kl, kal, c):
-    """Rate scale sqrt(|K|) + |c/m| of a lane in this step, for the Taylor range test."""
-    return np.sqrt(abs(_k(kl, kal, _val(P, 0, 0.5), ktab, kamp))) + abs(c)
-
-
 @jit
 def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Redo one step of one lane that crossed a boundary, any number of crossings (up to
@@ -359,17 +324,15 @@ def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl,
     estimate that needs more than one substep.
 
     Per crossing: a substep (force law of the region being left) to the estimate from the
-    Hermite cubic; then ``_taylor`` gives the remaining time to the boundary and, if that time is
-    short (|tau| omega < ``TAYLOR_MAX``), moves the state onto the boundary; otherwise the
-    substep is redone to the Newton estimate. Then a substep with the new region's law finishes
-    the step."""
+    Hermite cubic; then ``_project`` gives the remaining time to the boundary and, if that time
+    is short, moves the state onto the boundary; otherwise the substep is redone to the new
+    estimate. Then a substep with the new region's law finishes the step. Substeps and
+    projections are counted alike (a projection costs about as much as a substep)."""
     th = 0.0
     X = X0
     V = V0
     reg = _region(X0, b)
     nsub = 0
-    ih = 1.0 / h
-    om = _omega(P, ktab, kamp, kl, kal, c)
     for _ in range(MAX_CROSSINGS):
         treg = _region(TX, b)
         if treg == reg:
@@ -393,11 +356,10 @@ def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl,
         for _r in range(NEWTON_MAX):
             CX, CV = _substep(rk4, X, V, th, tc, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal,
                               gl, el, fl)
-            nsub += 1
-            tau, PX, PV = _taylor(CX, CV, tc, bd, ih, sw, sh, c, P, ktab, kamp, etab, ftab, kl,
-                                  kal, gl, el, fl)
-            tn = tc + tau * ih
-            if abs(tau) * om < TAYLOR_MAX and tn <= 1.0:
+            tn, PX, PV, ok = _project(rk4, CX, CV, tc, bd, h, sw, sh, c, P, ktab, kamp, etab,
+                                      ftab, kl, kal, gl, el, fl)
+            nsub += 2
+            if ok and tn >= th:
                 CX = PX
                 CV = PV
                 tc = tn
@@ -422,117 +384,119 @@ def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl,
 
 
 @jit_inline
+def _d3(P, q, th):
+    return 24.0 * P[q, 4] * th + 6.0 * P[q, 3]
+
+
+@jit_inline
+def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
+    """From the state (X, V) at fraction ``tc`` of the step, near the boundary ``bd``: the time
+    tau to the boundary and the state there, from a Taylor polynomial in time of the method's
+    order (degree 4 for RK4, 5 for RK5) with the force law sw (p - sh) of the region being left.
+    The derivatives of p come from that law and the coefficient quartics; tau is Newton's method
+    on the polynomial from the linear estimate. Returns (fraction at the boundary, x, v there,
+    ok), where ok means Newton converged (last update below ``ROOT_TOL`` of the step) and the
+    stretch is short, |tau| <= ``TAU_MAX`` h, so that the polynomial's error, (|tau| omega)^5 /
+    120 relative for RK4, is below the step's own; otherwise the caller redoes its substep to
+    the new estimate. Branch-free."""
+    K0, G0 = _kg(P, tc, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
+    ih = 1.0 / h
+    K1, K2, G1, G2 = _kg_dt(P, tc, ih, ktab, kamp, etab, ftab, kal, el, fl)
+    f = sw * (X - sh)
+    fv = sw * V
+    a = G0 - c * V - K0 * f
+    j = G1 - c * a - K1 * f - K0 * fv
+    sn = G2 - c * j - K2 * f - 2.0 * K1 * fv - K0 * sw * a
+    c5 = 0.0
+    if not rk4:  # fifth derivative: third derivatives of the quartics
+        K3 = 0.0
+        G3 = 0.0
+        ih3 = ih * ih * ih
+        if ktab is not None:
+            K3 = (1.0 if kamp is None else kal) * _d3(P, 0, tc) * ih3
+        if etab is not None:
+            G3 += el * _d3(P, 1, tc) * ih3
+        if ftab is not None:
+            G3 += fl * _d3(P, 2, tc) * ih3
+        c5 = (G3 - c * sn - K3 * f - 3.0 * K2 * fv - 3.0 * K1 * sw * a - K0 * sw * j) * (1.0 / 120.0)
+    dx = X - bd
+    c2 = 0.5 * a
+    c3 = j * (1.0 / 6.0)
+    c4 = sn * (1.0 / 24.0)
+    t = -dx / V if V != 0.0 else 0.0
+    t = _newton_poly(t, dx, V, c2, c3, c4, c5)  # three steps, written out: a loop here would
+    t = _newton_poly(t, dx, V, c2, c3, c4, c5)  # keep LLVM from vectorising the group's loop
+    t1 = _newton_poly(t, dx, V, c2, c3, c4, c5)
+    tn = tc + t1 * ih
+    ok = abs(t1 - t) <= ROOT_TOL * h and abs(t1) <= TAU_MAX * h and 0.0 <= tn <= 1.0
+    x = X + t1 * (V + t1 * (c2 + t1 * (c3 + t1 * (c4 + t1 * c5))))
+    v = V + t1 * (a + t1 * (3.0 * c3 + t1 * (4.0 * c4 + t1 * 5.0 * c5)))
+    return tn, x, v, ok
+
+
+@jit_inline
+def _newton_poly(t, dx, c1, c2, c3, c4, c5):
+    """One Newton step for the root of dx + c1 t + c2 t^2 + c3 t^3 + c4 t^4 + c5 t^5."""
+    g = dx + t * (c1 + t * (c2 + t * (c3 + t * (c4 + t * c5))))
+    dg = c1 + t * (2.0 * c2 + t * (3.0 * c3 + t * (4.0 * c4 + t * 5.0 * c5)))
+    return t - g / dg if dg != 0.0 else t
+
+
+@jit_inline
 def _fixup_group(rk4, g, P, ktab, kamp, etab, ftab):
-    """Redo the steps of the GROUP lanes gathered in ``g`` that cross one boundary, branch-free
-    and vectorised across the group: Hermite estimate, substeps to the crossing (repeated for the
-    lanes whose Taylor range test fails, while any does), Taylor projection onto the boundary,
-    substep to the step's end with the new region's law. Writes the new end state into rows
-    ``_GTX, _GTV`` and marks in ``_GREDO`` the lanes it could not finish (more than one crossing,
-    start on a boundary, no convergence): ``_fixup`` redoes those."""
+    """Redo the steps of the GROUP lanes gathered in ``g`` that cross one boundary, in one
+    branch-free pass vectorised across the group: a substep of the method to the Hermite
+    estimate of the crossing, ``_project`` onto the boundary, a substep from there to the step's
+    end with the new region's force law. Writes the new end state into rows ``_GTX, _GTV`` and marks in
+    ``_GREDO`` the lanes it could not finish (more than one crossing, a start on a boundary, no
+    converged root inside the step): ``_fixup`` redoes those from the trial step."""
     for m in range(GROUP):
         X0 = g[_GX0 * GROUP + m]
-        b = g[_GB * GROUP + m]
+        V0 = g[_GV0 * GROUP + m]
         TX = g[_GTX * GROUP + m]
-        r0 = _region(X0, b)
-        bd = r0 * b if r0 != 0.0 else (b if TX > b else -b)
-        g[_GTH * GROUP + m] = _hermite_root(X0, g[_GV0 * GROUP + m], TX, g[_GTV * GROUP + m], g[_GH * GROUP + m], bd)
-        g[_GREDO * GROUP + m] = 1.0
-        g[_GNSUB * GROUP + m] = 0.0
-    for _ in range(NEWTON_MAX):
-        todo = 0.0
-        for m in range(GROUP):
-            X0 = g[_GX0 * GROUP + m]
-            V0 = g[_GV0 * GROUP + m]
-            h = g[_GH * GROUP + m]
-            b = g[_GB * GROUP + m]
-            c = g[_GC * GROUP + m]
-            kl = g[_GKM * GROUP + m]
-            kal = g[_GKA * GROUP + m]
-            gl = g[_GGM * GROUP + m]
-            el = g[_GES * GROUP + m]
-            fl = g[_GFS * GROUP + m]
-            r0 = _region(X0, b)
-            bd = r0 * b if r0 != 0.0 else (b if g[_GTX * GROUP + m] > b else -b)
-            sw = abs(r0)
-            sh = b if r0 > 0.0 else -b
-            th = g[_GTH * GROUP + m]
-            CX, CV = _substep(rk4, X0, V0, 0.0, th, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl,
-                              kal, gl, el, fl)
-            ih = 1.0 / h
-            tau, PX, PV = _taylor(CX, CV, th, bd, ih, sw, sh, c, P, ktab, kamp, etab, ftab, kl,
-                                  kal, gl, el, fl)
-            tn = th + tau * ih
-            ok = abs(tau) * _omega(P, ktab, kamp, kl, kal, c) < TAYLOR_MAX and 0.0 <= tn <= 1.0
-            redo = g[_GREDO * GROUP + m]
-            live = redo != 0.0
-            g[_GCX * GROUP + m] = PX if live else g[_GCX * GROUP + m]
-            g[_GCV * GROUP + m] = PV if live else g[_GCV * GROUP + m]
-            g[_GTH * GROUP + m] = (tn if ok else min(max(tn, 0.0), 1.0)) if live else th
-            g[_GNSUB * GROUP + m] += redo
-            left = redo * (0.0 if ok else 1.0)
-            g[_GREDO * GROUP + m] = left
-            todo += left
-        if todo == 0.0:
-            break
-    for m in range(GROUP):
-        X0 = g[_GX0 * GROUP + m]
+        h = g[_GH * GROUP + m]
         b = g[_GB * GROUP + m]
-        TX = g[_GTX * GROUP + m]
+        c = g[_GC * GROUP + m]
+        kl = g[_GKM * GROUP + m]
+        kal = g[_GKA * GROUP + m]
+        gl = g[_GGM * GROUP + m]
+        el = g[_GES * GROUP + m]
+        fl = g[_GFS * GROUP + m]
         r0 = _region(X0, b)
         r1 = _region(TX, b)
-        rn = 0.0 if r0 != 0.0 else r1
-        sh = b if rn > 0.0 else -b
-        FX, FV = _substep(rk4, g[_GCX * GROUP + m], g[_GCV * GROUP + m], g[_GTH * GROUP + m], 1.0, g[_GH * GROUP + m], abs(rn), sh,
-                          g[_GC * GROUP + m], P, ktab, kamp, etab, ftab, g[_GKM * GROUP + m], g[_GKA * GROUP + m],
-                          g[_GGM * GROUP + m], g[_GES * GROUP + m], g[_GFS * GROUP + m])
         bd = r0 * b if r0 != 0.0 else (b if TX > b else -b)
-        hard = (g[_GREDO * GROUP + m] != 0.0 or r0 == r1 or _region(FX, b) != rn
+        sw = abs(r0)
+        sh = b if r0 > 0.0 else -b
+        s0 = _hermite_root(X0, V0, TX, g[_GTV * GROUP + m], h, bd)
+        CX, CV = _substep(rk4, X0, V0, 0.0, s0, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal,
+                          gl, el, fl)
+        th, CX, CV, ok = _project(rk4, CX, CV, s0, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl,
+                                  kal, gl, el, fl)
+        rn = 0.0 if r0 != 0.0 else r1
+        FX, FV = _substep(rk4, CX, CV, th, 1.0, h, abs(rn), b if rn > 0.0 else -b, c, P, ktab,
+                          kamp, etab, ftab, kl, kal, gl, el, fl)
+        hard = (not ok or r0 == r1 or _region(FX, b) != rn
                 or abs(X0 - bd) <= 1e-9 * abs(TX - bd))
         g[_GTX * GROUP + m] = FX
         g[_GTV * GROUP + m] = FV
-        g[_GNSUB * GROUP + m] += 1.0
         g[_GREDO * GROUP + m] = 1.0 if hard else 0.0
 
 
 @jit_inline
-def _save_start(w):
-    """Keep the state at the start of the step (the fix-up restarts from it)."""
-    for l in range(LANES):
-        w[_XO * LANES + l] = w[_X * LANES + l]
-        w[_VO * LANES + l] = w[_V * LANES + l]
-
-
-@jit_inline
-def _crossings(w, live):
-    """Bit mask of the live lanes whose step ended in another region than it started:
-    (p0 - b)(p1 - b) < 0 or (p0 + b)(p1 + b) < 0 (ending exactly on a boundary is no crossing).
-    Branch-free (``&`` on booleans, an OR reduction over shifted bits), so that it vectorises."""
-    mask = 0
-    for l in range(LANES):
-        b = w[_B * LANES + l]
-        xo = w[_XO * LANES + l]
-        x = w[_X * LANES + l]
-        d = min((xo - b) * (x - b), (xo + b) * (x + b))
-        hit = (d < 0.0) & (w[_DEAD * LANES + l] == 0.0) & (l < live)
-        mask |= np.int64(hit) << l
-    return mask
-
-
-@jit_inline
-def _gather(g, m, wq, l):
-    """Copy lane ``l`` of one block into slot ``m`` of the fix-up group."""
-    g[_GX0 * GROUP + m] = wq[_XO * LANES + l]
-    g[_GV0 * GROUP + m] = wq[_VO * LANES + l]
-    g[_GTX * GROUP + m] = wq[_X * LANES + l]
-    g[_GTV * GROUP + m] = wq[_V * LANES + l]
-    g[_GH * GROUP + m] = wq[_H * LANES + l]
-    g[_GB * GROUP + m] = wq[_B * LANES + l]
-    g[_GC * GROUP + m] = wq[_C * LANES + l]
-    g[_GKM * GROUP + m] = wq[_KM * LANES + l]
-    g[_GKA * GROUP + m] = wq[_KA * LANES + l]
-    g[_GGM * GROUP + m] = wq[_GM * LANES + l]
-    g[_GES * GROUP + m] = wq[_ES * LANES + l]
-    g[_GFS * GROUP + m] = wq[_FS * LANES + l]
+def _gather(g, m, w, o, l):
+    """Copy lane ``l`` of the block at offset ``o`` into slot ``m`` of the fix-up group."""
+    g[_GX0 * GROUP + m] = w[o + _XO * LANES + l]
+    g[_GV0 * GROUP + m] = w[o + _VO * LANES + l]
+    g[_GTX * GROUP + m] = w[o + _X * LANES + l]
+    g[_GTV * GROUP + m] = w[o + _V * LANES + l]
+    g[_GH * GROUP + m] = w[o + _H * LANES + l]
+    g[_GB * GROUP + m] = w[o + _B * LANES + l]
+    g[_GC * GROUP + m] = w[o + _C * LANES + l]
+    g[_GKM * GROUP + m] = w[o + _KM * LANES + l]
+    g[_GKA * GROUP + m] = w[o + _KA * LANES + l]
+    g[_GGM * GROUP + m] = w[o + _GM * LANES + l]
+    g[_GES * GROUP + m] = w[o + _ES * LANES + l]
+    g[_GFS * GROUP + m] = w[o + _FS * LANES + l]
 
 
 @jit
@@ -540,24 +504,26 @@ def _fix(rk4, w, g, slot, ng, P, ktab, kamp, etab, ftab):
     """Fix up the ``ng`` lanes gathered in ``g`` (their block and lane in ``slot``) and scatter
     the results back; lanes the group pass marks go through the scalar ``_fixup``."""
     for m in range(ng, GROUP):  # pad with copies of the first lane; their results are dropped
-        for r in range(_GTH):
+        for r in range(_GREDO):
             g[r * GROUP + m] = g[r * GROUP]
     _fixup_group(rk4, g, P, ktab, kamp, etab, ftab)
     for m in range(ng):
-        q = slot[m] // LANES
+        o = (slot[m] // LANES) * _BLOCK
         l = slot[m] % LANES
-        wq = _block(w, q)
         if g[_GREDO * GROUP + m] != 0.0:
-            X, V, ns = _fixup(rk4, wq[_XO * LANES + l], wq[_VO * LANES + l], wq[_X * LANES + l], wq[_V * LANES + l], wq[_H * LANES + l],
-                              wq[_B * LANES + l], wq[_C * LANES + l], P, ktab, kamp, etab, ftab, wq[_KM * LANES + l],
-                              wq[_KA * LANES + l], wq[_GM * LANES + l], wq[_ES * LANES + l], wq[_FS * LANES + l])
-            wq[_X * LANES + l] = X
-            wq[_V * LANES + l] = V
-            wq[_NSUB * LANES + l] += ns
+            X, V, ns = _fixup(rk4, w[o + _XO * LANES + l], w[o + _VO * LANES + l],
+                              w[o + _X * LANES + l], w[o + _V * LANES + l], w[o + _H * LANES + l],
+                              w[o + _B * LANES + l], w[o + _C * LANES + l], P, ktab, kamp, etab,
+                              ftab, w[o + _KM * LANES + l], w[o + _KA * LANES + l],
+                              w[o + _GM * LANES + l], w[o + _ES * LANES + l],
+                              w[o + _FS * LANES + l])
+            w[o + _X * LANES + l] = X
+            w[o + _V * LANES + l] = V
+            w[o + _NSUB * LANES + l] += ns
         else:
-            wq[_X * LANES + l] = g[_GTX * GROUP + m]
-            wq[_V * LANES + l] = g[_GTV * GROUP + m]
-            wq[_NSUB * LANES + l] += g[_GNSUB * GROUP + m]
+            w[o + _X * LANES + l] = g[_GTX * GROUP + m]
+            w[o + _V * LANES + l] = g[_GTV * GROUP + m]
+            w[o + _NSUB * LANES + l] += 3.0  # two substeps and the projection (about as costly)
 
 
 def _driver(method):
@@ -578,31 +544,55 @@ def _driver(method):
         for blk in prange(nblocks):
             w = _scratch(sub)
             for q in range(sub):
-                _load(_block(w, q), blk * span + q * LANES, n, h, cm, kmean, kamp, gmean, escale, fscale,
-                      half_gap, bound, x0, v0)
+                _load(w, q * _BLOCK, blk * span + q * LANES, n, h, cm, kmean, kamp, gmean, escale,
+                      fscale, half_gap, bound, x0, v0)
             P = np.zeros((3, 5))
             g = np.zeros(_G_ROWS * GROUP)
             slot = np.zeros(GROUP, np.int64)
             half = n_transient + n_record // 2
             j = 0
             jp = 0
-            for s in range(n_transient + n_record):
+            # The statistics take the START state of step s for s > n_transient (inside the lane
+            # loop, see rk._after_step): the end state of step s - 1 after its fix-up. The end
+            # state of the last step is entered after the loop. The plain kernel records the end
+            # states of steps n_transient ... end: the same states, the same statistics.
+            for s in range(n_transient + n_record + 1):
+                rec = s > n_transient
+                if rec:
+                    for q in range(sub):
+                        if s == n_transient + 1:
+                            _start_record(w, q * _BLOCK, half_gap)
+                        if s == half + 1:
+                            _split(w, q * _BLOCK)
+                if s == n_transient + n_record:  # past the last step: record its end state
+                    if rec:
+                        for q in range(sub):
+                            _accumulate(w, q * _BLOCK, half_gap)
+                    break
                 K = _row(ktab, j)
                 E = _row(etab, j)
                 F = _row(ftab, j)
                 have_p = False
                 ng = 0
                 for q in range(sub):
-                    wq = _block(w, q)
-                    _save_start(wq)
+                    o = q * _BLOCK
                     if rk4:
-                        _rk4_lanes(wq, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
+                        if rec:
+                            mask = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True,
+                                              True)
+                        else:
+                            mask = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False,
+                                              True)
+                    elif rec:
+                        mask = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True, True)
                     else:
-                        _rk5_lanes(wq, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
-                    mask = _crossings(wq, n - blk * span - q * LANES)
+                        mask = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False, True)
+                    live = n - blk * span - q * LANES  # lanes past it repeat the last case
                     while mask != 0:
                         l = np.int64(trailing_zeros(mask))
                         mask &= mask - 1
+                        if l >= live or w[o + _DEAD * LANES + l] != 0.0:
+                            continue
                         if not have_p:
                             if ktab is not None:
                                 _monomials(K, P, 0)
@@ -611,7 +601,7 @@ def _driver(method):
                             if ftab is not None:
                                 _monomials(F, P, 2)
                             have_p = True
-                        _gather(g, ng, wq, l)
+                        _gather(g, ng, w, o, l)
                         slot[ng] = q * LANES + l
                         ng += 1
                         if ng == GROUP:
@@ -622,22 +612,14 @@ def _driver(method):
                 j = j + 1 if j + 1 < S else 0
                 jp = jp + 1 if jp + 1 < steps_per_period else 0
                 for q in range(sub):
-                    wq = _block(w, q)
-                    i0 = blk * span + q * LANES
-                    if s >= n_transient:
-                        if s == n_transient:
-                            _start_record(wq, half_gap)
-                        if s == half:
-                            _split(wq)
-                        _accumulate(wq, half_gap)
-                        if signal is not None:
-                            _sample(wq, signal, s - n_transient, stride, i0, n)
+                    if signal is not None and s >= n_transient:
+                        _sample(w, q * _BLOCK, signal, s - n_transient, stride, blk * span + q * LANES, n)
                     if jp == 0:
-                        _check(wq)
+                        _check(w, q * _BLOCK)
             for q in range(sub):
                 i0 = blk * span + q * LANES
                 if i0 < n:
-                    _finish(_block(w, q), i0, n, n_record, steps_per_period, stats, xf, vf, status)
+                    _finish(w, q * _BLOCK, i0, n, n_record, steps_per_period, stats, xf, vf, status)
                     for l in range(min(LANES, n - i0)):
                         substeps[i0 + l] = int(w[q * _BLOCK + _NSUB * LANES + l])
         return stats, xf, vf, status, substeps

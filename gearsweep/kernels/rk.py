@@ -70,7 +70,7 @@ STATUS_OK = 0
 STATUS_DIVERGED = 1
 """The state became non-finite or left ``|p| <= bound``: the case was stopped, statistics NaN."""
 
-# Rows of the per-block scratch array ``w`` (row r of lane l at r * LANES + l): the state, the constants and
+# Rows of the per-block scratch array ``w`` (row r of lane l at o + r * LANES + l, block offset o): the state, the constants and
 # the running statistics of the LANES cases of one block live in ONE allocation, so every access is
 # at a constant offset from one base pointer. LLVM can then prove the rows disjoint and vectorise
 # the lane loops without run-time alias checks (with one array per row it had to emit, and run
@@ -133,7 +133,9 @@ def _row(tab, j):
 def _scratch(nsub):
     """Zeroed scratch of ``nsub`` blocks, one flat array starting on a 64-byte boundary (Numba
     aligns to 32 bytes only; an AVX-512 load or store that straddles two cache lines is slower).
-    Block q's row r, lane l is at q * _BLOCK + r * LANES + l; ``_block`` gives block q's part."""
+    Block q's row r, lane l is at o + r * LANES + l with o = q * _BLOCK: the helpers below take
+    the block's offset ``o`` (a slice per block would be a new array view, reference-counted with
+    atomic instructions, every step)."""
     size = nsub * _BLOCK
     buf = np.zeros(size + 8)
     off = ((-buf.ctypes.data) % 64) // 8
@@ -141,34 +143,59 @@ def _scratch(nsub):
 
 
 @jit_inline
-def _block(w, q):
-    """Block ``q`` of a scratch array: a 1-D slice, so rows are at constant offsets from its
-    start (a 2-D view would carry its row stride as a run-time value that LLVM cannot see)."""
-    return w[q * _BLOCK:(q + 1) * _BLOCK]
+def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
+    """Bookkeeping of lane ``l`` after its step from (X, V) to end position Xn, while all three
+    are in registers; returns the lane's crossing bit (0 or 1 << l).
+
+    Plain kernel: with ``rec`` the end p enters the statistics; the bit is 0. Kink-aware kernel
+    (``kink``): the start state is kept for the fix-up (rows _XO, _VO); the bit is set if the
+    step ended in another region of the dead zone than it started, (p0 - b)(p1 - b) < 0 or
+    (p0 + b)(p1 + b) < 0 (ending exactly on a boundary is no crossing); with ``rec`` the START p
+    enters the statistics: a fix-up may still change the end p, and the start p of step s is the
+    final end p of step s - 1 (the driver shifts the window by one step and records the last end
+    p after its loop, so both kernels record the same states). ``rec`` and ``kink`` are
+    literals at every call site: each combination is one branch-free vector loop, and the bits
+    OR-reduce into a vector register (no separate pass over the lanes)."""
+    if kink:
+        w[o + _XO * LANES + l] = X
+        w[o + _VO * LANES + l] = V
+        if rec:
+            _record(w, o, l, X, half_gap)
+        if half_gap is not None:
+            b = w[o + _B * LANES + l]
+            d = min((X - b) * (Xn - b), (X + b) * (Xn + b))
+            return np.int64(d < 0.0) << l
+        return np.int64(0)
+    if rec:
+        _record(w, o, l, Xn, half_gap)
+    return np.int64(0)
 
 
 @jit_inline
-def _rk4_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, rec):
-    """One classic RK4 step for every lane; K, E, F: table rows of the step (5 nodes). With
-    ``rec``, the new p also enters the running statistics."""
+def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
+    """One classic RK4 step for every lane of the block at offset ``o`` of ``w``; K, E, F: table
+    rows of the step (5 nodes). ``rec``: the step's p enters the running statistics (its end
+    p in the plain kernel; with ``kink``, its start p, see ``_after_step``). Returns the bit mask
+    of the lanes whose step crossed a backlash boundary (kink-aware kernel only, else 0)."""
+    mask = np.int64(0)
     for l in range(LANES):
-        hh = w[_H * LANES + l]
-        q2 = w[_H2 * LANES + l]
-        b = w[_B * LANES + l]
-        c = w[_C * LANES + l]
-        kl = w[_KM * LANES + l]
-        kal = w[_KA * LANES + l]
+        hh = w[o + _H * LANES + l]
+        q2 = w[o + _H2 * LANES + l]
+        b = w[o + _B * LANES + l]
+        c = w[o + _C * LANES + l]
+        kl = w[o + _KM * LANES + l]
+        kal = w[o + _KA * LANES + l]
         Ka = _k(kl, kal, K[0], ktab, kamp)
         Kb = _k(kl, kal, K[2], ktab, kamp)
         Kc = _k(kl, kal, K[4], ktab, kamp)
-        gl = w[_GM * LANES + l]
-        el = w[_ES * LANES + l]
-        fl = w[_FS * LANES + l]
+        gl = w[o + _GM * LANES + l]
+        el = w[o + _ES * LANES + l]
+        fl = w[o + _FS * LANES + l]
         Ga = _g(gl, el, E[0], etab, fl, F[0], ftab)
         Gb = _g(gl, el, E[2], etab, fl, F[2], ftab)
         Gc = _g(gl, el, E[4], etab, fl, F[4], ftab)
-        X = w[_X * LANES + l]
-        V = w[_V * LANES + l]
+        X = w[o + _X * LANES + l]
+        V = w[o + _V * LANES + l]
         k1x = V
         k1v = Ga - c * V - Ka * _spring(X, b, half_gap)
         x2 = X + q2 * k1x
@@ -183,27 +210,29 @@ def _rk4_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, rec):
         v4 = V + hh * k3v
         k4x = v4
         k4v = Gc - c * v4 - Kc * _spring(x4, b, half_gap)
-        Xn = X + w[_H6 * LANES + l] * (k1x + 2 * k2x + 2 * k3x + k4x)
-        w[_X * LANES + l] = Xn
-        w[_V * LANES + l] = V + w[_H6 * LANES + l] * (k1v + 2 * k2v + 2 * k3v + k4v)
-        if rec:
-            _record(w, l, Xn, half_gap)
+        Xn = X + w[o + _H6 * LANES + l] * (k1x + 2 * k2x + 2 * k3x + k4x)
+        w[o + _X * LANES + l] = Xn
+        w[o + _V * LANES + l] = V + w[o + _H6 * LANES + l] * (k1v + 2 * k2v + 2 * k3v + k4v)
+        mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec, kink)
+    return mask
 
 
 @jit_inline
-def _rk5_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, rec):
-    """One step of Butcher's six-stage fifth-order method for every lane (``rec``: as RK4)."""
+def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
+    """One step of Butcher's six-stage fifth-order method for every lane (arguments and result
+    as RK4)."""
+    mask = np.int64(0)
     for l in range(LANES):
-        h = w[_H * LANES + l]
-        b = w[_B * LANES + l]
-        c = w[_C * LANES + l]
-        kl = w[_KM * LANES + l]
-        kal = w[_KA * LANES + l]
-        gl = w[_GM * LANES + l]
-        el = w[_ES * LANES + l]
-        fl = w[_FS * LANES + l]
-        X = w[_X * LANES + l]
-        V = w[_V * LANES + l]
+        h = w[o + _H * LANES + l]
+        b = w[o + _B * LANES + l]
+        c = w[o + _C * LANES + l]
+        kl = w[o + _KM * LANES + l]
+        kal = w[o + _KA * LANES + l]
+        gl = w[o + _GM * LANES + l]
+        el = w[o + _ES * LANES + l]
+        fl = w[o + _FS * LANES + l]
+        X = w[o + _X * LANES + l]
+        V = w[o + _V * LANES + l]
         G0 = _g(gl, el, E[0], etab, fl, F[0], ftab)
         G1 = _g(gl, el, E[1], etab, fl, F[1], ftab)
         G2 = _g(gl, el, E[2], etab, fl, F[2], ftab)
@@ -243,10 +272,10 @@ def _rk5_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, rec):
         a6 = v6
         b6 = G4 - c * v6 - K4 * _spring(x6, b, half_gap)
         Xn = X + h * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) / 90.0
-        w[_X * LANES + l] = Xn
-        w[_V * LANES + l] = V + h * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0
-        if rec:
-            _record(w, l, Xn, half_gap)
+        w[o + _X * LANES + l] = Xn
+        w[o + _V * LANES + l] = V + h * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0
+        mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec, kink)
+    return mask
 
 
 def _driver(method):
@@ -267,7 +296,7 @@ def _driver(method):
         for blk in prange(nblocks):
             i0 = blk * LANES
             w = _scratch(1)
-            _load(w, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0)
+            _load(w, 0, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0)
             half = n_transient + n_record // 2
             j = 0  # step index within the excitation cycle: s % S
             jp = 0  # step index within the mesh period: s % steps_per_period
@@ -282,28 +311,28 @@ def _driver(method):
                 # sets the origin of the sums and the contact state the statistics start from.
                 rec = s > n_transient
                 if s == half and rec:
-                    _split(w)
+                    _split(w, 0)
                 if rk4:
                     if rec:
-                        _rk4_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
+                        _rk4_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, True, False)
                     else:
-                        _rk4_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
+                        _rk4_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, False, False)
                 elif rec:
-                    _rk5_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
+                    _rk5_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, True, False)
                 else:
-                    _rk5_lanes(w, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
+                    _rk5_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, False, False)
                 j = j + 1 if j + 1 < S else 0
                 jp = jp + 1 if jp + 1 < steps_per_period else 0
                 if s == n_transient:
-                    _start_record(w, half_gap)
+                    _start_record(w, 0, half_gap)
                     if half == n_transient:
-                        _split(w)
-                    _accumulate(w, half_gap)
+                        _split(w, 0)
+                    _accumulate(w, 0, half_gap)
                 if signal is not None and s >= n_transient:
-                    _sample(w, signal, s - n_transient, stride, i0, n)
+                    _sample(w, 0, signal, s - n_transient, stride, i0, n)
                 if jp == 0:
-                    _check(w)
-            _finish(w, i0, n, n_record, steps_per_period, stats, xf, vf, status)
+                    _check(w, 0)
+            _finish(w, 0, i0, n, n_record, steps_per_period, stats, xf, vf, status)
         return stats, xf, vf, status
 
     integrate.__name__ = integrate.__qualname__ = f"integrate_rk{method}"
@@ -354,127 +383,127 @@ def _cycle(ktab, etab, ftab):
 
 
 @jit_inline
-def _load(w, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0):
+def _load(w, o, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0):
     """Fill the scratch array of the block starting at case ``i0`` (lanes past ``n`` repeat the
     last case; their results are discarded)."""
     for l in range(LANES):
         i = min(i0 + l, n - 1)
-        w[_X * LANES + l] = x0[i]
-        w[_V * LANES + l] = v0[i]
-        w[_H * LANES + l] = h[i]
-        w[_H2 * LANES + l] = 0.5 * h[i]
-        w[_H6 * LANES + l] = h[i] / 6
-        w[_C * LANES + l] = cm[i]
-        w[_KM * LANES + l] = kmean[i]
-        w[_KA * LANES + l] = kamp[i] if kamp is not None else 1.0
-        w[_GM * LANES + l] = gmean[i]
-        w[_ES * LANES + l] = escale[i]
-        w[_FS * LANES + l] = fscale[i]
-        w[_BD * LANES + l] = bound[i]
+        w[o + _X * LANES + l] = x0[i]
+        w[o + _V * LANES + l] = v0[i]
+        w[o + _H * LANES + l] = h[i]
+        w[o + _H2 * LANES + l] = 0.5 * h[i]
+        w[o + _H6 * LANES + l] = h[i] / 6
+        w[o + _C * LANES + l] = cm[i]
+        w[o + _KM * LANES + l] = kmean[i]
+        w[o + _KA * LANES + l] = kamp[i] if kamp is not None else 1.0
+        w[o + _GM * LANES + l] = gmean[i]
+        w[o + _ES * LANES + l] = escale[i]
+        w[o + _FS * LANES + l] = fscale[i]
+        w[o + _BD * LANES + l] = bound[i]
         if half_gap is not None:
-            w[_B * LANES + l] = half_gap[i]
+            w[o + _B * LANES + l] = half_gap[i]
 
 
 @jit_inline
-def _sample(w, signal, r, stride, i0, n):
+def _sample(w, o, signal, r, stride, i0, n):
     """Store p of the block's cases as recorded step ``r`` if it falls on the stride."""
     if r % stride == 0:
         for l in range(LANES):
             if i0 + l < n:
-                signal[i0 + l, r // stride] = w[_X * LANES + l]
+                signal[i0 + l, r // stride] = w[o + _X * LANES + l]
 
 
 @jit_inline
-def _start_record(w, half_gap):
+def _start_record(w, o, half_gap):
     """Reset the running statistics at the first recorded step."""
     for l in range(LANES):
         for q in range(_MAX1, _PREV + 1):
-            w[q * LANES + l] = 0.0
-        w[_MAX1 * LANES + l] = -np.inf
-        w[_MAX2 * LANES + l] = -np.inf
-        w[_MIN1 * LANES + l] = np.inf
-        w[_MIN2 * LANES + l] = np.inf
-        w[_SHIFT * LANES + l] = w[_X * LANES + l]  # sums about the first sample: no cancellation in the rms
+            w[o + q * LANES + l] = 0.0
+        w[o + _MAX1 * LANES + l] = -np.inf
+        w[o + _MAX2 * LANES + l] = -np.inf
+        w[o + _MIN1 * LANES + l] = np.inf
+        w[o + _MIN2 * LANES + l] = np.inf
+        w[o + _SHIFT * LANES + l] = w[o + _X * LANES + l]  # sums about the first sample: no cancellation in the rms
         if half_gap is not None:
-            w[_PREV * LANES + l] = 1.0 if abs(w[_X * LANES + l]) < w[_B * LANES + l] else 0.0
+            w[o + _PREV * LANES + l] = 1.0 if abs(w[o + _X * LANES + l]) < w[o + _B * LANES + l] else 0.0
 
 
 @jit_inline
-def _accumulate(w, half_gap):
+def _accumulate(w, o, half_gap):
     """Enter the current state of every lane into the running statistics."""
     for l in range(LANES):
-        _record(w, l, w[_X * LANES + l], half_gap)
+        _record(w, o, l, w[o + _X * LANES + l], half_gap)
 
 
 @jit_inline
-def _split(w):
+def _split(w, o):
     """Halfway through the window: keep the extremes so far as the first half's, restart."""
     for l in range(LANES):
-        w[_MAX1 * LANES + l] = w[_MAX2 * LANES + l]
-        w[_MIN1 * LANES + l] = w[_MIN2 * LANES + l]
-        w[_MAX2 * LANES + l] = -np.inf
-        w[_MIN2 * LANES + l] = np.inf
+        w[o + _MAX1 * LANES + l] = w[o + _MAX2 * LANES + l]
+        w[o + _MIN1 * LANES + l] = w[o + _MIN2 * LANES + l]
+        w[o + _MAX2 * LANES + l] = -np.inf
+        w[o + _MIN2 * LANES + l] = np.inf
 
 
 @jit_inline
-def _record(w, l, X, half_gap):
+def _record(w, o, l, X, half_gap):
     """Enter p = X of lane ``l`` into its running statistics, branch-free (counts are sums of
     0.0/1.0; an impact is a step from the gap into contact)."""
-    w[_MAX2 * LANES + l] = max(w[_MAX2 * LANES + l], X)  # the running extremes (see _split)
-    w[_MIN2 * LANES + l] = min(w[_MIN2 * LANES + l], X)
-    d = X - w[_SHIFT * LANES + l]
-    w[_SUM * LANES + l] += d
-    w[_SUM2 * LANES + l] += d * d
+    w[o + _MAX2 * LANES + l] = max(w[o + _MAX2 * LANES + l], X)  # the running extremes (see _split)
+    w[o + _MIN2 * LANES + l] = min(w[o + _MIN2 * LANES + l], X)
+    d = X - w[o + _SHIFT * LANES + l]
+    w[o + _SUM * LANES + l] += d
+    w[o + _SUM2 * LANES + l] += d * d
     if half_gap is not None:
-        b = w[_B * LANES + l]
+        b = w[o + _B * LANES + l]
         gap = 1.0 if abs(X) < b else 0.0
-        w[_GAP * LANES + l] += gap
-        w[_BACK * LANES + l] += 1.0 if X < -b else 0.0
-        w[_IMP * LANES + l] += w[_PREV * LANES + l] * (1.0 - gap)  # gap -> contact: an impact
-        w[_PREV * LANES + l] = gap
+        w[o + _GAP * LANES + l] += gap
+        w[o + _BACK * LANES + l] += 1.0 if X < -b else 0.0
+        w[o + _IMP * LANES + l] += w[o + _PREV * LANES + l] * (1.0 - gap)  # gap -> contact: an impact
+        w[o + _PREV * LANES + l] = gap
 
 
 @jit_inline
-def _check(w):
+def _check(w, o):
     """Stop lanes whose state is non-finite or beyond the bound (checked once per mesh period)."""
     for l in range(LANES):
-        if not (abs(w[_X * LANES + l]) <= w[_BD * LANES + l] and abs(w[_V * LANES + l]) < np.inf):
-            w[_DEAD * LANES + l] = 1.0
-            w[_X * LANES + l] = 0.0
-            w[_V * LANES + l] = 0.0
+        if not (abs(w[o + _X * LANES + l]) <= w[o + _BD * LANES + l] and abs(w[o + _V * LANES + l]) < np.inf):
+            w[o + _DEAD * LANES + l] = 1.0
+            w[o + _X * LANES + l] = 0.0
+            w[o + _V * LANES + l] = 0.0
 
 
 @jit_inline
-def _finish(w, i0, n, n_record, spp, stats, xf, vf, status):
+def _finish(w, o, i0, n, n_record, spp, stats, xf, vf, status):
     """Turn the accumulators of one block into per-case statistics and final states."""
     for l in range(LANES):
         i = i0 + l
         if i >= n:
             break
-        if w[_DEAD * LANES + l] != 0.0:
+        if w[o + _DEAD * LANES + l] != 0.0:
             for q in range(N_STATS):
                 stats[i, q] = np.nan
             xf[i] = np.nan
             vf[i] = np.nan
             status[i] = STATUS_DIVERGED
             continue
-        xf[i] = w[_X * LANES + l]
-        vf[i] = w[_V * LANES + l]
+        xf[i] = w[o + _X * LANES + l]
+        vf[i] = w[o + _V * LANES + l]
         if n_record == 0:
             for q in range(N_STATS):
                 stats[i, q] = np.nan
             continue
-        mean_d = w[_SUM * LANES + l] / n_record
-        pmax = max(w[_MAX1 * LANES + l], w[_MAX2 * LANES + l])
-        pmin = min(w[_MIN1 * LANES + l], w[_MIN2 * LANES + l])
+        mean_d = w[o + _SUM * LANES + l] / n_record
+        pmax = max(w[o + _MAX1 * LANES + l], w[o + _MAX2 * LANES + l])
+        pmin = min(w[o + _MIN1 * LANES + l], w[o + _MIN2 * LANES + l])
         stats[i, ST_MAX] = pmax
         stats[i, ST_MIN] = pmin
-        stats[i, ST_MEAN] = w[_SHIFT * LANES + l] + mean_d
-        stats[i, ST_RMS] = np.sqrt(max(w[_SUM2 * LANES + l] / n_record - mean_d * mean_d, 0.0))
-        stats[i, ST_CONTACT_LOSS] = w[_GAP * LANES + l] / n_record
-        stats[i, ST_BACKSIDE] = w[_BACK * LANES + l] / n_record
-        stats[i, ST_IMPACTS] = w[_IMP * LANES + l] * spp / n_record
-        drift = max(abs(w[_MAX2 * LANES + l] - w[_MAX1 * LANES + l]), abs(w[_MIN2 * LANES + l] - w[_MIN1 * LANES + l]))
+        stats[i, ST_MEAN] = w[o + _SHIFT * LANES + l] + mean_d
+        stats[i, ST_RMS] = np.sqrt(max(w[o + _SUM2 * LANES + l] / n_record - mean_d * mean_d, 0.0))
+        stats[i, ST_CONTACT_LOSS] = w[o + _GAP * LANES + l] / n_record
+        stats[i, ST_BACKSIDE] = w[o + _BACK * LANES + l] / n_record
+        stats[i, ST_IMPACTS] = w[o + _IMP * LANES + l] * spp / n_record
+        drift = max(abs(w[o + _MAX2 * LANES + l] - w[o + _MAX1 * LANES + l]), abs(w[o + _MIN2 * LANES + l] - w[o + _MIN1 * LANES + l]))
         pp = pmax - pmin
         stats[i, ST_SETTLE] = drift / pp if pp > 0 else 0.0
 
