@@ -487,10 +487,10 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     bar = tqdm(total=plan.n_cases, initial=done * per_lane, unit="case", unit_scale=True,
                desc=plan.study.title[:30], file=sys.stderr, disable=not progress, leave=False,
                smoothing=0.1, mininterval=0, miniters=1)  # a refresh per finished chunk
-    t0 = time.perf_counter()
     be = backend if backend is not None else InProcess()
     if todo and isinstance(be, InProcess):
         warm_up(plan, todo[0])
+    t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
     # One background thread writes the checkpoint files while the next chunk computes (the
     # kernel releases the GIL); at most two saves wait, so at most two chunks more are held.
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-checkpoint")
