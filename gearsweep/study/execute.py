@@ -57,9 +57,11 @@ from gearsweep.study.runner import (
     store_chunk,
 )
 
-STATED_RATE = {"rk4": 90.0, "rk5": 60.0}
-"""Bare-kernel throughput per core [Msteps/s] assumed when none is measured (rattle scene, 2-core
-x86-64 with AVX2, see docs/scale.md): the estimate's fallback, not a promise."""
+STATED_RATE = {"rk4": 350.0, "rk5": 220.0}
+"""Bare-kernel throughput per core [Msteps/s] assumed when none is measured: the estimate's
+fallback, not a promise. Measured on this 2-core AVX-512 machine, rattle scene: about 700 per
+core for RK4 (``scripts/bench_scale.py``, docs/scale.md); half that allows for AVX2 (4 lanes per
+vector instead of 8), and RK5 takes 6 stages to RK4's 4."""
 
 BASELINE_MEMORY = 300e6
 """Resident memory of the interpreter with numpy, numba, xarray and the compiled kernels [bytes]."""
