@@ -25,7 +25,7 @@ How
    ``_fixup_group`` redoes their steps from the saved start states in one branch-free pass
    vectorised across the group:
    a. estimate the crossing time inside the step from the cubic Hermite interpolant of the
-      trial step's end points (p and p' at both ends; secant and Newton steps on the cubic);
+      trial step's end points (p and p' at both ends; a secant and a Newton step on the cubic);
    b. take a substep of the same method to that time, with the force law of the region being
       left, extended smoothly past the boundary (so no stage sees the kink);
    c. ``_project``: from the substep's end, a Taylor polynomial in time of the method's order
@@ -123,10 +123,11 @@ GROUP = 16
 TAU_MAX = 0.125
 """A substep's end is moved onto the boundary by ``_project`` only if it is at most this fraction
 of the step away from it in time; farther, the substep is redone to the new estimate."""
-ROOT_TOL = 1e-7
+ROOT_TOL = 1e-6
 """Newton's method for the crossing time has converged when its last update is below this
-fraction of the step. A crossing time off by delta switches the force law where the two laws
-differ by K p' delta: an error of order K p' delta^2 in p', far below the step's own."""
+fraction of the step (the error after that update is far smaller: the convergence is
+quadratic). A crossing time off by delta switches the force law where the two laws differ by
+K p' delta: an error of order K p' delta^2 in p', far below the step's own."""
 
 _MONO = np.array([[3.0, 0.0, 0.0, 0.0, 0.0],
                   [-25.0, 48.0, -36.0, 16.0, -3.0],
@@ -269,7 +270,7 @@ def _substep(rk4, X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
 def _hermite_root(X, V, TX, TV, H, bd):
     """Fraction s in [0, 1] where the cubic Hermite interpolant of (X, V) -> (TX, TV) over a
     step H meets ``bd`` (start and end on opposite sides), branch-free: the secant estimate and
-    two Newton steps on g(s) = c0 + c1 s + c2 s^2 + c3 s^3, kept inside [0, 1]. It needs no high
+    one Newton step on g(s) = c0 + c1 s + c2 s^2 + c3 s^3, kept inside [0, 1]. It needs no high
     accuracy: ``_project`` corrects it."""
     c0 = X - bd
     c1 = H * V
@@ -279,8 +280,7 @@ def _hermite_root(X, V, TX, TV, H, bd):
     den = c0 - g1
     s = c0 / den if den != 0.0 else 0.5
     s = min(max(s, 0.0), 1.0)
-    s = _newton_cubic(s, c0, c1, c2, c3)  # two steps, written out: a loop here would keep
-    return _newton_cubic(s, c0, c1, c2, c3)  # LLVM from vectorising the group's lane loop
+    return _newton_cubic(s, c0, c1, c2, c3)  # one step: ``_project`` corrects the rest
 
 
 @jit_inline
@@ -424,9 +424,8 @@ def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
     c3 = j * (1.0 / 6.0)
     c4 = sn * (1.0 / 24.0)
     t = -dx / V if V != 0.0 else 0.0
-    t = _newton_poly(t, dx, V, c2, c3, c4, c5)  # three steps, written out: a loop here would
-    t = _newton_poly(t, dx, V, c2, c3, c4, c5)  # keep LLVM from vectorising the group's loop
-    t1 = _newton_poly(t, dx, V, c2, c3, c4, c5)
+    t = _newton_poly(t, dx, V, c2, c3, c4, c5)  # two steps, written out: a loop here would
+    t1 = _newton_poly(t, dx, V, c2, c3, c4, c5)  # keep LLVM from vectorising the group's loop
     tn = tc + t1 * ih
     ok = abs(t1 - t) <= ROOT_TOL * h and abs(t1) <= TAU_MAX * h and 0.0 <= tn <= 1.0
     x = X + t1 * (V + t1 * (c2 + t1 * (c3 + t1 * (c4 + t1 * c5))))
@@ -485,6 +484,7 @@ def _fixup_group(rk4, g, P, ktab, kamp, etab, ftab):
 @jit_inline
 def _gather(g, m, w, o, l):
     """Copy lane ``l`` of the block at offset ``o`` into slot ``m`` of the fix-up group."""
+    m = m & (GROUP - 1)  # provably >= 0: no wraparound test on each index (GROUP is 2^k)
     g[_GX0 * GROUP + m] = w[o + _XO * LANES + l]
     g[_GV0 * GROUP + m] = w[o + _VO * LANES + l]
     g[_GTX * GROUP + m] = w[o + _X * LANES + l]
