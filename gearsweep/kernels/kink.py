@@ -389,6 +389,21 @@ def _d3(P, q, th):
 
 
 @jit_inline
+def _kg_dt3(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
+    """Third time derivatives of stiffness/mass and force/mass at ``th`` (as ``_kg_dt``)."""
+    K3 = 0.0
+    G3 = 0.0
+    ih3 = ih * ih * ih
+    if ktab is not None:
+        K3 = (1.0 if kamp is None else kal) * _d3(P, 0, th) * ih3
+    if etab is not None:
+        G3 += el * _d3(P, 1, th) * ih3
+    if ftab is not None:
+        G3 += fl * _d3(P, 2, th) * ih3
+    return K3, G3
+
+
+@jit_inline
 def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """From the state (X, V) at fraction ``tc`` of the step, near the boundary ``bd``: the time
     tau to the boundary and the state there, from a Taylor polynomial in time of the method's
@@ -408,16 +423,8 @@ def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
     j = G1 - c * a - K1 * f - K0 * fv
     sn = G2 - c * j - K2 * f - 2.0 * K1 * fv - K0 * sw * a
     c5 = 0.0
-    if not rk4:  # fifth derivative: third derivatives of the quartics
-        K3 = 0.0
-        G3 = 0.0
-        ih3 = ih * ih * ih
-        if ktab is not None:
-            K3 = (1.0 if kamp is None else kal) * _d3(P, 0, tc) * ih3
-        if etab is not None:
-            G3 += el * _d3(P, 1, tc) * ih3
-        if ftab is not None:
-            G3 += fl * _d3(P, 2, tc) * ih3
+    if not rk4:  # fifth derivative of p
+        K3, G3 = _kg_dt3(P, tc, ih, ktab, kamp, etab, ftab, kal, el, fl)
         c5 = (G3 - c * sn - K3 * f - 3.0 * K2 * fv - 3.0 * K1 * sw * a - K0 * sw * j) * (1.0 / 120.0)
     dx = X - bd
     c2 = 0.5 * a

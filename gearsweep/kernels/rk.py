@@ -70,11 +70,12 @@ STATUS_OK = 0
 STATUS_DIVERGED = 1
 """The state became non-finite or left ``|p| <= bound``: the case was stopped, statistics NaN."""
 
-# Rows of the per-block scratch array ``w`` (row r of lane l at o + r * LANES + l, block offset o): the state, the constants and
-# the running statistics of the LANES cases of one block live in ONE allocation, so every access is
-# at a constant offset from one base pointer. LLVM can then prove the rows disjoint and vectorise
-# the lane loops without run-time alias checks (with one array per row it had to emit, and run
-# every step, pairwise overlap checks, and gave up on the statistics loop altogether).
+# Rows of the per-block scratch array ``w`` (row r of lane l at o + r * LANES + l, block offset
+# o): the state, the constants and the running statistics of the LANES cases of one block live in
+# ONE allocation, so every access is at a constant offset from one base pointer. LLVM can then
+# prove the rows disjoint and vectorise the lane loops without run-time alias checks (with one
+# array per row it had to emit, and run every step, pairwise overlap checks, and gave up on the
+# statistics loop altogether).
 (_X, _V, _H, _H2, _H6, _C, _KM, _KA, _GM, _ES, _FS, _B, _BD, _DEAD,  # state and constants
  _MAX1, _MIN1, _MAX2, _MIN2,  # extremes over the first / second half of the recorded window
  _SUM, _SUM2, _SHIFT,  # sums of (p - shift) and (p - shift)^2, shift = first recorded p
@@ -423,7 +424,8 @@ def _start_record(w, o, half_gap):
         w[o + _MAX2 * LANES + l] = -np.inf
         w[o + _MIN1 * LANES + l] = np.inf
         w[o + _MIN2 * LANES + l] = np.inf
-        w[o + _SHIFT * LANES + l] = w[o + _X * LANES + l]  # sums about the first sample: no cancellation in the rms
+        # sums about the first sample: no cancellation in the rms
+        w[o + _SHIFT * LANES + l] = w[o + _X * LANES + l]
         if half_gap is not None:
             w[o + _PREV * LANES + l] = 1.0 if abs(w[o + _X * LANES + l]) < w[o + _B * LANES + l] else 0.0
 
@@ -503,7 +505,8 @@ def _finish(w, o, i0, n, n_record, spp, stats, xf, vf, status):
         stats[i, ST_CONTACT_LOSS] = w[o + _GAP * LANES + l] / n_record
         stats[i, ST_BACKSIDE] = w[o + _BACK * LANES + l] / n_record
         stats[i, ST_IMPACTS] = w[o + _IMP * LANES + l] * spp / n_record
-        drift = max(abs(w[o + _MAX2 * LANES + l] - w[o + _MAX1 * LANES + l]), abs(w[o + _MIN2 * LANES + l] - w[o + _MIN1 * LANES + l]))
+        drift = max(abs(w[o + _MAX2 * LANES + l] - w[o + _MAX1 * LANES + l]),
+                    abs(w[o + _MIN2 * LANES + l] - w[o + _MIN1 * LANES + l]))
         pp = pmax - pmin
         stats[i, ST_SETTLE] = drift / pp if pp > 0 else 0.0
 
