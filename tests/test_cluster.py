@@ -153,7 +153,7 @@ def test_killed_worker_chunks_are_rerun(tmp_path):
         folder = chunk_folder(out)
         deadline = time.monotonic() + 300
         try:
-            while len(list(folder.glob("*/chunk_*.npz"))) < 2:
+            while len(list(folder.glob("*/chunk_*.npys"))) < 2:
                 assert proc.poll() is None, "the run ended before a worker could be killed"
                 assert time.monotonic() < deadline
                 time.sleep(0.01)
@@ -162,7 +162,7 @@ def test_killed_worker_chunks_are_rerun(tmp_path):
             assert proc.wait(timeout=600) == 0
         finally:
             _stop(proc)
-        saved = len(list(folder.glob("*/chunk_*.npz")))
+        saved = len(list(folder.glob("*/chunk_*.npys")))
         assert saved == 0 and out.exists()
     log = (tmp_path / "worker0.log").read_text()
     assert workers[0].returncode == -signal.SIGKILL, log[-2000:]

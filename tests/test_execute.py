@@ -75,7 +75,7 @@ def plan_of(text: str):
 def strip(ds: xr.Dataset) -> xr.Dataset:
     """The Dataset without the attributes that differ between runs (time stamp, elapsed time)."""
     ds = ds.copy()
-    for k in ("history", "elapsed_seconds"):
+    for k in ("history", "elapsed_seconds", "kernel_seconds"):
         ds.attrs.pop(k, None)
     return ds
 
@@ -137,7 +137,7 @@ def test_resume_after_crash_computes_only_missing_chunks(rattle_reference, tmp_p
     first = read_log(log)
     assert first == chunks[:3]
     folder = chunk_folder(out)
-    assert len(list(folder.glob("*/chunk_*.npz"))) == 3
+    assert len(list(folder.glob("*/chunk_*.npys"))) == 3
     log.unlink()
     ds = execute.run_to_file(plan, out, chunk_cases=CHUNK)
     assert read_log(log) == chunks[3:]  # nothing computed twice
@@ -210,7 +210,7 @@ def test_resume_after_sigkill(tmp_path):
     folder = chunk_folder(out)
     deadline = time.monotonic() + 240
     try:
-        while len(list(folder.glob("*/chunk_*.npz"))) < 3:
+        while len(list(folder.glob("*/chunk_*.npys"))) < 3:
             assert proc.poll() is None, "the run ended before it could be killed"
             assert time.monotonic() < deadline, "no chunk written in time"
             time.sleep(0.01)
@@ -225,8 +225,8 @@ def test_resume_after_sigkill(tmp_path):
     plan = plan_of(LONG)
     chunks = plan.chunks(execute.lanes_per_chunk(plan, 100))
     assert len(chunks) == 20
-    names = {p.name for p in folder.glob("*/chunk_*.npz")}
-    kept = [c for c in chunks if f"chunk_{c[0]}_{c[1]}.npz" in names]
+    names = {p.name for p in folder.glob("*/chunk_*.npys")}
+    kept = [c for c in chunks if f"chunk_{c[0]}_{c[1]}.npys" in names]
     assert 3 <= len(kept) < len(chunks), kept
     # Chunks logged by the killed run were all saved (the log line follows the rename).
     assert set(read_log(tmp_path / "run1.log")) <= set(kept)
@@ -253,6 +253,7 @@ def test_estimate_matches_the_run(tmp_path):
     assert est.output_bytes == pytest.approx(data_bytes, rel=0.05)
     kernel = est.seconds - execute.FIXED_SECONDS - est.output_bytes / execute.WRITE_RATE
     assert kernel / 4 < ds.attrs["elapsed_seconds"] < 4 * kernel
+    assert 0 < ds.attrs["kernel_seconds"] <= ds.attrs["elapsed_seconds"]
     assert "measured" in est.line() and "\n" not in est.line()
 
 

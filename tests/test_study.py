@@ -293,3 +293,45 @@ def test_cli_advise_reports_steps_cost_and_stability(tmp_path, capsys):
     mathieu = tmp_path / "m.yaml"
     mathieu.write_text("title: m\nscene: {kind: mathieu, alpha: 1, beta: 0.2}\n")
     assert cli(["advise", str(mathieu)]) == 2
+
+
+def test_step_guard_solved_once_per_study_matches_the_guard_per_case():
+    """The guard's table over the dims it depends on (speed, damping, mass; not the force)
+    gives, chunk by chunk, the verdict of ``_step_ok`` evaluated case by case."""
+    from gearsweep.study.runner import _guard_table, _lane_params, _lanes, _step_ok, make_plan
+
+    text = LINEAR.replace("speed: [6000 rpm, 12000 rpm, 24000 rpm]", """speed: [100 rpm, 400 rpm,
+    1500 rpm, 6000 rpm]
+  mean_force: [10 N, 50 N, 90 N]
+  damping: [0 N*s/m, 400 N*s/m, 8000 N*s/m]
+  mass: [0.02 kg, 0.2 kg]""")
+    plan = make_plan(_study(text), text)
+    assert plan.n_lanes == 4 * 3 * 3 * 2
+    pos, shape, _ = _guard_table(plan)
+    assert [plan.lane_dims[i] for i in pos] == ["speed", "damping", "mass"] and shape == (4, 3, 2)
+    every = np.asarray(_step_ok(plan, _lane_params(plan, 0, plan.n_lanes), plan.n_lanes))
+    assert 0 < every.sum() < plan.n_lanes  # both verdicts occur
+    got = []
+    for a, b in plan.chunks(lanes_per_chunk=10):
+        _, row = _lanes(plan, a, b, guard=True)
+        got.append(plan.memo["guard"][2][row])
+    np.testing.assert_array_equal(np.concatenate(got), every)
+
+
+def test_lane_values_walk_the_grid_in_c_order():
+    """The odometer gives ``np.unravel_index``'s values for any lane range, and the flat index
+    over a subset of the dims that ``np.ravel_multi_index`` gives."""
+    from gearsweep.study.lanes import lane_values
+
+    rng = np.random.default_rng(3)
+    grids = [rng.normal(size=k) for k in (3, 1, 5, 4)]
+    shape = [len(g) for g in grids]
+    total = int(np.prod(shape))
+    for a, b in [(0, total), (0, 1), (7, 8), (13, 47), (59, total)]:
+        idx = np.unravel_index(np.arange(a, b), shape)
+        params, flat = lane_values(grids, a, b, [0, 3])
+        for j, g in enumerate(grids):
+            np.testing.assert_array_equal(params[j], g[idx[j]])
+        np.testing.assert_array_equal(flat, np.ravel_multi_index([idx[0], idx[3]], (3, 4)))
+    params, flat = lane_values([], 0, 1)
+    assert params.shape == (0, 1) and flat.tolist() == [0]

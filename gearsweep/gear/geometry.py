@@ -30,7 +30,6 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.optimize import brentq
 
 from gearsweep.errors import GeometryError
 
@@ -85,6 +84,8 @@ def inverse_involute(value: float) -> float:
                             "pressure angle")
     if value == 0.0:
         return 0.0
+    from scipy.optimize import brentq  # here: scipy.optimize takes 0.35 s to import
+
     return brentq(lambda a: math.tan(a) - a - value, 0.0, 1.5, xtol=1e-15, rtol=1e-15)
 
 
@@ -473,6 +474,8 @@ class GearPair:
             if gap(lo) > 0:
                 theta = lo
             else:
+                from scipy.optimize import brentq
+
                 theta = brentq(gap, lo, hi, xtol=1e-13)
             cx, cy = rc * math.sin(theta), rc * math.cos(theta)
             k = int(np.argmin(np.hypot(px - cx, py - cy)))

@@ -47,7 +47,9 @@ from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
 from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.runner import (
+    KERNEL_CLOCK,
     Plan,
+    _guard_table,
     _integrate,
     _lane_params,
     _step_ok,
@@ -265,12 +267,13 @@ def warm_up(plan: Plan, first: tuple[int, int] | None = None) -> None:
     one-time set-up."""
     s = plan.study.solver
     if first is not None and s.step_guard != "off":
-        params = _lane_params(plan, *first)
-        n = first[1] - first[0]
-        if plan.continued:
-            params["speed"] = np.full(n, plan.grids["speed"][0])
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            _step_ok(plan, params, n)
+            if plan.continued:
+                n = first[1] - first[0]
+                params = dict(_lane_params(plan, *first), speed=np.full(n, plan.grids["speed"][0]))
+                _step_ok(plan, params, n)
+            else:
+                _guard_table(plan)
     solver = s.model_copy(update={"transient_periods": 1, "record_periods": 1})
     trial = replace(plan, study=plan.study.model_copy(update={"solver": solver}))
     params = _lane_params(plan, 0, 1)
@@ -466,7 +469,9 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
         Show a progress bar (tqdm, on stderr) updated per finished chunk.
 
     The Dataset's ``elapsed_seconds`` is the chunk phase: computing the chunks and saving their
-    checkpoints (in-process, after ``warm_up`` has loaded the compiled kernel).
+    checkpoints (in-process, after ``warm_up`` has loaded the compiled kernel); in-process, its
+    ``kernel_seconds`` is the part of it spent in the kernel (``runner.KERNEL_CLOCK``), so their
+    ratio is the study's overhead over the bare kernel, measured in the same run.
     """
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
     results = empty_results(plan)
@@ -493,6 +498,7 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     if todo and isinstance(be, InProcess):
         warm_up(plan, todo[0])
     t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
+    k0 = KERNEL_CLOCK.seconds
     # One background thread writes the checkpoint files while the next chunk computes (the
     # kernel releases the GIL); at most two saves wait, so at most two chunks more are held.
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-checkpoint")
@@ -513,7 +519,9 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
         finally:
             writer.shutdown()
             bar.close()
-    return assemble(plan, results, time.perf_counter() - t0)
+    # Time in the kernel is known for chunks computed in this process only.
+    kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) else None
+    return assemble(plan, results, time.perf_counter() - t0, kernel)
 
 
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,

@@ -12,6 +12,7 @@ default runs the chunks one after another (each chunk uses every core through th
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -25,6 +26,7 @@ from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, me
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.dataset import build_dataset
 from gearsweep.study.gearscene import scene_excitation
+from gearsweep.study.lanes import lane_values
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
 from gearsweep.study.schema import Study
 from gearsweep.study.units import to_si
@@ -118,6 +120,9 @@ class Plan:
     specs: dict[str, VarSpec] = field(default_factory=dict)
     options: dict[str, Any] = field(default_factory=dict)
     """Validated options of the outputs that take some (``outputs.configure``), by name."""
+    memo: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
+    """Per-study results kept between chunks (the step guard's table); not copied by
+    ``dataclasses.replace``, so a changed plan never sees another's."""
 
     @property
     def continued(self) -> bool:
@@ -198,11 +203,38 @@ def make_plan(study: Study, text: str = "") -> Plan:
     return plan
 
 
+class _Clock:
+    """Seconds spent in the kernel (``simulate``) by this process, summed over its threads."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.seconds = 0.0
+
+    def add(self, seconds: float) -> None:
+        with self._lock:
+            self.seconds += seconds
+
+
+KERNEL_CLOCK = _Clock()
+"""Read before and after a run in this process: the difference is its time in the kernel
+(``run_plan`` stores it as the Dataset's ``kernel_seconds``, beside ``elapsed_seconds``)."""
+
+
+def _lanes(plan: Plan, lane0: int, lane1: int, guard: bool = False
+           ) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
+    """Swept values of lanes ``[lane0, lane1)`` (C order over ``plan.lane_dims``) and, with
+    ``guard``, each lane's row in the step guard's table (``_guard_table``; ``None`` without one).
+    """
+    dims = plan.lane_dims
+    table = _guard_table(plan) if guard else None
+    values, flat = lane_values([plan.grids[d] for d in dims], lane0, lane1,
+                               table[0] if table is not None else None)
+    return dict(zip(dims, values, strict=True)), (flat if table is not None else None)
+
+
 def _lane_params(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
     """Swept values of lanes ``[lane0, lane1)`` (C order over ``plan.lane_dims``)."""
-    shape = [len(plan.grids[d]) for d in plan.lane_dims]
-    idx = np.unravel_index(np.arange(lane0, lane1), shape) if shape else ()
-    return {d: plan.grids[d][i] for d, i in zip(plan.lane_dims, idx, strict=True)}
+    return _lanes(plan, lane0, lane1)[0]
 
 
 STATUS_SKIPPED = 3
@@ -268,10 +300,48 @@ def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
     return np.broadcast_to(~(need > s.steps_per_period), (n,))
 
 
-def _integrate(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
-    """One kernel call for ``n`` cases; returns (BatchResult, per-output arrays, status)."""
+GUARD_PARAMS = ("alpha", "beta", "gamma", "speed", "mass", "stiffness", "damping")
+"""The swept parameters ``_step_ok`` depends on (those ``hill_parameters`` reads for its
+kmax/m, c/m and period)."""
+
+_GUARD_TABLE_MAX = 1 << 20
+"""Largest grid over the guard's dims that is solved once per study (else: per chunk)."""
+
+
+def _guard_table(plan: Plan) -> tuple[list[int], tuple[int, ...], np.ndarray] | None:
+    """The step guard solved once on the grid of the swept dims it depends on.
+
+    Returns (positions of those dims in ``lane_dims``, their grid shape, flat ``_step_ok`` over
+    that grid), or ``None`` when the grid is too large to keep (a Mathieu chart sweeping alpha,
+    beta and gamma finely): then each chunk is checked on its own. A study sweeping torque and
+    backlash besides speed and damping checks speeds x dampings once instead of every case.
+    """
+    if "guard" not in plan.memo:
+        pos = [i for i, d in enumerate(plan.lane_dims) if d in GUARD_PARAMS]
+        shape = tuple(len(plan.grids[plan.lane_dims[i]]) for i in pos)
+        m = int(np.prod(shape, dtype=np.int64))
+        table = None
+        if m <= _GUARD_TABLE_MAX:
+            dims = [plan.lane_dims[i] for i in pos]
+            values, _ = lane_values([plan.grids[d] for d in dims], 0, m)
+            params = dict(zip(dims, values, strict=True))
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                table = (pos, shape, np.array(_step_ok(plan, params, m)))
+        plan.memo["guard"] = table
+    return plan.memo["guard"]
+
+
+def _integrate(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0,
+               ok: np.ndarray | None = None) -> tuple:
+    """One kernel call for ``n`` cases; returns (BatchResult, per-output arrays, status).
+
+    ``ok``: the step guard's verdict per case if already known (else it is computed here).
+    """
     guard = plan.study.solver.step_guard
-    ok = _step_ok(plan, params, n) if guard != "off" else np.ones(n, bool)
+    if guard == "off":
+        ok = np.ones(n, bool)
+    elif ok is None:
+        ok = _step_ok(plan, params, n)
     if guard == "skip" and not ok.all():
         return _integrate_subset(plan, params, n, x0, v0, ok)
     res, out, status = _integrate_all(plan, params, n, x0, v0)
@@ -314,9 +384,11 @@ def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) ->
     if x0 is not None:
         kin["x0"], kin["v0"] = x0, v0
     sps = plan.samples_per_period()
+    t0 = time.perf_counter()
     res = simulate(method=s.method, n_transient=s.transient_periods * spp,
                    n_record=s.record_periods * spp, steps_per_period=spp,
                    signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
+    KERNEL_CLOCK.add(time.perf_counter() - t0)
     out: dict[str, np.ndarray] = {}
     for o in plan.outputs:
         out.update(OUTPUTS[o].compute(plan, params, res))
@@ -328,12 +400,15 @@ def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) ->
 
 def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
     """Compute lanes ``[lane0, lane1)``: arrays of shape (directions?, lanes, chain?, *extra)."""
-    params = _lane_params(plan, lane0, lane1)
     n = lane1 - lane0
     if not plan.continued:
-        _, out, status = _integrate(plan, params, n, None, None)
+        guard = plan.study.solver.step_guard != "off"
+        params, row = _lanes(plan, lane0, lane1, guard)
+        ok = None if row is None else plan.memo["guard"][2][row]
+        _, out, status = _integrate(plan, params, n, None, None, ok)
         out["status"] = status
         return out
+    params = _lane_params(plan, lane0, lane1)
     # Continued sweeps: the up and the down sweep of every lane advance side by side as lanes of
     # one kernel call (step k is speed k going up and speed n-1-k going down).
     speeds = plan.grids["speed"]
@@ -383,8 +458,8 @@ def store_chunk(results: dict[str, np.ndarray], plan: Plan, lane0: int, lane1: i
             results[name][lane0:lane1] = arr
 
 
-def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None = None
-             ) -> xr.Dataset:
+def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None = None,
+             kernel: float | None = None) -> xr.Dataset:
     """Reshape the lane-ordered arrays onto the study's dims and build the Dataset (DATA.md)."""
     lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
     data_vars = {}
@@ -427,6 +502,8 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
     }
     if elapsed is not None:
         settings["elapsed_seconds"] = round(elapsed, 3)
+    if kernel is not None:
+        settings["kernel_seconds"] = round(kernel, 3)
     var_attrs = {n: dict(sp.attrs) for n, sp in plan.specs.items()}
     ds = build_dataset(data_vars, coords, title=plan.study.title, study_text=plan.text,
                        settings=settings, var_attrs=var_attrs,
