@@ -1,17 +1,19 @@
 """Throughput of a large study run by the CLI against the bare kernel on the same chunks.
 
-For each repeat, in turn: (1) the bare kernel, ``gearsweep.kernels.simulate`` on exactly the
-study's chunks (same cases, same kernel inputs, warm, all cores), timed around ``simulate`` only;
-(2) the study through ``gearsweep run`` in a fresh process (checkpoints, outputs, netCDF), timed
-three ways: its chunk phase (the file's ``elapsed_seconds``: kernel calls, outputs, checkpoint
-files), the whole run (process start to exit) and its peak resident memory. Alternating the two
-halves the effect of other load on this shared machine; medians are printed.
+For each repeat, in turn, two fresh processes: (1) the bare kernel, ``gearsweep.kernels.simulate``
+on exactly the study's chunks (same cases, same kernel inputs, all cores), after the same one-time
+warm-up as the CLI's, timed around ``simulate`` only; (2) the study through ``gearsweep run``
+(checkpoints, outputs, netCDF), timed three ways: its chunk phase (the file's
+``elapsed_seconds``: kernel calls, outputs, checkpoint files), the whole run (process start to
+exit) and its peak resident memory. Both are fresh processes so that neither has a warmer cache
+or heap than the other; alternating them halves the effect of other load on this shared
+machine; medians are printed.
 
 The steadiest figure on a noisy machine is the chunk phase over the time the same run spent in
 the kernel (the file's ``kernel_seconds``): both come from one run, so a neighbour's load that
 slows the kernel for a second slows both. It misses only what slows the kernel itself within the
-study (the background checkpoint writer competing for the cores), which the alternating
-comparison with the bare kernel includes.
+study (the background checkpoint writer competing for the cores), which the comparison with the
+bare kernel includes.
 
     PYTHONPATH=. python scripts/bench_scale.py [studies/heavy/scale_1e6.yaml] [--repeats 3]
 """
@@ -33,6 +35,7 @@ import xarray as xr
 
 from gearsweep.kernels import simulate
 from gearsweep.model import kernel_inputs
+from gearsweep.study.execute import warm_up
 from gearsweep.study.runner import _lane_params, make_plan
 from gearsweep.study.schema import load_study
 
@@ -55,32 +58,11 @@ def bare_kernel_seconds(plan, chunks: list[tuple[int, int]]) -> float:
     return total
 
 
-def paired_chunks(plan, folder: Path) -> tuple[float, float]:
-    """(bare kernel seconds, study chunk-phase seconds) timed chunk by chunk, alternately.
-
-    For each chunk: ``simulate`` alone, then what ``run_plan`` does for it (``run_chunk``: kernel
-    inputs, kernel, outputs, status; the checkpoint file; the copy into the full arrays). Pairing
-    the two within seconds of each other cancels most of the drift of other load.
-    """
-    from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
-    from gearsweep.study.execute import _run_chunk
-    from gearsweep.study.runner import empty_results, store_chunk
-
-    chunks = plan.chunks()
-    out = folder / "paired.nc"
-    store = ChunkStore(out, "paired", plan.n_lanes, chunks)
-    store.open()
-    results = empty_results(plan)
-    bare = study = 0.0
-    for a, b in chunks:
-        bare += bare_kernel_seconds(plan, [(a, b)])
-        t0 = time.perf_counter()
-        arrays = _run_chunk(plan, a, b)
-        store.save(a, b, arrays)
-        store_chunk(results, plan, a, b, arrays)
-        study += time.perf_counter() - t0
-    remove_checkpoints(out)
-    return bare, study
+def bare_run(study: Path) -> float:
+    """Seconds in ``simulate`` over the study's chunks, in a fresh process (``--bare``)."""
+    r = subprocess.run([sys.executable, __file__, str(study), "--bare"], check=True, cwd=ROOT,
+                       env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True, text=True)
+    return float(r.stdout.split()[-1])
 
 
 def study_run(study: Path, out: Path) -> tuple[float, float, float, int, float]:
@@ -108,27 +90,24 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("study", nargs="?", default=str(ROOT / "studies/heavy/scale_1e6.yaml"))
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--bare", action="store_true", help="child mode: print the bare kernel's seconds")
     args = p.parse_args()
     study, text = load_study(args.study)
     plan = make_plan(study, text)
+    if args.bare:
+        warm_up(plan, plan.chunks()[0])
+        print(bare_kernel_seconds(plan, plan.chunks()))
+        return
     if plan.continued:
         sys.exit("bench_scale compares non-continued studies (one kernel call per chunk)")
     steps = plan.n_cases * plan.steps_per_case
     print(f"{args.study}: {plan.n_cases:,} cases x {plan.steps_per_case} steps = {steps:.3g}"
           f" steps in {len(plan.chunks())} chunks")
-    chunks = plan.chunks()
-    bare_kernel_seconds(plan, [(0, min(1000, plan.n_lanes))])  # warm-up: load the compiled kernel
     bare, chunk, wall, rss, inrun = [], [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "scale.nc"
-        pairs = []
         for r in range(args.repeats):
-            pb, ps = paired_chunks(plan, Path(tmp))
-            pairs.append(ps / pb)
-            print(f"  paired {r}: bare kernel {pb:.2f} s, study chunk work {ps:.2f} s"
-                  f" (ratio {ps / pb:.3f})", flush=True)
-        for r in range(args.repeats):
-            bare.append(bare_kernel_seconds(plan, chunks))
+            bare.append(bare_run(Path(args.study)))
             c, w, m, size, k = study_run(Path(args.study), out)
             inrun.append(c / k)
             chunk.append(c)
@@ -139,15 +118,14 @@ def main() -> None:
                   f" study wall {w:.2f} s, peak RSS {m / 1e6:.0f} MB", flush=True)
     mb, mc, mw = (statistics.median(x) for x in (bare, chunk, wall))
     print(f"bare kernel:        {mb:.2f} s  {steps / mb / 1e6:.0f} Msteps/s")
-    ratio = statistics.median(c / b for c, b in zip(chunk, bare, strict=True))
-    print(f"study, chunk phase: {mc:.2f} s  {steps / mc / 1e6:.0f} Msteps/s"
-          f"  (median ratio of times to the bare kernel's in the same repeat: {ratio:.3f})")
+    ratios = [c / b for c, b in zip(chunk, bare, strict=True)]
+    print(f"study, chunk phase: {mc:.2f} s  {steps / mc / 1e6:.0f} Msteps/s  (ratio of times to the"
+          f" bare kernel's in the same repeat: median {statistics.median(ratios):.3f},"
+          f" {min(ratios):.3f} to {max(ratios):.3f})")
     print(f"study, whole run:   {mw:.2f} s  {steps / mw / 1e6:.0f} Msteps/s"
           f" (process start, plan, chunks, assembly, netCDF write)")
     print(f"chunk phase / its own kernel time, same run: median {statistics.median(inrun):.3f}"
           f" ({min(inrun):.3f} to {max(inrun):.3f})")
-    print(f"paired chunk by chunk in one process: median ratio {statistics.median(pairs):.3f}"
-          f" (study chunk work / bare kernel)")
     print(f"peak RSS {max(rss) / 1e6:.0f} MB, output {size / 1e6:.1f} MB")
 
 
