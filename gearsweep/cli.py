@@ -120,17 +120,29 @@ def cmd_run(args: argparse.Namespace) -> int:
         t0 = time.perf_counter()
         ds = run_to_file(plan, out, backend=backend, chunk_cases=args.chunk_size,
                          progress=progress)
-        if "beyond_step_limit" in ds and bool(ds["beyond_step_limit"].any()):
-            n_bad = int(ds["beyond_step_limit"].sum())
+        n_bad, flagged = _counts(ds)
+        if n_bad:
             print(f"gearsweep: warning: {out}: {n_bad} case(s) use a step beyond the stability limit"
                   f" of {study.solver.method} at {study.solver.steps_per_period} steps/period; their"
                   " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
                   " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
     if not args.quiet:
-        bad = int((ds["status"].values != 0).sum()) if "status" in ds else 0
         print(f"{out}: {int(ds.attrs['cases'])} cases in {time.perf_counter() - t0:.2f} s"
-              + (f"; {bad} flagged in 'status' (see its 'codes' attribute)" if bad else ""))
+              + (f"; {flagged} flagged in 'status' (see its 'codes' attribute)" if flagged
+                 else ""))
+    ds.close()
     return 0
+
+
+def _counts(ds) -> tuple[int, int]:
+    """(cases beyond the step limit, cases with a nonzero status) of a written result, counted
+    block by block in this process (the file's variables are dask arrays)."""
+    import dask
+
+    with dask.config.set(scheduler="synchronous"):
+        beyond = int(ds["beyond_step_limit"].sum()) if "beyond_step_limit" in ds else 0
+        flagged = int((ds["status"] != 0).sum()) if "status" in ds else 0
+    return beyond, flagged
 
 
 def describe(path: str | Path) -> str:

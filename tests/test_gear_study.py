@@ -321,7 +321,8 @@ def test_mesh_study_problems_are_one_study_error(text, message):
     assert message in str(info.value)
 
 
-@pytest.mark.parametrize("path", sorted(STUDIES.glob("*.yaml")), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", sorted([*STUDIES.glob("*.yaml"), *STUDIES.glob("heavy/*.yaml")]),
+                         ids=lambda p: p.stem)
 def test_every_study_file_validates(path, capsys):
     assert main(["validate", str(path)]) == 0
     assert capsys.readouterr().out.startswith(f"{path}: ok -- ")

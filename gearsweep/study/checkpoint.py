@@ -138,6 +138,31 @@ class ChunkStore:
         except (OSError, ValueError, EOFError):
             return None
 
+    def map(self, lane0: int, lane1: int) -> dict[str, np.ndarray]:
+        """The arrays of one chunk as read-only memory maps of its file (nothing is read yet).
+
+        For writing the final file chunk by chunk: only the pages a writer touches are read.
+        Raises ``OSError``/``ValueError`` if the file is missing or malformed.
+        """
+        out: dict[str, np.ndarray] = {}
+        path = self.path(lane0, lane1)
+        with open(path, "rb") as fh:
+            names = fmt.read_array(fh, allow_pickle=False)
+            for name in names:
+                version = fmt.read_magic(fh)
+                read_header = fmt.read_array_header_1_0 if version == (1, 0) \
+                    else fmt.read_array_header_2_0
+                shape, fortran, dtype = read_header(fh)
+                offset = fh.tell()
+                size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+                if size == 0:
+                    out[str(name)] = np.empty(shape, dtype)
+                else:
+                    out[str(name)] = np.memmap(path, dtype=dtype, mode="r", offset=offset,
+                                               shape=shape, order="F" if fortran else "C")
+                fh.seek(offset + size)
+        return out
+
     def discard(self, lane0: int, lane1: int) -> None:
         """Remove one chunk file (an unreadable one, so that it is computed again)."""
         self.path(lane0, lane1).unlink(missing_ok=True)

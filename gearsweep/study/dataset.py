@@ -120,15 +120,29 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
     """Write ``ds`` to ``path`` atomically: a temporary file in the same folder, then rename.
 
     A reader never sees a half-written file at ``path``; a crash leaves the old file (if any).
+    Variables backed by dask arrays are written block by block (each block one chunk of the
+    file), so the whole Dataset need not fit in memory.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     os.close(fd)
     try:
-        encoding = {k: {"zlib": True, "complevel": 1} for k in ds.data_vars
-                    if ds[k].dtype.kind in "fiub"}
-        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+        encoding = {}
+        for k in ds.data_vars:
+            if ds[k].dtype.kind in "fiub":
+                encoding[k] = {"zlib": True, "complevel": 1}
+                if ds[k].chunks:  # dask-backed (streamed from disk): one file chunk per block
+                    encoding[k]["chunksizes"] = tuple(max(c) for c in ds[k].chunks)
+        if any(ds[k].chunks for k in ds.data_vars):
+            import dask
+
+            # One block at a time, in this process (never on a dask cluster a caller may have
+            # made the default scheduler: the blocks read files of this machine).
+            with dask.config.set(scheduler="synchronous"):
+                ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+        else:
+            ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
         umask = os.umask(0)

@@ -55,6 +55,7 @@ from gearsweep.study.runner import (
     _step_ok,
     assemble,
     empty_results,
+    result_layout,
     run_chunk,
     store_chunk,
 )
@@ -227,9 +228,10 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     -----
     Time: every kernel call advances ``ceil(blocks / threads)`` rounds of ``LANES`` lanes (a
     partly filled block costs a full one), at ``rate`` per core; plus ``FIXED_SECONDS`` and the
-    writing of the results at ``WRITE_RATE``. Memory: the full result arrays
-    twice (results and the copies made while writing the file), three chunks' worth (one being
-    computed, one arriving, one being saved) and the interpreter's baseline. Output: the result
+    writing of the results at ``WRITE_RATE``. Memory (of ``gearsweep run``, which streams the
+    results to disk, ``run_to_file``): three chunks' worth (one being computed, one arriving, one
+    being saved) and the interpreter's baseline, whatever the number of chunks; ``run_plan``,
+    which returns the results in memory, needs the full result arrays on top. Output: the result
     arrays uncompressed (zlib makes the file smaller).
     """
     threads = threads or cores()
@@ -242,7 +244,7 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     biggest = max((b - a for a, b in chunks), default=0) * plan.chain * max(len(plan.directions), 1)
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
-    memory = BASELINE_MEMORY + 2 * results + 3 * biggest * per_case + signal
+    memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
     coords = sum(g.nbytes for g in plan.grids.values())
     return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
@@ -437,23 +439,86 @@ class DaskBackend:
 # ------------------------------------------------------------------------------------ runs
 
 
-def _fits(results: dict[str, np.ndarray], plan: Plan, a: int, b: int,
-          arrays: dict[str, np.ndarray]) -> bool:
-    """Whether a loaded chunk has exactly the variables, shapes and dtypes the study expects."""
-    if set(arrays) != set(results):
-        return False
-    for name, arr in arrays.items():
-        full = results[name]
-        want = full[:, a:b] if plan.continued else full[a:b]
-        if arr.shape != want.shape or arr.dtype != want.dtype:
-            return False
-    return True
+def _fits(plan: Plan, a: int, b: int, arrays: dict[str, np.ndarray]) -> bool:
+    """Whether a saved chunk has exactly the variables, shapes and dtypes the study expects."""
+    want = result_layout(plan, b - a)
+    return set(arrays) == set(want) and all(
+        arr.shape == want[name][0] and arr.dtype == want[name][1] for name, arr in arrays.items())
+
+
+def _open_store(plan: Plan, checkpoint: str | Path | None, chunks: list[tuple[int, int]]
+                ) -> tuple[ChunkStore | None, list[tuple[int, int]]]:
+    """The checkpoint store of ``plan`` next to ``checkpoint`` (``None``: no store) and the
+    chunks already saved there intact; a chunk file that cannot be read or does not fit the
+    study is removed, so that it is computed again."""
+    if checkpoint is None:
+        return None, []
+    sha = hashlib.sha256(plan.text.encode()).hexdigest()
+    store = ChunkStore(checkpoint, sha, plan.n_lanes, chunks)
+    done = []
+    for a, b in store.open():
+        try:
+            ok = _fits(plan, a, b, store.map(a, b))
+        except (OSError, ValueError, EOFError):
+            ok = False
+        if ok:
+            done.append((a, b))
+        else:
+            store.discard(a, b)
+    return store, done
+
+
+def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
+             backend: InProcess | DaskBackend | None, store: ChunkStore | None, progress: bool,
+             sink=None) -> tuple[float, float | None]:
+    """Compute the chunks ``todo``; pass each to ``sink(lane0, lane1, arrays)`` (if given) and
+    save it to ``store`` (if given) in a background thread while the next one computes.
+
+    Returns the chunk phase's seconds (after the one-time warm-up) and, in-process, the part of
+    them spent in the kernel (``runner.KERNEL_CLOCK``).
+    """
+    from tqdm import tqdm
+
+    per_lane = plan.chain * max(len(plan.directions), 1)
+    bar = tqdm(total=plan.n_cases, initial=done_cases, unit="case", unit_scale=True,
+               desc=plan.study.title[:30], file=sys.stderr, disable=not progress, leave=False,
+               smoothing=0.1, mininterval=0, miniters=1)  # a refresh per finished chunk
+    be = backend if backend is not None else InProcess()
+    if todo and isinstance(be, InProcess):
+        warm_up(plan, todo[0])
+    t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
+    k0 = KERNEL_CLOCK.seconds
+    # One background thread writes the checkpoint files while the next chunk computes (the
+    # kernel releases the GIL); at most two saves wait, so at most two chunks more are held.
+    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-checkpoint")
+    saves: list = []
+    try:
+        for a, b, arrays in be.run(plan, todo):
+            if sink is not None:
+                sink(a, b, arrays)
+            if store is not None:
+                saves.append(writer.submit(store.save, a, b, arrays))
+                while len(saves) > 2:
+                    saves.pop(0).result()
+            del arrays
+            bar.update((b - a) * per_lane)
+    finally:
+        try:
+            for f in saves:  # what was computed is saved, even if the run is failing
+                f.result()
+        finally:
+            writer.shutdown()
+            bar.close()
+    # Time in the kernel is known for chunks computed in this process only.
+    kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) else None
+    return time.perf_counter() - t0, kernel
 
 
 def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
              checkpoint: str | Path | None = None, chunk_cases: int | None = None,
              progress: bool = False) -> xr.Dataset:
-    """Run every chunk of ``plan`` (those not already checkpointed) and return the Dataset.
+    """Run every chunk of ``plan`` (those not already checkpointed) and return the Dataset,
+    held in memory (``run_to_file`` streams a study of any size to disk instead).
 
     Parameters
     ----------
@@ -475,64 +540,50 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     """
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
     results = empty_results(plan)
+    store, done = _open_store(plan, checkpoint, chunks)
+    for a, b in done:
+        store_chunk(results, plan, a, b, store.map(a, b))
+    todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
-    store = None
-    todo = list(chunks)
-    if checkpoint is not None:
-        sha = hashlib.sha256(plan.text.encode()).hexdigest()
-        store = ChunkStore(checkpoint, sha, plan.n_lanes, chunks)
-        for a, b in store.open():
-            arrays = store.load(a, b)
-            if arrays is None or not _fits(results, plan, a, b, arrays):
-                store.discard(a, b)
-                continue
-            store_chunk(results, plan, a, b, arrays)
-            todo.remove((a, b))
-    done = sum(b - a for a, b in chunks) - sum(b - a for a, b in todo)
-    from tqdm import tqdm
+    elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend, store,
+                               progress, sink=lambda a, b, arrays: store_chunk(results, plan, a,
+                                                                                b, arrays))
+    return assemble(plan, results, elapsed, kernel)
 
-    bar = tqdm(total=plan.n_cases, initial=done * per_lane, unit="case", unit_scale=True,
-               desc=plan.study.title[:30], file=sys.stderr, disable=not progress, leave=False,
-               smoothing=0.1, mininterval=0, miniters=1)  # a refresh per finished chunk
-    be = backend if backend is not None else InProcess()
-    if todo and isinstance(be, InProcess):
-        warm_up(plan, todo[0])
-    t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
-    k0 = KERNEL_CLOCK.seconds
-    # One background thread writes the checkpoint files while the next chunk computes (the
-    # kernel releases the GIL); at most two saves wait, so at most two chunks more are held.
-    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-checkpoint")
-    saves: list = []
-    try:
-        for a, b, arrays in be.run(plan, todo):
-            store_chunk(results, plan, a, b, arrays)
-            if store is not None:
-                saves.append(writer.submit(store.save, a, b, arrays))
-                while len(saves) > 2:
-                    saves.pop(0).result()
-            del arrays
-            bar.update((b - a) * per_lane)
-    finally:
-        try:
-            for f in saves:  # what was computed is saved, even if the run is failing
-                f.result()
-        finally:
-            writer.shutdown()
-            bar.close()
-    # Time in the kernel is known for chunks computed in this process only.
-    kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) else None
-    return assemble(plan, results, time.perf_counter() - t0, kernel)
+
+def _streamed_results(plan: Plan, store: ChunkStore, chunks: list[tuple[int, int]]) -> dict:
+    """The result arrays as dask arrays over the memory-mapped chunk files, in lane order:
+    writing them reads one chunk's block at a time."""
+    import dask.array as da
+
+    maps = [store.map(a, b) for a, b in chunks]
+    axis = 1 if plan.continued else 0
+    return {name: da.concatenate([da.from_array(m[name], chunks=m[name].shape) for m in maps],
+                                 axis=axis)
+            for name in result_layout(plan, 1)}
 
 
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
                 chunk_cases: int | None = None, progress: bool = False) -> xr.Dataset:
     """Run ``plan`` with checkpoints next to ``output``, write the netCDF atomically, clean up.
 
+    The results stream to disk: every finished chunk goes to its checkpoint file and is dropped
+    from memory; the netCDF is then written block by block from the memory-mapped checkpoint
+    files, so the memory a run needs depends on the chunk size, not on the number of cases.
     A run killed at any point leaves the chunks it finished; running the same study to the same
     output again computes only the others and writes the same file.
+
+    Returns the written file opened lazily (``xr.open_dataset(output, chunks={})``: dask
+    arrays, loaded when used).
     """
-    ds = run_plan(plan, backend=backend, checkpoint=output, chunk_cases=chunk_cases,
-                  progress=progress)
+    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
+    store, done = _open_store(plan, output, chunks)
+    todo = [c for c in chunks if c not in done]
+    per_lane = plan.chain * max(len(plan.directions), 1)
+    elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend, store,
+                               progress)
+    ds = assemble(plan, _streamed_results(plan, store, chunks), elapsed, kernel)
     write_netcdf(ds, output)
+    del ds
     remove_checkpoints(output)
-    return ds
+    return xr.open_dataset(output, chunks={})

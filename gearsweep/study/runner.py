@@ -436,16 +436,25 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
     return cols
 
 
-def empty_results(plan: Plan) -> dict[str, np.ndarray]:
-    """Full-size result arrays (NaN / status 3 'skipped') that chunks are written into."""
-    lead = ([len(plan.directions)] if plan.continued else []) + [plan.n_lanes] + (
+def result_layout(plan: Plan, lanes: int) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    """Shape and dtype of every result array for ``lanes`` lanes, in the Dataset's order:
+    (directions?, lanes, chain?, *extra)."""
+    lead = ([len(plan.directions)] if plan.continued else []) + [lanes] + (
         [plan.chain] if plan.continued else [])
     out = {}
     for name, spec in plan.specs.items():
         extra = [len(spec.extra_coords[d]) for d in spec.extra_dims]
-        fill = False if spec.dtype == "bool" else np.nan
-        out[name] = np.full(lead + extra, fill, dtype=spec.dtype)
-    out["status"] = np.full(lead, 3, dtype=np.int8)
+        out[name] = (tuple(lead + extra), np.dtype(spec.dtype))
+    out["status"] = (tuple(lead), np.dtype(np.int8))
+    return out
+
+
+def empty_results(plan: Plan) -> dict[str, np.ndarray]:
+    """Full-size result arrays (NaN / status 3 'skipped') that chunks are written into."""
+    out = {}
+    for name, (shape, dtype) in result_layout(plan, plan.n_lanes).items():
+        fill = 3 if name == "status" else False if dtype.kind == "b" else np.nan
+        out[name] = np.full(shape, fill, dtype=dtype)
     return out
 
 
