@@ -138,35 +138,57 @@ class ChunkStore:
         except (OSError, ValueError, EOFError):
             return None
 
-    def map(self, lane0: int, lane1: int) -> dict[str, np.ndarray]:
-        """The arrays of one chunk as read-only memory maps of its file (nothing is read yet).
+    def records(self, lane0: int, lane1: int) -> dict[str, Record]:
+        """The arrays of one chunk as ``Record``s: shape and dtype from the file's headers, the
+        data read only when indexed (for writing the final file block by block).
 
-        For writing the final file chunk by chunk: only the pages a writer touches are read.
-        Raises ``OSError``/``ValueError`` if the file is missing or malformed.
+        Raises ``OSError``/``ValueError`` if the file is missing, malformed or truncated.
         """
-        out: dict[str, np.ndarray] = {}
+        out: dict[str, Record] = {}
         path = self.path(lane0, lane1)
         with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
             names = fmt.read_array(fh, allow_pickle=False)
             for name in names:
                 version = fmt.read_magic(fh)
                 read_header = fmt.read_array_header_1_0 if version == (1, 0) \
                     else fmt.read_array_header_2_0
                 shape, fortran, dtype = read_header(fh)
-                offset = fh.tell()
-                size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
-                if size == 0:
-                    out[str(name)] = np.empty(shape, dtype)
-                else:
-                    out[str(name)] = np.memmap(path, dtype=dtype, mode="r", offset=offset,
-                                               shape=shape, order="F" if fortran else "C")
-                fh.seek(offset + size)
+                rec = Record(path, fh.tell(), shape, dtype, fortran)
+                if rec.offset + rec.nbytes > size:
+                    raise ValueError(f"{path}: truncated record {name!r}")
+                out[str(name)] = rec
+                fh.seek(rec.offset + rec.nbytes)
         return out
 
     def discard(self, lane0: int, lane1: int) -> None:
         """Remove one chunk file (an unreadable one, so that it is computed again)."""
         self.path(lane0, lane1).unlink(missing_ok=True)
 
+
+
+class Record:
+    """One array of a chunk file, read from disk when indexed (an array-like for
+    ``dask.array.from_array``): reading a block and dropping it frees its memory, where a memory
+    map would keep every page it touched resident until unmapped."""
+
+    def __init__(self, path: Path, offset: int, shape: tuple[int, ...], dtype: np.dtype,
+                 fortran: bool) -> None:
+        self.path, self.offset, self.shape, self.dtype = path, offset, tuple(shape), dtype
+        self.fortran = fortran
+        self.ndim = len(self.shape)
+        self.nbytes = int(np.prod(self.shape, dtype=np.int64)) * dtype.itemsize
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        count = self.nbytes // self.dtype.itemsize
+        flat = np.fromfile(self.path, dtype=self.dtype, count=count, offset=self.offset)
+        if flat.size != count:
+            raise ValueError(f"{self.path}: truncated record")
+        arr = flat.reshape(self.shape, order="F" if self.fortran else "C")
+        return arr if dtype is None else arr.astype(dtype)
+
+    def __getitem__(self, key) -> np.ndarray:
+        return np.asarray(self)[key]
 
 
 def remove_checkpoints(output: str | Path) -> None:

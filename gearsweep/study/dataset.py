@@ -116,6 +116,10 @@ def build_dataset(
     return ds
 
 
+CHUNK_CACHE_BYTES = 1 << 20
+"""HDF5 chunk cache per variable while a streamed Dataset is written [bytes]."""
+
+
 def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
     """Write ``ds`` to ``path`` atomically: a temporary file in the same folder, then rename.
 
@@ -129,18 +133,30 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
     os.close(fd)
     try:
         encoding = {}
+        ds = ds.copy(deep=False)  # the caller's Dataset keeps its own chunks
         for k in ds.data_vars:
+            if ds[k].chunks:  # dask-backed (streamed from disk): regular blocks, one file chunk
+                size = {d: max(c) for d, c in zip(ds[k].dims, ds[k].chunks, strict=True)}
+                ds[k] = ds[k].chunk(size)  # each (a written chunk is never read back)
             if ds[k].dtype.kind in "fiub":
                 encoding[k] = {"zlib": True, "complevel": 1}
-                if ds[k].chunks:  # dask-backed (streamed from disk): one file chunk per block
+                if ds[k].chunks:
                     encoding[k]["chunksizes"] = tuple(max(c) for c in ds[k].chunks)
         if any(ds[k].chunks for k in ds.data_vars):
             import dask
+            import netCDF4
 
             # One block at a time, in this process (never on a dask cluster a caller may have
-            # made the default scheduler: the blocks read files of this machine).
-            with dask.config.set(scheduler="synchronous"):
-                ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+            # made the default scheduler: the blocks read files of this machine). Each block is
+            # one whole file chunk, so the HDF5 chunk cache (64 MB per variable by default,
+            # which would keep most of a large study in memory) is not needed.
+            cache = netCDF4.get_chunk_cache()
+            netCDF4.set_chunk_cache(CHUNK_CACHE_BYTES)
+            try:
+                with dask.config.set(scheduler="synchronous"):
+                    ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+            finally:
+                netCDF4.set_chunk_cache(*cache)
         else:
             ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
         with open(tmp, "rb+") as fh:

@@ -197,8 +197,9 @@ def measure_rate(plan: Plan, threads: int, seconds: float = 0.3) -> float:
     s = plan.study.solver
     per_case = seconds * STATED_RATE[s.method] * 1e6 * threads / n
     periods = max(2, int(per_case // s.steps_per_period))
-    lanes = np.arange(n) % max(plan.n_lanes, 1)
-    params = {k: v[lanes] for k, v in _lane_params(plan, 0, plan.n_lanes).items()}
+    first = min(n, max(plan.n_lanes, 1))  # the study's first lanes, repeated to n cases
+    lanes = np.arange(n) % first
+    params = {k: v[lanes] for k, v in _lane_params(plan, 0, first).items()}
     if plan.continued:
         params["speed"] = np.full(n, plan.grids["speed"][0])
     trial = None
@@ -458,7 +459,7 @@ def _open_store(plan: Plan, checkpoint: str | Path | None, chunks: list[tuple[in
     done = []
     for a, b in store.open():
         try:
-            ok = _fits(plan, a, b, store.map(a, b))
+            ok = _fits(plan, a, b, store.records(a, b))
         except (OSError, ValueError, EOFError):
             ok = False
         if ok:
@@ -542,7 +543,7 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     results = empty_results(plan)
     store, done = _open_store(plan, checkpoint, chunks)
     for a, b in done:
-        store_chunk(results, plan, a, b, store.map(a, b))
+        store_chunk(results, plan, a, b, {k: np.asarray(r) for k, r in store.records(a, b).items()})
     todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
     elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend, store,
@@ -552,11 +553,11 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
 
 
 def _streamed_results(plan: Plan, store: ChunkStore, chunks: list[tuple[int, int]]) -> dict:
-    """The result arrays as dask arrays over the memory-mapped chunk files, in lane order:
-    writing them reads one chunk's block at a time."""
+    """The result arrays as dask arrays over the chunk files, in lane order: writing them reads
+    one chunk's block at a time (``checkpoint.Record``)."""
     import dask.array as da
 
-    maps = [store.map(a, b) for a, b in chunks]
+    maps = [store.records(a, b) for a, b in chunks]
     axis = 1 if plan.continued else 0
     return {name: da.concatenate([da.from_array(m[name], chunks=m[name].shape) for m in maps],
                                  axis=axis)
@@ -568,8 +569,8 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     """Run ``plan`` with checkpoints next to ``output``, write the netCDF atomically, clean up.
 
     The results stream to disk: every finished chunk goes to its checkpoint file and is dropped
-    from memory; the netCDF is then written block by block from the memory-mapped checkpoint
-    files, so the memory a run needs depends on the chunk size, not on the number of cases.
+    from memory; the netCDF is then written block by block from the checkpoint files, so the
+    memory a run needs depends on the chunk size, not on the number of cases.
     A run killed at any point leaves the chunks it finished; running the same study to the same
     output again computes only the others and writes the same file.
 
