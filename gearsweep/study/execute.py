@@ -543,7 +543,7 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     results = empty_results(plan)
     store, done = _open_store(plan, checkpoint, chunks)
     for a, b in done:
-        store_chunk(results, plan, a, b, {k: np.asarray(r) for k, r in store.records(a, b).items()})
+        store_chunk(results, plan, a, b, store.load(a, b))
     todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
     elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend, store,
