@@ -14,7 +14,9 @@ Next to the output ``OUT.nc`` a run keeps ``OUT.nc.chunks/<study_sha256>/``:
   and the last chunk's write is not hidden behind a computing chunk.
 
 A re-run of the same study to the same output loads the chunk files that are there and computes
-only the missing ones; after the netCDF is written, the whole ``OUT.nc.chunks`` folder is removed.
+only the missing ones. ``run_to_file`` then writes the netCDF from these files block by block
+(``ChunkStore.records``: each array read only when its block is written, so the results are
+never all in memory), and removes the whole ``OUT.nc.chunks`` folder.
 
 Setting the environment variable ``GEARSWEEP_CHUNK_LOG`` to a file path appends one line
 ``<lane0> <lane1>`` to it per chunk computed and saved (read when a chunk is saved, not at import):
@@ -164,7 +166,6 @@ class ChunkStore:
     def discard(self, lane0: int, lane1: int) -> None:
         """Remove one chunk file (an unreadable one, so that it is computed again)."""
         self.path(lane0, lane1).unlink(missing_ok=True)
-
 
 
 class Record:
