@@ -16,14 +16,14 @@ problem and thread count. ``--reference`` builds and runs the C reference kernel
 several runs is the least disturbed estimate) and adds the ratio ours/C of Msteps/s
 (``ratio_to_reference``), for 1 thread also of CPU time per step (``cpu_ratio_to_reference``,
 the steadier figure when other processes share the cores), and the largest relative difference
-of the 10,000 amplitudes. Unless ``--no-scipy``, a few B1 cases are also solved with
+of the 10,000 amplitudes. With ``--scipy``, a few B1 cases are also solved with
 ``scipy.integrate.solve_ivp`` (RK45, DOP853, LSODA) at tolerances that reach our accuracy, and
 the per-case speed-up of our kernel on one thread over the fastest of them is printed.
 
 Usage::
 
     python scripts/bench_kernel.py [--reference] [--dump DIR] [--problems B1,B2] [--cases N]
-                                   [--no-scipy] [--scipy-cases I,J,K] [--scipy-budget SECONDS]
+                                   [--scipy] [--scipy-cases I,J,K] [--scipy-budget SECONDS]
 """
 
 from __future__ import annotations
@@ -269,7 +269,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--bench-dir", type=Path, default=BENCH_DIR, help="where run_reference.sh is")
     ap.add_argument("--rounds", type=int, default=2,
                     help="with --reference: interleaved rounds of ours and C, best of each")
-    ap.add_argument("--no-scipy", action="store_true", help="skip the solve_ivp comparison")
+    ap.add_argument("--scipy", action="store_true",
+                    help="also time scipy's solve_ivp on a few B1 cases (about 30 s more)")
     ap.add_argument("--scipy-cases", default="5000,7500,9999",
                     help="B1 case indices for the solve_ivp comparison")
     ap.add_argument("--scipy-budget", type=float, default=25.0,
@@ -342,7 +343,7 @@ def main(argv: list[str] | None = None) -> int:
             print(json.dumps(rec), flush=True)
     numba.set_num_threads(all_cores)
 
-    if not args.no_scipy:
+    if args.scipy:
         if seconds_b1_1 is None:
             seconds_b1_1 = best_time(problem_inputs("B1", indices), 1)[1]
         numba.set_num_threads(all_cores)
