@@ -281,6 +281,9 @@ def main(argv: list[str] | None = None) -> int:
     unknown = set(problems) - set(HALF_GAP)
     if unknown:
         ap.error(f"unknown problem(s) {sorted(unknown)}; choose from B1, B2")
+    if args.reference and not (args.bench_dir / "run_reference.sh").is_file():
+        ap.error(f"--bench-dir {args.bench_dir}: no run_reference.sh there (the C reference of"
+                 " ../shared/bench; give its folder with --bench-dir)")
     if not 1 <= args.cases <= N_CASES:
         ap.error(f"--cases must be in 1..{N_CASES}")
     indices = case_indices(args.cases)
