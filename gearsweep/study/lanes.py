@@ -7,11 +7,12 @@ time on the chunk. ``lane_values`` walks the lanes with an odometer instead: one
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from gearsweep.jit import jit
 
-@numba.njit(cache=True, nogil=True)
+
+@jit
 def _odometer(lane0, lengths, values, offsets, strides, params, flat):  # pragma: no cover (JIT)
     d, n = params.shape
     idx = np.empty(d, np.int64)

@@ -38,8 +38,8 @@ STATUS_NOT_SETTLED = 2
 CHUNK_STEPS = 1e9
 """Target integration steps per chunk: about 0.7 s of kernel time on this 2-core machine (plain
 RK4 on a rattle scene, about 1,400 Msteps/s), long enough that the per-chunk work around the
-kernel (lane values, kernel inputs, outputs, the copy into the results: about 35 ms for 400,000
-lanes; the checkpoint file is written by a background thread) stays near 5 %, short enough
+kernel (lane values, kernel inputs, outputs: about 20 ms for 400,000 lanes; the checkpoint file
+is written by a background thread) stays near 5 %, short enough
 for progress and checkpoints every second or so."""
 CHUNK_SIGNAL_BYTES = 64e6
 """At most this much recorded time history per chunk (outputs reduce it per chunk)."""
@@ -224,13 +224,14 @@ KERNEL_CLOCK = _Clock()
 def _lanes(plan: Plan, lane0: int, lane1: int, guard: bool = False
            ) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
     """Swept values of lanes ``[lane0, lane1)`` (C order over ``plan.lane_dims``) and, with
-    ``guard``, each lane's row in the step guard's table (``_guard_table``; ``None`` without one).
+    ``guard``, the step guard's verdict per lane looked up in its table (``_guard_table``;
+    ``None`` when there is none: then ``_integrate`` checks the lanes itself).
     """
     dims = plan.lane_dims
     table = _guard_table(plan) if guard else None
     values, flat = lane_values([plan.grids[d] for d in dims], lane0, lane1,
                                table[0] if table is not None else None)
-    return dict(zip(dims, values, strict=True)), (flat if table is not None else None)
+    return dict(zip(dims, values, strict=True)), (table[2][flat] if table is not None else None)
 
 
 def _lane_params(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
@@ -404,8 +405,7 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
     n = lane1 - lane0
     if not plan.continued:
         guard = plan.study.solver.step_guard != "off"
-        params, row = _lanes(plan, lane0, lane1, guard)
-        ok = None if row is None else plan.memo["guard"][2][row]
+        params, ok = _lanes(plan, lane0, lane1, guard)
         _, out, status = _integrate(plan, params, n, None, None, ok)
         out["status"] = status
         return out
