@@ -30,8 +30,8 @@ class BatchResult:
     signal: np.ndarray | None
     """p at every ``stride``-th recorded step, shape (n, n_samples) [m], if asked for."""
     substeps: np.ndarray | None = None
-    """Kink-aware kernel only: extra substeps taken at backlash crossings per case (each costs
-    one step's right-hand-side evaluations); ``None`` for the plain kernel."""
+    """Kink-aware kernel only: extra work at backlash crossings per case, in step-equivalents
+    (right-hand-side evaluations / the method's stages); ``None`` for the plain kernel."""
 
 
 def _vec(x, n: int) -> np.ndarray:
@@ -166,5 +166,5 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
         *extra,
     )
     if len(out) == 4:  # plain kernel: no substeps
-        out = (*out, np.zeros(n, np.int64))
+        out = (*out, np.zeros(n))
     return out

@@ -16,31 +16,36 @@ How
 ---
 1. A kink block is up to ``SUB_MAX`` plain blocks of ``LANES`` cases in one scratch array (same
    layout and lane code as the plain kernel, ``rk._rk4_lanes`` / ``rk._rk5_lanes``); each takes
-   the plain vectorised step. In the same lane loop (``rk._after_step``) every lane keeps its
-   start state and sets its bit in a crossing mask if its region at the step's end differs from
-   the region at its start: (p0 - b)(p1 - b) < 0 or (p0 + b)(p1 + b) < 0 for the start and end
-   values p0, p1 (a step that ends exactly on a boundary is not a crossing). The statistics take
-   each step's start state there too, so no extra pass over the lanes is needed.
+   a vectorised trial step in which every stage uses the force law of the region the lane
+   starts the step in, f(p) = sw (p - sh), extended smoothly past its boundaries
+   (``rk._law``): the trial is one smooth trajectory, and where all stages stay in that region
+   it is the plain step bit for bit. In the same lane loop (``rk._after_step``) every lane
+   keeps its start state and sets its bit in a crossing mask if its region at the step's end
+   (p > b, |p| <= b, p < -b) differs from the region at its start. The statistics take each
+   step's start state there too, so no extra pass over the lanes is needed.
 2. The flagged lanes of the whole kink block are gathered into groups of ``GROUP``, and
-   ``_fixup_group`` redoes their steps from the saved start states in one branch-free pass
-   vectorised across the group:
-   a. estimate the crossing time inside the step from the cubic Hermite interpolant of the
-      trial step's end points (p and p' at both ends; a secant and a Newton step on the cubic);
-   b. take a substep of the same method to that time, with the force law of the region being
-      left, extended smoothly past the boundary (so no stage sees the kink);
-   c. ``_project``: from the substep's end, a Taylor polynomial in time of the method's order
-      (derivatives of p from the same force law and the coefficient quartics below) gives the
-      time tau left to the boundary by Newton's method and moves the state onto the boundary,
-      accepted if |tau| <= ``TAU_MAX`` h (its error is then far below the step's own);
-   d. finish the step with a substep from the crossing to the step's end with the new
-      region's force law.
-   A crossing costs two substeps and a projection (counted as three substeps).
-3. The few lanes the group cannot finish (a second crossing within the step, a start on a
-   boundary, |tau| too long or no converged root) go through the scalar ``_fixup``: the same
-   steps, with the substep of (b) redone to the projection's estimate until it is accepted (at
-   most ``NEWTON_MAX`` times), and (a)-(d) repeated for up to ``MAX_CROSSINGS`` crossings.
-Steps of lanes that do not cross are untouched, so a case without crossings gives results
-identical bit for bit to the plain kernel.
+   ``_fixup_group`` redoes their steps in one branch-free pass vectorised across the group:
+   a. the quintic Hermite interpolant of the trial trajectory (p, p', p'' at both ends, p''
+      from the trial's own law and the table nodes 0 and 4) follows it to O(h^6) in p and
+      O(h^5) in p', plus the trial step's own error;
+   b. its root (a secant estimate and two Newton steps) is the crossing time, and the
+      interpolant gives the state there;
+   c. a substep of the same method with the new region's force law finishes the step.
+   A crossing costs one substep and two evaluations of p''.
+3. The few lanes the group cannot finish (a second crossing within the step, Newton not
+   converged, e.g. for a grazing crossing) go through the scalar ``_fixup``: substeps with the
+   region's law to the estimate of the cubic Hermite interpolant, ``_project`` onto the boundary
+   (Taylor polynomial of the method's order, Newton's method for the time left), redone to the
+   projection's estimate until accepted (at most ``NEWTON_MAX`` times), and repeated for up to
+   ``MAX_CROSSINGS`` crossings.
+Steps of lanes that do not cross are untouched, so a case whose stages never leave their
+region gives results identical bit for bit to the plain kernel.
+
+Why the order is kept: the interpolant's p' at the crossing inherits the trial step's end error
+amplified by 1/h, O(h^4) for RK4 and O(h^5) for RK5; a crossing time off by delta costs
+K p' delta^2 (the two laws agree on the boundary). With a bounded number of crossings per mesh
+period, local errors O(h^4) / O(h^5) at crossings add O(h^4) / O(h^5) to the global error, the
+orders of the two methods (measured: tests/test_precision.py, docs/precision.md).
 
 Coefficients inside a step
 --------------------------
@@ -56,18 +61,20 @@ no Fourier coefficients are needed.
 Limitations
 -----------
 A crossing followed by a return within the same step (both ends in one region) is not detected:
-that step is taken as in the plain kernel. This happens only for grazing contacts, where the
-excursion lasts less than one step. A crossing at which p' is tiny (tangential) may not
-converge in ``NEWTON_MAX`` substeps; the last estimate is kept.
+that step is taken with the start region's law throughout. This happens only for grazing
+contacts, where the excursion lasts less than one step. A crossing at which p' is tiny
+(tangential) goes to the scalar path, which may not converge in ``NEWTON_MAX`` substeps; the
+last estimate is kept.
 
-Cost counter: ``integrate`` also returns the number of substeps per case (each costs as many
-right-hand-side evaluations as one step; a projection is counted as one).
+Cost counter: ``integrate`` also returns the extra work per case in step-equivalents (right-hand
+side evaluations / stages of the method): a group fix-up counts 1 + 2 / stages, the scalar path
+one per substep and one per projection.
 
-Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 2.4 times
-the plain kernel's wall time (``scripts/bench_kink.py``; docs/precision.md). A profile (perf,
-one thread) puts about two thirds of the time in the vectorised lane loops, gather and
-bookkeeping and one third in the group fix-ups. Without backlash (``half_gap=None``) the
-detection is compiled out and the cost is the plain kernel's.
+Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 2.0 to 2.3
+times the plain kernel's wall time (``scripts/bench_kink.py``; docs/precision.md): about 1.35
+for the trial lane loops with their crossing test (no crossing at all), 0.3 for gathering and
+scattering the flagged lanes, 0.4 for the group fix-ups. Without backlash (``half_gap=None``)
+the detection is compiled out and the cost is the plain kernel's.
 """
 
 import numpy as np
@@ -120,6 +127,10 @@ SUB_MAX = 8
 its crossings fill the vectorised fix-up groups (B2: about 12 crossings per step of 256 lanes)."""
 GROUP = 16
 """Crossing lanes fixed up together in one branch-free, vectorised pass."""
+GROUP_TOL = 1e-3
+"""The group fix-up's crossing time is accepted when its last Newton update is below this
+fraction of the step: the error left is of order its square (quadratic convergence), and a
+crossing time off by delta costs K p' delta^2 (far below the step's own error)."""
 TAU_MAX = 0.125
 """A substep's end is moved onto the boundary by ``_project`` only if it is at most this fraction
 of the step away from it in time; farther, the substep is redone to the new estimate."""
@@ -449,17 +460,44 @@ def _newton_poly(t, dx, c1, c2, c3, c4, c5):
 
 
 @jit_inline
-def _fixup_group(rk4, g, P, ktab, kamp, etab, ftab):
+def _quintic(s, y0, d0, q2, c3, c4, c5):
+    """Value and s-derivative of y0 + d0 s + q2 s^2 + c3 s^3 + c4 s^4 + c5 s^5."""
+    y = y0 + s * (d0 + s * (q2 + s * (c3 + s * (c4 + s * c5))))
+    dy = d0 + s * (2.0 * q2 + s * (3.0 * c3 + s * (4.0 * c4 + s * 5.0 * c5)))
+    return y, dy
+
+
+@jit_inline
+def _newton_quintic(s, y0, d0, q2, c3, c4, c5):
+    """One Newton step on the quintic of ``_quintic`` for its root, kept inside [0, 1]."""
+    y, dy = _quintic(s, y0, d0, q2, c3, c4, c5)
+    return min(max(s - y / dy if dy != 0.0 else s, 0.0), 1.0)
+
+
+@jit_inline
+def _fixup_group(rk4, g, P, K, E, F, ktab, kamp, etab, ftab):
     """Redo the steps of the GROUP lanes gathered in ``g`` that cross one boundary, in one
-    branch-free pass vectorised across the group: a substep of the method to the Hermite
-    estimate of the crossing, ``_project`` onto the boundary, a substep from there to the step's
-    end with the new region's force law. Writes the new end state into rows ``_GTX, _GTV`` and marks in
-    ``_GREDO`` the lanes it could not finish (more than one crossing, a start on a boundary, no
-    converged root inside the step): ``_fixup`` redoes those from the trial step."""
+    branch-free pass vectorised across the group.
+
+    The trial step was taken with the start region's force law extended past the boundary
+    (``rk._law``): one smooth trajectory, so its quintic Hermite interpolant in time (p, p' and
+    p'' at both ends, p'' from the same law and the table nodes 0 and 4) follows it to O(h^6)
+    in p and O(h^5) in p', plus the step's own error (O(h^5) for RK4; its 1/h-amplified share in
+    p' leaves a local error O(h^4) at a crossing, which with a bounded number of crossings per
+    period adds O(h^4) to the global error: RK4 keeps order 4, RK5 order 5). The crossing time is
+    the interpolant's root (a secant estimate and two Newton steps); the state there comes from
+    the interpolant; a substep of the same method with the new region's law finishes the step.
+    A crossing time off by delta costs only K p' delta^2 (the two laws agree on the boundary).
+    Cost: one substep and two evaluations of p'' per crossing.
+
+    Writes the new end state into rows ``_GTX, _GTV`` and marks in ``_GREDO`` the lanes it could
+    not finish (Newton not converged to ``GROUP_TOL``, e.g. a grazing crossing; a second
+    crossing within the step): ``_fixup`` redoes those from the trial step."""
     for m in range(GROUP):
         X0 = g[_GX0 * GROUP + m]
         V0 = g[_GV0 * GROUP + m]
         TX = g[_GTX * GROUP + m]
+        TV = g[_GTV * GROUP + m]
         h = g[_GH * GROUP + m]
         b = g[_GB * GROUP + m]
         c = g[_GC * GROUP + m]
@@ -468,29 +506,48 @@ def _fixup_group(rk4, g, P, ktab, kamp, etab, ftab):
         gl = g[_GGM * GROUP + m]
         el = g[_GES * GROUP + m]
         fl = g[_GFS * GROUP + m]
-        r0 = _region(X0, b)
-        r1 = _region(TX, b)
-        bd = r0 * b if r0 != 0.0 else (b if TX > b else -b)
-        sw = abs(r0)
-        sh = b if r0 > 0.0 else -b
-        s0 = _hermite_root(X0, V0, TX, g[_GTV * GROUP + m], h, bd)
-        CX, CV = _substep(rk4, X0, V0, 0.0, s0, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal,
-                          gl, el, fl)
-        th, CX, CV, ok = _project(rk4, CX, CV, s0, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl,
-                                  kal, gl, el, fl)
-        rn = 0.0 if r0 != 0.0 else r1
-        FX, FV = _substep(rk4, CX, CV, th, 1.0, h, abs(rn), b if rn > 0.0 else -b, c, P, ktab,
-                          kamp, etab, ftab, kl, kal, gl, el, fl)
-        hard = (not ok or r0 == r1 or _region(FX, b) != rn
-                or abs(X0 - bd) <= 1e-9 * abs(TX - bd))
+        sw = 1.0 if abs(X0) > b else 0.0  # the start region's law, as in rk._law
+        sh = b if X0 > 0.0 else -b
+        # the boundary crossed: the flank being left, or (from the gap) the one reached
+        bd = sh if sw != 0.0 else (b if TX > 0.0 else -b)
+        # p'' at both ends of the trial step, with the law it was taken with
+        A0 = (_g(gl, el, E[0], etab, fl, F[0], ftab) - c * V0
+              - _k(kl, kal, K[0], ktab, kamp) * (sw * (X0 - sh)))
+        A1 = (_g(gl, el, E[4], etab, fl, F[4], ftab) - c * TV
+              - _k(kl, kal, K[4], ktab, kamp) * (sw * (TX - sh)))
+        # quintic Hermite in s = t / h of p - bd: y0 + d0 s + q2 s^2 + c3 s^3 + c4 s^4 + c5 s^5
+        hh = h * h
+        y0 = X0 - bd
+        y1 = TX - bd
+        d0 = h * V0
+        q2 = 0.5 * hh * A0
+        D = y1 - y0 - d0 - q2
+        E1 = h * TV - d0 - 2.0 * q2
+        F1 = hh * A1 - 2.0 * q2
+        c3 = 10.0 * D - 4.0 * E1 + 0.5 * F1
+        c4 = -15.0 * D + 7.0 * E1 - F1
+        c5 = 6.0 * D - 3.0 * E1 + 0.5 * F1
+        den = y0 - y1
+        s = min(max(y0 / den if den != 0.0 else 0.0, 0.0), 1.0)
+        s = _newton_quintic(s, y0, d0, q2, c3, c4, c5)  # two steps, written out (see _project)
+        s1 = _newton_quintic(s, y0, d0, q2, c3, c4, c5)
+        ok = abs(s1 - s) <= GROUP_TOL
+        y, dy = _quintic(s1, y0, d0, q2, c3, c4, c5)
+        # the new region's law: the gap after contact, the flank bd after the gap
+        nw = 1.0 - sw
+        FX, FV = _substep(rk4, bd + y, dy / h, s1, 1.0, h, nw, bd, c, P, ktab, kamp, etab, ftab,
+                          kl, kal, gl, el, fl)
+        rn = nw * (1.0 if bd > 0.0 else -1.0)
+        hard = not ok or _region(FX, b) != rn
         g[_GTX * GROUP + m] = FX
         g[_GTV * GROUP + m] = FV
         g[_GREDO * GROUP + m] = 1.0 if hard else 0.0
 
 
 @jit_inline
-def _gather(g, m, w, o, l):
-    """Copy lane ``l`` of the block at offset ``o`` into slot ``m`` of the fix-up group."""
+def _gather(g, m, w, o, l, kamp, etab, ftab):
+    """Copy lane ``l`` of the block at offset ``o`` into slot ``m`` of the fix-up group (the
+    scales of terms that are off stay unread, as in the lane loops)."""
     m = m & (GROUP - 1)  # provably >= 0: no wraparound test on each index (GROUP is 2^k)
     g[_GX0 * GROUP + m] = w[o + _XO * LANES + l]
     g[_GV0 * GROUP + m] = w[o + _VO * LANES + l]
@@ -500,20 +557,21 @@ def _gather(g, m, w, o, l):
     g[_GB * GROUP + m] = w[o + _B * LANES + l]
     g[_GC * GROUP + m] = w[o + _C * LANES + l]
     g[_GKM * GROUP + m] = w[o + _KM * LANES + l]
-    g[_GKA * GROUP + m] = w[o + _KA * LANES + l]
+    if kamp is not None:
+        g[_GKA * GROUP + m] = w[o + _KA * LANES + l]
     g[_GGM * GROUP + m] = w[o + _GM * LANES + l]
-    g[_GES * GROUP + m] = w[o + _ES * LANES + l]
-    g[_GFS * GROUP + m] = w[o + _FS * LANES + l]
+    if etab is not None:
+        g[_GES * GROUP + m] = w[o + _ES * LANES + l]
+    if ftab is not None:
+        g[_GFS * GROUP + m] = w[o + _FS * LANES + l]
 
 
 @jit
-def _fix(rk4, w, g, slot, ng, P, ktab, kamp, etab, ftab):
+def _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab):
     """Fix up the ``ng`` lanes gathered in ``g`` (their block and lane in ``slot``) and scatter
     the results back; lanes the group pass marks go through the scalar ``_fixup``."""
-    for m in range(ng, GROUP):  # pad with copies of the first lane; their results are dropped
-        for r in range(_GREDO):
-            g[r * GROUP + m] = g[r * GROUP]
-    _fixup_group(rk4, g, P, ktab, kamp, etab, ftab)
+    # slots ng.. hold an earlier group's lanes (or zeros): computed alongside, results dropped
+    _fixup_group(rk4, g, P, K, E, F, ktab, kamp, etab, ftab)
     for m in range(ng):
         o = (slot[m] // LANES) * _BLOCK
         l = slot[m] % LANES
@@ -530,7 +588,7 @@ def _fix(rk4, w, g, slot, ng, P, ktab, kamp, etab, ftab):
         else:
             w[o + _X * LANES + l] = g[_GTX * GROUP + m]
             w[o + _V * LANES + l] = g[_GTV * GROUP + m]
-            w[o + _NSUB * LANES + l] += 3.0  # two substeps and the projection (about as costly)
+            w[o + _NSUB * LANES + l] += 1.5 if rk4 else 4.0 / 3.0  # a substep and two p'' evaluations
 
 
 def _driver(method):
@@ -545,7 +603,7 @@ def _driver(method):
         xf = np.empty(n)
         vf = np.empty(n)
         status = np.zeros(n, np.int8)
-        substeps = np.zeros(n, np.int64)
+        substeps = np.zeros(n)
         span = sub * LANES
         nblocks = (n + span - 1) // span
         for blk in prange(nblocks):
@@ -608,14 +666,14 @@ def _driver(method):
                             if ftab is not None:
                                 _monomials(F, P, 2)
                             have_p = True
-                        _gather(g, ng, w, o, l)
+                        _gather(g, ng, w, o, l, kamp, etab, ftab)
                         slot[ng] = q * LANES + l
                         ng += 1
                         if ng == GROUP:
-                            _fix(rk4, w, g, slot, GROUP, P, ktab, kamp, etab, ftab)
+                            _fix(rk4, w, g, slot, GROUP, P, K, E, F, ktab, kamp, etab, ftab)
                             ng = 0
                 if ng > 0:
-                    _fix(rk4, w, g, slot, ng, P, ktab, kamp, etab, ftab)
+                    _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab)
                 j = j + 1 if j + 1 < S else 0
                 jp = jp + 1 if jp + 1 < steps_per_period else 0
                 for q in range(sub):
@@ -628,7 +686,7 @@ def _driver(method):
                 if i0 < n:
                     _finish(w, q * _BLOCK, i0, n, n_record, steps_per_period, stats, xf, vf, status)
                     for l in range(min(LANES, n - i0)):
-                        substeps[i0 + l] = int(w[q * _BLOCK + _NSUB * LANES + l])
+                        substeps[i0 + l] = w[q * _BLOCK + _NSUB * LANES + l]
         return stats, xf, vf, status, substeps
 
     integrate.__name__ = integrate.__qualname__ = f"integrate_kink_rk{method}"
@@ -643,8 +701,8 @@ def _driver(method):
     xf, vf : ndarray (n,)
         State at the end [m], [m/s].
     status : ndarray (n,) int8
-    substeps : ndarray (n,) int64
-        Extra substeps taken at crossings (each costs one step's right-hand-side evaluations).
+    substeps : ndarray (n,)
+        Extra work at crossings in step-equivalents (right-hand-side evaluations / stages).
     """
     return jit_parallel(integrate)
 

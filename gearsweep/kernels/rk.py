@@ -144,14 +144,37 @@ def _scratch(nsub):
 
 
 @jit_inline
+def _law(X, b, half_gap, kink):
+    """Slope and shift (sw, sh) of the force law f(p) = sw (p - sh) that the kink-aware kernel's
+    trial step uses in every stage: the law of the region of the step's start p = X (contact
+    beyond +-b: sw = 1, sh = +-b; gap: sw = 0), extended smoothly beyond its boundaries, so
+    that the trial step is one smooth trajectory that ``kink._fixup_group`` can interpolate.
+    Where every stage stays in that region this is the dead zone itself, bit for bit
+    (1 * (p - b) and 0 * (p - sh) are exact). The plain kernel (``kink`` False) keeps the dead
+    zone in every stage."""
+    if kink and half_gap is not None:
+        return (1.0 if abs(X) > b else 0.0), (b if X > 0.0 else -b)
+    return 1.0, 0.0
+
+
+@jit_inline
+def _stage_spring(x, b, half_gap, kink, sw, sh):
+    """f(p) at a stage: the start region's law in the kink-aware kernel (see ``_law``), else
+    ``_spring``."""
+    if kink and half_gap is not None:
+        return sw * (x - sh)
+    return _spring(x, b, half_gap)
+
+
+@jit_inline
 def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
     """Bookkeeping of lane ``l`` after its step from (X, V) to end position Xn, while all three
     are in registers; returns the lane's crossing bit (0 or 1 << l).
 
     Plain kernel: with ``rec`` the end p enters the statistics; the bit is 0. Kink-aware kernel
     (``kink``): the start state is kept for the fix-up (rows _XO, _VO); the bit is set if the
-    step ended in another region of the dead zone than it started, (p0 - b)(p1 - b) < 0 or
-    (p0 + b)(p1 + b) < 0 (ending exactly on a boundary is no crossing); with ``rec`` the START p
+    step ended in another region of the dead zone (p > b, |p| <= b, p < -b) than it started, so
+    its trial step, taken with the start region's law, must be redone; with ``rec`` the START p
     enters the statistics: a fix-up may still change the end p, and the start p of step s is the
     final end p of step s - 1 (the driver shifts the window by one step and records the last end
     p after its loop, so both kernels record the same states). ``rec`` and ``kink`` are
@@ -164,8 +187,8 @@ def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
             _record(w, o, l, X, half_gap)
         if half_gap is not None:
             b = w[o + _B * LANES + l]
-            d = min((X - b) * (Xn - b), (X + b) * (Xn + b))
-            return np.int64(d < 0.0) << l
+            crossed = ((X > b) != (Xn > b)) | ((X < -b) != (Xn < -b))
+            return np.int64(crossed) << l
         return np.int64(0)
     if rec:
         _record(w, o, l, Xn, half_gap)
@@ -197,20 +220,21 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         Gc = _g(gl, el, E[4], etab, fl, F[4], ftab)
         X = w[o + _X * LANES + l]
         V = w[o + _V * LANES + l]
+        sw, sh = _law(X, b, half_gap, kink)
         k1x = V
-        k1v = Ga - c * V - Ka * _spring(X, b, half_gap)
+        k1v = Ga - c * V - Ka * _stage_spring(X, b, half_gap, kink, sw, sh)
         x2 = X + q2 * k1x
         v2 = V + q2 * k1v
         k2x = v2
-        k2v = Gb - c * v2 - Kb * _spring(x2, b, half_gap)
+        k2v = Gb - c * v2 - Kb * _stage_spring(x2, b, half_gap, kink, sw, sh)
         x3 = X + q2 * k2x
         v3 = V + q2 * k2v
         k3x = v3
-        k3v = Gb - c * v3 - Kb * _spring(x3, b, half_gap)
+        k3v = Gb - c * v3 - Kb * _stage_spring(x3, b, half_gap, kink, sw, sh)
         x4 = X + hh * k3x
         v4 = V + hh * k3v
         k4x = v4
-        k4v = Gc - c * v4 - Kc * _spring(x4, b, half_gap)
+        k4v = Gc - c * v4 - Kc * _stage_spring(x4, b, half_gap, kink, sw, sh)
         Xn = X + w[o + _H6 * LANES + l] * (k1x + 2 * k2x + 2 * k3x + k4x)
         w[o + _X * LANES + l] = Xn
         w[o + _V * LANES + l] = V + w[o + _H6 * LANES + l] * (k1v + 2 * k2v + 2 * k3v + k4v)
@@ -234,6 +258,7 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         fl = w[o + _FS * LANES + l]
         X = w[o + _X * LANES + l]
         V = w[o + _V * LANES + l]
+        sw, sh = _law(X, b, half_gap, kink)
         G0 = _g(gl, el, E[0], etab, fl, F[0], ftab)
         G1 = _g(gl, el, E[1], etab, fl, F[1], ftab)
         G2 = _g(gl, el, E[2], etab, fl, F[2], ftab)
@@ -246,32 +271,32 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         K4 = _k(kl, kal, K[4], ktab, kamp)
         # stage 1, c = 0
         a1 = V
-        b1 = G0 - c * V - K0 * _spring(X, b, half_gap)
+        b1 = G0 - c * V - K0 * _stage_spring(X, b, half_gap, kink, sw, sh)
         # stage 2, c = 1/4
         x2 = X + h * (0.25 * a1)
         v2 = V + h * (0.25 * b1)
         a2 = v2
-        b2 = G1 - c * v2 - K1 * _spring(x2, b, half_gap)
+        b2 = G1 - c * v2 - K1 * _stage_spring(x2, b, half_gap, kink, sw, sh)
         # stage 3, c = 1/4
         x3 = X + h * (0.125 * a1 + 0.125 * a2)
         v3 = V + h * (0.125 * b1 + 0.125 * b2)
         a3 = v3
-        b3 = G1 - c * v3 - K1 * _spring(x3, b, half_gap)
+        b3 = G1 - c * v3 - K1 * _stage_spring(x3, b, half_gap, kink, sw, sh)
         # stage 4, c = 1/2
         x4 = X + h * (-0.5 * a2 + a3)
         v4 = V + h * (-0.5 * b2 + b3)
         a4 = v4
-        b4 = G2 - c * v4 - K2 * _spring(x4, b, half_gap)
+        b4 = G2 - c * v4 - K2 * _stage_spring(x4, b, half_gap, kink, sw, sh)
         # stage 5, c = 3/4
         x5 = X + h * (0.1875 * a1 + 0.5625 * a4)
         v5 = V + h * (0.1875 * b1 + 0.5625 * b4)
         a5 = v5
-        b5 = G3 - c * v5 - K3 * _spring(x5, b, half_gap)
+        b5 = G3 - c * v5 - K3 * _stage_spring(x5, b, half_gap, kink, sw, sh)
         # stage 6, c = 1
         x6 = X + h * (-3.0 * a1 + 2.0 * a2 + 12.0 * a3 - 12.0 * a4 + 8.0 * a5) / 7.0
         v6 = V + h * (-3.0 * b1 + 2.0 * b2 + 12.0 * b3 - 12.0 * b4 + 8.0 * b5) / 7.0
         a6 = v6
-        b6 = G4 - c * v6 - K4 * _spring(x6, b, half_gap)
+        b6 = G4 - c * v6 - K4 * _stage_spring(x6, b, half_gap, kink, sw, sh)
         Xn = X + h * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) / 90.0
         w[o + _X * LANES + l] = Xn
         w[o + _V * LANES + l] = V + h * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0
