@@ -70,10 +70,10 @@ Cost counter: ``integrate`` also returns the extra work per case in step-equival
 side evaluations / stages of the method): a group fix-up counts 1 + 2 / stages, the scalar path
 one per substep and one per projection.
 
-Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 2.0 to 2.3
-times the plain kernel's wall time (``scripts/bench_kink.py``; docs/precision.md): about 1.35
-for the trial lane loops with their crossing test (no crossing at all), 0.3 for gathering and
-scattering the flagged lanes, 0.4 for the group fix-ups. Without backlash (``half_gap=None``)
+Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.7 to 1.8
+times the plain kernel's wall time on two threads (``scripts/bench_kink.py``;
+docs/precision.md): about 1.35 for the trial lane loops with their crossing test (no crossing at
+all), the rest for gathering, fixing up and scattering the flagged lanes. Without backlash (``half_gap=None``)
 the detection is compiled out and the cost is the plain kernel's.
 """
 
@@ -566,29 +566,27 @@ def _gather(g, m, w, o, l, kamp, etab, ftab):
         g[_GFS * GROUP + m] = w[o + _FS * LANES + l]
 
 
-@jit
+@jit_inline
 def _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab):
-    """Fix up the ``ng`` lanes gathered in ``g`` (their block and lane in ``slot``) and scatter
-    the results back; lanes the group pass marks go through the scalar ``_fixup``."""
+    """Fix up the ``ng`` lanes gathered in ``g`` (``slot``: index of each lane's row 0 in ``w``)
+    and scatter the results back; lanes the group pass marks go through the scalar ``_fixup``."""
     # slots ng.. hold an earlier group's lanes (or zeros): computed alongside, results dropped
     _fixup_group(rk4, g, P, K, E, F, ktab, kamp, etab, ftab)
     for m in range(ng):
-        o = (slot[m] // LANES) * _BLOCK
-        l = slot[m] % LANES
+        i = slot[m]
         if g[_GREDO * GROUP + m] != 0.0:
-            X, V, ns = _fixup(rk4, w[o + _XO * LANES + l], w[o + _VO * LANES + l],
-                              w[o + _X * LANES + l], w[o + _V * LANES + l], w[o + _H * LANES + l],
-                              w[o + _B * LANES + l], w[o + _C * LANES + l], P, ktab, kamp, etab,
-                              ftab, w[o + _KM * LANES + l], w[o + _KA * LANES + l],
-                              w[o + _GM * LANES + l], w[o + _ES * LANES + l],
-                              w[o + _FS * LANES + l])
-            w[o + _X * LANES + l] = X
-            w[o + _V * LANES + l] = V
-            w[o + _NSUB * LANES + l] += ns
+            X, V, ns = _fixup(rk4, w[i + _XO * LANES], w[i + _VO * LANES], w[i + _X * LANES],
+                              w[i + _V * LANES], w[i + _H * LANES], w[i + _B * LANES],
+                              w[i + _C * LANES], P, ktab, kamp, etab, ftab, w[i + _KM * LANES],
+                              w[i + _KA * LANES], w[i + _GM * LANES], w[i + _ES * LANES],
+                              w[i + _FS * LANES])
+            w[i + _X * LANES] = X
+            w[i + _V * LANES] = V
+            w[i + _NSUB * LANES] += ns
         else:
-            w[o + _X * LANES + l] = g[_GTX * GROUP + m]
-            w[o + _V * LANES + l] = g[_GTV * GROUP + m]
-            w[o + _NSUB * LANES + l] += 1.5 if rk4 else 4.0 / 3.0  # a substep and two p'' evaluations
+            w[i + _X * LANES] = g[_GTX * GROUP + m]
+            w[i + _V * LANES] = g[_GTV * GROUP + m]
+            w[i + _NSUB * LANES] += 1.5 if rk4 else 4.0 / 3.0  # a substep and two p'' evaluations
 
 
 def _driver(method):
@@ -667,7 +665,7 @@ def _driver(method):
                                 _monomials(F, P, 2)
                             have_p = True
                         _gather(g, ng, w, o, l, kamp, etab, ftab)
-                        slot[ng] = q * LANES + l
+                        slot[ng] = o + l
                         ng += 1
                         if ng == GROUP:
                             _fix(rk4, w, g, slot, GROUP, P, K, E, F, ktab, kamp, etab, ftab)
