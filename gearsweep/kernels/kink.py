@@ -475,7 +475,7 @@ def _newton_quintic(s, y0, d0, q2, c3, c4, c5):
 
 
 @jit_inline
-def _fixup_group(rk4, g, P, K, E, F, ktab, kamp, etab, ftab):
+def _fixup_group(rk4, g, nv, P, K, E, F, ktab, kamp, etab, ftab):
     """Redo the steps of the GROUP lanes gathered in ``g`` that cross one boundary, in one
     branch-free pass vectorised across the group.
 
@@ -492,8 +492,11 @@ def _fixup_group(rk4, g, P, K, E, F, ktab, kamp, etab, ftab):
 
     Writes the new end state into rows ``_GTX, _GTV`` and marks in ``_GREDO`` the lanes it could
     not finish (Newton not converged to ``GROUP_TOL``, e.g. a grazing crossing; a second
-    crossing within the step): ``_fixup`` redoes those from the trial step."""
-    for m in range(GROUP):
+    crossing within the step): ``_fixup`` redoes those from the trial step. Only the first ``nv``
+    slots are computed: a multiple of 8 (one AVX-512 vector), passed at run time so that LLVM
+    vectorises the loop instead of unrolling it (a constant count of 8 is unrolled, and the
+    unrolled code is not vectorised again)."""
+    for m in range(nv):
         X0 = g[_GX0 * GROUP + m]
         V0 = g[_GV0 * GROUP + m]
         TX = g[_GTX * GROUP + m]
@@ -545,9 +548,10 @@ def _fixup_group(rk4, g, P, K, E, F, ktab, kamp, etab, ftab):
 
 
 @jit_inline
-def _gather(g, m, w, o, l, kamp, etab, ftab):
+def _gather(g, m, w, o, l, kamp, ktab, etab, ftab):
     """Copy lane ``l`` of the block at offset ``o`` into slot ``m`` of the fix-up group (the
-    scales of terms that are off stay unread, as in the lane loops)."""
+    values a scene's specialisation never reads stay uncopied, as in the lane loops: the scales
+    of terms that are off, and the mean stiffness where one table is the stiffness itself)."""
     m = m & (GROUP - 1)  # provably >= 0: no wraparound test on each index (GROUP is 2^k)
     g[_GX0 * GROUP + m] = w[o + _XO * LANES + l]
     g[_GV0 * GROUP + m] = w[o + _VO * LANES + l]
@@ -556,7 +560,8 @@ def _gather(g, m, w, o, l, kamp, etab, ftab):
     g[_GH * GROUP + m] = w[o + _H * LANES + l]
     g[_GB * GROUP + m] = w[o + _B * LANES + l]
     g[_GC * GROUP + m] = w[o + _C * LANES + l]
-    g[_GKM * GROUP + m] = w[o + _KM * LANES + l]
+    if ktab is None or kamp is not None:
+        g[_GKM * GROUP + m] = w[o + _KM * LANES + l]
     if kamp is not None:
         g[_GKA * GROUP + m] = w[o + _KA * LANES + l]
     g[_GGM * GROUP + m] = w[o + _GM * LANES + l]
@@ -570,8 +575,9 @@ def _gather(g, m, w, o, l, kamp, etab, ftab):
 def _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab):
     """Fix up the ``ng`` lanes gathered in ``g`` (``slot``: index of each lane's row 0 in ``w``)
     and scatter the results back; lanes the group pass marks go through the scalar ``_fixup``."""
-    # slots ng.. hold an earlier group's lanes (or zeros): computed alongside, results dropped
-    _fixup_group(rk4, g, P, K, E, F, ktab, kamp, etab, ftab)
+    # slots ng.. up to the next multiple of 8 hold an earlier group's lanes (or zeros): computed
+    # alongside, results dropped
+    _fixup_group(rk4, g, (ng + 7) & -8, P, K, E, F, ktab, kamp, etab, ftab)
     for m in range(ng):
         i = slot[m]
         if g[_GREDO * GROUP + m] != 0.0:
@@ -602,16 +608,22 @@ def _driver(method):
         vf = np.empty(n)
         status = np.zeros(n, np.int8)
         substeps = np.zeros(n)
-        span = sub * LANES
-        nblocks = (n + span - 1) // span
+        # Kink block ``blk`` steps the plain blocks blk, blk + nblocks, blk + 2 nblocks, ...:
+        # interleaved, so that each thread's share of kink blocks spans the whole batch. Crossings
+        # cluster in parts of a sweep (B2: none below about 3000 rpm), and contiguous kink blocks
+        # would leave one thread with most of the fix-ups. Each lane's arithmetic does not depend
+        # on its block, so the results do not change.
+        nplain = (n + LANES - 1) // LANES
+        nblocks = (nplain + sub - 1) // sub
         for blk in prange(nblocks):
             w = _scratch(sub)
             for q in range(sub):
-                _load(w, q * _BLOCK, blk * span + q * LANES, n, h, cm, kmean, kamp, gmean, escale,
+                _load(w, q * _BLOCK, (blk + q * nblocks) * LANES, n, h, cm, kmean, kamp, gmean, escale,
                       fscale, half_gap, bound, x0, v0)
             P = np.zeros((3, 5))
             g = np.zeros(_G_ROWS * GROUP)
             slot = np.zeros(GROUP, np.int64)
+            masks = np.zeros(sub, np.int64)
             half = n_transient + n_record // 2
             j = 0
             jp = 0
@@ -635,22 +647,30 @@ def _driver(method):
                 K = _row(ktab, j)
                 E = _row(etab, j)
                 F = _row(ftab, j)
-                have_p = False
-                ng = 0
+                # First every sub-block's trial step, each returning its crossing mask; then the
+                # crossing lanes of all of them, gathered into groups. No branch between the lane
+                # loops depends on a mask, so the next sub-block's loop does not wait for one.
                 for q in range(sub):
                     o = q * _BLOCK
                     if rk4:
                         if rec:
-                            mask = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True,
-                                              True)
+                            masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F,
+                                                  True, True)
                         else:
-                            mask = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False,
-                                              True)
+                            masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F,
+                                                  False, True)
                     elif rec:
-                        mask = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True, True)
+                        masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True,
+                                              True)
                     else:
-                        mask = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False, True)
-                    live = n - blk * span - q * LANES  # lanes past it repeat the last case
+                        masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False,
+                                              True)
+                have_p = False
+                ng = 0
+                for q in range(sub):
+                    mask = masks[q]
+                    o = q * _BLOCK
+                    live = n - (blk + q * nblocks) * LANES  # lanes past it repeat the last case
                     while mask != 0:
                         l = np.int64(trailing_zeros(mask))
                         mask &= mask - 1
@@ -664,7 +684,7 @@ def _driver(method):
                             if ftab is not None:
                                 _monomials(F, P, 2)
                             have_p = True
-                        _gather(g, ng, w, o, l, kamp, etab, ftab)
+                        _gather(g, ng, w, o, l, kamp, ktab, etab, ftab)
                         slot[ng] = o + l
                         ng += 1
                         if ng == GROUP:
@@ -676,11 +696,12 @@ def _driver(method):
                 jp = jp + 1 if jp + 1 < steps_per_period else 0
                 for q in range(sub):
                     if signal is not None and s >= n_transient:
-                        _sample(w, q * _BLOCK, signal, s - n_transient, stride, blk * span + q * LANES, n)
+                        _sample(w, q * _BLOCK, signal, s - n_transient, stride, (blk + q * nblocks) * LANES,
+                                n)
                     if jp == 0:
                         _check(w, q * _BLOCK)
             for q in range(sub):
-                i0 = blk * span + q * LANES
+                i0 = (blk + q * nblocks) * LANES
                 if i0 < n:
                     _finish(w, q * _BLOCK, i0, n, n_record, steps_per_period, stats, xf, vf, status)
                     for l in range(min(LANES, n - i0)):

@@ -66,6 +66,10 @@ STAT_NAMES = (
 """``settle_error``: change of the extremes between the first and the second half of the recorded
 window, relative to the peak-to-peak: near 0 for a settled periodic response."""
 
+_BIT = np.array([1 << l for l in range(LANES)], np.int64)
+"""Lane ``l``'s bit in a block's crossing mask (a constant table: one masked OR per vector of
+lanes, where shifting by the lane index took three vector operations)."""
+
 STATUS_OK = 0
 STATUS_DIVERGED = 1
 """The state became non-finite or left ``|p| <= bound``: the case was stopped, statistics NaN."""
@@ -145,24 +149,24 @@ def _scratch(nsub):
 
 @jit_inline
 def _law(X, b, half_gap, kink):
-    """Slope and shift (sw, sh) of the force law f(p) = sw (p - sh) that the kink-aware kernel's
-    trial step uses in every stage: the law of the region of the step's start p = X (contact
-    beyond +-b: sw = 1, sh = +-b; gap: sw = 0), extended smoothly beyond its boundaries, so
-    that the trial step is one smooth trajectory that ``kink._fixup_group`` can interpolate.
-    Where every stage stays in that region this is the dead zone itself, bit for bit
-    (1 * (p - b) and 0 * (p - sh) are exact). The plain kernel (``kink`` False) keeps the dead
-    zone in every stage."""
+    """The force law f(p) = on (p - sh) that the kink-aware kernel's trial step uses in every
+    stage: the law of the region of the step's start p = X (contact beyond +-b: on, sh = +-b;
+    gap: off), extended smoothly beyond its boundaries, so that the trial step is one smooth
+    trajectory that ``kink._fixup_group`` can interpolate. Where every stage stays in the start
+    region this is the dead zone itself, bit for bit: p - b in contact (the plain kernel's own
+    operation) and 0 in the gap. The plain kernel (``kink`` False) keeps the dead zone in every
+    stage."""
     if kink and half_gap is not None:
-        return (1.0 if abs(X) > b else 0.0), (b if X > 0.0 else -b)
-    return 1.0, 0.0
+        return (X > b) | (X < -b), (b if X > b else -b)
+    return True, 0.0
 
 
 @jit_inline
-def _stage_spring(x, b, half_gap, kink, sw, sh):
-    """f(p) at a stage: the start region's law in the kink-aware kernel (see ``_law``), else
-    ``_spring``."""
+def _stage_spring(x, b, half_gap, kink, on, sh):
+    """f(p) at a stage: the start region's law in the kink-aware kernel (see ``_law``; one
+    subtraction with AVX-512 zero-masking), else ``_spring``."""
     if kink and half_gap is not None:
-        return sw * (x - sh)
+        return (x - sh) if on else 0.0
     return _spring(x, b, half_gap)
 
 
@@ -188,7 +192,7 @@ def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
         if half_gap is not None:
             b = w[o + _B * LANES + l]
             crossed = ((X > b) != (Xn > b)) | ((X < -b) != (Xn < -b))
-            return np.int64(crossed) << l
+            return _BIT[l] if crossed else np.int64(0)
         return np.int64(0)
     if rec:
         _record(w, o, l, Xn, half_gap)
@@ -209,6 +213,9 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         c = w[o + _C * LANES + l]
         kl = w[o + _KM * LANES + l]
         kal = w[o + _KA * LANES + l]
+        X = w[o + _X * LANES + l]
+        V = w[o + _V * LANES + l]
+        on, sh = _law(X, b, half_gap, kink)
         Ka = _k(kl, kal, K[0], ktab, kamp)
         Kb = _k(kl, kal, K[2], ktab, kamp)
         Kc = _k(kl, kal, K[4], ktab, kamp)
@@ -218,23 +225,20 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         Ga = _g(gl, el, E[0], etab, fl, F[0], ftab)
         Gb = _g(gl, el, E[2], etab, fl, F[2], ftab)
         Gc = _g(gl, el, E[4], etab, fl, F[4], ftab)
-        X = w[o + _X * LANES + l]
-        V = w[o + _V * LANES + l]
-        sw, sh = _law(X, b, half_gap, kink)
         k1x = V
-        k1v = Ga - c * V - Ka * _stage_spring(X, b, half_gap, kink, sw, sh)
+        k1v = Ga - c * V - Ka * _stage_spring(X, b, half_gap, kink, on, sh)
         x2 = X + q2 * k1x
         v2 = V + q2 * k1v
         k2x = v2
-        k2v = Gb - c * v2 - Kb * _stage_spring(x2, b, half_gap, kink, sw, sh)
+        k2v = Gb - c * v2 - Kb * _stage_spring(x2, b, half_gap, kink, on, sh)
         x3 = X + q2 * k2x
         v3 = V + q2 * k2v
         k3x = v3
-        k3v = Gb - c * v3 - Kb * _stage_spring(x3, b, half_gap, kink, sw, sh)
+        k3v = Gb - c * v3 - Kb * _stage_spring(x3, b, half_gap, kink, on, sh)
         x4 = X + hh * k3x
         v4 = V + hh * k3v
         k4x = v4
-        k4v = Gc - c * v4 - Kc * _stage_spring(x4, b, half_gap, kink, sw, sh)
+        k4v = Gc - c * v4 - Kc * _stage_spring(x4, b, half_gap, kink, on, sh)
         Xn = X + w[o + _H6 * LANES + l] * (k1x + 2 * k2x + 2 * k3x + k4x)
         w[o + _X * LANES + l] = Xn
         w[o + _V * LANES + l] = V + w[o + _H6 * LANES + l] * (k1v + 2 * k2v + 2 * k3v + k4v)
@@ -258,7 +262,7 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         fl = w[o + _FS * LANES + l]
         X = w[o + _X * LANES + l]
         V = w[o + _V * LANES + l]
-        sw, sh = _law(X, b, half_gap, kink)
+        on, sh = _law(X, b, half_gap, kink)
         G0 = _g(gl, el, E[0], etab, fl, F[0], ftab)
         G1 = _g(gl, el, E[1], etab, fl, F[1], ftab)
         G2 = _g(gl, el, E[2], etab, fl, F[2], ftab)
@@ -271,32 +275,32 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         K4 = _k(kl, kal, K[4], ktab, kamp)
         # stage 1, c = 0
         a1 = V
-        b1 = G0 - c * V - K0 * _stage_spring(X, b, half_gap, kink, sw, sh)
+        b1 = G0 - c * V - K0 * _stage_spring(X, b, half_gap, kink, on, sh)
         # stage 2, c = 1/4
         x2 = X + h * (0.25 * a1)
         v2 = V + h * (0.25 * b1)
         a2 = v2
-        b2 = G1 - c * v2 - K1 * _stage_spring(x2, b, half_gap, kink, sw, sh)
+        b2 = G1 - c * v2 - K1 * _stage_spring(x2, b, half_gap, kink, on, sh)
         # stage 3, c = 1/4
         x3 = X + h * (0.125 * a1 + 0.125 * a2)
         v3 = V + h * (0.125 * b1 + 0.125 * b2)
         a3 = v3
-        b3 = G1 - c * v3 - K1 * _stage_spring(x3, b, half_gap, kink, sw, sh)
+        b3 = G1 - c * v3 - K1 * _stage_spring(x3, b, half_gap, kink, on, sh)
         # stage 4, c = 1/2
         x4 = X + h * (-0.5 * a2 + a3)
         v4 = V + h * (-0.5 * b2 + b3)
         a4 = v4
-        b4 = G2 - c * v4 - K2 * _stage_spring(x4, b, half_gap, kink, sw, sh)
+        b4 = G2 - c * v4 - K2 * _stage_spring(x4, b, half_gap, kink, on, sh)
         # stage 5, c = 3/4
         x5 = X + h * (0.1875 * a1 + 0.5625 * a4)
         v5 = V + h * (0.1875 * b1 + 0.5625 * b4)
         a5 = v5
-        b5 = G3 - c * v5 - K3 * _stage_spring(x5, b, half_gap, kink, sw, sh)
+        b5 = G3 - c * v5 - K3 * _stage_spring(x5, b, half_gap, kink, on, sh)
         # stage 6, c = 1
         x6 = X + h * (-3.0 * a1 + 2.0 * a2 + 12.0 * a3 - 12.0 * a4 + 8.0 * a5) / 7.0
         v6 = V + h * (-3.0 * b1 + 2.0 * b2 + 12.0 * b3 - 12.0 * b4 + 8.0 * b5) / 7.0
         a6 = v6
-        b6 = G4 - c * v6 - K4 * _stage_spring(x6, b, half_gap, kink, sw, sh)
+        b6 = G4 - c * v6 - K4 * _stage_spring(x6, b, half_gap, kink, on, sh)
         Xn = X + h * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) / 90.0
         w[o + _X * LANES + l] = Xn
         w[o + _V * LANES + l] = V + h * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0
