@@ -1,4 +1,5 @@
-"""Kink-aware fixed-step RK4/RK5: steps that cross the backlash boundaries are redone in pieces.
+"""Kink-aware fixed-step RK4/RK5: steps that cross the backlash boundaries are finished in the
+new region.
 
 Same model, tables, arguments and statistics as ``gearsweep.kernels.rk.integrate`` (see its
 docstring); the two kernels differ only in steps whose end state lies in another region of the
@@ -22,16 +23,18 @@ How
    it is the plain step bit for bit. In the same lane loop (``rk._after_step``) every lane
    keeps its start state and sets its bit in a crossing mask if its region at the step's end
    (p > b, |p| <= b, p < -b) differs from the region at its start. The statistics take each
-   step's start state there too, so no extra pass over the lanes is needed.
-2. The flagged lanes of the whole kink block are gathered into groups of ``GROUP``, and
-   ``_fixup_group`` redoes their steps in one branch-free pass vectorised across the group:
-   a. the quintic Hermite interpolant of the trial trajectory (p, p', p'' at both ends, p''
-      from the trial's own law and the table nodes 0 and 4) follows it to O(h^6) in p and
-      O(h^5) in p', plus the trial step's own error;
-   b. its root (a secant estimate and two Newton steps) is the crossing time, and the
-      interpolant gives the state there;
-   c. a substep of the same method with the new region's force law finishes the step.
-   A crossing costs one substep and two evaluations of p''.
+   step's start state there too, so no extra pass over the lanes is needed. The plain blocks of
+   a kink block are interleaved over the batch (block blk holds blk, blk + nblocks, ...), so
+   each thread's share spans the whole sweep.
+2. After all blocks' trial steps, the flagged lanes of the kink block are gathered into groups
+   of ``GROUP``, and ``_fixup_group`` corrects their steps in one branch-free pass vectorised
+   across the group. RK4 (``_correct_rk4``): the crossing time and velocity from the cubic
+   Hermite interpolant of the trial (inverse-cubic estimate, Newton steps), then the trial's end
+   plus the closed-form Taylor series of the difference between the two laws' trajectories
+   (a linear equation in which the forcing cancels), to tau^5: no substep. RK5
+   (``_correct_rk5``): the crossing from the quintic Hermite interpolant (p'' at both ends too)
+   and a substep of RK5 with the new law. Cost per crossing: 0.25 step-equivalents (RK4, the
+   coefficients at the crossing) or 4/3 (RK5, a substep and two evaluations of p'').
 3. The few lanes the group cannot finish (a second crossing within the step, Newton not
    converged, e.g. for a grazing crossing) go through the scalar ``_fixup``: substeps with the
    region's law to the estimate of the cubic Hermite interpolant, ``_project`` onto the boundary
@@ -41,19 +44,21 @@ How
 Steps of lanes that do not cross are untouched, so a case whose stages never leave their
 region gives results identical bit for bit to the plain kernel.
 
-Why the order is kept: the interpolant's p' at the crossing inherits the trial step's end error
-amplified by 1/h, O(h^4) for RK4 and O(h^5) for RK5; a crossing time off by delta costs
-K p' delta^2 (the two laws agree on the boundary). With a bounded number of crossings per mesh
-period, local errors O(h^4) / O(h^5) at crossings add O(h^4) / O(h^5) to the global error, the
-orders of the two methods (measured: tests/test_precision.py, docs/precision.md).
+Why the order is kept: with a bounded number of crossings per mesh period, a crossing step needs
+only a local error O(h^4) (RK4) / O(h^5) (RK5) for the global error to keep the method's order.
+RK4's correction is O(h^5) in p' (series truncation O(tau^5); crossing time O(h^4) and velocity
+O(h^3) from the cubic enter as K p' tau dt and K tau^2 dv); RK5's interpolant gives p' at the
+crossing to the trial's end error amplified by 1/h, O(h^5), and a crossing time off by delta
+costs K p' delta^2 (the two laws agree on the boundary). Measured: tests/test_precision.py,
+docs/precision.md.
 
 Coefficients inside a step
 --------------------------
-The tables hold K(t) and G(t) only at the five quarter-step nodes of each step. Substeps need
+The tables hold K(t) and G(t) only at the five quarter-step nodes of each step. The fix-ups need
 them at other times; they are taken from the quartic through the five node values of the step
 (its monomial coefficients in the step fraction, which also give the time derivatives needed
-by the Taylor polynomial). For smooth periodic coefficients its error is O(h^5) relative to the
-coefficient; it acts only over the substeps of crossing steps (a bounded number per period), so
+by the series and the Taylor polynomial). For smooth periodic coefficients its error is O(h^5)
+relative to the coefficient; it acts only at crossing steps (a bounded number per period), so
 it adds O(h^6) to the global error: below the order of both methods. (A linear interpolant
 would add O(h^2) per crossing and undo the gain.) This keeps ``simulate``'s table conventions;
 no Fourier coefficients are needed.
@@ -67,14 +72,16 @@ contacts, where the excursion lasts less than one step. A crossing at which p' i
 last estimate is kept.
 
 Cost counter: ``integrate`` also returns the extra work per case in step-equivalents (right-hand
-side evaluations / stages of the method): a group fix-up counts 1 + 2 / stages, the scalar path
-one per substep and one per projection.
+side evaluations / stages of the method): a group fix-up counts 0.25 (RK4) or 4/3 (RK5), the
+scalar path one per substep and one per projection.
 
-Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.7 to 1.8
+Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.6 to 1.7
 times the plain kernel's wall time on two threads (``scripts/bench_kink.py``;
-docs/precision.md): about 1.35 for the trial lane loops with their crossing test (no crossing at
-all), the rest for gathering, fixing up and scattering the flagged lanes. Without backlash (``half_gap=None``)
-the detection is compiled out and the cost is the plain kernel's.
+docs/precision.md; 2.0 to 2.1 before the changes of 24 Nov 2026 in the same alternating runs):
+about 1.12 for the trial lane loops with their crossing test, about 0.17 for finding and
+gathering the crossing lanes, the rest for the group pass, scattering, and the 0.23 % of
+crossings (grazing ones) that take the scalar path. Without backlash (``half_gap=None``) the
+detection is compiled out and the cost is the plain kernel's.
 """
 
 import numpy as np
@@ -122,9 +129,11 @@ MAX_CROSSINGS = 4
 """Crossings handled within one step; further ones are stepped over as in the plain kernel."""
 NEWTON_MAX = 4
 """Substeps used at most to reach one crossing."""
-SUB_MAX = 8
+SUB_MAX = 4
 """A kink block is up to this many plain blocks of ``LANES`` stepped one after the other, so that
-its crossings fill the vectorised fix-up groups (B2: about 12 crossings per step of 256 lanes)."""
+its crossings share the vectorised fix-up groups (B2: about 6 crossings per step of 128 lanes).
+Four keep the block's scratch (28 rows x 128 lanes, 28 KB) in a 32 KB L1 data cache: with
+eight, B2 took 1.77 instead of 1.68 times the plain kernel (kink/plain, medians of 7 rounds)."""
 GROUP = 16
 """Crossing lanes fixed up together in one branch-free, vectorised pass."""
 GROUP_TOL = 1e-3
@@ -475,23 +484,132 @@ def _newton_quintic(s, y0, d0, q2, c3, c4, c5):
 
 
 @jit_inline
+def _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
+    """Crossing step of RK4 (see ``_fixup_group``): returns (x, v, ok) at the step's end.
+
+    Written for a short dependency chain: the crossing fraction starts from the inverse cubic
+    Hermite s(y) of the trial (its three divisions are independent; error O(h^3) in s) and is
+    refined by Newton steps on the cubic y(s); the correction's coefficients, which do not
+    depend on the crossing velocity, are computed beside those steps (at the inverse-cubic
+    estimate: its error moves them by O(h^4) relative and delta by O(h^7)), and the velocity
+    enters last, linearly: d_k = b_k + a_k vc."""
+    y0 = X0 - bd
+    y1 = TX - bd
+    d0 = h * V0
+    d1 = h * TV
+    Y = y1 - y0
+    # cubic Hermite of p - bd in s = t / h: y0 + d0 s + q2 s^2 + c3 s^3
+    q2 = 3.0 * Y - 2.0 * d0 - d1
+    c3 = d0 + d1 - 2.0 * Y
+    # its inverse s(y) as a cubic Hermite in z = (y - y0) / Y, at y = 0 (z: the secant fraction)
+    z = -y0 / Y
+    m0 = Y / d0
+    m1 = Y / d1
+    s = min(max(z * (m0 + z * (3.0 - 2.0 * m0 - m1 + z * (m0 + m1 - 2.0))), 0.0), 1.0)
+    # Newton steps on the cubic (three, written out: a loop would keep LLVM from vectorising the
+    # group's loop); the last one's update is the convergence test, and p' at the root is the
+    # derivative there corrected to first order. Grazing crossings (small p') converge slowly:
+    # with one step 1.3 % of B2's crossings went to the scalar ``_fixup``, which costs a few
+    # hundred plain lane-steps each; with three, 0.23 %.
+    s0 = _newton_cubic(s, y0, d0, q2, c3)
+    s0 = _newton_cubic(s0, y0, d0, q2, c3)
+    yv = y0 + s0 * (d0 + s0 * (q2 + s0 * c3))
+    dv = d0 + s0 * (2.0 * q2 + s0 * 3.0 * c3)
+    ds = yv / dv
+    s1 = min(max(s0 - ds, 0.0), 1.0)
+    ok = abs(ds) <= GROUP_TOL
+    vc = (dv - (2.0 * q2 + 6.0 * c3 * s0) * ds) * ih  # p' at the crossing
+    # coefficients at the crossing and the correction's coefficients, d_k = b_k + a_k vc (taken
+    # at the inverse-cubic estimate s, so that they are computed beside the Newton steps)
+    Kc, Gc = _kg(P, s, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
+    K1, K2, G1, _ = _kg_dt(P, s, ih, ktab, kamp, etab, ftab, kal, el, fl)
+    nw = 1.0 - sw  # the new region's law: the gap after contact, the flank bd after the gap
+    sig = nw - sw
+    g2 = 0.5 * Gc  # u2 = g2 + e2 vc, u3 = g3 + e3 vc (p_trial - bd = vc t + u2 t^2 + u3 t^3)
+    e2 = -0.5 * c
+    g3 = (G1 - c * Gc) * (1.0 / 6.0)
+    e3 = (c * c - Kc * sw) * (1.0 / 6.0)
+    a3 = -sig * Kc * (1.0 / 6.0)
+    b4 = -sig * Kc * g2 * (1.0 / 12.0)
+    a4 = (-sig * (Kc * e2 + K1) - 3.0 * c * a3) * (1.0 / 12.0)
+    b5 = (-sig * (Kc * g3 + K1 * g2) - 4.0 * c * b4) * (1.0 / 20.0)
+    a5 = (-sig * (Kc * e3 + K1 * e2 + 0.5 * K2) - 4.0 * c * a4 - nw * Kc * a3) * (1.0 / 20.0)
+    tau = (1.0 - s1) * h
+    x = TX + tau * tau * tau * (vc * (a3 + tau * (a4 + tau * a5)) + tau * (b4 + tau * b5))
+    v = TV + tau * tau * (vc * (3.0 * a3 + tau * (4.0 * a4 + tau * 5.0 * a5))
+                          + tau * (4.0 * b4 + tau * 5.0 * b5))
+    return x, v, ok
+
+
+@jit_inline
+def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, etab, ftab,
+                 kl, kal, gl, el, fl):
+    """Crossing step of RK5 (see ``_fixup_group``): returns (x, v, ok) at the step's end. The
+    crossing comes from the quintic Hermite of the trial (p'' at both ends from the trial's law
+    and the table nodes 0 and 4), a secant estimate and two Newton steps; a substep of RK5 with
+    the new region's law finishes the step."""
+    A0 = (_g(gl, el, E[0], etab, fl, F[0], ftab) - c * V0
+          - _k(kl, kal, K[0], ktab, kamp) * (sw * (X0 - sh)))
+    A1 = (_g(gl, el, E[4], etab, fl, F[4], ftab) - c * TV
+          - _k(kl, kal, K[4], ktab, kamp) * (sw * (TX - sh)))
+    # quintic Hermite in s = t / h of p - bd: y0 + d0 s + q2 s^2 + c3 s^3 + c4 s^4 + c5 s^5
+    hh = h * h
+    y0 = X0 - bd
+    y1 = TX - bd
+    d0 = h * V0
+    q2 = 0.5 * hh * A0
+    D = y1 - y0 - d0 - q2
+    E1 = h * TV - d0 - 2.0 * q2
+    F1 = hh * A1 - 2.0 * q2
+    c3 = 10.0 * D - 4.0 * E1 + 0.5 * F1
+    c4 = -15.0 * D + 7.0 * E1 - F1
+    c5 = 6.0 * D - 3.0 * E1 + 0.5 * F1
+    den = y0 - y1
+    s = min(max(y0 / den if den != 0.0 else 0.0, 0.0), 1.0)
+    s = _newton_quintic(s, y0, d0, q2, c3, c4, c5)  # two steps, written out (see _project)
+    s1 = _newton_quintic(s, y0, d0, q2, c3, c4, c5)
+    ok = abs(s1 - s) <= GROUP_TOL
+    y, dy = _quintic(s1, y0, d0, q2, c3, c4, c5)
+    # the new region's law: the gap after contact, the flank bd after the gap
+    x, v = _substep(False, bd + y, dy / h, s1, 1.0, h, 1.0 - sw, bd, c, P, ktab, kamp, etab,
+                    ftab, kl, kal, gl, el, fl)
+    return x, v, ok
+
+
+@jit_inline
 def _fixup_group(rk4, g, nv, P, K, E, F, ktab, kamp, etab, ftab):
-    """Redo the steps of the GROUP lanes gathered in ``g`` that cross one boundary, in one
+    """Correct the steps of the GROUP lanes gathered in ``g`` that cross one boundary, in one
     branch-free pass vectorised across the group.
 
     The trial step was taken with the start region's force law extended past the boundary
-    (``rk._law``): one smooth trajectory, so its quintic Hermite interpolant in time (p, p' and
-    p'' at both ends, p'' from the same law and the table nodes 0 and 4) follows it to O(h^6)
-    in p and O(h^5) in p', plus the step's own error (O(h^5) for RK4; its 1/h-amplified share in
-    p' leaves a local error O(h^4) at a crossing, which with a bounded number of crossings per
-    period adds O(h^4) to the global error: RK4 keeps order 4, RK5 order 5). The crossing time is
-    the interpolant's root (a secant estimate and two Newton steps); the state there comes from
-    the interpolant; a substep of the same method with the new region's law finishes the step.
-    A crossing time off by delta costs only K p' delta^2 (the two laws agree on the boundary).
-    Cost: one substep and two evaluations of p'' per crossing.
+    (``rk._law``): one smooth trajectory p_trial. From the crossing time t_c on, the true
+    trajectory follows the new region's law; both laws are f = sw (p - bd), equal on the
+    boundary bd, so the difference delta = p - p_trial obeys a LINEAR equation in which the
+    forcing G(t) cancels:
+
+        delta'' + c delta' + K(t) sw_new delta = -sigma K(t) (p_trial - bd),
+        delta(t_c) = delta'(t_c) = 0,   sigma = sw_new - sw_old = +-1.
+
+    Its Taylor series delta = d3 tau^3 + d4 tau^4 + d5 tau^5 (tau = t - t_c) has closed-form
+    coefficients from K, K', K'' at t_c and the derivatives of p_trial there (the old law gives
+    all but the first from the crossing velocity, because f_old(bd) = 0), so the step ends at
+    the trial's end plus delta(tau) and its derivative: O(tau^5) in p'. t_c and the crossing
+    velocity come from the cubic Hermite interpolant of the trial (``_correct_rk4``); their
+    errors, O(h^4) and O(h^3), enter p' as K p' tau dt and K tau^2 dv: O(h^5). A bounded number
+    of crossings per mesh period needs only O(h^4) locally, so RK4 keeps order 4, with the errors
+    of the substep this replaced (within 10 % at 32-1024 steps per period, docs/precision.md).
+    Why a correction rather than a new substep from t_c: the pass is one long dependency chain
+    over only a few vectors of lanes per step, so its latency, not its arithmetic, sets its
+    cost (computing 32 slots cost the same as computing 8).
+
+    RK5 (``_correct_rk5``) keeps the substep: the quintic Hermite (p'' at both ends too) gives
+    t_c and the state there, and an RK5 substep with the new law finishes the step. The series
+    to tau^5 made its convergence erratic (the error depends on where each crossing falls in its
+    step; fitted order 4.4), and to tau^6, with every coefficient table on, it was 2.3 times
+    less accurate than the substep at 32 steps per period (fitted order 6.2 over 32-256).
 
     Writes the new end state into rows ``_GTX, _GTV`` and marks in ``_GREDO`` the lanes it could
-    not finish (Newton not converged to ``GROUP_TOL``, e.g. a grazing crossing; a second
+    not finish (Newton's last update above ``GROUP_TOL``, e.g. a grazing crossing; a second
     crossing within the step): ``_fixup`` redoes those from the trial step. Only the first ``nv``
     slots are computed: a multiple of 8 (one AVX-512 vector), passed at run time so that LLVM
     vectorises the loop instead of unrolling it (a constant count of 8 is unrolled, and the
@@ -509,38 +627,18 @@ def _fixup_group(rk4, g, nv, P, K, E, F, ktab, kamp, etab, ftab):
         gl = g[_GGM * GROUP + m]
         el = g[_GES * GROUP + m]
         fl = g[_GFS * GROUP + m]
+        ih = 1.0 / h
         sw = 1.0 if abs(X0) > b else 0.0  # the start region's law, as in rk._law
         sh = b if X0 > 0.0 else -b
         # the boundary crossed: the flank being left, or (from the gap) the one reached
         bd = sh if sw != 0.0 else (b if TX > 0.0 else -b)
-        # p'' at both ends of the trial step, with the law it was taken with
-        A0 = (_g(gl, el, E[0], etab, fl, F[0], ftab) - c * V0
-              - _k(kl, kal, K[0], ktab, kamp) * (sw * (X0 - sh)))
-        A1 = (_g(gl, el, E[4], etab, fl, F[4], ftab) - c * TV
-              - _k(kl, kal, K[4], ktab, kamp) * (sw * (TX - sh)))
-        # quintic Hermite in s = t / h of p - bd: y0 + d0 s + q2 s^2 + c3 s^3 + c4 s^4 + c5 s^5
-        hh = h * h
-        y0 = X0 - bd
-        y1 = TX - bd
-        d0 = h * V0
-        q2 = 0.5 * hh * A0
-        D = y1 - y0 - d0 - q2
-        E1 = h * TV - d0 - 2.0 * q2
-        F1 = hh * A1 - 2.0 * q2
-        c3 = 10.0 * D - 4.0 * E1 + 0.5 * F1
-        c4 = -15.0 * D + 7.0 * E1 - F1
-        c5 = 6.0 * D - 3.0 * E1 + 0.5 * F1
-        den = y0 - y1
-        s = min(max(y0 / den if den != 0.0 else 0.0, 0.0), 1.0)
-        s = _newton_quintic(s, y0, d0, q2, c3, c4, c5)  # two steps, written out (see _project)
-        s1 = _newton_quintic(s, y0, d0, q2, c3, c4, c5)
-        ok = abs(s1 - s) <= GROUP_TOL
-        y, dy = _quintic(s1, y0, d0, q2, c3, c4, c5)
-        # the new region's law: the gap after contact, the flank bd after the gap
-        nw = 1.0 - sw
-        FX, FV = _substep(rk4, bd + y, dy / h, s1, 1.0, h, nw, bd, c, P, ktab, kamp, etab, ftab,
-                          kl, kal, gl, el, fl)
-        rn = nw * (1.0 if bd > 0.0 else -1.0)
+        if rk4:
+            FX, FV, ok = _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab,
+                                      kl, kal, gl, el, fl)
+        else:
+            FX, FV, ok = _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab,
+                                      kamp, etab, ftab, kl, kal, gl, el, fl)
+        rn = (1.0 - sw) * (1.0 if bd > 0.0 else -1.0)
         hard = not ok or _region(FX, b) != rn
         g[_GTX * GROUP + m] = FX
         g[_GTV * GROUP + m] = FV
@@ -592,7 +690,8 @@ def _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab):
         else:
             w[i + _X * LANES] = g[_GTX * GROUP + m]
             w[i + _V * LANES] = g[_GTV * GROUP + m]
-            w[i + _NSUB * LANES] += 1.5 if rk4 else 4.0 / 3.0  # a substep and two p'' evaluations
+            # RK4: the coefficients at the crossing; RK5: a substep and two p'' evaluations
+            w[i + _NSUB * LANES] += 0.25 if rk4 else 4.0 / 3.0
 
 
 def _driver(method):
