@@ -1,7 +1,11 @@
 """Wall time of the kink-aware kernel against the plain kernel on problem B2 of
 ``/work/shared/bench/README.md`` (10,000 cases, RK4, 64 steps per mesh period, 200 periods,
 backlash 4 um). Prints one JSON line per kernel and the ratio; best of ``--repeat`` runs after a
-warm-up (compilation), both kernels timed in the same run, alternating."""
+warm-up (compilation), both kernels timed in the same run, alternating.
+
+``--threads 1`` gives the steadiest ratio on a shared virtual machine: with two threads the
+ratio moved between 1.50 and 1.76 from one process to the next (24 Nov 2026, same code; within
+one process it held to 0.01), with one thread between 1.65 and 1.69."""
 
 from __future__ import annotations
 
@@ -9,6 +13,7 @@ import argparse
 import json
 import time
 
+import numba
 import numpy as np
 
 from gearsweep.kernels.batch import simulate
@@ -37,7 +42,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--cases", type=int, default=10_000)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--threads", type=int, default=None,
+                    help="Numba threads (default: all cores)")
     args = ap.parse_args()
+    if args.threads is not None:
+        numba.set_num_threads(args.threads)
     kw = b2_kwargs(args.cases)
     best = {False: np.inf, True: np.inf}
     res = {}
@@ -53,7 +62,8 @@ def main() -> None:
         r = res[ka]
         amp = np.maximum(np.abs(r.stats["p_max"]), np.abs(r.stats["p_min"]))
         line = {"problem": "B2", "kernel": "kink" if ka else "plain", "seconds": best[ka],
-                "msteps_per_s": steps / best[ka] / 1e6, "median_amplitude_m": float(np.median(amp))}
+                "msteps_per_s": steps / best[ka] / 1e6, "threads": numba.get_num_threads(),
+                "median_amplitude_m": float(np.median(amp))}
         if ka:
             line["substeps_per_step"] = float(r.substeps.sum() / steps)
         print(json.dumps(line))
