@@ -3,9 +3,9 @@
 backlash 4 um). Prints one JSON line per kernel and the ratio; best of ``--repeat`` runs after a
 warm-up (compilation), both kernels timed in the same run, alternating.
 
-``--threads 1`` gives the steadiest ratio on a shared virtual machine: with two threads the
-ratio moved between 1.50 and 1.76 from one process to the next (24 Nov 2026, same code; within
-one process it held to 0.01), with one thread between 1.65 and 1.69."""
+``--threads 1`` gave the steadier ratio on a shared virtual machine: with two threads the ratio
+moved between 1.50 and 1.76 from one process to the next (24 Nov 2026, same code; within one
+process it held to 0.01), with one thread between 1.65 and 1.69 (docs/precision.md)."""
 
 from __future__ import annotations
 
