@@ -75,8 +75,8 @@ Cost counter: ``integrate`` also returns the extra work per case in step-equival
 side evaluations / stages of the method): a group fix-up counts 0.25 (RK4) or 4/3 (RK5), the
 scalar path one per substep and one per projection.
 
-Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.6 to 1.7
-times the plain kernel's wall time on two threads (``scripts/bench_kink.py``;
+Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.6 to 1.75
+times the plain kernel's wall time (``scripts/bench_kink.py``, one or two threads;
 docs/precision.md; 2.0 to 2.1 before the changes of 24 Nov 2026 in the same alternating runs):
 about 1.12 for the trial lane loops with their crossing test, about 0.17 for finding and
 gathering the crossing lanes, the rest for the group pass, scattering, and the 0.23 % of
