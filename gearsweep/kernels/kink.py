@@ -177,6 +177,22 @@ def _monomials(row, P, q):
 
 
 @jit_inline
+def _monomial_table(ktab, etab, ftab, S):
+    """Monomial coefficients of every step's quartics (``_monomials``), once per batch: table
+    [j, q] for step j of the cycle and q = 0, 1, 2 for the stiffness, STE and torque shapes
+    (rows of the tables that are off stay zero)."""
+    PT = np.zeros((S, 3, 5))
+    for j in range(S):
+        if ktab is not None:
+            _monomials(ktab[j], PT[j], 0)
+        if etab is not None:
+            _monomials(etab[j], PT[j], 1)
+        if ftab is not None:
+            _monomials(ftab[j], PT[j], 2)
+    return PT
+
+
+@jit_inline
 def _val(P, q, th):
     return (((P[q, 4] * th + P[q, 3]) * th + P[q, 2]) * th + P[q, 1]) * th + P[q, 0]
 
@@ -694,6 +710,17 @@ def _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab):
             w[i + _NSUB * LANES] += 0.25 if rk4 else 4.0 / 3.0
 
 
+@jit_inline
+def _live(w, o, nlive):
+    """Crossing-mask bits of the block's lanes that hold a running case: the first ``nlive``
+    lanes (those past the batch's end repeat its last case), less the diverged ones."""
+    bits = np.int64(0)
+    for l in range(LANES):
+        if l < nlive and w[o + _DEAD * LANES + l] == 0.0:
+            bits |= np.int64(1) << l
+    return bits
+
+
 def _driver(method):
     """The kink-aware batch driver of one method (see ``rk._driver``)."""
     rk4 = method == RK4
@@ -714,6 +741,7 @@ def _driver(method):
         # on its block, so the results do not change.
         nplain = (n + LANES - 1) // LANES
         nblocks = (nplain + sub - 1) // sub
+        PT = _monomial_table(ktab, etab, ftab, S)
         for blk in prange(nblocks):
             w = _scratch(sub)
             for q in range(sub):
@@ -723,6 +751,9 @@ def _driver(method):
             g = np.zeros(_G_ROWS * GROUP)
             slot = np.zeros(GROUP, np.int64)
             masks = np.zeros(sub, np.int64)
+            live = np.zeros(sub, np.int64)  # bits of the lanes that hold a case still running
+            for q in range(sub):
+                live[q] = _live(w, q * _BLOCK, n - (blk + q * nblocks) * LANES)
             half = n_transient + n_record // 2
             j = 0
             jp = 0
@@ -767,21 +798,15 @@ def _driver(method):
                 have_p = False
                 ng = 0
                 for q in range(sub):
-                    mask = masks[q]
+                    mask = masks[q] & live[q]
                     o = q * _BLOCK
-                    live = n - (blk + q * nblocks) * LANES  # lanes past it repeat the last case
                     while mask != 0:
                         l = np.int64(trailing_zeros(mask))
                         mask &= mask - 1
-                        if l >= live or w[o + _DEAD * LANES + l] != 0.0:
-                            continue
                         if not have_p:
-                            if ktab is not None:
-                                _monomials(K, P, 0)
-                            if etab is not None:
-                                _monomials(E, P, 1)
-                            if ftab is not None:
-                                _monomials(F, P, 2)
+                            for r in range(3):
+                                for k in range(5):
+                                    P[r, k] = PT[j, r, k]
                             have_p = True
                         _gather(g, ng, w, o, l, kamp, ktab, etab, ftab)
                         slot[ng] = o + l
@@ -799,6 +824,7 @@ def _driver(method):
                                 n)
                     if jp == 0:
                         _check(w, q * _BLOCK)
+                        live[q] = _live(w, q * _BLOCK, n - (blk + q * nblocks) * LANES)
             for q in range(sub):
                 i0 = (blk + q * nblocks) * LANES
                 if i0 < n:
