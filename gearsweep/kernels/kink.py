@@ -135,7 +135,9 @@ its crossings share the vectorised fix-up groups (B2: about 6 crossings per step
 Four keep the block's scratch (28 rows x 128 lanes, 28 KB) in a 32 KB L1 data cache: with
 eight, B2 took 1.77 instead of 1.68 times the plain kernel (kink/plain, medians of 7 rounds)."""
 GROUP = 16
-"""Crossing lanes fixed up together in one branch-free, vectorised pass."""
+"""Crossing lanes fixed up together in one branch-free, vectorised pass (a chunk of the group
+array, which has room for every lane of a kink block)."""
+_G_CHUNKS = SUB_MAX * LANES // GROUP
 GROUP_TOL = 1e-3
 """The group fix-up's crossing time is accepted when its last Newton update is below this
 fraction of the step: the error left is of order its square (quadratic convergence), and a
@@ -593,7 +595,7 @@ def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, e
 
 
 @jit_inline
-def _fixup_group(rk4, g, nv, P, K, E, F, ktab, kamp, etab, ftab):
+def _fixup_group(rk4, g, base, nv, P, K, E, F, ktab, kamp, etab, ftab):
     """Correct the steps of the GROUP lanes gathered in ``g`` that cross one boundary, in one
     branch-free pass vectorised across the group.
 
@@ -631,18 +633,18 @@ def _fixup_group(rk4, g, nv, P, K, E, F, ktab, kamp, etab, ftab):
     vectorises the loop instead of unrolling it (a constant count of 8 is unrolled, and the
     unrolled code is not vectorised again)."""
     for m in range(nv):
-        X0 = g[_GX0 * GROUP + m]
-        V0 = g[_GV0 * GROUP + m]
-        TX = g[_GTX * GROUP + m]
-        TV = g[_GTV * GROUP + m]
-        h = g[_GH * GROUP + m]
-        b = g[_GB * GROUP + m]
-        c = g[_GC * GROUP + m]
-        kl = g[_GKM * GROUP + m]
-        kal = g[_GKA * GROUP + m]
-        gl = g[_GGM * GROUP + m]
-        el = g[_GES * GROUP + m]
-        fl = g[_GFS * GROUP + m]
+        X0 = g[base + _GX0 * GROUP + m]
+        V0 = g[base + _GV0 * GROUP + m]
+        TX = g[base + _GTX * GROUP + m]
+        TV = g[base + _GTV * GROUP + m]
+        h = g[base + _GH * GROUP + m]
+        b = g[base + _GB * GROUP + m]
+        c = g[base + _GC * GROUP + m]
+        kl = g[base + _GKM * GROUP + m]
+        kal = g[base + _GKA * GROUP + m]
+        gl = g[base + _GGM * GROUP + m]
+        el = g[base + _GES * GROUP + m]
+        fl = g[base + _GFS * GROUP + m]
         ih = 1.0 / h
         sw = 1.0 if abs(X0) > b else 0.0  # the start region's law, as in rk._law
         sh = b if X0 > 0.0 else -b
@@ -656,45 +658,57 @@ def _fixup_group(rk4, g, nv, P, K, E, F, ktab, kamp, etab, ftab):
                                       kamp, etab, ftab, kl, kal, gl, el, fl)
         rn = (1.0 - sw) * (1.0 if bd > 0.0 else -1.0)
         hard = not ok or _region(FX, b) != rn
-        g[_GTX * GROUP + m] = FX
-        g[_GTV * GROUP + m] = FV
-        g[_GREDO * GROUP + m] = 1.0 if hard else 0.0
+        g[base + _GTX * GROUP + m] = FX
+        g[base + _GTV * GROUP + m] = FV
+        g[base + _GREDO * GROUP + m] = 1.0 if hard else 0.0
 
 
 @jit_inline
-def _gather(g, m, w, o, l, kamp, ktab, etab, ftab):
-    """Copy lane ``l`` of the block at offset ``o`` into slot ``m`` of the fix-up group (the
+def _slot(m):
+    """Index of slot ``m``'s row 0 in the group array: chunks of GROUP slots, each with its
+    ``_G_ROWS`` rows (the masks make it provably in range: no wraparound test on each index)."""
+    m = m & (GROUP * _G_CHUNKS - 1)
+    return (m // GROUP) * (_G_ROWS * GROUP) + (m & (GROUP - 1))
+
+
+@jit_inline
+def _gather(g, m, w, i, kamp, ktab, etab, ftab):
+    """Copy the lane whose row 0 is at ``w[i]`` into slot ``m`` of the fix-up group (the
     values a scene's specialisation never reads stay uncopied, as in the lane loops: the scales
     of terms that are off, and the mean stiffness where one table is the stiffness itself)."""
-    m = m & (GROUP - 1)  # provably >= 0: no wraparound test on each index (GROUP is 2^k)
-    g[_GX0 * GROUP + m] = w[o + _XO * LANES + l]
-    g[_GV0 * GROUP + m] = w[o + _VO * LANES + l]
-    g[_GTX * GROUP + m] = w[o + _X * LANES + l]
-    g[_GTV * GROUP + m] = w[o + _V * LANES + l]
-    g[_GH * GROUP + m] = w[o + _H * LANES + l]
-    g[_GB * GROUP + m] = w[o + _B * LANES + l]
-    g[_GC * GROUP + m] = w[o + _C * LANES + l]
+    m = _slot(m)
+    g[m + _GX0 * GROUP] = w[i + _XO * LANES]
+    g[m + _GV0 * GROUP] = w[i + _VO * LANES]
+    g[m + _GTX * GROUP] = w[i + _X * LANES]
+    g[m + _GTV * GROUP] = w[i + _V * LANES]
+    g[m + _GH * GROUP] = w[i + _H * LANES]
+    g[m + _GB * GROUP] = w[i + _B * LANES]
+    g[m + _GC * GROUP] = w[i + _C * LANES]
     if ktab is None or kamp is not None:
-        g[_GKM * GROUP + m] = w[o + _KM * LANES + l]
+        g[m + _GKM * GROUP] = w[i + _KM * LANES]
     if kamp is not None:
-        g[_GKA * GROUP + m] = w[o + _KA * LANES + l]
-    g[_GGM * GROUP + m] = w[o + _GM * LANES + l]
+        g[m + _GKA * GROUP] = w[i + _KA * LANES]
+    g[m + _GGM * GROUP] = w[i + _GM * LANES]
     if etab is not None:
-        g[_GES * GROUP + m] = w[o + _ES * LANES + l]
+        g[m + _GES * GROUP] = w[i + _ES * LANES]
     if ftab is not None:
-        g[_GFS * GROUP + m] = w[o + _FS * LANES + l]
+        g[m + _GFS * GROUP] = w[i + _FS * LANES]
 
 
 @jit_inline
-def _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab):
-    """Fix up the ``ng`` lanes gathered in ``g`` (``slot``: index of each lane's row 0 in ``w``)
-    and scatter the results back; lanes the group pass marks go through the scalar ``_fixup``."""
+def _fix(rk4, w, g, slot, g0, ng, P, K, E, F, ktab, kamp, etab, ftab):
+    """Fix up the ``ng`` lanes gathered in ``g`` (``slot[g0:g0 + ng]``: index of each lane's row
+    0 in ``w``) and scatter the results back; lanes the group pass marks go through the scalar
+    ``_fixup``."""
     # slots ng.. up to the next multiple of 8 hold an earlier group's lanes (or zeros): computed
     # alongside, results dropped
-    _fixup_group(rk4, g, (ng + 7) & -8, P, K, E, F, ktab, kamp, etab, ftab)
+    for c in range((ng + GROUP - 1) // GROUP):
+        nv = (min(GROUP, ng - c * GROUP) + 7) & -8
+        _fixup_group(rk4, g, c * (_G_ROWS * GROUP), nv, P, K, E, F, ktab, kamp, etab, ftab)
     for m in range(ng):
-        i = slot[m]
-        if g[_GREDO * GROUP + m] != 0.0:
+        i = slot[g0 + m]
+        k = _slot(m)
+        if g[k + _GREDO * GROUP] != 0.0:
             X, V, ns = _fixup(rk4, w[i + _XO * LANES], w[i + _VO * LANES], w[i + _X * LANES],
                               w[i + _V * LANES], w[i + _H * LANES], w[i + _B * LANES],
                               w[i + _C * LANES], P, ktab, kamp, etab, ftab, w[i + _KM * LANES],
@@ -704,8 +718,8 @@ def _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab):
             w[i + _V * LANES] = V
             w[i + _NSUB * LANES] += ns
         else:
-            w[i + _X * LANES] = g[_GTX * GROUP + m]
-            w[i + _V * LANES] = g[_GTV * GROUP + m]
+            w[i + _X * LANES] = g[k + _GTX * GROUP]
+            w[i + _V * LANES] = g[k + _GTV * GROUP]
             # RK4: the coefficients at the crossing; RK5: a substep and two p'' evaluations
             w[i + _NSUB * LANES] += 0.25 if rk4 else 4.0 / 3.0
 
@@ -739,6 +753,7 @@ def _driver(method):
         # cluster in parts of a sweep (B2: none below about 3000 rpm), and contiguous kink blocks
         # would leave one thread with most of the fix-ups. Each lane's arithmetic does not depend
         # on its block, so the results do not change.
+        sub = max(1, min(sub, SUB_MAX))  # the fix-up group holds SUB_MAX blocks' lanes
         nplain = (n + LANES - 1) // LANES
         nblocks = (nplain + sub - 1) // sub
         PT = _monomial_table(ktab, etab, ftab, S)
@@ -748,8 +763,8 @@ def _driver(method):
                 _load(w, q * _BLOCK, (blk + q * nblocks) * LANES, n, h, cm, kmean, kamp, gmean, escale,
                       fscale, half_gap, bound, x0, v0)
             P = np.zeros((3, 5))
-            g = np.zeros(_G_ROWS * GROUP)
-            slot = np.zeros(GROUP, np.int64)
+            g = np.zeros(_G_ROWS * GROUP * _G_CHUNKS)
+            slot = np.zeros(sub * LANES, np.int64)
             masks = np.zeros(sub, np.int64)
             live = np.zeros(sub, np.int64)  # bits of the lanes that hold a case still running
             for q in range(sub):
@@ -795,27 +810,24 @@ def _driver(method):
                     else:
                         masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False,
                                               True)
-                have_p = False
-                ng = 0
+                # The crossing lanes of all sub-blocks (their row-0 indices in w), then their
+                # fix-up in groups of GROUP: one call site of the group pass (each inlined copy
+                # adds to the compile time).
+                nc = 0
                 for q in range(sub):
                     mask = masks[q] & live[q]
                     o = q * _BLOCK
                     while mask != 0:
-                        l = np.int64(trailing_zeros(mask))
+                        i = o + np.int64(trailing_zeros(mask))
                         mask &= mask - 1
-                        if not have_p:
-                            for r in range(3):
-                                for k in range(5):
-                                    P[r, k] = PT[j, r, k]
-                            have_p = True
-                        _gather(g, ng, w, o, l, kamp, ktab, etab, ftab)
-                        slot[ng] = o + l
-                        ng += 1
-                        if ng == GROUP:
-                            _fix(rk4, w, g, slot, GROUP, P, K, E, F, ktab, kamp, etab, ftab)
-                            ng = 0
-                if ng > 0:
-                    _fix(rk4, w, g, slot, ng, P, K, E, F, ktab, kamp, etab, ftab)
+                        _gather(g, nc, w, i, kamp, ktab, etab, ftab)
+                        slot[nc] = i
+                        nc += 1
+                if nc > 0:
+                    for r in range(3):
+                        for k in range(5):
+                            P[r, k] = PT[j, r, k]
+                    _fix(rk4, w, g, slot, 0, nc, P, K, E, F, ktab, kamp, etab, ftab)
                 j = j + 1 if j + 1 < S else 0
                 jp = jp + 1 if jp + 1 < steps_per_period else 0
                 for q in range(sub):
