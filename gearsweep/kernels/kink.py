@@ -26,9 +26,10 @@ How
    step's start state there too, so no extra pass over the lanes is needed. The plain blocks of
    a kink block are interleaved over the batch (block blk holds blk, blk + nblocks, ...), so
    each thread's share spans the whole sweep.
-2. After all blocks' trial steps, the flagged lanes of the kink block are gathered into groups
-   of ``GROUP``, and ``_fixup_group`` corrects their steps in one branch-free pass vectorised
-   across the group. RK4 (``_correct_rk4``): the crossing time and velocity from the cubic
+2. After all blocks' trial steps, the flagged lanes of the kink block (less the lanes past the
+   batch's end and the diverged ones: one AND with a per-block bit mask) are gathered into one
+   group array, in chunks of ``GROUP``, and ``_fixup_group`` corrects the steps of each chunk in
+   one branch-free pass vectorised across it (one inlined call site for all chunks). RK4 (``_correct_rk4``): the crossing time and velocity from the cubic
    Hermite interpolant of the trial (inverse-cubic estimate, Newton steps), then the trial's end
    plus the closed-form Taylor series of the difference between the two laws' trajectories
    (a linear equation in which the forcing cancels), to tau^5: no substep. RK5
@@ -57,7 +58,8 @@ Coefficients inside a step
 The tables hold K(t) and G(t) only at the five quarter-step nodes of each step. The fix-ups need
 them at other times; they are taken from the quartic through the five node values of the step
 (its monomial coefficients in the step fraction, which also give the time derivatives needed
-by the series and the Taylor polynomial). For smooth periodic coefficients its error is O(h^5)
+by the series and the Taylor polynomial; tabulated once per batch for the S steps of the cycle,
+``_monomial_table``). For smooth periodic coefficients its error is O(h^5)
 relative to the coefficient; it acts only at crossing steps (a bounded number per period), so
 it adds O(h^6) to the global error: below the order of both methods. (A linear interpolant
 would add O(h^2) per crossing and undo the gain.) This keeps ``simulate``'s table conventions;
@@ -75,12 +77,13 @@ Cost counter: ``integrate`` also returns the extra work per case in step-equival
 side evaluations / stages of the method): a group fix-up counts 0.25 (RK4) or 4/3 (RK5), the
 scalar path one per substep and one per projection.
 
-Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.6 to 1.75
-times the plain kernel's wall time (``scripts/bench_kink.py``, one or two threads;
-docs/precision.md; 2.0 to 2.1 before the changes of 24 Nov 2026 in the same alternating runs):
-about 1.12 for the trial lane loops with their crossing test, about 0.17 for finding and
-gathering the crossing lanes, the rest for the group pass, scattering, and the 0.23 % of
-crossings (grazing ones) that take the scalar path. Without backlash (``half_gap=None``) the
+Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.6 to 1.65
+times the plain kernel's wall time (``scripts/bench_kink.py``, one or two threads, 24 Nov 2026;
+docs/precision.md; 1.7 before the monomial table and the one group call site, 2.0 to 2.1 before
+the changes of the day): about 1.10 for the trial lane loops with their crossing test (1.065 of
+it without keeping the start state), the rest for finding and gathering the crossing lanes, the
+group pass (a dependency chain: three Newton steps on it cost about 0.07), scattering, and the
+0.23 % of crossings (grazing ones) that take the scalar path (about 0.03). Without backlash (``half_gap=None``) the
 detection is compiled out and the cost is the plain kernel's.
 """
 
