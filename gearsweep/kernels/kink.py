@@ -26,17 +26,23 @@ How
    step's start state there too, so no extra pass over the lanes is needed. The plain blocks of
    a kink block are interleaved over the batch (block blk holds blk, blk + nblocks, ...), so
    each thread's share spans the whole sweep.
-2. After all blocks' trial steps, the flagged lanes of the kink block (less the lanes past the
-   batch's end and the diverged ones: one AND with a per-block bit mask) are gathered into one
-   group array, in chunks of ``GROUP``, and ``_fixup_group`` corrects the steps of each chunk in
-   one branch-free pass vectorised across it (one inlined call site for all chunks). RK4 (``_correct_rk4``): the crossing time and velocity from the cubic
+2. After all blocks' trial steps, each block's flagged lanes (less the lanes past the batch's
+   end and the diverged ones: one AND with a per-block bit mask) are corrected by
+   ``_fix_lanes`` in one branch-free pass vectorised across lanes like the lane loops. Where
+   they fill at least ``DENSE`` of the vectors of 8 lanes they span, the pass runs in place on
+   the block's rows: neighbouring cases of a sweep cross in the same steps (B2: 7.7 of the 8
+   lanes of a vector with a crossing cross too), so nothing is moved. Sparser crossing lanes
+   (cases in random order, chaotic neighbours) are gathered from all blocks of the kink block
+   into group blocks of the same layout at the end of the scratch, corrected there together
+   and copied back (one inlined call site for both kinds of job, ``_fix_jobs``). RK4
+   (``_correct_rk4``): the crossing time and velocity from the cubic
    Hermite interpolant of the trial (inverse-cubic estimate, Newton steps), then the trial's end
    plus the closed-form Taylor series of the difference between the two laws' trajectories
    (a linear equation in which the forcing cancels), to tau^5: no substep. RK5
    (``_correct_rk5``): the crossing from the quintic Hermite interpolant (p'' at both ends too)
    and a substep of RK5 with the new law. Cost per crossing: 0.25 step-equivalents (RK4, the
    coefficients at the crossing) or 4/3 (RK5, a substep and two evaluations of p'').
-3. The few lanes the group cannot finish (a second crossing within the step, Newton not
+3. The few lanes the vectorised pass cannot finish (a second crossing within the step, Newton not
    converged, e.g. for a grazing crossing) go through the scalar ``_fixup``: substeps with the
    region's law to the estimate of the cubic Hermite interpolant, ``_project`` onto the boundary
    (Taylor polynomial of the method's order, Newton's method for the time left), redone to the
@@ -74,7 +80,7 @@ contacts, where the excursion lasts less than one step. A crossing at which p' i
 last estimate is kept.
 
 Cost counter: ``integrate`` also returns the extra work per case in step-equivalents (right-hand
-side evaluations / stages of the method): a group fix-up counts 0.25 (RK4) or 4/3 (RK5), the
+side evaluations / stages of the method): a vectorised fix-up counts 0.25 (RK4) or 4/3 (RK5), the
 scalar path one per substep and one per projection.
 
 Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.6 to 1.65
@@ -89,11 +95,12 @@ detection is compiled out and the cost is the plain kernel's.
 
 import numpy as np
 from numba import prange
-from numba.cpython.unsafe.numbers import trailing_zeros
+from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
 from gearsweep.jit import jit, jit_inline, jit_parallel
 from gearsweep.kernels.rk import (
     _B,
+    _BIT,
     _BLOCK,
     _C,
     _DEAD,
@@ -133,16 +140,17 @@ MAX_CROSSINGS = 4
 NEWTON_MAX = 4
 """Substeps used at most to reach one crossing."""
 SUB_MAX = 4
-"""A kink block is up to this many plain blocks of ``LANES`` stepped one after the other, so that
-its crossings share the vectorised fix-up groups (B2: about 6 crossings per step of 128 lanes).
-Four keep the block's scratch (28 rows x 128 lanes, 28 KB) in a 32 KB L1 data cache: with
-eight, B2 took 1.77 instead of 1.68 times the plain kernel (kink/plain, medians of 7 rounds)."""
-GROUP = 16
-"""Crossing lanes fixed up together in one branch-free, vectorised pass (a chunk of the group
-array, which has room for every lane of a kink block)."""
-_G_CHUNKS = SUB_MAX * LANES // GROUP
+"""A kink block is up to this many plain blocks of ``LANES`` stepped one after the other; the
+crossing lanes of its blocks that are gathered (``DENSE``) share the fix-up's vectors. Four
+keep the block's scratch in a 32 KB L1 data cache: with eight, B2 took 1.48 instead of 1.40 times
+the plain kernel (kink/plain, medians of 7 rounds, 24 Nov 2026, fix-ups in place)."""
+DENSE = 0.5
+"""A block's crossing lanes are fixed up in place when they are at least this fraction of the
+lanes of the vectors of 8 they span (neighbouring cases of a sweep cross in the same steps: on
+B2, 7.7 of the 8 lanes of a vector with a crossing cross); sparser ones are gathered first, so
+that random neighbours do not cost a vector each."""
 GROUP_TOL = 1e-3
-"""The group fix-up's crossing time is accepted when its last Newton update is below this
+"""The vectorised fix-up's crossing time is accepted when its last Newton update is below this
 fraction of the step: the error left is of order its square (quadratic convergence), and a
 crossing time off by delta costs K p' delta^2 (far below the step's own error)."""
 TAU_MAX = 0.125
@@ -161,15 +169,6 @@ _MONO = np.array([[3.0, 0.0, 0.0, 0.0, 0.0],
                   [32.0, -128.0, 192.0, -128.0, 32.0]]) / 3.0
 """Inverse Vandermonde matrix of the nodes 0, 1/4, 1/2, 3/4, 1: monomial coefficients in theta
 of the quartic through five node values."""
-
-# Rows of the fix-up group array: GROUP lanes gathered from the crossing lanes of a kink block,
-# row r of lane m at r * GROUP + m of one flat array. The constant offsets let LLVM prove the rows
-# disjoint and vectorise the group's lane loops (with the row stride of a 2-D argument it would
-# need more run-time overlap checks than it is willing to emit, and stays scalar).
-(_GX0, _GV0, _GTX, _GTV, _GH, _GB, _GC, _GKM, _GKA, _GGM, _GES, _GFS,  # inputs
- _GREDO) = range(13)  # lanes left to the scalar fix-up
-_G_ROWS = 13
-
 
 @jit_inline
 def _monomials(row, P, q):
@@ -361,7 +360,7 @@ def _hermite_return(X, V, TX, TV, H, bd):
 def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Redo one step of one lane that crossed a boundary, any number of crossings (up to
     ``MAX_CROSSINGS``); returns (x, v, substeps taken). The scalar path, for what the vectorised
-    ``_fixup_group`` leaves: several crossings in one step, a start on a boundary, a crossing
+    ``_fix_lanes`` leaves: several crossings in one step, a start on a boundary, a crossing
     estimate that needs more than one substep.
 
     Per crossing: a substep (force law of the region being left) to the estimate from the
@@ -473,7 +472,7 @@ def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
     c4 = sn * (1.0 / 24.0)
     t = -dx / V if V != 0.0 else 0.0
     t = _newton_poly(t, dx, V, c2, c3, c4, c5)  # two steps, written out: a loop here would
-    t1 = _newton_poly(t, dx, V, c2, c3, c4, c5)  # keep LLVM from vectorising the group's loop
+    t1 = _newton_poly(t, dx, V, c2, c3, c4, c5)  # keep LLVM from vectorising _fix_lanes' loop
     tn = tc + t1 * ih
     ok = abs(t1 - t) <= ROOT_TOL * h and abs(t1) <= TAU_MAX * h and 0.0 <= tn <= 1.0
     x = X + t1 * (V + t1 * (c2 + t1 * (c3 + t1 * (c4 + t1 * c5))))
@@ -506,7 +505,7 @@ def _newton_quintic(s, y0, d0, q2, c3, c4, c5):
 
 @jit_inline
 def _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
-    """Crossing step of RK4 (see ``_fixup_group``): returns (x, v, ok) at the step's end.
+    """Crossing step of RK4 (see ``_fix_lanes``): returns (x, v, ok) at the step's end.
 
     Written for a short dependency chain: the crossing fraction starts from the inverse cubic
     Hermite s(y) of the trial (its three divisions are independent; error O(h^3) in s) and is
@@ -528,7 +527,7 @@ def _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab, kl
     m1 = Y / d1
     s = min(max(z * (m0 + z * (3.0 - 2.0 * m0 - m1 + z * (m0 + m1 - 2.0))), 0.0), 1.0)
     # Newton steps on the cubic (three, written out: a loop would keep LLVM from vectorising the
-    # group's loop); the last one's update is the convergence test, and p' at the root is the
+    # fix-up's loop); the last one's update is the convergence test, and p' at the root is the
     # derivative there corrected to first order. Grazing crossings (small p') converge slowly:
     # with one step 1.3 % of B2's crossings went to the scalar ``_fixup``, which costs a few
     # hundred plain lane-steps each; with three, 0.23 %.
@@ -565,7 +564,7 @@ def _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab, kl
 @jit_inline
 def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, etab, ftab,
                  kl, kal, gl, el, fl):
-    """Crossing step of RK5 (see ``_fixup_group``): returns (x, v, ok) at the step's end. The
+    """Crossing step of RK5 (see ``_fix_lanes``): returns (x, v, ok) at the step's end. The
     crossing comes from the quintic Hermite of the trial (p'' at both ends from the trial's law
     and the table nodes 0 and 4), a secant estimate and two Newton steps; a substep of RK5 with
     the new region's law finishes the step."""
@@ -598,9 +597,11 @@ def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, e
 
 
 @jit_inline
-def _fixup_group(rk4, g, base, nv, P, K, E, F, ktab, kamp, etab, ftab):
-    """Correct the steps of the GROUP lanes gathered in ``g`` that cross one boundary, in one
-    branch-free pass vectorised across the group.
+def _fix_lanes(rk4, w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
+    """Correct, in place, the crossing steps among lanes l0 .. l0 + nv - 1 of the block at
+    offset ``o`` of ``w`` (``bits``: their crossing bits; ``nv`` a multiple of 8) in one
+    branch-free pass vectorised across the lanes like the lane loops; returns the bits of the
+    lanes it leaves to the scalar ``_fixup``.
 
     The trial step was taken with the start region's force law extended past the boundary
     (``rk._law``): one smooth trajectory p_trial. From the crossing time t_c on, the true
@@ -621,7 +622,7 @@ def _fixup_group(rk4, g, base, nv, P, K, E, F, ktab, kamp, etab, ftab):
     of the substep this replaced (within 10 % at 32-1024 steps per period, docs/precision.md).
     Why a correction rather than a new substep from t_c: the pass is one long dependency chain
     over only a few vectors of lanes per step, so its latency, not its arithmetic, sets its
-    cost (computing 32 slots cost the same as computing 8).
+    cost (computing 32 lanes cost about the same as computing 8).
 
     RK5 (``_correct_rk5``) keeps the substep: the quintic Hermite (p'' at both ends too) gives
     t_c and the state there, and an RK5 substep with the new law finishes the step. The series
@@ -629,25 +630,25 @@ def _fixup_group(rk4, g, base, nv, P, K, E, F, ktab, kamp, etab, ftab):
     step; fitted order 4.4), and to tau^6, with every coefficient table on, it was 2.3 times
     less accurate than the substep at 32 steps per period (fitted order 6.2 over 32-256).
 
-    Writes the new end state into rows ``_GTX, _GTV`` and marks in ``_GREDO`` the lanes it could
-    not finish (Newton's last update above ``GROUP_TOL``, e.g. a grazing crossing; a second
-    crossing within the step): ``_fixup`` redoes those from the trial step. Only the first ``nv``
-    slots are computed: a multiple of 8 (one AVX-512 vector), passed at run time so that LLVM
-    vectorises the loop instead of unrolling it (a constant count of 8 is unrolled, and the
-    unrolled code is not vectorised again)."""
-    for m in range(nv):
-        X0 = g[base + _GX0 * GROUP + m]
-        V0 = g[base + _GV0 * GROUP + m]
-        TX = g[base + _GTX * GROUP + m]
-        TV = g[base + _GTV * GROUP + m]
-        h = g[base + _GH * GROUP + m]
-        b = g[base + _GB * GROUP + m]
-        c = g[base + _GC * GROUP + m]
-        kl = g[base + _GKM * GROUP + m]
-        kal = g[base + _GKA * GROUP + m]
-        gl = g[base + _GGM * GROUP + m]
-        el = g[base + _GES * GROUP + m]
-        fl = g[base + _GFS * GROUP + m]
+    Every lane of the range is computed and only the crossing ones are written (the others
+    keep their step). Lanes left to ``_fixup`` keep their trial step: the crossing ones whose
+    Newton update stayed above ``GROUP_TOL`` (e.g. a grazing crossing) or that end in another
+    region than the one entered (a second crossing within the step)."""
+    hard = np.int64(0)
+    for l in range(l0, l0 + nv):
+        i = o + l
+        X0 = w[i + _XO * LANES]
+        V0 = w[i + _VO * LANES]
+        TX = w[i + _X * LANES]
+        TV = w[i + _V * LANES]
+        h = w[i + _H * LANES]
+        b = w[i + _B * LANES]
+        c = w[i + _C * LANES]
+        kl = w[i + _KM * LANES]
+        kal = w[i + _KA * LANES]
+        gl = w[i + _GM * LANES]
+        el = w[i + _ES * LANES]
+        fl = w[i + _FS * LANES]
         ih = 1.0 / h
         sw = 1.0 if abs(X0) > b else 0.0  # the start region's law, as in rk._law
         sh = b if X0 > 0.0 else -b
@@ -660,71 +661,79 @@ def _fixup_group(rk4, g, base, nv, P, K, E, F, ktab, kamp, etab, ftab):
             FX, FV, ok = _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab,
                                       kamp, etab, ftab, kl, kal, gl, el, fl)
         rn = (1.0 - sw) * (1.0 if bd > 0.0 else -1.0)
-        hard = not ok or _region(FX, b) != rn
-        g[base + _GTX * GROUP + m] = FX
-        g[base + _GTV * GROUP + m] = FV
-        g[base + _GREDO * GROUP + m] = 1.0 if hard else 0.0
+        crossed = (bits & _BIT[l]) != 0
+        easy = ok and _region(FX, b) == rn
+        take = crossed and easy
+        w[i + _X * LANES] = FX if take else TX
+        w[i + _V * LANES] = FV if take else TV
+        # RK4: the coefficients at the crossing; RK5: a substep and two p'' evaluations
+        w[i + _NSUB * LANES] += (0.25 if rk4 else 4.0 / 3.0) if take else 0.0
+        hard |= _BIT[l] if crossed and not easy else np.int64(0)
+    return hard
 
 
 @jit_inline
-def _slot(m):
-    """Index of slot ``m``'s row 0 in the group array: chunks of GROUP slots, each with its
-    ``_G_ROWS`` rows (the masks make it provably in range: no wraparound test on each index)."""
-    m = m & (GROUP * _G_CHUNKS - 1)
-    return (m // GROUP) * (_G_ROWS * GROUP) + (m & (GROUP - 1))
+def _popcount(x):
+    """Number of set bits of a 32-bit mask (LANES <= 32), branch-free (SWAR)."""
+    x = x - ((x >> 1) & 0x55555555)
+    x = (x & 0x33333333) + ((x >> 2) & 0x33333333)
+    x = (x + (x >> 4)) & 0x0F0F0F0F
+    return ((x * 0x01010101) & 0xFFFFFFFF) >> 24
 
 
 @jit_inline
-def _gather(g, m, w, i, kamp, ktab, etab, ftab):
-    """Copy the lane whose row 0 is at ``w[i]`` into slot ``m`` of the fix-up group (the
-    values a scene's specialisation never reads stay uncopied, as in the lane loops: the scales
-    of terms that are off, and the mean stiffness where one table is the stiffness itself)."""
-    m = _slot(m)
-    g[m + _GX0 * GROUP] = w[i + _XO * LANES]
-    g[m + _GV0 * GROUP] = w[i + _VO * LANES]
-    g[m + _GTX * GROUP] = w[i + _X * LANES]
-    g[m + _GTV * GROUP] = w[i + _V * LANES]
-    g[m + _GH * GROUP] = w[i + _H * LANES]
-    g[m + _GB * GROUP] = w[i + _B * LANES]
-    g[m + _GC * GROUP] = w[i + _C * LANES]
-    if ktab is None or kamp is not None:
-        g[m + _GKM * GROUP] = w[i + _KM * LANES]
-    if kamp is not None:
-        g[m + _GKA * GROUP] = w[i + _KA * LANES]
-    g[m + _GGM * GROUP] = w[i + _GM * LANES]
-    if etab is not None:
-        g[m + _GES * GROUP] = w[i + _ES * LANES]
-    if ftab is not None:
-        g[m + _GFS * GROUP] = w[i + _FS * LANES]
+def _gsl(m):
+    """Offset of slot ``m`` of the group scratch: block m // LANES, lane m % LANES."""
+    return (m // LANES) * _BLOCK + (m & (LANES - 1))
 
 
 @jit_inline
-def _fix(rk4, w, g, slot, g0, ng, P, K, E, F, ktab, kamp, etab, ftab):
-    """Fix up the ``ng`` lanes gathered in ``g`` (``slot[g0:g0 + ng]``: index of each lane's row
-    0 in ``w``) and scatter the results back; lanes the group pass marks go through the scalar
-    ``_fixup``."""
-    # slots ng.. up to the next multiple of 8 hold an earlier group's lanes (or zeros): computed
-    # alongside, results dropped
-    for c in range((ng + GROUP - 1) // GROUP):
-        nv = (min(GROUP, ng - c * GROUP) + 7) & -8
-        _fixup_group(rk4, g, c * (_G_ROWS * GROUP), nv, P, K, E, F, ktab, kamp, etab, ftab)
-    for m in range(ng):
-        i = slot[g0 + m]
-        k = _slot(m)
-        if g[k + _GREDO * GROUP] != 0.0:
-            X, V, ns = _fixup(rk4, w[i + _XO * LANES], w[i + _VO * LANES], w[i + _X * LANES],
-                              w[i + _V * LANES], w[i + _H * LANES], w[i + _B * LANES],
-                              w[i + _C * LANES], P, ktab, kamp, etab, ftab, w[i + _KM * LANES],
-                              w[i + _KA * LANES], w[i + _GM * LANES], w[i + _ES * LANES],
-                              w[i + _FS * LANES])
-            w[i + _X * LANES] = X
-            w[i + _V * LANES] = V
-            w[i + _NSUB * LANES] += ns
-        else:
-            w[i + _X * LANES] = g[k + _GTX * GROUP]
-            w[i + _V * LANES] = g[k + _GTV * GROUP]
-            # RK4: the coefficients at the crossing; RK5: a substep and two p'' evaluations
-            w[i + _NSUB * LANES] += 0.25 if rk4 else 4.0 / 3.0
+def _gather(w, g0, m, i):
+    """Copy the rows a fix-up reads of the lane at ``w[i]`` (row 0) into slot ``m`` of the group
+    blocks at offset ``g0``."""
+    k = g0 + _gsl(m)
+    for r in _ROWS_IN:
+        w[k + r * LANES] = w[i + r * LANES]
+
+
+@jit_inline
+def _scatter(w, g0, m, i):
+    """Copy slot ``m``'s fixed-up end state and substep count back to the lane at ``w[i]``."""
+    k = g0 + _gsl(m)
+    w[i + _X * LANES] = w[k + _X * LANES]
+    w[i + _V * LANES] = w[k + _V * LANES]
+    w[i + _NSUB * LANES] = w[k + _NSUB * LANES]
+
+
+_ROWS_IN = (_XO, _VO, _X, _V, _H, _B, _C, _KM, _KA, _GM, _ES, _FS, _NSUB)
+"""Rows a crossing lane's fix-up reads (gathered into the group scratch)."""
+
+
+@jit_inline
+def _fix_jobs(rk4, a, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab):
+    """Run the fix-up jobs: job t is the lanes jlo[t] .. jhi[t] - 1 of the block at offset jo[t]
+    of the scratch ``a`` (one of the kink block's own blocks, or of the group blocks after
+    them), crossing bits jbits[t]. One call site of the vectorised ``_fix_lanes`` for both (each
+    inlined copy adds to the compile time); the lanes it leaves go through the scalar
+    ``_fixup``, in place."""
+    for t in range(nj):
+        # the masks make the offsets provably non-negative: without them every index would
+        # carry Numba's wraparound test, and LLVM would not vectorise _fix_lanes
+        o = jo[t] & 0x7FFFFFFF
+        lo = jlo[t] & (LANES - 8)
+        hard = _fix_lanes(rk4, a, o, lo, (jhi[t] - lo) & (2 * LANES - 8), jbits[t], P, K, E, F,
+                          ktab, kamp, etab, ftab)
+        while hard != 0:
+            i = o + np.int64(trailing_zeros(hard))
+            hard &= hard - 1
+            X, V, ns = _fixup(rk4, a[i + _XO * LANES], a[i + _VO * LANES], a[i + _X * LANES],
+                              a[i + _V * LANES], a[i + _H * LANES], a[i + _B * LANES],
+                              a[i + _C * LANES], P, ktab, kamp, etab, ftab, a[i + _KM * LANES],
+                              a[i + _KA * LANES], a[i + _GM * LANES], a[i + _ES * LANES],
+                              a[i + _FS * LANES])
+            a[i + _X * LANES] = X
+            a[i + _V * LANES] = V
+            a[i + _NSUB * LANES] += ns
 
 
 @jit_inline
@@ -756,17 +765,22 @@ def _driver(method):
         # cluster in parts of a sweep (B2: none below about 3000 rpm), and contiguous kink blocks
         # would leave one thread with most of the fix-ups. Each lane's arithmetic does not depend
         # on its block, so the results do not change.
-        sub = max(1, min(sub, SUB_MAX))  # the fix-up group holds SUB_MAX blocks' lanes
+        sub = max(1, min(sub, SUB_MAX))  # the group blocks hold SUB_MAX blocks' lanes
         nplain = (n + LANES - 1) // LANES
         nblocks = (nplain + sub - 1) // sub
         PT = _monomial_table(ktab, etab, ftab, S)
         for blk in prange(nblocks):
-            w = _scratch(sub)
+            w = _scratch(2 * sub)  # the kink block's plain blocks, then the group's blocks
+            g0 = sub * _BLOCK
             for q in range(sub):
                 _load(w, q * _BLOCK, (blk + q * nblocks) * LANES, n, h, cm, kmean, kamp, gmean, escale,
                       fscale, half_gap, bound, x0, v0)
             P = np.zeros((3, 5))
-            g = np.zeros(_G_ROWS * GROUP * _G_CHUNKS)
+            # fix-up jobs (see _fix_jobs)
+            jo = np.zeros(2 * sub, np.int64)
+            jlo = np.zeros(2 * sub, np.int64)
+            jhi = np.zeros(2 * sub, np.int64)
+            jbits = np.zeros(2 * sub, np.int64)
             slot = np.zeros(sub * LANES, np.int64)
             masks = np.zeros(sub, np.int64)
             live = np.zeros(sub, np.int64)  # bits of the lanes that hold a case still running
@@ -796,7 +810,7 @@ def _driver(method):
                 E = _row(etab, j)
                 F = _row(ftab, j)
                 # First every sub-block's trial step, each returning its crossing mask; then the
-                # crossing lanes of all of them, gathered into groups. No branch between the lane
+                # fix-ups of all of them. No branch between the lane
                 # loops depends on a mask, so the next sub-block's loop does not wait for one.
                 for q in range(sub):
                     o = q * _BLOCK
@@ -813,24 +827,45 @@ def _driver(method):
                     else:
                         masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False,
                                               True)
-                # The crossing lanes of all sub-blocks (their row-0 indices in w), then their
-                # fix-up in groups of GROUP: one call site of the group pass (each inlined copy
-                # adds to the compile time).
+                # Each block's crossing lanes: where they fill most of the vectors they span (the
+                # usual case: neighbouring cases of a sweep cross in the same steps), fixed up in
+                # place; otherwise gathered into the group, whose vectors they then fill.
+                nj = 0
                 nc = 0
                 for q in range(sub):
                     mask = masks[q] & live[q]
+                    if mask == 0:
+                        continue
                     o = q * _BLOCK
-                    while mask != 0:
-                        i = o + np.int64(trailing_zeros(mask))
-                        mask &= mask - 1
-                        _gather(g, nc, w, i, kamp, ktab, etab, ftab)
-                        slot[nc] = i
-                        nc += 1
-                if nc > 0:
+                    lo = (np.int64(trailing_zeros(mask)) >> 3) << 3
+                    hi = ((63 - np.int64(leading_zeros(mask))) | 7) + 1
+                    if _popcount(mask) >= DENSE * (hi - lo):
+                        jo[nj] = o
+                        jlo[nj] = lo
+                        jhi[nj] = hi
+                        jbits[nj] = mask
+                        nj += 1
+                    else:
+                        while mask != 0:
+                            i = o + np.int64(trailing_zeros(mask))
+                            mask &= mask - 1
+                            _gather(w, g0, nc, i)
+                            slot[nc] = i
+                            nc += 1
+                for q in range((nc + LANES - 1) // LANES):
+                    m = min(LANES, nc - q * LANES)
+                    jo[nj] = g0 + q * _BLOCK
+                    jlo[nj] = 0
+                    jhi[nj] = (m + 7) & -8
+                    jbits[nj] = (np.int64(1) << m) - 1 if m < 64 else np.int64(-1)
+                    nj += 1
+                if nj > 0:
                     for r in range(3):
                         for k in range(5):
                             P[r, k] = PT[j, r, k]
-                    _fix(rk4, w, g, slot, 0, nc, P, K, E, F, ktab, kamp, etab, ftab)
+                    _fix_jobs(rk4, w, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab)
+                    for m in range(nc):
+                        _scatter(w, g0, m, slot[m])
                 j = j + 1 if j + 1 < S else 0
                 jp = jp + 1 if jp + 1 < steps_per_period else 0
                 for q in range(sub):

@@ -152,7 +152,7 @@ def _law(X, b, half_gap, kink):
     """The force law f(p) = on (p - sh) that the kink-aware kernel's trial step uses in every
     stage: the law of the region of the step's start p = X (contact beyond +-b: on, sh = +-b;
     gap: off), extended smoothly beyond its boundaries, so that the trial step is one smooth
-    trajectory that ``kink._fixup_group`` can interpolate. Where every stage stays in the start
+    trajectory that ``kink._fix_lanes`` can interpolate. Where every stage stays in the start
     region this is the dead zone itself, bit for bit: p - b in contact (the plain kernel's own
     operation) and 0 in the gap. The plain kernel (``kink`` False) keeps the dead zone in every
     stage."""
