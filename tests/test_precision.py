@@ -123,7 +123,7 @@ def test_kink_equals_plain_when_nothing_crosses(method):
 
 def test_kink_aware_counts_substeps_and_changes_crossing_steps():
     """On the rattle scene (four crossings per period) the kink-aware kernel redoes exactly the
-    steps whose end lies in another region than their start: a group fix-up counts 0.25 step-
+    steps whose end lies in another region than their start: a vectorised fix-up counts 0.25 step-
     equivalents for RK4 (one evaluation of the coefficients at the crossing), the scalar path
     more. The crossing steps are counted independently from the recorded p of every step. Its
     result differs from the plain one."""

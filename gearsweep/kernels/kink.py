@@ -83,13 +83,13 @@ Cost counter: ``integrate`` also returns the extra work per case in step-equival
 side evaluations / stages of the method): a vectorised fix-up counts 0.25 (RK4) or 4/3 (RK5), the
 scalar path one per substep and one per projection.
 
-Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.6 to 1.65
-times the plain kernel's wall time (``scripts/bench_kink.py``, one or two threads, 24 Nov 2026;
-docs/precision.md; 1.7 before the monomial table and the one group call site, 2.0 to 2.1 before
-the changes of the day): about 1.10 for the trial lane loops with their crossing test (1.065 of
-it without keeping the start state), the rest for finding and gathering the crossing lanes, the
-group pass (a dependency chain: three Newton steps on it cost about 0.07), scattering, and the
-0.23 % of crossings (grazing ones) that take the scalar path (about 0.03). Without backlash (``half_gap=None``) the
+Speed: on benchmark B2 (4.6 % of lane-steps cross) the kink-aware kernel takes about 1.43 to 1.5
+times the plain kernel's wall time (``scripts/bench_kink.py``, one or two threads, 24 Nov 2026,
+docs/precision.md; 1.6 with every crossing lane gathered, 1.7 before the monomial table, 2.0 to
+2.1 before the changes of that day): about 1.10 for the trial lane loops with their crossing
+test (1.065 of it without keeping the start state), the rest for the correction passes (a
+dependency chain) and the 0.23 % of crossings (grazing ones) that take the scalar path. With the
+cases in random order (every crossing lane gathered) it is about 2.0. Without backlash (``half_gap=None``) the
 detection is compiled out and the cost is the plain kernel's.
 """
 
