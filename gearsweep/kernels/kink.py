@@ -765,7 +765,7 @@ def _driver(method):
         # cluster in parts of a sweep (B2: none below about 3000 rpm), and contiguous kink blocks
         # would leave one thread with most of the fix-ups. Each lane's arithmetic does not depend
         # on its block, so the results do not change.
-        sub = max(1, min(sub, SUB_MAX))  # the group blocks hold SUB_MAX blocks' lanes
+        sub = max(1, min(sub, SUB_MAX))  # the scratch and the job arrays are sized by it
         nplain = (n + LANES - 1) // LANES
         nblocks = (nplain + sub - 1) // sub
         PT = _monomial_table(ktab, etab, ftab, S)
@@ -857,7 +857,7 @@ def _driver(method):
                     jo[nj] = g0 + q * _BLOCK
                     jlo[nj] = 0
                     jhi[nj] = (m + 7) & -8
-                    jbits[nj] = (np.int64(1) << m) - 1 if m < 64 else np.int64(-1)
+                    jbits[nj] = (np.int64(1) << m) - 1  # m <= LANES <= 32
                     nj += 1
                 if nj > 0:
                     for r in range(3):
