@@ -407,3 +407,35 @@ def test_argument_errors(kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         simulate(**args)
+
+
+def test_argument_forms_reach_one_specialisation(monkeypatch):
+    """Scalars, per-case arrays, read-only views and a batch of one case all reach the drivers
+    as the same Numba types (read-only arrays would each be a specialisation of their own)."""
+    from gearsweep.kernels import kink, rk
+
+    seen = []
+
+    def fake(*args):
+        seen.append(tuple(numba.typeof(a) for a in args))
+        n = args[0].shape[0]
+        return np.zeros((n, len(STAT_NAMES))), np.zeros(n), np.zeros(n), np.zeros(n, np.int8)
+
+    monkeypatch.setattr(rk, "INTEGRATE", {m: fake for m in rk.INTEGRATE})
+    monkeypatch.setattr(kink, "INTEGRATE", {m: fake for m in kink.INTEGRATE})
+    tab = fourier_table(1.0, 1.0, 0.0, 8)
+    ro_tab = tab.copy()
+    ro_tab.flags.writeable = False
+    ro = np.full(3, 2.0)
+    ro.flags.writeable = False
+    base = dict(n_transient=1, n_record=1, steps_per_period=8, signal_stride=1, half_gap=1e-6,
+                k_table=tab)
+    simulate(1e-6, damping=1.0, k_mean=2.0, **base)                          # scalars, 1 case
+    simulate(np.full(3, 1e-6), damping=1.0, k_mean=2.0, **base)              # broadcast scalars
+    simulate(np.full(3, 1e-6), damping=np.ones(3), k_mean=ro, **base)        # per-case arrays
+    simulate(np.broadcast_to(1e-6, (3,)), damping=ro, k_mean=ro[:1], **base)  # read-only views
+    simulate(ro, damping=ro, k_mean=ro, **{**base, "k_table": ro_tab})       # read-only table
+    assert len(seen) == 5
+    assert all(s == seen[0] for s in seen), "argument forms gave different kernel types"
+    assert all(t.mutable for t in seen[0] if isinstance(t, numba.types.Array))
+

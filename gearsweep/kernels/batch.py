@@ -34,15 +34,25 @@ class BatchResult:
     (right-hand-side evaluations / the method's stages); ``None`` for the plain kernel."""
 
 
+def _own(a) -> np.ndarray:
+    """``a`` as a C-contiguous, writable float64 array (copied only if it is not one already).
+
+    Numba types a read-only array apart from a writable one, and every combination of the two
+    over the kernel's arguments is a specialisation of its own (tens of seconds to compile each):
+    ``np.broadcast_to`` returns read-only views, so a per-case array or a batch of one case used
+    to reach the kernel read-only while a broadcast scalar was copied writable.
+    """
+    return np.require(np.asarray(a, dtype=np.float64), requirements=("C", "W"))
+
+
 def _vec(x, n: int) -> np.ndarray:
-    a = np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)))
-    return a
+    return _own(np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)))
 
 
 def _tab(t) -> np.ndarray | None:
     if t is None:
         return None
-    t = np.ascontiguousarray(t, dtype=np.float64)
+    t = _own(t)
     if t.ndim != 2 or t.shape[1] != len(rk.NODES):
         raise ValueError(f"a coefficient table must have shape (S, {len(rk.NODES)}), got {t.shape}")
     return t
@@ -101,7 +111,7 @@ def simulate(
         kinks of the dead zone (the plain step falls to order 2 there). Steps without crossings
         are the plain kernel's, bit for bit; without backlash the two are identical.
     """
-    h = np.ascontiguousarray(np.atleast_1d(np.asarray(h, dtype=np.float64)))
+    h = _own(np.atleast_1d(np.asarray(h, dtype=np.float64)))
     n = h.shape[0]
     if method not in rk.METHODS:
         raise ValueError(f"method must be one of {sorted(rk.METHODS)}, got {method!r}")
@@ -168,3 +178,4 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
     if len(out) == 4:  # plain kernel: no substeps
         out = (*out, np.zeros(n))
     return out
+
