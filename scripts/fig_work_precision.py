@@ -27,6 +27,7 @@ import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
 from gearsweep.analysis import precision as pr  # noqa: E402
+from gearsweep.kernels.batch import precompile  # noqa: E402
 from gearsweep.study.dataset import write_netcdf  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -232,12 +233,19 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--calibrate", action="store_true", help="refit the advisor's constants")
     ap.add_argument("--threads", type=int, default=1, help="numba threads for the kernels")
+    ap.add_argument("--compile-jobs", type=int, default=None,
+                    help="processes that compile the kernels side by side (default: all cores)")
     ap.add_argument("--results", type=Path, default=ROOT / "results", help="folder for the .nc")
     ap.add_argument("--figures", type=Path, default=ROOT / "figures", help="folder for the PNG")
     args = ap.parse_args()
     numba.set_num_threads(args.threads)
     window = pr.Window()
     t0 = time.perf_counter()
+    calls = [{**SCENES[s](STUDY_RPM[s]).kernel_kwargs(SPP[0]), "method": meth,
+              "kink_aware": kink, "signal_stride": 1}
+             for s in SCENES for meth, kink in map(_split, FIXED)]
+    sec = precompile(calls, args.compile_jobs)
+    print(f"kernels compiled or loaded from the cache in {sec:.1f} s")
     ds = study(window)
     args.results.mkdir(parents=True, exist_ok=True)
     args.figures.mkdir(parents=True, exist_ok=True)

@@ -439,3 +439,42 @@ def test_argument_forms_reach_one_specialisation(monkeypatch):
     assert all(s == seen[0] for s in seen), "argument forms gave different kernel types"
     assert all(t.mutable for t in seen[0] if isinstance(t, numba.types.Array))
 
+
+_PRECOMPILE_CHILD = """
+import json, sys
+import numpy as np
+from gearsweep.kernels import rk
+from gearsweep.kernels.batch import precompile, simulate
+
+def main():
+    call = dict(h=np.full(4, 1e-4), damping=10.0, k_mean=4e6, force=1.0, bound=1.0,
+                steps_per_period=8)
+    calls = [dict(call, method="rk4"), dict(call, method="rk5")]
+    precompile(calls, workers=2)
+    for c in calls:
+        simulate(**c, n_transient=3, n_record=5)
+    d = [rk.INTEGRATE[rk.METHODS[c["method"]]] for c in calls]
+    print(json.dumps({"hits": [sum(x.stats.cache_hits.values()) for x in d],
+                      "misses": [sum(x.stats.cache_misses.values()) for x in d]}))
+
+if __name__ == "__main__":
+    main()
+"""
+
+
+def test_precompile_in_other_processes_fills_the_cache(tmp_path):
+    """On an empty cache, the specialisations compiled by ``precompile``'s two worker processes
+    are loaded here from the disk cache, not compiled again (the batch of four cases here and
+    the one-case calls of the workers must reach the same kernel types)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "child.py"
+    script.write_text(_PRECOMPILE_CHILD)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    out = subprocess.run([sys.executable, str(script)], env=env, capture_output=True, text=True,
+                         timeout=600, check=True).stdout
+    stats = json.loads(out.strip().splitlines()[-1])
+    assert stats == {"hits": [1, 1], "misses": [0, 0]}
