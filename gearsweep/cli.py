@@ -1,4 +1,4 @@
-"""Command-line interface: ``gearsweep run | validate | inspect``.
+"""Command-line interface: ``gearsweep run | validate | advise | inspect``.
 
 Errors that are the user's input (``GearsweepError``) print one line and exit with code 2; a
 traceback is shown only with ``--debug``.

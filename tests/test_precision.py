@@ -220,6 +220,25 @@ def test_advised_step_meets_target_on_held_out_cases(kind, rpm, damping, k0, met
     assert run.trajectory_error <= target, (adv.steps_per_period, run.trajectory_error)
 
 
+
+@pytest.mark.parametrize(("rpm", "method", "target"), [(11000.0, "rk4", 1e-4), (9500.0, "rk5", 1e-5)])
+def test_plain_rattle_advice_names_a_kink_aware_step_that_meets_the_target(rpm, method, target):
+    """Advice for the plain step on a backlash scene also gives the kink-aware step count for
+    the same target; that count is smaller and, run with the kink-aware step, meets the target
+    against the reference."""
+    adv = advise(mass=pr.MASS, k0=pr.K0, damping=pr.DAMPING, speed_rpm=[rpm], teeth=pr.TEETH,
+                 backlash=4e-6, method=method, target=target)
+    assert adv.kink_steps_per_period is not None
+    assert adv.kink_steps_per_period < adv.steps_per_period
+    assert f"needs {adv.kink_steps_per_period} steps per period" in adv.report()
+    scene = pr.rattle_scene(rpm)
+    w = pr.Window()
+    p_ref = pr.reference(scene, w)(pr.sample_times(scene, w))[0]
+    run = pr.run_fixed(scene, method, adv.kink_steps_per_period, w, p_ref, kink_aware=True,
+                       copies=1, repeat=1)
+    assert run.trajectory_error <= target, (adv.kink_steps_per_period, run.trajectory_error)
+
+
 # ----------------------------------------------------------------------------- study wiring
 
 RATTLE_STUDY = """

@@ -34,6 +34,9 @@ SAFETY = 2.0
 """The advised step aims at target / SAFETY: the constants are envelopes over a few speeds, and
 a held-out case can sit slightly above them (one held-out RK5 whine case reached 0.9 of the
 envelope's prediction)."""
+KINK_COST = 1.5
+"""Wall time of a kink-aware step over a plain one on a rattle batch: 1.43-1.53 on benchmark B2
+(``scripts/bench_kink.py``, docs/precision.md); fewer crossings per step cost less."""
 
 _RK5_A = np.array([[0, 0, 0, 0, 0, 0],
                    [1 / 4, 0, 0, 0, 0, 0],
@@ -107,6 +110,10 @@ class Advice:
     zeta: float
     chosen: int | None = None
     chosen_error: float | None = None
+    kink_steps_per_period: int | None = None
+    """For a plain step on a backlash scene: the steps per period the kink-aware step needs
+    for the same target (None otherwise)."""
+    kink_msteps: float | None = None
     warnings: list[str] = field(default_factory=list)
 
     def report(self) -> str:
@@ -215,8 +222,16 @@ def advise(
             warnings.append(
                 f"{steps_per_period} steps per period miss the target ({chosen_err:.1e} > "
                 f"{target:.1e}).")
+    kink_spp = kink_msteps = None
     if kind == "rattle" and not kink_aware:
-        warnings.append("with backlash the plain step converges only as h^2; kink-aware "
-                        "stepping restores order " + ("4." if method == "rk4" else "5."))
+        alt = advise(mass=mass, k0=k0, damping=damping, speed_rpm=speeds, teeth=teeth,
+                     k_harmonics=k_harmonics, backlash=backlash, method=method, kink_aware=True,
+                     target=target, periods=periods, constants=constants)
+        kink_spp, kink_msteps = alt.steps_per_period, alt.msteps
+        warnings.append(
+            f"with backlash the plain step converges only as h^2; kink-aware stepping "
+            f"(solver.kink_aware: true) restores order {alt.order:g} and needs {kink_spp} steps "
+            f"per period ({kink_msteps:.3g} Msteps) for the same target, each step costing up to "
+            f"about {KINK_COST:g} times a plain one.")
     return Advice(method, kink_aware, kind, target, spp, hw_adv, C * hw_adv**p, limit, msteps,
-                  p, C, wn, zeta, steps_per_period, chosen_err, warnings)
+                  p, C, wn, zeta, steps_per_period, chosen_err, kink_spp, kink_msteps, warnings)
