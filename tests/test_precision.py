@@ -213,12 +213,17 @@ def test_advised_step_meets_target_on_held_out_cases(kind, rpm, damping, k0, met
                  k_harmonics=pr.K_HARMONICS if kind == "whine" else (),
                  backlash=4e-6 if kind == "rattle" else None, method=method, kink_aware=kink,
                  target=target)
+    err = _trajectory_error(scene, method, adv.steps_per_period, kink)
+    assert err <= target, (adv.steps_per_period, err)
+
+
+def _trajectory_error(scene, method, steps_per_period, kink_aware):
+    """Trajectory error of one fixed-step run of ``scene`` against the reference, relative to
+    the amplitude."""
     w = pr.Window()
     p_ref = pr.reference(scene, w)(pr.sample_times(scene, w))[0]
-    run = pr.run_fixed(scene, method, adv.steps_per_period, w, p_ref, kink_aware=kink, copies=1,
-                       repeat=1)
-    assert run.trajectory_error <= target, (adv.steps_per_period, run.trajectory_error)
-
+    return pr.run_fixed(scene, method, steps_per_period, w, p_ref, kink_aware=kink_aware,
+                        copies=1, repeat=1).trajectory_error
 
 
 @pytest.mark.parametrize(("rpm", "method", "target"), [(11000.0, "rk4", 1e-4), (9500.0, "rk5", 1e-5)])
@@ -231,12 +236,8 @@ def test_plain_rattle_advice_names_a_kink_aware_step_that_meets_the_target(rpm, 
     assert adv.kink_steps_per_period is not None
     assert adv.kink_steps_per_period < adv.steps_per_period
     assert f"needs {adv.kink_steps_per_period} steps per period" in adv.report()
-    scene = pr.rattle_scene(rpm)
-    w = pr.Window()
-    p_ref = pr.reference(scene, w)(pr.sample_times(scene, w))[0]
-    run = pr.run_fixed(scene, method, adv.kink_steps_per_period, w, p_ref, kink_aware=True,
-                       copies=1, repeat=1)
-    assert run.trajectory_error <= target, (adv.kink_steps_per_period, run.trajectory_error)
+    err = _trajectory_error(pr.rattle_scene(rpm), method, adv.kink_steps_per_period, True)
+    assert err <= target, (adv.kink_steps_per_period, err)
 
 
 # ----------------------------------------------------------------------------- study wiring

@@ -51,7 +51,7 @@ def _own(a) -> np.ndarray:
 
 
 def _vec(x, n: int) -> np.ndarray:
-    return _own(np.broadcast_to(np.asarray(x, dtype=np.float64), (n,)))
+    return _own(np.broadcast_to(x, (n,)))
 
 
 def _tab(t) -> np.ndarray | None:
@@ -116,7 +116,7 @@ def simulate(
         kinks of the dead zone (the plain step falls to order 2 there). Steps without crossings
         are the plain kernel's, bit for bit; without backlash the two are identical.
     """
-    h = _own(np.atleast_1d(np.asarray(h, dtype=np.float64)))
+    h = _own(np.atleast_1d(h))
     n = h.shape[0]
     if method not in rk.METHODS:
         raise ValueError(f"method must be one of {sorted(rk.METHODS)}, got {method!r}")
