@@ -113,6 +113,18 @@ def test_bad_study_gets_one_clear_line(old, new, field, allowed):
     assert allowed in msg, msg
 
 
+@pytest.mark.parametrize(("old", "new", "shown"), [
+    ("backlash: 4 um", "backlash: -0.5 mm", "scene.backlash: '-0.5 mm' --"),
+    ("mass: 0.1527 kg", "mass: -1 kg", "scene.mass: '-1 kg' --"),
+    ("num: 13}", "num: 0}", "sweep.speed.num: 0 --"),
+])
+def test_bad_value_is_shown_as_written(old, new, shown):
+    """The line shows the value as the file has it, not the SI number it was parsed into."""
+    with pytest.raises(StudyError) as err:
+        _study(RATTLE.replace(old, new), "bad.yaml")
+    assert shown in str(err.value), str(err.value)
+
+
 @pytest.mark.parametrize("text", ["", "- just\n- a list\n", "title: [unclosed", "42"])
 def test_malformed_yaml_is_one_line(text):
     with pytest.raises(StudyError) as err:

@@ -88,7 +88,7 @@ def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
     try:
         study = MeshStudy.model_validate(raw)
     except ValidationError as exc:
-        raise _first_error(exc, file) from None
+        raise _first_error(exc, file, raw) from None
     _check_grids(study, file)
     torques = study.torques()
     bad = torques[~(np.isfinite(torques) & (torques > 0))]

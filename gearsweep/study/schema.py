@@ -353,21 +353,41 @@ def _check_grids(study: Study, file: str) -> None:
                 raise StudyError(file, where, raw, "log spacing needs positive start and stop")
 
 
-def _loc(loc: tuple) -> str:
-    parts: list[str] = []
+def _user_path(loc: tuple) -> list[str | int]:
+    """The parts of a pydantic error location that are keys and indices of the user's file
+    (without the scene kind's tag and pydantic's names of union branches and validators)."""
+    parts: list[str | int] = []
     for p in loc:
         if isinstance(p, int):
-            parts.append(f"[{p}]")
+            parts.append(p)
         elif p in ("whine", "rattle", "full", "mathieu") and parts and parts[-1] == "scene":
             continue  # the discriminator's tag is not part of the user's path
         elif p.startswith("function-") or p in ("list[union[float,str]]", "Range", "float", "str"):
             continue
         else:
-            parts.append(("." if parts else "") + str(p))
-    return "".join(parts).replace(".[", "[") or "(top level)"
+            parts.append(p)
+    return parts
 
 
-def _first_error(exc: ValidationError, file: str) -> StudyError:
+def _loc(loc: tuple) -> str:
+    text = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in _user_path(loc))
+    return text.removeprefix(".") or "(top level)"
+
+
+def _as_written(raw, loc: tuple):
+    """The value at ``loc`` as the user wrote it (``'-0.5 mm'``, not the SI number a quantity
+    validator turned it into), or ``None`` if the file has nothing there."""
+    for p in _user_path(loc):
+        if isinstance(raw, dict) and p in raw:
+            raw = raw[p]
+        elif isinstance(raw, list) and isinstance(p, int) and 0 <= p < len(raw):
+            raw = raw[p]
+        else:
+            return None
+    return raw
+
+
+def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
     # Of the branches of a union (a list or a {start, stop, num} range), report the one the
     # user evidently meant: a type mismatch of another branch is the least specific error.
     errs = exc.errors()
@@ -375,6 +395,9 @@ def _first_error(exc: ValidationError, file: str) -> StudyError:
                                    and len(errs) > 1, -len(e["loc"])))
     msg = err["msg"].removeprefix("Value error, ")
     value = err.get("input")
+    written = _as_written(raw, err["loc"])
+    if isinstance(written, str | int | float) and not isinstance(value, dict | list):
+        value = written
     if isinstance(value, dict | list):
         value = "{...}" if isinstance(value, dict) else "[...]"
     if err["type"] == "extra_forbidden":
@@ -411,7 +434,7 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy:
     try:
         study = Study.model_validate(raw)
     except ValidationError as exc:
-        raise _first_error(exc, file) from None
+        raise _first_error(exc, file, raw) from None
     except RecursionError:
         raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
     _check_grids(study, file)
