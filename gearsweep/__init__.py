@@ -1,13 +1,35 @@
 """gearsweep: batch parameter studies of nonlinear spur gear dynamics.
 
-Layout (one job per folder):
+    import gearsweep
+    ds = gearsweep.run("studies/whine_speed_sweep.yaml")   # validate, run in-process -> Dataset
+    ds = gearsweep.open_result("results/fig08_rattle.nc")
 
-* ``gearsweep.kernels`` -- Numba kernels on floats and arrays in SI units (no I/O, no xarray).
-* ``gearsweep.gear``    -- physics of the gear pair: geometry, tooth compliance, STE, stiffness.
-* ``gearsweep.model``   -- Eq. (6)-(7) of the paper: from physical inputs to kernel coefficients.
-* ``gearsweep.study``   -- YAML -> validated study -> cases -> kernel calls -> xarray -> netCDF.
-* ``gearsweep.plot``    -- plotting functions that take a Dataset (and an ``ax``).
-* ``gearsweep.cli``     -- the thin command-line interface.
+Layers, each importing only from those below it (``docs/architecture.md``; import-linter checks):
+
+* ``gearsweep.cli``      -- the command line over ``api``.
+* ``gearsweep.api``      -- ``run``, ``open_result``, ``result_model``, ``result_study``.
+* ``gearsweep.study``    -- YAML -> schema -> plan -> chunks -> kernel -> Dataset -> netCDF.
+  ``gearsweep.plot``     -- plot functions that draw Datasets (never import ``study``).
+* ``gearsweep.analysis`` -- harmonic balance, Floquet, spectra, references, the step advisor.
+* ``gearsweep.gear``     -- tooth and mesh physics: geometry, compliance, STE, k(t) per load.
+* ``gearsweep.model``    -- the one case model of Eq. (6)-(7)/(11) and its kernel arguments.
+* ``gearsweep.kernels``  -- Numba kernels and method facts on floats and arrays in SI units.
+* ``gearsweep.units``, ``errors``, ``jit`` -- units, exceptions, JIT options.
 """
 
-__version__ = "0.1.0"
+from gearsweep._version import __version__
+
+_API = ("run", "open_result", "result_model", "result_study")
+
+
+def __getattr__(name: str):
+    # The API is imported on first use: ``import gearsweep`` stays as cheap as its version, and
+    # the CLI loads only what a command needs.
+    if name in _API:
+        from gearsweep import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'gearsweep' has no attribute {name!r}")
+
+
+__all__ = ["__version__", *_API]

@@ -39,14 +39,17 @@ def _check_writable(path: Path) -> None:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from gearsweep.study.runner import make_plan
+    from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
     if getattr(study, "type", None) == "mesh":
-        from gearsweep.study.mesh_runner import summary
+        from gearsweep.study.schema import summary
 
         print(f"{args.study}: ok -- {summary(study)}")
+        return 0
+    if getattr(study, "type", None) == "analysis":
+        print(f"{args.study}: ok -- analysis study {study.analysis.kind!r}")
         return 0
     plan = make_plan(study, text)
     dims = ", ".join(f"{d}={len(plan.grids[d])}" for d in plan.dims)
@@ -78,24 +81,24 @@ def cmd_run(args: argparse.Namespace) -> int:
         measure_rate,
         run_to_file,
     )
-    from gearsweep.study.runner import make_plan
+    from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
     out = Path(args.output) if args.output else _default_output(args.study)
     if not args.estimate:
         _check_writable(out)
-    if getattr(study, "type", None) == "mesh":  # a static mesh study: no integration, no chunks
+    if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
+        from gearsweep.api import run_unchunked
         from gearsweep.study.dataset import write_netcdf
-        from gearsweep.study.runner import run_study
 
         if args.estimate:
-            print(f"{args.study}: a static mesh study, no time integration: about a second")
+            print(f"{args.study}: a {study.type} study, computed in one piece: no estimate")
             return 0
         t0 = time.perf_counter()
-        write_netcdf(run_study(study, text), out)
+        write_netcdf(run_unchunked(study, text), out)
         if not args.quiet:
-            print(f"{out}: static mesh study in {time.perf_counter() - t0:.2f} s")
+            print(f"{out}: {study.type} study in {time.perf_counter() - t0:.2f} s")
         return 0
     plan = make_plan(study, text)
     if args.chunk_size is not None and args.chunk_size < 1:
@@ -197,10 +200,13 @@ def cmd_advise(args: argparse.Namespace) -> int:
     """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
     from gearsweep.analysis.advise import advise
     from gearsweep.model import MeshModel
-    from gearsweep.study.runner import make_plan
+    from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
+    if getattr(study, "type", None) in ("mesh", "analysis"):
+        raise StudyError(args.study, "type", study.type,
+                         "a dynamic study (whine, rattle, full): nothing is integrated here")
     plan = make_plan(study, text)
     model = plan.model
     if not isinstance(model, MeshModel):

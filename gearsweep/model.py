@@ -17,6 +17,7 @@ that is not swept) is passed as ``None``, so the kernel specialises and does not
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -85,9 +86,19 @@ class MeshModel:
         """Mesh periods in one cycle of every excitation (1 unless some order is fractional)."""
         p = 1
         for hm in (*self.stiffness_harmonics, *self.ste_harmonics, *self.force_harmonics):
-            den = Fraction(hm.order).limit_denominator(10 * max(self.teeth, 1)).denominator
+            den = Fraction(hm.order).limit_denominator(max(10 * self.teeth, 64)).denominator
             p = p * den // math.gcd(p, den)
         return p
+
+    def scene(self, speed_rpm: float) -> Scene:
+        """This model at one shaft speed, divided by the mass (the reference solvers' form)."""
+        return gear_scene(
+            mass=self.mass, damping=self.damping, k0=self.stiffness,
+            mesh_frequency=float(mesh_frequency(speed_rpm, self.teeth)),
+            k_harmonics=[(h.amplitude, h.order, h.phase) for h in self.stiffness_harmonics],
+            ste_harmonics=[(h.amplitude, h.order, h.phase) for h in self.ste_harmonics],
+            force_harmonics=[(h.amplitude, h.order, h.phase) for h in self.force_harmonics],
+            force=self.mean_force, backlash=self.backlash or None)
 
 
 @dataclass(frozen=True)
@@ -97,6 +108,16 @@ class MathieuModel:
     alpha: float
     beta: float
     gamma: float = 0.0
+
+
+PAPER_RIG = MeshModel(
+    mass=0.1527, teeth=48, stiffness=1.073e9, damping=5500.0, mean_force=833.0,
+    stiffness_harmonics=(Harmonic(179e6, 1.0),),
+)
+"""The paper's rig in SI, each number printed in the paper: m_eq = 0.1527 kg and c = 5.5 N s/mm
+(Fig. 6), k0 = 1073 kN/mm and k1 = 179 kN/mm (Fig. 7.2), N1 = 48 teeth (Table 1), and
+F_m = 50 N m / 60 mm = 833 N (Fig. 6's 50 N m on the 60 mm pitch radius). No STE, no backlash:
+scenes add what they need (``dataclasses.replace``)."""
 
 
 SWEEPABLE = {
@@ -207,3 +228,208 @@ def kernel_inputs(model: MeshModel | MathieuModel, cases: dict[str, np.ndarray],
 def mesh_frequency(speed_rpm: np.ndarray, teeth: int) -> np.ndarray:
     """Tooth-mesh frequency [Hz] of a driving-gear shaft speed [rpm]."""
     return np.asarray(speed_rpm, dtype=float) * teeth / 60.0
+
+
+def hill_parameters(model: MeshModel | MathieuModel, params: dict[str, np.ndarray], n: int):
+    """Eq. (12): the homogeneous equation of each case in Mathieu time tau = N w t.
+
+    Parameters
+    ----------
+    model : MeshModel or MathieuModel
+        The scene's fixed values.
+    params : dict of ndarray (n,)
+        Swept values per case (keys from ``SWEEPABLE``; speed in rpm, others SI).
+    n : int
+        Number of cases.
+
+    Returns
+    -------
+    alpha, beta, gamma : ndarray (n,)
+        ``alpha = k0 / (m (N w)^2)``, ``beta = 1 / (m (N w)^2)`` (the scale of the stiffness
+        harmonics), ``gamma = c / (m N w)``; the Mathieu scene gives them directly.
+    harmonics : (amplitudes, orders, phases) or None
+        The stiffness harmonics shared by every case; None also when a stiffness order is not an
+        integer (then alpha is NaN).
+    kmax_over_m, c_over_m, period : ndarray (n,)
+        Largest stiffness / mass [1/s^2], damping / mass [1/s] and mesh period [s] of each case
+        (Mathieu scene: in units of tau).
+    """
+
+    def case(name: str, default: float) -> np.ndarray:
+        v = params.get(name)
+        return np.full(n, float(default)) if v is None else np.asarray(v, dtype=float)
+
+    if isinstance(model, MathieuModel):
+        a, b, g = case("alpha", model.alpha), case("beta", model.beta), case("gamma", model.gamma)
+        return a, b, g, None, a + np.abs(b), g, np.full(n, 2.0 * math.pi)
+    omega = model.teeth * case("speed", math.nan) * RPM  # mesh angular frequency [rad/s]
+    mass = case("mass", model.mass)
+    k0 = case("stiffness", model.stiffness)
+    c = case("damping", model.damping)
+    kh = model.stiffness_harmonics
+    scale = 1.0 / (mass * omega**2)
+    alpha, gamma = k0 * scale, c / (mass * omega)
+    harmonics = None
+    beta = np.zeros(n)
+    if kh:
+        if any(abs(h.order - round(h.order)) > 1e-12 for h in kh):
+            alpha = np.full(n, math.nan)
+        else:
+            harmonics = ([h.amplitude for h in kh], [round(h.order) for h in kh],
+                         [h.phase for h in kh])
+            beta = scale
+    kmax = (k0 + sum(abs(h.amplitude) for h in kh)) / mass
+    return alpha, beta, gamma, harmonics, kmax, c / mass, 2.0 * math.pi / omega
+
+
+# --------------------------------------------------------------------------- one case, per mass
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One case of Eq. (6) divided by the mass, the form the reference solvers integrate:
+
+        p'' = G(t) - cm p' - K(t) f(p)
+        K(t) = k_mean + sum_j ka_j cos(kr_j W t + kp_j)          stiffness / mass [1/s^2]
+        G(t) = g_mean + sum_j ga_j cos(gr_j W t + gp_j)          force / mass     [m/s^2]
+
+    with the mesh angular frequency W [rad/s], harmonic orders relative to the mesh frequency,
+    and the dead zone f(p) = p - clip(p, -b, b) (``half_gap=None``: f(p) = p). The STE enters G
+    through -e''(t): e_n cos(n W t + a_n) gives e_n (n W)^2 cos(n W t + a_n). Build one with
+    ``MeshModel.scene(speed)`` or ``gear_scene``; its kernel arguments come from
+    ``kernel_inputs`` like every study's.
+
+    Parameters
+    ----------
+    omega : float
+        Mesh angular frequency W [rad/s].
+    damping : float
+        c / m [1/s].
+    k_mean : float
+        Mean stiffness / mass [1/s^2].
+    k_harmonics : tuple of (amplitude [1/s^2], order [1], phase [rad])
+    g_mean : float
+        Mean force / mass [m/s^2].
+    g_harmonics : tuple of (amplitude [m/s^2], order [1], phase [rad])
+        Periodic force / mass, the STE term -e''(t) included.
+    half_gap : float or None
+        Half the backlash b [m]; ``None``: no backlash.
+    """
+
+    omega: float
+    damping: float
+    k_mean: float
+    k_harmonics: tuple[tuple[float, float, float], ...] = field(default=())
+    g_mean: float = 0.0
+    g_harmonics: tuple[tuple[float, float, float], ...] = field(default=())
+    half_gap: float | None = None
+
+    @property
+    def period(self) -> float:
+        """Mesh period [s]."""
+        return 2.0 * np.pi / self.omega
+
+    @property
+    def omega_n(self) -> float:
+        """sqrt(k_mean + sum |ka_j|) [rad/s]: natural frequency at the largest stiffness."""
+        return float(np.sqrt(self.k_mean + sum(abs(a) for a, _, _ in self.k_harmonics)))
+
+    def stiffness(self, t):
+        """K(t) [1/s^2]."""
+        t = np.asarray(t, dtype=float)
+        out = np.full_like(t, self.k_mean)
+        for a, r, ph in self.k_harmonics:
+            out = out + a * np.cos(r * self.omega * t + ph)
+        return out
+
+    def forcing(self, t):
+        """G(t) [m/s^2]."""
+        t = np.asarray(t, dtype=float)
+        out = np.full_like(t, self.g_mean)
+        for a, r, ph in self.g_harmonics:
+            out = out + a * np.cos(r * self.omega * t + ph)
+        return out
+
+    def response_scale(self) -> float:
+        """Rough size of p [m]: static deflection under the largest force plus the half gap."""
+        g = abs(self.g_mean) + sum(abs(a) for a, _, _ in self.g_harmonics)
+        return g / max(self.k_mean, 1e-300) + (self.half_gap or 0.0)
+
+    def model(self) -> MeshModel:
+        """The same case as a ``MeshModel`` of unit mass (speed: ``omega / RPM`` at one tooth)."""
+        return MeshModel(
+            mass=1.0, teeth=1, stiffness=self.k_mean, damping=self.damping,
+            mean_force=self.g_mean, backlash=2.0 * self.half_gap if self.half_gap else 0.0,
+            stiffness_harmonics=tuple(Harmonic(*h) for h in self.k_harmonics),
+            force_harmonics=tuple(Harmonic(*h) for h in self.g_harmonics))
+
+    def kernel_kwargs(self, steps_per_period: int) -> dict:
+        """Arguments of ``gearsweep.kernels.simulate`` for this case (without the step counts),
+        from ``kernel_inputs``, plus ``steps_per_period``."""
+        kw = kernel_inputs(self.model(), {"speed": np.array([self.omega / RPM])}, 1,
+                           steps_per_period, divergence_factor=math.inf)
+        kw["steps_per_period"] = steps_per_period
+        if self.half_gap is not None and not self.half_gap:
+            kw["half_gap"] = np.zeros(1)
+        return kw
+
+
+def gear_scene(*, mass: float, damping: float, k0: float, mesh_frequency: float, k_harmonics=(),
+               ste_harmonics=(), force_harmonics=(), force: float = 0.0,
+               backlash: float | None = None) -> Scene:
+    """A ``Scene`` from the physical parameters of Eq. (6).
+
+    Parameters
+    ----------
+    mass : float
+        Equivalent mass m_eq [kg].
+    damping : float
+        Mesh viscous damping c [N s/m].
+    k0 : float
+        Mean mesh stiffness [N/m].
+    mesh_frequency : float
+        Tooth-mesh frequency [Hz].
+    k_harmonics : sequence of (amplitude [N/m], order, phase [rad])
+    ste_harmonics : sequence of (amplitude [m], order, phase [rad])
+    force_harmonics : sequence of (amplitude [N], order, phase [rad])
+    force : float
+        Mean mesh force F_m [N].
+    backlash : float or None
+        Total backlash [m] (the dead zone's half-width is backlash / 2); ``None``: none.
+    """
+    w = 2.0 * np.pi * mesh_frequency
+    return Scene(
+        omega=w,
+        damping=damping / mass,
+        k_mean=k0 / mass,
+        k_harmonics=tuple((a / mass, r, ph) for a, r, ph in k_harmonics),
+        g_mean=force / mass,
+        g_harmonics=tuple((e * (r * w) ** 2, r, ph) for e, r, ph in ste_harmonics)
+        + tuple((f / mass, r, ph) for f, r, ph in force_harmonics),
+        half_gap=None if backlash is None else 0.5 * backlash,
+    )
+
+
+# --------------------------------------------------------------------------- self-description
+
+
+def model_record(model: MeshModel | MathieuModel) -> dict:
+    """Every number of the model (SI) and which terms are on, as plain JSON-able data."""
+    rec = {"kind": "mathieu" if isinstance(model, MathieuModel) else "mesh"}
+    for f in dataclasses.fields(model):
+        v = getattr(model, f.name)
+        if isinstance(v, tuple):
+            v = [dataclasses.asdict(h) for h in v]
+        rec[f.name] = v
+    return rec
+
+
+def model_from_record(rec: dict) -> MeshModel | MathieuModel:
+    """The inverse of ``model_record``."""
+    rec = dict(rec)
+    kind = rec.pop("kind")
+    if kind == "mathieu":
+        return MathieuModel(**rec)
+    for name in ("stiffness_harmonics", "ste_harmonics", "force_harmonics"):
+        rec[name] = tuple(Harmonic(**h) for h in rec.get(name, ()))
+    return MeshModel(**rec)

@@ -36,7 +36,7 @@ import xarray as xr
 from gearsweep.kernels import simulate
 from gearsweep.model import kernel_inputs
 from gearsweep.study.execute import warm_up
-from gearsweep.study.runner import _lane_params, make_plan
+from gearsweep.study.plan import _lane_params, make_plan
 from gearsweep.study.schema import load_study
 
 ROOT = Path(__file__).resolve().parents[1]

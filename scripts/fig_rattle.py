@@ -17,7 +17,7 @@ from gearsweep.model import RPM
 from gearsweep.plot import rattle as rplot
 from gearsweep.plot.common import plt, save
 from gearsweep.study.jumps import jump_summary
-from gearsweep.study.runner import build_model
+from gearsweep.study.plan import build_model
 from gearsweep.study.schema import parse_study
 
 

@@ -23,7 +23,7 @@ from gearsweep.errors import LimitError
 from gearsweep.study import execute
 from gearsweep.study.checkpoint import ChunkStore, chunk_folder
 from gearsweep.study.execute import InProcess, Limits, check_limits, estimate, run_plan
-from gearsweep.study.runner import make_plan
+from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -16,7 +16,7 @@ from gearsweep.gear import GearPair, TipRelief, table1_consistent
 from gearsweep.gear.mesh import fourier, fourier_series, mesh_cycle, mesh_cycles
 from gearsweep.kernels import simulate
 from gearsweep.model import RPM, kernel_inputs
-from gearsweep.study.runner import build_model
+from gearsweep.study.plan import build_model
 from gearsweep.study.schema import parse_study
 
 STUDIES = Path(__file__).resolve().parent.parent / "studies"
@@ -218,10 +218,32 @@ def test_gear_with_typed_in_coefficients_is_refused(tmp_path, capsys, extra, mes
     assert ": scene: " in err and message in err
 
 
-def test_gear_scene_refuses_a_torque_sweep():
+def test_gear_scene_sweeps_torque_with_k_and_ste_recomputed_per_load():
+    """A torque sweep of a gear scene gives, at each load, exactly the study run at that load
+    alone (its own k(t) and e(t)), and the result shows each load's k0 and harmonics."""
+    from gearsweep.api import run
+
+    loads = (10.0, 50.0, 120.0)
+    swept = run(whine("table1_consistent", "  harmonics: 4\n", kind="rattle")
+                + f"  torque: [{loads[0]} N*m, {loads[1]} N*m, {loads[2]} N*m]\n")
+    assert swept.p_rms.dims == ("speed", "torque")
+    k0 = swept.gear_stiffness.values
+    assert k0[0] < k0[1] < k0[2]  # the mesh stiffens with load (Hertzian contact)
+    for i, t in enumerate(loads):
+        alone = run(whine("table1_consistent", f"  harmonics: 4\n  torque: {t} N*m\n",
+                          kind="rattle"))
+        assert_allclose(swept.p_rms.isel(torque=i).values, alone.p_rms.values, rtol=1e-13)
+        assert swept.gear_stiffness.values[i] == pytest.approx(
+            build_model(parse_study(whine("table1_consistent",
+                                          f"  harmonics: 4\n  torque: {t} N*m\n"))).stiffness)
+
+
+def test_gear_scene_refuses_a_stiffness_sweep_and_a_load_given_twice():
+    text = whine("table1_consistent", "  torque: 50 N*m\n") + "  stiffness: [1 kN/mm, 2 kN/mm]\n"
+    with pytest.raises(StudyError, match=r"sweep.stiffness: a gear scene computes its stiffness"):
+        parse_study(text)
     text = whine("table1_consistent", "  torque: 50 N*m\n") + "  torque: [10 N*m, 50 N*m]\n"
-    with pytest.raises(StudyError, match=r"sweep.torque: a gear scene computes stiffness and STE"
-                                         r" at one mean load"):
+    with pytest.raises(StudyError, match=r"give the gear's mean load once"):
         parse_study(text)
 
 
@@ -294,7 +316,7 @@ def test_mesh_study_netcdf_has_data_md_names_dims_units_and_mesh_cycle_values(tm
 
 
 def test_single_torque_mesh_study_has_no_torque_dim():
-    from gearsweep.study.runner import run_study
+    from gearsweep.api import run_study
 
     study = parse_study("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 50 N*m\n"
                         "positions: 50\nharmonics: 3\n")

@@ -1,57 +1,82 @@
-"""Import contract: the numerics packages stay free of I/O, study and plotting libraries.
+"""The layers import one way (docs/architecture.md): import-linter's contracts in pyproject.toml,
+plus two rules it cannot state: no function-level import of gearsweep's own modules (a hidden edge
+of the graph), and figure scripts that only read results and draw.
 
-``gearsweep/kernels/`` and ``gearsweep/analysis/`` work on floats and arrays in SI units; they must
-not import (at module level or inside functions) any of the heavy or user-facing libraries below,
-so that they load fast, run in any worker, and keep the layering of the package (STYLE.md). The
-check parses every module with ``ast`` (nothing is imported or executed), so it also covers code
-paths a test run would not reach.
+Every check parses source or builds the import graph: nothing of gearsweep is executed.
 """
 
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parents[1] / "gearsweep"
-NUMERIC_PACKAGES = ("kernels", "analysis")
-FORBIDDEN = {"xarray", "dask", "distributed", "yaml", "pydantic", "pint", "matplotlib", "netCDF4"}
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "gearsweep"
+
+LAZY_OK = {"gearsweep/__init__.py", "gearsweep/cli.py"}
+"""Modules that import gearsweep's own modules inside functions on purpose: the package's
+``__getattr__`` loads the API on first use, and the CLI loads per command only what it needs
+(start-up time)."""
+
+FIGURE_FORBIDDEN = ("gearsweep.kernels", "gearsweep.analysis", "gearsweep.study.plan",
+                    "gearsweep.study.chunk", "gearsweep.study.execute", "gearsweep.api.run")
+"""What a figure script must not import: it opens result files and calls ``gearsweep.plot``."""
+
+STILL_COMPUTING = {"fig_work_precision.py", "fig_method_stability.py", "fig_stability.py",
+                   "fig_rattle.py"}
+"""Figure scripts that still compute (issue 22: to become study outputs). The test below fails
+when one of them stops computing, so the list can only shrink."""
 
 
-def imported_modules(source: str) -> set[str]:
-    """Top-level names of every module imported anywhere in ``source`` (absolute imports)."""
-    names = set()
-    for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Import):
-            names.update(alias.name.split(".")[0] for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names.add(node.module.split(".")[0])
-    return names
+def _imports(tree: ast.AST, *, nested_only: bool = False) -> list[tuple[int, str]]:
+    """(line, module) of every absolute import; with ``nested_only`` only those in functions."""
+    out = []
+    funcs = [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef)]
+    scopes = funcs if nested_only else [tree]
+    for scope in scopes:
+        for node in ast.walk(scope):
+            if isinstance(node, ast.Import):
+                out += [(node.lineno, a.name) for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                out += [(node.lineno, f"{node.module}.{a.name}") for a in node.names]
+    return out
 
 
-def _modules() -> list[Path]:
-    return sorted(p for sub in NUMERIC_PACKAGES for p in (PACKAGE / sub).rglob("*.py"))
+def test_import_linter_contracts_are_kept():
+    exe = Path(sys.executable).with_name("lint-imports")
+    r = subprocess.run([str(exe)], cwd=ROOT, capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-2000:]
 
 
-def test_scanner_finds_every_import_form():
-    src = (
-        "import xarray as xr\n"
-        "import dask.array\n"
-        "from matplotlib import pyplot\n"
-        "from . import sibling\n"
-        "def f():\n"
-        "    import yaml\n"
-        "    from pint.registry import UnitRegistry\n"
-    )
-    assert imported_modules(src) == {"xarray", "dask", "matplotlib", "yaml", "pint"}
+def test_the_nested_import_scanner_sees_only_function_bodies():
+    tree = ast.parse("import os\nfrom gearsweep import model\n"
+                     "def f():\n    from gearsweep.study import plan\n    import yaml\n")
+    assert _imports(tree, nested_only=True) == [(4, "gearsweep.study.plan"), (5, "yaml")]
 
 
-def test_kernels_are_scanned():
-    assert PACKAGE / "kernels" / "rk.py" in _modules()
+@pytest.mark.parametrize("path", sorted(PACKAGE.rglob("*.py")), ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_function_level_import_of_gearsweep_modules(path):
+    rel = str(path.relative_to(ROOT))
+    if rel in LAZY_OK:
+        return
+    hidden = [(ln, m) for ln, m in _imports(ast.parse(path.read_text()), nested_only=True)
+              if m.startswith("gearsweep")]
+    assert not hidden, f"{rel} imports inside functions: {hidden}"
 
 
-@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
-def test_numeric_modules_import_no_io_study_or_plot_library(path):
-    bad = imported_modules(path.read_text()) & FORBIDDEN
-    assert not bad, f"{path.relative_to(PACKAGE.parent)} imports {sorted(bad)}"
+def _figure_offences(path: Path) -> list[tuple[int, str]]:
+    return [(ln, m) for ln, m in _imports(ast.parse(path.read_text()))
+            if m.startswith(FIGURE_FORBIDDEN) or m in ("gearsweep.run", "gearsweep.api.run")]
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "scripts").glob("fig*.py")), ids=lambda p: p.name)
+def test_figure_scripts_only_draw(path):
+    bad = _figure_offences(path)
+    if path.name in STILL_COMPUTING:
+        assert bad, f"{path.name} no longer computes: remove it from STILL_COMPUTING"
+    else:
+        assert not bad, f"{path.name} computes ({bad}): make it a study output, draw the result"

@@ -13,6 +13,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from numpy.testing import assert_allclose  # noqa: E402
 
+from gearsweep.api import run_study  # noqa: E402
 from gearsweep.plot.whine import (  # noqa: E402
     driven_speed,
     natural_frequency,
@@ -21,7 +22,6 @@ from gearsweep.plot.whine import (  # noqa: E402
     plot_response_vs_speed,
     plot_waterfall,
 )
-from gearsweep.study.runner import run_study  # noqa: E402
 from gearsweep.study.schema import parse_study  # noqa: E402
 
 STUDY = """

@@ -10,8 +10,8 @@ import pytest
 from gearsweep.analysis import precision as pr
 from gearsweep.analysis.advise import advise, stability_limit, stability_polynomial
 from gearsweep.analysis.reference import reference_exact, reference_ivp
-from gearsweep.analysis.scene import Scene
 from gearsweep.kernels.batch import simulate
+from gearsweep.model import Scene
 
 # ----------------------------------------------------------------------------- references
 
@@ -267,7 +267,7 @@ def test_study_solver_kink_aware_reaches_the_kernel():
     its own way) and differ from the plain step's (by about 1e-3 at 32 steps per period)."""
     import textwrap
 
-    from gearsweep.study.runner import run_study
+    from gearsweep.api import run_study
     from gearsweep.study.schema import parse_study
 
     ds = {k: run_study(parse_study(textwrap.dedent(RATTLE_STUDY.replace("KINK", k)), "s.yaml"), "")
@@ -303,8 +303,8 @@ def test_kink_aware_order_with_time_varying_stiffness_and_all_tables(method, lo,
     backlash (9000 rpm, 4 crossings per period), against DOP853 with crossing events. The fix-up
     evaluates K, G and their time derivatives from the quartics through the table nodes; the
     kink-aware step must keep its order (measured 4.14 and 5.14; plain steps: 2.3)."""
-    from gearsweep.analysis.scene import gear_scene
     from gearsweep.kernels.tables import fourier_table
+    from gearsweep.model import gear_scene
 
     sc = gear_scene(mass=pr.MASS, damping=pr.DAMPING, k0=pr.K0, mesh_frequency=48 * 9000 / 60,
                     k_harmonics=pr.K_HARMONICS, ste_harmonics=pr.STE_HARMONICS, force=pr.FORCE,

@@ -467,7 +467,7 @@ def test_fig08_study_puts_the_turning_points_at_the_papers_speeds():
     from pathlib import Path
 
     from gearsweep.model import RPM
-    from gearsweep.study.runner import build_model
+    from gearsweep.study.plan import build_model
     from gearsweep.study.schema import load_study
 
     study, _text = load_study(Path(__file__).parent.parent / "studies" / "fig08_rattle.yaml")
@@ -510,8 +510,8 @@ def test_fig08_study_runs_through_the_study_layer():
     within 1.5 grid steps of the AFT turning points (8025 and 7521 rpm, test above)."""
     from pathlib import Path
 
+    from gearsweep.api import run_study
     from gearsweep.study.jumps import jump_summary
-    from gearsweep.study.runner import run_study
     from gearsweep.study.schema import parse_study
 
     text = (Path(__file__).parent.parent / "studies" / "fig08_rattle.yaml").read_text()

@@ -277,7 +277,7 @@ def test_floquet_output_of_a_mathieu_study_matches_direct_analysis():
     """The runner's floquet_multiplier / unstable equal a tighter ``floquet`` on the same grid
     (the output converges to rtol 1e-8: 5e-8 allows the Richardson estimate's slack), and the
     paper's criterion (status 1) fires only where the equation is unstable."""
-    from gearsweep.study.runner import run_study
+    from gearsweep.api import run_study
     from gearsweep.study.schema import parse_study
 
     ds = run_study(parse_study(MATHIEU_STUDY))
@@ -297,7 +297,7 @@ def test_floquet_output_flags_the_integrator_on_the_rig():
     """150 rpm at 200 steps per period: h w_n = 2 pi 13342 / (120 x 200) = 3.5 is past every
     RK5 limit, so the run diverges (status 1) while the equation is stable: integrator_unstable,
     and min_steps_per_period is above 200. At 1500 rpm (h w_n = 0.35) nothing is flagged."""
-    from gearsweep.study.runner import run_study
+    from gearsweep.api import run_study
     from gearsweep.study.schema import parse_study
 
     ds = run_study(parse_study(RIG_STUDY))

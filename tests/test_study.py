@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from gearsweep.api import run_study
 from gearsweep.cli import main as cli
 from gearsweep.errors import StudyError
 from gearsweep.study.dataset import write_netcdf
-from gearsweep.study.runner import build_model, run_study
+from gearsweep.study.plan import build_model
 from gearsweep.study.schema import parse_study
 from gearsweep.study.units import to_si
 
@@ -279,7 +280,7 @@ def test_step_guard_warns_or_skips_cases_beyond_the_stability_limit(tmp_path, ca
 @pytest.mark.parametrize("method", ["rk4", "rk5"])
 def test_guard_step_is_a_tight_lower_bound_of_the_exact_stability_limit(method):
     from gearsweep.analysis.stability import max_stable_step
-    from gearsweep.study.runner import _stable_steps
+    from gearsweep.study.plan import _stable_steps
 
     rng = np.random.default_rng(1)
     k = 10 ** rng.uniform(2, 10, 400)
@@ -310,7 +311,7 @@ def test_cli_advise_reports_steps_cost_and_stability(tmp_path, capsys):
 def test_step_guard_solved_once_per_study_matches_the_guard_per_case():
     """The guard's table over the dims it depends on (speed, damping, mass; not the force)
     gives, chunk by chunk, the verdict of ``_step_ok`` evaluated case by case."""
-    from gearsweep.study.runner import _guard_table, _lane_params, _lanes, _step_ok, make_plan
+    from gearsweep.study.plan import _guard_table, _lane_params, _lanes, _step_ok, make_plan
 
     text = LINEAR.replace("speed: [6000 rpm, 12000 rpm, 24000 rpm]", """speed: [100 rpm, 400 rpm,
     1500 rpm, 6000 rpm]

@@ -22,9 +22,8 @@ from hypothesis import strategies as st
 
 from gearsweep.cli import main
 from gearsweep.errors import GearsweepError, StudyError
-from gearsweep.study.mesh_runner import MeshStudy
-from gearsweep.study.runner import make_plan
-from gearsweep.study.schema import Study, parse_study
+from gearsweep.study.plan import make_plan
+from gearsweep.study.schema import MeshStudy, Study, parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -21,12 +21,13 @@ from numpy.testing import assert_allclose
 
 from gearsweep.analysis.linear_response import periodic_response, ste_force
 from gearsweep.analysis.spectrum import line_spectrum, mean_square
+from gearsweep.api import run_study
 from gearsweep.errors import StudyError
 from gearsweep.kernels import simulate
 from gearsweep.model import kernel_inputs
 from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.outputs import OUTPUTS
-from gearsweep.study.runner import CHUNK_SIGNAL_BYTES, make_plan, run_study
+from gearsweep.study.plan import CHUNK_SIGNAL_BYTES, make_plan
 from gearsweep.study.schema import parse_study
 
 M, K0, C, FM = 0.1527, 1.073e9, 5500.0, 833.0  # [kg], [N/m], [N s/m], [N]: Fig. 6 and bench
@@ -306,7 +307,8 @@ def test_signal_memory_is_bounded_per_chunk():
     assert (b - a) * 2 * 500 * 16 * 8 <= CHUNK_SIGNAL_BYTES < (b - a + 1) * 2 * 500 * 16 * 8
     small_text = whine(np.linspace(1000, 20000, 300), spp=64)
     plan = make_plan(parse_study(small_text), small_text)
-    from gearsweep.study.runner import assemble, empty_results, run_chunk, store_chunk
+    from gearsweep.study.chunk import run_chunk
+    from gearsweep.study.dataset import assemble, empty_results, store_chunk
 
     def by(lanes: int):
         res = empty_results(plan)

@@ -1,7 +1,7 @@
 """Step advice: the steps per mesh period a case needs for a target accuracy, its cost, and a
 warning when a chosen step lies beyond the method's stability limit.
 
-Error model (measured, ``scripts/fig_work_precision.py --calibrate``): the trajectory error over the
+Error model (measured, ``scripts/calibrate_advisor.py``): the trajectory error over the
 steady-state window, relative to the response amplitude, obeys
 
     err <= C (h omega_n)^p,      h = T_mesh / steps_per_period,  omega_n = sqrt(k_max / m)

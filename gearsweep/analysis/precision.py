@@ -23,9 +23,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from gearsweep.analysis.reference import PiecewiseSolution, reference_exact, reference_ivp
-from gearsweep.analysis.scene import Scene, gear_scene
 from gearsweep.kernels import rk
 from gearsweep.kernels.batch import simulate
+from gearsweep.model import PAPER_RIG, Scene, gear_scene
 
 SAMPLES_PER_PERIOD = 8
 """Common sampling instants per mesh period (the coarsest step studied, 8 per period)."""
@@ -164,19 +164,19 @@ def fit_order(steps_per_period, err, lo: float = 1e-10, hi: float = 1e-2) -> flo
 
 # --------------------------------------------------------------------------- the two scenes
 
-MASS = 0.1527
+MASS = PAPER_RIG.mass
 """Equivalent mass of the paper's Fig. 6 [kg]."""
-DAMPING = 5500.0
+DAMPING = PAPER_RIG.damping
 """Mesh damping of the paper's Fig. 6, 5.5 N s/mm [N s/m]."""
-K0 = 1.073e9
+K0 = PAPER_RIG.stiffness
 """Mean mesh stiffness of Fig. 7.2 [N/m]."""
-K_HARMONICS = ((179e6, 1, 0.0), (40e6, 2, 0.0), (10e6, 3, 0.0))
+K_HARMONICS = ((PAPER_RIG.stiffness_harmonics[0].amplitude, 1, 0.0), (40e6, 2, 0.0), (10e6, 3, 0.0))
 """Stiffness harmonics (k1 of Fig. 7.2; k2, k3 as benchmark B1) [N/m]."""
 STE_HARMONICS = ((5e-6, 1, 0.0), (1e-6, 2, 0.0), (0.3e-6, 3, 0.0))
 """STE harmonics of benchmark B1 [m]."""
-FORCE = 833.0
+FORCE = PAPER_RIG.mean_force
 """Mean mesh force, 50 N m on the 60 mm pitch radius [N]."""
-TEETH = 48
+TEETH = PAPER_RIG.teeth
 """Teeth of the gear whose speed is given."""
 
 

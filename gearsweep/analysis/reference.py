@@ -32,7 +32,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from gearsweep.analysis.scene import Scene
+from gearsweep.model import Scene
 
 CONTACT, GAP, BACK = 1, 0, -1
 """Regions: drive-side contact p > b, gap |p| < b, back-side contact p < -b."""

@@ -45,6 +45,9 @@ from functools import cache
 import numpy as np
 
 from gearsweep.errors import GearsweepError
+from gearsweep.kernels import STATUS_DIVERGED, simulate
+from gearsweep.kernels import floquet as fq
+from gearsweep.kernels.floquet import floquet, mathieu_parameters, paper_criterion
 
 __all__ = [
     "TABLEAUX",
@@ -337,7 +340,6 @@ def integrator_unstable(alpha, beta, gamma, steps_per_period: int, *, method: st
     discrete : ndarray
         Largest |multiplier| of the discrete monodromy matrix at this step (inf when it overflows).
     """
-    from gearsweep.kernels import floquet as fq
 
     shape = np.broadcast_shapes(np.shape(alpha), np.shape(beta), np.shape(gamma))
     M = fq.monodromy(alpha, beta, gamma, steps_per_period, method=method, harmonics=harmonics)
@@ -377,7 +379,6 @@ def measured_step_limit(method: str, zeta, n_steps: int = 2_000_000, bound: floa
     ndarray
         Measured limit of h omega_n [-].
     """
-    from gearsweep.kernels import STATUS_DIVERGED, simulate
 
     zeta = np.atleast_1d(np.asarray(zeta, dtype=float))
     a = np.full(zeta.shape, lo)
@@ -430,7 +431,6 @@ def operating_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teet
         ``integrator_unstable`` (coarse step), ``discrete_multiplier`` (coarse step), and
         ``limit_speed`` (nc,): the speed [rpm] below which ``check_step`` refuses the coarse step.
     """
-    from gearsweep.kernels.floquet import floquet, mathieu_parameters, paper_criterion
 
     speed = np.asarray(speed_rpm, dtype=float)
     c = np.asarray(damping, dtype=float)

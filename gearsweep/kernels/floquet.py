@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gearsweep.errors import GearsweepError
 from gearsweep.kernels import rk
 from gearsweep.kernels.batch import simulate
 from gearsweep.kernels.tables import fourier_table
@@ -189,7 +190,6 @@ def floquet(alpha, beta, gamma=0.0, *, method: str = "rk5", rtol: float = 1e-9,
         Arrays of the broadcast shape of the inputs (``monodromy``: that shape + (2, 2)).
     """
     if method not in ORDER:
-        from gearsweep.errors import GearsweepError
 
         raise GearsweepError(f"method must be one of {sorted(ORDER)}, got {method!r}")
     arrs = np.broadcast_arrays(np.asarray(alpha, float), np.asarray(beta, float),

@@ -10,6 +10,7 @@ engineering units (um, mm/s, kHz, rpm). ``plot_waterfall`` needs a 3-D axes
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
 
@@ -19,6 +20,8 @@ import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
+
+from gearsweep.model import model_from_record
 
 __all__ = [
     "driven_speed",
@@ -35,13 +38,10 @@ UM = 1e6  # m -> um
 def natural_frequency(ds: xr.Dataset) -> float:
     """Undamped natural frequency f_n = sqrt(k0 / m_eq) / (2 pi) [Hz] of the study in ``ds``.
 
-    Read from the study text the result file keeps (``attrs["study"]``), so a figure marks the
-    frequency of the run that made it.
+    Read from the resolved model the result file carries (``attrs["model"]``), so a figure
+    marks the frequency of the run that made it.
     """
-    from gearsweep.study.runner import build_model
-    from gearsweep.study.schema import parse_study
-
-    model = build_model(parse_study(ds.attrs["study"]))
+    model = model_from_record(json.loads(ds.attrs["model"]))
     return math.sqrt(model.stiffness / model.mass) / (2 * math.pi)
 
 

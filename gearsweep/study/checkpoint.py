@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import numpy.lib.format as fmt
 
-import gearsweep
+from gearsweep._version import __version__
 
 MANIFEST = "manifest.json"
 SUFFIX = ".npys"
@@ -73,7 +73,7 @@ class ChunkStore:
     study_sha256 : str
         Hex digest of the study text; the folder's name.
     n_lanes : int
-        Lanes of the study (see ``gearsweep.study.runner``).
+        Lanes of the study (see ``gearsweep.study.plan``).
     chunks : list of (int, int)
         Lane ranges ``[lane0, lane1)`` of the chunks, in order.
     """
@@ -85,7 +85,7 @@ class ChunkStore:
         self.manifest = {
             "format": FORMAT,
             "study_sha256": study_sha256,
-            "gearsweep_version": gearsweep.__version__,
+            "gearsweep_version": __version__,
             "n_lanes": int(n_lanes),
             "chunks": [[int(a), int(b)] for a, b in chunks],
         }

@@ -1,17 +1,22 @@
-"""The one function that builds every result Dataset, and the atomic netCDF writer (DATA.md)."""
+"""Chunks -> Dataset -> netCDF: the layout of a plan's result arrays, the one function that builds
+every result Dataset (with the resolved model and provenance), and the atomic netCDF writer."""
 
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
 
-import gearsweep
+from gearsweep._version import __version__
+from gearsweep.model import MeshModel, mesh_frequency, model_record
+from gearsweep.study.outputs import VarSpec
 
 COORDS = {
     "speed": ("rpm", "shaft speed of the driving gear (gear 1)"),
@@ -106,7 +111,7 @@ def build_dataset(
     ds.attrs.update(
         Conventions="CF-1.10",
         title=title,
-        history=f"[{now}] gearsweep {gearsweep.__version__}",
+        history=f"[{now}] gearsweep {__version__}",
         source=source,
         study=study_text,
         study_sha256=hashlib.sha256(study_text.encode()).hexdigest(),
@@ -169,3 +174,132 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+# --------------------------------------------------------------------------- a plan's results
+
+
+def result_layout(plan: Any, lanes: int) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    """Shape and dtype of every result array for ``lanes`` lanes, in the Dataset's order:
+    (directions?, lanes, chain?, *extra)."""
+    lead = ([len(plan.directions)] if plan.continued else []) + [lanes] + (
+        [plan.chain] if plan.continued else [])
+    out = {}
+    for name, spec in plan.specs.items():
+        extra = [len(spec.extra_coords[d]) for d in spec.extra_dims]
+        out[name] = (tuple(lead + extra), np.dtype(spec.dtype))
+    out["status"] = (tuple(lead), np.dtype(np.int8))
+    return out
+
+
+def empty_results(plan: Any) -> dict[str, np.ndarray]:
+    """Full-size result arrays (NaN / status 3 'skipped') that chunks are written into."""
+    out = {}
+    for name, (shape, dtype) in result_layout(plan, plan.n_lanes).items():
+        fill = 3 if name == "status" else False if dtype.kind == "b" else np.nan
+        out[name] = np.full(shape, fill, dtype=dtype)
+    return out
+
+
+def store_chunk(results: dict[str, np.ndarray], plan: Any, lane0: int, lane1: int,
+                chunk: dict[str, np.ndarray]) -> None:
+    """Copy one chunk's arrays into the full-size result arrays."""
+    for name, arr in chunk.items():
+        if plan.continued:
+            results[name][:, lane0:lane1] = arr
+        else:
+            results[name][lane0:lane1] = arr
+
+
+def assemble(plan: Any, results: dict[str, np.ndarray], elapsed: float | None = None,
+             kernel: float | None = None) -> xr.Dataset:
+    """Reshape the lane-ordered arrays onto the study's dims and build the Dataset (DATA.md)."""
+    lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
+    data_vars = {}
+    for name, arr in results.items():
+        spec = plan.specs.get(name, VarSpec())
+        if plan.continued:
+            # (direction, lanes, speed, *extra) -> (direction, *lane_dims, speed, *extra) -> dims
+            a = arr.reshape([arr.shape[0], *lane_shape, arr.shape[2], *arr.shape[3:]])
+            order_now = ["direction", *plan.lane_dims, "speed", *spec.extra_dims]
+            target = ["direction", *plan.dims, *spec.extra_dims]
+            a = np.transpose(a, [order_now.index(d) for d in target])
+            dims = tuple(target)
+        else:
+            a = arr.reshape([*lane_shape, *arr.shape[1:]])
+            dims = (*plan.dims, *spec.extra_dims)
+        data_vars[name] = (dims, a)
+    coords: dict[str, tuple] = {d: ((d,), plan.grids[d]) for d in plan.dims}
+    if plan.continued:
+        coords["direction"] = (("direction",), np.array(plan.directions))
+    if isinstance(plan.model, MeshModel):
+        coords["mesh_frequency"] = (("speed",), mesh_frequency(plan.grids["speed"],
+                                                               plan.model.teeth))
+    for spec in plan.specs.values():
+        for d, v in spec.extra_coords.items():
+            coords.setdefault(d, ((d,), v))
+        for name, c in spec.aux_coords.items():
+            coords.setdefault(name, c)
+    s = plan.study.solver
+    settings = {
+        "scene": plan.study.scene.kind,
+        "method": s.method,
+        "steps_per_period": s.steps_per_period,
+        "kink_aware": int(s.kink_aware),
+        "transient_periods": s.transient_periods,
+        "recorded_periods": s.record_periods,
+        "divergence_factor": s.divergence_factor,
+        "settle_tolerance": s.settle_tolerance,
+        "step_guard": s.step_guard,
+        "cases": plan.n_cases,
+    }
+    if elapsed is not None:
+        settings["elapsed_seconds"] = round(elapsed, 3)
+    if kernel is not None:
+        settings["kernel_seconds"] = round(kernel, 3)
+    var_attrs = {n: dict(sp.attrs) for n, sp in plan.specs.items()}
+    ds = build_dataset(data_vars, coords, title=plan.study.title, study_text=plan.text,
+                       settings=settings, var_attrs=var_attrs,
+                       source=f"gearsweep study, scene {plan.study.scene.kind!r}")
+    ds.attrs["model"] = json.dumps(model_record(plan.model))
+    if getattr(plan.study.scene, "gear", None) is not None:
+        ds = ds.assign(gear_variables(plan))
+    if "speed" in ds.coords and isinstance(plan.model, MeshModel):
+        ds["speed"].attrs["gear"] = f"driving gear (gear 1, {plan.model.teeth} teeth)"
+    return ds
+
+
+def gear_variables(plan: Any) -> dict[str, xr.Variable]:
+    """What a gear scene's pair gave the model at each load: k0, k_n and the e(t) harmonics the
+    kernel used (over ``torque`` when the load is swept), so the result shows its excitation."""
+    if plan.gear_load_swept:
+        torques = plan.case_torques({d: plan.grids[d] for d in plan.grids
+                                     if d in ("torque", "mean_force")})
+        models = [plan.model_for_load(float(t)) for t in torques]
+        lead = ("torque",) if "torque" in plan.grids else ("mean_force",)
+    else:
+        models, lead = [plan.model], ()
+
+    nh = max(1, *(len(hs) for m in models for hs in (m.stiffness_harmonics, m.ste_harmonics)))
+
+    def stack(values: list) -> np.ndarray:
+        a = np.asarray(values, float)
+        return a if lead else a[0]
+
+    def amplitudes(harmonics) -> list[float]:
+        return [h.amplitude for h in harmonics] + [0.0] * (nh - len(harmonics))
+
+    return {
+        "harmonic": xr.Variable(("harmonic",), np.arange(1, nh + 1), {
+            "units": "1", "long_name": "harmonic order in mesh orders"}),
+        "gear_stiffness": xr.Variable(lead, stack([m.stiffness for m in models]), {
+            "units": "N m-1", "long_name": "mean mesh stiffness k0 of the gear pair at the load"}),
+        "gear_stiffness_harmonic": xr.Variable((*lead, "harmonic"), stack(
+            [amplitudes(m.stiffness_harmonics) for m in models]), {
+            "units": "N m-1", "long_name": "amplitude of the mesh stiffness harmonic k_n the "
+            "kernel used (none: constant stiffness)"}),
+        "gear_ste_harmonic": xr.Variable((*lead, "harmonic"), stack(
+            [amplitudes(m.ste_harmonics) for m in models]), {
+            "units": "m", "long_name": "amplitude of the transmission-error harmonic e_n the "
+            "kernel used (loaded STE with constant k0; STE - F/k(t) with k(t))"}),
+    }

@@ -1,6 +1,6 @@
 """Where the chunks of a study run: in this process, on an existing dask cluster, or on a local one.
 
-A ``Plan`` (``gearsweep.study.runner``) is cut into chunks of lanes (a lane is one case, or one
+A ``Plan`` (``gearsweep.study.plan``) is cut into chunks of lanes (a lane is one case, or one
 whole continued sweep along speed, so a sweep direction never spans two chunks). ``run_plan``
 computes the chunks that are not yet on disk with one of three backends and puts the results
 together:
@@ -45,20 +45,15 @@ import xarray as xr
 from gearsweep.errors import ClusterError, LimitError
 from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
-from gearsweep.study.dataset import write_netcdf
-from gearsweep.study.runner import (
-    KERNEL_CLOCK,
-    Plan,
-    _guard_table,
-    _integrate,
-    _lane_params,
-    _step_ok,
+from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, run_chunk
+from gearsweep.study.dataset import (
     assemble,
     empty_results,
     result_layout,
-    run_chunk,
     store_chunk,
+    write_netcdf,
 )
+from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
 
 STATED_RATE = {"rk4": 350.0, "rk5": 220.0}
 """Bare-kernel throughput per core [Msteps/s] assumed when none is measured: the estimate's

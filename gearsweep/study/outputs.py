@@ -24,12 +24,14 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from gearsweep.analysis.spectrum import kept_bins, line_spectrum
+from gearsweep.analysis.stability import check_step
 from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
-from gearsweep.model import RPM, MeshModel, mesh_frequency
+from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy
+from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
 
 if TYPE_CHECKING:
-    from gearsweep.study.runner import Plan
+    from gearsweep.study.plan import Plan
 
 
 @dataclass(frozen=True)
@@ -218,7 +220,81 @@ class Spectrum:
         return np.abs(c_spring + per_case("damping", model.damping)[:, None] * dp)
 
 
-OUTPUTS: dict[str, Output] = {"stats": Stats(), "spectrum": Spectrum()}
+TOL = 1e-6
+"""A multiplier counts as > 1 above 1 + TOL (converged to rtol 1e-8, far below)."""
+
+
+class Floquet:
+    """Floquet multipliers, integrator stability and the step guard rail (DATA.md names).
+
+    For every case the homogeneous equation with the teeth in contact (f(p) = p, no forcing),
+
+        m p'' + c p' + (k0 + sum_n k_n cos(n N w t + a_n)) p = 0,
+
+    is put in Mathieu time tau = N w t (``alpha = k0 / (m (N w)^2)``, ``gamma = c / (m N w)``, the
+    harmonics scaled by ``1 / (m (N w)^2)``; the Mathieu scene gives alpha, beta, gamma directly), and
+
+    * ``floquet_multiplier``, ``floquet_error``, ``unstable``: converged Floquet analysis
+      (``gearsweep.kernels.floquet.floquet``, RK5 with step doubling);
+    * ``discrete_multiplier``, ``integrator_unstable``: the same monodromy matrix computed with the
+      study's own method and steps_per_period; ``integrator_unstable`` where that fixed-step map has
+      a multiplier > 1 and the equation does not;
+    * ``min_steps_per_period``: the guard rail's fewest stable steps per mesh period of the study's
+      method (stability polynomial at the largest stiffness, ``gearsweep.analysis.stability``).
+
+    For the rattle and full scenes these describe the contact (linear) phase only: with backlash the
+    motion is piecewise linear and its stability is not a Floquet question.
+    """
+
+    name = "floquet"
+
+    def signal_samples_per_period(self, plan: Plan) -> int:
+        return 0
+
+    def variables(self, plan: Plan) -> dict[str, VarSpec]:
+        return {
+            "floquet_multiplier": VarSpec(attrs={"method": "rk5, steps doubled until converged",
+                                                 "equation": "homogeneous, teeth in contact"}),
+            "floquet_error": VarSpec(attrs={"units": "1", "long_name":
+                                            "estimated error of floquet_multiplier (Richardson)"}),
+            "unstable": VarSpec(dtype="bool", attrs={"threshold": f"1 + {TOL:g}"}),
+            "discrete_multiplier": VarSpec(attrs={
+                "units": "1", "long_name": "largest |mu| of the fixed-step map over one mesh "
+                "period at the study's method and steps_per_period"}),
+            "integrator_unstable": VarSpec(dtype="bool", attrs={"threshold": f"1 + {TOL:g}"}),
+            "min_steps_per_period": VarSpec(attrs={
+                "units": "1", "long_name": "fewest steps per mesh period for which the study's "
+                "method is stable (stability polynomial at the largest stiffness)"}),
+        }
+
+    def compute(self, plan: Plan, params: dict[str, np.ndarray],
+                result: BatchResult) -> dict[str, np.ndarray]:
+        n = result.x_final.shape[0]
+        a, b, g, harm, kmax, cm, period = hill_parameters(plan.model, params, n)
+        s = plan.study.solver
+        ok = np.isfinite(a)
+        fl_mu = np.full(n, np.nan)
+        fl_err = np.full(n, np.nan)
+        disc = np.full(n, np.nan)
+        if ok.any():
+            fl = floquet(a[ok], b[ok], g[ok], method="rk5", rtol=1e-8, tol=TOL, harmonics=harm)
+            fl_mu[ok], fl_err[ok] = fl.multiplier, fl.error
+            M = monodromy(a[ok], b[ok], g[ok], s.steps_per_period, method=s.method,
+                          harmonics=harm)
+            disc[ok] = largest_multiplier(M)
+        unstable = fl_mu > 1 + TOL
+        _, limit = check_step(s.method, s.steps_per_period, period, kmax, cm)
+        return {
+            "floquet_multiplier": fl_mu,
+            "floquet_error": fl_err,
+            "unstable": unstable,
+            "discrete_multiplier": disc,
+            "integrator_unstable": (disc > 1 + TOL) & ~unstable & ok,
+            "min_steps_per_period": np.broadcast_to(limit, (n,)).astype(float),
+        }
+
+
+OUTPUTS: dict[str, Output] = {"stats": Stats(), "spectrum": Spectrum(), "floquet": Floquet()}
 """Registered outputs by name."""
 
 
@@ -248,8 +324,3 @@ def configure(name: str, options: dict[str, Any], file: str = "<study>",
         if err["type"] == "extra_forbidden":
             msg = f"unknown option; allowed: {', '.join(model.model_fields)}"
         raise StudyError(file, f"{where}.{loc}" if loc else where, value, msg) from None
-
-
-from gearsweep.study.stability_output import Floquet  # noqa: E402 -- needs VarSpec above
-
-OUTPUTS["floquet"] = Floquet()

@@ -21,7 +21,7 @@ values it sweeps, how the speed axis is continued, the solver and the outputs::
 A scene of the gear drive may name a gear pair (``gear: table1_consistent`` or a mapping of
 ``GearPair`` fields) instead of ``teeth``, ``stiffness``, ``stiffness_harmonics`` and ``ste``: they
 are then computed from its static mesh at the scene's mean load (``gearsweep.study.gearscene``).
-A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh_runner``).
+A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh``).
 
 Every model forbids unknown keys. ``load_study`` turns any problem into one ``StudyError`` line:
 file, field path, value, and what is allowed.
@@ -30,16 +30,13 @@ file, field path, value, and what is allowed.
 from __future__ import annotations
 
 import math
-from functools import partial
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 import yaml
 from pydantic import (
-    BaseModel,
     BeforeValidator,
-    ConfigDict,
     Field,
     ValidationError,
     field_validator,
@@ -47,36 +44,24 @@ from pydantic import (
 )
 
 from gearsweep.errors import GeometryError, StudyError
+from gearsweep.gear.excitation import static_mesh
 from gearsweep.model import SWEEPABLE
-from gearsweep.study.gearscene import GearField
+from gearsweep.study.analysis_specs import AnalysisStudy
+from gearsweep.study.gearscene import GearField, GearSpec, gear_pair, scene_excitation, tip_reliefs
+from gearsweep.study.outputs import OUTPUTS, configure
+from gearsweep.study.quantities import (
+    Angle,
+    Damping,
+    Force,
+    Inertia,
+    Length,
+    Mass,
+    Speed,
+    Stiffness,
+    Strict,
+    Torque,
+)
 from gearsweep.study.units import CANONICAL, UnitParseError, to_si
-
-if TYPE_CHECKING:
-    from gearsweep.study.mesh_runner import MeshStudy
-
-
-def _parse(kind: str, value: Any) -> Any:
-    try:
-        out = to_si(value, kind)
-    except UnitParseError as exc:
-        raise ValueError(str(exc)) from None
-    if not math.isfinite(out):
-        raise ValueError("expected a finite number")
-    return out
-
-
-def Q(kind: str) -> Any:  # noqa: N802 -- reads as a type in the models below
-    """A float field given as a number or a string with units of ``kind``."""
-    return Annotated[float, BeforeValidator(partial(_parse, kind))]
-
-
-Length, Mass, Force, Torque = Q("length"), Q("mass"), Q("force"), Q("torque")
-Damping, Stiffness, Inertia, Angle, Speed = (Q("damping"), Q("stiffness"), Q("inertia"),
-                                            Q("angle"), Q("speed"))
-
-
-class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
 class Drive(Strict):
@@ -161,9 +146,6 @@ class _Driven(Strict):
             raise ValueError(f"give either 'gear' or typed-in {', '.join(typed)}, not both: the"
                              " gear pair gives teeth, stiffness, stiffness_harmonics, ste and"
                              " base_radius")
-        if self.torque is None and self.mean_force is None:
-            raise ValueError("a 'gear' needs the mean load (scene.torque or scene.mean_force):"
-                             " its stiffness and STE are computed at that load")
         return self
 
     @property
@@ -286,12 +268,19 @@ class Study(Strict):
             if "speed" not in self.sweep and self.scene.speed is None:
                 raise ValueError("the speed must be swept (sweep.speed) or given (scene.speed)")
             if self.scene.gear is not None:
-                for name in ("torque", "mean_force", "stiffness"):
-                    if name in self.sweep:
-                        raise ValueError(
-                            f"sweep.{name}: a gear scene computes stiffness and STE at one mean"
-                            " load; sweeping it is not supported (one study per load, or type"
-                            " in the coefficients)")
+                if "stiffness" in self.sweep:
+                    raise ValueError("sweep.stiffness: a gear scene computes its stiffness from"
+                                     " the gear pair; sweep torque, or type in the coefficients")
+                loads = [n for n in ("torque", "mean_force") if getattr(self.scene, n) is not None
+                         or n in self.sweep]
+                if not loads:
+                    raise ValueError("a 'gear' needs the mean load (scene.torque, scene.mean_force"
+                                     " or sweep.torque): its stiffness and STE are computed at"
+                                     " that load")
+                if len(loads) > 1 or (loads[0] in self.sweep
+                                      and getattr(self.scene, loads[0]) is not None):
+                    raise ValueError("give the gear's mean load once: scene.torque,"
+                                     " scene.mean_force or sweep.torque")
             elif "torque" in self.sweep or self.scene.torque is not None:
                 if self.scene.r1 is None:
                     raise ValueError("a torque needs the driving gear's base radius:"
@@ -304,7 +293,6 @@ class Study(Strict):
                                  " sweep the speed")
             if len(set(self.continuation)) != len(self.continuation):
                 raise ValueError("continuation lists each direction at most once")
-        from gearsweep.study.outputs import OUTPUTS
 
         names = [o.name for o in self.outputs]
         for name in names:
@@ -407,10 +395,10 @@ def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
     return StudyError(file, _loc(err["loc"]), value, msg)
 
 
-def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy:
+def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | AnalysisStudy:
     """Validate a study from its YAML text; any problem raises one ``StudyError``.
 
-    A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh_runner``).
+    A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh``).
     """
     try:
         raw = yaml.safe_load(text)
@@ -424,13 +412,16 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy:
     if not isinstance(raw, dict):
         raise StudyError(file, "(top level)", type(raw).__name__,
                          "a mapping with title, scene, sweep, solver, outputs")
-    if "type" in raw and raw["type"] != "mesh":
-        raise StudyError(file, "type", raw["type"],
-                         "'mesh' (a static mesh study), or no 'type' for a dynamic study")
+    if "type" in raw and raw["type"] not in ("mesh", "analysis"):
+        raise StudyError(file, "type", raw["type"], "'mesh' (a static mesh study), 'analysis'"
+                         " (method stability, work-precision), or no 'type' for a dynamic study")
     if raw.get("type") == "mesh":
-        from gearsweep.study.mesh_runner import parse_mesh_study
-
         return parse_mesh_study(raw, file)
+    if raw.get("type") == "analysis":
+        try:
+            return AnalysisStudy.model_validate(raw)
+        except ValidationError as exc:
+            raise _first_error(exc, file, raw) from None
     try:
         study = Study.model_validate(raw)
     except ValidationError as exc:
@@ -439,11 +430,18 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy:
         raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
     _check_grids(study, file)
     _check_gear(study, file)
-    from gearsweep.study.outputs import configure
-
     for i, req in enumerate(study.outputs):
         configure(req.name, req.options, file, f"outputs[{i}].{req.name}")
     return study
+
+
+def first_load(study: Study) -> float | None:
+    """The first swept mean torque [N m] of a gear scene (``None`` when the load is not swept)."""
+    if "torque" in study.sweep:
+        return float(study.grid("torque")[0])
+    if "mean_force" in study.sweep:
+        return float(study.grid("mean_force")[0]) * gear_pair(study.scene.gear).base_radius1
+    return None
 
 
 def _check_gear(study: Study, file: str) -> None:
@@ -451,10 +449,8 @@ def _check_gear(study: Study, file: str) -> None:
     sc = study.scene
     if getattr(sc, "gear", None) is None:
         return
-    from gearsweep.study.gearscene import scene_excitation
-
     try:
-        ex = scene_excitation(sc)
+        ex = scene_excitation(sc, first_load(study))
     except GeometryError as exc:
         raise GeometryError(f"{file}: scene.gear: {exc}") from None
     if sc.drive is not None:
@@ -466,7 +462,85 @@ def _check_gear(study: Study, file: str) -> None:
                                  " the gear and type in the coefficients")
 
 
-def load_study(path: str | Path) -> tuple[Study | MeshStudy, str]:
+# --------------------------------------------------------------------------- mesh studies
+
+
+class MeshStudy(Strict):
+    """A static mesh study: gear pair(s) x torque(s) -> mesh cycle, Fourier series."""
+
+    type: Literal["mesh"]
+    title: str = Field(min_length=1)
+    description: str = ""
+    gear: GearField | None = None
+    gears: dict[str, GearField] | None = Field(None, description="labelled variants")
+    torque: Torque | None = Field(None, gt=0, description="driving torque T1 [N m]")
+    sweep: dict[Literal["torque"], list[float | str] | Range] = Field(default_factory=dict)
+    positions: int = Field(200, ge=8, le=100_000, description="positions per mesh cycle")
+    harmonics: int = Field(10, ge=1, description="Fourier harmonics kept")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> MeshStudy:
+        if (self.gear is None) == (self.gears is None):
+            raise ValueError("give exactly one of 'gear' (one pair) and 'gears' (labelled variants)")
+        if self.gears is not None and not self.gears:
+            raise ValueError("'gears' needs at least one labelled gear pair")
+        if (self.torque is None) == ("torque" not in self.sweep):
+            raise ValueError("give exactly one of 'torque' and 'sweep.torque'")
+        if self.harmonics > self.positions // 2:
+            raise ValueError(f"harmonics {self.harmonics} must be <= positions / 2 ="
+                             f" {self.positions // 2}")
+        return self
+
+    @property
+    def variants(self) -> dict[str, GearSpec]:
+        """Label -> gear spec (one unnamed entry ``""`` for a single ``gear``)."""
+        return dict(self.gears) if self.gears is not None else {"": self.gear}
+
+    @property
+    def swept_torque(self) -> bool:
+        return "torque" in self.sweep
+
+    def torques(self) -> np.ndarray:
+        """Driving torques [N m]."""
+        if not self.swept_torque:
+            return np.array([self.torque])
+        spec = self.sweep["torque"]
+        if isinstance(spec, Range):
+            a, b = to_si(spec.start, "torque"), to_si(spec.stop, "torque")
+            return np.geomspace(a, b, spec.num) if spec.spacing == "log" else np.linspace(
+                a, b, spec.num)
+        return np.array([to_si(v, "torque") for v in spec], dtype=float)
+
+
+def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
+    """Validate a ``type: mesh`` study and every gear pair in it (one error line per problem)."""
+    try:
+        study = MeshStudy.model_validate(raw)
+    except ValidationError as exc:
+        raise _first_error(exc, file, raw) from None
+    _check_grids(study, file)
+    torques = study.torques()
+    bad = torques[~(np.isfinite(torques) & (torques > 0))]
+    if bad.size:
+        raise StudyError(file, "sweep.torque", float(bad[0]), "positive torques (they load the mesh)")
+    for label, spec in study.variants.items():
+        where = f"gears.{label}" if label else "gear"
+        try:
+            pair = gear_pair(spec).check()
+            static_mesh(pair, float(torques[0]), tip_reliefs(spec, pair), n=study.positions)
+        except GeometryError as exc:
+            raise GeometryError(f"{file}: {where}: {exc}") from None
+    return study
+
+
+def summary(study: MeshStudy) -> str:
+    """One line describing the cases of a mesh study (for ``gearsweep validate``)."""
+    nv, nt = len(study.variants), len(study.torques())
+    return (f"mesh study, {nv} gear pair{'s' if nv > 1 else ''} x {nt} torque{'s' if nt > 1 else ''},"
+            f" {study.positions} positions per mesh cycle, {study.harmonics} harmonics")
+
+
+def load_study(path: str | Path) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
     """Read and validate a study file; returns the study and its text (kept in the results)."""
     path = Path(path)
     try:

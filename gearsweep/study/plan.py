@@ -1,38 +1,32 @@
-"""From a validated study to a result Dataset: plan -> chunks of cases -> kernel calls -> Dataset.
+"""From a validated study to a plan: the model, the grid, the lanes and the step guard, resolved once.
 
 The cases of a study form a grid over its swept parameters (in the order the study lists them).
 They are run in *lanes*: without continuation a lane is one case; with ``continuation`` a lane is
 one sweep along ``speed`` (every other parameter fixed), run up and/or down, each speed starting
 from the final state of the previous one. Lanes are independent, so a study is cut into chunks of
-lanes; ``run_chunk`` computes one chunk and ``assemble`` puts the chunks together. The in-process
-default runs the chunks one after another (each chunk uses every core through the kernel's
-``prange``); the same chunks can be sent to dask workers.
+lanes (``Plan.chunks``); ``gearsweep.study.chunk`` computes one chunk, ``gearsweep.study.execute``
+runs them (here or on dask) and ``gearsweep.study.dataset`` puts them together.
 """
 
 from __future__ import annotations
 
 import math
-import threading
-import time
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
-import xarray as xr
 
-from gearsweep.kernels import LANES, STATUS_DIVERGED, simulate
-from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, mesh_frequency
+from gearsweep.analysis.stability import ray_limit, step_limit_hw
+from gearsweep.errors import StudyError
+from gearsweep.kernels import LANES
+from gearsweep.model import Harmonic, MathieuModel, MeshModel, equivalent_mass, hill_parameters
 from gearsweep.model import fluctuating_force as eq7_force
-from gearsweep.study.dataset import build_dataset
 from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
-from gearsweep.study.schema import Study
+from gearsweep.study.schema import Study, first_load
 from gearsweep.study.units import to_si
-
-if TYPE_CHECKING:
-    from gearsweep.study.mesh_runner import MeshStudy
 
 STATUS_NOT_SETTLED = 2
 CHUNK_STEPS = 1e9
@@ -45,18 +39,24 @@ CHUNK_SIGNAL_BYTES = 64e6
 """At most this much recorded time history per chunk (outputs reduce it per chunk)."""
 
 
-def build_model(study: Study) -> MeshModel | MathieuModel:
-    """The scene's fixed values as a ``MeshModel`` (or ``MathieuModel``) in SI units."""
+def build_model(study: Study, torque: float | None = None) -> MeshModel | MathieuModel:
+    """The scene's fixed values as a ``MeshModel`` (or ``MathieuModel``) in SI units.
+
+    ``torque`` [N m]: the mean load at which a gear scene's k(t) and e(t) are computed when the
+    study sweeps the load (default: the first swept load, or the scene's own).
+    """
     sc = study.scene
     if sc.kind == "mathieu":
         return MathieuModel(alpha=sc.alpha, beta=sc.beta, gamma=sc.gamma)
     if sc.drive is not None:
         d = sc.drive
-        mass = 1.0 / (d.base_radius_1**2 / d.inertia_1 + d.base_radius_2**2 / d.inertia_2)
+        mass = equivalent_mass(d.inertia_1, d.inertia_2, d.base_radius_1, d.base_radius_2)
     else:
         mass = sc.mass
     r1 = sc.r1
-    gear = scene_excitation(sc) if getattr(sc, "gear", None) is not None else None
+    gear = None
+    if getattr(sc, "gear", None) is not None:
+        gear = scene_excitation(sc, torque if torque is not None else first_load(study))
     if gear is not None:
         r1 = gear.base_radius_1
     mean_force = sc.mean_force if sc.mean_force is not None else 0.0
@@ -135,6 +135,25 @@ class Plan:
                                                        or "backlash" in self.grids)
 
     @property
+    def gear_load_swept(self) -> bool:
+        """A gear scene sweeping its load: k(t) and e(t) are computed per distinct load."""
+        return getattr(self.study.scene, "gear", None) is not None and (
+            "torque" in self.grids or "mean_force" in self.grids)
+
+    def model_for_load(self, torque: float) -> MeshModel:
+        """The gear scene's model at mean driving torque ``torque`` [N m] (cached per load)."""
+        cache = self.memo.setdefault("models", {})
+        if torque not in cache:
+            cache[torque] = build_model(self.study, torque)
+        return cache[torque]
+
+    def case_torques(self, params: dict[str, np.ndarray]) -> np.ndarray:
+        """Mean driving torque [N m] of each case of a gear scene that sweeps its load."""
+        if "torque" in params:
+            return np.asarray(params["torque"], float)
+        return np.asarray(params["mean_force"], float) * self.model.base_radius
+
+    @property
     def dimensionless(self) -> bool:
         return isinstance(self.model, MathieuModel)
 
@@ -197,28 +216,9 @@ def make_plan(study: Study, text: str = "") -> Plan:
             " spoiled by the integrator)"})
     spp, sps = study.solver.steps_per_period, plan.samples_per_period()
     if sps and spp % sps:
-        from gearsweep.errors import StudyError
-
         raise StudyError("<study>", "solver.steps_per_period", spp,
                          f"a multiple of {sps} (the samples per period the outputs need)")
     return plan
-
-
-class _Clock:
-    """Seconds spent in the kernel (``simulate``) by this process, summed over its threads."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self.seconds = 0.0
-
-    def add(self, seconds: float) -> None:
-        with self._lock:
-            self.seconds += seconds
-
-
-KERNEL_CLOCK = _Clock()
-"""Read before and after a run in this process: the difference is its time in the kernel
-(``run_plan`` stores it as the Dataset's ``kernel_seconds``, beside ``elapsed_seconds``)."""
 
 
 def _lanes(plan: Plan, lane0: int, lane1: int, guard: bool = False
@@ -249,8 +249,6 @@ _GUARD_MARGIN = 2e-3
 def _hw_table(method: str) -> tuple[np.ndarray, np.ndarray, float]:
     """(zeta grid, largest stable h w_n on it, largest stable h|lambda| on the negative real
     axis) of ``method``, solved once from its stability polynomial."""
-    from gearsweep.analysis.stability import ray_limit, step_limit_hw
-
     # The limit has square-root behaviour at zeta -> 0 (RK5) and zeta -> 1+ (the fast over-damped
     # pole), and the pole's angle arccos(-zeta) has it at zeta -> 1-: below 1 a cosine grid
     # (quadratic at both ends), above 1 geometric in zeta - 1 (steps of 3.8 %).
@@ -292,10 +290,8 @@ def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
     stability polynomial (the rule of ``gearsweep.analysis.stability.check_step``: steps per
     period >= T / h*).
     """
-    from gearsweep.study.stability_output import hill_parameters
-
     s = plan.study.solver
-    *_, kmax, cm, period = hill_parameters(plan, params, n)
+    *_, kmax, cm, period = hill_parameters(plan.model, params, n)
     h_star = _stable_steps(s.method, kmax, cm)
     with np.errstate(divide="ignore", invalid="ignore"):
         need = np.ceil(np.asarray(period, float) / h_star)
@@ -333,215 +329,3 @@ def _guard_table(plan: Plan) -> tuple[list[int], tuple[int, ...], np.ndarray] | 
     return plan.memo["guard"]
 
 
-def _integrate(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0,
-               ok: np.ndarray | None = None) -> tuple:
-    """One kernel call for ``n`` cases; returns (BatchResult, per-output arrays, status).
-
-    ``ok``: the step guard's verdict per case if already known (else it is computed here).
-    """
-    guard = plan.study.solver.step_guard
-    if guard == "off":
-        ok = np.ones(n, bool)
-    elif ok is None:
-        ok = _step_ok(plan, params, n)
-    if guard == "skip" and not ok.all():
-        return _integrate_subset(plan, params, n, x0, v0, ok)
-    res, out, status = _integrate_all(plan, params, n, x0, v0)
-    if guard == "warn":
-        out["beyond_step_limit"] = ~ok
-    return res, out, status
-
-
-def _integrate_subset(plan: Plan, params, n: int, x0, v0, ok: np.ndarray) -> tuple:
-    """Integrate only the cases whose step is stable; the others get status 3 and NaN."""
-    idx = np.flatnonzero(ok)
-    sub = {k: np.asarray(v)[idx] for k, v in params.items()}
-    sx0 = None if x0 is None else np.asarray(x0)[idx]
-    sv0 = None if v0 is None else np.asarray(v0)[idx]
-    res, out, status = _integrate_all(plan, sub, len(idx), sx0, sv0)
-    full = {}
-    for name, arr in out.items():
-        fill = False if arr.dtype == bool else np.nan
-        a = np.full((n, *arr.shape[1:]), fill, dtype=arr.dtype)
-        a[idx] = arr
-        full[name] = a
-    st = np.full(n, STATUS_SKIPPED, np.int8)
-    st[idx] = status
-    xf = np.full(n, np.nan)
-    vf = np.full(n, np.nan)
-    xf[idx], vf[idx] = res.x_final, res.v_final
-    rs = np.full(n, STATUS_DIVERGED, np.int8)  # a skipped lane restarts a continued sweep
-    rs[idx] = res.status
-    from gearsweep.kernels import BatchResult
-
-    return BatchResult(stats={}, x_final=xf, v_final=vf, status=rs, signal=None), full, st
-
-
-def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
-    s = plan.study.solver
-    spp = s.steps_per_period
-    x_init = s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
-    kin = kernel_inputs(plan.model, params, n, spp, s.divergence_factor, x_init,
-                        s.initial_velocity)
-    if x0 is not None:
-        kin["x0"], kin["v0"] = x0, v0
-    sps = plan.samples_per_period()
-    t0 = time.perf_counter()
-    res = simulate(method=s.method, n_transient=s.transient_periods * spp,
-                   n_record=s.record_periods * spp, steps_per_period=spp,
-                   signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
-    KERNEL_CLOCK.add(time.perf_counter() - t0)
-    out: dict[str, np.ndarray] = {}
-    for o in plan.outputs:
-        out.update(OUTPUTS[o].compute(plan, params, res))
-    status = res.status.astype(np.int8)
-    unsettled = (status == 0) & ~(res.stats["settle_error"] <= s.settle_tolerance)
-    status[unsettled] = STATUS_NOT_SETTLED
-    return res, out, status
-
-
-def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
-    """Compute lanes ``[lane0, lane1)``: arrays of shape (directions?, lanes, chain?, *extra)."""
-    n = lane1 - lane0
-    if not plan.continued:
-        guard = plan.study.solver.step_guard != "off"
-        params, ok = _lanes(plan, lane0, lane1, guard)
-        _, out, status = _integrate(plan, params, n, None, None, ok)
-        out["status"] = status
-        return out
-    params = _lane_params(plan, lane0, lane1)
-    # Continued sweeps: the up and the down sweep of every lane advance side by side as lanes of
-    # one kernel call (step k is speed k going up and speed n-1-k going down).
-    speeds = plan.grids["speed"]
-    ns, nd = len(speeds), len(plan.directions)
-    s = plan.study.solver
-    both = {name: np.tile(vals, nd) for name, vals in params.items()}
-    x = np.full(n * nd, s.initial_displacement)
-    v = np.full(n * nd, s.initial_velocity)
-    cols: dict[str, np.ndarray] = {}
-    for k in range(ns):
-        idx = np.concatenate([np.full(n, k if d == "up" else ns - 1 - k) for d in plan.directions])
-        res, out, status = _integrate(plan, dict(both, speed=speeds[idx]), n * nd, x, v)
-        out["status"] = status
-        for name, arr in out.items():
-            if name not in cols:
-                cols[name] = np.empty((nd, n, ns, *arr.shape[1:]), dtype=arr.dtype)
-            a = arr.reshape(nd, n, *arr.shape[1:])
-            for di in range(nd):
-                cols[name][di, :, idx[di * n]] = a[di]
-        # Carry the state; a diverged lane restarts from the initial state at the next speed.
-        dead = res.status == STATUS_DIVERGED
-        x = np.where(dead, s.initial_displacement, res.x_final)
-        v = np.where(dead, s.initial_velocity, res.v_final)
-    return cols
-
-
-def result_layout(plan: Plan, lanes: int) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
-    """Shape and dtype of every result array for ``lanes`` lanes, in the Dataset's order:
-    (directions?, lanes, chain?, *extra)."""
-    lead = ([len(plan.directions)] if plan.continued else []) + [lanes] + (
-        [plan.chain] if plan.continued else [])
-    out = {}
-    for name, spec in plan.specs.items():
-        extra = [len(spec.extra_coords[d]) for d in spec.extra_dims]
-        out[name] = (tuple(lead + extra), np.dtype(spec.dtype))
-    out["status"] = (tuple(lead), np.dtype(np.int8))
-    return out
-
-
-def empty_results(plan: Plan) -> dict[str, np.ndarray]:
-    """Full-size result arrays (NaN / status 3 'skipped') that chunks are written into."""
-    out = {}
-    for name, (shape, dtype) in result_layout(plan, plan.n_lanes).items():
-        fill = 3 if name == "status" else False if dtype.kind == "b" else np.nan
-        out[name] = np.full(shape, fill, dtype=dtype)
-    return out
-
-
-def store_chunk(results: dict[str, np.ndarray], plan: Plan, lane0: int, lane1: int,
-                chunk: dict[str, np.ndarray]) -> None:
-    """Copy one chunk's arrays into the full-size result arrays."""
-    for name, arr in chunk.items():
-        if plan.continued:
-            results[name][:, lane0:lane1] = arr
-        else:
-            results[name][lane0:lane1] = arr
-
-
-def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None = None,
-             kernel: float | None = None) -> xr.Dataset:
-    """Reshape the lane-ordered arrays onto the study's dims and build the Dataset (DATA.md)."""
-    lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
-    data_vars = {}
-    for name, arr in results.items():
-        spec = plan.specs.get(name, VarSpec())
-        if plan.continued:
-            # (direction, lanes, speed, *extra) -> (direction, *lane_dims, speed, *extra) -> dims
-            a = arr.reshape([arr.shape[0], *lane_shape, arr.shape[2], *arr.shape[3:]])
-            order_now = ["direction", *plan.lane_dims, "speed", *spec.extra_dims]
-            target = ["direction", *plan.dims, *spec.extra_dims]
-            a = np.transpose(a, [order_now.index(d) for d in target])
-            dims = tuple(target)
-        else:
-            a = arr.reshape([*lane_shape, *arr.shape[1:]])
-            dims = (*plan.dims, *spec.extra_dims)
-        data_vars[name] = (dims, a)
-    coords: dict[str, tuple] = {d: ((d,), plan.grids[d]) for d in plan.dims}
-    if plan.continued:
-        coords["direction"] = (("direction",), np.array(plan.directions))
-    if isinstance(plan.model, MeshModel):
-        coords["mesh_frequency"] = (("speed",), mesh_frequency(plan.grids["speed"],
-                                                               plan.model.teeth))
-    for spec in plan.specs.values():
-        for d, v in spec.extra_coords.items():
-            coords.setdefault(d, ((d,), v))
-        for name, c in spec.aux_coords.items():
-            coords.setdefault(name, c)
-    s = plan.study.solver
-    settings = {
-        "scene": plan.study.scene.kind,
-        "method": s.method,
-        "steps_per_period": s.steps_per_period,
-        "kink_aware": int(s.kink_aware),
-        "transient_periods": s.transient_periods,
-        "recorded_periods": s.record_periods,
-        "divergence_factor": s.divergence_factor,
-        "settle_tolerance": s.settle_tolerance,
-        "step_guard": s.step_guard,
-        "cases": plan.n_cases,
-    }
-    if elapsed is not None:
-        settings["elapsed_seconds"] = round(elapsed, 3)
-    if kernel is not None:
-        settings["kernel_seconds"] = round(kernel, 3)
-    var_attrs = {n: dict(sp.attrs) for n, sp in plan.specs.items()}
-    ds = build_dataset(data_vars, coords, title=plan.study.title, study_text=plan.text,
-                       settings=settings, var_attrs=var_attrs,
-                       source=f"gearsweep study, scene {plan.study.scene.kind!r}")
-    if "speed" in ds.coords and isinstance(plan.model, MeshModel):
-        ds["speed"].attrs["gear"] = f"driving gear (gear 1, {plan.model.teeth} teeth)"
-    return ds
-
-
-def run_study(study: Study | MeshStudy, text: str = "", progress: bool = False) -> xr.Dataset:
-    """Run every chunk of a study in this process and return its Dataset."""
-    if getattr(study, "type", None) == "mesh":  # a static mesh study: no integration
-        from gearsweep.study.mesh_runner import run_mesh_study
-
-        return run_mesh_study(study, text)
-    plan = make_plan(study, text)
-    results = empty_results(plan)
-    t0 = time.perf_counter()
-    chunks = plan.chunks()
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=plan.n_cases, unit="case", desc=study.title[:40], leave=False)
-    for a, b in chunks:
-        store_chunk(results, plan, a, b, run_chunk(plan, a, b))
-        if bar is not None:
-            bar.update((b - a) * plan.chain * max(len(plan.directions), 1))
-    if bar is not None:
-        bar.close()
-    return assemble(plan, results, time.perf_counter() - t0)

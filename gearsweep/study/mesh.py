@@ -22,93 +22,14 @@ dim), and writes the DATA.md variables ``ste``, ``load_share`` (dim ``pair``) an
 from __future__ import annotations
 
 import time
-from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
-from pydantic import Field, ValidationError, model_validator
 
-from gearsweep.errors import GeometryError, StudyError
 from gearsweep.gear import iso6336_stiffness, mesh_cycles
 from gearsweep.study.dataset import build_dataset
-from gearsweep.study.gearscene import GearField, GearSpec, gear_pair, static_mesh, tip_reliefs
-from gearsweep.study.schema import Range, Strict, Torque, _check_grids, _first_error
-from gearsweep.study.units import to_si
-
-
-class MeshStudy(Strict):
-    """A static mesh study: gear pair(s) x torque(s) -> mesh cycle, Fourier series."""
-
-    type: Literal["mesh"]
-    title: str = Field(min_length=1)
-    description: str = ""
-    gear: GearField | None = None
-    gears: dict[str, GearField] | None = Field(None, description="labelled variants")
-    torque: Torque | None = Field(None, gt=0, description="driving torque T1 [N m]")
-    sweep: dict[Literal["torque"], list[float | str] | Range] = Field(default_factory=dict)
-    positions: int = Field(200, ge=8, le=100_000, description="positions per mesh cycle")
-    harmonics: int = Field(10, ge=1, description="Fourier harmonics kept")
-
-    @model_validator(mode="after")
-    def _consistent(self) -> MeshStudy:
-        if (self.gear is None) == (self.gears is None):
-            raise ValueError("give exactly one of 'gear' (one pair) and 'gears' (labelled variants)")
-        if self.gears is not None and not self.gears:
-            raise ValueError("'gears' needs at least one labelled gear pair")
-        if (self.torque is None) == ("torque" not in self.sweep):
-            raise ValueError("give exactly one of 'torque' and 'sweep.torque'")
-        if self.harmonics > self.positions // 2:
-            raise ValueError(f"harmonics {self.harmonics} must be <= positions / 2 ="
-                             f" {self.positions // 2}")
-        return self
-
-    @property
-    def variants(self) -> dict[str, GearSpec]:
-        """Label -> gear spec (one unnamed entry ``""`` for a single ``gear``)."""
-        return dict(self.gears) if self.gears is not None else {"": self.gear}
-
-    @property
-    def swept_torque(self) -> bool:
-        return "torque" in self.sweep
-
-    def torques(self) -> np.ndarray:
-        """Driving torques [N m]."""
-        if not self.swept_torque:
-            return np.array([self.torque])
-        spec = self.sweep["torque"]
-        if isinstance(spec, Range):
-            a, b = to_si(spec.start, "torque"), to_si(spec.stop, "torque")
-            return np.geomspace(a, b, spec.num) if spec.spacing == "log" else np.linspace(
-                a, b, spec.num)
-        return np.array([to_si(v, "torque") for v in spec], dtype=float)
-
-
-def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
-    """Validate a ``type: mesh`` study and every gear pair in it (one error line per problem)."""
-    try:
-        study = MeshStudy.model_validate(raw)
-    except ValidationError as exc:
-        raise _first_error(exc, file, raw) from None
-    _check_grids(study, file)
-    torques = study.torques()
-    bad = torques[~(np.isfinite(torques) & (torques > 0))]
-    if bad.size:
-        raise StudyError(file, "sweep.torque", float(bad[0]), "positive torques (they load the mesh)")
-    for label, spec in study.variants.items():
-        where = f"gears.{label}" if label else "gear"
-        try:
-            static_mesh(spec, float(torques[0]), n=study.positions)
-        except GeometryError as exc:
-            raise GeometryError(f"{file}: {where}: {exc}") from None
-    return study
-
-
-def summary(study: MeshStudy) -> str:
-    """One line describing the cases of a mesh study (for ``gearsweep validate``)."""
-    nv, nt = len(study.variants), len(study.torques())
-    return (f"mesh study, {nv} gear pair{'s' if nv > 1 else ''} x {nt} torque{'s' if nt > 1 else ''},"
-            f" {study.positions} positions per mesh cycle, {study.harmonics} harmonics")
-
+from gearsweep.study.gearscene import gear_pair, tip_reliefs
+from gearsweep.study.schema import MeshStudy
 
 _ATTRS = {
     "ste": ("m", "static transmission error along the line of action"),

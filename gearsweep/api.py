@@ -1,0 +1,141 @@
+"""The Python entry: ``run(study) -> Dataset`` and ``open_result(path)``, the same path the CLI takes.
+
+    import gearsweep
+    ds = gearsweep.run("studies/whine_speed_sweep.yaml")        # a path, YAML text, a dict or a Study
+    ds = gearsweep.run({"title": "...", "scene": {...}, ...}, output="out.nc")
+    ds = gearsweep.open_result("results/fig08_rattle.nc")
+    gearsweep.result_model(ds)                                  # the MeshModel the kernel ran
+
+Every problem with the input raises a :class:`gearsweep.errors.GearsweepError` whose message is the
+one line the command line prints. A result file carries the study text, the resolved model (every
+number the kernel used, SI), the solver settings and the package version: ``result_study`` and
+``result_model`` rebuild them, so a study can be run again from its result alone.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import xarray as xr
+import yaml
+
+from gearsweep.errors import ResultError, StudyError
+from gearsweep.model import MathieuModel, MeshModel, model_from_record
+from gearsweep.study.analyses import run_analysis_study
+from gearsweep.study.analysis_specs import AnalysisStudy
+from gearsweep.study.dataset import write_netcdf
+from gearsweep.study.execute import InProcess, run_plan, run_to_file
+from gearsweep.study.mesh import run_mesh_study
+from gearsweep.study.plan import make_plan
+from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study
+
+StudyLike = str | Path | dict | Study | MeshStudy | AnalysisStudy
+"""What ``run`` takes: a study file's path, its YAML text, its mapping, or a validated study."""
+
+
+def load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
+    """A validated study and its YAML text from any ``StudyLike``.
+
+    Raises
+    ------
+    StudyError, GeometryError
+        The one line the CLI prints for the same input.
+    """
+    if isinstance(study, Study | MeshStudy | AnalysisStudy):
+        return study, yaml.safe_dump(study.model_dump(mode="json", exclude_none=True),
+                                     sort_keys=False)
+    if isinstance(study, dict):
+        text = yaml.safe_dump(study, sort_keys=False)
+        return parse_study(text, "<dict>"), text
+    if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study
+                                   and study.strip().endswith((".yaml", ".yml"))):
+        return load_study(study)
+    if isinstance(study, str):
+        return parse_study(study, "<text>"), study
+    raise StudyError("<study>", "(study)", type(study).__name__,
+                     "a path, YAML text, a dict or a gearsweep Study")
+
+
+def run_unchunked(study: MeshStudy | AnalysisStudy, text: str = "") -> xr.Dataset:
+    """A mesh or analysis study: computed in one piece (no chunks, no checkpoints)."""
+    if isinstance(study, MeshStudy):
+        return run_mesh_study(study, text)
+    return run_analysis_study(study, text)
+
+
+def run_study(study: Study | MeshStudy | AnalysisStudy, text: str = "",
+              progress: bool = False) -> xr.Dataset:
+    """Run every chunk of a validated study in this process and return its Dataset in memory."""
+    if isinstance(study, MeshStudy | AnalysisStudy):
+        return run_unchunked(study, text)
+    plan = make_plan(study, text)
+    return run_plan(plan, backend=InProcess(), progress=progress)
+
+
+def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = False,
+        chunk_cases: int | None = None) -> xr.Dataset:
+    """Validate and run a study in this process; return its Dataset.
+
+    Parameters
+    ----------
+    study : path, YAML text, dict or Study
+        The study (see ``docs/study-reference.md`` for its fields).
+    output : path, optional
+        Also write the result to this netCDF file (checkpointed: a re-run after an interruption
+        resumes). Without it nothing is written.
+    progress : bool
+        Show a progress bar per chunk (stderr).
+    chunk_cases : int, optional
+        About this many cases per chunk (default: sized from the step count).
+
+    Returns
+    -------
+    xarray.Dataset
+        In memory; the same variables, coordinates and attributes as the file the CLI writes.
+    """
+    st, text = load(study)
+    if isinstance(st, MeshStudy | AnalysisStudy):
+        ds = run_unchunked(st, text)
+        if output is not None:
+            write_netcdf(ds, output)
+        return ds
+    if output is None:
+        return run_plan(make_plan(st, text), backend=InProcess(), progress=progress,
+                        chunk_cases=chunk_cases)
+    with run_to_file(make_plan(st, text), output, chunk_cases=chunk_cases,
+                     progress=progress) as lazy:
+        return lazy.load()
+
+
+def open_result(path: str | Path) -> xr.Dataset:
+    """Open a result file in memory; one line (``ResultError``) if it is missing or not ours."""
+    path = Path(path)
+    if not path.exists():
+        raise ResultError(f"{path}: no such result file (run the study first)")
+    if path.suffix in (".yaml", ".yml"):
+        raise ResultError(f"{path}: this is a study, not a result; try `gearsweep validate {path}`"
+                          " or run it")
+    try:
+        ds = xr.load_dataset(path)
+    except (OSError, ValueError) as exc:
+        raise ResultError(f"{path}: not a readable netCDF file ({exc})") from None
+    if "study" not in ds.attrs:
+        raise ResultError(f"{path}: not a gearsweep result (no 'study' attribute)")
+    return ds
+
+
+def result_model(ds: xr.Dataset) -> MeshModel | MathieuModel:
+    """The resolved model a dynamic result was computed with (every number in SI)."""
+    if "model" not in ds.attrs:
+        raise ResultError("this result carries no resolved model (a mesh study, or written by an"
+                          " older gearsweep)")
+    return model_from_record(json.loads(ds.attrs["model"]))
+
+
+def result_study(ds: xr.Dataset) -> Study | MeshStudy:
+    """The study a result was computed from (validated again from the text it carries)."""
+    return parse_study(ds.attrs["study"], "<result>")
+
+
+__all__ = ["load", "open_result", "result_model", "result_study", "run", "run_study"]

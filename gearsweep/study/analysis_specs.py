@@ -1,0 +1,93 @@
+"""Analysis studies (``type: analysis``): computations that are not a grid of Eq. (6) cases but
+feed figures all the same (the methods' stability limits, the work-precision chart). Each has an
+options model here, discriminated by ``kind``; ``gearsweep.study.analyses`` computes them into a
+Dataset, so figure scripts only read results::
+
+    type: analysis
+    title: Stability limits of the fixed-step methods
+    analysis:
+      kind: method_stability
+      zeta: [0.0, 0.1, 0.215, 0.4]
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from gearsweep.study.quantities import Speed, Strict
+
+Method = Literal["rk4", "rk5"]
+
+
+class MethodStability(Strict):
+    """Largest stable h omega_n of each method on the free linear oscillator: measured by
+    integration with the batch kernel at the ``zeta`` points, and from the stability polynomial
+    on a fine grid of damping ratios."""
+
+    kind: Literal["method_stability"]
+    methods: list[Method] = Field(default_factory=lambda: ["rk4", "rk5"], min_length=1)
+    zeta: list[float] = Field(
+        default_factory=lambda: [0.0, 0.02, 0.05, 0.1, 0.15, 0.215, 0.3, 0.4, 0.5, 0.6],
+        min_length=1, description="damping ratios measured by integration [1]")
+    zeta_max: float = Field(0.6, gt=0, le=10, description="end of the polynomial's curve [1]")
+    curve_points: int = Field(121, ge=2, le=10_000)
+    steps: int = Field(20_000, ge=100, le=10_000_000,
+                       description="steps integrated per trial step size")
+    h_omega: tuple[float, float, int] = Field(
+        (0.5, 4.0, 3501), description="trial h omega_n: start, stop, number [1]")
+
+    @model_validator(mode="after")
+    def _ranges(self) -> MethodStability:
+        if any(not (0 <= z <= 10) for z in self.zeta):
+            raise ValueError("damping ratios must lie in [0, 10]")
+        a, b, n = self.h_omega
+        if not (0 < a < b) or n < 2:
+            raise ValueError("h_omega must be (start, stop, number) with 0 < start < stop")
+        return self
+
+
+class WorkPrecision(Strict):
+    """Error against cost of the fixed-step kernels and scipy's adaptive solvers on the whine
+    and rattle scenes of ``gearsweep.analysis.precision`` against a reference solution."""
+
+    kind: Literal["work_precision"]
+    scenes: list[Literal["whine", "rattle"]] = Field(
+        default_factory=lambda: ["whine", "rattle"], min_length=1)
+    whine_speed: Speed = Field(6000.0, gt=0, description="speed of the whine scene [rpm]")
+    rattle_speed: Speed = Field(9000.0, gt=0, description="speed of the rattle scene [rpm]")
+    methods: list[Literal["rk4", "rk5", "rk4-kink", "rk5-kink"]] = Field(
+        default_factory=lambda: ["rk4", "rk5", "rk4-kink", "rk5-kink"], min_length=1)
+    steps_per_period: list[int] = Field(
+        default_factory=lambda: [8, 16, 32, 64, 128, 256, 512, 1024], min_length=3)
+    peers: list[Literal["RK45", "DOP853", "LSODA"]] = Field(
+        default_factory=lambda: ["RK45", "DOP853", "LSODA"])
+    rtol: list[float] = Field(
+        default_factory=lambda: [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10], min_length=1)
+    transient_periods: int = Field(40, ge=1, le=100_000)
+    record_periods: int = Field(20, ge=1, le=100_000)
+    copies: int = Field(64, ge=1, le=1_000_000,
+                        description="identical cases per kernel call (cost = time / copies)")
+    repeat: int = Field(3, ge=1, le=100, description="timings per point; the best is kept")
+
+    @model_validator(mode="after")
+    def _steps(self) -> WorkPrecision:
+        if any(s % 8 or s < 8 for s in self.steps_per_period):
+            raise ValueError("steps_per_period must be multiples of 8 (the common sampling grid)")
+        if any(not (0 < r < 1) for r in self.rtol):
+            raise ValueError("rtol values must lie in (0, 1)")
+        return self
+
+
+AnalysisSpec = Annotated[MethodStability | WorkPrecision, Field(discriminator="kind")]
+"""The ``analysis:`` mapping of an analysis study."""
+
+
+class AnalysisStudy(Strict):
+    """An analysis study: a title and one ``analysis`` (see the kinds above)."""
+
+    type: Literal["analysis"]
+    title: str = Field(min_length=1)
+    description: str = ""
+    analysis: AnalysisSpec

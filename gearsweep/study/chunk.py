@@ -1,0 +1,185 @@
+"""One chunk of a plan: the lanes' values -> kernel calls (carrying the state along continued
+sweeps) -> the outputs' arrays and the status of every case. Runs wherever the chunk is sent."""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+import time
+
+import numpy as np
+
+from gearsweep.kernels import STATUS_DIVERGED, BatchResult, simulate
+from gearsweep.model import kernel_inputs
+from gearsweep.study.outputs import OUTPUTS
+from gearsweep.study.plan import (
+    STATUS_NOT_SETTLED,
+    STATUS_SKIPPED,
+    Plan,
+    _lane_params,
+    _lanes,
+    _step_ok,
+)
+
+
+class _Clock:
+    """Seconds spent in the kernel (``simulate``) by this process, summed over its threads."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.seconds = 0.0
+
+    def add(self, seconds: float) -> None:
+        with self._lock:
+            self.seconds += seconds
+
+
+KERNEL_CLOCK = _Clock()
+"""Read before and after a run in this process: the difference is its time in the kernel
+(``run_plan`` stores it as the Dataset's ``kernel_seconds``, beside ``elapsed_seconds``)."""
+
+
+def _integrate(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0,
+               ok: np.ndarray | None = None) -> tuple:
+    """One kernel call for ``n`` cases; returns (BatchResult, per-output arrays, status).
+
+    ``ok``: the step guard's verdict per case if already known (else it is computed here).
+    """
+    guard = plan.study.solver.step_guard
+    if guard == "off":
+        ok = np.ones(n, bool)
+    elif ok is None:
+        ok = _step_ok(plan, params, n)
+    if guard == "skip" and not ok.all():
+        return _integrate_subset(plan, params, n, x0, v0, ok)
+    res, out, status = _integrate_all(plan, params, n, x0, v0)
+    if guard == "warn":
+        out["beyond_step_limit"] = ~ok
+    return res, out, status
+
+
+def _integrate_subset(plan: Plan, params, n: int, x0, v0, ok: np.ndarray) -> tuple:
+    """Integrate only the cases whose step is stable; the others get status 3 and NaN."""
+    idx = np.flatnonzero(ok)
+    sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+    sx0 = None if x0 is None else np.asarray(x0)[idx]
+    sv0 = None if v0 is None else np.asarray(v0)[idx]
+    res, out, status = _integrate_all(plan, sub, len(idx), sx0, sv0)
+    full = {}
+    for name, arr in out.items():
+        fill = False if arr.dtype == bool else np.nan
+        a = np.full((n, *arr.shape[1:]), fill, dtype=arr.dtype)
+        a[idx] = arr
+        full[name] = a
+    st = np.full(n, STATUS_SKIPPED, np.int8)
+    st[idx] = status
+    xf = np.full(n, np.nan)
+    vf = np.full(n, np.nan)
+    xf[idx], vf[idx] = res.x_final, res.v_final
+    rs = np.full(n, STATUS_DIVERGED, np.int8)  # a skipped lane restarts a continued sweep
+    rs[idx] = res.status
+    return BatchResult(stats={}, x_final=xf, v_final=vf, status=rs, signal=None), full, st
+
+
+def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
+    """One kernel call for the cases, or one per distinct load of a gear scene that sweeps it
+    (each load has its own k(t) and e(t): ``Plan.model_for_load``)."""
+    if not plan.gear_load_swept:
+        return _integrate_model(plan, params, n, x0, v0)
+    torques = plan.case_torques(params)
+    loads, which = np.unique(torques, return_inverse=True)
+    parts = []
+    for g, load in enumerate(loads):
+        idx = np.flatnonzero(which == g)
+        sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+        at = dataclasses.replace(plan, model=plan.model_for_load(float(load)))
+        parts.append((idx, _integrate_model(at, sub, len(idx), _take(x0, idx), _take(v0, idx))))
+    return _merge(parts, n)
+
+
+def _take(a, idx: np.ndarray):
+    """The cases ``idx`` of a per-case initial state (``None`` and scalars are shared)."""
+    if a is None:
+        return None
+    a = np.asarray(a, float)
+    return a[idx] if a.ndim else a
+
+
+def _merge(parts: list[tuple[np.ndarray, tuple]], n: int) -> tuple:
+    """Put the (BatchResult, outputs, status) of case subsets back in case order."""
+
+    def full(arrays: list[np.ndarray | None]) -> np.ndarray | None:
+        if arrays[0] is None:
+            return None
+        a = np.empty((n, *arrays[0].shape[1:]), dtype=arrays[0].dtype)
+        for (idx, _), arr in zip(parts, arrays, strict=True):
+            a[idx] = arr
+        return a
+
+    results = [p[1][0] for p in parts]
+    res = BatchResult(
+        stats={k: full([r.stats[k] for r in results]) for k in results[0].stats},
+        x_final=full([r.x_final for r in results]), v_final=full([r.v_final for r in results]),
+        status=full([r.status for r in results]), signal=full([r.signal for r in results]),
+        substeps=full([r.substeps for r in results]))
+    out = {k: full([p[1][1][k] for p in parts]) for k in parts[0][1][1]}
+    return res, out, full([p[1][2] for p in parts])
+
+
+def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
+    s = plan.study.solver
+    spp = s.steps_per_period
+    x_init = s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
+    kin = kernel_inputs(plan.model, params, n, spp, s.divergence_factor, x_init,
+                        s.initial_velocity)
+    if x0 is not None:
+        kin["x0"], kin["v0"] = x0, v0
+    sps = plan.samples_per_period()
+    t0 = time.perf_counter()
+    res = simulate(method=s.method, n_transient=s.transient_periods * spp,
+                   n_record=s.record_periods * spp, steps_per_period=spp,
+                   signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
+    KERNEL_CLOCK.add(time.perf_counter() - t0)
+    out: dict[str, np.ndarray] = {}
+    for o in plan.outputs:
+        out.update(OUTPUTS[o].compute(plan, params, res))
+    status = res.status.astype(np.int8)
+    unsettled = (status == 0) & ~(res.stats["settle_error"] <= s.settle_tolerance)
+    status[unsettled] = STATUS_NOT_SETTLED
+    return res, out, status
+
+
+def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
+    """Compute lanes ``[lane0, lane1)``: arrays of shape (directions?, lanes, chain?, *extra)."""
+    n = lane1 - lane0
+    if not plan.continued:
+        guard = plan.study.solver.step_guard != "off"
+        params, ok = _lanes(plan, lane0, lane1, guard)
+        _, out, status = _integrate(plan, params, n, None, None, ok)
+        out["status"] = status
+        return out
+    params = _lane_params(plan, lane0, lane1)
+    # Continued sweeps: the up and the down sweep of every lane advance side by side as lanes of
+    # one kernel call (step k is speed k going up and speed n-1-k going down).
+    speeds = plan.grids["speed"]
+    ns, nd = len(speeds), len(plan.directions)
+    s = plan.study.solver
+    both = {name: np.tile(vals, nd) for name, vals in params.items()}
+    x = np.full(n * nd, s.initial_displacement)
+    v = np.full(n * nd, s.initial_velocity)
+    cols: dict[str, np.ndarray] = {}
+    for k in range(ns):
+        idx = np.concatenate([np.full(n, k if d == "up" else ns - 1 - k) for d in plan.directions])
+        res, out, status = _integrate(plan, dict(both, speed=speeds[idx]), n * nd, x, v)
+        out["status"] = status
+        for name, arr in out.items():
+            if name not in cols:
+                cols[name] = np.empty((nd, n, ns, *arr.shape[1:]), dtype=arr.dtype)
+            a = arr.reshape(nd, n, *arr.shape[1:])
+            for di in range(nd):
+                cols[name][di, :, idx[di * n]] = a[di]
+        # Carry the state; a diverged lane restarts from the initial state at the next speed.
+        dead = res.status == STATUS_DIVERGED
+        x = np.where(dead, s.initial_displacement, res.x_final)
+        v = np.where(dead, s.initial_velocity, res.v_final)
+    return cols

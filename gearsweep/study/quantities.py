@@ -1,0 +1,42 @@
+"""Quantity fields of the study models: a number or a string with units, parsed once into SI.
+
+Every pydantic model of a study file (``schema``, ``gearscene``) takes its dimensioned fields from
+here, so that a quantity is parsed and checked the same way everywhere.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import partial
+from typing import Annotated, Any
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict
+
+from gearsweep.study.units import UnitParseError, to_si
+
+
+def _parse(kind: str, value: Any) -> Any:
+    try:
+        out = to_si(value, kind)
+    except UnitParseError as exc:
+        raise ValueError(str(exc)) from None
+    if not math.isfinite(out):
+        raise ValueError("expected a finite number")
+    return out
+
+
+def Q(kind: str) -> Any:  # noqa: N802 -- reads as a type in the models
+    """A float field given as a number or a string with units of ``kind``."""
+    return Annotated[float, BeforeValidator(partial(_parse, kind))]
+
+
+Length, Mass, Force, Torque = Q("length"), Q("mass"), Q("force"), Q("torque")
+Damping, Stiffness, Inertia, Angle, Speed = (Q("damping"), Q("stiffness"), Q("inertia"),
+                                            Q("angle"), Q("speed"))
+Pressure = Q("pressure")
+
+
+class Strict(BaseModel):
+    """A study model: unknown keys are errors, values are frozen once validated."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)

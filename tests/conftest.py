@@ -1,0 +1,71 @@
+"""Shared fixtures: the paper's rig, the Table 1 gear pair, and small studies written on the fly.
+
+The numbers themselves live in the package (``gearsweep.model.PAPER_RIG``,
+``gearsweep.gear.table1_consistent``); tests take them from here instead of typing them again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+import yaml
+
+from gearsweep.gear import table1_consistent
+from gearsweep.model import PAPER_RIG, MeshModel
+
+RIG = PAPER_RIG
+"""The paper's rig (SI): m_eq, k0, k1, c, N1, F_m. Importable as ``from conftest import RIG``."""
+
+
+@pytest.fixture
+def rig() -> MeshModel:
+    """The paper's rig as a MeshModel (k0 and k1, c, m_eq, F_m; no STE, no backlash)."""
+    return RIG
+
+
+@pytest.fixture
+def rig_constant_k() -> MeshModel:
+    """The rig with constant stiffness k0 (the rattle scenes' Eq. 13)."""
+    return dataclasses.replace(RIG, stiffness_harmonics=())
+
+
+@pytest.fixture(scope="session")
+def table1_pair():
+    """The Table 1 gear pair, consistent interpretation (docs/mesh.md)."""
+    return table1_consistent()
+
+
+SMALL_WHINE = {
+    "title": "small whine study (tests)",
+    "scene": {"kind": "whine", "mass": f"{RIG.mass} kg", "teeth": RIG.teeth,
+              "stiffness": f"{RIG.stiffness} N/m", "damping": f"{RIG.damping} N*s/m",
+              "mean_force": f"{RIG.mean_force} N",
+              "stiffness_harmonics": [{"amplitude": "179 kN/mm", "order": 1}],
+              "ste": [{"amplitude": "5 um", "order": 1}]},
+    "sweep": {"speed": {"start": "3000 rpm", "stop": "9000 rpm", "num": 7}},
+    "solver": {"method": "rk4", "steps_per_period": 32, "transient_periods": 30,
+               "record_periods": 10},
+    "outputs": ["stats"],
+}
+"""A whine study of a few cases that runs in well under a second once compiled."""
+
+
+@pytest.fixture
+def small_whine() -> dict:
+    """A fresh copy of ``SMALL_WHINE`` to change in a test."""
+    return yaml.safe_load(yaml.safe_dump(SMALL_WHINE))
+
+
+@pytest.fixture
+def write_study(tmp_path: Path):
+    """``write_study(mapping_or_text, name="study.yaml") -> Path`` of a study file in tmp_path."""
+
+    def write(study: dict | str, name: str = "study.yaml") -> Path:
+        path = tmp_path / name
+        path.write_text(study if isinstance(study, str) else yaml.safe_dump(study, sort_keys=False),
+                        encoding="utf-8")
+        return path
+
+    return write

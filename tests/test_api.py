@@ -1,0 +1,99 @@
+"""The Python API: ``gearsweep.run`` takes a path, YAML text, a dict or a Study and returns the
+Dataset the CLI writes; results carry their model and study, so they can be run again."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import xarray as xr
+from conftest import RIG
+
+import gearsweep
+from gearsweep.errors import GearsweepError, ResultError, StudyError
+from gearsweep.model import MeshModel, model_from_record, model_record
+
+VOLATILE = ("history", "elapsed_seconds", "kernel_seconds")
+"""Attributes that differ between two runs of the same study (time stamps and timings)."""
+
+
+def _same(a: xr.Dataset, b: xr.Dataset) -> None:
+    a = a.copy()
+    b = b.copy()
+    for ds in (a, b):
+        for k in VOLATILE:
+            ds.attrs.pop(k, None)
+    xr.testing.assert_identical(a, b)
+
+
+def test_run_takes_a_path_text_a_dict_or_a_study_and_writes_nothing(small_whine, write_study,
+                                                                    tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    path = write_study(small_whine)
+    before = set(tmp_path.rglob("*"))
+    by_path = gearsweep.run(path)
+    by_dict = gearsweep.run(small_whine)
+    by_text = gearsweep.run(path.read_text())
+    by_study = gearsweep.run(gearsweep.api.load(small_whine)[0])
+    assert set(tmp_path.rglob("*")) == before  # nothing written
+    for ds in (by_dict, by_text, by_study):
+        np.testing.assert_array_equal(ds.p_rms.values, by_path.p_rms.values)
+    assert by_path.p_rms.dims == ("speed",) and by_path.sizes["speed"] == 7
+    assert np.all(by_path.p_rms.values > 0)
+
+
+def test_run_in_memory_equals_the_cli_file(small_whine, write_study, tmp_path):
+    path = write_study(small_whine)
+    out = tmp_path / "cli.nc"
+    r = subprocess.run([sys.executable, "-m", "gearsweep.cli", "run", str(path), "-o", str(out),
+                        "-q"], capture_output=True, text=True, env={**os.environ})
+    assert r.returncode == 0, r.stderr
+    with xr.open_dataset(out) as f:
+        from_file = f.load()
+    _same(gearsweep.run(path), from_file)
+
+
+def test_run_with_output_writes_the_same_file(small_whine, write_study, tmp_path):
+    out = tmp_path / "api.nc"
+    ds = gearsweep.run(write_study(small_whine), output=out)
+    assert out.exists()
+    _same(ds, gearsweep.open_result(out))
+
+
+def test_bad_input_raises_the_clis_one_line(small_whine, write_study):
+    small_whine["scene"]["mass"] = "-0.2 kg"
+    path = write_study(small_whine)
+    with pytest.raises(StudyError) as exc:
+        gearsweep.run(path)
+    msg = str(exc.value)
+    assert "\n" not in msg and "scene.mass" in msg and str(path) in msg
+    r = subprocess.run([sys.executable, "-m", "gearsweep.cli", "run", str(path)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and msg in r.stderr
+    with pytest.raises(GearsweepError):
+        gearsweep.run(42)
+
+
+def test_a_result_runs_again_from_its_own_attributes(small_whine):
+    ds = gearsweep.run(small_whine)
+    model = gearsweep.result_model(ds)
+    assert isinstance(model, MeshModel)
+    assert model.mass == RIG.mass and model.stiffness == RIG.stiffness
+    assert model.stiffness_harmonics[0].amplitude == pytest.approx(179e6)
+    assert model.ste_harmonics[0].amplitude == pytest.approx(5e-6)
+    again = gearsweep.run(gearsweep.result_study(ds))
+    np.testing.assert_array_equal(again.p_rms.values, ds.p_rms.values)
+
+
+def test_model_record_round_trips(rig):
+    assert model_from_record(model_record(rig)) == rig
+
+
+def test_open_result_refuses_a_study_and_a_missing_file(write_study, small_whine, tmp_path):
+    with pytest.raises(ResultError, match="is a study"):
+        gearsweep.open_result(write_study(small_whine))
+    with pytest.raises(ResultError, match="no such"):
+        gearsweep.open_result(tmp_path / "nope.nc")
