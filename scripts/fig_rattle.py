@@ -250,7 +250,7 @@ def fig9(ds, figures):
     ax.set_title("Fig. 9: Eq. (15), k f(p0) = F0 + m ω² p0 (undamped; F0 = "
                  f"{f0 / 1e3:g} kN as fitted for Fig. 8, b = {b * 1e3:.4g} mm);\nintersections "
                  f"A: {counts[0]}, B: {counts[1]}, C: {counts[2]} (3 roots between "
-                 f"{w_t / w_per_rpm:.0f} and {w_n / w_per_rpm:.0f} rpm of the {shaft})",
+                 f"{w_t / w_per_rpm:.0f} and {w_n / w_per_rpm:.0f} rpm of the {shaft}))",
                  fontsize=9)
     fig.tight_layout()
     print(save(fig, figures / "fig09_graphical.png"))
