@@ -9,7 +9,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
@@ -42,7 +41,8 @@ def plot_branch(ax: Axes, speed, amplitude, stable, *, color: str, label: str,
 
 
 def plot_fig8(ax: Axes, speed, amp_up, amp_down, *, half_gap: float,
-              curves: Sequence[dict] = (), eq15: dict | None = None) -> Figure:
+              curves: Sequence[dict] = (), eq15: dict | None = None,
+              speed_label: str = "speed of the driving gear [rpm]") -> Figure:
     """Fig. 8: amplitude of p versus speed on run-up and run-down, with harmonic balance.
 
     Parameters
@@ -58,7 +58,10 @@ def plot_fig8(ax: Axes, speed, amp_up, amp_down, *, half_gap: float,
         Harmonic-balance curves with keys ``speed`` [rpm], ``amplitude`` [m], ``stable`` (bool),
         ``label``, ``color``; drawn solid where stable, dashed where unstable.
     eq15 : dict, optional
-        The paper's analytical points: ``speed`` [rpm], ``amplitude`` [m] (open circles).
+        The paper's analytical points: ``speed`` [rpm], ``amplitude`` [m] (open circles), and
+        optionally ``label``.
+    speed_label : str
+        x-axis label (which shaft the speed is).
     """
     ax.plot(speed, np.asarray(amp_up) * MM, "^", ms=4, color="tab:red", mew=0, alpha=0.6,
             label="integration, run-up")
@@ -69,18 +72,19 @@ def plot_fig8(ax: Axes, speed, amp_up, amp_down, *, half_gap: float,
                     label=c["label"], lw=c.get("lw", 1.6))
     if eq15 is not None:
         ax.plot(eq15["speed"], np.asarray(eq15["amplitude"]) * MM, "o", mfc="none", ms=5,
-                color="0.35", label="Eq. (15), paper's method (o)")
+                color="0.35", label=eq15.get("label", "Eq. (15), paper's method (o)"))
     ax.axhline(half_gap * MM, color="0.5", lw=0.8, ls=":")
     ax.annotate("backlash / 2", (ax.get_xlim()[0], half_gap * MM), xytext=(4, 3),
                 textcoords="offset points", fontsize=8, color="0.4")
-    ax.set_xlabel("driving-gear speed [rpm]")
+    ax.set_xlabel(speed_label)
     ax.set_ylabel("amplitude of p, (p_max - p_min)/2 [mm]")
     ax.legend(fontsize=7.5, loc="lower left")
     ax.grid(alpha=0.3)
     return ax.figure
 
 
-def plot_contact(ax: Axes, speed, loss_up, loss_down, back_up, back_down) -> Figure:
+def plot_contact(ax: Axes, speed, loss_up, loss_down, back_up, back_down, *,
+                 speed_label: str = "speed of the driving gear [rpm]") -> Figure:
     """Contact-loss and back-flank fractions of the up and down sweeps versus speed.
 
     Parameters
@@ -97,7 +101,7 @@ def plot_contact(ax: Axes, speed, loss_up, loss_down, back_up, back_down) -> Fig
     ax.plot(speed, back_down, "-", color="tab:blue", lw=0.8,
             label="back-flank contact, run-down")
     ax.set_ylabel("fraction of time [1]")
-    ax.set_xlabel("driving-gear speed [rpm]")
+    ax.set_xlabel(speed_label)
     ax.set_ylim(-0.02, 1.02)
     ax.legend(fontsize=7, ncol=2, loc="lower right", bbox_to_anchor=(1.0, 0.1))
     ax.grid(alpha=0.3)
@@ -131,7 +135,7 @@ def plot_fig9(ax: Axes, *, stiffness: float, mass: float, force_amp: float, half
     colors = ("tab:green", "tab:orange", "tab:purple")
     for w, lab, col, r in zip(omegas, labels, colors, roots, strict=True):
         line = force_amp + mass * w**2 * p
-        ax.plot(p * MM, line / 1e3, color=col, lw=1.3, label=f"{lab}: F0 + m w^2 p0")
+        ax.plot(p * MM, line / 1e3, color=col, lw=1.3, label=f"{lab}: F0 + m ω² p0")
         ok = np.isfinite(r)
         ax.plot(r[ok] * MM, (force_amp + mass * w**2 * r[ok]) / 1e3, "o", color=col, ms=7,
                 mfc="none", mew=1.8)
@@ -148,31 +152,32 @@ def plot_fig9(ax: Axes, *, stiffness: float, mass: float, force_amp: float, half
     return ax.figure
 
 
-def plot_rms_vs_speed(ax: Axes, speed, rms_up, rms_down, loads, *, load_label: str) -> Figure:
-    """Counterpart of Fig. 12: rms of p about its mean versus speed, one curve per load.
+def plot_lines(ax: Axes, x, lines: Sequence[dict], *, xlabel: str, ylabel: str,
+               scale: float = 1.0, log: bool = True, hline: dict | None = None) -> Figure:
+    """Curves over a speed axis: each dict of ``lines`` has ``y`` (NaN = masked), ``label`` and
+    optional ``color``, ``ls``, ``marker``, ``lw``; ``y * scale`` is drawn.
 
     Parameters
     ----------
-    speed : array_like (n,)
-        [rpm].
-    rms_up, rms_down : array_like (n_load, n)
-        rms of p on run-up and run-down [m].
-    loads : sequence
-        Load values for the legend (in the unit named by ``load_label``).
+    x : array_like
+        Speed [rpm] (of the shaft named in ``xlabel``), shared by all lines unless a line has its
+        own ``x``.
+    hline : dict, optional
+        A reference level: ``y`` (unscaled), ``label``.
     """
-    cmap = colormaps["viridis"]
-    for i, load in enumerate(loads):
-        col = cmap(0.9 * i / max(len(loads) - 1, 1))
-        ax.plot(speed, np.asarray(rms_up[i]) * MM, "-", color=col, lw=1.4,
-                label=f"{load_label} = {load:g}, run-up")
-        ax.plot(speed, np.asarray(rms_down[i]) * MM, "--", color=col, lw=1.2,
-                label=f"{load_label} = {load:g}, run-down")
-    ax.set_xlabel("driving-gear speed [rpm]")
-    ax.set_ylabel("rms of p about its mean [mm]")
-    top = np.nanmax([np.nanmax(rms_up), np.nanmax(rms_down)]) * MM
-    ax.set_ylim(0, 1.35 * top)  # room for the legend above the curves
-    ax.legend(fontsize=7, ncol=2, loc="upper right")
-    ax.grid(alpha=0.3)
+    for ln in lines:
+        ax.plot(ln.get("x", x), np.asarray(ln["y"]) * scale, ls=ln.get("ls", "-"),
+                marker=ln.get("marker", ""), ms=3, mew=0, lw=ln.get("lw", 1.3),
+                color=ln.get("color"), label=ln["label"])
+    if hline is not None:
+        ax.axhline(hline["y"] * scale, color="0.3", lw=0.9, ls=":")
+        ax.annotate(hline["label"], (0.01, hline["y"] * scale), xycoords=("axes fraction", "data"),
+                    xytext=(0, 3), textcoords="offset points", fontsize=7.5, color="0.3")
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
     return ax.figure
 
 

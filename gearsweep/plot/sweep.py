@@ -12,14 +12,37 @@ from gearsweep.plot.common import UM, axes
 
 def _label(ds: xr.Dataset, dim: str, value) -> str:
     units = ds[dim].attrs.get("units", "")
+    if dim == "damping" and units in ("N s/m", "N s m-1"):
+        return f"c = {value / 1e3:g} N s/mm"
     if isinstance(value, float | np.floating):
         return f"{dim.replace('_', ' ')} = {value:g} {units}".strip()
     return f"{dim} = {value}"
 
 
+def speed_label(speed: xr.DataArray) -> str:
+    """Axis label of a ``speed`` coordinate from its attributes: which shaft, and the unit."""
+    gear = speed.attrs.get("gear")
+    name = f"speed of the {gear}" if gear else speed.attrs.get("long_name", "speed")
+    return f"{name} [{speed.attrs.get('units', 'rpm')}]"
+
+
+def settled(da: xr.DataArray, ds: xr.Dataset) -> tuple[xr.DataArray, int, int]:
+    """``da`` where the case settled (``status == 0``), NaN elsewhere; and the number of masked
+    cases and of all cases of ``da``'s shape (a steady-state value of a case that has not settled
+    is not a curve point)."""
+    if "status" not in ds:
+        return da, 0, int(da.size)
+    ok = (ds["status"] == 0).broadcast_like(da)
+    return da.where(ok), int((~ok).sum()), int(ok.size)
+
+
 def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = None,
-                           hue: str | None = None, secondary_mesh_axis: bool = True) -> Figure:
-    """Plot ``var`` [um] over ``speed`` [rpm], one line per value of ``hue`` (and direction).
+                           hue: str | None = None, secondary_mesh_axis: bool = True,
+                           hue_labels: list[str] | None = None) -> Figure:
+    """Plot ``var`` [µm] over ``speed`` [rpm], one line per value of ``hue`` (and direction).
+
+    Only settled cases (``status == 0``) are drawn; the others are masked and counted in the
+    legend title.
 
     Parameters
     ----------
@@ -29,9 +52,11 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
         ``p_pp``, ``p_rms``, ``p_max``, ...
     hue : str, optional
         The other swept dim to draw one line per value of (default: the first one).
+    hue_labels : list of str, optional
+        Legend labels of the ``hue`` values (default: name = value unit).
     """
     fig, ax = axes(ax)
-    da = ds[var]
+    da, n_masked, n_all = settled(ds[var], ds)
     others = [d for d in da.dims if d not in ("speed", "direction")]
     if hue is None and others:
         hue = others[0]
@@ -50,17 +75,19 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
                 sel = sel.sel(direction=dv)
             style = {"up": dict(ls="-", marker="^", ms=3), "down": dict(ls="--", marker="v", ms=3)
                      }.get(dv, dict(ls="-"))
-            label = ", ".join(x for x in (_label(ds, hue, hv) if hue else "",
+            lab = (hue_labels[i] if hue_labels else _label(ds, hue, hv)) if hue else ""
+            label = ", ".join(x for x in (lab,
                                           f"run-{dv}" if dv else "") if x)
             ax.plot(ds["speed"].values, sel.values * UM, color=colors[i], label=label or None,
                     lw=1.2, **style)
     name = ds[var].attrs.get("long_name", var)
-    ax.set_xlabel("driving-gear speed [rpm]")
-    ax.set_ylabel(f"{var.replace('_', ' ')} [um]")
+    ax.set_xlabel(speed_label(ds["speed"]))
+    ax.set_ylabel(f"{name} [µm]")
     ax.set_title(name, fontsize=10)
     ax.grid(True, alpha=0.3)
-    if hue or dirs != [None]:
-        ax.legend(fontsize=8)
+    if hue or dirs != [None] or n_masked:
+        ax.legend(fontsize=8, title=f"{n_masked} of {n_all} cases not settled (masked)"
+                  if n_masked else None, title_fontsize=8)
     if secondary_mesh_axis and "mesh_frequency" in ds.coords:
         ratio = float(ds["mesh_frequency"].values[-1] / ds["speed"].values[-1])
         sec = ax.secondary_xaxis("top", functions=(lambda s: s * ratio, lambda f: f / ratio))

@@ -52,8 +52,8 @@ def driven_speed(ds: xr.Dataset, driven_teeth: int) -> np.ndarray:
 
 def _speed_axis(ds: xr.Dataset, driven_teeth: int | None) -> tuple[np.ndarray, str]:
     if driven_teeth is None:
-        return ds["speed"].values, "driving gear speed [rpm]"
-    return driven_speed(ds, driven_teeth), f"driven gear ({driven_teeth} teeth) speed [rpm]"
+        return ds["speed"].values, "speed of the driving gear [rpm]"
+    return driven_speed(ds, driven_teeth), f"speed of the driven gear ({driven_teeth} teeth) [rpm]"
 
 
 def plot_waterfall(
@@ -66,6 +66,7 @@ def plot_waterfall(
     driven_teeth: int | None = None,
     skip_mean: bool = True,
     natural_frequency_hz: float | None = None,
+    zlabel: str | None = None,
 ) -> Figure:
     """3-D waterfall (paper Fig. 5 and Fig. 11): amplitude over frequency, one trace per speed.
 
@@ -87,6 +88,8 @@ def plot_waterfall(
         Leave out order 0 (the mean of p, about F_m / k0, would dwarf the lines).
     natural_frequency_hz : float, optional
         Draw f_n [Hz] on the floor of the plot (dashed), where the order lines resonate.
+    zlabel : str, optional
+        Label of the amplitude axis (default: from the variable: p in µm or a force in N).
     """
     da = ds[variable]
     if "speed" not in da.dims or "order" not in da.dims or da.ndim != 2:
@@ -115,7 +118,7 @@ def plot_waterfall(
         ax.legend(loc="upper left", fontsize=8)
     ax.set_xlabel(f"frequency [{f_unit}]" if x == "frequency" else "mesh order [-]")
     ax.set_ylabel(speed_label)
-    ax.set_zlabel("force amplitude [N]" if is_force else "amplitude of p [um]")
+    ax.set_zlabel(zlabel or ("force amplitude [N]" if is_force else "amplitude of p [µm]"))
     return ax.figure
 
 
@@ -159,7 +162,7 @@ def plot_campbell(
                          vmax=float(amp.max())), cmap="inferno", shading="flat",
                          rasterized=True)
     cb = ax.figure.colorbar(mesh, ax=ax, pad=0.02)
-    cb.set_label("force amplitude [N]" if is_force else "amplitude of p [um]")
+    cb.set_label("force amplitude [N]" if is_force else "amplitude of p [µm]")
     ax.set_yticks(list(orders), minor=True)
     ax.tick_params(axis="y", which="minor", length=8, color="tab:cyan", width=1.5)
     if natural_frequency_hz is not None:
@@ -237,7 +240,7 @@ def plot_response_vs_speed(
     ax.set_xlabel(f"speed of the {ds['speed'].attrs.get('gear', 'driving gear')} [rpm]")
     name = da.attrs.get("long_name", variable)
     first = f"{float(ds[by].values[0]):g} {unit}"
-    ax.set_ylabel(f"{variable} / {variable} at {by} {first} [-]" if relative else f"{name} [um]")
+    ax.set_ylabel(f"{variable} / {variable} at {by} {first} [-]" if relative else f"{name} [µm]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     return ax.figure
@@ -270,7 +273,7 @@ def plot_order_lines(
         Logarithmic amplitude axis.
     """
     speed, speed_label = _speed_axis(ds, driven_teeth)
-    scale, unit, what = {0: (UM, "um", "displacement"), 1: (1e3, "mm/s", "velocity"),
+    scale, unit, what = {0: (UM, "µm", "displacement"), 1: (1e3, "mm/s", "velocity"),
                          2: (1.0, "m/s^2", "acceleration")}[derivative]
     for n in orders:
         line = ds["spectrum"].sel(order=float(n))
