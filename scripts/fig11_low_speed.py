@@ -21,11 +21,11 @@ import xarray as xr
 from _common import open_result, parse
 
 from gearsweep.analysis import sensor
+from gearsweep.api import result_study
 from gearsweep.plot.common import save
 from gearsweep.plot.rattle import plot_lines
 from gearsweep.plot.sweep import settled
 from gearsweep.plot.whine import plot_waterfall
-from gearsweep.study.schema import parse_study
 
 DRIVEN_TEETH = 32  # the pinion, braked by the powder clutch in the rig
 LOADS = ("2", "4p5", "8p9")  # N m on the gear shaft, studies/rig_low_speed_<load>Nm.yaml
@@ -33,7 +33,7 @@ LOADS = ("2", "4p5", "8p9")  # N m on the gear shaft, studies/rig_low_speed_<loa
 
 def pinion(ds: xr.Dataset) -> tuple[xr.DataArray, float]:
     """r2 theta2 per spectral line [m] (settled cases only) and the pinion base radius r2."""
-    drive = parse_study(ds.attrs["study"]).scene.drive
+    drive = result_study(ds).scene.drive
     fs, _, _ = settled(ds["force_spectrum"], ds)
     x = sensor.pinion_displacement(fs.where(ds["order"] > 0, 0.0).values,
                                    ds["frequency"].values[None, ...],
@@ -44,7 +44,7 @@ def pinion(ds: xr.Dataset) -> tuple[xr.DataArray, float]:
 
 
 def zeta_labels(ds: xr.Dataset) -> list[str]:
-    scene = parse_study(ds.attrs["study"]).scene
+    scene = result_study(ds).scene
     d = scene.drive
     m = 1.0 / (d.base_radius_1**2 / d.inertia_1 + d.base_radius_2**2 / d.inertia_2)
     k0 = float(ds.attrs.get("gear_k0", 219.09e6))
@@ -53,7 +53,7 @@ def zeta_labels(ds: xr.Dataset) -> list[str]:
 
 
 def torque_of(ds: xr.Dataset) -> float:
-    return float(parse_study(ds.attrs["study"]).scene.torque)
+    return float(result_study(ds).scene.torque)
 
 
 args = parse(__doc__.splitlines()[0])

@@ -17,18 +17,17 @@ from _common import open_result, parse
 
 from gearsweep.analysis import hb
 from gearsweep.analysis import rattle as rfit
+from gearsweep.api import result_model
 from gearsweep.model import RPM
 from gearsweep.plot import rattle as rplot
 from gearsweep.plot.common import plt, save
 from gearsweep.plot.sweep import settled, speed_label
 from gearsweep.study.jumps import jump_summary
-from gearsweep.study.plan import build_model
-from gearsweep.study.schema import parse_study
 
 
 def scene(ds):
     """The MeshModel of a result's study (SI values) and rpm -> mesh rad/s factor."""
-    model = build_model(parse_study(ds.attrs["study"]))
+    model = result_model(ds)
     return model, model.teeth * RPM
 
 

@@ -9,14 +9,13 @@ import math
 
 from _common import open_result, parse
 
+from gearsweep.api import result_model
 from gearsweep.plot.common import save
 from gearsweep.plot.sweep import plot_response_vs_speed
-from gearsweep.study.runner import build_model
-from gearsweep.study.schema import parse_study
 
 args = parse(__doc__)
 ds = open_result(args.results, "whine_gear_table1")
-model = build_model(parse_study(ds.attrs["study"]))  # k0 of the gear pair, m_eq
+model = result_model(ds)  # k0 of the gear pair, m_eq
 k0, m = model.stiffness, model.mass
 labels = [f"c = {c / 1e3:g} N s/mm (ζ = {c / (2 * math.sqrt(k0 * m)):.3f})"
           for c in ds["damping"].values]
