@@ -14,7 +14,7 @@ from gearsweep.errors import StudyError
 from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.runner import build_model, run_study
 from gearsweep.study.schema import parse_study
-from gearsweep.study.units import to_si
+from gearsweep.units import to_si
 
 RATTLE = """
 title: tiny rattle sweep

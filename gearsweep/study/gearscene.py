@@ -44,7 +44,7 @@ from gearsweep.errors import GeometryError
 from gearsweep.gear import GearPair, TipRelief, mesh_cycle, table1_as_printed, table1_consistent
 from gearsweep.gear.mesh import MeshCycle, fourier
 from gearsweep.model import Harmonic
-from gearsweep.study.units import UnitParseError, to_si
+from gearsweep.units import UnitParseError, to_si
 
 PRESETS = {"table1_consistent": table1_consistent, "table1_as_printed": table1_as_printed}
 """Named gear pairs a study can use as ``gear: NAME`` or ``gear: {preset: NAME, ...}``."""

@@ -33,7 +33,7 @@ from gearsweep.gear import iso6336_stiffness, mesh_cycles
 from gearsweep.study.dataset import build_dataset
 from gearsweep.study.gearscene import GearField, GearSpec, gear_pair, static_mesh, tip_reliefs
 from gearsweep.study.schema import Range, Strict, Torque, _check_grids, _first_error
-from gearsweep.study.units import to_si
+from gearsweep.units import to_si
 
 
 class MeshStudy(Strict):
