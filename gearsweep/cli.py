@@ -49,6 +49,10 @@ def _check_writable(path: Path) -> None:
 
 def _summary(study, plan, est_line: str) -> str:
     """validate's one line: scene, cases, solver, outputs, and the estimate."""
+    from gearsweep.study.schema import replaced_by_sweep
+
+    swept = replaced_by_sweep(study)
+    replaced = f"; the sweep replaces {', '.join(swept)}" if swept else ""
     dims = ", ".join(f"{d}={len(plan.grids[d])}" for d in plan.dims)
     extra = f" x directions {plan.directions}" if plan.continued else ""
     speed = ""
@@ -57,7 +61,7 @@ def _summary(study, plan, est_line: str) -> str:
         speed = f", speed {g.min():.6g}-{g.max():.6g} rpm" if len(g) > 1 else f", speed {g[0]:.6g} rpm"
     return (f"scene {study.scene.kind!r}, {plan.n_cases:,} cases ({dims}{extra}){speed},"
             f" {study.solver.method} at {study.solver.steps_per_period} steps/period,"
-            f" outputs {', '.join(plan.outputs)}; estimate: {est_line}")
+            f" outputs {', '.join(plan.outputs)}{replaced}; estimate: {est_line}")
 
 
 def cmd_validate(args: argparse.Namespace) -> int:

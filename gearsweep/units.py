@@ -115,6 +115,8 @@ def _shown(value: object) -> str:
 
 
 def _bare(value: object, kind: Kind, number: float) -> float:
+    if not math.isfinite(number):
+        raise UnitParseError("expected a finite number (not nan or inf)")
     if kind.bare or number == 0.0:
         return number
     raise UnitParseError(f"{_shown(value)} has no unit; write e.g. '{_shown(value)} "

@@ -34,8 +34,9 @@ Nothing here runs the dynamics; :func:`gear_excitation` returns plain SI numbers
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
-from functools import lru_cache, partial
+from functools import lru_cache
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
@@ -56,7 +57,9 @@ POSITIONS = 200
 """Positions per mesh cycle at which the static mesh is computed for a dynamic scene."""
 
 
-def _parse(kind: str, value: Any) -> Any:
+def _parse(kind: str, value: Any, info: Any = None) -> Any:
+    if isinstance(value, float) and (getattr(info, "context", None) or {}).get("si"):
+        return value  # a spec read back from its own SI dump (``_excitation``)
     try:
         return to_si(value, kind)
     except UnitParseError as exc:
@@ -65,7 +68,7 @@ def _parse(kind: str, value: Any) -> Any:
 
 def _q(kind: str) -> Any:
     # The same as gearsweep.study.schema.Q (not imported: schema imports this module).
-    return Annotated[float, BeforeValidator(partial(_parse, kind))]
+    return Annotated[float, BeforeValidator(lambda value, info: _parse(kind, value, info))]
 
 
 _Length, _Angle, _Pressure = _q("length"), _q("angle"), _q("pressure")
@@ -240,7 +243,7 @@ class GearExcitation:
 
 @lru_cache(maxsize=32)
 def _excitation(spec_json: str, torque: float, harmonics: int) -> GearExcitation:
-    spec = GearSpec.model_validate_json(spec_json)
+    spec = GearSpec.model_validate(json.loads(spec_json), context={"si": True})
     mc = static_mesh(spec, torque)
     arrays = mc.as_arrays(harmonics)
     k, ka = arrays["k_harmonic"], arrays["k_phase"]

@@ -98,7 +98,7 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
         damping=sc.damping,
         mean_force=mean_force,
         base_radius=r1,
-        backlash=getattr(sc, "backlash", None) or 0.0,  # a rattle scene may sweep it only
+        backlash=getattr(sc, "backlash", 0.0),
         stiffness_harmonics=k_h,
         ste_harmonics=e_h,
         force_harmonics=tuple(fluct),

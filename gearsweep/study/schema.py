@@ -196,8 +196,7 @@ class RattleScene(_Driven):
     """Eq. (13): constant stiffness with backlash; torque fluctuation and STE excitation."""
 
     kind: Literal["rattle"]
-    backlash: Length | None = Field(None, gt=0, description="total backlash on the line of action"
-                                    " (required unless swept)")
+    backlash: Length = Field(gt=0, description="total backlash on the line of action")
     ste: list[SteHarmonic] = Field(default_factory=list)
 
 
@@ -347,12 +346,6 @@ def consistency_problems(study: Study) -> list[Problem]:
             hint = f"did you mean {close[0]!r}? " if close else ""
             out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a parameter of the {sc.kind!r}"
                                f" scene; {hint}allowed: {', '.join(sorted(allowed))}"))
-        elif name in sc.model_fields_set and getattr(sc, name, None) is not None:
-            out.append(Problem(f"scene.{name}", NO_VALUE, f"{name} is also swept (sweep.{name}):"
-                               " give it in one place (the sweep's values would replace this one)"))
-    if sc.kind == "rattle" and sc.backlash is None and "backlash" not in study.sweep:
-        out.append(Problem("scene.backlash", "(missing)", "a rattle scene needs a backlash"
-                           " (scene.backlash or sweep.backlash)"))
     if sc.kind != "mathieu":
         if "speed" not in study.sweep and sc.speed is None:
             out.append(Problem("scene.speed", "(missing)",
@@ -388,6 +381,15 @@ def consistency_problems(study: Study) -> list[Problem]:
     if len(set(names)) != len(names):
         out.append(Problem("outputs", NO_VALUE, "list each output at most once"))
     return out
+
+
+def replaced_by_sweep(study) -> list[str]:
+    """Scene values that the sweep replaces (``validate`` says so): a swept parameter's value in
+    the scene is not used (a required one, such as a rattle scene's backlash, must still be
+    given)."""
+    sc = study.scene
+    return [f"scene.{name}" for name in study.sweep
+            if name in sc.model_fields_set and getattr(sc, name, None) is not None]
 
 
 def grid_problems(study, with_order: bool = True) -> list[Problem]:
