@@ -8,16 +8,19 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
 import numpy as np
 
 from gearsweep import __version__
-from gearsweep.errors import GearsweepError, ResultError, StudyError
+from gearsweep.errors import NO_VALUE, GearsweepError, ResultError, StudyError
 
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
 
 
 def _default_output(study_path: str) -> Path:
@@ -25,38 +28,62 @@ def _default_output(study_path: str) -> Path:
 
 
 def _check_writable(path: Path) -> None:
-    """Fail before the run, not after it, when the output cannot be written."""
+    """Fail before the run, not after it, when the output cannot be written: a file is created
+    and removed in its folder (what the atomic writer will do)."""
+    import tempfile
+
     folder = path.parent if str(path.parent) else Path(".")
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise StudyError(str(path), "--output", str(path), f"a writable path ({exc.strerror})"
-                         ) from None
-    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise StudyError(str(path), "--output", str(path), "a writable path (permission denied)")
     if path.is_dir():
         raise StudyError(str(path), "--output", str(path), "a file path, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise StudyError(str(path), "--output", str(path),
+                         f"a writable path ({exc.strerror or type(exc).__name__})") from None
+    if path.exists() and not os.access(path, os.W_OK):
+        raise StudyError(str(path), "--output", str(path), "a writable path (permission denied)")
+
+
+def _summary(study, plan, est_line: str) -> str:
+    """validate's one line: scene, cases, solver, outputs, and the estimate."""
+    from gearsweep.study.schema import replaced_by_sweep
+
+    swept = replaced_by_sweep(study)
+    replaced = f"; the sweep replaces {', '.join(swept)}" if swept else ""
+    dims = ", ".join(f"{d}={len(plan.grids[d])}" for d in plan.dims)
+    extra = f" x directions {plan.directions}" if plan.continued else ""
+    speed = ""
+    if "speed" in plan.grids:
+        g = plan.grids["speed"]
+        speed = f", speed {g.min():.6g}-{g.max():.6g} rpm" if len(g) > 1 else f", speed {g[0]:.6g} rpm"
+    return (f"scene {study.scene.kind!r}, {plan.n_cases:,} cases ({dims}{extra}){speed},"
+            f" {study.solver.method} at {study.solver.steps_per_period} steps/period,"
+            f" outputs {', '.join(plan.outputs)}{replaced}; estimate: {est_line}")
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
+    from gearsweep.study.estimate import line, quick_estimate
+    from gearsweep.study.execute import check_limits
     from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
+    name = "<stdin>" if args.study == "-" else args.study
     if getattr(study, "type", None) == "mesh":
         from gearsweep.study.schema import summary
 
-        print(f"{args.study}: ok -- {summary(study)}")
+        print(f"{name}: ok -- {summary(study)}")
         return 0
     if getattr(study, "type", None) == "analysis":
-        print(f"{args.study}: ok -- analysis study {study.analysis.kind!r}")
+        print(f"{name}: ok -- analysis study {study.analysis.kind!r}")
         return 0
     plan = make_plan(study, text)
-    dims = ", ".join(f"{d}={len(plan.grids[d])}" for d in plan.dims)
-    extra = f" x directions {plan.directions}" if plan.continued else ""
-    print(f"{args.study}: ok -- scene {study.scene.kind!r}, {plan.n_cases} cases ({dims}{extra}),"
-          f" {study.solver.method} at {study.solver.steps_per_period} steps/period,"
-          f" outputs {', '.join(plan.outputs)}")
+    est, compile_s = quick_estimate(plan)
+    check_limits(est, name)  # validate refuses what run refuses (without --yes)
+    print(f"{name}: ok -- {_summary(study, plan, line(est, compile_s))}")
     return 0
 
 
@@ -70,21 +97,44 @@ def _backend(args: argparse.Namespace):
     return InProcess()
 
 
-def cmd_run(args: argparse.Namespace) -> int:
-    import numba
+_STOP = threading.Event()
+"""Set by the first SIGINT of ``gearsweep run``: stop after the chunk being computed."""
 
-    from gearsweep.study.execute import (
-        check_limits,
-        cores,
-        estimate,
-        lanes_per_chunk,
-        measure_rate,
-        run_to_file,
-    )
+
+def _on_sigint(signum, frame) -> None:
+    if _STOP.is_set():  # a second Ctrl-C: stop now (the chunks saved so far are kept)
+        raise KeyboardInterrupt
+    _STOP.set()
+
+
+def _stoppable(backend):
+    """``backend`` whose ``run`` stops cleanly between chunks once ``_STOP`` is set: every chunk
+    computed so far is saved by the caller before the stop (raised as ``KeyboardInterrupt``)."""
+    base = type(backend)
+
+    class Stoppable(base):
+        def run(self, plan, todo):
+            for item in base.run(self, plan, todo):
+                if _STOP.is_set():
+                    raise KeyboardInterrupt
+                yield item
+                if _STOP.is_set():
+                    raise KeyboardInterrupt
+
+    backend.__class__ = Stoppable
+    return backend
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from gearsweep.study.estimate import line, quick_estimate
+    from gearsweep.study.execute import check_limits, cores, run_to_file
     from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
+    from gearsweep.study.workspace import OutputLock, check_partial, saved_chunks
 
     study, text = load_study(args.study)
+    if args.study == "-" and not args.output:
+        raise StudyError("<stdin>", "--output", NO_VALUE, "a study read from stdin needs -o OUT.nc")
     out = Path(args.output) if args.output else _default_output(args.study)
     if not args.estimate:
         _check_writable(out)
@@ -96,7 +146,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"{args.study}: a {study.type} study, computed in one piece: no estimate")
             return 0
         t0 = time.perf_counter()
-        write_netcdf(run_unchunked(study, text), out)
+        with OutputLock(out):
+            write_netcdf(run_unchunked(study, text), out)
         if not args.quiet:
             print(f"{out}: {study.type} study in {time.perf_counter() - t0:.2f} s")
         return 0
@@ -105,24 +156,35 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
     if args.workers is not None and args.workers < 1:
         raise StudyError(args.study, "--workers", args.workers, "a positive number of workers")
-    chunks = plan.chunks(lanes_per_chunk(plan, args.chunk_size))
+    # From arithmetic: no grid of cases, no compilation (any size answers at once).
+    est, compile_s = quick_estimate(plan, args.chunk_size,
+                                    threads=None if not args.workers else cores())
+    if args.estimate:
+        print(f"{args.study}: {line(est, compile_s)}")
+        return 0
+    if not args.yes:
+        check_limits(est, args.study)
     progress = not args.quiet and sys.stderr.isatty()
-    with _backend(args) as backend:
-        threads = backend.threads if args.scheduler else cores()
-        est = estimate(plan, chunks, threads=threads)
-        if args.estimate or est.seconds > 30:
-            est = estimate(plan, chunks, threads=threads,
-                           rate=measure_rate(plan, numba.get_num_threads()))
-        if args.estimate:
-            print(f"{args.study}: {est.line()}")
-            return 0
-        if not args.yes:
-            check_limits(est, args.study)
+    with OutputLock(out), _backend(args) as backend:
+        check_partial(plan, out)
         if not args.quiet and est.seconds > 30:
-            print(f"{args.study}: {est.line()}", file=sys.stderr)
+            print(f"{args.study}: {line(est, compile_s)}", file=sys.stderr)
         t0 = time.perf_counter()
-        ds = run_to_file(plan, out, backend=backend, chunk_cases=args.chunk_size,
-                         progress=progress)
+        previous = signal.signal(signal.SIGINT, _on_sigint) \
+            if threading.current_thread() is threading.main_thread() else None
+        try:
+            ds = run_to_file(plan, out, backend=_stoppable(backend), chunk_cases=args.chunk_size,
+                             progress=progress)
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not (_STOP.is_set() or isinstance(exc, KeyboardInterrupt)):
+                raise
+            done, total = saved_chunks(plan, out, args.chunk_size)
+            raise Interrupted(f"interrupted: {done} of {total} chunks saved in"
+                              f" {out}.chunks; run the same command to continue") from None
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+            _STOP.clear()
         n_bad, flagged = _counts(ds)
         if n_bad:
             print(f"gearsweep: warning: {out}: {n_bad} case(s) use a step beyond the stability limit"
@@ -135,6 +197,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                  else ""))
     ds.close()
     return 0
+
+
+class Interrupted(Exception):
+    """A run stopped by Ctrl-C (SIGINT): one line, exit 130."""
 
 
 def _counts(ds) -> tuple[int, int]:
@@ -196,6 +262,20 @@ def describe(path: str | Path) -> str:
     return "\n".join(lines)
 
 
+def _looks_like_study(path: Path) -> bool:
+    """A text file that starts like a study (netCDF/HDF5 files start with a binary magic)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return False
+    if head.startswith((b"CDF", b"\x89HDF")):
+        return False
+    text = head.decode("utf-8", "replace")
+    return any(line.split(":")[0].strip() in ("title", "scene", "type", "sweep")
+               for line in text.splitlines() if ":" in line)
+
+
 def cmd_advise(args: argparse.Namespace) -> int:
     """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
     from gearsweep.analysis.advise import advise
@@ -230,6 +310,11 @@ def cmd_advise(args: argparse.Namespace) -> int:
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
+    path = Path(args.result)
+    if path.suffix.lower() in (".yaml", ".yml") or _looks_like_study(path):
+        raise ResultError(f"{path}: a study file, not a result: check it with 'gearsweep validate"
+                          f" {path}', run it with 'gearsweep run {path}', then inspect the .nc it"
+                          " writes")
     print(describe(args.result))
     return 0
 
@@ -237,10 +322,11 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="gearsweep", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"gearsweep {__version__}")
-    p.add_argument("--debug", action="store_true", help="show tracebacks")
+    p.add_argument("--debug", action="store_true",
+                   help="show tracebacks (accepted anywhere on the command line)")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a study and write its netCDF result")
-    r.add_argument("study")
+    r.add_argument("study", help="study file (- reads stdin)")
     r.add_argument("-o", "--output", help="result file (default results/STUDY.nc)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary")
     where = r.add_mutually_exclusive_group()
@@ -256,7 +342,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="about this many cases per chunk (checkpoint and progress unit)")
     r.set_defaults(func=cmd_run)
     v = sub.add_parser("validate", help="check a study file without running it")
-    v.add_argument("study")
+    v.add_argument("study", help="study file (- reads stdin)")
     v.set_defaults(func=cmd_validate)
     a = sub.add_parser("advise", help="steps per period for a target accuracy, cost, warnings")
     a.add_argument("study")
@@ -270,18 +356,28 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv  # accepted anywhere on the command line
+    argv = [a for a in argv if a != "--debug"]
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.debug = debug
     try:
         return args.func(args)
     except GearsweepError as exc:
-        if args.debug:
+        if debug:
             raise
-        print(f"gearsweep: error: {exc}", file=sys.stderr)
+        for line in getattr(exc, "lines", None) or str(exc).splitlines() or [""]:
+            print(f"gearsweep: error: {line}", file=sys.stderr)
         return EXIT_USAGE
+    except Interrupted as exc:
+        print(f"gearsweep: {exc}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except KeyboardInterrupt:
+        if debug:
+            raise
         print("gearsweep: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

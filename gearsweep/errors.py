@@ -1,19 +1,55 @@
 """The package's own exceptions. The CLI maps every ``GearsweepError`` to one line and exit code 2."""
 
+from __future__ import annotations
+
 
 class GearsweepError(Exception):
     """Base class of every error that is the user's input, not a bug: one clear line, exit 2."""
 
 
-class StudyError(GearsweepError):
-    """A study file that cannot be run: ``file: field.path: value -- what is allowed``."""
+NO_VALUE = object()
+"""A problem whose message already shows the value (``3 has no unit; write e.g. '3 mm'``)."""
 
-    def __init__(self, file: str, field: str, value: object, allowed: str) -> None:
-        self.file, self.field, self.value, self.allowed = file, field, value, allowed
+
+def problem_line(file: str, line: int | None, field: str, value: object, allowed: str) -> str:
+    """``file.yaml:LINE: field.path: value -- what is allowed``, on one line."""
+    where = f"{file}:{line}" if line else file
+    if value is NO_VALUE:
+        text = f"{where}: {field}: {allowed}"
+    else:
         shown = repr(value)
         shown = shown if len(shown) <= 80 else shown[:60] + "..." + shown[-10:]
-        line = f"{file}: {field}: {shown} -- {allowed}"
-        super().__init__(" ".join(line.splitlines()))  # one line, whatever the parts hold
+        text = f"{where}: {field}: {shown} -- {allowed}"
+    return " ".join(text.splitlines())
+
+
+class StudyError(GearsweepError):
+    """A study file that cannot be run: ``file:LINE: field.path: value -- what is allowed``.
+
+    One error may hold several problems (``StudyError.many``): every problem of a file is
+    reported at once, one line each (``lines``), sorted by line number.
+    """
+
+    def __init__(self, file: str, field: str, value: object, allowed: str,
+                 line: int | None = None) -> None:
+        self.file, self.field, self.value, self.allowed, self.line = file, field, value, allowed, line
+        self.lines = [problem_line(file, line, field, value, allowed)]
+        super().__init__(self.lines[0])
+
+    @classmethod
+    def many(cls, file: str, problems: list[tuple[int | None, str, object, str]]) -> StudyError:
+        """One error for several problems ``(line, field, value, allowed)`` (at least one)."""
+        problems = sorted(problems, key=lambda p: (p[0] is None, p[0] or 0))
+        line, field, value, allowed = problems[0]
+        err = cls(file, field, value, allowed, line)
+        seen: list[str] = []
+        for p in problems:
+            text = problem_line(file, *p)
+            if text not in seen:
+                seen.append(text)
+        err.lines = seen
+        err.args = ("\n".join(seen),)
+        return err
 
 
 class GeometryError(GearsweepError):

@@ -10,6 +10,7 @@ is a single line, within a time bound (no hang), and the CLI must exit 2 with on
 from __future__ import annotations
 
 import copy
+import re
 import subprocess
 import sys
 import time
@@ -134,8 +135,9 @@ def _check(text: str) -> None:
         study = parse_study(text, "fuzz.yaml")
     except GearsweepError as exc:  # StudyError, or GeometryError for an impossible gear pair
         msg = str(exc)
-        assert "\n" not in msg and "\r" not in msg, msg
-        assert msg.startswith("fuzz.yaml: ")
+        assert "\r" not in msg, msg
+        for line in msg.split("\n"):  # every problem at once, a line each, with its line number
+            assert re.match(r"fuzz\.yaml(:\d+)?: ", line), msg
     else:
         assert isinstance(study, Study | MeshStudy)
         if isinstance(study, Study):

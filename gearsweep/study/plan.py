@@ -26,7 +26,7 @@ from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
 from gearsweep.study.schema import Study, first_load
-from gearsweep.study.units import to_si
+from gearsweep.units import to_si
 
 STATUS_NOT_SETTLED = 2
 CHUNK_STEPS = 1e9
@@ -163,7 +163,7 @@ class Plan:
 
     @property
     def n_lanes(self) -> int:
-        return int(np.prod([len(self.grids[d]) for d in self.lane_dims], dtype=np.int64))
+        return math.prod(len(self.grids[d]) for d in self.lane_dims)  # Python int: no overflow
 
     @property
     def chain(self) -> int:
@@ -183,17 +183,22 @@ class Plan:
         need = [OUTPUTS[o].signal_samples_per_period(self) for o in self.outputs]
         return max(need, default=0)
 
+    def default_lanes_per_chunk(self) -> int:
+        """Lanes per chunk for about ``CHUNK_STEPS`` steps (and ``CHUNK_SIGNAL_BYTES``)."""
+        per_lane = self.steps_per_case * self.chain * max(len(self.directions), 1)
+        lanes_per_chunk = max(4 * LANES, int(CHUNK_STEPS // max(per_lane, 1)))
+        # Up and down sweeps of a lane run side by side: one signal per direction.
+        signal = (self.samples_per_period() * self.study.solver.record_periods * 8
+                  * max(len(self.directions), 1))
+        if signal:
+            lanes_per_chunk = min(lanes_per_chunk,
+                                  max(4 * LANES, int(CHUNK_SIGNAL_BYTES // signal)))
+        return lanes_per_chunk
+
     def chunks(self, lanes_per_chunk: int | None = None) -> list[tuple[int, int]]:
         """Lane ranges ``[start, stop)`` of the chunks (whole sweeps inside a chunk)."""
         if lanes_per_chunk is None:
-            per_lane = self.steps_per_case * self.chain * max(len(self.directions), 1)
-            lanes_per_chunk = max(4 * LANES, int(CHUNK_STEPS // max(per_lane, 1)))
-            # Up and down sweeps of a lane run side by side: one signal per direction.
-            signal = (self.samples_per_period() * self.study.solver.record_periods * 8
-                      * max(len(self.directions), 1))
-            if signal:
-                lanes_per_chunk = min(lanes_per_chunk,
-                                      max(4 * LANES, int(CHUNK_SIGNAL_BYTES // signal)))
+            lanes_per_chunk = self.default_lanes_per_chunk()
         n = self.n_lanes
         return [(a, min(a + lanes_per_chunk, n)) for a in range(0, n, lanes_per_chunk)]
 

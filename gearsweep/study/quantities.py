@@ -1,18 +1,26 @@
-"""Quantity fields of the study models: a number or a string with units, parsed once into SI.
-
-Every pydantic model of a study file (``schema``, ``gearscene``) takes its dimensioned fields from
-here, so that a quantity is parsed and checked the same way everywhere.
+"""Quantity fields of the study models: a string with units (``gearsweep.units``), parsed once into
+SI. Every pydantic model of a study file (``schema``, ``gearscene``, ``analysis_specs``) takes its
+dimensioned fields from here, so that a quantity is parsed and checked the same way everywhere.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from functools import partial
 from typing import Annotated, Any
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict
 
-from gearsweep.study.units import UnitParseError, to_si
+from gearsweep.units import UnitParseError, to_si
+
+
+@dataclass(frozen=True)
+class QuantityKind:
+    """Marks a float field as a quantity of ``kind`` (``gearsweep.units.KINDS``): read by the
+    field reference generator (scripts/gen_study_reference.py)."""
+
+    kind: str
 
 
 def _parse(kind: str, value: Any) -> Any:
@@ -26,17 +34,17 @@ def _parse(kind: str, value: Any) -> Any:
 
 
 def Q(kind: str) -> Any:  # noqa: N802 -- reads as a type in the models
-    """A float field given as a number or a string with units of ``kind``."""
-    return Annotated[float, BeforeValidator(partial(_parse, kind))]
+    """A float field given as a string with units of ``kind`` (see ``gearsweep.units``)."""
+    return Annotated[float, BeforeValidator(partial(_parse, kind)), QuantityKind(kind)]
 
 
 Length, Mass, Force, Torque = Q("length"), Q("mass"), Q("force"), Q("torque")
 Damping, Stiffness, Inertia, Angle, Speed = (Q("damping"), Q("stiffness"), Q("inertia"),
                                             Q("angle"), Q("speed"))
-Pressure = Q("pressure")
+Displacement, Pressure = Q("displacement"), Q("pressure")
 
 
 class Strict(BaseModel):
-    """A study model: unknown keys are errors, values are frozen once validated."""
+    """A study model: unknown keys and non-finite numbers are errors; frozen once validated."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)

@@ -29,7 +29,11 @@ file, field path, value, and what is allowed.
 
 from __future__ import annotations
 
+import difflib
 import math
+import re
+from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -39,19 +43,28 @@ from pydantic import (
     BeforeValidator,
     Field,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
 
-from gearsweep.errors import GeometryError, StudyError
+from gearsweep.errors import NO_VALUE, GeometryError, StudyError
 from gearsweep.gear.excitation import static_mesh
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.analysis_specs import AnalysisStudy
-from gearsweep.study.gearscene import GearField, GearSpec, gear_pair, scene_excitation, tip_reliefs
+from gearsweep.study.gearscene import (
+    GearField,
+    GearSpec,
+    TipReliefSpec,
+    gear_pair,
+    scene_excitation,
+    tip_reliefs,
+)
 from gearsweep.study.outputs import OUTPUTS, configure
 from gearsweep.study.quantities import (
     Angle,
     Damping,
+    Displacement,
     Force,
     Inertia,
     Length,
@@ -61,30 +74,30 @@ from gearsweep.study.quantities import (
     Strict,
     Torque,
 )
-from gearsweep.study.units import CANONICAL, UnitParseError, to_si
+from gearsweep.units import UnitParseError, to_si
 
 
 class Drive(Strict):
     """Physical inputs of Eq. (7): inertias and base radii give m_eq and the force scale."""
 
-    inertia_1: Inertia = Field(gt=0, description="polar inertia of the driving gear [kg m^2]")
-    inertia_2: Inertia = Field(gt=0, description="polar inertia of the driven gear [kg m^2]")
-    base_radius_1: Length = Field(gt=0, description="base radius of the driving gear [m]")
-    base_radius_2: Length = Field(gt=0, description="base radius of the driven gear [m]")
+    inertia_1: Inertia = Field(gt=0, description="polar inertia of the driving gear")
+    inertia_2: Inertia = Field(gt=0, description="polar inertia of the driven gear")
+    base_radius_1: Length = Field(gt=0, description="base radius of the driving gear")
+    base_radius_2: Length = Field(gt=0, description="base radius of the driven gear")
 
 
 class StiffnessHarmonic(Strict):
-    amplitude: Stiffness = Field(ge=0, description="k_n of Eq. (1) [N/m]")
+    amplitude: Stiffness = Field(ge=0, description="k_n of Eq. (1)")
     order: float | None = Field(None, gt=0, allow_inf_nan=False,
                                 description="mesh order (default: position + 1)")
-    phase: Angle = Field(0.0, description="phase a_n [rad]")
+    phase: Angle = Field(0.0, description="phase a_n")
 
 
 class SteHarmonic(Strict):
-    amplitude: Length = Field(ge=0, description="STE harmonic e_n [m]")
+    amplitude: Displacement = Field(ge=0, description="STE harmonic e_n")
     order: float | None = Field(None, gt=0, allow_inf_nan=False,
                                 description="mesh order (default: position + 1)")
-    phase: Angle = Field(0.0, description="phase [rad]")
+    phase: Angle = Field(0.0, description="phase")
 
 
 class Fluctuation(Strict):
@@ -93,7 +106,7 @@ class Fluctuation(Strict):
     amplitude: float | str = Field(description="force [N] or driving torque [N m] amplitude")
     order: float = Field(gt=0, allow_inf_nan=False,
                          description="mesh order (1 = mesh frequency; 1/teeth = shaft)")
-    phase: Angle = Field(0.0, description="phase [rad]")
+    phase: Angle = Field(0.0, description="phase")
 
     @field_validator("amplitude")
     @classmethod
@@ -111,17 +124,17 @@ class Fluctuation(Strict):
 class _Driven(Strict):
     """Fields shared by the scenes of the gear drive (not the dimensionless Mathieu scene)."""
 
-    mass: Mass | None = Field(None, gt=0, description="equivalent mass m_eq [kg]")
+    mass: Mass | None = Field(None, gt=0, description="equivalent mass m_eq")
     drive: Drive | None = None
     teeth: int | None = Field(None, gt=0, le=1000, description="teeth of the driving gear N1")
-    stiffness: Stiffness | None = Field(None, gt=0, description="mean mesh stiffness k0 [N/m]")
+    stiffness: Stiffness | None = Field(None, gt=0, description="mean mesh stiffness k0")
     gear: GearField | None = Field(None, description="gear pair giving k(t), e(t), N1, r1")
     harmonics: int | None = Field(None, ge=1, le=100, description="Fourier harmonics of a gear")
-    damping: Damping = Field(0.0, ge=0, description="mesh viscous damping c [N s/m]")
-    speed: Speed | None = Field(None, gt=0, description="driving-gear speed if not swept [rpm]")
-    mean_force: Force | None = Field(None, description="mean mesh force F_m [N]")
-    torque: Torque | None = Field(None, description="mean driving torque T1m [N m]")
-    base_radius: Length | None = Field(None, gt=0, description="driving base radius r1 [m]")
+    damping: Damping = Field(0.0, ge=0, description="mesh viscous damping c")
+    speed: Speed | None = Field(None, gt=0, description="driving-gear speed if not swept")
+    mean_force: Force | None = Field(None, description="mean mesh force F_m")
+    torque: Torque | None = Field(None, description="mean driving torque T1m")
+    base_radius: Length | None = Field(None, gt=0, description="driving base radius r1")
     fluctuation: list[Fluctuation] = Field(default_factory=list)
 
     @model_validator(mode="after")
@@ -165,7 +178,7 @@ class RattleScene(_Driven):
     """Eq. (13): constant stiffness with backlash; torque fluctuation and STE excitation."""
 
     kind: Literal["rattle"]
-    backlash: Length = Field(gt=0, description="total backlash on the line of action [m]")
+    backlash: Length = Field(gt=0, description="total backlash on the line of action")
     ste: list[SteHarmonic] = Field(default_factory=list)
 
 
@@ -173,7 +186,7 @@ class FullScene(_Driven):
     """Eq. (6) with every term."""
 
     kind: Literal["full"]
-    backlash: Length = Field(0.0, ge=0, description="total backlash on the line of action [m]")
+    backlash: Length = Field(0.0, ge=0, description="total backlash on the line of action")
     stiffness_harmonics: list[StiffnessHarmonic] = Field(default_factory=list)
     ste: list[SteHarmonic] = Field(default_factory=list)
 
@@ -218,8 +231,10 @@ class Solver(Strict):
     record_periods: int = Field(50, ge=1, description="mesh periods recorded for statistics")
     divergence_factor: float = Field(1e6, gt=1, description="|p| bound / static scale")
     settle_tolerance: float = Field(1e-2, gt=0, description="settle_error above it: status 2")
-    initial_displacement: Length = Field(0.0, description="p at t = 0 [m] (Mathieu: 1)")
-    initial_velocity: float = Field(0.0, allow_inf_nan=False, description="p' at t = 0 [m/s]")
+    initial_displacement: Displacement = Field(0.0, description="p at t = 0 (Mathieu: a bare"
+                                               " number; default 1)")
+    initial_velocity: float = Field(0.0, allow_inf_nan=False,
+                                    description="p' at t = 0 in m/s (a bare number)")
     step_guard: Literal["warn", "skip", "off"] = Field(
         "warn", description="cases whose step is beyond the method's stability limit: flag them"
         " (warn), do not integrate them (skip, status 3), or do not check (off)")
@@ -257,50 +272,28 @@ class Study(Strict):
     outputs: list[Annotated[OutputRequest, BeforeValidator(_output_request)]] = Field(
         default_factory=lambda: [OutputRequest(name="stats")])
 
-    @model_validator(mode="after")
-    def _consistent(self) -> Study:
-        allowed = SCENE_PARAMETERS[self.scene.kind]
-        for name in self.sweep:
-            if name not in allowed:
-                raise ValueError(f"sweep.{name}: not a parameter of the {self.scene.kind!r} scene;"
-                                 f" allowed: {', '.join(sorted(allowed))}")
-        if self.scene.kind != "mathieu":
-            if "speed" not in self.sweep and self.scene.speed is None:
-                raise ValueError("the speed must be swept (sweep.speed) or given (scene.speed)")
-            if self.scene.gear is not None:
-                if "stiffness" in self.sweep:
-                    raise ValueError("sweep.stiffness: a gear scene computes its stiffness from"
-                                     " the gear pair; sweep torque, or type in the coefficients")
-                loads = [n for n in ("torque", "mean_force") if getattr(self.scene, n) is not None
-                         or n in self.sweep]
-                if not loads:
-                    raise ValueError("a 'gear' needs the mean load (scene.torque, scene.mean_force"
-                                     " or sweep.torque): its stiffness and STE are computed at"
-                                     " that load")
-                if len(loads) > 1 or (loads[0] in self.sweep
-                                      and getattr(self.scene, loads[0]) is not None):
-                    raise ValueError("give the gear's mean load once: scene.torque,"
-                                     " scene.mean_force or sweep.torque")
-            elif "torque" in self.sweep or self.scene.torque is not None:
-                if self.scene.r1 is None:
-                    raise ValueError("a torque needs the driving gear's base radius:"
-                                     " scene.base_radius or scene.drive")
-            if "torque" in self.sweep and "mean_force" in self.sweep:
-                raise ValueError("sweep torque or mean_force, not both")
-        if self.continuation:
-            if "speed" not in self.sweep:
-                raise ValueError("continuation carries the state along sweep.speed:"
-                                 " sweep the speed")
-            if len(set(self.continuation)) != len(self.continuation):
-                raise ValueError("continuation lists each direction at most once")
+    @model_validator(mode="before")
+    @classmethod
+    def _dimensionless_start(cls, data: Any) -> Any:
+        """The Mathieu scene is dimensionless: its ``solver.initial_displacement`` is a bare
+        number (p in units of its own scale), taken as is."""
+        if not (isinstance(data, dict) and isinstance(data.get("scene"), dict)
+                and data["scene"].get("kind") == "mathieu" and isinstance(data.get("solver"), dict)):
+            return data
+        v = data["solver"].get("initial_displacement")
+        if isinstance(v, int | float) and not isinstance(v, bool):
+            solver = dict(data["solver"], initial_displacement=f"{float(v)!r} m")
+            data = dict(data, solver=solver)
+        return data
 
-        names = [o.name for o in self.outputs]
-        for name in names:
-            if name not in OUTPUTS:
-                raise ValueError(f"outputs: {name!r} is not an output; allowed:"
-                                 f" {', '.join(sorted(OUTPUTS))}")
-        if len(set(names)) != len(names):
-            raise ValueError("outputs: list each output at most once")
+    @model_validator(mode="after")
+    def _consistent(self, info: ValidationInfo) -> Study:
+        problems = consistency_problems(self)
+        sink = (info.context or {}).get("problems") if info is not None else None
+        if sink is not None:  # parse_study reports every problem with its line
+            sink.extend(problems)
+        elif problems:
+            raise ValueError(f"{problems[0].path}: {problems[0].message}")
         return self
 
     def grid(self, name: str) -> np.ndarray:
@@ -315,30 +308,274 @@ class Study(Strict):
         return np.array([to_si(v, kind) for v in spec], dtype=float)
 
 
-def _check_grids(study: Study, file: str) -> None:
-    """Units and physical bounds of every sweep value (one line per problem)."""
+@dataclass
+class Problem:
+    """One problem of a study: the field's path as the file writes it, the value, the message."""
+
+    path: str
+    value: Any
+    message: str
+
+
+def consistency_problems(study: Study) -> list[Problem]:
+    """What the fields' own checks cannot see: sweep vs scene, outputs, continuation."""
+    out: list[Problem] = []
+    sc = study.scene
+    allowed = SCENE_PARAMETERS[sc.kind]
+    for name in study.sweep:
+        if name not in allowed:
+            close = difflib.get_close_matches(name, sorted(allowed), n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a parameter of the {sc.kind!r}"
+                               f" scene; {hint}allowed: {', '.join(sorted(allowed))}"))
+    if sc.kind != "mathieu":
+        if "speed" not in study.sweep and sc.speed is None:
+            out.append(Problem("scene.speed", "(missing)",
+                               "the speed must be swept (sweep.speed) or given (scene.speed)"))
+        if sc.gear is not None:
+            if "stiffness" in study.sweep:
+                out.append(Problem("sweep.stiffness", NO_VALUE, "a gear scene computes its"
+                                   " stiffness from the gear pair; sweep torque, or type in the"
+                                   " coefficients"))
+            if not any(getattr(sc, n) is not None or n in study.sweep
+                       for n in ("torque", "mean_force")):
+                out.append(Problem("scene.torque", "(missing)", "a 'gear' needs the mean load"
+                                   " (scene.torque, scene.mean_force or sweep.torque): its"
+                                   " stiffness and STE are computed at that load"))
+        elif ("torque" in study.sweep or sc.torque is not None) and sc.r1 is None:
+            out.append(Problem("scene.base_radius", "(missing)", "a torque needs the driving"
+                               " gear's base radius: scene.base_radius or scene.drive"))
+        if "torque" in study.sweep and "mean_force" in study.sweep:
+            out.append(Problem("sweep.mean_force", NO_VALUE, "sweep torque or mean_force, not both"))
+    if study.continuation:
+        if "speed" not in study.sweep:
+            out.append(Problem("continuation", list(study.continuation), "continuation carries"
+                               " the state along sweep.speed: sweep the speed"))
+        if len(set(study.continuation)) != len(study.continuation):
+            out.append(Problem("continuation", list(study.continuation),
+                               "list each direction at most once"))
+    names = [o.name for o in study.outputs]
+    for i, name in enumerate(names):
+        if name not in OUTPUTS:
+            close = difflib.get_close_matches(name, sorted(OUTPUTS), n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            out.append(Problem(f"outputs[{i}]", name, f"not an output; {hint}allowed:"
+                               f" {', '.join(sorted(OUTPUTS))}"))
+    if len(set(names)) != len(names):
+        out.append(Problem("outputs", NO_VALUE, "list each output at most once"))
+    return out
+
+
+def replaced_by_sweep(study) -> list[str]:
+    """Scene values that the sweep replaces (``validate`` says so): a swept parameter's value in
+    the scene is not used (a required one, such as a rattle scene's backlash, must still be
+    given)."""
+    sc = study.scene
+    return [f"scene.{name}" for name in study.sweep
+            if name in sc.model_fields_set and getattr(sc, name, None) is not None]
+
+
+def grid_problems(study, with_order: bool = True) -> list[Problem]:
+    """Units and physical bounds of every sweep value; ranges in increasing order."""
     positive = {"speed", "mass", "stiffness", "backlash"}
+    out: list[Problem] = []
     for name, spec in study.sweep.items():
-        kind = SWEEPABLE[name]
-        raw = [spec.start, spec.stop] if isinstance(spec, Range) else list(spec)
-        where = f"sweep.{name}" if not isinstance(spec, Range) else f"sweep.{name}.start/stop"
+        kind = SWEEPABLE.get(name, "torque")
+        is_range = isinstance(spec, Range)
+        raw = [("start", spec.start), ("stop", spec.stop)] if is_range else list(enumerate(spec))
         if not raw:
-            raise StudyError(file, f"sweep.{name}", spec, "a non-empty list or {start, stop, num}")
-        for v in raw:
+            out.append(Problem(f"sweep.{name}", spec, "a non-empty list or {start, stop, num}"))
+            continue
+        values = []
+        for key, v in raw:
+            where = f"sweep.{name}.{key}" if is_range else f"sweep.{name}[{key}]"
             try:
                 val = to_si(v, kind)
             except UnitParseError as exc:
-                raise StudyError(file, where, v, f"{kind} in {CANONICAL[kind] or 'no unit'}: {exc}"
-                                 ) from None
+                msg = str(exc)
+                out.append(Problem(where, NO_VALUE, msg) if "has no unit" in msg
+                           else Problem(where, v, f"a {kind}: {msg}"))
+                continue
             if not math.isfinite(val):
-                raise StudyError(file, where, v, "a finite number")
-            if name in positive and val <= 0:
-                raise StudyError(file, where, v, f"{name} must be > 0")
-            if name in ("damping", "gamma") and val < 0:
-                raise StudyError(file, where, v, f"{name} must be >= 0")
-        if isinstance(spec, Range) and spec.spacing == "log":
-            if to_si(spec.start, kind) <= 0 or to_si(spec.stop, kind) <= 0:
-                raise StudyError(file, where, raw, "log spacing needs positive start and stop")
+                out.append(Problem(where, v, "a finite number"))
+            elif name in positive and val <= 0:
+                out.append(Problem(where, v, f"{name} must be > 0"))
+            elif name in ("damping", "gamma") and val < 0:
+                out.append(Problem(where, v, f"{name} must be >= 0"))
+            else:
+                values.append(val)
+        if is_range and len(values) == 2:
+            a, b = values
+            if spec.spacing == "log" and (a <= 0 or b <= 0):
+                out.append(Problem(f"sweep.{name}", NO_VALUE,
+                                   "log spacing needs positive start and stop"))
+            elif with_order and a > b:
+                out.append(Problem(f"sweep.{name}.start", spec.start, f"at most stop"
+                                   f" ({spec.stop!r}): give a range in increasing order (a down"
+                                   " sweep is 'continuation: [down]')"))
+    return out
+
+
+def _check_grids(study, file: str, raw=None) -> None:
+    """Units and physical bounds of every sweep value (every problem at once)."""
+    problems = grid_problems(study)
+    if problems:
+        raise _error(file, problems, raw)
+
+
+# ------------------------------------------------------------------------------ locations
+
+
+class _Map(dict):
+    """A YAML mapping with the line of each key (``lines``) and of itself (``line``)."""
+
+    line: int = 0
+    lines: dict
+
+
+class _Seq(list):
+    """A YAML sequence with the line of each item (``lines``) and of itself (``line``)."""
+
+    line: int = 0
+    lines: list
+
+
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader that keeps line numbers and records duplicate keys."""
+
+    def __init__(self, stream) -> None:
+        super().__init__(stream)
+        self.duplicates: list[tuple[_Map, Any, int, int]] = []
+
+
+def _construct_map(loader: _Loader, node: yaml.MappingNode):
+    data = _Map()
+    data.line, data.lines = node.start_mark.line + 1, {}
+    yield data
+    first: dict = {}
+    for knode, _ in node.value:  # duplicates among the keys written here (not merged ones)
+        if knode.tag == "tag:yaml.org,2002:merge":
+            continue
+        key = loader.construct_object(knode, deep=True)
+        try:
+            hash(key)
+        except TypeError:
+            raise yaml.constructor.ConstructorError(
+                "while constructing a mapping", node.start_mark, "found an unhashable key",
+                knode.start_mark) from None
+        if key in first:
+            loader.duplicates.append((data, key, knode.start_mark.line + 1, first[key]))
+        else:
+            first[key] = knode.start_mark.line + 1
+    loader.flatten_mapping(node)
+    for knode, vnode in node.value:
+        key = loader.construct_object(knode, deep=True)
+        try:
+            data[key] = loader.construct_object(vnode, deep=True)
+        except TypeError:
+            raise yaml.constructor.ConstructorError(
+                "while constructing a mapping", node.start_mark, "found an unhashable key",
+                knode.start_mark) from None
+        data.lines[key] = knode.start_mark.line + 1
+
+
+def _construct_seq(loader: _Loader, node: yaml.SequenceNode):
+    data = _Seq()
+    data.line, data.lines = node.start_mark.line + 1, [n.start_mark.line + 1 for n in node.value]
+    yield data
+    data.extend(loader.construct_sequence(node, deep=True))
+
+
+_Loader.add_constructor("tag:yaml.org,2002:map", _construct_map)
+_Loader.add_constructor("tag:yaml.org,2002:seq", _construct_seq)
+
+
+def _path_parts(path: str) -> list[str | int]:
+    parts: list[str | int] = []
+    for name, index in re.findall(r"([^.\[\]]+)|\[(\d+)\]", path):
+        parts.append(int(index) if index else name)
+    return parts
+
+
+def line_of(raw: Any, path: str | list) -> int | None:
+    """Line of the deepest part of ``path`` (``scene.ste[0].amplitude``) that the file has."""
+    parts = _path_parts(path) if isinstance(path, str) else path
+    line = getattr(raw, "line", None)
+    for p in parts:
+        if isinstance(raw, dict) and p in raw:
+            line = getattr(raw, "lines", {}).get(p, line)
+            raw = raw[p]
+        elif isinstance(raw, list) and isinstance(p, int) and 0 <= p < len(raw):
+            lines = getattr(raw, "lines", [])
+            line = lines[p] if p < len(lines) else line
+            raw = raw[p]
+        else:
+            break
+    return line
+
+
+def _error(file: str, problems: list[Problem], raw: Any = None) -> StudyError:
+    return StudyError.many(file, [(line_of(raw, p.path), p.path, p.value, p.message)
+                                  for p in problems])
+
+
+def _path_of(root: Any, target: Any, prefix: str = "") -> str | None:
+    """The path of the container ``target`` inside ``root`` (by identity)."""
+    if root is target:
+        return prefix
+    items = root.items() if isinstance(root, dict) else enumerate(root) \
+        if isinstance(root, list) else ()
+    for k, v in items:
+        if isinstance(v, dict | list):
+            sub = f"{prefix}[{k}]" if isinstance(root, list) else \
+                f"{prefix}.{k}" if prefix else str(k)
+            found = _path_of(v, target, sub)
+            if found is not None:
+                return found
+    return None
+
+
+def load_yaml(text: str, file: str) -> Any:
+    """The YAML text as Python objects with line marks; every way the loader can fail (syntax,
+    tags, values it cannot construct, nesting, duplicate keys) raises one ``StudyError``."""
+    loader = _Loader(text)
+    try:
+        raw = loader.get_single_data()
+    except RecursionError:
+        raise StudyError(file, "(yaml)", NO_VALUE, "YAML nested less deeply") from None
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        problem = exc.problem or exc.context or "not valid YAML"
+        raise StudyError(file, "(yaml)", NO_VALUE, f"not valid YAML: {problem}",
+                         mark.line + 1 if mark is not None else None) from None
+    except Exception as exc:  # noqa: BLE001 -- a value the loader cannot construct (a date...)
+        mark = getattr(loader, "mark", None) or getattr(loader, "problem_mark", None)
+        line = None
+        try:
+            line = loader.peek_event().start_mark.line + 1 if loader.check_event() else None
+        except Exception:  # noqa: BLE001
+            line = getattr(mark, "line", None)
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise StudyError(file, "(yaml)", NO_VALUE, f"a value YAML cannot read ({why})",
+                         line) from None
+    finally:
+        loader.dispose()
+    if loader.duplicates:
+        problems = []
+        for container, key, line, first in loader.duplicates:
+            where = _path_of(raw, container) or ""
+            path = f"{where}.{key}" if where else str(key)
+            msg = f"duplicate key (also on line {first}); each key at most once in a mapping"
+            problems.append((line, path, NO_VALUE, msg))
+        raise StudyError.many(file, problems)
+    return raw
+
+
+# ------------------------------------------------------------------------------ pydantic errors
+
+
+_BRANCHES = ("list[union[float,str]]", "Range", "float", "str", "int", "list", "dict[str,any]",
+             "literal['up','down']")
 
 
 def _user_path(loc: tuple) -> list[str | int]:
@@ -348,24 +585,26 @@ def _user_path(loc: tuple) -> list[str | int]:
     for p in loc:
         if isinstance(p, int):
             parts.append(p)
-        elif p in ("whine", "rattle", "full", "mathieu") and parts and parts[-1] == "scene":
-            continue  # the discriminator's tag is not part of the user's path
-        elif p.startswith("function-") or p in ("list[union[float,str]]", "Range", "float", "str"):
             continue
-        else:
-            parts.append(p)
+        p = str(p)
+        if p in ("whine", "rattle", "full", "mathieu") and parts and parts[-1] == "scene":
+            continue  # the discriminator's tag is not part of the user's path
+        if p.startswith(("function-", "literal[", "union[", "list[", "dict[")) or p in _BRANCHES:
+            continue
+        parts.append(p)
     return parts
 
 
-def _loc(loc: tuple) -> str:
-    text = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in _user_path(loc))
+def _loc(loc: tuple | list) -> str:
+    parts = _user_path(tuple(loc)) if isinstance(loc, tuple) else loc
+    text = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in parts)
     return text.removeprefix(".") or "(top level)"
 
 
-def _as_written(raw, loc: tuple):
-    """The value at ``loc`` as the user wrote it (``'-0.5 mm'``, not the SI number a quantity
+def _as_written(raw, parts: list):
+    """The value at ``parts`` as the user wrote it (``'-0.5 mm'``, not the SI number a quantity
     validator turned it into), or ``None`` if the file has nothing there."""
-    for p in _user_path(loc):
+    for p in parts:
         if isinstance(raw, dict) and p in raw:
             raw = raw[p]
         elif isinstance(raw, list) and isinstance(p, int) and 0 <= p < len(raw):
@@ -375,46 +614,103 @@ def _as_written(raw, loc: tuple):
     return raw
 
 
+@cache
+def _vocabulary() -> tuple[str, ...]:
+    """Every field name of the study models (for 'did you mean' on an unknown field)."""
+    names: set[str] = set()
+    for m in (Study, WhineScene, RattleScene, FullScene, MathieuScene, Drive, StiffnessHarmonic,
+              SteHarmonic, Fluctuation, Range, Solver, GearSpec, TipReliefSpec):
+        names.update(m.model_fields)
+    names.update(SCENE_PARAMETERS["full"] | SCENE_PARAMETERS["mathieu"])
+    return tuple(sorted(names))
+
+
+def _did_you_mean(word: Any, choices) -> str:
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+    return f" -- did you mean {close[0]!r}?" if close else ""
+
+
+def _is_branch_mismatch(err: dict) -> bool:
+    return err["type"].endswith("_type") or err["type"] in ("union_tag_invalid",
+                                                             "model_attributes_type")
+
+
+def _problems(exc: ValidationError, raw=None) -> list[Problem]:
+    """Every error of a pydantic validation, in the study's words, one per field."""
+    errs = [(tuple(_user_path(e["loc"])), e) for e in exc.errors()]
+    # Of the branches of a union (a list or a {start, stop, num} range, a float or a string),
+    # report the one the user evidently meant: a type mismatch of another branch is dropped when
+    # a more specific error lies at or below the same place.
+    by_path: dict[tuple, dict] = {}
+    for path, e in errs:
+        if _is_branch_mismatch(e) and any(
+                (q[:len(path)] == path and q != path) or (q == path and not _is_branch_mismatch(f))
+                for q, f in errs):
+            continue
+        by_path.setdefault(path, e)
+    out = []
+    for path, e in by_path.items():
+        parts = list(path)
+        msg = e["msg"].removeprefix("Value error, ")
+        value = e.get("input")
+        written = _as_written(raw, parts)
+        if isinstance(written, str | int | float) and not isinstance(value, dict | list):
+            value = written
+        if isinstance(value, dict | list):
+            value = "{...}" if isinstance(value, dict) else "[...]"
+        t = e["type"]
+        if t == "extra_forbidden":
+            key = parts[-1] if parts else value
+            value = NO_VALUE
+            msg = f"{key!r} is an unknown field" + (_did_you_mean(key, _vocabulary())
+                                                     or " (see docs/study-reference.md)")
+        elif t == "missing":
+            value, msg = "(missing)", "this field is required"
+        elif t == "union_tag_invalid":
+            ctx = e.get("ctx", {})
+            tags = re.findall(r"'([^']*)'", str(ctx.get("expected_tags", "")))
+            parts.append("kind")
+            value = ctx.get("tag", value)
+            hint = _did_you_mean(value, tags)
+            msg = (hint.removeprefix(" -- ") + f" (allowed: {', '.join(tags)})" if hint
+                   else f"not a scene kind; allowed: {', '.join(tags)}")
+        elif t == "union_tag_not_found":
+            parts.append("kind")
+            value, msg = "(missing)", "a scene needs a kind: whine, rattle, full or mathieu"
+        elif t == "literal_error":
+            allowed = re.findall(r"'([^']*)'", str(e.get("ctx", {}).get("expected", "")))
+            hint = _did_you_mean(value, allowed)
+            if hint:
+                msg = hint.removeprefix(" -- ") + f" (allowed: {', '.join(allowed)})"
+        elif t.endswith("_type") and len(path) >= 2 and path[0] == "sweep":
+            msg = "a list of values or {start, stop, num}"
+        elif t == "finite_number":
+            msg = "a finite number (not nan or inf)"
+        elif "has no unit" in msg:
+            value = NO_VALUE
+        out.append(Problem(_loc(parts), value, msg))
+    return out
+
+
 def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
-    # Of the branches of a union (a list or a {start, stop, num} range), report the one the
-    # user evidently meant: a type mismatch of another branch is the least specific error.
-    errs = exc.errors()
-    err = min(errs, key=lambda e: (e["type"].endswith("_type") or e["type"] == "union_tag_invalid"
-                                   and len(errs) > 1, -len(e["loc"])))
-    msg = err["msg"].removeprefix("Value error, ")
-    value = err.get("input")
-    written = _as_written(raw, err["loc"])
-    if isinstance(written, str | int | float) and not isinstance(value, dict | list):
-        value = written
-    if isinstance(value, dict | list):
-        value = "{...}" if isinstance(value, dict) else "[...]"
-    if err["type"] == "extra_forbidden":
-        msg = "unknown field (check the spelling; see the study format in the README)"
-    if err["type"] == "missing":
-        value, msg = "(missing)", "this field is required"
-    return StudyError(file, _loc(err["loc"]), value, msg)
+    """Every error of ``exc`` as one ``StudyError`` (a line each; the name is kept for callers)."""
+    return _error(file, _problems(exc, raw), raw)
 
 
 def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | AnalysisStudy:
-    """Validate a study from its YAML text; any problem raises one ``StudyError``.
+    """Validate a study from its YAML text; every problem of the file raises one ``StudyError``
+    with a line per problem (``file.yaml:LINE: field.path: value -- message``).
 
     A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh``).
     """
-    try:
-        raw = yaml.safe_load(text)
-    except RecursionError:
-        raise StudyError(file, "(yaml)", "(text)", "YAML nested less deeply") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}" if mark is not None else "(yaml)"
-        problem = getattr(exc, "problem", None) or "not valid YAML"
-        raise StudyError(file, where, "(text)", f"valid YAML ({problem})") from None
+    raw = load_yaml(text, file)
     if not isinstance(raw, dict):
         raise StudyError(file, "(top level)", type(raw).__name__,
-                         "a mapping with title, scene, sweep, solver, outputs")
+                         "a mapping with title, scene, sweep, solver, outputs", 1)
     if "type" in raw and raw["type"] not in ("mesh", "analysis"):
         raise StudyError(file, "type", raw["type"], "'mesh' (a static mesh study), 'analysis'"
-                         " (method stability, work-precision), or no 'type' for a dynamic study")
+                         " (method stability, work-precision), or no 'type' for a dynamic study",
+                         line_of(raw, "type"))
     if raw.get("type") == "mesh":
         return parse_mesh_study(raw, file)
     if raw.get("type") == "analysis":
@@ -422,16 +718,23 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | Analysi
             return AnalysisStudy.model_validate(raw)
         except ValidationError as exc:
             raise _first_error(exc, file, raw) from None
+    problems: list[Problem] = []
     try:
-        study = Study.model_validate(raw)
+        study = Study.model_validate(raw, context={"problems": problems})
     except ValidationError as exc:
         raise _first_error(exc, file, raw) from None
     except RecursionError:
         raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
-    _check_grids(study, file)
-    _check_gear(study, file)
+    problems += grid_problems(study)
     for i, req in enumerate(study.outputs):
-        configure(req.name, req.options, file, f"outputs[{i}].{req.name}")
+        if not problems:
+            try:
+                configure(req.name, req.options, file, f"outputs[{i}].{req.name}")
+            except StudyError as exc:
+                problems.append(Problem(exc.field, exc.value, exc.allowed))
+    if problems:
+        raise _error(file, problems, raw)
+    _check_gear(study, file, raw)
     return study
 
 
@@ -444,7 +747,7 @@ def first_load(study: Study) -> float | None:
     return None
 
 
-def _check_gear(study: Study, file: str) -> None:
+def _check_gear(study: Study, file: str, raw=None) -> None:
     """Geometry of a scene's gear pair: checked here, so ``validate`` refuses what ``run`` would."""
     sc = study.scene
     if getattr(sc, "gear", None) is None:
@@ -452,14 +755,17 @@ def _check_gear(study: Study, file: str) -> None:
     try:
         ex = scene_excitation(sc, first_load(study))
     except GeometryError as exc:
-        raise GeometryError(f"{file}: scene.gear: {exc}") from None
+        line = line_of(raw, "scene.gear")
+        raise GeometryError(f"{file}{f':{line}' if line else ''}: scene.gear: {exc}") from None
     if sc.drive is not None:
         for g, given, gear in ((1, sc.drive.base_radius_1, ex.base_radius_1),
                                (2, sc.drive.base_radius_2, ex.base_radius_2)):
             if abs(given / gear - 1.0) > 1e-3:
-                raise StudyError(file, f"scene.drive.base_radius_{g}", given,
-                                 f"the gear's base radius {gear:.6g} m (within 0.1 %), or omit"
-                                 " the gear and type in the coefficients")
+                where = f"scene.drive.base_radius_{g}"
+                raise StudyError(file, where, _as_written(raw, _path_parts(where)) or given,
+                                 f"the gear's base radius {gear * 1e3:.6g} mm (within 0.1 %), or"
+                                 " omit the gear and type in the coefficients",
+                                 line_of(raw, where))
 
 
 # --------------------------------------------------------------------------- mesh studies
@@ -540,12 +846,22 @@ def summary(study: MeshStudy) -> str:
             f" {study.positions} positions per mesh cycle, {study.harmonics} harmonics")
 
 
-def load_study(path: str | Path) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
-    """Read and validate a study file; returns the study and its text (kept in the results)."""
+def read_text(path: str | Path) -> tuple[str, str]:
+    """(text, name to show) of a study file; ``-`` reads stdin (shown as ``<stdin>``)."""
+    if str(path) == "-":
+        import sys
+
+        return sys.stdin.read(), "<stdin>"
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8"), str(path)
     except (OSError, UnicodeDecodeError) as exc:
         why = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
         raise StudyError(str(path), "(file)", str(path), f"a readable UTF-8 file ({why})") from None
-    return parse_study(text, str(path)), text
+
+
+def load_study(path: str | Path) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
+    """Read and validate a study file (``-``: stdin); returns the study and its text (kept in
+    the results)."""
+    text, name = read_text(path)
+    return parse_study(text, name), text

@@ -1,0 +1,96 @@
+"""What a study will cost, from arithmetic on its sizes: no grid of cases, no kernel call.
+
+``quick_estimate`` gives the same ``Estimate`` as ``execute.estimate`` (stated kernel rate) for
+any number of cases in microseconds: the chunks are counted, not listed, and nothing is compiled.
+When the kernel this study needs is not yet in Numba's disk cache, its one-time compile time is
+added (``compile_seconds``), so that ``--estimate`` and ``validate`` state the wait a first run
+really has.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import replace
+from pathlib import Path
+
+from gearsweep import kernels
+from gearsweep.kernels import LANES
+from gearsweep.study.execute import (
+    BASELINE_MEMORY,
+    FIXED_SECONDS,
+    STATED_RATE,
+    WRITE_RATE,
+    Estimate,
+    _case_bytes,
+    cores,
+    lanes_per_chunk,
+)
+from gearsweep.study.plan import Plan
+
+COLD_COMPILE_SECONDS = {("rk4", False): 15.0, ("rk5", False): 25.0, ("rk4", True): 68.0,
+                        ("rk5", True): 97.0}
+"""One-time compile time of a batch driver on a cold cache [s] (measured on this machine:
+``gearsweep.kernels.batch``'s note, the upper ends of 11-16 s, 16-25 s, 68 s and 97 s)."""
+
+
+def _cache_dirs() -> list[Path]:
+    dirs = [Path(kernels.__file__).parent / "__pycache__"]
+    env = os.environ.get("NUMBA_CACHE_DIR")
+    if env:
+        dirs.append(Path(env))
+    return dirs
+
+
+def compile_seconds(method: str, kink_aware: bool) -> float:
+    """0 when the batch driver of ``method`` is in Numba's disk cache, else its compile time."""
+    name = f"integrate_kink_{method}" if kink_aware else f"integrate_{method}"
+    for d in _cache_dirs():
+        if d.is_dir() and any(d.rglob(f"*{name}-*.nbi")):
+            return 0.0
+    return COLD_COMPILE_SECONDS[(method, kink_aware)]
+
+
+def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None
+                   ) -> tuple[Estimate, float]:
+    """(estimate at the stated rate, of which seconds to compile the kernel on a cold cache)."""
+    threads = threads or cores()
+    s = plan.study.solver
+    per = lanes_per_chunk(plan, chunk_cases) or plan.default_lanes_per_chunk()
+    n = plan.n_lanes
+    full, rest = divmod(n, per)
+    ways = max(len(plan.directions), 1)
+
+    def rounds(lanes: int) -> int:
+        return math.ceil(math.ceil(lanes * ways / LANES) / threads)
+
+    lane_steps = float(full * rounds(per) + (rounds(rest) if rest else 0)) * plan.chain * LANES \
+        * plan.steps_per_case
+    rate = STATED_RATE[s.method]
+    per_case = _case_bytes(plan)
+    results = float(plan.n_cases) * per_case
+    compile_s = compile_seconds(s.method, s.kink_aware)
+    seconds = lane_steps / (rate * 1e6) + FIXED_SECONDS + results / WRITE_RATE + compile_s
+    biggest = min(per, n) * plan.chain * ways
+    signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
+    memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
+    coords = sum(g.nbytes for g in plan.grids.values())
+    est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
+                   chunks=full + (1 if rest else 0), threads=threads, rate=rate,
+                   rate_source="stated", seconds=seconds, memory_bytes=memory,
+                   output_bytes=results + coords)
+    return est, compile_s
+
+
+def line(est: Estimate, compile_s: float) -> str:
+    """The estimate in one line, saying when it includes compiling the kernel."""
+    extra = f"; includes about {compile_s:.0f} s to compile the kernel once (cold cache)" \
+        if compile_s else ""
+    return est.line() + extra
+
+
+def with_rate(est: Estimate, rate: float, compile_s: float) -> Estimate:
+    """``est`` at a measured kernel rate (the kernel time scaled; the rest kept)."""
+    kernel = est.seconds - compile_s - FIXED_SECONDS - est.output_bytes / WRITE_RATE
+    return replace(est, rate=rate, rate_source="measured",
+                   seconds=est.seconds - kernel + kernel * est.rate / rate)

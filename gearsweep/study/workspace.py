@@ -1,0 +1,89 @@
+"""The output of a run as a workspace: one run at a time, no mixing with another study's chunks.
+
+* ``OutputLock(out)``: an OS file lock (``filelock``) on ``OUT.nc.lock`` held for the whole run;
+  a second ``gearsweep run`` on the same output is refused in one line naming the first's PID.
+  The lock is the kernel's (``flock``), so a run that was killed leaves no stale lock: the OS
+  releases it with the process.
+* ``check_partial(plan, out)``: chunks of a *different* study left in ``OUT.nc.chunks`` (an
+  interrupted run of another study to the same path) are refused, never mixed or silently
+  deleted.
+* ``saved_chunks``: how many of a study's chunks are on disk (for the interruption message).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+from gearsweep.errors import GearsweepError
+from gearsweep.study.checkpoint import SUFFIX, chunk_folder
+from gearsweep.study.execute import lanes_per_chunk
+
+
+class BusyError(GearsweepError):
+    """Another process is writing the same output."""
+
+
+def lock_path(out: str | Path) -> Path:
+    out = Path(out)
+    return out.with_name(out.name + ".lock")
+
+
+class OutputLock:
+    """Exclusive lock on an output path for one run (refuses at once, never waits)."""
+
+    def __init__(self, out: str | Path) -> None:
+        from filelock import FileLock
+
+        self.out = Path(out)
+        self.path = lock_path(out)
+        self.owner = self.path.with_name(self.path.name + ".pid")
+        self.lock = FileLock(str(self.path), timeout=0)
+
+    def __enter__(self) -> OutputLock:
+        from filelock import Timeout
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self.lock.acquire()
+        except Timeout:
+            try:
+                pid = self.owner.read_text(encoding="utf-8").strip() or "?"
+            except OSError:
+                pid = "?"
+            raise BusyError(f"{self.out}: another gearsweep run (PID {pid}) is writing this"
+                            " output; wait for it, or choose another -o") from None
+        self.owner.write_text(f"{os.getpid()}\n", encoding="utf-8")
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.owner.unlink(missing_ok=True)
+        self.path.unlink(missing_ok=True)  # no *.lock left beside the results
+        self.lock.release()
+
+
+def _sha(plan) -> str:
+    return hashlib.sha256(plan.text.encode()).hexdigest()
+
+
+def check_partial(plan, out: str | Path) -> None:
+    """Refuse when ``OUT.nc.chunks`` holds saved chunks of another study."""
+    root = chunk_folder(out)
+    if not root.is_dir():
+        return
+    mine = _sha(plan)
+    for folder in root.iterdir():
+        if folder.is_dir() and folder.name != mine and any(folder.glob(f"*{SUFFIX}")):
+            n = sum(1 for _ in folder.glob(f"*{SUFFIX}"))
+            raise BusyError(f"{out}: {root} holds {n} saved chunk(s) of another study (an"
+                            " interrupted run); finish it with that study, or remove"
+                            f" {root} to start this one")
+
+
+def saved_chunks(plan, out: str | Path, chunk_cases: int | None = None) -> tuple[int, int]:
+    """(chunks of ``plan`` saved next to ``out``, chunks in all)."""
+    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
+    folder = chunk_folder(out) / _sha(plan)
+    done = sum(1 for a, b in chunks if (folder / f"chunk_{a}_{b}{SUFFIX}").is_file())
+    return done, len(chunks)

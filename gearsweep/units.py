@@ -1,0 +1,218 @@
+"""Quantities with units: the one table of every kind of quantity a study or a result holds.
+
+Each kind has its SI unit (what the kernel computes in), its *display* unit (what a study is
+written in and what a result file stores, so that the numbers in the file are the numbers in the
+study), the spellings a study may use, and whether a bare number is accepted. ``to_si`` parses a
+study's value (pint underneath) into an SI float; ``to_display`` converts SI values for a result.
+
+Rules (docs/study-reference.md, "Units"):
+
+* A bare number in a dimensioned field is refused (``module: 3`` -> ``3 has no unit; write e.g.
+  '3 mm'``), except 0 (zero in any unit) and a shaft speed, which is read in rpm.
+* A frequency given for a shaft speed (``50 Hz``, ``3 kHz``) is read as revolutions per second:
+  50 Hz = 3000 rpm (pint alone would read it as 50 rad/s, 2 pi off). An angular rate in rad/s or
+  deg/s is converted as such.
+* The common spellings of engineers are accepted (``RPM``, ``rev/min``, ``r/min``; ``N m``,
+  ``N*m``, ``N.m``, ``N·m``, ``Nm``; ``N mm``, ``Nmm``; ``N s/mm``; ``um``, ``µm``, ``micron``).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Kind:
+    """One kind of quantity."""
+
+    name: str
+    si: str
+    """SI unit (pint spelling); speed: rpm, the kernel's own unit of shaft speed."""
+    display: str
+    """Unit a study is written in and a result stores (pint spelling)."""
+    cf: str
+    """The display unit as a UDUNITS string (the netCDF ``units`` attribute)."""
+    examples: tuple[str, ...]
+    """Accepted spellings, as a reader would write them (documented; each one tested)."""
+    bare: bool = False
+    """A bare number is accepted, read in the display unit."""
+
+
+KINDS: dict[str, Kind] = {k.name: k for k in (
+    Kind("speed", "rpm", "rpm", "rpm", ("rpm", "RPM", "rev/min", "r/min", "Hz (rev/s)", "kHz",
+                                         "rad/s"), bare=True),
+    Kind("frequency", "Hz", "Hz", "Hz", ("Hz", "kHz")),
+    Kind("length", "m", "mm", "mm", ("mm", "m", "um", "µm", "micron", "in")),
+    Kind("displacement", "m", "um", "um", ("um", "µm", "micron", "mm", "m")),
+    Kind("mass", "kg", "kg", "kg", ("kg", "g")),
+    Kind("force", "N", "N", "N", ("N", "kN")),
+    Kind("torque", "N*m", "N*m", "N m", ("N m", "N*m", "N.m", "N·m", "Nm", "N mm", "Nmm",
+                                        "kN m")),
+    Kind("damping", "N*s/m", "N*s/mm", "N s mm-1", ("N s/mm", "N*s/mm", "N s/m", "kg/s")),
+    Kind("stiffness", "N/m", "kN/mm", "kN mm-1", ("kN/mm", "N/um", "N/m", "N/mm")),
+    Kind("inertia", "kg*m**2", "kg*m**2", "kg m2", ("kg m^2", "kg*m**2", "kg mm^2")),
+    Kind("pressure", "Pa", "GPa", "GPa", ("GPa", "MPa", "Pa", "N/mm^2")),
+    Kind("angle", "rad", "deg", "degree", ("deg", "degree", "rad")),
+    Kind("dimensionless", "", "", "1", ("(a bare number)",), bare=True),
+)}
+"""The one table of quantities: kind -> SI unit, display unit, spellings."""
+
+CANONICAL = {k.name: k.si for k in KINDS.values()}
+"""SI unit of every kind (speed: rpm), as the kernel takes it."""
+
+
+_INTEGER = re.compile(r"(?<![\w.])(?<![eE][-+])(\d[\d_]*)(?![\w.])")
+"""An integer literal on its own (not part of a float, an exponent or a name)."""
+
+_NUMBER = re.compile(r"^\s*[-+]?(?:\d[\d_]*\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+"""The number at the start of a quantity's text."""
+
+_WORD_ALIASES = {
+    "RPM": "rpm", "Rpm": "rpm", "Nm": "N*m", "Nmm": "N*mm", "kNm": "kN*m", "kNmm": "kN*mm",
+    "micron": "um", "microns": "um", "Nms": "N*m*s",
+}
+_SPELLINGS = (
+    (re.compile(r"\b(?:rev|r)\s*/\s*min\b"), "rpm"),
+    (re.compile(r"\b(?:rev|r)\s*/\s*s\b"), "Hz"),
+    (re.compile("[µμ]"), "u"),
+    (re.compile(r"(?<=[A-Za-z])\s*[·.]\s*(?=[A-Za-z])"), "*"),
+    (re.compile(r"(?<=[A-Za-z])\^"), "**"),
+)
+_WORD = re.compile(r"[A-Za-z_]+")
+_ANGLE_UNITS = ("radian", "degree", "revolution", "turn", "arcminute", "arcsecond", "grade",
+                "revolutions_per_minute", "cycle")
+
+
+@cache
+def registry():
+    """The package's one unit registry (pint: imported and created on first use, not at import)."""
+    import pint
+
+    try:  # definitions parsed once and kept in the user cache folder: 0.1 s instead of 1 s
+        return pint.UnitRegistry(cache_folder=":auto:")
+    except Exception:  # noqa: BLE001 -- no cache folder (read-only home): parse them each time
+        return pint.UnitRegistry()
+
+
+class UnitParseError(ValueError):
+    """A value that is not a quantity of the expected kind (message says what is allowed)."""
+
+
+def normalise(text: str) -> str:
+    """A quantity's text with the engineers' spellings turned into pint's (``30 Nm`` ->
+    ``30 N*m``, ``1000 RPM`` -> ``1000 rpm``, ``5 µm`` -> ``5 um``)."""
+    out = text.strip()
+    for pattern, repl in _SPELLINGS:
+        out = pattern.sub(repl, out)
+    return _WORD.sub(lambda m: _WORD_ALIASES.get(m.group(0), m.group(0)), out)
+
+
+def _shown(value: object) -> str:
+    return value if isinstance(value, str) else f"{value:g}" if isinstance(value, float) \
+        else str(value)
+
+
+def _bare(value: object, kind: Kind, number: float) -> float:
+    if not math.isfinite(number):
+        raise UnitParseError("expected a finite number (not nan or inf)")
+    if kind.bare or number == 0.0:
+        return number
+    raise UnitParseError(f"{_shown(value)} has no unit; write e.g. '{_shown(value)} "
+                         f"{kind.examples[0]}'")
+
+
+def to_si(value: object, kind: str) -> float:
+    """Parse ``value`` (a number or a string with units) into a float in the SI unit of ``kind``.
+
+    Raises
+    ------
+    UnitParseError
+        With a message naming the expected kind and a unit to write.
+    """
+    k = KINDS[kind]
+    unit_hint = k.examples[0]
+    if isinstance(value, bool):
+        raise UnitParseError(f"expected a {kind} quantity such as '1 {unit_hint}'")
+    if isinstance(value, int | float):
+        try:
+            number = float(value)
+        except OverflowError:
+            raise UnitParseError("a number too large for a float (at most about 1e308)") from None
+        return _bare(value, k, number)
+    if not isinstance(value, str):
+        raise UnitParseError(f"expected a number or a string with {kind} units, e.g. '1 {unit_hint}'")
+    try:  # a bare number in a string, e.g. YAML reads 1e8 (no dot) as text
+        number = float(value)
+    except ValueError:
+        number = math.nan
+    if math.isfinite(number):
+        return _bare(value, k, number)
+    import pint
+
+    ureg = registry()
+    try:
+        # Integer literals become floats before pint evaluates the text: with Python integers a
+        # power tower such as "10**10**10 N" would take forever; with floats it overflows at once.
+        q = ureg.Quantity(_INTEGER.sub(r"\1.0", normalise(value)))
+    except Exception as exc:  # pint raises many kinds of errors for malformed text
+        raise UnitParseError(f"cannot read {value!r} as a quantity ({type(exc).__name__})") from None
+    if not isinstance(q, pint.Quantity):
+        return _bare(value, k, float(q))
+    units = dict(q.unit_items())
+    if not units and k.name != "dimensionless":
+        return _bare(value, k, float(q.magnitude))
+    if k.name == "speed" and q.check("1/[time]") and not any(u in _ANGLE_UNITS for u in units):
+        # A frequency (Hz, kHz, 1/s) of a shaft is revolutions per unit time: 50 Hz = 3000 rpm.
+        return _bare(value, KINDS["dimensionless"], float(q.to("1/min").magnitude))
+    if k.name == "angle" and q.dimensionless and not any(u in _ANGLE_UNITS for u in units):
+        raise UnitParseError(f"{value!r} is not an angle; write e.g. '30 deg' or '0.5 rad'")
+    try:
+        out = q.to(k.si) if k.si else q.to("dimensionless")
+    except pint.DimensionalityError:
+        raise UnitParseError(
+            f"has units of {q.dimensionality}, expected {kind} (e.g. '1 {unit_hint}')") from None
+    result = float(out.magnitude)
+    if not math.isfinite(result):
+        raise UnitParseError("expected a finite number (not nan or inf)")
+    return result
+
+
+def kind_of(value: object, kinds: tuple[str, ...]) -> str:
+    """Which of ``kinds`` the quantity ``value`` is (e.g. a fluctuation given as force or torque)."""
+    for kind in kinds:
+        try:
+            to_si(value, kind)
+            return kind
+        except UnitParseError:
+            continue
+    raise UnitParseError(f"expected one of: {', '.join(kinds)}")
+
+
+@cache
+def display_factor(kind: str) -> float:
+    """Display value per SI value of ``kind`` (e.g. 1000 for a length: m -> mm)."""
+    k = KINDS[kind]
+    if k.si == k.display:
+        return 1.0
+    return float(registry().Quantity(1.0, k.si).to(k.display).magnitude)
+
+
+def to_display(values, kind: str):
+    """SI values of ``kind`` in its display unit (same type: float, NumPy or dask array)."""
+    f = display_factor(kind)
+    if f == 1.0:
+        return values
+    return values * f if not isinstance(values, list | tuple) else np.asarray(values) * f
+
+
+def from_display(values, kind: str):
+    """Display values of ``kind`` back in SI (the inverse of ``to_display``)."""
+    f = display_factor(kind)
+    if f == 1.0:
+        return values
+    return values / f if not isinstance(values, list | tuple) else np.asarray(values) / f

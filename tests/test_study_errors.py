@@ -1,0 +1,166 @@
+"""Errors that point at the line: every problem of a file at once, in the study's own words."""
+
+from __future__ import annotations
+
+import io
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from gearsweep.cli import main
+from gearsweep.errors import StudyError
+from gearsweep.study.schema import parse_study
+
+ROOT = Path(__file__).resolve().parents[1]
+
+GOOD = """\
+title: t
+scene:
+  kind: rattle
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  backlash: 0.1 mm
+  mean_force: 100 N
+sweep:
+  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}
+solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}
+"""
+
+
+def _lines(text: str) -> list[str]:
+    with pytest.raises(StudyError) as err:
+        parse_study(text, "s.yaml")
+    return str(err.value).split("\n")
+
+
+def test_three_errors_give_three_lines_with_line_numbers():
+    text = (GOOD.replace("mass: 0.1527 kg", "mass: -1 kg").replace("backlash: 0.1 mm", "backlash: 0.1")
+            .replace("method: rk4", "method: rk3"))
+    lines = _lines(text)
+    assert lines == [
+        "s.yaml:4: scene.mass: '-1 kg' -- Input should be greater than 0",
+        "s.yaml:7: scene.backlash: 0.1 has no unit; write e.g. '0.1 mm'",
+        "s.yaml:11: solver.method: 'rk3' -- did you mean 'rk5'? (allowed: rk4, rk5)",
+    ], lines
+
+
+def test_a_typo_in_kind_says_did_you_mean():
+    assert _lines(GOOD.replace("kind: rattle", "kind: whin")) == [
+        "s.yaml:3: scene.kind: 'whin' -- did you mean 'whine'? (allowed: whine, rattle, full,"
+        " mathieu)"]
+
+
+def test_an_unknown_field_says_did_you_mean():
+    assert _lines(GOOD.replace("mean_force: 100 N", "mean_forse: 100 N")) == [
+        "s.yaml:8: scene.mean_forse: 'mean_forse' is an unknown field -- did you mean 'mean_force'?"]
+
+
+def test_errors_in_sweep_and_outputs_point_at_their_lines():
+    text = GOOD.replace("num: 3}", "num: 0}") + "outputs: [stats, spectrun]\n"
+    assert _lines(text) == [
+        "s.yaml:10: sweep.speed.num: 0 -- Input should be greater than or equal to 1"]
+    text = GOOD + "outputs: [stats, spectrun]\n"
+    assert _lines(text) == [
+        "s.yaml:12: outputs[1]: 'spectrun' -- not an output; did you mean 'spectrum'? allowed:"
+        " floquet, spectrum, stats"]
+
+
+def test_duplicate_keys_are_refused():
+    text = GOOD.replace("  teeth: 48\n", "  teeth: 48\n  teeth: 50\n")
+    assert _lines(text) == ["s.yaml:6: scene.teeth: duplicate key (also on line 5); each key at"
+                            " most once in a mapping"]
+    assert _lines("title: a\ntitle: b\n")[0].startswith("s.yaml:2: title: duplicate key")
+
+
+def test_a_range_from_high_to_low_is_refused():
+    lines = _lines(GOOD.replace("start: 5000 rpm, stop: 6000 rpm", "start: 6000 rpm, stop: 5000 rpm"))
+    assert lines[0].startswith("s.yaml:10: sweep.speed.start: '6000 rpm' -- at most stop")
+
+
+def test_swept_and_fixed_is_stated_in_validates_summary(tmp_path, capsys):
+    path = tmp_path / "s.yaml"
+    path.write_text(GOOD + "  backlash: [0.1 mm, 0.2 mm]\n".replace("  backlash", "  backlash"
+                    ).replace("  backlash:", "  backlash:"), encoding="utf-8")
+    path.write_text(GOOD.replace("  speed: {", "  backlash: [0.1 mm, 0.2 mm]\n  speed: {"),
+                    encoding="utf-8")
+    assert main(["validate", str(path)]) == 0
+    assert "the sweep replaces scene.backlash" in capsys.readouterr().out
+
+
+def test_stdin_is_named_stdin(monkeypatch, capsys):
+    monkeypatch.setattr(sys, "stdin", io.StringIO(GOOD.replace("teeth: 48", "teeth: -1")))
+    assert main(["validate", "-"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("gearsweep: error: <stdin>:5: scene.teeth: -1 -- "), err
+
+
+def test_debug_is_accepted_anywhere(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text(GOOD.replace("teeth: 48", "teeth: -1"), encoding="utf-8")
+    for argv in (["--debug", "validate", str(path)], ["validate", "--debug", str(path)],
+                 ["validate", str(path), "--debug"]):
+        with pytest.raises(StudyError):
+            main(argv)
+
+
+def test_inspect_on_a_study_says_it_is_a_study(tmp_path, capsys):
+    path = tmp_path / "s.yaml"
+    path.write_text(GOOD, encoding="utf-8")
+    assert main(["inspect", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "a study file, not a result" in err and f"gearsweep validate {path}" in err
+    assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize("cases", ["1e12", "1e15"])
+def test_a_huge_grid_is_refused_by_validate_at_once(tmp_path, cases):
+    """From arithmetic on the sweep's sizes: no grid, no kernel, in a fresh process."""
+    n = round(float(cases) ** (1 / 3))
+    text = GOOD.replace("  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                        f"  speed: {{start: 5000 rpm, stop: 6000 rpm, num: {n}}}\n"
+                        f"  damping: {{start: 1 N s/m, stop: 10 N s/m, num: {n}}}\n"
+                        f"  mean_force: {{start: 1 N, stop: 10 N, num: {n}}}")
+    path = tmp_path / "huge.yaml"
+    path.write_text(text, encoding="utf-8")
+    for argv in (["validate", str(path)], ["run", str(path), "--estimate"],
+                 ["run", str(path), "-o", str(tmp_path / "o.nc")]):
+        # The libraries are imported first (numpy, xarray, numba, pint: about 2 s on a loaded
+        # 2-core machine, the same for any study); what is timed is the work of the command.
+        code = ("import resource, sys, time; from gearsweep.cli import main;"
+                " import gearsweep.study.estimate, gearsweep.study.schema, gearsweep.units;"
+                " gearsweep.units.registry(); t0 = time.perf_counter();"
+                f" rc = main({argv!r}); dt = time.perf_counter() - t0;"
+                " print(rc, dt, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              timeout=120, cwd=ROOT)
+        rc, dt, rss_kb = proc.stdout.split()[-3:]
+        if argv[-1] == "--estimate":
+            assert rc == "0" and "cases" in proc.stdout
+        else:
+            assert rc == "2", proc.stderr
+            assert re.search(r"refused \(time > 10.0 min.*\): [\d,]+ cases", proc.stderr)
+            assert proc.stderr.count("\n") == 1
+        assert float(dt) < 1.0, (argv, dt)
+        assert int(rss_kb) * 1024 < 300e6
+    assert not (tmp_path / "o.nc").exists()
+
+
+def test_validate_and_estimate_never_compile(tmp_path):
+    """``--estimate`` answers in well under a second even on a study whose kernel is not
+    compiled (a cold Numba cache adds the compile time to the estimate instead)."""
+    path = tmp_path / "s.yaml"
+    path.write_text(GOOD.replace("method: rk4", "method: rk5").replace(
+        "steps_per_period: 32", "steps_per_period: 32, kink_aware: true"), encoding="utf-8")
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "gearsweep.cli", "run", str(path), "--estimate"],
+                          capture_output=True, text=True, timeout=120, cwd=ROOT,
+                          env={"NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin"})
+    assert proc.returncode == 0, proc.stderr
+    assert "cases" in proc.stdout
+    assert time.perf_counter() - t0 < 20  # the process: interpreter and imports included
+    assert not any((tmp_path / "cache").rglob("*.nbi"))

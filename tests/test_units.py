@@ -1,0 +1,82 @@
+"""The one table of quantities (gearsweep.units): spellings, bare numbers, shaft speed in Hz."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from gearsweep.units import KINDS, UnitParseError, display_factor, to_display, to_si
+
+
+@pytest.mark.parametrize(("text", "kind", "si"), [
+    ("1000 rpm", "speed", 1000.0),
+    ("1000 RPM", "speed", 1000.0),
+    ("1000 rev/min", "speed", 1000.0),
+    ("1000 r/min", "speed", 1000.0),
+    ("30 N m", "torque", 30.0),
+    ("30 N*m", "torque", 30.0),
+    ("30 N.m", "torque", 30.0),
+    ("30 N·m", "torque", 30.0),
+    ("30 Nm", "torque", 30.0),
+    ("30000 N mm", "torque", 30.0),
+    ("30000 Nmm", "torque", 30.0),
+    ("5.5 N s/mm", "damping", 5500.0),
+    ("5500 N s/m", "damping", 5500.0),
+    ("5 um", "displacement", 5e-6),
+    ("5 µm", "displacement", 5e-6),
+    ("5 μm", "displacement", 5e-6),  # Greek mu as well as the micro sign
+    ("5 micron", "displacement", 5e-6),
+    ("0.1 mm", "length", 1e-4),
+    ("1073 kN/mm", "stiffness", 1.073e9),
+    ("90 deg", "angle", math.pi / 2),
+    ("0.1527 kg", "mass", 0.1527),
+])
+def test_each_spelling_parses_to_the_right_quantity(text, kind, si):
+    assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
+
+
+@pytest.mark.parametrize(("text", "rpm"), [
+    ("50 Hz", 3000.0), ("0.05 kHz", 3000.0), ("50 rev/s", 3000.0), ("50 1/s", 3000.0),
+    ("100 rad/s", 100 * 60 / (2 * math.pi)), ("360 deg/s", 60.0),
+])
+def test_a_shaft_speed_in_hz_is_revolutions_per_second(text, rpm):
+    """50 Hz at a shaft is 3000 rpm, not 50 rad/s (477.5 rpm): never 2 pi off."""
+    assert to_si(text, "speed") == pytest.approx(rpm, rel=1e-12)
+
+
+@pytest.mark.parametrize(("value", "kind", "message"), [
+    (3, "length", "3 has no unit; write e.g. '3 mm'"),
+    ("0.1", "length", "0.1 has no unit; write e.g. '0.1 mm'"),
+    (0.1527, "mass", "0.1527 has no unit; write e.g. '0.1527 kg'"),
+    (1e8, "stiffness", "1e+08 has no unit; write e.g. '1e+08 kN/mm'"),
+    (0.5, "angle", "0.5 has no unit; write e.g. '0.5 deg'"),
+    (5, "torque", "5 has no unit; write e.g. '5 N m'"),
+])
+def test_a_bare_number_in_a_dimensioned_field_is_refused(value, kind, message):
+    with pytest.raises(UnitParseError) as err:
+        to_si(value, kind)
+    assert str(err.value) == message
+
+
+def test_documented_exceptions_to_the_bare_number_rule():
+    assert to_si(3000, "speed") == 3000.0  # a shaft speed is read in rpm (study reference)
+    assert to_si(0, "length") == 0.0  # zero is zero in any unit
+    assert to_si(0.25, "dimensionless") == 0.25
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf, "nan", "inf mm", "nan mm", "-inf N m"])
+def test_non_finite_is_refused(value):
+    with pytest.raises(UnitParseError, match="finite"):
+        to_si(value, "torque" if "N" in str(value) else "length")
+
+
+def test_display_units_round_trip_and_every_kind_is_complete():
+    for name, k in KINDS.items():
+        assert k.name == name and k.cf and k.examples
+        display_factor(name)
+    assert to_display(1e-4, "length") == pytest.approx(0.1)
+    assert to_display(1e-6, "displacement") == pytest.approx(1.0)
+    assert to_display(5500.0, "damping") == pytest.approx(5.5)
+    assert to_display(1.073e9, "stiffness") == pytest.approx(1073.0)
+    assert to_display(3000.0, "speed") == 3000.0
