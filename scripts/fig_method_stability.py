@@ -25,5 +25,5 @@ ax.set_title(f"{ds.attrs['title']}\n(free linear oscillator; the kink-aware form
              "steps inside a contact region)", fontsize=10)
 save(fig, args.figures / "method_stability.png")
 for m in ds.method.values:
-    for z, v in zip(ds.zeta.values, ds.measured_limit.sel(method=m).values, strict=True):
+    for z, v in zip(ds.zeta.values, ds.measured_limit.sel({"method": m}).values, strict=True):
         print(f"{m} zeta={z:.3f} measured={v:.4f}")

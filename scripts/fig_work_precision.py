@@ -25,4 +25,5 @@ fig.suptitle(f"{ds.attrs['title']}: labels on rk4 points are steps per mesh peri
 save(fig, args.figures / "work_precision.png", dpi=120)
 for s in scenes:
     for m in ds.method.values:
-        print(f"order {s} {m}: {float(ds.order.sel(scene=s, method=m)):.2f}")
+        order = float(ds.order.sel({"scene": s, "method": m}))
+        print(f"order {s} {m}: {order:.2f}")

@@ -212,12 +212,17 @@ def test_mesh_study_refuses_table1_as_printed(tmp_path, capsys):
     ("  torque: 50 N*m\n  ste: [{amplitude: 5 um}]\n", "give either 'gear' or typed-in ste"),
     ("  torque: 50 N*m\n  teeth: 48\n", "give either 'gear' or typed-in teeth"),
     ("  torque: 50 N*m\n  base_radius: 56 mm\n", "typed-in base_radius"),
-    ("", "a 'gear' needs the mean load"),
 ])
 def test_gear_with_typed_in_coefficients_is_refused(tmp_path, capsys, extra, message):
     rc, _, err = _run_cli(tmp_path, capsys, whine("table1_consistent", extra))
     assert rc == 2 and err.count("\n") == 1
     assert ": scene: " in err and message in err
+
+
+def test_gear_without_a_load_is_refused(tmp_path, capsys):
+    rc, _, err = _run_cli(tmp_path, capsys, whine("table1_consistent"))
+    assert rc == 2 and err.count("\n") == 1
+    assert ": scene.torque: '(missing)' -- a 'gear' needs the mean load" in err
 
 
 def test_gear_scene_sweeps_torque_with_k_and_ste_recomputed_per_load():
@@ -229,23 +234,20 @@ def test_gear_scene_sweeps_torque_with_k_and_ste_recomputed_per_load():
     swept = run(whine("table1_consistent", "  harmonics: 4\n", kind="rattle")
                 + f"  torque: [{loads[0]} N*m, {loads[1]} N*m, {loads[2]} N*m]\n")
     assert swept.p_rms.dims == ("speed", "torque")
-    k0 = swept.gear_stiffness.values
-    assert k0[0] < k0[1] < k0[2]  # the mesh stiffens with load (Hertzian contact)
+    e1 = swept.gear_ste_harmonic.sel(harmonic=1).values
+    assert e1[0] < e1[1] < e1[2]  # the loaded STE grows with the load
     for i, t in enumerate(loads):
-        alone = run(whine("table1_consistent", f"  harmonics: 4\n  torque: {t} N*m\n",
-                          kind="rattle"))
+        one = f"  harmonics: 4\n  torque: {t} N*m\n"
+        alone = run(whine("table1_consistent", one, kind="rattle"))
         assert_allclose(swept.p_rms.isel(torque=i).values, alone.p_rms.values, rtol=1e-13)
-        assert swept.gear_stiffness.values[i] == pytest.approx(
-            build_model(parse_study(whine("table1_consistent",
-                                          f"  harmonics: 4\n  torque: {t} N*m\n"))).stiffness)
+        model = build_model(parse_study(whine("table1_consistent", one, kind="rattle")))
+        assert swept.gear_stiffness.values[i] == pytest.approx(model.stiffness, rel=1e-14)
+        assert e1[i] == pytest.approx(model.ste_harmonics[0].amplitude, rel=1e-14)
 
 
-def test_gear_scene_refuses_a_stiffness_sweep_and_a_load_given_twice():
+def test_gear_scene_refuses_a_stiffness_sweep():
     text = whine("table1_consistent", "  torque: 50 N*m\n") + "  stiffness: [1 kN/mm, 2 kN/mm]\n"
-    with pytest.raises(StudyError, match=r"sweep.stiffness: a gear scene computes its stiffness"):
-        parse_study(text)
-    text = whine("table1_consistent", "  torque: 50 N*m\n") + "  torque: [10 N*m, 50 N*m]\n"
-    with pytest.raises(StudyError, match=r"give the gear's mean load once"):
+    with pytest.raises(StudyError, match=r"sweep.stiffness: .*a gear scene computes its stiffness"):
         parse_study(text)
 
 

@@ -31,9 +31,9 @@ def plot_work_precision(ax: Axes, ds: xr.Dataset, *, scene: str, cost: str = "wa
         if scene == "whine" and str(m).endswith("-kink"):
             continue  # no backlash: the kink-aware step is the plain one
         c, mk, ls = STYLES[str(m)]
-        order = float(sel.order.sel(method=m))
+        order = float(sel.order.sel({"method": m}))
         lab = f"{m}  (order {order:.2f})" if np.isfinite(order) else str(m)
-        x, e = sel[cost].sel(method=m).values, sel.trajectory_error.sel(method=m).values
+        x, e = sel[cost].sel({"method": m}).values, sel.trajectory_error.sel({"method": m}).values
         ax.loglog(x, e, color=c, marker=mk, ls=ls, label=lab)
         if label_steps and str(m) in ("rk4", "rk4-kink"):
             for spp, xi, yi in zip(sel.steps_per_period.values, x, e, strict=True):
@@ -63,9 +63,9 @@ def plot_method_stability(ax: Axes, ds: xr.Dataset, *, rig_zeta: float | None = 
     fig, ax = axes(ax)
     for i, m in enumerate(ds.method.values):
         color = f"C{i}"
-        ax.plot(ds.zeta_curve, ds.polynomial_limit.sel(method=m), color=color,
+        ax.plot(ds.zeta_curve, ds.polynomial_limit.sel({"method": m}), color=color,
                 label=f"{m}: stability polynomial, $|R(h\\lambda)| = 1$")
-        ax.plot(ds.zeta, ds.measured_limit.sel(method=m), "o", mfc="none", color=color,
+        ax.plot(ds.zeta, ds.measured_limit.sel({"method": m}), "o", mfc="none", color=color,
                 label=f"{m}: measured by integration ({ds.attrs['steps']} steps)")
     if rig_zeta is not None:
         ax.axvline(rig_zeta, color="0.5", ls=":", lw=1)

@@ -538,7 +538,11 @@ def _path_of(root: Any, target: Any, prefix: str = "") -> str | None:
 def load_yaml(text: str, file: str) -> Any:
     """The YAML text as Python objects with line marks; every way the loader can fail (syntax,
     tags, values it cannot construct, nesting, duplicate keys) raises one ``StudyError``."""
-    loader = _Loader(text)
+    try:
+        loader = _Loader(text)
+    except yaml.YAMLError as exc:  # the reader refuses the text itself (control characters)
+        raise StudyError(file, "(yaml)", NO_VALUE, f"not valid YAML text: {str(exc).splitlines()[0]}",
+                         1) from None
     try:
         raw = loader.get_single_data()
     except RecursionError:
