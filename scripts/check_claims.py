@@ -28,7 +28,8 @@ ROOT = Path(__file__).resolve().parent.parent
 KEYS = {"id", "doc", "quote", "value", "result", "expr", "abs", "rel", "note"}
 NUMBER = re.compile(r"[-+−]?\d[\d,]*(?:\.\d+)?(?:e[-+−]?\d+)?", re.IGNORECASE)
 SAFE_BUILTINS = {name: getattr(builtins, name)
-                 for name in ("abs", "bool", "float", "int", "len", "max", "min", "round", "sum")}
+                 for name in ("abs", "bool", "float", "int", "len", "max", "min", "round", "slice",
+                              "sum")}
 
 
 def numbers_in(text: str) -> list[float]:
