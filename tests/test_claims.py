@@ -30,7 +30,7 @@ def tiny(tmp_path):
 
 def _claim(**kw):
     base = dict(id="peak", quote="peaks at 200 rpm", value=200, result="results/tiny.nc",
-                expr="float(ds.speed[int(ds.p_rms.argmax())])", abs=0.5)
+                expr="float(ds.speed[int(ds.p_rms.argmax('speed'))])", abs=0.5)
     base.update(kw)
     return base
 
