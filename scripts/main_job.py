@@ -1,4 +1,6 @@
-"""The main job: run every study under studies/ (not its subfolders), then every figure script.
+"""The main job: run every study under studies/ (not its subfolders), then every figure script,
+then check that the figures docs/REPRODUCTION.md lists were written and that every number
+docs/claims.yaml lists is what its result gives (scripts/check_claims.py).
 
     python scripts/main_job.py [--results results] [--figures figures] [--only PATTERN]
 
