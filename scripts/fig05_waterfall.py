@@ -2,7 +2,10 @@
 
 Writes figures/fig05_waterfall.png (3-D waterfall: frequency x speed x amplitude) and
 figures/fig05_campbell.png (order/speed colour map with mesh orders 1-3 and f_n, and the order
-lines). Run from the repository root after ``gearsweep run studies/fig05_waterfall.yaml``:
+lines), and figures/fig05_order_sources.png: the order lines of the study and of its two variants
+with the STE off (studies/fig05_waterfall_no_ste.yaml) and the stiffness ripple off
+(studies/fig05_waterfall_no_ripple.yaml), which says where each order comes from. Run from the
+repository root after running the three studies:
 
     python scripts/fig05_waterfall.py [--results results] [--figures figures]
 """
@@ -50,6 +53,25 @@ def draw(ds: xr.Dataset, figures: Path, suffix: str = "") -> None:
     print(save(fig, figures / f"fig05_campbell{suffix}.png", dpi=150))
 
 
+def draw_sources(results: Path, figures: Path) -> None:
+    """fig05_order_sources.png: mesh orders 1-4 of the study and of its two variants."""
+    names = ("fig05_waterfall", "fig05_waterfall_no_ste", "fig05_waterfall_no_ripple")
+    sets = [open_result(results, n) for n in names]
+    fig, axs = plt.subplots(1, 3, figsize=(13.5, 4.4), sharey=True, layout="constrained")
+    for ax, ds, tag in zip(axs, sets, "abc", strict=True):
+        f_n = natural_frequency(ds)
+        teeth = int(round(float(ds.mesh_frequency[-1] / ds.speed[-1] * 60)))
+        plot_order_lines(ax, ds, orders=(1, 2, 3, 4), log=True)
+        for n in (1, 2, 3, 4):
+            ax.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
+        ax.set_ylim(1e-5, 30)
+        ax.set_title(f"({tag}) {ds.attrs['title']}", fontsize=8.5, loc="left")
+    fig.suptitle("Where the mesh orders of Fig. 5 come from; dotted: 60 f_n / (48 n). "
+                 "Order 4 of (c) is zero (below the axis)", fontsize=10)
+    print(save(fig, figures / "fig05_order_sources.png", dpi=150))
+
+
 if __name__ == "__main__":
     args = parse(__doc__.splitlines()[0])
     draw(open_result(args.results, "fig05_waterfall"), args.figures)
+    draw_sources(args.results, args.figures)

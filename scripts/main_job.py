@@ -1,4 +1,6 @@
-"""The main job: run every study under studies/ (not its subfolders), then every figure script.
+"""The main job: run every study under studies/ (not its subfolders), then every figure script,
+then check that the figures docs/REPRODUCTION.md lists were written and that every number
+docs/claims.yaml lists is what its result gives (scripts/check_claims.py).
 
     python scripts/main_job.py [--results results] [--figures figures] [--only PATTERN]
 
@@ -34,6 +36,19 @@ def check_reproduction(figures: Path, since: float) -> list[str]:
           + (f"NOT PRODUCED: {', '.join(missing)}" if missing else "all produced by this run"),
           flush=True)
     return [f"REPRODUCTION.md: {f}" for f in missing]
+
+
+def check_claims(results: Path) -> list[str]:
+    """Every number docs/claims.yaml lists must be what the result it cites gives."""
+    from check_claims import check_all, load_claims
+
+    claims = ROOT / "docs" / "claims.yaml"
+    failed = check_all(claims, results, ROOT)
+    for why in failed:
+        print(f"   FAIL {why}", flush=True)
+    print(f"== docs/claims.yaml: {len(load_claims(claims))} quoted numbers, "
+          + (f"{len(failed)} FAILED" if failed else "all hold"), flush=True)
+    return [f"claims: {why}" for why in failed]
 
 
 def main() -> int:
@@ -73,6 +88,7 @@ def main() -> int:
             print("     " + (r.stderr.strip().splitlines() or ["(no output)"])[-1], flush=True)
     if args.only == "*":
         failed += check_reproduction(args.figures, t_start)
+        failed += check_claims(args.results)
     print(f"== done in {time.perf_counter() - t_all:.1f} s; "
           + (f"FAILED: {', '.join(failed)}" if failed else "all ok"), flush=True)
     return 1 if failed else 0

@@ -27,7 +27,9 @@ from functools import cache
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import brentq
+
+from gearsweep.analysis.stability import step_limit_hw
+from gearsweep.kernels import tableaux
 
 CONSTANTS_FILE = Path(__file__).parent / "data" / "error_constants.json"
 SAFETY = 2.0
@@ -38,52 +40,24 @@ KINK_COST = 1.5
 """Wall time of a kink-aware step over a plain one on a rattle batch: 1.43-1.53 on benchmark B2
 (``scripts/bench_kink.py``, docs/precision.md); fewer crossings per step cost less."""
 
-_RK5_A = np.array([[0, 0, 0, 0, 0, 0],
-                   [1 / 4, 0, 0, 0, 0, 0],
-                   [1 / 8, 1 / 8, 0, 0, 0, 0],
-                   [0, -1 / 2, 1, 0, 0, 0],
-                   [3 / 16, 0, 0, 9 / 16, 0, 0],
-                   [-3 / 7, 2 / 7, 12 / 7, -12 / 7, 8 / 7, 0]])
-_RK5_B = np.array([7, 0, 32, 12, 32, 7]) / 90.0
-
 
 def stability_polynomial(method: str) -> np.ndarray:
     """Coefficients (ascending powers of z = h lambda) of the stability function R(z) of the
-    kernel's explicit method: sum_k b^T A^(k-1) 1 z^k (the kernel's own Butcher tableau for
-    RK5, whose z^6 coefficient is b^T A^5 1)."""
-    if method == "rk4":
-        return np.array([1, 1, 1 / 2, 1 / 6, 1 / 24])
-    if method == "rk5":
-        coef = [1.0]
-        v = np.ones(6)
-        for _ in range(6):
-            coef.append(float(_RK5_B @ v))
-            v = _RK5_A @ v
-        return np.array(coef)
-    raise ValueError(f"method must be 'rk4' or 'rk5', got {method!r}")
+    kernel's method, as floats (derived from its tableau in ``gearsweep.kernels.tableaux``)."""
+    if method not in tableaux.KERNEL_METHODS:
+        raise ValueError(f"method must be 'rk4' or 'rk5', got {method!r}")
+    return np.array([float(c) for c in tableaux.stability_polynomial(method)])
 
 
 @cache
 def stability_limit(method: str, zeta: float) -> float:
     """Largest h omega_n [1] for which |R(h lambda)| <= 1 along the eigenvalue ray
-    lambda / omega_n = -zeta + i sqrt(1 - zeta^2) (0 <= zeta < 1): the first crossing of 1."""
+    lambda / omega_n = -zeta + i sqrt(1 - zeta^2) (0 <= zeta < 1): the first crossing of 1
+    (``gearsweep.analysis.stability.step_limit_hw``, the one computation of it)."""
     if not 0.0 <= zeta < 1.0:
         raise ValueError(f"damping ratio must lie in [0, 1), got {zeta}")
-    coef = stability_polynomial(method)
-    d = complex(-zeta, math.sqrt(1.0 - zeta * zeta))
-
-    def g(x: float) -> float:
-        return abs(np.polynomial.polynomial.polyval(x * d, coef)) - 1.0
-
-    xs = np.linspace(1e-3, 6.0, 6000)
-    vals = np.array([g(x) for x in xs])
-    out = np.nonzero(vals > 0)[0]
-    if len(out) == 0:
-        return math.inf
-    k = out[0]
-    if k == 0:
-        return 0.0
-    return float(brentq(g, xs[k - 1], xs[k], xtol=1e-12))
+    stability_polynomial(method)  # the method check
+    return float(step_limit_hw(method, zeta))
 
 
 def load_constants(path: Path = CONSTANTS_FILE) -> dict:

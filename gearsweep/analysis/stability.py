@@ -8,7 +8,8 @@ y_n to R(z) y_n, z = h lambda, with
     R(z) = 1 + z b^T (I - z A)^{-1} 1 = 1 + sum_{k=0}^{s-1} (b^T A^k 1) z^(k+1)
 
 (A is strictly lower triangular, hence nilpotent, and the Neumann series stops after s terms).
-The coefficients are computed here exactly, in rational arithmetic, from the tableaux below:
+The coefficients are computed exactly, in rational arithmetic, from the tableaux of
+``gearsweep.kernels.tableaux`` (the one home of every method's coefficients):
 
 * RK4:  R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24.
 * RK5 (Butcher's six-stage method of ``gearsweep.kernels.rk``): the Taylor polynomial of e^z to
@@ -24,11 +25,17 @@ limit is the first r > 0 with |R(r e^{i theta})| = 1 (``ray_limit``). For an und
 (theta = pi/2):
 
 * RK4: |R(iy)|^2 = 1 - y^6/72 + y^8/576, stable for h omega_n <= 2 sqrt(2) = 2.828;
-* RK5: |R(iy)|^2 = 1 - y^6/2880 + y^8/1920 - 7 y^10/115200 + y^12/409600, which exceeds 1 from
-  h omega_n = 0.852 on: Butcher's method *amplifies* an undamped oscillation by a few parts in
-  1e5 per step at h omega_n = 1 and 3 % per step at 2. A little damping moves the limit out
-  (zeta = 0.1: 2.72; zeta = 0.5: 3.46), so for this method damping itself decides where a
-  fixed-step integration blows up.
+* RK5: |R(iy)|^2 = 1 - y^6/2880 + y^8/1920 - 7 y^10/115200 + y^12/409600. The y^6 term is
+  -2 (c6 - 1/720) with c6 = 1/640 the method's z^6 coefficient: because c6 exceeds e^z's 1/720,
+  the method *damps* an undamped oscillation slightly for small h omega_n. The y^8 term, there
+  because R is a polynomial of degree 6 and not e^z, is positive and overtakes it at
+  h omega_n = 0.852: from there on Butcher's method *amplifies* an undamped oscillation, by a
+  few parts in 1e5 per step at h omega_n = 1 and 3 % per step at 2. A little damping moves the
+  limit out (zeta = 0.1: 2.72; zeta = 0.5: 3.46), so for this method damping itself decides
+  where a fixed-step integration blows up. A fifth-order method with c6 < 1/720 (the
+  fifth-order weights of Fehlberg, c6 = 1/2080, and of Cash-Karp, 1/800) has a positive y^6 term
+  and amplifies an undamped oscillation at every step size
+  (``gearsweep.kernels.tableaux.imaginary_stability_interval`` = 0).
 
 For the mesh stiffness k(t) the frozen-coefficient argument uses the largest stiffness, k_max/m:
 the step must resolve the stiffest instant of the mesh cycle (``max_stable_step``, ``check_step``).
@@ -40,17 +47,20 @@ multiplier of the equation does not.
 from __future__ import annotations
 
 from fractions import Fraction as Fr
-from functools import cache
 
 import numpy as np
 
 from gearsweep.errors import GearsweepError
-from gearsweep.kernels import STATUS_DIVERGED, simulate
+from gearsweep.kernels import STATUS_DIVERGED, simulate, tableaux
 from gearsweep.kernels import floquet as fq
-from gearsweep.kernels.floquet import floquet, mathieu_parameters, paper_criterion
+from gearsweep.kernels.floquet import floquet, largest_multiplier, mathieu_parameters, paper_criterion
 
 __all__ = [
     "TABLEAUX",
+    "artifact_map",
+    "growth_criterion",
+    "reproduces_paper",
+    "tableau_monodromy",
     "UnstableStepError",
     "amplification",
     "check_step",
@@ -69,32 +79,10 @@ class UnstableStepError(GearsweepError):
     """The chosen method and steps per mesh period cannot integrate the case stably."""
 
 
-TABLEAUX: dict[str, tuple[tuple[tuple[Fr, ...], ...], tuple[Fr, ...]]] = {
-    "rk4": (
-        (
-            (),
-            (Fr(1, 2),),
-            (Fr(0), Fr(1, 2)),
-            (Fr(0), Fr(0), Fr(1)),
-        ),
-        (Fr(1, 6), Fr(1, 3), Fr(1, 3), Fr(1, 6)),
-    ),
-    "rk5": (
-        (
-            (),
-            (Fr(1, 4),),
-            (Fr(1, 8), Fr(1, 8)),
-            (Fr(0), Fr(-1, 2), Fr(1)),
-            (Fr(3, 16), Fr(0), Fr(0), Fr(9, 16)),
-            (Fr(-3, 7), Fr(2, 7), Fr(12, 7), Fr(-12, 7), Fr(8, 7)),
-        ),
-        (Fr(7, 90), Fr(0), Fr(32, 90), Fr(12, 90), Fr(32, 90), Fr(7, 90)),
-    ),
-}
-"""Butcher tableaux (strictly lower rows of A, weights b) of the kernel's methods, exactly as
-``gearsweep.kernels.rk`` implements them (tests check the kernel's one-step map against R(z))."""
+TABLEAUX = tableaux.TABLEAUX
+"""Butcher tableaux by name (``gearsweep.kernels.tableaux``: the one home of the coefficients)."""
 
-ORDER = {"rk4": 4, "rk5": 5}
+ORDER = {name: t.order for name, t in TABLEAUX.items()}
 """Order of accuracy of each method (for Richardson error estimates)."""
 
 
@@ -104,31 +92,20 @@ def _method(method: str) -> str:
     return method
 
 
-@cache
 def stability_polynomial(method: str) -> tuple[Fr, ...]:
     """Exact coefficients of R(z), lowest power first: ``R(z) = sum coef[k] z^k``.
 
     Parameters
     ----------
-    method : {"rk4", "rk5"}
+    method : str
+        A name in ``gearsweep.kernels.tableaux.TABLEAUX`` ("rk4", "rk5", "fehlberg5", ...).
 
     Returns
     -------
     tuple of Fraction
-        ``s + 1`` coefficients for an ``s``-stage method.
+        Up to ``s + 1`` coefficients for an ``s``-stage method (derived from the tableau).
     """
-    rows, b = TABLEAUX[_method(method)]
-    s = len(b)
-    A = [[Fr(0)] * s for _ in range(s)]
-    for i, row in enumerate(rows):
-        for j, a in enumerate(row):
-            A[i][j] = a
-    vec = [Fr(1)] * s  # A^k 1, starting with k = 0
-    coef = [Fr(1)]
-    for _ in range(s):
-        coef.append(sum((bi * vi for bi, vi in zip(b, vec, strict=True)), Fr(0)))
-        vec = [sum((A[i][j] * vec[j] for j in range(s)), Fr(0)) for i in range(s)]
-    return tuple(coef)
+    return tableaux.stability_polynomial(_method(method))
 
 
 def amplification(method: str, z) -> np.ndarray:
@@ -451,3 +428,155 @@ def operating_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teet
     return dict(alpha=alpha, beta=beta, gamma=gamma, floquet=fl, unstable=fl.unstable,
                 paper_coarse=coarse, paper_fine=fine, integrator_unstable=flag,
                 discrete_multiplier=disc, limit_speed=limit_speed)
+
+
+def tableau_monodromy(alpha, beta, gamma, steps_per_period: int, method: str,
+                      harmonics=None) -> np.ndarray:
+    """Monodromy matrices of the fixed-step map of ANY explicit tableau for the Hill equation.
+
+    The equation p'' + gamma p' + (alpha + beta s(tau)) p = 0 is linear, so one step of an
+    explicit Runge-Kutta method is a 2 x 2 matrix: with J_i = J(tau_n + c_i h) the stage
+    matrices are K_i = J_i (I + h sum_j a_ij K_j) and the step is I + h sum_i b_i K_i. Their
+    product over ``steps_per_period`` steps is the discrete monodromy matrix. This is the map that
+    the compiled kernel computes for ``rk4`` and ``rk5`` (tests check the two agree to
+    round-off); for the other tableaux of ``gearsweep.kernels.tableaux`` it is the only one.
+
+    Parameters
+    ----------
+    alpha, beta, gamma : array_like (broadcast to n)
+        Mathieu parameters [-].
+    steps_per_period : int
+        Steps per period 2 pi.
+    method : str
+        A name in ``gearsweep.kernels.tableaux.TABLEAUX``.
+    harmonics : (amplitudes, orders, phases), optional
+        s(tau) = sum r cos(n tau + a); default cos tau.
+
+    Returns
+    -------
+    ndarray (n, 2, 2)
+    """
+    A, b, c = TABLEAUX[_method(method)].arrays()
+    amps, orders, phases = harmonics if harmonics is not None else ((1.0,), (1,), (0.0,))
+    a_, b_, g_ = (np.ravel(x) for x in np.broadcast_arrays(
+        np.asarray(alpha, float), np.asarray(beta, float), np.asarray(gamma, float)))
+    n, S = a_.size, int(steps_per_period)
+    h = 2.0 * np.pi / S
+    eye = np.broadcast_to(np.eye(2), (n, 2, 2))
+    M = np.array(eye)
+    s_stages = len(b)
+    for step in range(S):
+        tau = (step + c) * h
+        shape = sum(r * np.cos(k * tau + ph) for r, k, ph in zip(amps, orders, phases,
+                                                                  strict=True))
+        K = []
+        for i in range(s_stages):
+            J = np.zeros((n, 2, 2))
+            J[:, 0, 1] = 1.0
+            J[:, 1, 0] = -(a_ + b_ * shape[i])
+            J[:, 1, 1] = -g_
+            Y = np.array(eye)
+            for j in range(i):
+                if A[i, j] != 0.0:
+                    Y = Y + (h * A[i, j]) * K[j]
+            K.append(J @ Y)
+        step_matrix = np.array(eye)
+        for i in range(s_stages):
+            if b[i] != 0.0:
+                step_matrix = step_matrix + (h * b[i]) * K[i]
+        with np.errstate(over="ignore", invalid="ignore"):
+            M = step_matrix @ M
+    return M
+
+
+def growth_criterion(M: np.ndarray, n_periods: int = 100, threshold: float = 1e3,
+                     perturbation: float = 1e-6) -> np.ndarray:
+    """The paper's test on a monodromy matrix: start at p = p' = ``perturbation`` and flag growth
+    of |p| past ``threshold * perturbation`` at the end of any of ``n_periods`` periods (or
+    overflow), as ``gearsweep.kernels.floquet.paper_criterion`` checks once per mesh period."""
+    y = np.full(M.shape[:-2] + (2,), float(perturbation))
+    bad = np.zeros(M.shape[:-2], bool)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for _ in range(int(n_periods)):
+            y = np.einsum("...ij,...j->...i", M, y)
+            bad |= ~(np.abs(y[..., 0]) <= threshold * perturbation)
+    return bad
+
+
+def artifact_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teeth: int,
+                 methods=tableaux.FIFTH_ORDER, steps_per_period=(100, 150, 200, 300, 400),
+                 n_periods: int = 100, threshold: float = 1e3) -> dict:
+    """The paper's criterion for several tableaux and fixed steps over speed x damping.
+
+    Parameters
+    ----------
+    speed_rpm : array_like (ns,)
+        Driving-gear speed [rpm] (mesh frequency = teeth x speed / 60).
+    damping : array_like (nc,)
+        Viscous mesh damping c [N s/m].
+    k0, k1, mass, teeth : float, float, float, int
+        Mean and first-harmonic stiffness [N/m], m_eq [kg], teeth of the driving gear.
+    methods : sequence of str
+        Tableaux (``gearsweep.kernels.tableaux``).
+    steps_per_period : sequence of int
+        Fixed steps per mesh period to try.
+    n_periods, threshold : int, float
+        The paper's criterion (growth ``threshold``-fold within ``n_periods`` periods).
+
+    Returns
+    -------
+    dict
+        ``flag`` (nm, nS, nc, ns) bool: the criterion reports instability; ``discrete_multiplier``
+        (nm, nS, nc, ns); ``edge_speed`` (nm, nS, nc): the highest flagged speed [rpm] (NaN if
+        none); ``real_interval``, ``imaginary_interval`` (nm,); ``zeta`` (nc,): damping ratio at
+        k0; ``step_limit_hw`` (nm, nc): the largest stable h omega_n at that zeta; and the inputs.
+    """
+    from gearsweep.kernels.floquet import mathieu_parameters
+    speed = np.asarray(speed_rpm, dtype=float)
+    c = np.asarray(damping, dtype=float)
+    S_, C_ = np.meshgrid(speed, c)
+    alpha, beta, gamma = mathieu_parameters(k0, k1, mass, C_, teeth * S_ / 60.0)
+    methods = tuple(methods)
+    spps = tuple(int(s) for s in steps_per_period)
+    flag = np.zeros((len(methods), len(spps)) + alpha.shape, bool)
+    disc = np.zeros(flag.shape)
+    for im, m in enumerate(methods):
+        for js, S in enumerate(spps):
+            M = tableau_monodromy(alpha, beta, gamma, S, m)
+            flag[im, js] = growth_criterion(M, n_periods, threshold).reshape(alpha.shape)
+            disc[im, js] = largest_multiplier(M).reshape(alpha.shape)
+    hi = np.where(flag, speed, -np.inf).max(axis=-1)
+    edge = np.where(np.isfinite(hi), hi, np.nan)
+    zeta = c / (2.0 * np.sqrt(k0 * mass))
+    return dict(flag=flag, discrete_multiplier=disc, edge_speed=edge, methods=methods,
+                steps_per_period=np.array(spps), speed=speed, damping=c, zeta=zeta,
+                real_interval=np.array([tableaux.real_stability_interval(m) for m in methods]),
+                imaginary_interval=np.array([tableaux.imaginary_stability_interval(m)
+                                             for m in methods]),
+                step_limit_hw=np.array([step_limit_hw(m, zeta) for m in methods]))
+
+
+def reproduces_paper(edge_speed: np.ndarray, damping: np.ndarray, *, c_paper: float = 5500.0,
+                     target_rpm: float = 200.0, rel: float = 0.25) -> np.ndarray:
+    """Whether a map has the shape of the paper's Fig. 7.2, per (method, step): an unstable
+    region at low speed without damping, an edge that does not grow with damping, and the edge
+    at the paper's damping ``c_paper`` within ``rel`` of ``target_rpm`` (the paper's "unstable
+    near 200 rpm").
+
+    Parameters
+    ----------
+    edge_speed : ndarray (..., nc)
+        Highest flagged speed per damping [rpm] (NaN: nothing flagged), ``artifact_map``'s.
+    damping : ndarray (nc,)
+        Damping values [N s/m], ascending.
+
+    Returns
+    -------
+    ndarray of bool (...)
+    """
+    e = np.where(np.isnan(edge_speed), 0.0, edge_speed)
+    has_region = e[..., 0] > 0
+    shrinks = np.all(np.diff(e, axis=-1) <= 1e-9, axis=-1)
+    i = int(np.argmin(np.abs(np.asarray(damping) - c_paper)))
+    near = np.abs(e[..., i] / target_rpm - 1.0) <= rel
+    return has_region & shrinks & near

@@ -11,6 +11,7 @@ from gearsweep.gear.geometry import (
     involute,
     table1_as_printed,
     table1_consistent,
+    table1_profile_shift,
 )
 from gearsweep.gear.mesh import (
     MeshCycle,
@@ -38,5 +39,6 @@ __all__ = [
     "pair_compliance",
     "table1_as_printed",
     "table1_consistent",
+    "table1_profile_shift",
     "tooth_compliance",
 ]

@@ -694,3 +694,34 @@ def table1_consistent() -> GearPair:
         fillet_radius=1.4224e-3, centre_distance=100e-3, backlash=0.5e-3,
         contact_ratio_range=(1.0, 2.0), name="Table 1 (consistent interpretation)",
     )  # fmt: skip
+
+
+def table1_profile_shift() -> GearPair:
+    """Table 1 read as a profile-shifted pair: the printed radii kept, the shifts taken from them.
+
+    The printed tip radii are r + m (1 + x) with x1 = (63.7 - 62.5) / 2.5 = 0.48 on the 48-tooth
+    gear and x2 = (43.8 - 42.5) / 2.5 = 0.52 on the 32-tooth pinion. With these shifts the pair
+    runs without backlash at the centre distance of ``inv(alpha_w)`` (102.31 mm, alpha_w =
+    23.30 deg); both teeth are thinned equally to give Table 1's 0.5 mm of circumferential
+    backlash there. Kept from the paper: m, z, 20 deg, b, tip radii 63.7 / 43.8 mm, root radii
+    57.7 / 37.8 mm (tip-root clearance 0.81 mm on both sides), backlash 0.5 mm, input torque.
+
+    Not reconciled: the printed fillet radius 1.4224 mm does not fit the tooth space at the root
+    circle of the thicker shifted teeth (``GearPair.check`` says so); 1.2 mm, the largest
+    0.05 mm step that fits both gears, is used. The printed 4 mm thickness "at the pitch circle"
+    is neither the reference-circle thickness (4.56 / 4.63 mm) nor the operating-pitch-circle
+    thickness (3.54 / 3.99 mm) of this pair; 4 + 4 + 0.5 mm exceeds the circular pitch at every
+    pitch circle of these radii (7.85 mm at 100 mm, 8.03 mm at 102.31 mm). docs/mesh.md compares
+    this reading with ``table1_consistent``. Steel, E = 206 GPa, nu = 0.3, as there.
+
+    Returns
+    -------
+    GearPair
+        A pair for which ``check()`` passes (contact ratio 1.58).
+    """
+    return GearPair(
+        module=2.5e-3, z1=48, z2=32, face_width=10e-3, pressure_angle=math.radians(20.0),
+        x1=0.48, x2=0.52, tip_radius1=63.7e-3, tip_radius2=43.8e-3, root_radius1=57.7e-3,
+        root_radius2=37.8e-3, fillet_radius=1.2e-3, backlash=0.5e-3,
+        contact_ratio_range=(1.0, 2.0), name="Table 1 (profile-shift reading)",
+    )  # fmt: skip

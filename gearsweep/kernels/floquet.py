@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gearsweep.errors import GearsweepError
-from gearsweep.kernels import rk
+from gearsweep.kernels import rk, tableaux
 from gearsweep.kernels.batch import simulate
 from gearsweep.kernels.tables import fourier_table
 
@@ -42,7 +42,8 @@ __all__ = [
     "paper_criterion",
 ]
 
-ORDER = {"rk4": 4, "rk5": 5}
+ORDER = {m: tableaux.get(m).order for m in tableaux.KERNEL_METHODS}
+"""Order of each kernel method (``gearsweep.kernels.tableaux``), for the Richardson estimate."""
 MATHIEU = ((1.0,), (1,), (0.0,))
 """Harmonics (relative amplitudes, orders, phases [rad]) of s(tau) for the Mathieu equation."""
 

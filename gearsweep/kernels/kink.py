@@ -111,6 +111,30 @@ from gearsweep.kernels.rk import (
     _KA,
     _KM,
     _NSUB,
+    _RK4_A21,
+    _RK4_A43,
+    _RK4_B1,
+    _RK4_B2,
+    _RK4_B3,
+    _RK4_B4,
+    _RK4_D,
+    _RK5_A21,
+    _RK5_A31,
+    _RK5_A32,
+    _RK5_A42,
+    _RK5_A43,
+    _RK5_A51,
+    _RK5_A54,
+    _RK5_B1,
+    _RK5_B3,
+    _RK5_B4,
+    _RK5_D,
+    _RK5_D6,
+    _RK5_N61,
+    _RK5_N62,
+    _RK5_N63,
+    _RK5_N64,
+    _RK5_N65,
     _V,
     _VO,
     _X,
@@ -255,26 +279,28 @@ def _substep(rk4, X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
     eta = tb - ta
     H = eta * h
     if rk4:
-        tm = ta + 0.5 * eta
+        tm = ta + _RK4_A21 * eta
         K1, G1 = _kg(P, ta, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
         K2, G2 = _kg(P, tm, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
         K3, G3 = _kg(P, tb, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
         k1v = G1 - c * V - K1 * sw * (X - sh)
         k1x = V
-        x2 = X + 0.5 * H * k1x
-        v2 = V + 0.5 * H * k1v
+        x2 = X + _RK4_A21 * H * k1x
+        v2 = V + _RK4_A21 * H * k1v
         k2v = G2 - c * v2 - K2 * sw * (x2 - sh)
         k2x = v2
-        x3 = X + 0.5 * H * k2x
-        v3 = V + 0.5 * H * k2v
+        x3 = X + _RK4_A21 * H * k2x
+        v3 = V + _RK4_A21 * H * k2v
         k3v = G2 - c * v3 - K2 * sw * (x3 - sh)
         k3x = v3
-        x4 = X + H * k3x
-        v4 = V + H * k3v
+        x4 = X + H * (_RK4_A43 * k3x)
+        v4 = V + H * (_RK4_A43 * k3v)
         k4v = G3 - c * v4 - K3 * sw * (x4 - sh)
         k4x = v4
-        return (X + H * (1.0 / 6.0) * (k1x + 2 * k2x + 2 * k3x + k4x),
-                V + H * (1.0 / 6.0) * (k1v + 2 * k2v + 2 * k3v + k4v))
+        return (X + H * (1.0 / _RK4_D) * (_RK4_B1 * k1x + _RK4_B2 * k2x + _RK4_B3 * k3x
+                                          + _RK4_B4 * k4x),
+                V + H * (1.0 / _RK4_D) * (_RK4_B1 * k1v + _RK4_B2 * k2v + _RK4_B3 * k3v
+                                          + _RK4_B4 * k4v))
     K1, G1 = _kg(P, ta, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
     K2, G2 = _kg(P, ta + 0.25 * eta, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
     K4, G4 = _kg(P, ta + 0.5 * eta, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
@@ -282,28 +308,30 @@ def _substep(rk4, X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
     K6, G6 = _kg(P, tb, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
     a1 = V
     b1 = G1 - c * V - K1 * sw * (X - sh)
-    x2 = X + H * (0.25 * a1)
-    v2 = V + H * (0.25 * b1)
+    x2 = X + H * (_RK5_A21 * a1)
+    v2 = V + H * (_RK5_A21 * b1)
     a2 = v2
     b2 = G2 - c * v2 - K2 * sw * (x2 - sh)
-    x3 = X + H * (0.125 * a1 + 0.125 * a2)
-    v3 = V + H * (0.125 * b1 + 0.125 * b2)
+    x3 = X + H * (_RK5_A31 * a1 + _RK5_A32 * a2)
+    v3 = V + H * (_RK5_A31 * b1 + _RK5_A32 * b2)
     a3 = v3
     b3 = G2 - c * v3 - K2 * sw * (x3 - sh)
-    x4 = X + H * (-0.5 * a2 + a3)
-    v4 = V + H * (-0.5 * b2 + b3)
+    x4 = X + H * (_RK5_A42 * a2 + _RK5_A43 * a3)
+    v4 = V + H * (_RK5_A42 * b2 + _RK5_A43 * b3)
     a4 = v4
     b4 = G4 - c * v4 - K4 * sw * (x4 - sh)
-    x5 = X + H * (0.1875 * a1 + 0.5625 * a4)
-    v5 = V + H * (0.1875 * b1 + 0.5625 * b4)
+    x5 = X + H * (_RK5_A51 * a1 + _RK5_A54 * a4)
+    v5 = V + H * (_RK5_A51 * b1 + _RK5_A54 * b4)
     a5 = v5
     b5 = G5 - c * v5 - K5 * sw * (x5 - sh)
-    x6 = X + H * (-3.0 * a1 + 2.0 * a2 + 12.0 * a3 - 12.0 * a4 + 8.0 * a5) * (1.0 / 7.0)
-    v6 = V + H * (-3.0 * b1 + 2.0 * b2 + 12.0 * b3 - 12.0 * b4 + 8.0 * b5) * (1.0 / 7.0)
+    x6 = X + H * (_RK5_N61 * a1 + _RK5_N62 * a2 + _RK5_N63 * a3 + _RK5_N64 * a4
+                  + _RK5_N65 * a5) * (1.0 / _RK5_D6)
+    v6 = V + H * (_RK5_N61 * b1 + _RK5_N62 * b2 + _RK5_N63 * b3 + _RK5_N64 * b4
+                  + _RK5_N65 * b5) * (1.0 / _RK5_D6)
     a6 = v6
     b6 = G6 - c * v6 - K6 * sw * (x6 - sh)
-    return (X + H * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) * (1.0 / 90.0),
-            V + H * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) * (1.0 / 90.0))
+    return (X + H * (_RK5_B1 * (a1 + a6) + _RK5_B3 * (a3 + a5) + _RK5_B4 * a4) * (1.0 / _RK5_D),
+            V + H * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5) + _RK5_B4 * b4) * (1.0 / _RK5_D))
 
 
 @jit_inline

@@ -36,6 +36,7 @@ import numpy as np
 from numba import prange
 
 from gearsweep.jit import jit_inline, jit_parallel
+from gearsweep.kernels import tableaux
 
 LANES = 32
 """Cases advanced together in one vectorised block (four AVX-512 or eight AVX2 registers). 64
@@ -47,6 +48,51 @@ NODES = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 RK4 = 4
 RK5 = 5
+
+
+def _unrolled_constants():
+    """The coefficients of the unrolled RK4 and RK5 steps, taken from ``tableaux`` (the one home
+    of the coefficients; Numba freezes these module globals into the compiled code as literals).
+
+    The unrolled arithmetic below skips the tableaux' zero entries and, for RK5, uses the
+    symmetry of Butcher's weights (b1 = b6, b3 = b5): checked here, so a change of tableau that
+    the unrolled code cannot represent fails at import instead of integrating something else."""
+    t4, t5 = tableaux.get("rk4"), tableaux.get("rk5")
+    A4, A5, b4, b5 = t4.A, t5.A, t4.b, t5.b
+
+    def zeros(A, keep):
+        return all(A[i][j] == 0 for i in range(len(A)) for j in range(i) if (i, j) not in keep)
+
+    ok = (zeros(A4, {(1, 0), (2, 1), (3, 2)}) and A4[1][0] == A4[2][1] and A4[3][2] == 1
+          and t4.c == tuple(float(x) for x in (0.0, 0.5, 0.5, 1.0))
+          and zeros(A5, {(1, 0), (2, 0), (2, 1), (3, 1), (3, 2), (4, 0), (4, 3), (5, 0), (5, 1),
+                         (5, 2), (5, 3), (5, 4)})
+          and b5[1] == 0 and b5[0] == b5[5] and b5[2] == b5[4]
+          and tuple(float(x) for x in t5.c) == (0.0, 0.25, 0.25, 0.5, 0.75, 1.0))
+    if not ok:
+        raise RuntimeError("the unrolled RK4/RK5 steps do not match gearsweep.kernels.tableaux")
+    n4, d4 = tableaux.integer_rows(b4)
+    n6, d6 = tableaux.integer_rows(A5[5][:5])
+    nb, db = tableaux.integer_rows(b5)
+    f = float
+    return dict(
+        RK4_A21=f(A4[1][0]), RK4_A43=f(A4[3][2]), RK4_B=n4, RK4_D=d4,
+        RK5_A21=f(A5[1][0]), RK5_A31=f(A5[2][0]), RK5_A32=f(A5[2][1]), RK5_A42=f(A5[3][1]),
+        RK5_A43=f(A5[3][2]), RK5_A51=f(A5[4][0]), RK5_A54=f(A5[4][3]), RK5_N6=n6, RK5_D6=d6,
+        RK5_B=nb, RK5_D=db)
+
+
+_K = _unrolled_constants()
+# RK4: a21 = a32 (the half step), a43, weights b = (b1, b2, b3, b4) / d (integers over 6).
+_RK4_A21, _RK4_A43, _RK4_D = _K["RK4_A21"], _K["RK4_A43"], _K["RK4_D"]
+_RK4_B1, _RK4_B2, _RK4_B3, _RK4_B4 = _K["RK4_B"]
+# RK5 (Butcher): rows 2-5 of A as they stand; row 6 and the weights as integers over 7 and 90.
+_RK5_A21, _RK5_A31, _RK5_A32 = _K["RK5_A21"], _K["RK5_A31"], _K["RK5_A32"]
+_RK5_A42, _RK5_A43, _RK5_A51, _RK5_A54 = _K["RK5_A42"], _K["RK5_A43"], _K["RK5_A51"], _K["RK5_A54"]
+_RK5_N61, _RK5_N62, _RK5_N63, _RK5_N64, _RK5_N65 = _K["RK5_N6"]
+_RK5_D6 = _K["RK5_D6"]
+_RK5_B1, _, _RK5_B3, _RK5_B4, _, _ = _K["RK5_B"]
+_RK5_D = _K["RK5_D"]
 METHODS = {"rk4": RK4, "rk5": RK5}
 STAGES = {RK4: 4, RK5: 6}
 
@@ -235,13 +281,15 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         v3 = V + q2 * k2v
         k3x = v3
         k3v = Gb - c * v3 - Kb * _stage_spring(x3, b, half_gap, kink, on, sh)
-        x4 = X + hh * k3x
-        v4 = V + hh * k3v
+        x4 = X + hh * (_RK4_A43 * k3x)
+        v4 = V + hh * (_RK4_A43 * k3v)
         k4x = v4
         k4v = Gc - c * v4 - Kc * _stage_spring(x4, b, half_gap, kink, on, sh)
-        Xn = X + w[o + _H6 * LANES + l] * (k1x + 2 * k2x + 2 * k3x + k4x)
+        Xn = X + w[o + _H6 * LANES + l] * (_RK4_B1 * k1x + _RK4_B2 * k2x + _RK4_B3 * k3x
+                                           + _RK4_B4 * k4x)
         w[o + _X * LANES + l] = Xn
-        w[o + _V * LANES + l] = V + w[o + _H6 * LANES + l] * (k1v + 2 * k2v + 2 * k3v + k4v)
+        w[o + _V * LANES + l] = V + w[o + _H6 * LANES + l] * (
+            _RK4_B1 * k1v + _RK4_B2 * k2v + _RK4_B3 * k3v + _RK4_B4 * k4v)
         mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec, kink)
     return mask
 
@@ -277,33 +325,36 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         a1 = V
         b1 = G0 - c * V - K0 * _stage_spring(X, b, half_gap, kink, on, sh)
         # stage 2, c = 1/4
-        x2 = X + h * (0.25 * a1)
-        v2 = V + h * (0.25 * b1)
+        x2 = X + h * (_RK5_A21 * a1)
+        v2 = V + h * (_RK5_A21 * b1)
         a2 = v2
         b2 = G1 - c * v2 - K1 * _stage_spring(x2, b, half_gap, kink, on, sh)
         # stage 3, c = 1/4
-        x3 = X + h * (0.125 * a1 + 0.125 * a2)
-        v3 = V + h * (0.125 * b1 + 0.125 * b2)
+        x3 = X + h * (_RK5_A31 * a1 + _RK5_A32 * a2)
+        v3 = V + h * (_RK5_A31 * b1 + _RK5_A32 * b2)
         a3 = v3
         b3 = G1 - c * v3 - K1 * _stage_spring(x3, b, half_gap, kink, on, sh)
         # stage 4, c = 1/2
-        x4 = X + h * (-0.5 * a2 + a3)
-        v4 = V + h * (-0.5 * b2 + b3)
+        x4 = X + h * (_RK5_A42 * a2 + _RK5_A43 * a3)
+        v4 = V + h * (_RK5_A42 * b2 + _RK5_A43 * b3)
         a4 = v4
         b4 = G2 - c * v4 - K2 * _stage_spring(x4, b, half_gap, kink, on, sh)
         # stage 5, c = 3/4
-        x5 = X + h * (0.1875 * a1 + 0.5625 * a4)
-        v5 = V + h * (0.1875 * b1 + 0.5625 * b4)
+        x5 = X + h * (_RK5_A51 * a1 + _RK5_A54 * a4)
+        v5 = V + h * (_RK5_A51 * b1 + _RK5_A54 * b4)
         a5 = v5
         b5 = G3 - c * v5 - K3 * _stage_spring(x5, b, half_gap, kink, on, sh)
         # stage 6, c = 1
-        x6 = X + h * (-3.0 * a1 + 2.0 * a2 + 12.0 * a3 - 12.0 * a4 + 8.0 * a5) / 7.0
-        v6 = V + h * (-3.0 * b1 + 2.0 * b2 + 12.0 * b3 - 12.0 * b4 + 8.0 * b5) / 7.0
+        x6 = X + h * (_RK5_N61 * a1 + _RK5_N62 * a2 + _RK5_N63 * a3 + _RK5_N64 * a4
+                      + _RK5_N65 * a5) / _RK5_D6
+        v6 = V + h * (_RK5_N61 * b1 + _RK5_N62 * b2 + _RK5_N63 * b3 + _RK5_N64 * b4
+                      + _RK5_N65 * b5) / _RK5_D6
         a6 = v6
         b6 = G4 - c * v6 - K4 * _stage_spring(x6, b, half_gap, kink, on, sh)
-        Xn = X + h * (7.0 * (a1 + a6) + 32.0 * (a3 + a5) + 12.0 * a4) / 90.0
+        Xn = X + h * (_RK5_B1 * (a1 + a6) + _RK5_B3 * (a3 + a5) + _RK5_B4 * a4) / _RK5_D
         w[o + _X * LANES + l] = Xn
-        w[o + _V * LANES + l] = V + h * (7.0 * (b1 + b6) + 32.0 * (b3 + b5) + 12.0 * b4) / 90.0
+        w[o + _V * LANES + l] = V + h * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5)
+                                         + _RK5_B4 * b4) / _RK5_D
         mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec, kink)
     return mask
 
@@ -421,8 +472,8 @@ def _load(w, o, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, boun
         w[o + _X * LANES + l] = x0[i]
         w[o + _V * LANES + l] = v0[i]
         w[o + _H * LANES + l] = h[i]
-        w[o + _H2 * LANES + l] = 0.5 * h[i]
-        w[o + _H6 * LANES + l] = h[i] / 6
+        w[o + _H2 * LANES + l] = _RK4_A21 * h[i]
+        w[o + _H6 * LANES + l] = h[i] / _RK4_D
         w[o + _C * LANES + l] = cm[i]
         w[o + _KM * LANES + l] = kmean[i]
         w[o + _KA * LANES + l] = kamp[i] if kamp is not None else 1.0

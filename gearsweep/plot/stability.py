@@ -197,7 +197,7 @@ def plot_stability_regions(methods: dict[str, np.ndarray], ax: Axes | None = Non
     x = np.linspace(-extent, 1.0, 500)
     y = np.linspace(0.0, extent, 400)
     Z = x[None, :] + 1j * y[:, None]
-    colors = ["C0", "C1", "C2"]
+    colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
     handles = []
     for (name, coef), col in zip(methods.items(), colors, strict=False):
         R = np.zeros_like(Z)
@@ -248,3 +248,35 @@ def plot_step_limits(zeta_curve: np.ndarray, predicted: dict[str, np.ndarray],
     ax.legend(fontsize=7, loc="lower right")
     ax.set_title("step limit of the fixed-step methods", fontsize=9)
     return fig
+
+
+def plot_artifact_edges(ax: Axes, steps_per_period: np.ndarray, edge: dict[str, np.ndarray],
+                        *, target_rpm: float = 200.0, rel: float = 0.25,
+                        label: str = "") -> Figure:
+    """Edge of the fixed-step criterion's "unstable region" against the step, one line per method.
+
+    Parameters
+    ----------
+    ax : Axes
+    steps_per_period : ndarray (nS,)
+        Fixed steps per mesh period [-].
+    edge : dict name -> ndarray (nS,)
+        Highest speed [rpm] the criterion flags at that step (NaN: nothing flagged).
+    target_rpm, rel : float
+        The paper's claim (instability near ``target_rpm``), drawn as a band of +-``rel``.
+    label : str
+        What the edge is (e.g. the damping), for the title.
+    """
+    ax.axhspan(target_rpm * (1 - rel), target_rpm * (1 + rel), color="0.85", lw=0,
+               label=f"{target_rpm:g} rpm +- {rel:.0%} (paper)")
+    for i, (name, e) in enumerate(edge.items()):
+        ax.plot(steps_per_period, e, "osD^v"[i % 5] + "-", color=f"C{i}", ms=4 + i, mfc="none",
+                lw=1.0, label=name)
+    ax.set_xlabel("fixed steps per mesh period [-]")
+    ax.set_ylabel("highest speed flagged unstable [rpm]")
+    ax.set_yscale("log")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    if label:
+        ax.set_title(label, fontsize=9)
+    return ax.figure

@@ -1,0 +1,130 @@
+"""Check every number that the docs quote against the result it cites (docs/claims.yaml).
+
+    python scripts/check_claims.py [--claims docs/claims.yaml] [--results results] [--root .]
+
+Each claim names a quote (text that must appear verbatim in its doc), the number as quoted, the
+result file that produces it and an expression that computes the number from that result; the
+check fails when the quote is missing from the doc, the quote does not contain the number, the
+result file is missing, or the expression's value differs from the quoted number by more than the
+tolerance. The format is written at the top of docs/claims.yaml. The main job
+(scripts/main_job.py) runs this after the studies and figure scripts; tests/test_claims.py checks
+the checker on a tiny synthetic Dataset.
+"""
+
+from __future__ import annotations
+
+import argparse
+import builtins
+import math
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+KEYS = {"id", "doc", "quote", "value", "result", "expr", "abs", "rel", "note"}
+NUMBER = re.compile(r"[-+−]?\d[\d,]*(?:\.\d+)?(?:e[-+−]?\d+)?", re.IGNORECASE)
+SAFE_BUILTINS = {name: getattr(builtins, name)
+                 for name in ("abs", "bool", "float", "int", "len", "max", "min", "round", "slice",
+                              "sum")}
+
+
+def numbers_in(text: str) -> list[float]:
+    """The numbers written in ``text`` ("1,265" -> 1265, "−3.2e-9" -> -3.2e-9)."""
+    out = []
+    for tok in NUMBER.findall(text):
+        try:
+            out.append(float(tok.replace(",", "").replace("−", "-")))
+        except ValueError:
+            continue
+    return out
+
+
+def evaluate(expr: str, ds: xr.Dataset) -> float:
+    """Value of ``expr`` over the Dataset ``ds`` (names: ds, np, math; a few builtins)."""
+    value = eval(expr, {"__builtins__": SAFE_BUILTINS, "np": np, "math": math},  # noqa: S307
+                 {"ds": ds})
+    return float(np.asarray(value))
+
+
+def check_claim(claim: dict, *, root: Path, results: Path, cache: dict | None = None,
+                docs: dict | None = None) -> str | None:
+    """None if the claim holds, else a one-line reason."""
+    cache = {} if cache is None else cache
+    docs = {} if docs is None else docs
+    cid = claim.get("id", claim.get("quote", "?"))
+    unknown = set(claim) - KEYS
+    if unknown:
+        return f"{cid}: unknown keys {sorted(unknown)}"
+    for key in ("quote", "value", "result", "expr"):
+        if key not in claim:
+            return f"{cid}: missing '{key}'"
+    doc = root / claim.get("doc", "docs/REPRODUCTION.md")
+    if doc not in docs:
+        docs[doc] = doc.read_text(encoding="utf-8") if doc.exists() else None
+    if docs[doc] is None:
+        return f"{cid}: doc {doc} not found"
+    quote, value = str(claim["quote"]), float(claim["value"])
+    if quote not in docs[doc]:
+        return f"{cid}: quote not in {doc.name}: {quote!r}"
+    if not any(math.isclose(x, value, rel_tol=1e-12, abs_tol=0.0) for x in numbers_in(quote)):
+        return f"{cid}: the quote {quote!r} does not contain the value {value:g}"
+    name = str(claim["result"])
+    path = results / Path(name).name if name.startswith("results/") else results / name
+    if path not in cache:
+        cache[path] = xr.open_dataset(path).load() if path.exists() else None
+    ds = cache[path]
+    if ds is None:
+        return f"{cid}: result {path} not found"
+    try:
+        got = evaluate(str(claim["expr"]), ds)
+    except Exception as exc:  # noqa: BLE001  any failure of the expression is a failed claim
+        return f"{cid}: expression {claim['expr']!r} failed: {type(exc).__name__}: {exc}"
+    tol = float(claim.get("abs", 0.0)) + float(claim.get("rel", 0.0)) * abs(value)
+    if not (abs(got - value) <= tol):
+        return (f"{cid}: {name} gives {got:.6g} for {claim['expr']!r}, the doc quotes "
+                f"{value:g} (tolerance {tol:.3g})")
+    return None
+
+
+def load_claims(path: Path) -> list[dict]:
+    """The claims of a claims file (a YAML list under ``claims:``)."""
+    data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    claims = data.get("claims") or []
+    if not isinstance(claims, list) or not all(isinstance(c, dict) for c in claims):
+        raise ValueError(f"{path}: 'claims' must be a list of mappings")
+    return claims
+
+
+def check_all(claims_file: Path, results: Path, root: Path = ROOT) -> list[str]:
+    """The reasons of every failed claim (empty: all hold)."""
+    cache: dict = {}
+    docs: dict = {}
+    out = []
+    for claim in load_claims(claims_file):
+        why = check_claim(claim, root=root, results=results, cache=cache, docs=docs)
+        if why:
+            out.append(why)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--claims", type=Path, default=ROOT / "docs" / "claims.yaml")
+    p.add_argument("--results", type=Path, default=ROOT / "results")
+    p.add_argument("--root", type=Path, default=ROOT)
+    args = p.parse_args(argv)
+    n = len(load_claims(args.claims))
+    failed = check_all(args.claims, args.results, args.root)
+    for why in failed:
+        print(f"   FAIL {why}")
+    print(f"== {n} quoted numbers checked against results: "
+          + (f"{len(failed)} FAILED" if failed else "all hold"), flush=True)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

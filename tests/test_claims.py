@@ -1,0 +1,83 @@
+"""The doc-number checker (scripts/check_claims.py) on a tiny synthetic result, and the shape of
+docs/claims.yaml. The real check against results/ runs in the main job."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+ROOT = Path(__file__).resolve().parent.parent
+_spec = importlib.util.spec_from_file_location("check_claims", ROOT / "scripts" / "check_claims.py")
+cc = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(cc)
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    ds = xr.Dataset({"p_rms": ("speed", np.array([1.0, 3.0, 2.0]))},
+                    coords={"speed": [100.0, 200.0, 300.0]})
+    (tmp_path / "results").mkdir()
+    ds.to_netcdf(tmp_path / "results" / "tiny.nc")
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "REPRODUCTION.md").write_text(
+        "The response peaks at 200 rpm with an rms of 3.0 um; 1,265 cases.\n")
+    return tmp_path
+
+
+def _claim(**kw):
+    base = dict(id="peak", quote="peaks at 200 rpm", value=200, result="results/tiny.nc",
+                expr="float(ds.speed[int(ds.p_rms.argmax('speed'))])", abs=0.5)
+    base.update(kw)
+    return base
+
+
+def check(root, **kw):
+    return cc.check_claim(_claim(**kw), root=root, results=root / "results")
+
+
+def test_checker_passes_a_true_claim(tiny):
+    assert check(tiny) is None
+    assert check(tiny, quote="1,265 cases", value=1265, expr="1265.0", abs=0) is None
+
+
+@pytest.mark.parametrize("change, reason", [
+    (dict(value=300, quote="peaks at 200 rpm"), "does not contain"),   # value not in the quote
+    (dict(quote="peaks at 250 rpm", value=250), "quote not in"),       # doc says otherwise
+    (dict(expr="float(ds.speed.max())"), "gives 300"),                 # result disagrees
+    (dict(result="results/missing.nc"), "not found"),                  # result not produced
+    (dict(expr="ds.nonexistent"), "failed"),                           # broken expression
+    (dict(abs=0, expr="200.4"), "gives 200.4"),                        # outside the tolerance
+    (dict(unit="rpm"), "unknown keys"),                                # typo in a key
+])
+def test_checker_fails_a_false_claim(tiny, change, reason):
+    why = check(tiny, **change)
+    assert why is not None and reason in why
+
+
+def test_relative_tolerance(tiny):
+    assert check(tiny, expr="201.0", abs=0, rel=0.01) is None
+    assert check(tiny, expr="203.0", abs=0, rel=0.01) is not None
+
+
+def test_claims_file_is_well_formed():
+    """Every claim of docs/claims.yaml has the keys, its quote is in its doc and contains its
+    value, and its result is written by a study of studies/ or named as a script's output."""
+    claims = cc.load_claims(ROOT / "docs" / "claims.yaml")
+    assert claims, "docs/claims.yaml has no claims"
+    studies = {p.stem for p in (ROOT / "studies").glob("*.yaml")}
+    scripts = "".join(p.read_text() for p in (ROOT / "scripts").glob("fig*.py"))
+    ids = [c["id"] for c in claims]
+    assert len(ids) == len(set(ids)), "claim ids must be unique"
+    for c in claims:
+        assert not set(c) - cc.KEYS, c
+        doc = (ROOT / c.get("doc", "docs/REPRODUCTION.md")).read_text(encoding="utf-8")
+        assert c["quote"] in doc, c["id"]
+        assert any(np.isclose(x, float(c["value"]), rtol=1e-12, atol=0)
+                   for x in cc.numbers_in(c["quote"])), c["id"]
+        stem = Path(c["result"]).stem
+        assert stem in studies or f'"{stem}.nc"' in scripts or f"{stem}.nc" in scripts, c["id"]
+        assert "abs" in c or "rel" in c, f"{c['id']}: give a tolerance"
