@@ -3,11 +3,9 @@ Fig. 7.2 artifact map for four fifth-order Runge-Kutta methods, and the integrat
 
     python scripts/fig_stability.py [--results results] [--figures figures] [--only ...]
 
-Figs. 7.1 and 7.2 draw from the results of studies/strutt_mathieu.yaml, stability_rig.yaml and
-stability_rig_fine.yaml. Two figures still compute (stop-gaps, to move into study outputs):
-``fig7_2_methods.png`` calls ``gearsweep.analysis.stability.artifact_map`` for the four tableaux
-(and writes what it computed to ``results/stability_artifact_map.nc``, which docs/claims.yaml
-cites), and ``stability_step_limits.png`` bisects the integrators' step limits.
+Every figure draws study results: studies/strutt_mathieu.yaml, stability_rig.yaml and
+stability_rig_fine.yaml (Figs. 7.1, 7.2), stability_artifact_map.yaml (the four tableaux) and
+method_stability.yaml (the integrators' step limits). Nothing is computed here.
 """
 
 from __future__ import annotations
@@ -20,8 +18,6 @@ import numpy as np
 import xarray as xr
 import yaml
 
-from gearsweep.analysis import stability as st
-from gearsweep.kernels import tableaux
 from gearsweep.plot.common import save
 from gearsweep.plot.stability import (
     plot_artifact_edges,
@@ -34,11 +30,9 @@ from gearsweep.plot.stability import (
 p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 p.add_argument("--figures", type=Path, default=Path("figures"))
 p.add_argument("--results", type=Path, default=Path("results"))
-p.add_argument("--quick", action="store_true", help="coarser step-limit bisection (smoke run)")
 p.add_argument("--only", nargs="*", default=["7.1", "7.2", "methods", "steps"],
                help="figures to make")
 args = p.parse_args()
-q = 4 if args.quick else 1
 
 
 def _open(name: str) -> xr.Dataset:
@@ -129,41 +123,12 @@ def fig72() -> None:
 
 
 def fig72_methods() -> None:
-    """Stop-gap (to move into a study output): the artifact map for four fifth-order tableaux,
-    on the grid and rig of studies/stability_rig.yaml."""
-    from gearsweep.study.runner import build_model  # the rig as the study resolved it (SI)
-    from gearsweep.study.schema import parse_study
-
-    rig = _open("stability_rig")
-    model = build_model(parse_study(rig.attrs["study"]))
-    k0, k1 = model.stiffness, model.stiffness_harmonics[0].amplitude
-    mass, teeth = model.mass, model.teeth
-    speed, damping = rig.speed.values, rig.damping.values
-    spps = np.arange(100, 421, 20)
-    am = st.artifact_map(speed, damping, k0=k0, k1=k1, mass=mass, teeth=teeth,
-                         steps_per_period=spps)
-    ok = st.reproduces_paper(am["edge_speed"], damping)
-    methods = am["methods"]
-    out = xr.Dataset(
-        {"flag": (("method", "steps_per_period", "damping", "speed"), am["flag"]),
-         "discrete_multiplier": (("method", "steps_per_period", "damping", "speed"),
-                                 am["discrete_multiplier"]),
-         "edge_speed": (("method", "steps_per_period", "damping"), am["edge_speed"],
-                        {"units": "rpm", "long_name": "highest speed the criterion flags"}),
-         "reproduces_paper": (("method", "steps_per_period"), ok),
-         "real_interval": ("method", am["real_interval"]),
-         "imaginary_interval": ("method", am["imaginary_interval"]),
-         "step_limit_hw": (("method", "damping"), am["step_limit_hw"]),
-         "zeta": ("damping", am["zeta"])},
-        coords={"method": list(methods), "steps_per_period": spps, "damping": damping,
-                "speed": speed},
-        attrs={"title": "Fig. 7.2 artifact map for four fifth-order Runge-Kutta tableaux",
-               "source": "scripts/fig_stability.py (stop-gap: analysis.stability.artifact_map)",
-               "criterion": "growth 1e3-fold within 100 mesh periods from p = p' = 1e-6"})
-    args.results.mkdir(parents=True, exist_ok=True)
-    out.to_netcdf(args.results / "stability_artifact_map.nc")
+    """Fig. 7.2 with four fifth-order tableaux, from results/stability_artifact_map.nc."""
+    out = _open("stability_artifact_map")
+    methods = [str(m) for m in out.method.values]
+    spps, damping, speed = out.steps_per_period.values, out.damping.values, out.speed.values
     for m in methods:
-        good = spps[out.reproduces_paper.loc[m].values]
+        good = spps[out.reproduces_paper.loc[m].values.astype(bool)]
         print(f"  {m}: real interval {float(out.real_interval.loc[m]):.4f}, imaginary "
               f"{float(out.imaginary_interval.loc[m]):.4f}; reproduces the paper's shape "
               f"for S = {list(good)}")
@@ -173,7 +138,8 @@ def fig72_methods() -> None:
     ax0 = fig.add_subplot(gs[0, 0:2])
     plot_stability_regions({f"{m} (real {out.real_interval.loc[m].item():.2f}, imag "
                             f"{out.imaginary_interval.loc[m].item():.2f})":
-                            st.stability_polynomial(m) for m in methods}, ax=ax0, extent=4.2)
+                            out.stability_polynomial.loc[m].values for m in methods}, ax=ax0,
+                           extent=4.2)
     ax1 = fig.add_subplot(gs[0, 2:4])
     i55 = int(np.argmin(np.abs(damping - 5500.0)))
     plot_artifact_edges(ax1, spps, {m: out.edge_speed.loc[m].isel(damping=i55).values
@@ -198,19 +164,22 @@ def fig72_methods() -> None:
 
 
 def fig_steps() -> None:
-    """Stop-gap: step limits measured by integration (bisection) against the polynomial."""
-    zc = np.linspace(0.0, 1.6, 321)
-    zp = np.array([0.0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 0.95, 1.2, 1.6])
-    kernel = tableaux.KERNEL_METHODS
-    pred = {m.upper(): st.step_limit_hw(m, zc) for m in kernel}
-    meas = {m.upper(): st.measured_step_limit(m, zp, n_steps=4_000_000 // q) for m in kernel}
-    for m in kernel:
-        ratio = meas[m.upper()] / st.step_limit_hw(m, zp) - 1
+    """Step limits measured by integration (bisection) against the polynomial, from
+    results/method_stability.nc."""
+    ds = _open("method_stability")
+    methods = [str(m) for m in ds.method.values]
+    zp = ds.zeta.values
+    for m in methods:
+        meas = ds.measured_limit.loc[m].values
+        pred = np.interp(zp, ds.zeta_curve.values, ds.polynomial_limit.loc[m].values)
         print(f"  {m}: measured / predicted - 1 = "
-              + ", ".join(f"{z:g}: {x:+.1e}" for z, x in zip(zp, ratio, strict=True)))
+              + ", ".join(f"{z:g}: {x:+.1e}" for z, x in zip(zp, meas / pred - 1, strict=True)))
     fig, axs = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
-    plot_stability_regions({m.upper(): st.stability_polynomial(m) for m in kernel}, ax=axs[0])
-    plot_step_limits(zc, pred, zp, meas, ax=axs[1])
+    plot_stability_regions({m.upper(): ds.stability_polynomial.loc[m].values for m in methods},
+                           ax=axs[0])
+    plot_step_limits(ds.zeta_curve.values, {m.upper(): ds.polynomial_limit.loc[m].values
+                                            for m in methods},
+                     zp, {m.upper(): ds.measured_limit.loc[m].values for m in methods}, ax=axs[1])
     print(save(fig, args.figures / "stability_step_limits.png"))
 
 

@@ -10,20 +10,23 @@ from gearsweep.analysis.advise import stability_limit
 from gearsweep.errors import StudyError
 
 
-@pytest.mark.slow  # 280 million steps: about 10 s on an idle 2-core machine, 90 s on a busy one
 def test_method_stability_study_measures_the_polynomials_limit():
-    """The kernel's measured limit on the free oscillator is the stability polynomial's (RK4's
-    undamped limit 2 sqrt(2) is the closed form), to the trial grid's spacing."""
+    """The kernel's measured limit on the free oscillator lies on the stability polynomial's
+    (RK4's undamped limit 2 sqrt(2) is the closed form), just above it by the step at which
+    |R|^steps reaches the blow-up bound (near the imaginary axis, zeta -> 0, that margin is wide:
+    RK5 at zeta = 0 measures 0.90 against 0.852 with 2e5 steps, so the check is at zeta = 0.3)."""
     ds = gearsweep.run({"type": "analysis", "title": "limits", "analysis": {
-        "kind": "method_stability", "zeta": [0.0, 0.3], "curve_points": 5}})
+        "kind": "method_stability", "zeta": [0.3], "curve_points": 5, "zeta_max": 0.4,
+        "steps": 100_000}})
     assert ds.measured_limit.dims == ("method", "zeta")
     assert float(ds.polynomial_limit.sel({"method": "rk4", "zeta_curve": 0.0})) == pytest.approx(
-        2 * np.sqrt(2), rel=1e-6)
-    step = 3.5 / 3500  # the default trial grid: 0.5 to 4.0 in 3501 points
-    for m in ("rk4", "rk5"):
-        for z in (0.0, 0.3):
-            measured = float(ds.measured_limit.sel({"method": m, "zeta": z}))
-            assert measured == pytest.approx(stability_limit(m, z), abs=2 * step)
+        2 * np.sqrt(2), rel=1e-9)
+    for m in ("rk4", "rk5"):  # at zeta = 0.3 the pole's ray crosses |R| = 1 steeply
+        measured = float(ds.measured_limit.sel({"method": m, "zeta": 0.3}))
+        predicted = stability_limit(m, 0.3)
+        assert predicted <= measured <= predicted * (1 + 1e-2), (m, measured, predicted)
+    coef = ds.stability_polynomial.sel({"method": "rk4"}).values
+    np.testing.assert_allclose(coef[:5], [1, 1, 1 / 2, 1 / 6, 1 / 24], rtol=1e-15)
     assert ds.attrs["study"] and ds.measured_limit.attrs["units"] == "1"
 
 

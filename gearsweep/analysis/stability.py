@@ -531,7 +531,6 @@ def artifact_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teeth
         none); ``real_interval``, ``imaginary_interval`` (nm,); ``zeta`` (nc,): damping ratio at
         k0; ``step_limit_hw`` (nm, nc): the largest stable h omega_n at that zeta; and the inputs.
     """
-    from gearsweep.kernels.floquet import mathieu_parameters
     speed = np.asarray(speed_rpm, dtype=float)
     c = np.asarray(damping, dtype=float)
     S_, C_ = np.meshgrid(speed, c)

@@ -13,39 +13,113 @@ import numba
 import numpy as np
 
 from gearsweep.analysis import precision as pr
-from gearsweep.analysis.advise import stability_limit
-from gearsweep.analysis.step_limits import measured_limit
-from gearsweep.study.analysis_specs import AnalysisStudy, MethodStability, WorkPrecision
+from gearsweep.analysis import stability as st
+from gearsweep.errors import StudyError
+from gearsweep.model import MeshModel
+from gearsweep.study.analysis_specs import (
+    AnalysisStudy,
+    ArtifactMap,
+    MethodStability,
+    WorkPrecision,
+)
 from gearsweep.study.dataset import build_dataset
+from gearsweep.study.plan import build_model
+from gearsweep.study.schema import load_study
 
 WHINE_DESCRIPTION = "time-varying stiffness + STE, no backlash"
 RATTLE_DESCRIPTION = "constant stiffness, backlash 4 µm, contact loss"
+
+
+def _polynomials(methods) -> tuple[np.ndarray, np.ndarray]:
+    """Stability polynomial coefficients per method (ascending powers, zero-padded)."""
+    polys = [[float(c) for c in st.stability_polynomial(m)] for m in methods]
+    n = max(len(p) for p in polys)
+    return np.arange(n), np.array([p + [0.0] * (n - len(p)) for p in polys])
+
+
+POLY_ATTRS = {"units": "1", "long_name": "coefficient of z^power in the stability function R(z)"
+              " of the method (z = h lambda)"}
 
 
 def method_stability(o: MethodStability) -> tuple[dict, dict, dict, dict]:
     """Polynomial and measured stability limits (h omega_n) per method and damping ratio."""
     zc = np.linspace(0.0, o.zeta_max, o.curve_points)
     zm = np.asarray(o.zeta, float)
-    lo, hi, n = o.h_omega
-    poly = np.array([[stability_limit(m, float(z)) for z in zc] for m in o.methods])
-    meas = np.array([[measured_limit(m, float(z), lo=lo, hi=hi, n=n, steps=o.steps) for z in zm]
-                     for m in o.methods])
+    poly = np.array([st.step_limit_hw(m, zc) for m in o.methods])
+    meas = np.array([st.measured_step_limit(m, zm, n_steps=o.steps) for m in o.methods])
+    power, coef = _polynomials(o.methods)
     data = {
         "polynomial_limit": (("method", "zeta_curve"), poly),
         "measured_limit": (("method", "zeta"), meas),
+        "stability_polynomial": (("method", "power"), coef),
     }
     coords = {"method": (("method",), np.array(o.methods)), "zeta_curve": (("zeta_curve",), zc),
-              "zeta": (("zeta",), zm)}
+              "zeta": (("zeta",), zm), "power": (("power",), power)}
     attrs = {
         "polynomial_limit": {"units": "1", "long_name": "largest stable h omega_n from the "
                              "stability polynomial, |R(h lambda)| = 1"},
-        "measured_limit": {"units": "1", "long_name": f"largest stable h omega_n measured by "
-                           f"integrating the free oscillator over {o.steps} steps"},
+        "measured_limit": {"units": "1", "long_name": "largest h omega_n at which the batch "
+                           f"kernel's integration of the free oscillator over {o.steps} steps "
+                           "does not blow up (bisection)"},
+        "stability_polynomial": POLY_ATTRS,
         "zeta_curve": {"units": "1", "long_name": "damping ratio c / (2 m omega_n)"},
         "zeta": {"units": "1", "long_name": "damping ratio c / (2 m omega_n)"},
+        "power": {"units": "1", "long_name": "power of z"},
         "method": {"long_name": "fixed-step method"},
     }
     return data, coords, attrs, {"steps": o.steps}
+
+
+def artifact_map(o: ArtifactMap) -> tuple[dict, dict, dict, dict]:
+    """The paper's criterion per tableau and step over the rig study's speed x damping grid."""
+    rig, _ = load_study(o.rig)
+    model = build_model(rig)
+    if not isinstance(model, MeshModel) or not model.stiffness_harmonics:
+        raise StudyError(o.rig, "scene", rig.scene.kind, "a rig with a stiffness harmonic k1")
+    speed = rig.grid("speed") if "speed" in rig.sweep else np.array([rig.scene.speed])
+    damping = rig.grid("damping") if "damping" in rig.sweep else np.array([model.damping])
+    am = st.artifact_map(speed, damping, k0=model.stiffness,
+                         k1=model.stiffness_harmonics[0].amplitude, mass=model.mass,
+                         teeth=model.teeth, methods=o.methods, steps_per_period=o.steps_per_period)
+    power, coef = _polynomials(o.methods)
+    four = ("method", "steps_per_period", "damping", "speed")
+    data = {
+        "flag": (four, am["flag"]),
+        "discrete_multiplier": (four, am["discrete_multiplier"]),
+        "edge_speed": (four[:3], am["edge_speed"]),
+        "reproduces_paper": (four[:2], st.reproduces_paper(am["edge_speed"], damping)),
+        "real_interval": (("method",), am["real_interval"]),
+        "imaginary_interval": (("method",), am["imaginary_interval"]),
+        "step_limit_hw": (("method", "damping"), am["step_limit_hw"]),
+        "zeta": (("damping",), am["zeta"]),
+        "stability_polynomial": (("method", "power"), coef),
+    }
+    coords = {"method": (("method",), np.array(o.methods)),
+              "steps_per_period": (("steps_per_period",), np.asarray(o.steps_per_period)),
+              "damping": (("damping",), damping), "speed": (("speed",), speed),
+              "power": (("power",), power)}
+    attrs = {
+        "flag": {"units": "1", "long_name": "the paper's criterion reports instability (growth"
+                 " 1e3-fold within 100 mesh periods from p = p' = 1e-6)"},
+        "discrete_multiplier": {"units": "1", "long_name": "largest |mu| of the fixed-step map"
+                                " over one mesh period"},
+        "edge_speed": {"units": "rpm", "long_name": "highest speed the criterion flags"},
+        "reproduces_paper": {"units": "1", "long_name": "the map has the paper's Fig. 7.2 shape"
+                             " (unstable at low speed, edge near 200 rpm at 5.5 N s/mm)"},
+        "real_interval": {"units": "1", "long_name": "stability interval on the negative real"
+                          " axis, |h lambda|"},
+        "imaginary_interval": {"units": "1", "long_name": "stability interval on the imaginary"
+                               " axis, |h lambda|"},
+        "step_limit_hw": {"units": "1", "long_name": "largest stable h omega_n at the damping"},
+        "zeta": {"units": "1", "long_name": "damping ratio at k0"},
+        "stability_polynomial": POLY_ATTRS,
+        "method": {"long_name": "Runge-Kutta tableau (gearsweep.kernels.tableaux)"},
+        "steps_per_period": {"units": "1", "long_name": "fixed steps per mesh period"},
+        "damping": {"units": "N s m-1", "long_name": "mesh damping c"},
+        "speed": {"units": "rpm", "long_name": "shaft speed of the driving gear"},
+        "power": {"units": "1", "long_name": "power of z"},
+    }
+    return data, coords, attrs, {"rig_study": o.rig}
 
 
 def work_precision(o: WorkPrecision) -> tuple[dict, dict, dict, dict]:
@@ -130,7 +204,8 @@ def work_precision(o: WorkPrecision) -> tuple[dict, dict, dict, dict]:
     return data, coords, attrs, settings
 
 
-COMPUTE = {"method_stability": method_stability, "work_precision": work_precision}
+COMPUTE = {"method_stability": method_stability, "work_precision": work_precision,
+           "artifact_map": artifact_map}
 
 
 def run_analysis_study(study: AnalysisStudy, text: str = ""):

@@ -22,29 +22,46 @@ Method = Literal["rk4", "rk5"]
 
 
 class MethodStability(Strict):
-    """Largest stable h omega_n of each method on the free linear oscillator: measured by
-    integration with the batch kernel at the ``zeta`` points, and from the stability polynomial
-    on a fine grid of damping ratios."""
+    """Largest stable h omega_n of each kernel method on the free linear oscillator
+    ``p'' + 2 zeta w p' + w^2 p = 0``: from the stability polynomial on a fine grid of damping
+    ratios, and measured by integration with the batch kernel (bisection on the step) at the
+    ``zeta`` points."""
 
     kind: Literal["method_stability"]
     methods: list[Method] = Field(default_factory=lambda: ["rk4", "rk5"], min_length=1)
     zeta: list[float] = Field(
-        default_factory=lambda: [0.0, 0.02, 0.05, 0.1, 0.15, 0.215, 0.3, 0.4, 0.5, 0.6],
+        default_factory=lambda: [0.0, 0.02, 0.05, 0.1, 0.2, 0.215, 0.3, 0.45, 0.6, 0.8, 0.95,
+                                 1.2, 1.6],
         min_length=1, description="damping ratios measured by integration [1]")
-    zeta_max: float = Field(0.6, gt=0, le=10, description="end of the polynomial's curve [1]")
-    curve_points: int = Field(121, ge=2, le=10_000)
-    steps: int = Field(20_000, ge=100, le=10_000_000,
-                       description="steps integrated per trial step size")
-    h_omega: tuple[float, float, int] = Field(
-        (0.5, 4.0, 3501), description="trial h omega_n: start, stop, number [1]")
+    zeta_max: float = Field(1.6, gt=0, le=10, description="end of the polynomial's curve [1]")
+    curve_points: int = Field(321, ge=2, le=100_000)
+    steps: int = Field(4_000_000, ge=1000, le=100_000_000,
+                       description="steps integrated per trial step (bisection)")
 
     @model_validator(mode="after")
     def _ranges(self) -> MethodStability:
         if any(not (0 <= z <= 10) for z in self.zeta):
             raise ValueError("damping ratios must lie in [0, 10]")
-        a, b, n = self.h_omega
-        if not (0 < a < b) or n < 2:
-            raise ValueError("h_omega must be (start, stop, number) with 0 < start < stop")
+        return self
+
+
+class ArtifactMap(Strict):
+    """The paper's instability criterion (growth 1e3-fold within 100 mesh periods at a fixed
+    step) for several fifth-order Runge-Kutta tableaux over the speed x damping grid of a rig
+    study (Fig. 7.2): which tableau and step reproduce the paper's figure."""
+
+    kind: Literal["artifact_map"]
+    rig: str = Field(description="the rig's dynamic study (path from the working directory):"
+                     " its model and its speed and damping grids")
+    methods: list[Literal["rk5", "fehlberg5", "cashkarp5", "dopri5"]] = Field(
+        default_factory=lambda: ["rk5", "fehlberg5", "cashkarp5", "dopri5"], min_length=1)
+    steps_per_period: list[int] = Field(
+        default_factory=lambda: list(range(100, 421, 20)), min_length=1)
+
+    @model_validator(mode="after")
+    def _steps(self) -> ArtifactMap:
+        if any(s < 4 for s in self.steps_per_period):
+            raise ValueError("steps_per_period must be >= 4")
         return self
 
 
@@ -80,7 +97,8 @@ class WorkPrecision(Strict):
         return self
 
 
-AnalysisSpec = Annotated[MethodStability | WorkPrecision, Field(discriminator="kind")]
+AnalysisSpec = Annotated[MethodStability | WorkPrecision | ArtifactMap,
+                         Field(discriminator="kind")]
 """The ``analysis:`` mapping of an analysis study."""
 
 
