@@ -156,9 +156,11 @@ def _model(ds: xr.Dataset, name: str) -> MeshModel:
     return model_from_record(json.loads(ds.attrs["model"]))
 
 
-def _turns(omega: np.ndarray, amplitude: np.ndarray, per_rpm: float, width: int) -> np.ndarray:
-    tp = np.sort(hb.turning_points(omega, amplitude)) / per_rpm
-    return np.r_[tp, np.full(width - tp.size, np.nan)]
+def _stat(f, values) -> float:
+    """``f`` of the finite values (NaN, without a warning, when there are none)."""
+    a = np.asarray(values, float)
+    a = a[np.isfinite(a)]
+    return float(f(a)) if a.size else math.nan
 
 
 def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, dict]:
@@ -245,12 +247,12 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "jump_up_size": ((), float(js.jump_up_size)),
         "jump_down_size": ((), float(js.jump_down_size)),
         "eq15_rise_speed": ((), dist["up"].rise_eq15), "eq15_drop_speed": ((), dist["up"].drop_eq15),
-        "eq15_distance_rattling_median": ((), float(np.nanmedian(upper))),
-        "eq15_distance_rattling_max": ((), float(np.nanmax(upper))),
-        "eq15_distance_free_flight_median": ((), float(np.nanmedian(lower))),
-        "contact_loss_above_drop_min": ((), float(above.min())),
-        "contact_loss_above_drop_max": ((), float(above.max())),
-        "contact_loss_above_drop_mean": ((), float(above.mean())),
+        "eq15_distance_rattling_median": ((), _stat(np.median, upper)),
+        "eq15_distance_rattling_max": ((), _stat(np.max, upper)),
+        "eq15_distance_free_flight_median": ((), _stat(np.median, lower)),
+        "contact_loss_above_drop_min": ((), _stat(np.min, above)),
+        "contact_loss_above_drop_max": ((), _stat(np.max, above)),
+        "contact_loss_above_drop_mean": ((), _stat(np.mean, above)),
         "settle_error_max": ((), float(ds["settle_error"].max())),
         "not_settled": ((), n_bad), "cases": ((), int(ds["status"].size)),
         "mass": ((), m), "stiffness": ((), k), "damping": ((), c), "half_gap": ((), b),
