@@ -4,10 +4,11 @@ Reads ``results/fig08_rattle.nc`` and its harmonic balance ``results/fig08_rattl
 (describing function, AFT branch, turning points, Eq. (15) and its distance from the
 integration), the out-of-sample ``results/rattle_table1_pair.nc`` and
 ``results/rattle_table1_ste_paper_k.nc`` with their force budget ``results/fig08_rattle_budget.nc``,
-and ``results/rattle_map.nc`` (``gearsweep run studies/<name>.yaml``); writes
-``figures/fig08_rattle.png``, ``fig08_out_of_sample.png``, ``fig09_graphical.png`` and
-``rattle_map.png``; prints the jump speeds, turning points and the distance of Eq. (15) from the
-integration. Nothing is computed here. The Fig. 12 counterpart is ``scripts/fig11_low_speed.py``.
+and the design map's jumps ``results/rattle_map_jumps.nc`` (``gearsweep run
+studies/<name>.yaml``); writes ``figures/fig08_rattle.png``, ``fig08_out_of_sample.png``,
+``fig09_graphical.png`` and ``rattle_map.png``; prints the jump speeds, turning points and the
+distance of Eq. (15) from the integration. Nothing is computed here. The Fig. 12 counterpart is
+``scripts/fig11_low_speed.py``.
 """
 
 import numpy as np
@@ -16,7 +17,6 @@ from _common import open_result, parse
 from gearsweep.plot import rattle as rplot
 from gearsweep.plot.common import plt, save
 from gearsweep.plot.sweep import settled, speed_label
-from gearsweep.study.jumps import jump_summary
 
 
 def fig8(bal, figures):
@@ -134,21 +134,22 @@ def fig9(bal, figures):
 
 
 def rattle_map(ds, figures):
-    loss = ds["contact_loss_fraction"].max("direction")
-    frac = (loss > 0.01).mean("speed").transpose("backlash", "damping", "torque")
-    width = jump_summary(ds)["hysteresis_width"].transpose("backlash", "damping", "torque")
+    dims = ("backlash", "damping", "torque")
+    frac = ds["rattle_share"].transpose(*dims)
+    width = ds["hysteresis_width"].transpose(*dims)
     nb = ds.sizes["backlash"]
     fig, axes = plt.subplots(2, nb, figsize=(3.0 * nb + 1.5, 7.5), sharey=True, sharex=True)
     rplot.plot_rattle_map(list(axes[0]), list(axes[1]), ds["damping"].values,
                           ds["torque"].values, ds["backlash"].values, frac.values, width.values)
-    fig.suptitle(f"Where rattle occurs over {ds.speed.values[0]:.0f}-{ds.speed.values[-1]:.0f} "
+    fig.suptitle(f"Where rattle occurs over {ds.attrs['speed_from']:.0f}-{ds.attrs['speed_to']:.0f} "
                  "rpm (F0 = 72 kN at mesh order 1):\ntop: share of speeds with contact loss "
                  "(either sweep); bottom: width of the jump hysteresis band", fontsize=9)
     fig.savefig(figures / "rattle_map.png", dpi=130, bbox_inches="tight")
     plt.close(fig)
     print(figures / "rattle_map.png")
-    print(f"map: {int(ds.attrs['cases'])} case-speeds in {ds.attrs.get('elapsed_seconds')} s; "
-          f"status 2 (not settled) at {float((ds.status == 2).mean()):.2%}")
+    print(f"map: {int(ds.attrs['input_cases'])} case-speeds in"
+          f" {ds.attrs.get('input_elapsed_seconds')} s; status 2 (not settled) at"
+          f" {float(ds.not_settled_share):.2%}")
 
 
 args = parse(__doc__.splitlines()[0])
@@ -159,4 +160,4 @@ fig8_out_of_sample(open_result(args.results, "fig08_rattle"),
                    {str(s): open_result(args.results, str(s)) for s in budget["scene"].values},
                    budget, args.figures)
 fig9(balance, args.figures)
-rattle_map(open_result(args.results, "rattle_map"), args.figures)
+rattle_map(open_result(args.results, "rattle_map_jumps"), args.figures)

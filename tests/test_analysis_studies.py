@@ -89,6 +89,12 @@ def test_rattle_balance_reads_the_result_it_balances(tmp_path):
                            mass=m, half_gap=b)
     assert_allclose(bal.eq15_distance.sel(direction="up").values, d.relative)
     assert bal.aft_speed.size > 10 and bal.attrs["input_small"] == res.attrs["study_sha256"]
+    jm = gearsweep.run({"type": "analysis", "title": "jumps", "analysis": {
+        "kind": "jump_map", "result": "small", "loss_threshold": 0.5}},
+        output=tmp_path / "small_jumps.nc")
+    share = float((res.contact_loss_fraction.max("direction") > 0.5).mean())
+    assert 0 < share < 1 and float(jm.rattle_share) == share
+    assert float(jm.jump_up_speed) == float(js.jump_up_speed)
     with pytest.raises(gearsweep.errors.ResultError, match=r"run studies/gone.yaml first"):
         gearsweep.run({"type": "analysis", "title": "b", "analysis": {
             "kind": "rattle_balance", "result": "gone"}}, output=tmp_path / "x.nc")

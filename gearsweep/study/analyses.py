@@ -25,13 +25,14 @@ from gearsweep.errors import ResultError
 from gearsweep.model import RPM, MeshModel, model_from_record
 from gearsweep.study.analysis_specs import (
     AnalysisStudy,
+    JumpMap,
     MethodStability,
     RattleBalance,
     RattleBudget,
     WorkPrecision,
 )
 from gearsweep.study.dataset import build_dataset
-from gearsweep.study.jumps import jump_summary
+from gearsweep.study.jumps import JUMP_VARIABLES, jump_summary
 
 WHINE_DESCRIPTION = "time-varying stiffness + STE, no backlash"
 RATTLE_DESCRIPTION = "constant stiffness, backlash 4 µm, contact loss"
@@ -424,8 +425,36 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
     return data, coords, attrs, {}
 
 
+def jump_map(o: JumpMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
+    """Share of speeds with contact loss and the jump summary of every case of a continued
+    sweep (see ``JumpMap``)."""
+    ds = inputs[o.result]
+    if "contact_loss_fraction" not in ds:
+        raise ResultError(f"{o.result}: jump_map needs a result with backlash (contact loss)")
+    js = jump_summary(ds)
+    dims = list(js["hysteresis_width"].dims)
+    loss = ds["contact_loss_fraction"].max("direction")
+    share = (loss > o.loss_threshold).mean("speed").transpose(*dims)
+    data = {"rattle_share": (tuple(dims), share.values),
+            **{n: (tuple(dims), js[n].transpose(*dims).values) for n in JUMP_VARIABLES},
+            "not_settled_share": ((), float((ds["status"] == 2).mean()))}
+    coords = {d: ((d,), ds[d].values) for d in dims}
+    attrs = {"rattle_share": {"units": "1", "long_name": "share of speeds with contact loss above"
+                              f" {o.loss_threshold:g} of the time (either sweep)"},
+             **{n: {"units": u, "long_name": ln} for n, (u, ln) in JUMP_VARIABLES.items()},
+             "not_settled_share": {"units": "1", "long_name": "share of the result's"
+                                   " case-speeds with status 2 (not settled)"},
+             **{d: dict(ds[d].attrs) for d in dims}}
+    settings = {"speed_from": float(ds["speed"].values[0]),
+                "speed_to": float(ds["speed"].values[-1]),
+                "input_cases": int(ds.attrs.get("cases", ds["status"].size)),
+                "input_elapsed_seconds": ds.attrs.get("elapsed_seconds", "nan")}
+    return data, coords, attrs, settings
+
+
 COMPUTE = {"method_stability": method_stability, "work_precision": work_precision,
-           "rattle_balance": rattle_balance, "rattle_budget": rattle_budget}
+           "rattle_balance": rattle_balance, "rattle_budget": rattle_budget,
+           "jump_map": jump_map}
 
 
 def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:

@@ -137,7 +137,21 @@ class RattleBudget(Strict):
         return [self.fitted, *self.scenes, self.mesh]
 
 
-AnalysisSpec = Annotated[MethodStability | WorkPrecision | RattleBalance | RattleBudget,
+class JumpMap(Strict):
+    """Where a continued (up and down) sweep over design parameters rattles: per case of the
+    result, the share of speeds with contact loss (either sweep) and its jump summary
+    (``gearsweep.study.jumps``: jump speeds, hysteresis band)."""
+
+    kind: Literal["jump_map"]
+    result: ResultName
+    loss_threshold: float = Field(0.01, ge=0, lt=1, description="contact loss above this"
+                                  " fraction of the time counts as rattle [1]")
+
+    def inputs(self) -> list[str]:
+        return [self.result]
+
+
+AnalysisSpec = Annotated[MethodStability | WorkPrecision | RattleBalance | RattleBudget | JumpMap,
                          Field(discriminator="kind")]
 """The ``analysis:`` mapping of an analysis study."""
 
