@@ -182,7 +182,7 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     speed = ds["speed"].values
     amp = _settled(0.5 * ds["p_pp"], ds).transpose("direction", "speed")
     grid = np.unique(np.r_[np.linspace(0.005 * b, 0.9999 * b, 400),
-                           b * (1 + np.geomspace(1e-8, o.curve_top * b / b - 1, 4000))])
+                           b * (1 + np.geomspace(1e-8, o.curve_top - 1, 4000))])
     common = dict(mass=m, stiffness=k, damping=c, half_gap=b, force_amp=f0)
     df = hb.df_curve(grid, force_mean=fm, **common)
     df0 = hb.df_curve(grid, force_mean=0.0, **common)
@@ -313,8 +313,10 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
                                              " run-down, above Eq. (15)'s rise: median"},
         "contact_loss_above_drop_min": {"units": "1", "long_name": "run-up contact loss above"
                                         " the run-up drop: min"},
-        "contact_loss_above_drop_max": {"units": "1", "long_name": "... max"},
-        "contact_loss_above_drop_mean": {"units": "1", "long_name": "... mean"},
+        "contact_loss_above_drop_max": {"units": "1", "long_name": "run-up contact loss above"
+                                        " the run-up drop: max"},
+        "contact_loss_above_drop_mean": {"units": "1", "long_name": "run-up contact loss above"
+                                         " the run-up drop: mean"},
         "settle_error_max": {"units": "1", "long_name": "largest settle_error of the integration"},
         "not_settled": {"units": "1", "long_name": "case-speeds with status != 0"},
         "cases": {"units": "1", "long_name": "case-speeds of the integration"},
