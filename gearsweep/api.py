@@ -57,11 +57,13 @@ def load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
                      "a path, YAML text, a dict or a gearsweep Study")
 
 
-def run_unchunked(study: MeshStudy | AnalysisStudy, text: str = "") -> xr.Dataset:
-    """A mesh or analysis study: computed in one piece (no chunks, no checkpoints)."""
+def run_unchunked(study: MeshStudy | AnalysisStudy, text: str = "",
+                  results: str | Path = "results") -> xr.Dataset:
+    """A mesh or analysis study: computed in one piece (no chunks, no checkpoints). An analysis
+    that reads other studies' results opens them from the folder ``results``."""
     if isinstance(study, MeshStudy):
         return run_mesh_study(study, text)
-    return run_analysis_study(study, text)
+    return run_analysis_study(study, text, results)
 
 
 def run_study(study: Study | MeshStudy | AnalysisStudy, text: str = "",
@@ -83,7 +85,8 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         The study (see ``docs/study-reference.md`` for its fields).
     output : path, optional
         Also write the result to this netCDF file (checkpointed: a re-run after an interruption
-        resumes). Without it nothing is written.
+        resumes). Without it nothing is written. An analysis study that reads other results
+        opens them beside ``output`` (default: ``results/``).
     progress : bool
         Show a progress bar per chunk (stderr).
     chunk_cases : int, optional
@@ -96,7 +99,7 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     """
     st, text = load(study)
     if isinstance(st, MeshStudy | AnalysisStudy):
-        ds = run_unchunked(st, text)
+        ds = run_unchunked(st, text, Path(output).parent if output is not None else "results")
         if output is not None:
             write_netcdf(ds, output)
         return ds

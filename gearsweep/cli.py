@@ -147,7 +147,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             return 0
         t0 = time.perf_counter()
         with OutputLock(out):
-            write_netcdf(run_unchunked(study, text), out)
+            write_netcdf(run_unchunked(study, text, out.parent), out)
         if not args.quiet:
             print(f"{out}: {study.type} study in {time.perf_counter() - t0:.2f} s")
         return 0

@@ -1,85 +1,51 @@
 """The paper's rig in the model: counterparts of Fig. 11 (pick-up waterfall) and Fig. 12 (rms of
-the doubly integrated accelerometer for several loads), from results/rig_low_speed_*Nm.nc.
+the doubly integrated accelerometer for several loads), from results/rig_low_speed.nc.
 
 The 48-tooth gear drives and the 32-tooth pinion is driven; the paper's speed axes are the
 driven (pinion) shaft, 200-800 rpm: mesh frequency x 60 / 32. Both sensors sit at the pinion and
-see its angular motion theta_2 (Eq. 4), not p: ``r2 theta2`` per spectral line is formed from
-the study's mesh-force spectrum by ``gearsweep.analysis.sensor`` (to move into a study output).
-Writes figures/fig11_low_speed.png and figures/fig12_rig_rms.png. Run from the repository root
-after ``gearsweep run studies/rig_low_speed_<load>Nm.yaml`` for the three loads:
+see its angular motion theta_2 (Eq. 4), not p: the study's output ``pinion_spectrum`` (r2 theta2
+per spectral line, formed from the mesh-force spectrum) and ``pinion_rms``. Nothing is computed
+here. Writes figures/fig11_low_speed.png and figures/fig12_rig_rms.png. Run from the repository
+root after ``gearsweep run studies/rig_low_speed.yaml``:
 
     python scripts/fig11_low_speed.py [--results results] [--figures figures]
 """
 
 from __future__ import annotations
 
-import math
-
 import matplotlib.pyplot as plt
 import numpy as np
-import xarray as xr
 from _common import open_result, parse
 
-from gearsweep.analysis import sensor
 from gearsweep.api import result_study
 from gearsweep.plot.common import save
 from gearsweep.plot.rattle import plot_lines
 from gearsweep.plot.sweep import settled
-from gearsweep.plot.whine import plot_waterfall
+from gearsweep.plot.whine import damping_labels, driven_speed, plot_waterfall
 
 DRIVEN_TEETH = 32  # the pinion, braked by the powder clutch in the rig
-LOADS = ("2", "4p5", "8p9")  # N m on the gear shaft, studies/rig_low_speed_<load>Nm.yaml
-
-
-def pinion(ds: xr.Dataset) -> tuple[xr.DataArray, float]:
-    """r2 theta2 per spectral line [m] (settled cases only) and the pinion base radius r2."""
-    drive = result_study(ds).scene.drive
-    fs, _, _ = settled(ds["force_spectrum"], ds)
-    x = sensor.pinion_displacement(fs.where(ds["order"] > 0, 0.0).values,
-                                   ds["frequency"].values[None, ...],
-                                   base_radius_2=drive.base_radius_2, inertia_2=drive.inertia_2)
-    da = xr.DataArray(x, dims=fs.dims, coords=fs.coords,
-                      attrs={"units": "m", "long_name": "pinion motion r2 theta2 per line"})
-    return da, drive.base_radius_2
-
-
-def zeta_labels(ds: xr.Dataset) -> list[str]:
-    scene = result_study(ds).scene
-    d = scene.drive
-    m = 1.0 / (d.base_radius_1**2 / d.inertia_1 + d.base_radius_2**2 / d.inertia_2)
-    k0 = float(ds.attrs.get("gear_k0", 219.09e6))
-    return [f"c = {c / 1e3:g} N s/mm (ζ = {c / (2 * math.sqrt(k0 * m)):.3f})"
-            for c in ds["damping"].values]
-
-
-def torque_of(ds: xr.Dataset) -> float:
-    return float(result_study(ds).scene.torque)
-
 
 args = parse(__doc__.splitlines()[0])
-results = {t: open_result(args.results, f"rig_low_speed_{t}Nm") for t in LOADS}
-top = results[LOADS[-1]]
-n_driven = top["mesh_frequency"].values * 60.0 / DRIVEN_TEETH
+ds = open_result(args.results, "rig_low_speed")
+loads = ds["torque"].values
+x_all, _, _ = settled(ds["pinion_spectrum"], ds)
+rms_all, n_bad, n_all = settled(ds["pinion_rms"], ds)
+r2 = result_study(ds).scene.drive.base_radius_2
+labels = damping_labels(ds)
+n_driven = driven_speed(ds, DRIVEN_TEETH)
 xlab = f"speed of the driven pinion ({DRIVEN_TEETH} teeth) [rpm]"
-base_title = top.attrs["title"].rsplit(",", 1)[0]
+base_title = ds.attrs["title"].rsplit(",", 1)[0]
 
 # --- Fig. 12 counterpart: rms of the doubly integrated pinion motion, three loads ------------
 fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12.5, 5.0), layout="constrained")
 lines, per_load = [], []
 cmap = plt.get_cmap("viridis")
-n_bad = n_all = 0
-for i, t in enumerate(LOADS):
-    ds = results[t]
-    x, r2 = pinion(ds)
-    rms = sensor.spectrum_rms(x.values)
-    T = torque_of(ds)
-    labels = zeta_labels(ds)
-    n_bad += int((ds["status"] != 0).sum())
-    n_all += int(ds["status"].size)
+for i, t in enumerate(loads):
+    rms = rms_all.sel(torque=t).transpose("damping", "speed").values
     for j in range(ds.sizes["damping"]):
-        kw = {"color": cmap(0.85 * i / (len(LOADS) - 1)), "ls": "-" if j == 0 else "--"}
-        lines.append({"y": rms[j], "label": f"T1 = {T:g} N m, {labels[j]}", **kw})
-        per_load.append({"y": rms[j] / T, "label": None, **kw})
+        kw = {"color": cmap(0.85 * i / (len(loads) - 1)), "ls": "-" if j == 0 else "--"}
+        lines.append({"y": rms[j], "label": f"T1 = {t:g} N m, {labels[j]}", **kw})
+        per_load.append({"y": rms[j] / t, "label": None, **kw})
 plot_lines(ax, n_driven, lines, xlabel=xlab, scale=1e6,
            ylabel="rms of r2 θ2, pinion motion at its base circle [µm]\n(θ2 rms [µrad] ="
                   f" this / {r2 * 1e3:.1f} mm)")
@@ -95,8 +61,9 @@ fig.suptitle(f"Fig. 12 counterpart. {base_title}; loads 2-8.9 N m on the gear sh
 print(save(fig, args.figures / "fig12_rig_rms.png", dpi=130))
 
 # --- Fig. 11 counterpart: what the pinion's sensors see at the top load ----------------------
-x, r2 = pinion(top)
-c0 = float(top["damping"].values[0])
+top = loads[-1]
+x = x_all.sel(torque=top)
+c0 = float(ds["damping"].values[0])
 fig = plt.figure(figsize=(13.0, 6.5), layout="constrained")
 grid = fig.add_gridspec(2, 2, width_ratios=[1.2, 1.0])
 ax3 = fig.add_subplot(grid[:, 0], projection="3d")
@@ -104,46 +71,43 @@ wf = x.sel(damping=c0, order=slice(0.0, 4.0)).to_dataset(name="spectrum")
 plot_waterfall(ax3, wf, traces=31, driven_teeth=DRIVEN_TEETH, x="order",
                zlabel="r2 θ2 per line [µm]")
 ax3.view_init(elev=28, azim=-62)
-ax3.set_title(f"waterfall of the pinion motion r2 θ2, {zeta_labels(top)[0]}", fontsize=9)
+ax3.set_title(f"waterfall of the pinion motion r2 θ2, {labels[0]}", fontsize=9)
 ax_d = fig.add_subplot(grid[0, 1])
 orders = (1, 2, 3)
-labels = zeta_labels(top)
 od = [{"y": x.sel(damping=c, order=float(n)).values, "label": f"order {n}, {labels[j]}",
        "color": f"C{n - 1}", "ls": "-" if j == 0 else "--"}
-      for j, c in enumerate(top["damping"].values) for n in orders]
+      for j, c in enumerate(ds["damping"].values) for n in orders]
 plot_lines(ax_d, n_driven, od, xlabel="", scale=1e6, ylabel="r2 θ2 at mesh order n [µm]")
 ax_d.legend(fontsize=6.5, ncol=2)
 ax_d.set_title("mesh orders 1-3 of the pinion's angular displacement: flat in speed",
                fontsize=9)
 ax_r = fig.add_subplot(grid[1, 1], sharex=ax_d)
 rl = []
-for i, t in enumerate(LOADS):
-    xi, _ = pinion(results[t])
-    xi = xi.sel(damping=c0)
+for i, t in enumerate(loads):
+    xi = x_all.sel(torque=t, damping=c0)
     for n in (2, 3):
         rl.append({"y": (xi.sel(order=float(n)) / xi.sel(order=1.0)).values,
-                   "label": f"order {n} / order 1, T1 = {torque_of(results[t]):g} N m",
+                   "label": f"order {n} / order 1, T1 = {t:g} N m",
                    "color": f"C{n - 1}", "ls": ("-", "--", ":")[i]})
 plot_lines(ax_r, n_driven, rl, xlabel=xlab, log=False, ylabel="ratio of order lines [1]")
 ax_r.legend(fontsize=6.5, ncol=2)
 ax_r.set_title("ratios between orders: set by the tooth geometry (k(t)); a few % with speed,"
                " none with load", fontsize=9)
-fig.suptitle(f"Fig. 11 counterpart. {top.attrs['title']}: what the pinion's sensors see"
-             " (θ2, Eq. 4), not p.\nA magnetic pick-up's own tooth-passing line (order 1) grows"
-             " in proportion to speed even for a rigid pinion: it cannot test the model;"
-             " demodulated θ2 can.", fontsize=9)
+fig.suptitle(f"Fig. 11 counterpart. {base_title}, {top:g} N m on the gear shaft: what the"
+             " pinion's sensors see (θ2, Eq. 4), not p.\nA magnetic pick-up's own tooth-passing"
+             " line (order 1) grows in proportion to speed even for a rigid pinion: it cannot"
+             " test the model; demodulated θ2 can.", fontsize=9)
 print(save(fig, args.figures / "fig11_low_speed.png", dpi=140))
 
 # numbers quoted in docs/REPRODUCTION.md
-for t in LOADS:
-    ds = results[t]
-    xx, r2 = pinion(ds)
-    rms = sensor.spectrum_rms(xx.values)
+for t in loads:
+    rms = rms_all.sel(torque=t).transpose("damping", "speed").values
+    p_rms = ds["p_rms"].sel(torque=t).transpose("damping", "speed").values
+    loss = float(ds["contact_loss_fraction"].sel(torque=t).max())
     for j, c in enumerate(ds["damping"].values):
         r = rms[j]
-        print(f"T1 {torque_of(ds):g} N m, c {c:g}: rms r2θ2 {r[0] * 1e6:.4f} µm at"
+        print(f"T1 {t:g} N m, c {c:g}: rms r2θ2 {r[0] * 1e6:.4f} µm at"
               f" {n_driven[0]:.0f} rpm, {r[-1] * 1e6:.4f} at {n_driven[-1]:.0f} rpm, max"
               f" {np.nanmax(r) * 1e6:.4f} at {n_driven[np.nanargmax(r)]:.0f}, min at"
-              f" {n_driven[np.nanargmin(r)]:.0f}; p_rms {float(ds.p_rms[j, 0]) * 1e6:.4f};"
-              f" contact loss max {float(ds.contact_loss_fraction.max()):.3g}; ratio"
-              f" rms/p_rms {float(np.nanmedian(r / ds.p_rms[j].values)):.4f}")
+              f" {n_driven[np.nanargmin(r)]:.0f}; p_rms {p_rms[j, 0] * 1e6:.4f};"
+              f" contact loss max {loss:.3g}; ratio rms/p_rms {np.nanmedian(r / p_rms[j]):.4f}")

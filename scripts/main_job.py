@@ -2,6 +2,8 @@
 then check that the figures docs/REPRODUCTION.md lists were written and that every number
 docs/claims.yaml lists is what its result gives (scripts/check_claims.py).
 
+Analysis studies (``type: analysis``) run after the others: some read their results.
+
     python scripts/main_job.py [--results results] [--figures figures] [--only PATTERN]
 
 Runs in-process on the embedded default (no cluster). A study or figure script that fails is
@@ -26,6 +28,11 @@ def listed_figures() -> list[str]:
     """Figure files named in docs/REPRODUCTION.md."""
     text = (ROOT / "docs" / "REPRODUCTION.md").read_text(encoding="utf-8")
     return sorted(set(re.findall(r"figures/([A-Za-z0-9_.-]+\.png)", text)))
+
+
+def is_analysis(study: Path) -> bool:
+    """An analysis study (``type: analysis``): it may read the results of the others."""
+    return re.search(r"^type:\s*analysis\s*$", study.read_text(encoding="utf-8"), re.M) is not None
 
 
 def check_reproduction(figures: Path, since: float) -> list[str]:
@@ -63,7 +70,8 @@ def main() -> int:
     failed: list[str] = []
     t_all = time.perf_counter()
     t_start = time.time()
-    studies = sorted(s for s in (ROOT / "studies").glob("*.yaml") if fnmatch.fnmatch(s.stem, args.only))
+    studies = sorted((s for s in (ROOT / "studies").glob("*.yaml")
+                      if fnmatch.fnmatch(s.stem, args.only)), key=lambda s: (is_analysis(s), s))
     print(f"== {len(studies)} studies", flush=True)
     for study in studies:
         t0 = time.perf_counter()

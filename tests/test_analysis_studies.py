@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
 import gearsweep
 from gearsweep.analysis.advise import stability_limit
@@ -48,3 +49,108 @@ def test_bad_analysis_options_are_one_line():
             "kind": "work_precision", "steps_per_period": [10, 20, 40]}})
     with pytest.raises(StudyError, match=r"analysis"):
         gearsweep.run({"type": "analysis", "title": "x", "analysis": {"kind": "nope"}})
+
+
+RATTLE = {  # the Fig. 8 scene (studies/fig08_rattle.yaml) on a coarse, cheap grid
+    "title": "small rattle",
+    "scene": {"kind": "rattle", "mass": "0.1527 kg", "teeth": 48, "stiffness": "1073 kN/mm",
+              "damping": "4.92 N*s/mm", "backlash": "0.4698 mm", "torque": "50 N*m",
+              "base_radius": "56.38 mm", "fluctuation": [{"amplitude": "67.8 kN", "order": 1}]},
+    "sweep": {"speed": {"start": "7000 rpm", "stop": "8600 rpm", "num": 33}},
+    "continuation": ["up", "down"],
+    "solver": {"method": "rk4", "steps_per_period": 32, "transient_periods": 30,
+               "record_periods": 4, "initial_displacement": "static"},
+    "outputs": ["stats"],
+}
+
+
+@pytest.mark.slow
+def test_rattle_balance_reads_the_result_it_balances(tmp_path):
+    """The balance of a rattle result uses the model the result carries: the describing
+    function's turning points are the fit's targets (7,500 / 8,000 rpm), Eq. (15)'s limits are
+    the closed forms, and the jumps and amplitudes are the integration's."""
+    from gearsweep.analysis import rattle as rfit
+    from gearsweep.model import RPM
+    from gearsweep.study.jumps import jump_summary
+
+    res = gearsweep.run(RATTLE, output=tmp_path / "small.nc")
+    bal = gearsweep.run({"type": "analysis", "title": "balance", "analysis": {
+        "kind": "rattle_balance", "result": "small", "harmonics": 5, "n_time": 64}},
+        output=tmp_path / "small_balance.nc")
+    m, k, b, f0 = 0.1527, 1073e6, 0.4698e-3 / 2, 67.8e3
+    w = 48 * RPM
+    tp = bal.turning_point.sel(curve="describing_function").values
+    assert_allclose(tp[np.isfinite(tp)], [7500.0, 8000.0], atol=10.0)  # c, F0 rounded to 3 digits
+    assert float(bal.eq15_rise_speed) == pytest.approx(np.sqrt(f0 / (m * b)) / w, rel=1e-3)
+    assert float(bal.eq15_drop_speed) == pytest.approx(np.sqrt(k / m) / w, rel=1e-12)
+    js = jump_summary(res)
+    assert float(bal.jump_up_speed) == float(js.jump_up_speed)
+    assert float(bal.jump_down_speed) == float(js.jump_down_speed)
+    amp = (0.5 * res.p_pp).where(res.status == 0).sel(direction="up").values
+    assert_allclose(bal.amplitude.sel(direction="up").values, amp)
+    d = rfit.eq15_distance(res.speed.values, amp, omega_per_rpm=w, force_amp=f0, stiffness=k,
+                           mass=m, half_gap=b)
+    assert_allclose(bal.eq15_distance.sel(direction="up").values, d.relative)
+    assert bal.aft_speed.size > 10 and bal.attrs["input_small"] == res.attrs["study_sha256"]
+    jm = gearsweep.run({"type": "analysis", "title": "jumps", "analysis": {
+        "kind": "jump_map", "result": "small", "loss_threshold": 0.5}},
+        output=tmp_path / "small_jumps.nc")
+    share = float((res.contact_loss_fraction.max("direction") > 0.5).mean())
+    assert 0 < share < 1 and float(jm.rattle_share) == share
+    assert float(jm.jump_up_speed) == float(js.jump_up_speed)
+    with pytest.raises(gearsweep.errors.ResultError, match=r"run studies/gone.yaml first"):
+        gearsweep.run({"type": "analysis", "title": "b", "analysis": {
+            "kind": "rattle_balance", "result": "gone"}}, output=tmp_path / "x.nc")
+
+
+def _full(torque, start, **outputs) -> dict:
+    return {
+        "title": "small full scene with a drive",
+        "scene": {"kind": "full", "teeth": 48, "stiffness": "219 kN/mm",
+                  "stiffness_harmonics": [{"amplitude": "55 kN/mm"}], "damping": "0.55 N*s/mm",
+                  "backlash": "0.4698 mm",
+                  "drive": {"inertia_1": "1.5981e-3 kg*m^2", "inertia_2": "3.1567e-4 kg*m^2",
+                            "base_radius_1": "56.3816 mm", "base_radius_2": "37.5877 mm"}},
+        "sweep": {"torque": torque, "speed": {"start": "150 rpm", "stop": "500 rpm", "num": 3}},
+        "solver": {"method": "rk4", "steps_per_period": 256, "transient_periods": 2,
+                   "record_periods": 2, "initial_displacement": start},
+        "outputs": ["stats", {"spectrum": {"max_order": 8, "samples_per_period": 32,
+                                           **outputs}}],
+    }
+
+
+@pytest.mark.slow  # compiles the full-scene kernel
+def test_static_start_is_the_drive_flank_equilibrium_of_each_load():
+    """``initial_displacement: static`` starts each case at b + F_m / k0 of its own load: a
+    torque sweep equals the runs started there one load at a time, and not a common start
+    (two transient periods at zeta = 0.05 leave the start visible)."""
+    swept = gearsweep.run(_full(["2 N*m", "8.9 N*m"], "static"))
+    for t in (2.0, 8.9):
+        x0 = 0.4698e-3 / 2 + t / 56.3816e-3 / 219e6
+        alone = gearsweep.run(_full([f"{t} N*m"], f"{x0} m"))
+        assert_allclose(swept.p_rms.sel(torque=t).values, alone.p_rms.isel(torque=0).values,
+                        rtol=1e-12)
+    common = gearsweep.run(_full(["2 N*m", "8.9 N*m"], "0.2349 mm"))
+    assert np.abs(common.p_rms.values / swept.p_rms.values - 1).max() > 1e-6
+
+
+@pytest.mark.slow  # compiles the full-scene kernel
+def test_pinion_output_is_eq4_per_line_of_the_mesh_force():
+    """``spectrum: {pinion: true}``: r2 theta2 per line is (r2^2 / I2) |W_k| / (2 pi f_k)^2 of
+    the force spectrum (0 at order 0) and pinion_rms its rms; a scene without a drive is
+    refused in one line."""
+    from gearsweep.analysis import sensor
+
+    ds = gearsweep.run(_full(["8.9 N*m"], "static", pinion=True))
+    fs = ds.force_spectrum.where(ds.order > 0, 0.0)
+    want = sensor.pinion_displacement(fs.values, ds.frequency.values[None, :, :],
+                                      base_radius_2=37.5877e-3, inertia_2=3.1567e-4)
+    assert_allclose(ds.pinion_spectrum.values, want, rtol=1e-14)
+    assert (ds.pinion_spectrum.sel(order=0.0) == 0).all()
+    assert_allclose(ds.pinion_rms.values, sensor.spectrum_rms(want), rtol=1e-14)
+    assert ds.pinion_rms.attrs["units"] == "m"
+    study = _full(["8.9 N*m"], "static", pinion=True)
+    study["scene"].pop("drive")
+    study["scene"].update({"mass": "0.1547 kg", "base_radius": "56.3816 mm"})
+    with pytest.raises(StudyError, match=r"outputs.spectrum.pinion"):
+        gearsweep.run(study)

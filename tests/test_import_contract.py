@@ -26,8 +26,7 @@ FIGURE_FORBIDDEN = ("gearsweep.kernels", "gearsweep.analysis", "gearsweep.study.
                     "gearsweep.study.chunk", "gearsweep.study.execute", "gearsweep.api.run")
 """What a figure script must not import: it opens result files and calls ``gearsweep.plot``."""
 
-STILL_COMPUTING = {"fig11_low_speed.py",
-                   "fig_rattle.py"}
+STILL_COMPUTING: set[str] = set()
 """Figure scripts that still compute (issue 22: to become study outputs). The test below fails
 when one of them stops computing, so the list can only shrink."""
 

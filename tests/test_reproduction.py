@@ -36,3 +36,29 @@ def test_listed_study_exists_in_studies_and_validates(study, capsys):
 @pytest.mark.parametrize("figure", FIGURES)
 def test_listed_figure_is_in_the_repository(figure):
     assert (ROOT / "figures" / figure).exists(), figure
+
+
+def _analysis_inputs() -> list[tuple[str, str]]:
+    from gearsweep.study.schema import load_study
+
+    out = []
+    for path in sorted((ROOT / "studies").glob("*.yaml")):
+        study, _ = load_study(path)
+        if getattr(study, "type", None) == "analysis" and hasattr(study.analysis, "inputs"):
+            out += [(path.name, name) for name in study.analysis.inputs()]
+    return out
+
+
+@pytest.mark.parametrize("study,name", _analysis_inputs())
+def test_analysis_studies_read_results_the_main_job_writes_first(study, name):
+    """Every result an analysis study reads comes from a study under studies/ that the main job
+    runs before it (the other studies first, then the analysis studies)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from main_job import is_analysis
+
+    source = ROOT / "studies" / f"{name}.yaml"
+    assert source.exists(), f"{study} reads results/{name}.nc, but studies/{name}.yaml is missing"
+    assert not is_analysis(source), f"{study} reads the analysis result {name}: not ordered"
+    assert is_analysis(ROOT / "studies" / study)

@@ -1,7 +1,9 @@
 """Figures of the rattle scene (section 6): Fig. 8, Fig. 9, the Fig. 12 counterpart, a design map.
 
-Every function takes arrays (SI units, speeds in rpm) and a Matplotlib ``ax`` (or axes), draws,
-and returns the figure. Lengths are shown in mm, forces in kN.
+The ``plot_rattle_*`` functions draw the Datasets of the rattle analysis studies
+(``studies/fig08_rattle_balance.yaml``: ``rattle_balance``; ``fig08_rattle_budget.yaml``:
+``rattle_budget``) as ``plot_x(ax, ds, *, ...)``; nothing is computed here. The lower-level
+functions below them take arrays (SI units, speeds in rpm). Lengths are shown in mm, forces in kN.
 """
 
 from __future__ import annotations
@@ -9,8 +11,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+
+from gearsweep.plot.sweep import speed_label as _speed_label
 
 MM = 1e3
 
@@ -221,3 +226,123 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     cbh = fig.colorbar(imh, ax=list(axes_hyst), shrink=0.9)
     cbh.set_label("hysteresis band width [rpm]")
     return fig
+
+
+def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float = 0.6,
+                        note_at: tuple[float, float] = (8300.0, 0.03)) -> Figure:
+    """Fig. 8 from a ``rattle_balance`` Dataset: the integration's run-up and run-down, the
+    describing-function curves, the AFT branch, the paper's Eq. (15) points, where the lower
+    branch flips, and Eq. (15) against the integration; titled with the scene's numbers.
+    ``ymax`` [mm]; ``note_at`` (rpm, mm): where the flip note is written."""
+    speed = ds["speed"].values
+    amp = ds["amplitude"]
+    curves = [
+        {"speed": ds.df0_speed.values, "amplitude": ds.df0_amplitude.values,
+         "stable": ds.df0_stable.values, "label": "describing fn. A, F_m = 0", "color": "0.6",
+         "lw": 1.0},
+        {"speed": ds.df_speed.values, "amplitude": ds.df_amplitude.values,
+         "stable": ds.df_stable.values, "label": "describing fn., first-harmonic A",
+         "color": "k"},
+        {"speed": ds.aft_speed.values, "amplitude": ds.aft_amplitude.values,
+         "stable": ds.aft_stable.values, "color": "tab:green",
+         "label": f"AFT harmonic balance ({ds.attrs['aft_harmonics']} harm.), Floquet"},
+    ]
+    r15 = ds["eq15_root"].values
+    ok = np.isfinite(r15)
+    eq15 = {"speed": np.broadcast_to(ds["eq15_speed"].values[:, None], r15.shape)[ok],
+            "amplitude": r15[ok], "label": "Eq. (15), undamped (the paper's o), every root"}
+    plot_fig8(ax, speed, amp.sel(direction="up"), amp.sel(direction="down"),
+              half_gap=float(ds.half_gap), curves=curves, eq15=eq15,
+              speed_label=_speed_label(ds["speed"]))
+    ax.set_xlim(speed[0], speed[-1])
+    ax.set_ylim(0, ymax)
+    flip = float(ds.flip_speed)
+    if np.isfinite(flip):
+        ax.annotate(f"period-1 lower branch unstable above {flip:.0f} rpm (flip):\n"
+                    "the integration follows period-2, -4 or irregular motions\n"
+                    f"({int(ds.not_settled)} of {int(ds.cases)} case-speeds not settled:"
+                    " masked)", (flip, float(ds.flip_amplitude) * MM), xytext=note_at,
+                    fontsize=7.5, arrowprops={"arrowstyle": "->", "color": "0.3"})
+    ax.text(0.99, 0.99, "Eq. (15) against the integration:\n"
+            f"run-down rise {float(ds.eq15_rise_speed):.0f} rpm (integration"
+            f" {float(ds.jump_down_speed):.0f})\n"
+            f"run-up drop {float(ds.eq15_drop_speed):.0f} rpm (integration"
+            f" {float(ds.jump_up_speed):.0f})\n"
+            f"amplitude, rattling branch: median {float(ds.eq15_distance_rattling_median):.1%},"
+            f" max {float(ds.eq15_distance_rattling_max):.1%}\n"
+            f"amplitude, free-flight branch: median"
+            f" {float(ds.eq15_distance_free_flight_median):.1%}",
+            transform=ax.transAxes, ha="right", va="top", fontsize=7.5,
+            bbox={"fc": "white", "ec": "0.7", "alpha": 0.9})
+    k, m, c = float(ds.stiffness), float(ds.mass), float(ds.damping)
+    ax.set_title(f"{ds.attrs['balanced_title']}\nk = {k / 1e6:g} kN/mm, m_eq = "
+                 f"{m:g} kg, backlash {float(ds.backlash) * 1e3:.4g} mm (line of action);"
+                 f" FITTED: F0 = {float(ds.force_amplitude) / 1e3:g} kN at mesh order"
+                 f" {float(ds.force_order):g},\nc = {c / 1e3:g} N s/mm (ζ = {float(ds.zeta):.3f});"
+                 f" F_m = {float(ds.mean_force):.0f} N", fontsize=8.5)
+    return ax.figure
+
+
+def plot_rattle_contact(ax: Axes, ds: xr.Dataset) -> Figure:
+    """Contact-loss and back-flank fractions of a ``rattle_balance`` Dataset's integration, with
+    the contact loss above the run-up drop."""
+    loss, back = ds["contact_loss_fraction"], ds["backside_contact_fraction"]
+    plot_contact(ax, ds["speed"].values, loss.sel(direction="up"), loss.sel(direction="down"),
+                 back.sel(direction="up"), back.sel(direction="down"),
+                 speed_label=_speed_label(ds["speed"]))
+    ax.annotate(f"above the run-up drop: apart {float(ds.contact_loss_above_drop_min):.0%}-"
+                f"{float(ds.contact_loss_above_drop_max):.0%} of the time\n(free flight,"
+                " drive-flank impacts only)", (0.72, 0.55), xycoords="axes fraction",
+                fontsize=7.5, ha="center")
+    return ax.figure
+
+
+def plot_rattle_graphical(ax: Axes, ds: xr.Dataset, *, p_range: float = 0.75e-3) -> Figure:
+    """Fig. 9 from a ``rattle_balance`` Dataset: Eq. (15)'s spring curve and its three lines
+    with their roots, titled with the number of cuts of each line."""
+    per_rpm = float(ds.omega_per_rpm)
+    speeds = ds["line_speed"].values
+    roots = ds["graphical_root"].values
+    labels = [f"{n}: {v:.0f} rpm" for n, v in zip(ds["line"].values, speeds, strict=True)]
+    f0, b = float(ds.force_amplitude), float(ds.half_gap)
+    plot_fig9(ax, stiffness=float(ds.stiffness), mass=float(ds.mass), force_amp=f0, half_gap=b,
+              omegas=speeds * per_rpm, labels=labels, roots=roots, p_range=p_range)
+    counts = np.isfinite(roots).sum(axis=1)
+    shaft = ds["speed"].attrs.get("gear", "driving gear")
+    ax.set_title("Fig. 9: Eq. (15), k f(p0) = F0 + m ω² p0 (undamped; F0 = "
+                 f"{f0 / 1e3:g} kN as fitted for Fig. 8, b = {b * 1e3:.4g} mm);\nintersections "
+                 f"A: {counts[0]}, B: {counts[1]}, C: {counts[2]} (3 roots between "
+                 f"{float(ds.eq15_rise_speed):.0f} and {float(ds.eq15_drop_speed):.0f} rpm of"
+                 f" the {shaft}))", fontsize=9)
+    return ax.figure
+
+
+def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | None = None
+                       ) -> Figure:
+    """The force budget of a ``rattle_budget`` Dataset over its speeds: the fitted force, the
+    mean force, m_eq w^2 e_1, and per scene k e_1 and the least force that opens the mesh."""
+    colors = colors or {0: "tab:blue", 1: "tab:orange"}
+    sp = ds["budget_speed"].values
+    f0, fm, e1 = float(ds.fitted_force), float(ds.mean_force), float(ds.ste_1)
+    lines = [{"x": sp, "y": np.full(sp.shape, f0), "color": "0.55", "lw": 2.0,
+              "label": f"F0 fitted for Fig. 8: {f0 / 1e3:g} kN"},
+             {"x": sp, "y": np.full(sp.shape, fm), "color": "k", "ls": "-.",
+              "label": f"mean mesh force F_m = {fm:.0f} N"},
+             {"x": sp, "y": ds.inertia_force.values, "color": "tab:purple",
+              "label": f"m_eq w² e_1 (e_1 = {e1 * 1e6:.2f} µm, the pair's 1st STE harmonic)"}]
+    for j, scene in enumerate(ds["scene"].values):
+        s = ds.sel(scene=scene)
+        cs = [c for c in s["damping"].values if np.isfinite(float(s.threshold.sel(damping=c)))]
+        for c in cs:
+            k = float(s.scene_stiffness.sel(damping=c))
+            if c == max(cs):
+                lines.append({"x": sp, "y": np.full(sp.shape, k * e1), "color": colors[j],
+                              "ls": ":", "label": f"k e_1, k = {k / 1e6:.0f} kN/mm"})
+            lines.append({"x": sp, "y": np.full(sp.shape, float(s.threshold.sel(damping=c))),
+                          "color": colors[j], "ls": "--", "lw": 0.9,
+                          "label": f"least force that opens the mesh, k = {k / 1e6:.0f}"
+                                   f" kN/mm, c = {c / 1e3:g} N s/mm"})
+    plot_lines(ax, None, lines, xlabel=_speed_label(ds["budget_speed"]),
+               ylabel="force amplitude at mesh order 1 [N]")
+    ax.legend(fontsize=6.5, loc="lower right")
+    return ax.figure

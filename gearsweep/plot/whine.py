@@ -24,6 +24,7 @@ from matplotlib.figure import Figure
 from gearsweep.model import model_from_record
 
 __all__ = [
+    "damping_labels",
     "driven_speed",
     "natural_frequency",
     "plot_campbell",
@@ -43,6 +44,16 @@ def natural_frequency(ds: xr.Dataset) -> float:
     """
     model = model_from_record(json.loads(ds.attrs["model"]))
     return math.sqrt(model.stiffness / model.mass) / (2 * math.pi)
+
+
+def damping_labels(ds: xr.Dataset) -> list[str]:
+    """``c = ... N s/mm (ζ = ...)`` for each ``damping`` of a result: ζ = c / (2 sqrt(k0 m_eq))
+    with the resolved model's m_eq and k0 (a gear scene's ``gear_stiffness``, the largest over
+    its loads when it sweeps torque)."""
+    model = model_from_record(json.loads(ds.attrs["model"]))
+    k0 = float(ds["gear_stiffness"].max()) if "gear_stiffness" in ds else model.stiffness
+    return [f"c = {c / 1e3:g} N s/mm (ζ = {c / (2 * math.sqrt(k0 * model.mass)):.3f})"
+            for c in ds["damping"].values]
 
 
 def driven_speed(ds: xr.Dataset, driven_teeth: int) -> np.ndarray:

@@ -6,25 +6,33 @@ Each function takes the validated options and returns a Dataset built by ``datas
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import time
+from pathlib import Path
 
 import numba
 import numpy as np
+import xarray as xr
 
+from gearsweep.analysis import hb
 from gearsweep.analysis import precision as pr
+from gearsweep.analysis import rattle as rfit
 from gearsweep.analysis import stability as st
-from gearsweep.errors import StudyError
-from gearsweep.model import MeshModel
+from gearsweep.errors import ResultError
+from gearsweep.model import RPM, MeshModel, model_from_record
 from gearsweep.study.analysis_specs import (
     AnalysisStudy,
     ArtifactMap,
+    JumpMap,
     MethodStability,
+    RattleBalance,
+    RattleBudget,
     WorkPrecision,
 )
 from gearsweep.study.dataset import build_dataset
-from gearsweep.study.plan import build_model
-from gearsweep.study.schema import load_study
+from gearsweep.study.jumps import JUMP_VARIABLES, jump_summary
 
 WHINE_DESCRIPTION = "time-varying stiffness + STE, no backlash"
 RATTLE_DESCRIPTION = "constant stiffness, backlash 4 µm, contact loss"
@@ -41,7 +49,8 @@ POLY_ATTRS = {"units": "1", "long_name": "coefficient of z^power in the stabilit
               " of the method (z = h lambda)"}
 
 
-def method_stability(o: MethodStability) -> tuple[dict, dict, dict, dict]:
+def method_stability(o: MethodStability, inputs: dict | None = None
+                     ) -> tuple[dict, dict, dict, dict]:
     """Polynomial and measured stability limits (h omega_n) per method and damping ratio."""
     zc = np.linspace(0.0, o.zeta_max, o.curve_points)
     zm = np.asarray(o.zeta, float)
@@ -70,14 +79,14 @@ def method_stability(o: MethodStability) -> tuple[dict, dict, dict, dict]:
     return data, coords, attrs, {"steps": o.steps}
 
 
-def artifact_map(o: ArtifactMap) -> tuple[dict, dict, dict, dict]:
-    """The paper's criterion per tableau and step over the rig study's speed x damping grid."""
-    rig, _ = load_study(o.rig)
-    model = build_model(rig)
-    if not isinstance(model, MeshModel) or not model.stiffness_harmonics:
-        raise StudyError(o.rig, "scene", rig.scene.kind, "a rig with a stiffness harmonic k1")
-    speed = rig.grid("speed") if "speed" in rig.sweep else np.array([rig.scene.speed])
-    damping = rig.grid("damping") if "damping" in rig.sweep else np.array([model.damping])
+def artifact_map(o: ArtifactMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
+    """The paper's criterion per tableau and step over the rig result's speed x damping grid."""
+    rig = inputs[o.rig]
+    model = _model(rig, o.rig)
+    if not model.stiffness_harmonics or "damping" not in rig.dims:
+        raise ResultError(f"{o.rig}: artifact_map needs a rig with a stiffness harmonic k1 that"
+                          " sweeps speed and damping")
+    speed, damping = rig["speed"].values, rig["damping"].values
     am = st.artifact_map(speed, damping, k0=model.stiffness,
                          k1=model.stiffness_harmonics[0].amplitude, mass=model.mass,
                          teeth=model.teeth, methods=o.methods, steps_per_period=o.steps_per_period)
@@ -119,10 +128,10 @@ def artifact_map(o: ArtifactMap) -> tuple[dict, dict, dict, dict]:
         "speed": {"units": "rpm", "long_name": "shaft speed of the driving gear"},
         "power": {"units": "1", "long_name": "power of z"},
     }
-    return data, coords, attrs, {"rig_study": o.rig}
+    return data, coords, attrs, {"rig_result": o.rig}
 
 
-def work_precision(o: WorkPrecision) -> tuple[dict, dict, dict, dict]:
+def work_precision(o: WorkPrecision, inputs: dict | None = None) -> tuple[dict, dict, dict, dict]:
     """Errors and costs of every fixed-step method and scipy peer on each scene."""
     window = pr.Window(o.transient_periods, o.record_periods)
     make = {"whine": pr.whine_scene, "rattle": pr.rattle_scene}
@@ -204,15 +213,343 @@ def work_precision(o: WorkPrecision) -> tuple[dict, dict, dict, dict]:
     return data, coords, attrs, settings
 
 
-COMPUTE = {"method_stability": method_stability, "work_precision": work_precision,
-           "artifact_map": artifact_map}
+def _settled(da: xr.DataArray, ds: xr.Dataset) -> xr.DataArray:
+    """``da`` where the case settled (status 0), NaN elsewhere."""
+    return da.where((ds["status"] == 0).broadcast_like(da))
 
 
-def run_analysis_study(study: AnalysisStudy, text: str = ""):
-    """Compute an analysis study and return its Dataset."""
+def _model(ds: xr.Dataset, name: str) -> MeshModel:
+    if "model" not in ds.attrs:
+        raise ResultError(f"{name}: the result carries no resolved model (not a dynamic study)")
+    return model_from_record(json.loads(ds.attrs["model"]))
+
+
+def _stat(f, values) -> float:
+    """``f`` of the finite values (NaN, without a warning, when there are none)."""
+    a = np.asarray(values, float)
+    a = a[np.isfinite(a)]
+    return float(f(a)) if a.size else math.nan
+
+
+def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, dict]:
+    """Describing function, AFT branch, turning points and Eq. (15) of a rattle result's scene,
+    beside the result's own integration (see ``RattleBalance``)."""
+    ds = inputs[o.result]
+    model = _model(ds, o.result)
+    if len(model.force_harmonics) != 1 or model.backlash is None or model.stiffness_harmonics:
+        raise ResultError(f"{o.result}: rattle_balance needs a constant-stiffness scene with"
+                          " backlash and one force harmonic")
+    if "direction" not in ds.dims or ds.sizes.get("speed", 0) < 2 or ds["p_pp"].ndim != 2:
+        raise ResultError(f"{o.result}: rattle_balance needs one case continued up and down over"
+                          " speed")
+    b = model.backlash / 2
+    (fh,) = model.force_harmonics
+    f0, m, k, c, fm = fh.amplitude, model.mass, model.stiffness, model.damping, model.mean_force
+    w_per_rpm = model.teeth * RPM * fh.order
+    speed = ds["speed"].values
+    amp = _settled(0.5 * ds["p_pp"], ds).transpose("direction", "speed")
+    grid = np.unique(np.r_[np.linspace(0.005 * b, 0.9999 * b, 400),
+                           b * (1 + np.geomspace(1e-8, o.curve_top - 1, 4000))])
+    common = dict(mass=m, stiffness=k, damping=c, half_gap=b, force_amp=f0)
+    df = hb.df_curve(grid, force_mean=fm, **common)
+    df0 = hb.df_curve(grid, force_mean=0.0, **common)
+    system = hb.MeshSystem(mass=m, stiffness=k, damping=c, half_gap=b, force_mean=fm,
+                           force_harmonics=(f0,))
     t0 = time.perf_counter()
-    data, coords, attrs, settings = COMPUTE[study.analysis.kind](study.analysis)
-    settings = {"scene": f"analysis: {study.analysis.kind}", **settings,
+    aft = hb.aft_continuation(system, speed[0] * w_per_rpm, speed[-1] * w_per_rpm,
+                              harmonics=o.harmonics, n_time=o.n_time)
+    t_aft = time.perf_counter() - t0
+    js = jump_summary(ds)
+    up_jump, down_jump = float(js.jump_up_speed), float(js.jump_down_speed)
+    # the paper's (o): Eq. (15), undamped, no mean force, every root, on a grid of speeds
+    sp15 = np.arange(speed[0], speed[-1] + 1.0, o.eq15_step)
+    r15 = np.abs(hb.eq15_roots(sp15 * w_per_rpm, f0, k, m, b))
+    dist = {d: rfit.eq15_distance(speed, amp.sel(direction=d).values, omega_per_rpm=w_per_rpm,
+                                  force_amp=f0, stiffness=k, mass=m, half_gap=b)
+            for d in ("up", "down")}
+    upper = dist["up"].relative[speed < down_jump]
+    lower = dist["down"].relative[speed > dist["down"].rise_eq15]
+    # where the lower branch loses period-1 stability (a multiplier through -1)
+    turns = np.nonzero(np.diff(np.sign(np.diff(aft.omega))))[0] + 1
+    flip = np.nan
+    if turns.size == 2:
+        after = np.nonzero(~aft.stable[turns[1] + 2:])[0]
+        if after.size:
+            flip = aft.omega[turns[1] + 2 + after[0]] / w_per_rpm
+    curves = {"df": df, "df0": df0, "aft": aft}
+    tps = {n: np.sort(hb.turning_points(cv.omega, cv.amplitude)) / w_per_rpm
+           for n, cv in curves.items()}
+    width = max(1, max(t.size for t in tps.values()))
+    tp = np.array([np.r_[t, np.full(width - t.size, np.nan)] for t in tps.values()])
+    loss = _settled(ds["contact_loss_fraction"], ds).transpose("direction", "speed")
+    back = _settled(ds["backside_contact_fraction"], ds).transpose("direction", "speed")
+    above = loss.sel(direction="up").where(ds["speed"] > up_jump)
+    # Fig. 9: three lines of Eq. (15), around where its gap root appears and its resonance
+    w_t, w_n = math.sqrt(f0 / (m * b)), math.sqrt(k / m)
+    ga, gb, gc = o.graphical
+    g_speed = np.array([ga * w_t, gb * (w_t + w_n), gc * w_n]) / w_per_rpm
+    g_roots = hb.eq15_roots(g_speed * w_per_rpm, f0, k, m, b)
+    n_bad = int((ds["status"] != 0).sum())
+    sp, dr = ("speed",), ("direction", "speed")
+    data = {
+        "amplitude": (dr, amp.values), "contact_loss_fraction": (dr, loss.values),
+        "backside_contact_fraction": (dr, back.values),
+        "eq15_nearest": (dr, np.array([dist[d].eq15 for d in ("up", "down")])),
+        "eq15_distance": (dr, np.array([dist[d].relative for d in ("up", "down")])),
+        "df_speed": (("df_point",), df.omega / w_per_rpm), "df_amplitude": (("df_point",),
+                                                                            df.amplitude),
+        "df_stable": (("df_point",), df.stable),
+        "df0_speed": (("df0_point",), df0.omega / w_per_rpm),
+        "df0_amplitude": (("df0_point",), df0.amplitude), "df0_stable": (("df0_point",),
+                                                                         df0.stable),
+        "aft_speed": (("aft_point",), aft.omega / w_per_rpm),
+        "aft_amplitude": (("aft_point",), aft.amplitude), "aft_stable": (("aft_point",),
+                                                                         aft.stable),
+        "turning_point": (("curve", "turn"), tp),
+        "eq15_root": (("eq15_speed", "root"), r15),
+        "graphical_root": (("line", "root"), g_roots),
+        "flip_speed": ((), flip),
+        "flip_amplitude": ((), float(np.interp(flip, speed, 0.5 * ds["p_pp"].sel(
+            direction="down").values)) if np.isfinite(flip) else np.nan),
+        "jump_up_speed": ((), up_jump), "jump_down_speed": ((), down_jump),
+        "jump_up_size": ((), float(js.jump_up_size)),
+        "jump_down_size": ((), float(js.jump_down_size)),
+        "eq15_rise_speed": ((), dist["up"].rise_eq15), "eq15_drop_speed": ((), dist["up"].drop_eq15),
+        "eq15_distance_rattling_median": ((), _stat(np.median, upper)),
+        "eq15_distance_rattling_max": ((), _stat(np.max, upper)),
+        "eq15_distance_free_flight_median": ((), _stat(np.median, lower)),
+        "contact_loss_above_drop_min": ((), _stat(np.min, above)),
+        "contact_loss_above_drop_max": ((), _stat(np.max, above)),
+        "contact_loss_above_drop_mean": ((), _stat(np.mean, above)),
+        "settle_error_max": ((), float(ds["settle_error"].max())),
+        "not_settled": ((), n_bad), "cases": ((), int(ds["status"].size)),
+        "mass": ((), m), "stiffness": ((), k), "damping": ((), c), "half_gap": ((), b),
+        "backlash": ((), model.backlash), "force_amplitude": ((), f0),
+        "force_order": ((), fh.order), "mean_force": ((), fm),
+        "zeta": ((), c / (2.0 * math.sqrt(k * m))),
+        "omega_per_rpm": ((), w_per_rpm),
+    }
+    coords = {"speed": (sp, speed),
+              "direction": (("direction",), np.array(["up", "down"])),
+              "curve": (("curve",), np.array(["describing_function",
+                                              "describing_function_no_mean_force", "aft"])),
+              "eq15_speed": (("eq15_speed",), sp15), "line": (("line",), np.array(list("ABC"))),
+              "line_speed": (("line",), g_speed)}
+    rpm, amp_m = {"units": "rpm"}, {"units": "m"}
+    attrs = {
+        "amplitude": {**amp_m, "long_name": "integration: half peak-to-peak of p (settled cases;"
+                      " NaN elsewhere)"},
+        "contact_loss_fraction": {"units": "1", "long_name": "integration: fraction of time with"
+                                  " the teeth apart (settled cases)"},
+        "backside_contact_fraction": {"units": "1", "long_name": "integration: fraction of time"
+                                      " on the back flank (settled cases)"},
+        "eq15_nearest": {**amp_m, "long_name": "|p0| of the Eq. (15) root nearest the integration"
+                         " (NaN: none)"},
+        "eq15_distance": {"units": "1", "long_name": "|Eq. (15) - integration| / integration"},
+        "df_speed": {**rpm, "long_name": "describing-function curve (with the mean force)"},
+        "df_amplitude": {**amp_m, "long_name": "describing function: first-harmonic amplitude A"},
+        "df_stable": {"long_name": "describing function: stable (slow flow)"},
+        "df0_speed": {**rpm, "long_name": "describing-function curve, F_m = 0"},
+        "df0_amplitude": {**amp_m, "long_name": "describing function, F_m = 0: amplitude A"},
+        "df0_stable": {"long_name": "describing function, F_m = 0: stable (slow flow)"},
+        "aft_speed": {**rpm, "long_name": f"AFT harmonic-balance branch ({o.harmonics} harmonics"
+                      f", {o.n_time} time samples)"},
+        "aft_amplitude": {**amp_m, "long_name": "AFT branch: half peak-to-peak of p"},
+        "aft_stable": {"long_name": "AFT branch: stable (Floquet)"},
+        "turning_point": {**rpm, "long_name": "turning points (folds) of each curve, sorted (NaN:"
+                          " fewer)"},
+        "eq15_root": {**amp_m, "long_name": "Eq. (15), undamped, no mean force: |p0| of every"
+                      " root (NaN: fewer roots)"},
+        "graphical_root": {**amp_m, "long_name": "Eq. (15) roots p0 on the lines of Fig. 9"},
+        "flip_speed": {**rpm, "long_name": "AFT lower branch: period-1 unstable (flip) above"
+                       " (NaN: none)"},
+        "flip_amplitude": {**amp_m, "long_name": "run-down integration's amplitude at the flip"
+                           " speed (unmasked)"},
+        "jump_up_speed": {**rpm, "long_name": "integration: run-up jump"},
+        "jump_down_speed": {**rpm, "long_name": "integration: run-down jump"},
+        "jump_up_size": {"units": "1", "long_name": "relative size of the run-up jump"},
+        "jump_down_size": {"units": "1", "long_name": "relative size of the run-down jump"},
+        "eq15_rise_speed": {**rpm, "long_name": "Eq. (15): its gap root appears (run-down rise)"},
+        "eq15_drop_speed": {**rpm, "long_name": "Eq. (15): its in-phase root leaves to infinity"
+                            " (linear resonance, run-up drop)"},
+        "eq15_distance_rattling_median": {"units": "1", "long_name": "eq15_distance, run-up,"
+                                          " below the run-down jump: median"},
+        "eq15_distance_rattling_max": {"units": "1", "long_name": "eq15_distance, run-up, below"
+                                       " the run-down jump: max"},
+        "eq15_distance_free_flight_median": {"units": "1", "long_name": "eq15_distance,"
+                                             " run-down, above Eq. (15)'s rise: median"},
+        "contact_loss_above_drop_min": {"units": "1", "long_name": "run-up contact loss above"
+                                        " the run-up drop: min"},
+        "contact_loss_above_drop_max": {"units": "1", "long_name": "run-up contact loss above"
+                                        " the run-up drop: max"},
+        "contact_loss_above_drop_mean": {"units": "1", "long_name": "run-up contact loss above"
+                                         " the run-up drop: mean"},
+        "settle_error_max": {"units": "1", "long_name": "largest settle_error of the integration"},
+        "not_settled": {"units": "1", "long_name": "case-speeds with status != 0"},
+        "cases": {"units": "1", "long_name": "case-speeds of the integration"},
+        "mass": {"units": "kg", "long_name": "m_eq"}, "stiffness": {"units": "N/m"},
+        "damping": {"units": "N*s/m"}, "half_gap": {**amp_m, "long_name": "b = backlash / 2"},
+        "backlash": {**amp_m, "long_name": "backlash along the line of action"},
+        "force_amplitude": {"units": "N", "long_name": "F0"},
+        "force_order": {"units": "1", "long_name": "mesh order of F0"},
+        "mean_force": {"units": "N", "long_name": "F_m"},
+        "zeta": {"units": "1", "long_name": "damping ratio c / (2 sqrt(k m))"},
+        "omega_per_rpm": {"units": "rad/s/rpm", "long_name": "excitation frequency per rpm"},
+        "eq15_speed": {**rpm, "long_name": "speeds of the Eq. (15) points"},
+        "line_speed": {**rpm, "long_name": "speed of each line of Fig. 9"},
+        "speed": dict(ds["speed"].attrs),
+    }
+    settings = {"balanced_title": ds.attrs.get("title", o.result), "aft_seconds": round(t_aft, 1),
+                "aft_points": int(aft.omega.size), "aft_harmonics": o.harmonics}
+    return data, coords, attrs, settings
+
+
+def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict]:
+    """Force budget of a fitted rattle scene against scenes with the pair's own STE."""
+    fit = inputs[o.fitted]
+    m8 = _model(fit, o.fitted)
+    (fh,) = m8.force_harmonics
+    w8 = m8.teeth * RPM
+    e1 = float(inputs[o.mesh]["ste_harmonic"].sel(harmonic=1))
+    first = inputs[o.scenes[0]]["speed"].values
+    sp = np.linspace(float(first[0]), float(first[-1]), o.points)
+    dampings = sorted({float(c) for n in o.scenes for c in inputs[n]["damping"].values},
+                      reverse=True)
+    ns, nc = len(o.scenes), len(dampings)
+    per = {v: np.full((ns, nc), np.nan) for v in (
+        "stiffness", "zeta", "threshold", "jump_up", "jump_down", "open_low", "open_high",
+        "p_pp_max", "backside_max")}
+    per["not_settled"] = np.zeros(ns, int)
+    for i, name in enumerate(o.scenes):
+        ds = inputs[name]
+        model = _model(ds, name)
+        js = jump_summary(ds)
+        loss = ds["contact_loss_fraction"].max("direction")
+        per["not_settled"][i] = int((ds["status"] != 0).sum())
+        for c in ds["damping"].values:
+            j = dampings.index(float(c))
+            per["stiffness"][i, j] = model.stiffness
+            per["zeta"][i, j] = c / (2.0 * math.sqrt(model.stiffness * model.mass))
+            per["threshold"][i, j] = rfit.contact_loss_threshold(
+                mass=model.mass, stiffness=model.stiffness, damping=float(c),
+                force_mean=model.mean_force)
+            per["jump_up"][i, j] = float(js.jump_up_speed.sel(damping=c))
+            per["jump_down"][i, j] = float(js.jump_down_speed.sel(damping=c))
+            opened = ds["speed"].values[(loss.sel(damping=c) > 0).values]
+            if opened.size:
+                per["open_low"][i, j], per["open_high"][i, j] = opened.min(), opened.max()
+            per["p_pp_max"][i, j] = float(ds["p_pp"].sel(damping=c).max())
+            per["backside_max"][i, j] = float(ds["backside_contact_fraction"].sel(damping=c).max())
+    at = np.asarray(o.at_speeds, float)
+    sc = ("scene", "damping")
+    data = {
+        "fitted_force": ((), fh.amplitude), "fitted_order": ((), fh.order),
+        "mean_force": ((), m8.mean_force), "ste_1": ((), e1),
+        "half_gap": ((), m8.backlash / 2),
+        "k_e1_fitted": ((), m8.stiffness * e1),
+        "inertia_force": (("budget_speed",), m8.mass * (sp * w8) ** 2 * e1),
+        "inertia_force_at": (("at_speed",), m8.mass * (at * w8) ** 2 * e1),
+        "scene_stiffness": (sc, per["stiffness"]), "zeta": (sc, per["zeta"]),
+        "k_e1": (sc, per["stiffness"] * e1),
+        "threshold": (sc, per["threshold"]), "jump_up_speed": (sc, per["jump_up"]),
+        "jump_down_speed": (sc, per["jump_down"]), "contact_loss_from": (sc, per["open_low"]),
+        "contact_loss_to": (sc, per["open_high"]), "p_pp_max": (sc, per["p_pp_max"]),
+        "backside_contact_max": (sc, per["backside_max"]),
+        "not_settled": (("scene",), per["not_settled"]),
+    }
+    coords = {"scene": (("scene",), np.array(o.scenes)),
+              "scene_name": (("scene",), np.array(o.names)),
+              "scene_title": (("scene",), np.array([inputs[n].attrs.get("title", n)
+                                                    for n in o.scenes])),
+              "damping": (("damping",), np.array(dampings)),
+              "budget_speed": (("budget_speed",), sp),
+              "at_speed": (("at_speed",), at)}
+    rpm = {"units": "rpm"}
+    attrs = {
+        "fitted_force": {"units": "N", "long_name": f"F0 fitted for {o.fitted}"},
+        "fitted_order": {"units": "1", "long_name": "mesh order of the fitted force"},
+        "mean_force": {"units": "N", "long_name": "mean mesh force F_m of the fitted scene"},
+        "ste_1": {"units": "m", "long_name": "e_1, the pair's first STE harmonic"},
+        "half_gap": {"units": "m", "long_name": "b = backlash / 2 of the fitted scene"},
+        "k_e1_fitted": {"units": "N", "long_name": "k e_1 at the fitted scene's k"},
+        "inertia_force": {"units": "N", "long_name": "m_eq w^2 e_1 (w: mesh order 1)"},
+        "inertia_force_at": {"units": "N", "long_name": "m_eq w^2 e_1 at at_speed"},
+        "scene_stiffness": {"units": "N/m", "long_name": "mean mesh stiffness k0 of the scene"},
+        "zeta": {"units": "1", "long_name": "damping ratio c / (2 sqrt(k m))"},
+        "k_e1": {"units": "N", "long_name": "k e_1 at the scene's k"},
+        "threshold": {"units": "N", "long_name": "least force amplitude that opens the mesh"
+                      " (linear response)"},
+        "jump_up_speed": {**rpm, "long_name": "run-up jump (NaN: none)"},
+        "jump_down_speed": {**rpm, "long_name": "run-down jump (NaN: none)"},
+        "contact_loss_from": {**rpm, "long_name": "lowest speed with contact loss (either"
+                              " sweep; NaN: none)"},
+        "contact_loss_to": {**rpm, "long_name": "highest speed with contact loss"},
+        "p_pp_max": {"units": "m", "long_name": "largest peak-to-peak p"},
+        "backside_contact_max": {"units": "1", "long_name": "largest back-flank fraction"},
+        "not_settled": {"units": "1", "long_name": "case-speeds with status != 0"},
+        "damping": {"units": "N*s/m", "long_name": "mesh damping c"},
+        "at_speed": rpm,
+        "budget_speed": dict(inputs[o.scenes[0]]["speed"].attrs),
+    }
+    return data, coords, attrs, {}
+
+
+def jump_map(o: JumpMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
+    """Share of speeds with contact loss and the jump summary of every case of a continued
+    sweep (see ``JumpMap``)."""
+    ds = inputs[o.result]
+    if "contact_loss_fraction" not in ds:
+        raise ResultError(f"{o.result}: jump_map needs a result with backlash (contact loss)")
+    js = jump_summary(ds)
+    dims = list(js["hysteresis_width"].dims)
+    loss = ds["contact_loss_fraction"].max("direction")
+    share = (loss > o.loss_threshold).mean("speed").transpose(*dims)
+    data = {"rattle_share": (tuple(dims), share.values),
+            **{n: (tuple(dims), js[n].transpose(*dims).values) for n in JUMP_VARIABLES},
+            "not_settled_share": ((), float((ds["status"] == 2).mean()))}
+    coords = {d: ((d,), ds[d].values) for d in dims}
+    attrs = {"rattle_share": {"units": "1", "long_name": "share of speeds with contact loss above"
+                              f" {o.loss_threshold:g} of the time (either sweep)"},
+             **{n: {"units": u, "long_name": ln} for n, (u, ln) in JUMP_VARIABLES.items()},
+             "not_settled_share": {"units": "1", "long_name": "share of the result's"
+                                   " case-speeds with status 2 (not settled)"},
+             **{d: dict(ds[d].attrs) for d in dims}}
+    settings = {"speed_from": float(ds["speed"].values[0]),
+                "speed_to": float(ds["speed"].values[-1]),
+                "input_cases": int(ds.attrs.get("cases", ds["status"].size)),
+                "input_elapsed_seconds": ds.attrs.get("elapsed_seconds", "nan")}
+    return data, coords, attrs, settings
+
+
+COMPUTE = {"method_stability": method_stability, "work_precision": work_precision,
+           "artifact_map": artifact_map,
+           "rattle_balance": rattle_balance, "rattle_budget": rattle_budget,
+           "jump_map": jump_map}
+
+
+def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
+    """The results an analysis reads, and their provenance (study sha256 per input)."""
+    names = study.analysis.inputs() if hasattr(study.analysis, "inputs") else []
+    inputs, prov = {}, {}
+    for name in names:
+        path = Path(results) / f"{name}.nc"
+        if not path.exists():
+            raise ResultError(f"{path}: no such result; analysis {study.analysis.kind!r} reads"
+                              f" it: run studies/{name}.yaml first")
+        ds = xr.load_dataset(path)
+        inputs[name] = ds
+        prov[f"input_{name}"] = ds.attrs.get("study_sha256") or hashlib.sha256(
+            ds.attrs.get("study", "").encode()).hexdigest()
+    return inputs, prov
+
+
+def run_analysis_study(study: AnalysisStudy, text: str = "", results: str | Path = "results"):
+    """Compute an analysis study and return its Dataset; the results it reads
+    (``analysis.inputs()``) are opened from the folder ``results``."""
+    t0 = time.perf_counter()
+    inputs, prov = _open_inputs(study, Path(results))
+    data, coords, attrs, settings = COMPUTE[study.analysis.kind](study.analysis, inputs)
+    settings = {"scene": f"analysis: {study.analysis.kind}", **settings, **prov,
                 "elapsed_seconds": round(time.perf_counter() - t0, 3)}
     settings = {k: ("nan" if isinstance(v, float) and not math.isfinite(v) else v)
                 for k, v in settings.items()}

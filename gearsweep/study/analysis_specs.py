@@ -8,6 +8,11 @@ Dataset, so figure scripts only read results::
     analysis:
       kind: method_stability
       zeta: [0.0, 0.1, 0.215, 0.4]
+
+An analysis may read the results of other studies (``inputs()``: their names): they are opened
+from the folder the analysis writes to (``results/<name>.nc`` in the main job, which runs the
+analysis studies after the others), and each input's study text and sha256 are kept in the
+result's attributes.
 """
 
 from __future__ import annotations
@@ -51,8 +56,8 @@ class ArtifactMap(Strict):
     study (Fig. 7.2): which tableau and step reproduce the paper's figure."""
 
     kind: Literal["artifact_map"]
-    rig: str = Field(description="the rig's dynamic study (path from the working directory):"
-                     " its model and its speed and damping grids")
+    rig: ResultName = Field(description="the rig's dynamic result (results/<name>.nc): its"
+                            " resolved model and its speed and damping grids")
     methods: list[Literal["rk5", "fehlberg5", "cashkarp5", "dopri5"]] = Field(
         default_factory=lambda: ["rk5", "fehlberg5", "cashkarp5", "dopri5"], min_length=1)
     steps_per_period: list[int] = Field(
@@ -63,6 +68,9 @@ class ArtifactMap(Strict):
         if any(s < 4 for s in self.steps_per_period):
             raise ValueError("steps_per_period must be >= 4")
         return self
+
+    def inputs(self) -> list[str]:
+        return [self.rig]
 
 
 class WorkPrecision(Strict):
@@ -97,7 +105,74 @@ class WorkPrecision(Strict):
         return self
 
 
-AnalysisSpec = Annotated[MethodStability | WorkPrecision | ArtifactMap,
+ResultName = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$", description=(
+    "the name of another study's result: results/<name>.nc from studies/<name>.yaml"))]
+
+
+class RattleBalance(Strict):
+    """Harmonic balance of a continued (up and down) rattle study's scene beside its integration:
+    the describing-function curves (with the mean force and without), the AFT harmonic-balance
+    branch with Floquet stability, their turning points, the paper's Eq. (15) (every root on a
+    grid of speeds, and the root nearest the integration at each of its speeds), the jump speeds
+    of the integration and the Eq. (15) lines of the graphical solution (Fig. 9). The scene is the
+    resolved model the result carries: one force harmonic, constant stiffness, backlash."""
+
+    kind: Literal["rattle_balance"]
+    result: ResultName
+    harmonics: int = Field(25, ge=1, le=200, description="AFT harmonics")
+    n_time: int = Field(1024, ge=16, le=1 << 16, description="AFT time samples per period")
+    curve_top: float = Field(3.0, gt=1, le=100,
+                             description="describing-function curve up to this many b [1]")
+    eq15_step: Speed = Field(50.0, gt=0, description="speed step of the Eq. (15) points [rpm]")
+    graphical: tuple[float, float, float] = Field(
+        (0.7, 0.5, 1.25), description="the three lines of Fig. 9: A at this x w_t, B at this x"
+        " (w_t + w_n), C at this x w_n (w_t: the gap root appears, w_n: the linear resonance)")
+
+    def inputs(self) -> list[str]:
+        return [self.result]
+
+
+class RattleBudget(Strict):
+    """The force budget of a fitted rattle scene against scenes driven by the pair's own STE:
+    the fitted force, the mean force, what the pair's first STE harmonic supplies (k e_1 and
+    m w^2 e_1), the least force that opens the mesh of each scene and damping, and each scene's
+    jumps, contact-loss span and largest response."""
+
+    kind: Literal["rattle_budget"]
+    fitted: ResultName
+    scenes: list[ResultName] = Field(min_length=1)
+    names: list[str] = Field(min_length=1, description="a short name per scene (legends)")
+    mesh: ResultName = Field(description="the pair's mesh study (its ste_harmonic gives e_1)")
+    points: int = Field(200, ge=2, le=100_000, description="speeds of the budget lines")
+    at_speeds: list[Speed] = Field(default_factory=lambda: [7500.0, 8000.0],
+                                   description="speeds where m w^2 e_1 is reported [rpm]")
+
+    @model_validator(mode="after")
+    def _names(self) -> RattleBudget:
+        if len(self.names) != len(self.scenes):
+            raise ValueError("give one name per scene")
+        return self
+
+    def inputs(self) -> list[str]:
+        return [self.fitted, *self.scenes, self.mesh]
+
+
+class JumpMap(Strict):
+    """Where a continued (up and down) sweep over design parameters rattles: per case of the
+    result, the share of speeds with contact loss (either sweep) and its jump summary
+    (``gearsweep.study.jumps``: jump speeds, hysteresis band)."""
+
+    kind: Literal["jump_map"]
+    result: ResultName
+    loss_threshold: float = Field(0.01, ge=0, lt=1, description="contact loss above this"
+                                  " fraction of the time counts as rattle [1]")
+
+    def inputs(self) -> list[str]:
+        return [self.result]
+
+
+AnalysisSpec = Annotated[MethodStability | WorkPrecision | ArtifactMap | RattleBalance
+                         | RattleBudget | JumpMap,
                          Field(discriminator="kind")]
 """The ``analysis:`` mapping of an analysis study."""
 

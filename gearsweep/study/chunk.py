@@ -126,10 +126,35 @@ def _merge(parts: list[tuple[np.ndarray, tuple]], n: int) -> tuple:
     return res, out, full([p[1][2] for p in parts])
 
 
+def _start(plan: Plan, params: dict[str, np.ndarray], n: int) -> float | np.ndarray:
+    """p at t = 0 of each case: the solver's ``initial_displacement``, or with ``static`` the
+    static equilibrium on the drive flank b + F_m / k0 of each case (at its own load)."""
+    s = plan.study.solver
+    if s.initial_displacement != "static":
+        return s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
+    model = plan.model
+    if plan.dimensionless:
+        raise ValueError("initial_displacement 'static' needs a gear scene, not Mathieu")
+
+    def case(name: str, default: float) -> np.ndarray:
+        return np.asarray(params[name], float) if name in params else np.full(n, default)
+
+    if plan.gear_load_swept:
+        torques = plan.case_torques(params)
+        k0 = np.array([plan.model_for_load(float(t)).stiffness for t in torques])
+    else:
+        k0 = case("stiffness", model.stiffness)
+    if "torque" in params:
+        fm = np.asarray(params["torque"], float) / model.base_radius
+    else:
+        fm = case("mean_force", model.mean_force)
+    return case("backlash", model.backlash) / 2.0 + fm / k0
+
+
 def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
     s = plan.study.solver
     spp = s.steps_per_period
-    x_init = s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
+    x_init = _start(plan, params, n)
     kin = kernel_inputs(plan.model, params, n, spp, s.divergence_factor, x_init,
                         s.initial_velocity)
     if x0 is not None:
@@ -165,7 +190,8 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
     ns, nd = len(speeds), len(plan.directions)
     s = plan.study.solver
     both = {name: np.tile(vals, nd) for name, vals in params.items()}
-    x = np.full(n * nd, s.initial_displacement)
+    x0 = np.broadcast_to(_start(plan, both, n * nd), (n * nd,)).astype(float)
+    x = x0.copy()
     v = np.full(n * nd, s.initial_velocity)
     cols: dict[str, np.ndarray] = {}
     for k in range(ns):
@@ -180,6 +206,6 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
                 cols[name][di, :, idx[di * n]] = a[di]
         # Carry the state; a diverged lane restarts from the initial state at the next speed.
         dead = res.status == STATUS_DIVERGED
-        x = np.where(dead, s.initial_displacement, res.x_final)
+        x = np.where(dead, x0, res.x_final)
         v = np.where(dead, s.initial_velocity, res.v_final)
     return cols

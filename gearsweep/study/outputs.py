@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from gearsweep.analysis.sensor import pinion_displacement, spectrum_rms
 from gearsweep.analysis.spectrum import kept_bins, line_spectrum
 from gearsweep.analysis.stability import check_step
 from gearsweep.errors import StudyError
@@ -99,6 +100,10 @@ class SpectrumOptions(BaseModel):
         " into the kept bins)")
     force: bool = Field(True, description="also the spectrum of the dynamic mesh force"
                         " k(t) f(p) + c p' (variable force_spectrum) [N]")
+    pinion: bool = Field(False, description="also what the pinion's sensors see: its angular"
+                         " motion at the base circle r2 theta2 per line (pinion_spectrum) and its"
+                         " rms (pinion_rms) [m], from the mesh force by Eq. (4)"
+                         " (gearsweep.analysis.sensor); needs force and scene.drive")
 
     @model_validator(mode="after")
     def _nyquist(self) -> SpectrumOptions:
@@ -146,6 +151,15 @@ class Spectrum:
     def _force(self, plan: Plan) -> bool:
         return self._opts(plan).force and isinstance(plan.model, MeshModel)
 
+    def _pinion(self, plan: Plan) -> bool:
+        o = self._opts(plan)
+        if not o.pinion:
+            return False
+        if not self._force(plan) or getattr(plan.study.scene, "drive", None) is None:
+            raise StudyError("<study>", "outputs.spectrum.pinion", True,
+                             "a scene with a drive (inertias and base radii) and force: true")
+        return True
+
     def variables(self, plan: Plan) -> dict[str, VarSpec]:
         o = self._opts(plan)
         sps = self.signal_samples_per_period(plan)
@@ -172,6 +186,13 @@ class Spectrum:
                 "units": "N", "samples_per_period": sps,
                 "long_name": "single-sided amplitude spectrum of the dynamic mesh force"
                              " k(t) f(p) + c p' over whole mesh periods"})
+        if self._pinion(plan):
+            specs["pinion_spectrum"] = VarSpec(**common, attrs={
+                "units": "m", "long_name": "pinion motion r2 theta2 per line: (r2^2 / I2)"
+                " |W_k| / (2 pi f_k)^2 of the mesh force W (Eq. 4); 0 at order 0"})
+            specs["pinion_rms"] = VarSpec(attrs={
+                "units": "m", "long_name": "rms of r2 theta2 over the kept lines: the doubly"
+                " integrated tangential acceleration of the pinion at its base circle"})
         return specs
 
     def compute(self, plan: Plan, params: dict[str, np.ndarray],
@@ -188,6 +209,14 @@ class Spectrum:
         if self._force(plan):
             out["force_spectrum"] = self._force_spectrum(plan, params, sig, order, c)
             out["force_spectrum"][bad] = np.nan
+        if self._pinion(plan):
+            drive = plan.study.scene.drive
+            freq = mesh_frequency(np.asarray(params["speed"], float), plan.model.teeth)
+            fs = np.where(order[None, :] > 0, out["force_spectrum"], 0.0)
+            x = pinion_displacement(fs, freq[:, None] * order[None, :],
+                                    base_radius_2=drive.base_radius_2, inertia_2=drive.inertia_2)
+            out["pinion_spectrum"] = x
+            out["pinion_rms"] = spectrum_rms(x)
         return out
 
     def _force_spectrum(self, plan: Plan, params: dict[str, np.ndarray], sig: np.ndarray,

@@ -231,8 +231,10 @@ class Solver(Strict):
     record_periods: int = Field(50, ge=1, description="mesh periods recorded for statistics")
     divergence_factor: float = Field(1e6, gt=1, description="|p| bound / static scale")
     settle_tolerance: float = Field(1e-2, gt=0, description="settle_error above it: status 2")
-    initial_displacement: Displacement = Field(0.0, description="p at t = 0 (Mathieu: a bare"
-                                               " number; default 1)")
+    initial_displacement: Literal["static"] | Displacement = Field(
+        0.0, description="p at t = 0 (Mathieu: a bare number; default 1); 'static': the static"
+        " equilibrium on the drive flank of each case, b + F_m / k0 (b = backlash / 2, k0 the"
+        " mean stiffness at the case's load)")
     initial_velocity: float = Field(0.0, allow_inf_nan=False,
                                     description="p' at t = 0 in m/s (a bare number)")
     step_guard: Literal["warn", "skip", "off"] = Field(
