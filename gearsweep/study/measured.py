@@ -38,6 +38,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
+from gearsweep.errors import NO_VALUE
 from gearsweep.gear.measured import (
     FitError,
     MeasuredExcitation,
@@ -79,7 +80,7 @@ def _factor(name: str, unit: str, kind: str) -> float:
         raise ValueError(f"column {name!r}: unit {unit!r} of a mesh phase; write [1] (mesh cycles)"
                          " or give an 'angle' column in deg or rad")
     if not unit.strip():
-        raise ValueError(f"column {name!r} has no unit; write it in the header, e.g."
+        raise ValueError(f"column {name!r} needs its unit in the header, e.g."
                          f" '{name} [{ {'angle': 'deg', 'displacement': 'um'}.get(kind, 'N/mm')}]'")
     try:
         f = to_si(f"1 {unit}", kind)
@@ -224,44 +225,63 @@ class ExcitationSpec(Strict):
         return read_samples(self.file)
 
 
-def excitation_problem(scene: Any) -> str | None:
-    """What a scene with ``excitation`` may not also give (one sentence), or None."""
-    ex: ExcitationSpec = scene.excitation
+def excitation_problems(scene: Any, swept) -> list[tuple[str, Any, str]]:
+    """What a scene with ``excitation`` may not also give or sweep, and samples that cannot give
+    the harmonics asked for: (field path, value or ``NO_VALUE``, message) for each."""
+    ex: ExcitationSpec | None = getattr(scene, "excitation", None)
+    if ex is None:
+        return []
+    span = ex.span.replace("_", " ")
     if scene.gear is not None:
-        return "give either 'gear' or 'excitation', not both"
+        return [("scene.gear", NO_VALUE, "give either 'gear' or 'excitation', not both")]
+    out: list[tuple[str, Any, str]] = []
     if scene.harmonics is not None:
-        return "'harmonics' belongs to a 'gear'; write excitation.harmonics"
+        out.append(("scene.harmonics", scene.harmonics, ("the number of harmonics of a 'gear';"
+                    " with a file write excitation.harmonics")))
     if scene.teeth is None:
-        return "'teeth' required with 'excitation' (N1 of the driving gear: mesh frequency)"
+        out.append(("scene.teeth", "(missing)", ("required with 'excitation' (N1 of the driving"
+                    " gear: the mesh frequency and the mesh phase of an angle)")))
     s = ex.samples
     if s.stiffness is not None:
-        typed = [f for f in ("stiffness", "stiffness_harmonics") if getattr(scene, f, None)]
-        if typed:
-            return (f"excitation.file gives the mesh stiffness: remove typed-in"
-                    f" {' and '.join(typed)}")
+        out += [(f"scene.{f}", NO_VALUE, "excitation.file gives the mesh stiffness: remove it")
+                for f in ("stiffness", "stiffness_harmonics") if getattr(scene, f, None)]
+        if "stiffness" in swept:
+            out.append(("sweep.stiffness", NO_VALUE, ("the excitation file gives the mesh"
+                        " stiffness; sweep it with typed-in coefficients")))
     elif scene.stiffness is None:
-        return ("'stiffness' required: excitation.file has no mesh_stiffness column")
-    if s.ste is not None and getattr(scene, "ste", None):
-        return "excitation.file gives the STE: remove the typed-in 'ste'"
+        out.append(("scene.stiffness", "(missing)", ("required: excitation.file has no"
+                    " mesh_stiffness column")))
+    if s.ste is not None:
+        if getattr(scene, "ste", None):
+            out.append(("scene.ste", NO_VALUE, "excitation.file gives the STE: remove it"))
+        if scene.kind != "rattle":
+            for name in ("torque", "mean_force", "stiffness"):
+                if name in swept and not (name == "stiffness" and s.stiffness is not None):
+                    out.append((f"sweep.{name}", NO_VALUE, ("with k(t) the excitation e = STE -"
+                                " F_m / k is fitted for one load and stiffness, and a measured"
+                                " STE holds for its load: one study per load")))
+    if out:
+        return out
     phi = s.mesh_phase(scene.teeth)
     period = scene.teeth if ex.span == "revolution" else 1
     width = float(np.ptp(phi))
     if width > period * (1 + 1e-9):
-        what = f"{width:.4g} mesh cycles" if s.position == "mesh_phase" else \
-            f"{math.degrees(width * 2 * math.pi / scene.teeth):.4g} deg"
+        what = (f"{width:.4g} mesh cycles" if s.position == "mesh_phase"
+                else f"{math.degrees(width * 2 * math.pi / scene.teeth):.4g} deg")
         hint = "" if ex.span == "revolution" else "; samples over a revolution: span: revolution"
-        return (f"excitation.file: the samples span {what}, more than one"
-                f" {ex.span.replace('_', ' ')} ({period} mesh cycles of {scene.teeth} teeth){hint}")
+        return [("scene.excitation.span", ex.span, (f"the samples of excitation.file span {what},"
+                 f" more than one {span} ({period} mesh cycles of {scene.teeth} teeth){hint}"))]
     need = min_samples(ex.harmonics, scene.teeth, ex.span == "revolution")
     n = np.unique(np.round(_one_period(phi, period), 12)).size
     if n < need:
-        return (f"excitation.harmonics {ex.harmonics} needs at least {need} samples over a"
-                f" {ex.span.replace('_', ' ')}; excitation.file has {n}")
+        return [("scene.excitation.harmonics", ex.harmonics, (f"needs at least {need} samples"
+                 f" over a {span}{f' of {scene.teeth} teeth' if period > 1 else ''};"
+                 f" excitation.file has {n}"))]
     try:
         scene_measured(scene, scene_mean_force(scene))
     except FitError as exc:
-        return f"excitation.file: {exc}"
-    return None
+        return [("scene.excitation.file", Path(ex.file).name, str(exc))]
+    return []
 
 
 def scene_mean_force(scene: Any) -> float:
@@ -277,25 +297,6 @@ def typed_harmonics(items) -> tuple[Harmonic, ...]:
     """Typed-in harmonics of a scene (order: position + 1 when not given)."""
     return tuple(Harmonic(h.amplitude, h.order if h.order is not None else i + 1, h.phase)
                  for i, h in enumerate(items))
-
-
-def sweep_problems(scene: Any, swept) -> list[tuple[str, str]]:
-    """Sweeps an excitation file forbids: (path, message) for each."""
-    ex = getattr(scene, "excitation", None)
-    if ex is None:
-        return []
-    s = ex.samples
-    out = []
-    if s.stiffness is not None and "stiffness" in swept:
-        out.append(("sweep.stiffness", ("the excitation file gives the mesh stiffness; sweep it"
-                    " with typed-in coefficients")))
-    if s.ste is not None and scene.kind != "rattle":
-        for name in ("torque", "mean_force", "stiffness"):
-            if name in swept and not (name == "stiffness" and s.stiffness is not None):
-                out.append((f"sweep.{name}", ("with k(t) the excitation e = STE - F_m / k is"
-                            " fitted for one load and stiffness, and the measured STE holds for"
-                            " its load: one study per load")))
-    return out
 
 
 def _one_period(phi: np.ndarray, period: float) -> np.ndarray:
@@ -336,5 +337,5 @@ def scene_measured(scene: Any, mean_force: float) -> MeasuredExcitation:
                 scene.stiffness, typed_harmonics(getattr(scene, "stiffness_harmonics", [])))
 
 
-__all__ = ["ExcitationSpec", "FitError", "Samples", "excitation_problem", "read_samples",
-           "scene_mean_force", "scene_measured", "sweep_problems", "typed_harmonics"]
+__all__ = ["ExcitationSpec", "FitError", "Samples", "excitation_problems", "read_samples",
+           "scene_mean_force", "scene_measured", "typed_harmonics"]

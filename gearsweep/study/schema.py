@@ -60,7 +60,7 @@ from gearsweep.study.gearscene import (
     scene_excitation,
     tip_reliefs,
 )
-from gearsweep.study.measured import ExcitationSpec, excitation_problem, sweep_problems
+from gearsweep.study.measured import ExcitationSpec, excitation_problems
 from gearsweep.study.outputs import OUTPUTS, configure
 from gearsweep.study.quantities import (
     Angle,
@@ -148,9 +148,7 @@ class _Driven(Strict):
             raise ValueError("give at most one of 'mean_force' and 'torque'")
         if self.drive is not None and self.base_radius is not None:
             raise ValueError("'base_radius' is already given by 'drive.base_radius_1'")
-        if self.excitation is not None:
-            if problem := excitation_problem(self):
-                raise ValueError(problem)
+        if self.excitation is not None:  # checked with the sweep (consistency_problems)
             return self
         if self.gear is None:
             missing = [f"'{f}'" for f in ("teeth", "stiffness") if getattr(self, f) is None]
@@ -352,7 +350,7 @@ def consistency_problems(study: Study) -> list[Problem]:
         elif ("torque" in study.sweep or sc.torque is not None) and sc.r1 is None:
             out.append(Problem("scene.base_radius", "(missing)", "a torque needs the driving"
                                " gear's base radius: scene.base_radius or scene.drive"))
-        out += [Problem(path, NO_VALUE, msg) for path, msg in sweep_problems(sc, study.sweep)]
+        out += [Problem(*p) for p in excitation_problems(sc, study.sweep)]
         if "torque" in study.sweep and "mean_force" in study.sweep:
             out.append(Problem("sweep.mean_force", NO_VALUE, "sweep torque or mean_force, not both"))
     if study.continuation:
