@@ -280,3 +280,51 @@ def test_measured_model_carries_fitted_harmonics(tmp_path):
     assert model.stiffness_harmonics[0].phase == pytest.approx(0.7, abs=1e-12)
     assert isinstance(model.ste_harmonics[2], Harmonic)
     assert model.ste_harmonics[2].amplitude == pytest.approx(0.4e-6, rel=1e-10)
+
+
+def test_revolution_samples_over_an_angle_give_shaft_orders_and_run_as_typed_in(tmp_path):
+    """Samples over one revolution of a 4-tooth driving gear, position in rad: the fit holds the
+    once-per-revolution runout (mesh order 1/4) and a sideband (9/4) besides the mesh order, the
+    kernel runs the 4-period cycle, and the run equals the scene typed in with those orders."""
+    teeth, n = 4, 400
+    angle = np.arange(n) / n * TWO_PI
+    truth = [(0.8e-6, 0.25, 0.4), (1.5e-6, 1.0, -1.1), (0.3e-6, 2.25, 2.0)]
+    ste = series(1e-6, truth, angle * teeth / TWO_PI)
+    write_csv(tmp_path / "rev.csv", "roll_angle [rad]; transmission_error [mm]",
+              zip(angle, ste * 1e3, strict=True))
+    (tmp_path / "rev.csv").write_text((tmp_path / "rev.csv").read_text().replace(", ", "; "))
+    scene = ("  kind: rattle\n  teeth: 4\n  mass: 0.2 kg\n  damping: 1000 N*s/m\n"
+             "  backlash: 20 um\n  mean_force: 100 N\n  stiffness: 2e8 N/m\n")
+    f = tmp_path / "rev.yaml"
+    f.write_text(study(scene + "  excitation: {file: rev.csv, harmonics: 3, span: revolution}\n",
+                       "sweep:\n  speed: [20000 rpm, 45000 rpm]\n"))
+    model = build_model(load_study(f)[0])
+    assert len(model.ste_harmonics) == 3 * teeth and model.cycle_periods == teeth
+    got = {round(h.order * teeth): h for h in model.ste_harmonics}
+    for a, o, p in truth:
+        assert got[round(o * teeth)].amplitude == pytest.approx(a, rel=1e-10)
+        assert got[round(o * teeth)].phase == pytest.approx(p, abs=1e-9)
+    ds_m = gearsweep.run(f)
+    ds_t = gearsweep.run(study(scene + f"  ste: {harmonics_yaml(truth, 'm')}\n",
+                               "sweep:\n  speed: [20000 rpm, 45000 rpm]\n"))
+    assert_allclose(ds_m.p_rms.values, ds_t.p_rms.values, rtol=1e-8)
+    assert float(ds_t.contact_loss_fraction.max()) > 0
+    # the samples span a revolution: as one mesh cycle they are refused, naming the span
+    f.write_text(study(scene + "  excitation: {file: rev.csv, harmonics: 3}\n"))
+    with pytest.raises(StudyError, match=r"scene.excitation.span: 'mesh_cycle' -- the samples"
+                       r" of excitation.file span 359.1 deg, more than one mesh cycle"):
+        load_study(f)
+
+
+def test_relative_paths_are_read_from_the_study_folder(tmp_path, monkeypatch):
+    """The example study validates from any working folder (its file is next to it), and a dict
+    study reads a relative path from the working folder."""
+    monkeypatch.chdir(tmp_path)
+    st, _ = load_study(ROOT / "studies/whine_measured_ste.yaml")
+    assert Path(st.scene.excitation.file) == ROOT / "studies/data/ste_table1.csv"
+    whine_files(tmp_path)
+    data = {"title": "t", "scene": {"kind": "whine", "teeth": 20, "mass": "0.2 kg",
+                                    "mean_force": "900 N", "excitation": {"file": "ltca.csv"}},
+            "sweep": {"speed": ["1000 rpm"]}}
+    st, _ = gearsweep.api.load(data)
+    assert Path(st.scene.excitation.file) == tmp_path / "ltca.csv"
