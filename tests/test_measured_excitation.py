@@ -169,6 +169,11 @@ def test_whine_from_csv_runs_as_the_typed_in_scene(tmp_path):
     assert float(ds_m.excitation_fit_residual_ste) < 1e-18
     assert float(ds_m.excitation_fit_residual_stiffness) < 1e-6  # N/m of 2e8
     assert ds_m.excitation_fit_residual_ste.attrs["units"] == "m"
+    assert list(ds_m.excitation_order.values) == [1, 2, 3, 4, 5]
+    assert float(ds_m.excitation_ste_amplitude.sel(excitation_order=3)) == pytest.approx(
+        0.4e-6, rel=1e-10)
+    assert float(ds_m.excitation_stiffness_phase.sel(excitation_order=2)) == pytest.approx(
+        -1.9, abs=1e-10)
     model = json.loads(ds_m.attrs["model"])
     assert model["stiffness"] == pytest.approx(K0, rel=1e-13)
     assert len(model["ste_harmonics"]) == 5

@@ -331,13 +331,13 @@ def excitation_variables(plan: Any) -> dict[str, xr.Variable]:
     for name, f, unit, what in (("ste", e_fit, "m", "excitation e(t) the kernel used"),
                                 ("stiffness", k_fit, "N m-1", "mesh stiffness fitted")):
         if f is None:
-            continue
-        out[f"excitation_{name}_order"] = xr.Variable((f"excitation_{name}_order",), np.array(
-            [h.order for h in f.harmonics]), {"units": "1", "long_name": "order in mesh orders"})
+            continue  # both fits have the same orders (gear.measured.fit_orders)
+        out["excitation_order"] = xr.Variable(("excitation_order",), np.array(
+            [h.order for h in f.harmonics]), {"units": "1", "long_name": "fitted mesh order"})
         out[f"excitation_{name}_amplitude"] = xr.Variable(
-            (f"excitation_{name}_order",), np.array([h.amplitude for h in f.harmonics]),
+            ("excitation_order",), np.array([h.amplitude for h in f.harmonics]),
             {"units": unit, "long_name": f"amplitude of the {what}, cos(2 pi order phi + phase)"})
         out[f"excitation_{name}_phase"] = xr.Variable(
-            (f"excitation_{name}_order",), np.array([h.phase for h in f.harmonics]),
+            ("excitation_order",), np.array([h.phase for h in f.harmonics]),
             {"units": "rad", "long_name": f"phase of the {what}"})
     return out
