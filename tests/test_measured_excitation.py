@@ -333,3 +333,24 @@ def test_relative_paths_are_read_from_the_study_folder(tmp_path, monkeypatch):
             "sweep": {"speed": ["1000 rpm"]}}
     st, _ = gearsweep.api.load(data)
     assert Path(st.scene.excitation.file) == tmp_path / "ltca.csv"
+
+
+def test_a_mesh_study_result_is_an_excitation_file(tmp_path):
+    """A ``type: mesh`` result (ste [m], mesh_stiffness [N m-1], UDUNITS spelling, over
+    mesh_phase [-]) fed back as the file gives the gear scene's own model: the same k0 and k_n to
+    round-off (FFT there, least squares here) and e = STE - F_m / k = 0 for unmodified teeth."""
+    gearsweep.run(ROOT / "studies/fig01_02_mesh_cycle.yaml", output=tmp_path / "mesh.nc")
+    r1 = table1_consistent().base_radius1
+    scene = ("  kind: whine\n  torque: 50 N*m\n  mass: 0.1527 kg\n")
+    f = tmp_path / "s.yaml"
+    f.write_text(study(scene + f"  excitation: {{file: mesh.nc}}\n  teeth: 48\n"
+                       f"  base_radius: {r1!r} m\n"))
+    m = build_model(load_study(f)[0])
+    g = build_model(parse_study(study(scene + "  gear: table1_consistent\n")))
+    assert m.stiffness == pytest.approx(g.stiffness, rel=1e-13)
+    assert m.mean_force == pytest.approx(g.mean_force, rel=1e-14)
+    assert_allclose([h.amplitude for h in m.stiffness_harmonics],
+                    [h.amplitude for h in g.stiffness_harmonics], rtol=1e-11)
+    assert_allclose([h.phase for h in m.stiffness_harmonics],
+                    [h.phase for h in g.stiffness_harmonics], atol=1e-11)
+    assert max(h.amplitude for h in m.ste_harmonics) < 1e-15  # of a 4.3 um STE

@@ -72,6 +72,9 @@ class Samples:
         return self.at if self.position == "mesh_phase" else self.at * teeth / (2.0 * math.pi)
 
 
+_UDUNITS_POWER = re.compile(r"(?<![\w.])([A-Za-z]+)(-?\d+)\b")
+
+
 def _factor(name: str, unit: str, kind: str) -> float:
     """SI per unit of a column (``um`` of an STE: 1e-6)."""
     if kind == "mesh_phase":
@@ -82,8 +85,8 @@ def _factor(name: str, unit: str, kind: str) -> float:
     if not unit.strip():
         raise ValueError(f"column {name!r} needs its unit in the header, e.g."
                          f" '{name} [{ {'angle': 'deg', 'displacement': 'um'}.get(kind, 'N/mm')}]'")
-    try:
-        f = to_si(f"1 {unit}", kind)
+    try:  # UDUNITS exponents of netCDF files (``N m-1``, ``kg m2``) as pint writes them
+        f = to_si("1 " + _UDUNITS_POWER.sub(r"\1**\2", unit), kind)
     except UnitParseError as exc:
         raise ValueError(f"column {name!r}: unit {unit!r}: {exc}") from None
     return f
