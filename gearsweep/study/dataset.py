@@ -16,6 +16,7 @@ import xarray as xr
 
 from gearsweep._version import __version__
 from gearsweep.model import MeshModel, mesh_frequency, model_record
+from gearsweep.study.measured import scene_measured
 from gearsweep.study.outputs import VarSpec
 
 COORDS = {
@@ -264,6 +265,8 @@ def assemble(plan: Any, results: dict[str, np.ndarray], elapsed: float | None = 
     ds.attrs["model"] = json.dumps(model_record(plan.model))
     if getattr(plan.study.scene, "gear", None) is not None:
         ds = ds.assign(gear_variables(plan))
+    if getattr(plan.study.scene, "excitation", None) is not None:
+        ds = ds.assign(excitation_variables(plan))
     if "speed" in ds.coords and isinstance(plan.model, MeshModel):
         ds["speed"].attrs["gear"] = f"driving gear (gear 1, {plan.model.teeth} teeth)"
     return ds
@@ -303,3 +306,38 @@ def gear_variables(plan: Any) -> dict[str, xr.Variable]:
             "units": "m", "long_name": "amplitude of the transmission-error harmonic e_n the "
             "kernel used (loaded STE with constant k0; STE - F/k(t) with k(t))"}),
     }
+
+
+def excitation_variables(plan: Any) -> dict[str, xr.Variable]:
+    """A scene's excitation file: the residuals of its fit and the harmonics the kernel used
+    (``excitation_order`` in mesh orders), so the result shows how well the series holds the
+    samples. Residuals are NaN for what the file does not give."""
+    sc = plan.study.scene
+    fit = scene_measured(sc, plan.model.mean_force)
+    ex = sc.excitation
+    nan = float("nan")
+    k_fit, e_fit = fit.stiffness_fit, fit.excitation_fit
+    out = {
+        "excitation_fit_residual_ste": xr.Variable((), fit.ste_residual_rms, {
+            "units": "m", "long_name": "rms of measured STE - the model's quasi-static STE at the"
+            " samples (F_m / k(t) + e(t) with k(t); mean + e(t) with constant stiffness)",
+            "max": fit.ste_residual_max, "samples": e_fit.samples if e_fit else 0,
+            "file": ex.file, "harmonics": ex.harmonics, "span": ex.span}),
+        "excitation_fit_residual_stiffness": xr.Variable((), k_fit.residual_rms if k_fit else nan, {
+            "units": "N m-1", "long_name": "rms of measured mesh stiffness - its fitted series at"
+            " the samples", "max": k_fit.residual_max if k_fit else nan,
+            "samples": k_fit.samples if k_fit else 0, "file": ex.file}),
+    }
+    for name, f, unit, what in (("ste", e_fit, "m", "excitation e(t) the kernel used"),
+                                ("stiffness", k_fit, "N m-1", "mesh stiffness fitted")):
+        if f is None:
+            continue  # both fits have the same orders (gear.measured.fit_orders)
+        out["excitation_order"] = xr.Variable(("excitation_order",), np.array(
+            [h.order for h in f.harmonics]), {"units": "1", "long_name": "fitted mesh order"})
+        out[f"excitation_{name}_amplitude"] = xr.Variable(
+            ("excitation_order",), np.array([h.amplitude for h in f.harmonics]),
+            {"units": unit, "long_name": f"amplitude of the {what}, cos(2 pi order phi + phase)"})
+        out[f"excitation_{name}_phase"] = xr.Variable(
+            ("excitation_order",), np.array([h.phase for h in f.harmonics]),
+            {"units": "rad", "long_name": f"phase of the {what}"})
+    return out

@@ -24,6 +24,7 @@ from gearsweep.model import Harmonic, MathieuModel, MeshModel, equivalent_mass, 
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
+from gearsweep.study.measured import scene_measured
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
 from gearsweep.study.schema import Study, first_load
 from gearsweep.units import to_si
@@ -91,6 +92,12 @@ def build_model(study: Study, torque: float | None = None) -> MeshModel | Mathie
         teeth, k0 = sc.teeth, sc.stiffness
         k_h = harmonics(getattr(sc, "stiffness_harmonics", []))
         e_h = harmonics(getattr(sc, "ste", []))
+    if getattr(sc, "excitation", None) is not None:  # samples from a file, fitted (measured.py)
+        fit = scene_measured(sc, mean_force)
+        if fit.stiffness is not None:  # k0 and, with k(t), k_n from the file
+            k0, k_h = fit.stiffness, fit.stiffness_harmonics
+        if fit.excitation_fit is not None:  # e(t): STE - F_m / k(t), or the STE (rattle)
+            e_h = fit.ste_harmonics
     return MeshModel(
         mass=mass,
         teeth=teeth,

@@ -60,6 +60,7 @@ from gearsweep.study.gearscene import (
     scene_excitation,
     tip_reliefs,
 )
+from gearsweep.study.measured import ExcitationSpec, excitation_problems
 from gearsweep.study.outputs import OUTPUTS, configure
 from gearsweep.study.quantities import (
     Angle,
@@ -130,6 +131,8 @@ class _Driven(Strict):
     stiffness: Stiffness | None = Field(None, gt=0, description="mean mesh stiffness k0")
     gear: GearField | None = Field(None, description="gear pair giving k(t), e(t), N1, r1")
     harmonics: int | None = Field(None, ge=1, le=100, description="Fourier harmonics of a gear")
+    excitation: ExcitationSpec | None = Field(None, description="STE and/or stiffness samples"
+                                              " from a file, fitted (study/measured.py)")
     damping: Damping = Field(0.0, ge=0, description="mesh viscous damping c")
     speed: Speed | None = Field(None, gt=0, description="driving-gear speed if not swept")
     mean_force: Force | None = Field(None, description="mean mesh force F_m")
@@ -145,6 +148,8 @@ class _Driven(Strict):
             raise ValueError("give at most one of 'mean_force' and 'torque'")
         if self.drive is not None and self.base_radius is not None:
             raise ValueError("'base_radius' is already given by 'drive.base_radius_1'")
+        if self.excitation is not None:  # checked with the sweep (consistency_problems)
+            return self
         if self.gear is None:
             missing = [f"'{f}'" for f in ("teeth", "stiffness") if getattr(self, f) is None]
             if missing:
@@ -347,6 +352,7 @@ def consistency_problems(study: Study) -> list[Problem]:
         elif ("torque" in study.sweep or sc.torque is not None) and sc.r1 is None:
             out.append(Problem("scene.base_radius", "(missing)", "a torque needs the driving"
                                " gear's base radius: scene.base_radius or scene.drive"))
+        out += [Problem(*p) for p in excitation_problems(sc, study.sweep)]
         if "torque" in study.sweep and "mean_force" in study.sweep:
             out.append(Problem("sweep.mean_force", NO_VALUE, "sweep torque or mean_force, not both"))
     if study.continuation:
@@ -625,7 +631,7 @@ def _vocabulary() -> tuple[str, ...]:
     """Every field name of the study models (for 'did you mean' on an unknown field)."""
     names: set[str] = set()
     for m in (Study, WhineScene, RattleScene, FullScene, MathieuScene, Drive, StiffnessHarmonic,
-              SteHarmonic, Fluctuation, Range, Solver, GearSpec, TipReliefSpec):
+              SteHarmonic, Fluctuation, Range, Solver, GearSpec, TipReliefSpec, ExcitationSpec):
         names.update(m.model_fields)
     names.update(SCENE_PARAMETERS["full"] | SCENE_PARAMETERS["mathieu"])
     return tuple(sorted(names))
@@ -726,7 +732,7 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | Analysi
             raise _first_error(exc, file, raw) from None
     problems: list[Problem] = []
     try:
-        study = Study.model_validate(raw, context={"problems": problems})
+        study = Study.model_validate(raw, context={"problems": problems, "file": file})
     except ValidationError as exc:
         raise _first_error(exc, file, raw) from None
     except RecursionError:

@@ -1,0 +1,203 @@
+"""Measured (or LTCA-computed) transmission error and mesh stiffness as the model's Fourier series.
+
+An engineer's samples of the loaded static transmission error STE(phi) [m] and/or the mesh
+stiffness k(phi) [N/m], over one mesh cycle or over a revolution of the driving gear, are fitted
+by least squares with the series of the paper's Eq. (1),
+
+    x(phi) = x_0 + sum_n x_n cos(2 pi o_n phi + phase_n)                                   (1)
+
+with ``phi`` the mesh phase (mesh cycles since a reference) and the orders ``o_n`` in mesh
+orders: ``1..H`` over a mesh cycle, ``k / N1`` for ``k = 1..H N1`` over a revolution (every shaft
+order up to mesh order H; fractional orders are run by the kernel over ``N1`` mesh periods, see
+``MeshModel.cycle_periods``). The samples need not be evenly spaced; for evenly spaced samples the
+least-squares fit is the discrete Fourier transform (``gearsweep.gear.fourier``).
+
+Which excitation e(t) the model gets (as for a gear pair, ``gearsweep.gear.excitation`` and
+docs/mesh.md): with a time-varying stiffness k(t) (whine, full) the mesh force is
+``k(t) (x - e)`` and the quasi-static solution is ``x = F_m / k(t) + e(t)``, which must be the
+measured loaded STE, so ``e = STE - F_m / k(phi)`` (fitted from the samples, with k the measured
+samples where the file has them, else the scene's series); with a constant stiffness (rattle,
+Eq. (13)) e(t) is the loaded STE itself.
+
+Plain SI floats and NumPy arrays: nothing here reads files (``gearsweep.study.measured`` does).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gearsweep.errors import GearsweepError
+from gearsweep.model import Harmonic
+
+
+class FitError(GearsweepError):
+    """Samples that cannot determine the harmonics asked for (too few, or not spread over the period)."""
+
+
+@dataclass(frozen=True)
+class FourierFit:
+    """A least-squares fit of samples with Eq. (1)."""
+
+    mean: float
+    """x_0 [unit of the samples]."""
+    harmonics: tuple[Harmonic, ...]
+    """x_n [unit], orders o_n [mesh orders], phases [rad], in the order of ``orders``."""
+    residual_rms: float
+    """rms of (samples - series at the samples) [unit]."""
+    residual_max: float
+    """largest |samples - series| [unit]."""
+    samples: int
+
+    def __call__(self, phi) -> np.ndarray:
+        """The fitted series at mesh phases ``phi`` [unit]."""
+        return series(self.mean, self.harmonics, phi)
+
+
+def series(mean: float, harmonics, phi) -> np.ndarray:
+    """``mean + sum_n a_n cos(2 pi o_n phi + phase_n)`` at mesh phases ``phi``."""
+    phi = np.asarray(phi, dtype=float)
+    out = np.full(phi.shape, float(mean))
+    for h in harmonics:
+        out = out + h.amplitude * np.cos(2.0 * math.pi * h.order * phi + h.phase)
+    return out
+
+
+def fit_orders(harmonics: int, teeth: int, revolution: bool) -> np.ndarray:
+    """The mesh orders fitted for ``harmonics`` mesh orders: ``1..H`` over a mesh cycle, every
+    shaft order ``k / teeth`` up to ``H`` over a revolution."""
+    if revolution:
+        return np.arange(1, harmonics * teeth + 1) / teeth
+    return np.arange(1, harmonics + 1, dtype=float)
+
+
+def min_samples(harmonics: int, teeth: int, revolution: bool) -> int:
+    """Fewest distinct samples that determine the fit: a mean, a cosine and a sine per order."""
+    return 2 * len(fit_orders(harmonics, teeth, revolution)) + 1
+
+
+def fit_fourier(phi, values, orders) -> FourierFit:
+    """Least-squares fit of ``values`` sampled at mesh phases ``phi`` with Eq. (1) at ``orders``.
+
+    Parameters
+    ----------
+    phi : ndarray (N,)
+        Mesh phase of each sample [mesh cycles]; any spacing, any offset.
+    values : ndarray (N,)
+        The samples [any unit].
+    orders : ndarray (M,)
+        Mesh orders fitted (> 0).
+
+    Returns
+    -------
+    FourierFit
+        Mean, one ``Harmonic`` per order (amplitude >= 0, phase in (-pi, pi]) and the residual.
+
+    Raises
+    ------
+    FitError
+        Fewer than ``2 M + 1`` distinct samples, or samples that do not tell the orders apart
+        (bunched in a part of the period).
+    """
+    phi = np.asarray(phi, dtype=float)
+    x = np.asarray(values, dtype=float)
+    orders = np.asarray(orders, dtype=float)
+    need = 2 * orders.size + 1
+    distinct = np.unique(np.round(phi, 12)).size
+    if distinct < need:
+        raise FitError(f"{orders.size} harmonics need at least {need} distinct samples,"
+                       f" there are {distinct}")
+    arg = 2.0 * math.pi * phi[:, None] * orders[None, :]
+    a = np.concatenate([np.ones((phi.size, 1)), np.cos(arg), np.sin(arg)], axis=1)
+    # Columns scaled to unit norm: the rank test is then about the samples' spread, not units.
+    norm = np.linalg.norm(a, axis=0)
+    coef, _, rank, sv = np.linalg.lstsq(a / norm, x, rcond=None)
+    if rank < a.shape[1] or sv[-1] < 1e-8 * sv[0]:
+        raise FitError(f"the samples do not determine {orders.size} harmonics (spread them over"
+                       " the whole period)")
+    coef = coef / norm
+    m = orders.size
+    c, s = coef[1:m + 1], coef[m + 1:]
+    # a cos(t + p) = a cos(p) cos(t) - a sin(p) sin(t)
+    amp, phase = np.hypot(c, s), np.arctan2(-s, c)
+    harmonics = tuple(Harmonic(float(amp[i]), float(orders[i]), float(phase[i])) for i in range(m))
+    resid = x - a @ coef
+    return FourierFit(float(coef[0]), harmonics, float(np.sqrt(np.mean(resid**2))),
+                      float(np.max(np.abs(resid))), int(phi.size))
+
+
+@dataclass(frozen=True)
+class MeasuredExcitation:
+    """What measured STE and stiffness samples give the dynamic model (SI units)."""
+
+    stiffness: float | None
+    """k0 [N/m] from the samples (None: the file has no stiffness)."""
+    stiffness_harmonics: tuple[Harmonic, ...]
+    """k_n [N/m] for a scene with k(t); empty with constant stiffness or no stiffness samples."""
+    ste_harmonics: tuple[Harmonic, ...]
+    """The excitation e(t) the kernel uses [m] (empty: the file has no STE)."""
+    stiffness_fit: FourierFit | None
+    """The fit of the stiffness samples [N/m] (residual: samples - fitted series)."""
+    excitation_fit: FourierFit | None
+    """The fit of e = STE - F_m / k (or of the STE with constant stiffness) [m]."""
+    ste_residual_rms: float
+    """rms of measured STE - the STE the model holds quasi-statically (F_m / k(phi) + e(phi)
+    with k(t), e(phi) + mean with constant stiffness) at the samples [m]; NaN without STE."""
+    ste_residual_max: float
+    """Largest |measured STE - model's quasi-static STE| [m]; NaN without STE."""
+
+
+def measured_excitation(phi, ste, stiffness, orders, *, time_varying: bool, mean_force: float,
+                        k_mean: float | None = None, k_harmonics=()) -> MeasuredExcitation:
+    """k0, k_n and e_n from samples of the loaded STE and/or the mesh stiffness.
+
+    Parameters
+    ----------
+    phi : ndarray (N,)
+        Mesh phase of each sample [mesh cycles].
+    ste : ndarray (N,) or None
+        Loaded static transmission error at the scene's mean load [m].
+    stiffness : ndarray (N,) or None
+        Mesh stiffness [N/m].
+    orders : ndarray
+        Mesh orders fitted (``fit_orders``).
+    time_varying : bool
+        The scene has k(t) (whine, full): e = STE - F_m / k; else (rattle) e = STE.
+    mean_force : float
+        Mean mesh force F_m [N] of the scene.
+    k_mean, k_harmonics
+        The scene's own k0 [N/m] and k_n when the samples hold no stiffness.
+
+    Raises
+    ------
+    FitError
+        Too few samples, or a stiffness sample that is not positive where e = STE - F_m / k.
+    """
+    phi = np.asarray(phi, dtype=float)
+    k_fit = fit_fourier(phi, stiffness, orders) if stiffness is not None else None
+    k0 = k_fit.mean if k_fit is not None else None
+    k_h = k_fit.harmonics if (k_fit is not None and time_varying) else ()
+    e_fit, rms, mx = None, math.nan, math.nan
+    if ste is not None:
+        ste = np.asarray(ste, dtype=float)
+        if time_varying and mean_force:
+            if stiffness is not None:
+                k_at = np.asarray(stiffness, dtype=float)
+                k_model = k_fit(phi)
+            else:
+                k_at = k_model = series(k_mean, k_harmonics, phi)
+            if np.any(~(k_at > 0)) or np.any(~(k_model > 0)):
+                raise FitError("the mesh stiffness must be positive at every sample")
+            e_fit = fit_fourier(phi, ste - mean_force / k_at, orders)
+            model_ste = mean_force / k_model + e_fit(phi)
+        else:
+            e_fit = fit_fourier(phi, ste, orders)
+            model_ste = e_fit(phi)
+        resid = ste - model_ste
+        rms, mx = float(np.sqrt(np.mean(resid**2))), float(np.max(np.abs(resid)))
+    return MeasuredExcitation(
+        stiffness=k0, stiffness_harmonics=k_h,
+        ste_harmonics=e_fit.harmonics if e_fit is not None else (),
+        stiffness_fit=k_fit, excitation_fit=e_fit, ste_residual_rms=rms, ste_residual_max=mx)

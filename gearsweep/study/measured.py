@@ -1,0 +1,344 @@
+"""Your own STE and mesh stiffness: a scene's ``excitation: {file: ...}`` read from CSV or netCDF.
+
+    scene:
+      kind: whine
+      excitation: {file: data/ste_table1.csv, harmonics: 10}   # path relative to the study file
+      teeth: 48
+      torque: 50 N*m
+      base_radius: 56.38 mm
+      ...
+
+The file holds samples over one mesh cycle (``span: mesh_cycle``, the default) or over one
+revolution of the driving gear (``span: revolution``) of the loaded static transmission error
+and/or the mesh stiffness, each with its unit:
+
+* CSV: a header line of column names with units in brackets, e.g.
+  ``mesh_phase [1], ste [um], mesh_stiffness [N/mm]`` (comma, semicolon or tab separated; lines
+  starting with ``#`` are comments);
+* netCDF: 1-D variables over one coordinate, each with a ``units`` attribute (a ``type: mesh``
+  study's result, one gear pair at one torque, is such a file).
+
+The position is ``mesh_phase`` (mesh cycles, unit ``1``) or ``angle`` / ``roll_angle`` (rotation of
+the driving gear, the scene's ``teeth``, in an angle unit); the values are ``ste`` (or
+``transmission_error``, a length) and ``mesh_stiffness`` (or ``stiffness``, N/m, N/mm, N/um,
+kN/mm). Units are read by :mod:`gearsweep.units` (a column without a unit is refused). The fit is
+:func:`gearsweep.gear.measured.measured_excitation`; this module only reads and checks the file.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field, ValidationInfo, field_validator
+
+from gearsweep.errors import NO_VALUE
+from gearsweep.gear.measured import (
+    FitError,
+    MeasuredExcitation,
+    fit_orders,
+    measured_excitation,
+    min_samples,
+)
+from gearsweep.model import Harmonic
+from gearsweep.study.quantities import Strict
+from gearsweep.units import UnitParseError, to_si
+
+POSITION = {"mesh_phase": "mesh_phase", "angle": "angle", "roll_angle": "angle"}
+"""Column names of the position -> what it is (mesh cycles, or an angle of the driving gear)."""
+VALUES = {"ste": ("ste", "displacement"), "transmission_error": ("ste", "displacement"),
+          "mesh_stiffness": ("stiffness", "stiffness"), "stiffness": ("stiffness", "stiffness")}
+"""Column names of the values -> (which, kind of quantity in ``gearsweep.units``)."""
+DIMENSIONLESS = ("1", "-", "", "cycle", "cycles")
+
+
+@dataclass(frozen=True)
+class Samples:
+    """A file's samples in SI: position (mesh cycles or radians), STE [m], stiffness [N/m]."""
+
+    position: str
+    """``mesh_phase`` (values in mesh cycles) or ``angle`` (radians of the driving gear)."""
+    at: np.ndarray
+    ste: np.ndarray | None
+    stiffness: np.ndarray | None
+
+    def mesh_phase(self, teeth: int) -> np.ndarray:
+        return self.at if self.position == "mesh_phase" else self.at * teeth / (2.0 * math.pi)
+
+
+_UDUNITS_POWER = re.compile(r"(?<![\w.])([A-Za-z]+)(-?\d+)\b")
+
+
+def _factor(name: str, unit: str, kind: str) -> float:
+    """SI per unit of a column (``um`` of an STE: 1e-6)."""
+    if kind == "mesh_phase":
+        if unit.strip().lower() in DIMENSIONLESS:
+            return 1.0
+        raise ValueError(f"column {name!r}: unit {unit!r} of a mesh phase; write [1] (mesh cycles)"
+                         " or give an 'angle' column in deg or rad")
+    if not unit.strip():
+        raise ValueError(f"column {name!r} needs its unit in the header, e.g."
+                         f" '{name} [{ {'angle': 'deg', 'displacement': 'um'}.get(kind, 'N/mm')}]'")
+    try:  # UDUNITS exponents of netCDF files (``N m-1``, ``kg m2``) as pint writes them
+        f = to_si("1 " + _UDUNITS_POWER.sub(r"\1**\2", unit), kind)
+    except UnitParseError as exc:
+        raise ValueError(f"column {name!r}: unit {unit!r}: {exc}") from None
+    return f
+
+
+def _columns(names: list[tuple[str, str]]) -> tuple[dict[str, int], dict[str, float], str]:
+    """Which column is what: (which -> index, which -> SI factor, position kind)."""
+    index: dict[str, int] = {}
+    factor: dict[str, float] = {}
+    position = ""
+    for i, (name, unit) in enumerate(names):
+        key = name.strip().lower()
+        if key in POSITION and "position" not in index:
+            position = POSITION[key]
+            index["position"] = i
+            factor["position"] = _factor(name, unit, "mesh_phase" if position == "mesh_phase"
+                                         else "angle")
+        elif key in VALUES and VALUES[key][0] not in index:
+            which, kind = VALUES[key]
+            index[which] = i
+            factor[which] = _factor(name, unit, kind)
+    found = ", ".join(repr(n) for n, _ in names) or "none"
+    if "position" not in index:
+        raise ValueError(f"no position column (mesh_phase [1], angle [deg] or roll_angle [deg]);"
+                         f" columns: {found}")
+    if "ste" not in index and "stiffness" not in index:
+        raise ValueError(f"no value column (ste [um] and/or mesh_stiffness [N/mm]); columns: {found}")
+    return index, factor, position
+
+
+_HEADER = re.compile(r"^\s*([^\[\]()]*?)\s*(?:[\[(]\s*([^\[\]()]*?)\s*[\])])?\s*$")
+
+
+def _read_csv(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
+    text = path.read_text(encoding="utf-8-sig")
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise ValueError("an empty CSV file (a header line with units, then samples)")
+    try:
+        dialect = csv.Sniffer().sniff(lines[0], delimiters=",;\t")
+    except csv.Error:
+        dialect = csv.excel
+    rows = list(csv.reader(lines, dialect))
+    names = []
+    for cell in rows[0]:
+        m = _HEADER.match(cell)
+        names.append((m.group(1), m.group(2) or "") if m else (cell, ""))
+    try:
+        data = np.array([[float(c) for c in r] for r in rows[1:]], dtype=float)
+    except ValueError as exc:
+        raise ValueError(f"a sample that is not a number ({exc})") from None
+    if data.ndim != 2 or data.shape[0] == 0 or any(len(r) != len(names) for r in rows[1:]):
+        raise ValueError(f"every line needs {len(names)} numbers, as the header has columns")
+    return names, data
+
+
+def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        wanted = [v for v in ds.variables if str(v).lower() in VALUES]
+        if not wanted:
+            raise ValueError("no variable ste or mesh_stiffness (1-D over mesh_phase or angle)")
+        dims = {ds[v].dims for v in wanted}
+        if len(dims) != 1 or len(next(iter(dims))) != 1:
+            shown = ", ".join(f"{v}{ds[v].dims}" for v in wanted)
+            raise ValueError(f"the values must be 1-D over one position coordinate: {shown}")
+        (dim,) = next(iter(dims))
+        names = [(str(dim), str(ds[dim].attrs.get("units", "")))] + [
+            (str(v), str(ds[v].attrs.get("units", ""))) for v in wanted]
+        data = np.stack([np.asarray(ds[dim].values, float)]
+                        + [np.asarray(ds[v].values, float) for v in wanted], axis=1)
+    return names, data
+
+
+@lru_cache(maxsize=32)
+def _read(path: str, stamp: tuple[int, int]) -> Samples:
+    p = Path(path)
+    try:
+        names, data = _read_netcdf(p) if p.suffix.lower() in (".nc", ".nc4", ".cdf") \
+            else _read_csv(p)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read the file ({type(exc).__name__})") from None
+    index, factor, position = _columns(names)
+    if not np.all(np.isfinite(data[:, list(index.values())])):
+        raise ValueError("every sample must be a finite number")
+
+    def col(which: str) -> np.ndarray | None:
+        return data[:, index[which]] * factor[which] if which in index else None
+
+    return Samples(position, col("position"), col("ste"), col("stiffness"))
+
+
+def read_samples(path: str | Path) -> Samples:
+    """The samples of an excitation file (cached while the file is unchanged).
+
+    Raises
+    ------
+    ValueError
+        One sentence: the file is missing or unreadable, a column or its unit is missing or not
+        of its kind, or a sample is not a finite number.
+    """
+    p = Path(path)
+    try:
+        st = p.stat()
+    except OSError:
+        raise ValueError("no such file (a path relative to the study file)") from None
+    return _read(str(p.resolve()), (st.st_mtime_ns, st.st_size))
+
+
+def _base(info: ValidationInfo) -> Path:
+    """The folder relative paths are read from: the study file's, else the working folder."""
+    name = (info.context or {}).get("file") if info is not None else None
+    if name and not str(name).startswith("<"):
+        return Path(name).parent
+    return Path.cwd()
+
+
+class ExcitationSpec(Strict):
+    """``excitation:``: the scene's STE and/or mesh stiffness as samples in a file, fitted."""
+
+    file: str = Field(min_length=1, description="CSV or netCDF file (relative to the study file)")
+    harmonics: int = Field(10, ge=1, le=100, description="highest mesh order of the fit")
+    span: Literal["mesh_cycle", "revolution"] = Field(
+        "mesh_cycle", description="the samples cover one mesh cycle or one revolution of the"
+        " driving gear")
+
+    @field_validator("file")
+    @classmethod
+    def _readable(cls, v: str, info: ValidationInfo) -> str:
+        path = Path(v).expanduser()
+        if not path.is_absolute():
+            path = _base(info) / path
+        read_samples(path)  # every problem of the file: one ValueError sentence
+        return str(path.resolve())
+
+    @property
+    def samples(self) -> Samples:
+        return read_samples(self.file)
+
+
+def excitation_problems(scene: Any, swept) -> list[tuple[str, Any, str]]:
+    """What a scene with ``excitation`` may not also give or sweep, and samples that cannot give
+    the harmonics asked for: (field path, value or ``NO_VALUE``, message) for each."""
+    ex: ExcitationSpec | None = getattr(scene, "excitation", None)
+    if ex is None:
+        return []
+    span = ex.span.replace("_", " ")
+    if scene.gear is not None:
+        return [("scene.gear", NO_VALUE, "give either 'gear' or 'excitation', not both")]
+    out: list[tuple[str, Any, str]] = []
+    if scene.harmonics is not None:
+        out.append(("scene.harmonics", scene.harmonics, ("the number of harmonics of a 'gear';"
+                    " with a file write excitation.harmonics")))
+    if scene.teeth is None:
+        out.append(("scene.teeth", "(missing)", ("required with 'excitation' (N1 of the driving"
+                    " gear: the mesh frequency and the mesh phase of an angle)")))
+    s = ex.samples
+    if s.stiffness is not None:
+        out += [(f"scene.{f}", NO_VALUE, "excitation.file gives the mesh stiffness: remove it")
+                for f in ("stiffness", "stiffness_harmonics") if getattr(scene, f, None)]
+        if "stiffness" in swept:
+            out.append(("sweep.stiffness", NO_VALUE, ("the excitation file gives the mesh"
+                        " stiffness; sweep it with typed-in coefficients")))
+    elif scene.stiffness is None:
+        out.append(("scene.stiffness", "(missing)", ("required: excitation.file has no"
+                    " mesh_stiffness column")))
+    if s.ste is not None:
+        if getattr(scene, "ste", None):
+            out.append(("scene.ste", NO_VALUE, "excitation.file gives the STE: remove it"))
+        if scene.kind != "rattle":
+            for name in ("torque", "mean_force", "stiffness"):
+                if name in swept and not (name == "stiffness" and s.stiffness is not None):
+                    out.append((f"sweep.{name}", NO_VALUE, ("with k(t) the excitation e = STE -"
+                                " F_m / k is fitted for one load and stiffness, and a measured"
+                                " STE holds for its load: one study per load")))
+    if out:
+        return out
+    phi = s.mesh_phase(scene.teeth)
+    period = scene.teeth if ex.span == "revolution" else 1
+    width = float(np.ptp(phi))
+    if width > period * (1 + 1e-9):
+        what = (f"{width:.4g} mesh cycles" if s.position == "mesh_phase"
+                else f"{math.degrees(width * 2 * math.pi / scene.teeth):.4g} deg")
+        hint = "" if ex.span == "revolution" else "; samples over a revolution: span: revolution"
+        return [("scene.excitation.span", ex.span, (f"the samples of excitation.file span {what},"
+                 f" more than one {span} ({period} mesh cycles of {scene.teeth} teeth){hint}"))]
+    need = min_samples(ex.harmonics, scene.teeth, ex.span == "revolution")
+    n = np.unique(np.round(_one_period(phi, period), 12)).size
+    if n < need:
+        return [("scene.excitation.harmonics", ex.harmonics, (f"needs at least {need} samples"
+                 f" over a {span}{f' of {scene.teeth} teeth' if period > 1 else ''};"
+                 f" excitation.file has {n}"))]
+    try:
+        scene_measured(scene, scene_mean_force(scene))
+    except FitError as exc:
+        return [("scene.excitation.file", Path(ex.file).name, str(exc))]
+    return []
+
+
+def scene_mean_force(scene: Any) -> float:
+    """The scene's own mean mesh force F_m [N] (0 when it gives no load)."""
+    if scene.mean_force is not None:
+        return float(scene.mean_force)
+    if scene.torque is not None and scene.r1 is not None:
+        return float(scene.torque / scene.r1)
+    return 0.0
+
+
+def typed_harmonics(items) -> tuple[Harmonic, ...]:
+    """Typed-in harmonics of a scene (order: position + 1 when not given)."""
+    return tuple(Harmonic(h.amplitude, h.order if h.order is not None else i + 1, h.phase)
+                 for i, h in enumerate(items))
+
+
+def _one_period(phi: np.ndarray, period: float) -> np.ndarray:
+    """The samples without a last one that repeats the first a period later."""
+    if phi.size > 1 and abs((phi[-1] - phi[0]) - period) <= 1e-9 * period:
+        return phi[:-1]
+    return phi
+
+
+@lru_cache(maxsize=64)
+def _fit(path: str, stamp: tuple, teeth: int, harmonics: int, revolution: bool,
+         time_varying: bool, mean_force: float, k_mean: float | None,
+         k_harmonics: tuple[Harmonic, ...]) -> MeasuredExcitation:
+    s = read_samples(path)
+    phi = s.mesh_phase(teeth)
+    keep = _one_period(phi, teeth if revolution else 1).size
+    sl = slice(0, keep)
+    return measured_excitation(
+        phi[sl], None if s.ste is None else s.ste[sl],
+        None if s.stiffness is None else s.stiffness[sl],
+        fit_orders(harmonics, teeth, revolution), time_varying=time_varying,
+        mean_force=mean_force, k_mean=k_mean, k_harmonics=k_harmonics)
+
+
+def scene_measured(scene: Any, mean_force: float) -> MeasuredExcitation:
+    """The fit of a scene's excitation file at mean mesh force ``mean_force`` [N] (the scene's
+    typed-in ``stiffness`` and ``stiffness_harmonics`` give k where the file has no stiffness).
+
+    Raises
+    ------
+    FitError
+        The samples cannot give the harmonics, or k <= 0 at a sample.
+    """
+    ex: ExcitationSpec = scene.excitation
+    st = Path(ex.file).stat()
+    return _fit(ex.file, (st.st_mtime_ns, st.st_size), scene.teeth, ex.harmonics,
+                ex.span == "revolution", scene.kind != "rattle", float(mean_force),
+                scene.stiffness, typed_harmonics(getattr(scene, "stiffness_harmonics", [])))
+
+
+__all__ = ["ExcitationSpec", "FitError", "Samples", "excitation_problems", "read_samples",
+           "scene_mean_force", "scene_measured", "typed_harmonics"]

@@ -1,0 +1,356 @@
+"""Your own STE and stiffness: samples in a file (CSV, netCDF), fitted, run like any scene.
+
+Independent truths: a synthetic signal with known harmonics (the fit must find them), and the
+same scene typed in as harmonics (``stiffness``, ``stiffness_harmonics``, ``ste``: the run must
+give the same numbers); the gear pair's own excitation for the example file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from numpy.testing import assert_allclose
+
+import gearsweep
+from gearsweep.cli import main
+from gearsweep.errors import StudyError
+from gearsweep.gear import fourier, mesh_cycle, table1_consistent
+from gearsweep.gear.measured import FitError, fit_fourier, fit_orders, measured_excitation
+from gearsweep.model import Harmonic
+from gearsweep.study.plan import build_model
+from gearsweep.study.schema import load_study, parse_study
+
+ROOT = Path(__file__).resolve().parent.parent
+TWO_PI = 2.0 * math.pi
+
+# A whine scene's k(t) and the separation u(t) = STE - F_m / k(t) it is excited by, as harmonics
+# (amplitude SI, mesh order, phase rad): the truth the file is written from.
+K0 = 2.0e8
+K_H = [(4.0e7, 1, 0.7), (1.5e7, 2, -1.9)]
+U_H = [(1.2e-6, 1, 0.3), (0.4e-6, 3, 2.2)]
+F_M = 900.0
+
+
+def series(mean, harmonics, phi):
+    return mean + sum(a * np.cos(TWO_PI * o * phi + p) for a, o, p in harmonics)
+
+
+def write_csv(path: Path, header: str, rows) -> Path:
+    lines = ["# a test file", header] + [", ".join(f"{v:.17g}" for v in r) for r in rows]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def whine_files(tmp_path: Path, n: int = 64) -> Path:
+    """STE [um] and stiffness [N/mm] over one mesh cycle, as an LTCA export would give them."""
+    phi = np.arange(n) / n
+    k = series(K0, K_H, phi)
+    ste = series(3e-6, U_H, phi) + F_M / k  # a mean of 3 um: e_0 drops out of e''
+    return write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um], mesh_stiffness [N/mm]",
+                     zip(phi, ste * 1e6, k * 1e-3, strict=True))
+
+
+def harmonics_yaml(items, unit) -> str:
+    return "[" + ", ".join(f"{{amplitude: {a!r} {unit}, order: {o}, phase: {p!r} rad}}"
+                           for a, o, p in items) + "]"
+
+
+SOLVER = ("solver: {method: rk4, steps_per_period: 64, transient_periods: 40,"
+          " record_periods: 20}\noutputs: [stats]\n")
+
+
+def study(scene: str, sweep: str = "sweep:\n  speed: [1500 rpm, 6000 rpm, 9000 rpm]\n") -> str:
+    return f"title: measured excitation\nscene:\n{scene}{sweep}{SOLVER}"
+
+
+# --------------------------------------------------------------------------- the fit
+
+
+def test_fit_finds_known_harmonics_from_uneven_samples():
+    """A signal with known mean and harmonics at orders 1, 2, 5, sampled at 97 random phases:
+    least squares finds them to round-off; with noise of sigma, the residual rms is about sigma."""
+    rng = np.random.default_rng(1)
+    phi = np.sort(rng.uniform(0.0, 1.0, 97))
+    truth = [(2.0, 1, 0.5), (0.7, 2, -2.5), (0.05, 5, 3.0)]
+    x = series(10.0, truth, phi)
+    fit = fit_fourier(phi, x, fit_orders(6, 48, False))
+    assert fit.mean == pytest.approx(10.0, rel=1e-13)
+    got = {round(h.order): h for h in fit.harmonics}
+    for a, o, p in truth:
+        assert got[o].amplitude == pytest.approx(a, rel=1e-11)
+        assert got[o].phase == pytest.approx(p, abs=1e-11)
+    for o in (3, 4, 6):
+        assert got[o].amplitude < 1e-12
+    assert fit.residual_rms < 1e-13 and fit.residual_max < 1e-12
+    noisy = fit_fourier(phi, x + rng.normal(0.0, 0.01, phi.size), fit_orders(6, 48, False))
+    assert 0.006 < noisy.residual_rms < 0.012  # sigma less the 13 fitted parameters' share
+    assert noisy.residual_max > noisy.residual_rms
+    assert abs(noisy.harmonics[0].amplitude - 2.0) < 0.01
+
+
+def test_fit_of_even_samples_is_the_dft():
+    """For evenly spaced samples the fit equals ``gearsweep.gear.fourier`` (the DFT) of the
+    computed Table 1 mesh cycle."""
+    mc = mesh_cycle(table1_consistent(), 50.0, n=200)
+    amp, ph = fourier(mc.ste, 10)
+    fit = fit_fourier(mc.phase, mc.ste, fit_orders(10, 48, False))
+    assert fit.mean == pytest.approx(amp[0], rel=1e-12)
+    assert_allclose([h.amplitude for h in fit.harmonics], amp[1:], rtol=1e-9, atol=1e-16)
+    big = amp[1:] > 1e-3 * amp[1]
+    assert_allclose(np.array([h.phase for h in fit.harmonics])[big], ph[1:][big], atol=1e-8)
+
+
+def test_revolution_fit_finds_shaft_orders():
+    """Over a revolution of a 6-tooth gear the fit holds every shaft order k/6 up to the mesh
+    orders asked: a once-per-revolution runout (order 1/6) and the mesh harmonic are found."""
+    teeth = 6
+    phi = np.arange(300) / 300 * teeth  # mesh cycles over one revolution
+    truth = [(0.5e-6, 1 / teeth, 1.0), (2e-6, 1.0, -0.4), (0.3e-6, 2 + 1 / teeth, 0.2)]
+    fit = fit_fourier(phi, series(0.0, truth, phi), fit_orders(3, teeth, True))
+    assert len(fit.harmonics) == 3 * teeth
+    got = {round(h.order * teeth): h for h in fit.harmonics}
+    for a, o, p in truth:
+        assert got[round(o * teeth)].amplitude == pytest.approx(a, rel=1e-10)
+        assert got[round(o * teeth)].phase == pytest.approx(p, abs=1e-9)
+
+
+def test_fit_refuses_too_few_or_bunched_samples():
+    with pytest.raises(FitError, match="at least 21 distinct samples"):
+        fit_fourier(np.arange(20) / 20, np.ones(20), fit_orders(10, 48, False))
+    with pytest.raises(FitError, match="do not determine"):  # all in a tenth of the cycle
+        fit_fourier(np.linspace(0, 0.1, 50), np.ones(50), fit_orders(10, 48, False))
+
+
+def test_excitation_with_k_of_t_is_ste_less_f_over_k():
+    """e = STE - F_m / k: from samples of u + F_m / k the fit gives u's harmonics exactly."""
+    phi = np.arange(64) / 64
+    k = series(K0, K_H, phi)
+    ste = series(0.0, U_H, phi) + F_M / k
+    mx = measured_excitation(phi, ste, k, fit_orders(8, 48, False), time_varying=True,
+                             mean_force=F_M)
+    assert mx.stiffness == pytest.approx(K0, rel=1e-13)
+    got = {round(h.order): h.amplitude for h in mx.ste_harmonics}
+    assert got[1] == pytest.approx(1.2e-6, rel=1e-10) and got[3] == pytest.approx(0.4e-6, rel=1e-10)
+    assert got[2] < 1e-18
+    assert mx.ste_residual_rms < 1e-18  # exact series: the model holds the STE
+    rattle = measured_excitation(phi, ste, k, fit_orders(8, 48, False), time_varying=False,
+                                 mean_force=F_M)
+    assert rattle.stiffness_harmonics == ()  # constant k0 (Eq. 13)
+    assert {round(h.order): h.amplitude for h in rattle.ste_harmonics}[2] > 1e-9  # F/k in it
+
+
+# --------------------------------------------------------------------------- whole runs
+
+
+def typed_whine(extra: str = "") -> str:
+    return ("  kind: whine\n  teeth: 20\n  mass: 0.2 kg\n  damping: 2 N*s/mm\n"
+            f"  mean_force: {F_M} N\n{extra}")
+
+
+def test_whine_from_csv_runs_as_the_typed_in_scene(tmp_path):
+    """The same whine scene from an LTCA-like CSV and typed in as harmonics: same model, same
+    p statistics at every speed; the fit residual is in the result (and ~0 for exact samples)."""
+    path = whine_files(tmp_path)
+    measured = study(typed_whine(f"  excitation: {{file: {path.name}, harmonics: 5}}\n"))
+    typed = study(typed_whine(f"  stiffness: {K0!r} N/m\n"
+                              f"  stiffness_harmonics: {harmonics_yaml(K_H, 'N/m')}\n"
+                              f"  ste: {harmonics_yaml(U_H, 'm')}\n"))
+    (tmp_path / "measured.yaml").write_text(measured)
+    ds_m = gearsweep.run(tmp_path / "measured.yaml")
+    ds_t = gearsweep.run(typed)
+    for v in ("p_rms", "p_pp", "p_mean", "p_max"):
+        assert_allclose(ds_m[v].values, ds_t[v].values, rtol=1e-8, err_msg=v)
+    assert float(ds_t.p_pp.min()) > 1e-7  # a real response, not zeros on both sides
+    assert float(ds_m.excitation_fit_residual_ste) < 1e-18
+    assert float(ds_m.excitation_fit_residual_stiffness) < 1e-6  # N/m of 2e8
+    assert ds_m.excitation_fit_residual_ste.attrs["units"] == "m"
+    assert list(ds_m.excitation_order.values) == [1, 2, 3, 4, 5]
+    assert float(ds_m.excitation_ste_amplitude.sel(excitation_order=3)) == pytest.approx(
+        0.4e-6, rel=1e-10)
+    assert float(ds_m.excitation_stiffness_phase.sel(excitation_order=2)) == pytest.approx(
+        -1.9, abs=1e-10)
+    model = json.loads(ds_m.attrs["model"])
+    assert model["stiffness"] == pytest.approx(K0, rel=1e-13)
+    assert len(model["ste_harmonics"]) == 5
+
+
+def test_rattle_from_netcdf_with_angle_runs_as_the_typed_in_scene(tmp_path):
+    """A rattle scene (constant k0) uses the loaded STE as is: a netCDF file over the driving
+    gear's angle [deg] with the STE in um, stiffness typed in, against the STE typed in."""
+    teeth, n = 20, 48
+    angle = np.arange(n) / n * 360.0 / teeth
+    ste = series(2e-6, U_H, angle * teeth / 360.0)
+    xr.Dataset({"ste": ("angle", ste * 1e6, {"units": "um"})},
+               coords={"angle": ("angle", angle, {"units": "degree"})}).to_netcdf(
+        tmp_path / "te.nc")
+    # Damped enough (zeta 0.08) and loaded enough that every case settles on one periodic
+    # rattle (contact lost part of each period): a chaotic case would amplify round-off.
+    scene = ("  kind: rattle\n  teeth: 20\n  mass: 0.2 kg\n  damping: 1000 N*s/m\n"
+             "  backlash: 20 um\n  mean_force: 100 N\n  stiffness: 2e8 N/m\n")
+    measured = study(scene + "  excitation: {file: te.nc, harmonics: 4}\n")
+    (tmp_path / "r.yaml").write_text(measured)
+    ds_m = gearsweep.run(tmp_path / "r.yaml")
+    ds_t = gearsweep.run(study(scene + f"  ste: {harmonics_yaml(U_H, 'm')}\n"))
+    for v in ("p_rms", "p_pp", "contact_loss_fraction"):
+        assert_allclose(ds_m[v].values, ds_t[v].values, rtol=1e-8, atol=1e-15, err_msg=v)
+    assert float(ds_t.contact_loss_fraction.max()) > 0.3  # the STE makes it rattle
+    assert (ds_t.status.values == 0).all()
+    assert float(ds_m.excitation_fit_residual_ste) < 1e-18
+    assert math.isnan(float(ds_m.excitation_fit_residual_stiffness))  # no stiffness in the file
+
+
+def test_example_study_matches_the_gear_scene():
+    """studies/whine_measured_ste.yaml (the Table 1 mesh cycle plus noise) gives the gear scene's
+    k0, k_n (to the noise) and an excitation e(t) of noise size (unmodified teeth: e = 0)."""
+    st, _ = load_study(ROOT / "studies/whine_measured_ste.yaml")
+    model = build_model(st)
+    gear = build_model(parse_study(
+        "title: g\nscene:\n  kind: whine\n  gear: table1_consistent\n  torque: 50 N*m\n"
+        "  mass: 0.1527 kg\nsweep:\n  speed: [1000 rpm]\n"))
+    assert model.teeth == gear.teeth == 48
+    assert model.mean_force == pytest.approx(gear.mean_force, rel=1e-5)
+    assert model.stiffness == pytest.approx(gear.stiffness, rel=1e-3)
+    for m, g in zip(model.stiffness_harmonics[:3], gear.stiffness_harmonics[:3], strict=True):
+        assert m.amplitude == pytest.approx(g.amplitude, rel=0.01)
+        assert m.phase == pytest.approx(g.phase, abs=0.02)
+    assert max(h.amplitude for h in model.ste_harmonics) < 0.01e-6  # noise, not 1.3 um
+
+
+# --------------------------------------------------------------------------- refusals
+
+
+@pytest.mark.parametrize(("header", "rows", "message"), [
+    ("phase [1], ste [um]", [[0.1, 1.0]], "no position column"),
+    ("mesh_phase [1], force [N]", [[0.1, 1.0]], "no value column"),
+    ("mesh_phase [1], ste", [[0.1, 1.0]], "column 'ste' needs its unit"),
+    ("mesh_phase [1], ste [N]", [[0.1, 1.0]], "column 'ste': unit 'N'"),
+    ("mesh_phase [deg], ste [um]", [[0.1, 1.0]], "unit 'deg' of a mesh phase"),
+    ("mesh_phase [1], ste [um]", [[0.1, float("nan")]], "finite"),
+])
+def test_bad_files_give_one_line(tmp_path, header, rows, message):
+    write_csv(tmp_path / "x.csv", header, rows)
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  stiffness: 2e8 N/m\n  excitation: {file: x.csv}\n")))
+    with pytest.raises(StudyError) as e:
+        load_study(f)
+    (line,) = str(e.value).splitlines()
+    assert line.startswith(f"{f}:") and "scene.excitation.file: 'x.csv'" in line and message in line
+
+
+@pytest.mark.parametrize(("extra", "sweep", "message"), [
+    ("  excitation: {file: ltca.csv, harmonics: 40}\n", None,
+     "scene.excitation.harmonics: 40 -- needs at least 81 samples"),
+    ("  excitation: {file: nothere.csv}\n", None, "no such file"),
+    ("  excitation: {file: ltca.csv}\n  stiffness: 2e8 N/m\n", None,
+     "scene.stiffness: excitation.file gives the mesh stiffness"),
+    ("  excitation: {file: ltca.csv}\n  ste: [{amplitude: 1 um}]\n", None,
+     "scene.ste: excitation.file gives the STE"),
+    ("  excitation: {file: ltca.csv, span: revolution}\n", None,
+     "harmonics: 10 -- needs at least 401 samples over a revolution"),
+    ("  excitation: {file: ltca.csv}\n", "sweep:\n  speed: [1000 rpm]\n  mean_force: [1 N, 2 N]\n",
+     "sweep.mean_force: with k(t)"),
+    ("  excitation: {file: ltca.csv}\n  harmonics: 3\n", None, "scene.harmonics: 3"),
+])
+def test_inconsistent_scenes_give_one_line_and_exit_2(tmp_path, capsys, extra, sweep, message):
+    whine_files(tmp_path)
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine(extra), *(sweep,) if sweep else ()))
+    assert main(["validate", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(f) in err and message in err, err
+
+
+def test_gear_and_excitation_are_exclusive(tmp_path):
+    whine_files(tmp_path)
+    f = tmp_path / "s.yaml"
+    f.write_text(study("  kind: whine\n  gear: table1_consistent\n  torque: 50 N*m\n"
+                       "  mass: 0.1527 kg\n  excitation: {file: ltca.csv}\n"))
+    with pytest.raises(StudyError, match="scene.gear: give either 'gear' or 'excitation'"):
+        load_study(f)
+
+
+def test_measured_model_carries_fitted_harmonics(tmp_path):
+    """build_model of an excitation scene: k0, k_n and e_n are the fit's (as SI Harmonics)."""
+    path = whine_files(tmp_path)
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine(f"  excitation: {{file: {path.name}, harmonics: 3}}\n")))
+    model = build_model(load_study(f)[0])
+    assert [round(h.order) for h in model.stiffness_harmonics] == [1, 2, 3]
+    assert model.stiffness_harmonics[0].amplitude == pytest.approx(4e7, rel=1e-12)
+    assert model.stiffness_harmonics[0].phase == pytest.approx(0.7, abs=1e-12)
+    assert isinstance(model.ste_harmonics[2], Harmonic)
+    assert model.ste_harmonics[2].amplitude == pytest.approx(0.4e-6, rel=1e-10)
+
+
+def test_revolution_samples_over_an_angle_give_shaft_orders_and_run_as_typed_in(tmp_path):
+    """Samples over one revolution of a 4-tooth driving gear, position in rad: the fit holds the
+    once-per-revolution runout (mesh order 1/4) and a sideband (9/4) besides the mesh order, the
+    kernel runs the 4-period cycle, and the run equals the scene typed in with those orders."""
+    teeth, n = 4, 400
+    angle = np.arange(n) / n * TWO_PI
+    truth = [(0.8e-6, 0.25, 0.4), (1.5e-6, 1.0, -1.1), (0.3e-6, 2.25, 2.0)]
+    ste = series(1e-6, truth, angle * teeth / TWO_PI)
+    write_csv(tmp_path / "rev.csv", "roll_angle [rad]; transmission_error [mm]",
+              zip(angle, ste * 1e3, strict=True))
+    (tmp_path / "rev.csv").write_text((tmp_path / "rev.csv").read_text().replace(", ", "; "))
+    scene = ("  kind: rattle\n  teeth: 4\n  mass: 0.2 kg\n  damping: 1000 N*s/m\n"
+             "  backlash: 20 um\n  mean_force: 100 N\n  stiffness: 2e8 N/m\n")
+    f = tmp_path / "rev.yaml"
+    f.write_text(study(scene + "  excitation: {file: rev.csv, harmonics: 3, span: revolution}\n",
+                       "sweep:\n  speed: [20000 rpm, 45000 rpm]\n"))
+    model = build_model(load_study(f)[0])
+    assert len(model.ste_harmonics) == 3 * teeth and model.cycle_periods == teeth
+    got = {round(h.order * teeth): h for h in model.ste_harmonics}
+    for a, o, p in truth:
+        assert got[round(o * teeth)].amplitude == pytest.approx(a, rel=1e-10)
+        assert got[round(o * teeth)].phase == pytest.approx(p, abs=1e-9)
+    ds_m = gearsweep.run(f)
+    ds_t = gearsweep.run(study(scene + f"  ste: {harmonics_yaml(truth, 'm')}\n",
+                               "sweep:\n  speed: [20000 rpm, 45000 rpm]\n"))
+    assert_allclose(ds_m.p_rms.values, ds_t.p_rms.values, rtol=1e-8)
+    assert float(ds_t.contact_loss_fraction.max()) > 0
+    # the samples span a revolution: as one mesh cycle they are refused, naming the span
+    f.write_text(study(scene + "  excitation: {file: rev.csv, harmonics: 3}\n"))
+    with pytest.raises(StudyError, match=r"scene.excitation.span: 'mesh_cycle' -- the samples"
+                       r" of excitation.file span 359.1 deg, more than one mesh cycle"):
+        load_study(f)
+
+
+def test_relative_paths_are_read_from_the_study_folder(tmp_path, monkeypatch):
+    """The example study validates from any working folder (its file is next to it), and a dict
+    study reads a relative path from the working folder."""
+    monkeypatch.chdir(tmp_path)
+    st, _ = load_study(ROOT / "studies/whine_measured_ste.yaml")
+    assert Path(st.scene.excitation.file) == ROOT / "studies/data/ste_table1.csv"
+    whine_files(tmp_path)
+    data = {"title": "t", "scene": {"kind": "whine", "teeth": 20, "mass": "0.2 kg",
+                                    "mean_force": "900 N", "excitation": {"file": "ltca.csv"}},
+            "sweep": {"speed": ["1000 rpm"]}}
+    st, _ = gearsweep.api.load(data)
+    assert Path(st.scene.excitation.file) == tmp_path / "ltca.csv"
+
+
+def test_a_mesh_study_result_is_an_excitation_file(tmp_path):
+    """A ``type: mesh`` result (ste [m], mesh_stiffness [N m-1], UDUNITS spelling, over
+    mesh_phase [-]) fed back as the file gives the gear scene's own model: the same k0 and k_n to
+    round-off (FFT there, least squares here) and e = STE - F_m / k = 0 for unmodified teeth."""
+    gearsweep.run(ROOT / "studies/fig01_02_mesh_cycle.yaml", output=tmp_path / "mesh.nc")
+    r1 = table1_consistent().base_radius1
+    scene = ("  kind: whine\n  torque: 50 N*m\n  mass: 0.1527 kg\n")
+    f = tmp_path / "s.yaml"
+    f.write_text(study(scene + f"  excitation: {{file: mesh.nc}}\n  teeth: 48\n"
+                       f"  base_radius: {r1!r} m\n"))
+    m = build_model(load_study(f)[0])
+    g = build_model(parse_study(study(scene + "  gear: table1_consistent\n")))
+    assert m.stiffness == pytest.approx(g.stiffness, rel=1e-13)
+    assert m.mean_force == pytest.approx(g.mean_force, rel=1e-14)
+    assert_allclose([h.amplitude for h in m.stiffness_harmonics],
+                    [h.amplitude for h in g.stiffness_harmonics], rtol=1e-11)
+    assert_allclose([h.phase for h in m.stiffness_harmonics],
+                    [h.phase for h in g.stiffness_harmonics], atol=1e-11)
+    assert max(h.amplitude for h in m.ste_harmonics) < 1e-15  # of a 4.3 um STE
