@@ -67,7 +67,7 @@ def test_waterfall_draws_the_spectrum(ds):
     assert_allclose(z, one.spectrum.values[-1, 1:] * 1e6)  # order 0 left out, in um
     assert_allclose(x, one.frequency.values[-1, 1:] * 1e-3)  # kHz above 5 kHz
     assert np.all(y == 18000.0)
-    assert "[um]" in ax.get_zlabel() and "[rpm]" in ax.get_ylabel()
+    assert "[µm]" in ax.get_zlabel() and "[rpm]" in ax.get_ylabel()
 
 
 def test_campbell_map_and_natural_frequency_curve(ds):
