@@ -334,21 +334,20 @@ class Scene:
         """sqrt(k_mean + sum |ka_j|) [rad/s]: natural frequency at the largest stiffness."""
         return float(np.sqrt(self.k_mean + sum(abs(a) for a, _, _ in self.k_harmonics)))
 
-    def stiffness(self, t):
-        """K(t) [1/s^2]."""
+    def _series(self, mean: float, harmonics, t):
         t = np.asarray(t, dtype=float)
-        out = np.full_like(t, self.k_mean)
-        for a, r, ph in self.k_harmonics:
+        out = np.full_like(t, mean)
+        for a, r, ph in harmonics:
             out = out + a * np.cos(r * self.omega * t + ph)
         return out
 
+    def stiffness(self, t):
+        """K(t) [1/s^2]."""
+        return self._series(self.k_mean, self.k_harmonics, t)
+
     def forcing(self, t):
         """G(t) [m/s^2]."""
-        t = np.asarray(t, dtype=float)
-        out = np.full_like(t, self.g_mean)
-        for a, r, ph in self.g_harmonics:
-            out = out + a * np.cos(r * self.omega * t + ph)
-        return out
+        return self._series(self.g_mean, self.g_harmonics, t)
 
     def response_scale(self) -> float:
         """Rough size of p [m]: static deflection under the largest force plus the half gap."""
