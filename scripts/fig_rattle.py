@@ -19,6 +19,7 @@ from gearsweep.plot.common import plt, save
 from gearsweep.study.jumps import jump_summary
 from gearsweep.study.runner import build_model
 from gearsweep.study.schema import parse_study
+from gearsweep.units import from_display
 
 
 def scene(ds):
@@ -149,8 +150,9 @@ def rattle_map(ds, figures):
     width = jump_summary(ds)["hysteresis_width"].transpose("backlash", "damping", "torque")
     nb = ds.sizes["backlash"]
     fig, axes = plt.subplots(2, nb, figsize=(3.0 * nb + 1.5, 7.5), sharey=True, sharex=True)
-    rplot.plot_rattle_map(list(axes[0]), list(axes[1]), ds["damping"].values,
-                          ds["torque"].values, ds["backlash"].values, frac.values, width.values)
+    rplot.plot_rattle_map(list(axes[0]), list(axes[1]),  # the plot takes SI (the file: display)
+                          from_display(ds["damping"].values, "damping"), ds["torque"].values,
+                          from_display(ds["backlash"].values, "length"), frac.values, width.values)
     fig.suptitle(f"Where rattle occurs over {ds.speed.values[0]:.0f}-{ds.speed.values[-1]:.0f} "
                  "rpm (F0 = 72 kN at mesh order 1):\ntop: share of speeds with contact loss "
                  "(either sweep); bottom: width of the jump hysteresis band", fontsize=9)

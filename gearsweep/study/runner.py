@@ -25,6 +25,7 @@ from gearsweep.kernels import LANES, STATUS_DIVERGED, simulate
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, mesh_frequency
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.dataset import build_dataset
+from gearsweep.study.display import display_coordinates
 from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
@@ -523,6 +524,7 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
     ds = build_dataset(data_vars, coords, title=plan.study.title, study_text=plan.text,
                        settings=settings, var_attrs=var_attrs,
                        source=f"gearsweep study, scene {plan.study.scene.kind!r}")
+    ds = display_coordinates(ds)  # swept coordinates in the study's units (gearsweep.units)
     if "speed" in ds.coords and isinstance(plan.model, MeshModel):
         ds["speed"].attrs["gear"] = f"driving gear (gear 1, {plan.model.teeth} teeth)"
     return ds
