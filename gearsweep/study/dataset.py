@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-import gearsweep
+from gearsweep.study.provenance import coordinate_encoding, provenance
 
 COORDS = {
     "speed": ("rpm", "shaft speed of the driving gear (gear 1)"),
@@ -106,7 +106,7 @@ def build_dataset(
     ds.attrs.update(
         Conventions="CF-1.10",
         title=title,
-        history=f"[{now}] gearsweep {gearsweep.__version__}",
+        history=f"{now}: {provenance()}",
         source=source,
         study=study_text,
         study_sha256=hashlib.sha256(study_text.encode()).hexdigest(),
@@ -132,8 +132,8 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     os.close(fd)
     try:
-        encoding = {}
         ds = ds.copy(deep=False)  # the caller's Dataset keeps its own chunks
+        encoding = coordinate_encoding(ds)  # CF 2.5.1: no _FillValue on coordinates
         for k in ds.data_vars:
             if ds[k].chunks:  # dask-backed (streamed from disk): regular blocks, one file chunk
                 size = {d: max(c) for d, c in zip(ds[k].dims, ds[k].chunks, strict=True)}

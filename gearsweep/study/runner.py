@@ -510,7 +510,7 @@ def assemble(plan: Plan, results: dict[str, np.ndarray], elapsed: float | None =
         "steps_per_period": s.steps_per_period,
         "kink_aware": int(s.kink_aware),
         "transient_periods": s.transient_periods,
-        "recorded_periods": s.record_periods,
+        "record_periods": s.record_periods,  # the study's name for it
         "divergence_factor": s.divergence_factor,
         "settle_tolerance": s.settle_tolerance,
         "step_guard": s.step_guard,
