@@ -75,7 +75,7 @@ _Length, _Angle, _Pressure = _q("length"), _q("angle"), _q("pressure")
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class TipReliefSpec(_Strict):
