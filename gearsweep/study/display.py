@@ -14,6 +14,11 @@ import xarray as xr
 from gearsweep.model import SWEEPABLE
 from gearsweep.units import KINDS, to_display
 
+P_MEANING = ("p: the dynamic transmission error, the relative displacement of the two gears along"
+             " the line of action, Eq. (5) of Choi, Lee & Shin (1997); dimensionless in the"
+             " Mathieu scene")
+"""What ``p`` in the long names of the result variables means (their ``comment``)."""
+
 
 def display_coordinates(ds: xr.Dataset) -> xr.Dataset:
     """``ds`` with every swept coordinate in its display unit (values and ``units``)."""
@@ -32,4 +37,6 @@ def display_coordinates(ds: xr.Dataset) -> xr.Dataset:
     for name in ds.data_vars:
         if ds[name].attrs.get("units") == "-":
             ds[name].attrs["units"] = "1"
+        if " p " in f" {ds[name].attrs.get('long_name', '')} ".replace(",", " "):
+            ds[name].attrs.setdefault("comment", P_MEANING)
     return ds

@@ -45,7 +45,7 @@ from gearsweep.errors import GeometryError
 from gearsweep.gear import GearPair, TipRelief, mesh_cycle, table1_as_printed, table1_consistent
 from gearsweep.gear.mesh import MeshCycle, fourier
 from gearsweep.model import Harmonic
-from gearsweep.units import UnitParseError, to_si
+from gearsweep.units import QuantityKind, UnitParseError, to_si
 
 PRESETS = {"table1_consistent": table1_consistent, "table1_as_printed": table1_as_printed}
 """Named gear pairs a study can use as ``gear: NAME`` or ``gear: {preset: NAME, ...}``."""
@@ -68,7 +68,8 @@ def _parse(kind: str, value: Any, info: Any = None) -> Any:
 
 def _q(kind: str) -> Any:
     # The same as gearsweep.study.schema.Q (not imported: schema imports this module).
-    return Annotated[float, BeforeValidator(lambda value, info: _parse(kind, value, info))]
+    return Annotated[float, BeforeValidator(lambda value, info: _parse(kind, value, info)),
+                     QuantityKind(kind)]
 
 
 _Length, _Angle, _Pressure = _q("length"), _q("angle"), _q("pressure")

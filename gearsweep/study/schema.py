@@ -53,18 +53,10 @@ from pydantic import (
 from gearsweep.errors import NO_VALUE, GeometryError, StudyError
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.gearscene import GearField
-from gearsweep.units import UnitParseError, to_si
+from gearsweep.units import QuantityKind, UnitParseError, to_si
 
 if TYPE_CHECKING:
     from gearsweep.study.mesh_runner import MeshStudy
-
-
-@dataclass(frozen=True)
-class QuantityKind:
-    """Marks a float field as a quantity of ``kind`` (``gearsweep.units.KINDS``): read by the
-    field reference generator (scripts/gen_study_reference.py)."""
-
-    kind: str
 
 
 def _parse(kind: str, value: Any) -> Any:
