@@ -233,7 +233,8 @@ def describe(path: str | Path) -> str:
                          f"{ds.attrs.get('scene', '?')}, {ds.attrs.get('method', '?')} at "
                          f"{ds.attrs.get('steps_per_period', '?')} steps per mesh period, "
                          f"{ds.attrs.get('transient_periods', '?')} transient + "
-                         f"{ds.attrs.get('recorded_periods', '?')} recorded periods")
+                         f"{ds.attrs.get('record_periods', ds.attrs.get('recorded_periods', '?'))}"
+                         " recorded periods")
         lines.append("  swept:")
         for d in ds.dims:
             c = ds[d] if d in ds.coords else None

@@ -43,6 +43,14 @@ class Kind:
     """A bare number is accepted, read in the display unit."""
 
 
+@dataclass(frozen=True)
+class QuantityKind:
+    """Marks a float field of a study model as a quantity of ``kind`` (read by the field
+    reference generator, scripts/gen_study_reference.py)."""
+
+    kind: str
+
+
 KINDS: dict[str, Kind] = {k.name: k for k in (
     Kind("speed", "rpm", "rpm", "rpm", ("rpm", "RPM", "rev/min", "r/min", "Hz (rev/s)", "kHz",
                                          "rad/s"), bare=True),

@@ -17,6 +17,7 @@ from _common import open_result, parse
 from gearsweep.plot import rattle as rplot
 from gearsweep.plot.common import plt, save
 from gearsweep.plot.sweep import settled, speed_label
+from gearsweep.units import from_display
 
 
 def fig8(bal, figures):
@@ -139,8 +140,9 @@ def rattle_map(ds, figures):
     width = ds["hysteresis_width"].transpose(*dims)
     nb = ds.sizes["backlash"]
     fig, axes = plt.subplots(2, nb, figsize=(3.0 * nb + 1.5, 7.5), sharey=True, sharex=True)
-    rplot.plot_rattle_map(list(axes[0]), list(axes[1]), ds["damping"].values,
-                          ds["torque"].values, ds["backlash"].values, frac.values, width.values)
+    rplot.plot_rattle_map(list(axes[0]), list(axes[1]),  # the plot takes SI (the file: display)
+                          from_display(ds["damping"].values, "damping"), ds["torque"].values,
+                          from_display(ds["backlash"].values, "length"), frac.values, width.values)
     fig.suptitle(f"Where rattle occurs over {ds.attrs['speed_from']:.0f}-{ds.attrs['speed_to']:.0f} "
                  "rpm (F0 = 72 kN at mesh order 1):\ntop: share of speeds with contact loss "
                  "(either sweep); bottom: width of the jump hysteresis band", fontsize=9)

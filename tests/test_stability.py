@@ -308,6 +308,8 @@ def test_floquet_output_flags_the_integrator_on_the_rig():
     assert not fast["integrator_unstable"].any() and (fast["status"] == 0).all()
     assert (fast["min_steps_per_period"] < 200).all()
     fmesh = 48 * 150 / 60
-    a, b, g = mathieu_parameters(1073e6, 179e6, 0.1527, ds.damping.values, fmesh)
+    damping = ds.damping.values * 1e3  # the file's N s/mm in SI
+    assert ds.damping.attrs["units"] == "N s mm-1"
+    a, b, g = mathieu_parameters(1073e6, 179e6, 0.1527, damping, fmesh)
     assert_allclose(slow["floquet_multiplier"], floquet(a, b, g, rtol=1e-11).multiplier,
                     rtol=5e-8)

@@ -205,7 +205,10 @@ def test_netcdf_round_trip_keeps_values_and_attributes(tmp_path):
     xr.testing.assert_identical(ds, back.load())
     back.close()
     for v in list(back.data_vars) + list(back.coords):
-        assert "units" in back[v].attrs and "long_name" in back[v].attrs, v
+        assert "long_name" in back[v].attrs, v
+        # numbers carry a unit ("1" when dimensionless); labels such as 'direction' carry none
+        assert ("units" in back[v].attrs) == (back[v].dtype.kind in "fiub"), v
+        assert back[v].attrs.get("units") != "-", v
     for key in ("Conventions", "title", "history", "source", "study", "study_sha256", "method",
                 "steps_per_period", "transient_periods", "recorded_periods"):
         assert key in back.attrs, key

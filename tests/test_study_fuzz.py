@@ -10,6 +10,7 @@ is a single line, within a time bound (no hang), and the CLI must exit 2 with on
 from __future__ import annotations
 
 import copy
+import math
 import re
 import subprocess
 import sys
@@ -233,3 +234,85 @@ def test_cli_process_exits_2_with_one_line(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
     assert "scene" in proc.stderr and "whale" in proc.stderr
+
+
+# ------------------------------------------------- issue 26: whole classes, not lists of cases
+GEAR_STUDY = (ROOT / "studies" / "whine_gear_table1.yaml").read_text(encoding="utf-8")
+NUMERIC_DOCS = VALID_DICTS + [yaml.safe_load(GEAR_STUDY.replace(
+    "gear: table1_consistent", "gear: {preset: table1_consistent, x1: 0.1, tip_relief:"
+    " {amount: 6 um, start_at: single_contact}}"))]
+
+
+def _numeric_leaves(doc, path=()):
+    """Paths of every numeric value of a study: numbers and numbers with units."""
+    if isinstance(doc, dict):
+        for k, v in doc.items():
+            yield from _numeric_leaves(v, (*path, k))
+    elif isinstance(doc, list):
+        for i, v in enumerate(doc):
+            yield from _numeric_leaves(v, (*path, i))
+    elif isinstance(doc, int | float) and not isinstance(doc, bool):
+        yield path
+    elif isinstance(doc, str) and re.match(r"^[-+]?\d", doc.strip()):
+        yield path
+
+
+LEAVES = [(i, p) for i, d in enumerate(NUMERIC_DOCS) for p in _numeric_leaves(d)]
+NON_FINITE = st.sampled_from([math.nan, math.inf, -math.inf, "nan", "inf", "-inf", ".nan",
+                              "nan mm", "inf N", "-inf rpm", "1e999", "1e999 mm", "NaN kg",
+                              "inf*2 N*m", "0/0 N"])
+
+
+def _set(doc, path, value):
+    doc = copy.deepcopy(doc)
+    node = doc
+    for p in path[:-1]:
+        node = node[p]
+    node[path[-1]] = value
+    return doc
+
+
+@FUZZ
+@given(st.sampled_from(LEAVES), NON_FINITE)
+def test_non_finite_values_in_every_numeric_field_are_refused(leaf, value):
+    """NaN and inf, bare or with units, in any numeric field of any scene: one line per problem,
+    exit 2 (never a run that reports them as diverged cases)."""
+    i, path = leaf
+    text = yaml.safe_dump(_set(NUMERIC_DOCS[i], path, value), allow_unicode=True)
+    if isinstance(value, str) and value.startswith("."):
+        text = text.replace(f"'{value}'", value)  # YAML's own .nan, not the string
+    with pytest.raises(GearsweepError) as err:
+        study = parse_study(text, "fuzz.yaml")
+        make_plan(study, text)
+    for line in str(err.value).split("\n"):
+        assert re.match(r"fuzz\.yaml(:\d+)?: ", line), str(err.value)
+
+
+MALFORMED = st.sampled_from([
+    "!!int xyz", "!!float abc", "!!bool maybe", "!!timestamp 2020-99-99", "2020-13-45",
+    "!!binary '@@@'", "!!python/object:os.system x", "!!python/name:os.system", "*undefined",
+    "&a [*a]", "!!map x", "!!seq x", "!!null x", "!!str [", "'unclosed", '"\\q"', "{a: 1, a: 2}",
+    "!!set {a}", "!<tag:yaml.org,2002:int> 1.5", "@reserved", "`reserved", "%directive",
+    "!!omap [a]", "? [a]\n  : b", "!!merge x", "<< : 1",
+])
+
+
+@FUZZ
+@given(st.sampled_from(LEAVES), MALFORMED)
+def test_malformed_yaml_scalars_give_one_line_and_exit_2(leaf, scalar):
+    """Every way the YAML loader can fail on a value gives StudyError lines, never a traceback."""
+    i, path = leaf
+    marker = "REPLACE_ME_0123"
+    text = yaml.safe_dump(_set(NUMERIC_DOCS[i], path, marker), allow_unicode=True)
+    text = text.replace(marker, scalar)
+    _check(text)
+
+
+@pytest.mark.parametrize("scalar", ["!!int xyz", "2020-13-45", "!!python/object:os.system x",
+                                    "*undefined"])
+def test_malformed_scalar_through_the_cli(scalar, tmp_path, capsys):
+    path = tmp_path / "bad.yaml"
+    path.write_text(VALID[0].replace("teeth: 48", f"teeth: {scalar}"), encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and re.match(rf"gearsweep: error: {re.escape(str(path))}:\d+: ", err)

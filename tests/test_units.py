@@ -80,3 +80,28 @@ def test_display_units_round_trip_and_every_kind_is_complete():
     assert to_display(5500.0, "damping") == pytest.approx(5.5)
     assert to_display(1.073e9, "stiffness") == pytest.approx(1073.0)
     assert to_display(3000.0, "speed") == 3000.0
+
+
+def test_swept_coordinates_are_in_the_studys_units():
+    """``ds.sel(backlash=0.1)`` for a study that swept ``backlash: [0.1 mm, 0.2 mm]``."""
+    from gearsweep.study.runner import run_study
+    from gearsweep.study.schema import parse_study
+
+    text = """\
+title: units in the file
+scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, backlash: 0.1 mm,
+        mean_force: 100 N, fluctuation: [{amplitude: 300 N, order: 1}]}
+sweep:
+  backlash: [0.1 mm, 0.2 mm]
+  damping: [100 N s/m, 5.5 N s/mm]
+  speed: [6000 rpm]
+solver: {steps_per_period: 32, transient_periods: 4, record_periods: 4}
+"""
+    ds = run_study(parse_study(text, "u.yaml"), text)
+    assert ds["backlash"].attrs["units"] == "mm" and ds["damping"].attrs["units"] == "N s mm-1"
+    assert ds["speed"].attrs["units"] == "rpm"
+    assert ds.sel(backlash=0.1).sizes["damping"] == 2
+    assert list(ds["damping"].values) == pytest.approx([0.1, 5.5])
+    assert ds["backlash"].values == pytest.approx([0.1, 0.2])
+    for name in ds.variables:
+        assert ds[name].attrs.get("units") != "-", name

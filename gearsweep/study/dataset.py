@@ -17,7 +17,9 @@ import xarray as xr
 from gearsweep._version import __version__
 from gearsweep.model import MeshModel, mesh_frequency, model_record
 from gearsweep.study.measured import scene_measured
+from gearsweep.study.display import display_coordinates
 from gearsweep.study.outputs import VarSpec
+from gearsweep.study.provenance import coordinate_encoding, provenance
 
 COORDS = {
     "speed": ("rpm", "shaft speed of the driving gear (gear 1)"),
@@ -112,7 +114,7 @@ def build_dataset(
     ds.attrs.update(
         Conventions="CF-1.10",
         title=title,
-        history=f"[{now}] gearsweep {__version__}",
+        history=f"{now}: {provenance()}",
         source=source,
         study=study_text,
         study_sha256=hashlib.sha256(study_text.encode()).hexdigest(),
@@ -138,8 +140,8 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     os.close(fd)
     try:
-        encoding = {}
         ds = ds.copy(deep=False)  # the caller's Dataset keeps its own chunks
+        encoding = coordinate_encoding(ds)  # CF 2.5.1: no _FillValue on coordinates
         for k in ds.data_vars:
             if ds[k].chunks:  # dask-backed (streamed from disk): regular blocks, one file chunk
                 size = {d: max(c) for d, c in zip(ds[k].dims, ds[k].chunks, strict=True)}
@@ -248,7 +250,7 @@ def assemble(plan: Any, results: dict[str, np.ndarray], elapsed: float | None = 
         "steps_per_period": s.steps_per_period,
         "kink_aware": int(s.kink_aware),
         "transient_periods": s.transient_periods,
-        "recorded_periods": s.record_periods,
+        "record_periods": s.record_periods,  # the study's name for it
         "divergence_factor": s.divergence_factor,
         "settle_tolerance": s.settle_tolerance,
         "step_guard": s.step_guard,
@@ -262,6 +264,7 @@ def assemble(plan: Any, results: dict[str, np.ndarray], elapsed: float | None = 
     ds = build_dataset(data_vars, coords, title=plan.study.title, study_text=plan.text,
                        settings=settings, var_attrs=var_attrs,
                        source=f"gearsweep study, scene {plan.study.scene.kind!r}")
+    ds = display_coordinates(ds)  # swept coordinates in the study's units (gearsweep.units)
     ds.attrs["model"] = json.dumps(model_record(plan.model))
     if getattr(plan.study.scene, "gear", None) is not None:
         ds = ds.assign(gear_variables(plan))

@@ -91,7 +91,7 @@ class Stats:
 class SpectrumOptions(BaseModel):
     """Options of the ``spectrum`` output."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     max_order: float = Field(4.0, gt=0, description="highest mesh order kept [-]")
     samples_per_period: int | None = Field(

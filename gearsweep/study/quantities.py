@@ -6,21 +6,12 @@ dimensioned fields from here, so that a quantity is parsed and checked the same 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from functools import partial
 from typing import Annotated, Any
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict
 
-from gearsweep.units import UnitParseError, to_si
-
-
-@dataclass(frozen=True)
-class QuantityKind:
-    """Marks a float field as a quantity of ``kind`` (``gearsweep.units.KINDS``): read by the
-    field reference generator (scripts/gen_study_reference.py)."""
-
-    kind: str
+from gearsweep.units import QuantityKind, UnitParseError, to_si
 
 
 def _parse(kind: str, value: Any) -> Any:

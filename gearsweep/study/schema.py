@@ -477,9 +477,9 @@ def _construct_map(loader: _Loader, node: yaml.MappingNode):
             first[key] = knode.start_mark.line + 1
     loader.flatten_mapping(node)
     for knode, vnode in node.value:
-        key = loader.construct_object(knode, deep=True)
+        key = _construct(loader, knode)
         try:
-            data[key] = loader.construct_object(vnode, deep=True)
+            data[key] = _construct(loader, vnode)
         except TypeError:
             raise yaml.constructor.ConstructorError(
                 "while constructing a mapping", node.start_mark, "found an unhashable key",
@@ -491,7 +491,19 @@ def _construct_seq(loader: _Loader, node: yaml.SequenceNode):
     data = _Seq()
     data.line, data.lines = node.start_mark.line + 1, [n.start_mark.line + 1 for n in node.value]
     yield data
-    data.extend(loader.construct_sequence(node, deep=True))
+    data.extend(_construct(loader, n) for n in node.value)
+
+
+def _construct(loader: _Loader, node: yaml.Node) -> Any:
+    """``loader.construct_object``, with a value it cannot read (``!!int xyz``, the date
+    2020-13-45) reported at the node's line as a YAML error."""
+    try:
+        return loader.construct_object(node, deep=True)
+    except (ValueError, OverflowError, ArithmeticError) as exc:
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise yaml.constructor.ConstructorError(
+            None, None, f"cannot read {node.value!r} as {node.tag.rsplit(':', 1)[-1]} ({why})",
+            node.start_mark) from None
 
 
 _Loader.add_constructor("tag:yaml.org,2002:map", _construct_map)
@@ -546,12 +558,9 @@ def _path_of(root: Any, target: Any, prefix: str = "") -> str | None:
 def load_yaml(text: str, file: str) -> Any:
     """The YAML text as Python objects with line marks; every way the loader can fail (syntax,
     tags, values it cannot construct, nesting, duplicate keys) raises one ``StudyError``."""
+    loader = None
     try:
-        loader = _Loader(text)
-    except yaml.YAMLError as exc:  # the reader refuses the text itself (control characters)
-        raise StudyError(file, "(yaml)", NO_VALUE, f"not valid YAML text: {str(exc).splitlines()[0]}",
-                         1) from None
-    try:
+        loader = _Loader(text)  # checks the characters at once (control characters: ReaderError)
         raw = loader.get_single_data()
     except RecursionError:
         raise StudyError(file, "(yaml)", NO_VALUE, "YAML nested less deeply") from None
@@ -560,18 +569,23 @@ def load_yaml(text: str, file: str) -> Any:
         problem = exc.problem or exc.context or "not valid YAML"
         raise StudyError(file, "(yaml)", NO_VALUE, f"not valid YAML: {problem}",
                          mark.line + 1 if mark is not None else None) from None
+    except yaml.reader.ReaderError as exc:
+        line = text.count("\n", 0, exc.position) + 1 if isinstance(exc.position, int) else None
+        raise StudyError(file, "(yaml)", NO_VALUE, f"not valid YAML: character"
+                         f" {chr(exc.character) if isinstance(exc.character, int) else exc.character!r}"
+                         " is not allowed in a YAML file", line) from None
     except Exception as exc:  # noqa: BLE001 -- a value the loader cannot construct (a date...)
-        mark = getattr(loader, "mark", None) or getattr(loader, "problem_mark", None)
         line = None
         try:
             line = loader.peek_event().start_mark.line + 1 if loader.check_event() else None
-        except Exception:  # noqa: BLE001
-            line = getattr(mark, "line", None)
+        except Exception:  # noqa: BLE001 -- the line is a courtesy; the message is what counts
+            line = None
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise StudyError(file, "(yaml)", NO_VALUE, f"a value YAML cannot read ({why})",
                          line) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     if loader.duplicates:
         problems = []
         for container, key, line, first in loader.duplicates:

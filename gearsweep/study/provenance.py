@@ -1,0 +1,47 @@
+"""What a result file says about how it was made, and CF details of writing it.
+
+``provenance()`` is the text after the time stamp in the ``history`` attribute: the command line
+and the versions of gearsweep, numba, numpy, xarray and Python, so that a result can be traced
+to the software that made it. ``coordinate_encoding`` keeps netCDF's ``_FillValue`` off the
+coordinate variables (CF 1.10, section 2.5.1: a coordinate has no missing values).
+"""
+
+from __future__ import annotations
+
+import platform
+import shlex
+import sys
+from importlib import metadata
+from pathlib import Path
+
+import xarray as xr
+
+from gearsweep._version import __version__
+
+
+def _version(dist: str) -> str:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return "?"
+
+
+def command_line() -> str:
+    """The command that is running, as a user would type it (``gearsweep run s.yaml -o o.nc``)."""
+    argv = list(sys.argv) or ["python"]
+    name = Path(argv[0]).name
+    if name in ("gearsweep", "cli.py", "__main__.py") or argv[0] == "-m":
+        name = "gearsweep"
+    return shlex.join([name, *argv[1:]])
+
+
+def provenance() -> str:
+    """``gearsweep run s.yaml -o o.nc (gearsweep 0.1.0, numba 0.60.0, numpy 2.1.0, ...)``."""
+    versions = ", ".join(f"{d} {_version(d)}" for d in ("numba", "numpy", "xarray"))
+    return (f"{command_line()} (gearsweep {__version__}, {versions},"
+            f" Python {platform.python_version()})")
+
+
+def coordinate_encoding(ds: xr.Dataset) -> dict[str, dict]:
+    """netCDF encoding without ``_FillValue`` for every coordinate of ``ds`` (CF 2.5.1)."""
+    return {name: {"_FillValue": None} for name in ds.coords}

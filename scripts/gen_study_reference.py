@@ -1,0 +1,279 @@
+"""Write docs/study-reference.md from the schema: every field with its unit, default and allowed
+values, every output and the variables it writes, every status code.
+
+    python scripts/gen_study_reference.py          # rewrite docs/study-reference.md
+    python scripts/gen_study_reference.py --check  # exit 1 if the file is stale (CI)
+
+``tests/test_study_reference.py`` runs the check, so a schema change without the regenerated
+reference fails the test suite.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import types
+import typing
+from pathlib import Path
+
+import annotated_types
+from pydantic import BaseModel
+from pydantic_core import PydanticUndefined
+
+from gearsweep.model import SWEEPABLE
+from gearsweep.study.dataset import COORDS, STATUS_CODES, VARIABLES
+from gearsweep.study.gearscene import PRESETS, GearSpec, TipReliefSpec
+from gearsweep.study.mesh_runner import _ATTRS as MESH_VARIABLES
+from gearsweep.study.mesh_runner import MeshStudy
+from gearsweep.study.outputs import OUTPUTS
+from gearsweep.study.runner import make_plan
+from gearsweep.study.schema import (
+    SCENE_PARAMETERS,
+    Drive,
+    Fluctuation,
+    FullScene,
+    MathieuScene,
+    Range,
+    RattleScene,
+    Solver,
+    SteHarmonic,
+    StiffnessHarmonic,
+    Study,
+    WhineScene,
+    parse_study,
+)
+from gearsweep.units import KINDS, QuantityKind
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "docs" / "study-reference.md"
+
+SECTIONS: list[tuple[str, type[BaseModel], str]] = [
+    ("Top level of a dynamic study", Study, ""),
+    ("scene, kind: whine", WhineScene, "Eq. (9): no backlash; time-varying stiffness and STE."),
+    ("scene, kind: rattle", RattleScene, "Eq. (13): constant stiffness with backlash."),
+    ("scene, kind: full", FullScene, "Eq. (6) with every term."),
+    ("scene, kind: mathieu", MathieuScene, "Eq. (11), dimensionless."),
+    ("scene.drive", Drive, "Inertias and base radii instead of `mass` (Eq. 7)."),
+    ("scene.stiffness_harmonics[i]", StiffnessHarmonic, ""),
+    ("scene.ste[i]", SteHarmonic, ""),
+    ("scene.fluctuation[i]", Fluctuation, "A force (`300 N`) or a driving torque (`5 N m`)."),
+    ("scene.gear (a preset name or a mapping)", GearSpec,
+     f"Presets: {', '.join(f'`{p}`' for p in PRESETS)}."),
+    ("scene.gear.tip_relief", TipReliefSpec, ""),
+    ("sweep.NAME as a range", Range, "Or a list of values, e.g. `[0.1 mm, 0.2 mm]`."),
+    ("solver", Solver, ""),
+    ("Top level of a static mesh study (type: mesh)", MeshStudy, ""),
+]
+
+
+def _type_name(tp) -> str:
+    origin = typing.get_origin(tp)
+    if origin is typing.Annotated:
+        return _type_name(typing.get_args(tp)[0])
+    if origin is typing.Literal:
+        return " | ".join(f"`{a}`" for a in typing.get_args(tp))
+    if origin in (typing.Union, types.UnionType):
+        parts = [_type_name(a) for a in typing.get_args(tp) if a is not type(None)]
+        return " or ".join(dict.fromkeys(parts))
+    if origin in (list, tuple):
+        return f"list of {_type_name(typing.get_args(tp)[0])}"
+    if origin is dict:
+        return f"mapping of {_type_name(typing.get_args(tp)[1])}"
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        return "mapping (below)"
+    return getattr(tp, "__name__", str(tp))
+
+
+def _kind(field) -> str | None:
+    for m in field.metadata:
+        if isinstance(m, QuantityKind):
+            return m.kind
+    for a in typing.get_args(field.annotation) or (field.annotation,):
+        for m in getattr(a, "__metadata__", ()):
+            if isinstance(m, QuantityKind):
+                return m.kind
+    return None
+
+
+def _bounds(field) -> str:
+    out = []
+    for m in field.metadata:
+        for attr, sym in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<=")):
+            v = getattr(m, attr, None)
+            if v is not None and isinstance(m, annotated_types.BaseMetadata):
+                out.append(f"{sym} {v:g}" if isinstance(v, float) else f"{sym} {v}")
+        if getattr(m, "min_length", None):
+            out.append(f"at least {m.min_length} character(s)")
+    return ", ".join(out)
+
+
+def _default(field, kind: str | None) -> str:
+    if field.default is PydanticUndefined and field.default_factory is None:
+        return "**required**"
+    if field.default_factory is not None:
+        value = field.default_factory()
+        if isinstance(value, list) and value and isinstance(value[0], BaseModel):
+            return "`[" + ", ".join(getattr(v, "name", "?") for v in value) + "]`"
+        return "`[]`" if value == [] else "`{}`" if value == {} else "(see below)" \
+            if isinstance(value, BaseModel) else f"`{value}`"
+    value = field.default
+    if value is None:
+        return "none"
+    if value == "":
+        return '`""`'
+    if kind and isinstance(value, float) and kind != "dimensionless":
+        shown = value * (1.0 if kind == "speed" else _factor(kind))
+        return f"`{shown:g} {KINDS[kind].examples[0]}`"
+    return f"`{str(value).lower() if isinstance(value, bool) else value}`"
+
+
+def _factor(kind: str) -> float:
+    from gearsweep.units import display_factor
+
+    return display_factor(kind)
+
+
+def _cell(text: str) -> str:
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def _fields(model: type[BaseModel]) -> list[str]:
+    rows = ["| field | value | unit | default | allowed | meaning |", "|---|---|---|---|---|---|"]
+    for name, f in model.model_fields.items():
+        kind = _kind(f)
+        if kind:
+            k = KINDS[kind]
+            unit = f"{k.examples[0]} ({kind})" if kind != "dimensionless" else "1"
+            value = "number" if k.bare else "quantity"
+        else:
+            unit, value = "", _type_name(f.annotation)
+        meaning = f.description or ""
+        if kind:  # the unit column says it (descriptions may name the SI unit)
+            meaning = re.sub(r"\s*\[[^\]]*\]$", "", meaning)
+        rows.append(f"| `{name}` | {_cell(value)} | {_cell(unit)} | {_cell(_default(f, kind))} |"
+                    f" {_cell(_bounds(f))} | {_cell(meaning)} |")
+    return rows
+
+
+EXAMPLES = {
+    "stats, no backlash": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
+                          " speed: 1000 rpm}\noutputs: [stats]",
+    "stats, with backlash": "scene: {kind: rattle, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
+                            " backlash: 0.1 mm, speed: 1000 rpm}\noutputs: [stats]",
+    "spectrum": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
+                " speed: 1000 rpm}\noutputs: [spectrum]",
+    "floquet": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
+               " speed: 1000 rpm}\noutputs: [floquet]",
+}
+
+
+def _variable_rows() -> list[str]:
+    rows = ["| output | variable | units | extra dims | long_name |", "|---|---|---|---|---|"]
+    seen = set()
+    for label, body in EXAMPLES.items():
+        text = f"title: t\n{body}\n"
+        plan = make_plan(parse_study(text), text)
+        for name, spec in plan.specs.items():
+            attrs = dict(zip(("units", "long_name"), VARIABLES.get(name, ("1", name)), strict=False))
+            attrs.update(spec.attrs)
+            if name in seen:
+                continue
+            seen.add(name)
+            output = "(step_guard: warn)" if name == "beyond_step_limit" else label.split(",")[0]
+            rows.append(f"| {output} | `{name}` | {_cell(attrs.get('units', '1'))} |"
+                        f" {', '.join(spec.extra_dims) or '-'} | {_cell(attrs.get('long_name', ''))} |")
+    units, long_name = VARIABLES["status"]
+    rows.append(f"| (always) | `status` | {units} | - | {_cell(long_name)} |")
+    for name, (units, long_name) in MESH_VARIABLES.items():
+        rows.append(f"| (type: mesh) | `{name}` | {units} | - | {_cell(long_name)} |")
+    return rows
+
+
+def render() -> str:
+    lines = [
+        "# Study file reference",
+        "",
+        ("<!-- Generated by scripts/gen_study_reference.py from the schema; do not edit by hand."
+        " tests/test_study_reference.py fails when this file is stale. -->"),
+        "",
+        "A study is a YAML file: `title`, a `scene`, what to `sweep`, the `solver` and the",
+        "`outputs`. `gearsweep validate STUDY.yaml` checks it and reports every problem at once,",
+        "one line each (`file.yaml:LINE: field.path: value -- message`).",
+        "",
+        "## Units",
+        "",
+        "A dimensioned value is written with its unit: `backlash: 0.1 mm`, `damping: 5.5 N s/mm`.",
+        "A bare number in a dimensioned field is refused (`module: 3` -> `3 has no unit; write e.g.",
+        "'3 mm'`), except **0** (zero in any unit) and a **shaft speed, which is read in rpm**",
+        "(`speed: 3000` is 3000 rpm). A frequency given for a shaft speed is revolutions per",
+        "second: `50 Hz` = 3000 rpm; `rad/s` and `deg/s` are angular rates. Non-finite values",
+        "(`nan`, `inf`) are refused in every field.",
+        "",
+        "Results store swept coordinates in the *display unit* below (the numbers in the file are",
+        "the numbers in the study: `ds.sel(backlash=0.1)` for `backlash: [0.1 mm, 0.2 mm]`), with",
+        "the unit in their `units` attribute; dimensionless quantities have `units: \"1\"`.",
+        "",
+        "| kind | display unit (in files) | SI (kernel) | spellings accepted | bare number |",
+        "|---|---|---|---|---|",
+    ]
+    for k in KINDS.values():
+        lines.append(f"| {k.name} | `{k.cf}` | {k.si or '1'} | {', '.join(f'`{e}`' for e in k.examples)}"
+                     f" | {'read in ' + (k.display or '1') if k.bare else 'refused (0 allowed)'} |")
+    lines += ["", "## Sweepable parameters", "",
+              "| parameter | kind | file unit | scenes |", "|---|---|---|---|"]
+    for name, kind in SWEEPABLE.items():
+        scenes = [s for s, names in SCENE_PARAMETERS.items() if name in names]
+        lines.append(f"| `{name}` | {kind} | `{KINDS[kind].cf}` | {', '.join(scenes)} |")
+    lines += ["", "A range `{start, stop, num}` must go from low to high (a down sweep is",
+              "`continuation: [down]`). A parameter both swept and given in the scene is allowed;",
+              "the sweep replaces the scene's value and `validate` says so."]
+    for title, model, note in SECTIONS:
+        lines += ["", f"## {title}", ""]
+        if note:
+            lines += [note, ""]
+        lines += _fields(model)
+    lines += ["", "## Outputs", "", "`outputs:` lists names, or `{name: {options}}`.", ""]
+    for name, out in OUTPUTS.items():
+        opts = getattr(out, "options_model", None)
+        lines += [f"### {name}", "", _cell((type(out).__doc__ or "").split("\n\n")[0]), ""]
+        if opts is not None:
+            lines += _fields(opts)
+            lines.append("")
+    lines += ["## Variables each output writes", ""] + _variable_rows()
+    lines += ["", "## Coordinates", "", "| name | units | meaning |", "|---|---|---|"]
+    for name, (units, long_name) in COORDS.items():
+        kind = SWEEPABLE.get(name)
+        shown = KINDS[kind].cf if kind else ("1" if units == "-" else units)
+        lines.append(f"| `{name}` | {shown if name not in ('direction', 'method') else '(label)'}"
+                     f" | {_cell(long_name)} |")
+    lines += ["", "## Status codes (variable `status`)", "", "| code | meaning |", "|---|---|"]
+    for code, meaning in STATUS_CODES.items():
+        lines.append(f"| {code} | {_cell(meaning)} |")
+    lines += ["", "## Exit codes of `gearsweep`", "", "| code | meaning |", "|---|---|",
+              "| 0 | done |",
+              "| 2 | the input cannot be run: one line per problem, nothing computed |",
+              ("| 130 | interrupted (Ctrl-C): the chunks computed so far are kept; the same command"
+              " continues |"), ""]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--check", action="store_true", help="exit 1 if the file is stale")
+    args = p.parse_args(argv)
+    text = render()
+    if args.check:
+        current = OUT.read_text(encoding="utf-8") if OUT.exists() else ""
+        if current != text:
+            print(f"{OUT.relative_to(ROOT)} is stale: run python scripts/gen_study_reference.py",
+                  file=sys.stderr)
+            return 1
+        return 0
+    OUT.write_text(text, encoding="utf-8")
+    print(OUT)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,140 @@
+"""Interruptions and concurrent runs: SIGINT saves and resumes, one run per output, unwritable
+outputs and another study's chunks refused before computing."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from gearsweep.cli import main
+from gearsweep.study.checkpoint import chunk_folder
+
+ROOT = Path(__file__).resolve().parents[1]
+
+STUDY = """\
+title: interruptible
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  stiffness_harmonics: [{amplitude: 100 kN/mm}]
+  damping: 5.5 N s/mm
+  mean_force: 1000 N
+sweep:
+  speed: {start: 1000 rpm, stop: 20000 rpm, num: NUM}
+solver: {method: rk4, steps_per_period: 128, transient_periods: 200, record_periods: 50}
+"""
+
+
+def _env(log: Path | None = None) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    if log is not None:
+        env["GEARSWEEP_CHUNK_LOG"] = str(log)
+    return env
+
+
+def _cmd(study: Path, out: Path) -> list[str]:
+    return [sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o", str(out), "-q",
+            "--chunk-size", "500"]
+
+
+def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_path):
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "10000"), encoding="utf-8")
+    out, ref = tmp_path / "out.nc", tmp_path / "ref.nc"
+    log = tmp_path / "chunks.log"
+    proc = subprocess.Popen(_cmd(study, out), cwd=tmp_path, env=_env(log),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.time()
+    while not (log.exists() and len(log.read_text().splitlines()) >= 2):
+        assert proc.poll() is None, proc.communicate()
+        assert time.time() - t0 < 300
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    lines = err.strip().splitlines()
+    assert len(lines) <= 3 and "Traceback" not in err, err
+    assert lines[-1].startswith("gearsweep: interrupted: ") and "of 20 chunks saved in" in err
+    assert "run the same command to continue" in err
+    assert not out.exists() and chunk_folder(out).is_dir()
+    done = len(log.read_text().splitlines())
+    assert done < 20
+    # The same command completes it, computing only the missing chunks.
+    rc = subprocess.run(_cmd(study, out), cwd=tmp_path, env=_env(log), capture_output=True,
+                        text=True, timeout=600)
+    assert rc.returncode == 0, rc.stderr
+    assert len(log.read_text().splitlines()) == 20
+    rc = subprocess.run(_cmd(study, ref), cwd=tmp_path, env=_env(), capture_output=True,
+                        text=True, timeout=600)
+    assert rc.returncode == 0, rc.stderr
+    with xr.open_dataset(out) as a, xr.open_dataset(ref) as b:
+        for name in b.variables:
+            np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+
+
+def test_a_second_run_on_the_same_output_is_refused_naming_the_first(tmp_path, capsys):
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "20000"), encoding="utf-8")
+    out = tmp_path / "out.nc"
+    log = tmp_path / "chunks.log"
+    first = subprocess.Popen(_cmd(study, out), cwd=tmp_path, env=_env(log),
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        t0 = time.time()
+        while not (tmp_path / "out.nc.lock.pid").exists():
+            assert first.poll() is None, first.communicate()
+            assert time.time() - t0 < 120
+            time.sleep(0.05)
+        assert main(["run", str(study), "-o", str(out), "-q"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"(PID {first.pid})" in err, err
+    finally:
+        first.kill()  # SIGKILL: the OS drops its lock, no stale lock is left behind
+        first.communicate()
+    small = tmp_path / "small.yaml"
+    small.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    other = tmp_path / "other.nc"
+    assert main(["run", str(small), "-o", str(other), "-q"]) == 0  # another output: free
+
+
+def test_a_lock_left_by_a_killed_run_is_stale(tmp_path):
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    out = tmp_path / "out.nc"
+    code = ("import os, sys; from gearsweep.study.workspace import OutputLock;"
+            f" lock = OutputLock({str(out)!r}); lock.__enter__(); os._exit(0)")
+    subprocess.run([sys.executable, "-c", code], env=_env(), check=True, timeout=120)
+    assert (tmp_path / "out.nc.lock").exists()  # left behind by a process that did not clean up
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 0
+
+
+def test_chunks_of_another_study_at_the_same_path_are_refused(tmp_path, capsys):
+    out = tmp_path / "out.nc"
+    folder = chunk_folder(out) / ("0" * 64)
+    folder.mkdir(parents=True)
+    (folder / "chunk_0_10.npys").write_bytes(b"x")
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "saved chunk(s) of another study" in err and err.count("\n") == 1
+    assert (folder / "chunk_0_10.npys").exists() and not out.exists()
+
+
+def test_an_unwritable_output_is_refused_before_computing(tmp_path, capsys):
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    t0 = time.perf_counter()
+    assert main(["run", str(study), "-o", "/proc/x.nc"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("gearsweep: error: /proc/x.nc: --output: ") and err.count("\n") == 1
+    assert time.perf_counter() - t0 < 5

@@ -1,0 +1,37 @@
+"""docs/study-reference.md is generated from the schema and must be current."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _generator():
+    spec = importlib.util.spec_from_file_location("gen_study_reference",
+                                                  ROOT / "scripts" / "gen_study_reference.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_study_reference_is_current():
+    gen = _generator()
+    current = (ROOT / "docs" / "study-reference.md").read_text(encoding="utf-8")
+    assert current == gen.render(), (
+        "docs/study-reference.md is stale: run python scripts/gen_study_reference.py")
+
+
+def test_study_reference_names_every_field_output_and_status():
+    from gearsweep.study.dataset import STATUS_CODES
+    from gearsweep.study.outputs import OUTPUTS
+    from gearsweep.study.schema import RattleScene, Solver
+
+    text = _generator().render()
+    for name in [*RattleScene.model_fields, *Solver.model_fields, *OUTPUTS]:
+        assert f"`{name}`" in text or f"### {name}" in text, name
+    for code in STATUS_CODES:
+        assert f"| {code} |" in text
+    assert "| backlash | length | `mm` |" not in text  # a sweepable row names the parameter
+    assert "| `backlash` | length | `mm` | rattle, full |" in text
