@@ -224,3 +224,15 @@ def from_display(values, kind: str):
     if f == 1.0:
         return values
     return values / f if not isinstance(values, list | tuple) else np.asarray(values) / f
+
+
+def si_values(da) -> np.ndarray:
+    """The values of a result's coordinate or variable in SI, read through its ``units``
+    attribute: a display unit of a known kind (``mm``, ``N s mm-1``, ``kN mm-1``, ``um``, ...)
+    is converted, anything else (an SI or dimensionless unit) is returned as it is."""
+    units = da.attrs.get("units")
+    values = np.asarray(da.values)
+    for kind in KINDS.values():
+        if units == kind.cf:
+            return np.asarray(from_display(values, kind.name), dtype=float)
+    return values

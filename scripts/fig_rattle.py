@@ -76,7 +76,7 @@ def fig8_out_of_sample(ds8, results, budget, figures):
         loss, _, _ = settled(ds["contact_loss_fraction"], ds)
         for i, c in enumerate(ds["damping"].values):
             k = float(b.scene_stiffness.sel(damping=c))
-            lab = (f"{name} {k / 1e6:.0f} kN/mm, own STE, c = {c / 1e3:g} N s/mm"
+            lab = (f"{name} {k / 1e6:.0f} kN/mm, own STE, c = {c:g} N s/mm"
                    f" (ζ = {float(b.zeta.sel(damping=c)):.3f})")
             for d, ls in (("up", "-"), ("down", "--")):
                 kw = {"color": colors[j], "ls": ls, "lw": 1.6 if i == 0 else 0.9}

@@ -26,6 +26,7 @@ from gearsweep.plot.stability import (
     plot_step_limits,
     plot_strutt,
 )
+from gearsweep.units import si_values
 
 p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 p.add_argument("--figures", type=Path, default=Path("figures"))
@@ -84,7 +85,7 @@ def fig72() -> None:
     coarse, fine = _open("stability_rig"), _open("stability_rig_fine")
     spp_c = int(_scene(coarse)["solver"]["steps_per_period"])
     spp_f = int(_scene(fine)["solver"]["steps_per_period"])
-    speed, damping = coarse.speed.values, coarse.damping.values
+    speed, damping = coarse.speed.values, si_values(coarse.damping)  # SI: the plots take N s/m
 
     def grid(ds, var):
         return ds[var].transpose("damping", "speed").values
@@ -126,7 +127,7 @@ def fig72_methods() -> None:
     """Fig. 7.2 with four fifth-order tableaux, from results/stability_artifact_map.nc."""
     out = _open("stability_artifact_map")
     methods = [str(m) for m in out.method.values]
-    spps, damping, speed = out.steps_per_period.values, out.damping.values, out.speed.values
+    spps, damping, speed = out.steps_per_period.values, si_values(out.damping), out.speed.values
     for m in methods:
         good = spps[out.reproduces_paper.loc[m].values.astype(bool)]
         print(f"  {m}: real interval {float(out.real_interval.loc[m]):.4f}, imaginary "

@@ -12,13 +12,14 @@ from _common import open_result, parse
 from gearsweep.api import result_model
 from gearsweep.plot.common import save
 from gearsweep.plot.sweep import plot_response_vs_speed
+from gearsweep.units import si_values
 
 args = parse(__doc__)
 ds = open_result(args.results, "whine_gear_table1")
 model = result_model(ds)  # k0 of the gear pair, m_eq
 k0, m = model.stiffness, model.mass
 labels = [f"c = {c / 1e3:g} N s/mm (ζ = {c / (2 * math.sqrt(k0 * m)):.3f})"
-          for c in ds["damping"].values]
+          for c in si_values(ds["damping"])]
 fig = plot_response_vs_speed(ds, "p_rms", hue="damping", hue_labels=labels)
 ax = fig.axes[0]
 ax.set_yscale("log")

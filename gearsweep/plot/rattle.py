@@ -341,7 +341,7 @@ def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | Non
             lines.append({"x": sp, "y": np.full(sp.shape, float(s.threshold.sel(damping=c))),
                           "color": colors[j], "ls": "--", "lw": 0.9,
                           "label": f"least force that opens the mesh, k = {k / 1e6:.0f}"
-                                   f" kN/mm, c = {c / 1e3:g} N s/mm"})
+                                   f" kN/mm, c = {c:g} N s/mm"})
     plot_lines(ax, None, lines, xlabel=_speed_label(ds["budget_speed"]),
                ylabel="force amplitude at mesh order 1 [N]")
     ax.legend(fontsize=6.5, loc="lower right")

@@ -14,6 +14,8 @@ def _label(ds: xr.Dataset, dim: str, value) -> str:
     units = ds[dim].attrs.get("units", "")
     if dim == "damping" and units in ("N s/m", "N s m-1"):
         return f"c = {value / 1e3:g} N s/mm"
+    if dim == "damping" and units == "N s mm-1":
+        return f"c = {value:g} N s/mm"
     if isinstance(value, float | np.floating):
         return f"{dim.replace('_', ' ')} = {value:g} {units}".strip()
     return f"{dim} = {value}"

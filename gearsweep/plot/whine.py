@@ -22,6 +22,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
 from gearsweep.model import model_from_record
+from gearsweep.units import si_values
 
 __all__ = [
     "damping_labels",
@@ -53,7 +54,7 @@ def damping_labels(ds: xr.Dataset) -> list[str]:
     model = model_from_record(json.loads(ds.attrs["model"]))
     k0 = float(ds["gear_stiffness"].max()) if "gear_stiffness" in ds else model.stiffness
     return [f"c = {c / 1e3:g} N s/mm (ζ = {c / (2 * math.sqrt(k0 * model.mass)):.3f})"
-            for c in ds["damping"].values]
+            for c in si_values(ds["damping"])]
 
 
 def driven_speed(ds: xr.Dataset, driven_teeth: int) -> np.ndarray:

@@ -33,6 +33,7 @@ from gearsweep.study.analysis_specs import (
 )
 from gearsweep.study.dataset import build_dataset
 from gearsweep.study.jumps import JUMP_VARIABLES, jump_summary
+from gearsweep.units import KINDS, from_display
 
 WHINE_DESCRIPTION = "time-varying stiffness + STE, no backlash"
 RATTLE_DESCRIPTION = "constant stiffness, backlash 4 µm, contact loss"
@@ -86,7 +87,8 @@ def artifact_map(o: ArtifactMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
     if not model.stiffness_harmonics or "damping" not in rig.dims:
         raise ResultError(f"{o.rig}: artifact_map needs a rig with a stiffness harmonic k1 that"
                           " sweeps speed and damping")
-    speed, damping = rig["speed"].values, rig["damping"].values
+    speed = rig["speed"].values
+    damping = from_display(rig["damping"].values, "damping")  # the file: display unit; here SI
     am = st.artifact_map(speed, damping, k0=model.stiffness,
                          k1=model.stiffness_harmonics[0].amplitude, mass=model.mass,
                          teeth=model.teeth, methods=o.methods, steps_per_period=o.steps_per_period)
@@ -105,7 +107,7 @@ def artifact_map(o: ArtifactMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
     }
     coords = {"method": (("method",), np.array(o.methods)),
               "steps_per_period": (("steps_per_period",), np.asarray(o.steps_per_period)),
-              "damping": (("damping",), damping), "speed": (("speed",), speed),
+              "damping": (("damping",), rig["damping"].values), "speed": (("speed",), speed),
               "power": (("power",), power)}
     attrs = {
         "flag": {"units": "1", "long_name": "the paper's criterion reports instability (growth"
@@ -124,8 +126,8 @@ def artifact_map(o: ArtifactMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
         "stability_polynomial": POLY_ATTRS,
         "method": {"long_name": "Runge-Kutta tableau (gearsweep.kernels.tableaux)"},
         "steps_per_period": {"units": "1", "long_name": "fixed steps per mesh period"},
-        "damping": {"units": "N s m-1", "long_name": "mesh damping c"},
-        "speed": {"units": "rpm", "long_name": "shaft speed of the driving gear"},
+        "damping": dict(rig["damping"].attrs),
+        "speed": dict(rig["speed"].attrs),
         "power": {"units": "1", "long_name": "power of z"},
     }
     return data, coords, attrs, {"rig_result": o.rig}
@@ -429,9 +431,10 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         for c in ds["damping"].values:
             j = dampings.index(float(c))
             per["stiffness"][i, j] = model.stiffness
-            per["zeta"][i, j] = c / (2.0 * math.sqrt(model.stiffness * model.mass))
+            c_si = float(from_display(float(c), "damping"))  # the file: display unit
+            per["zeta"][i, j] = c_si / (2.0 * math.sqrt(model.stiffness * model.mass))
             per["threshold"][i, j] = rfit.contact_loss_threshold(
-                mass=model.mass, stiffness=model.stiffness, damping=float(c),
+                mass=model.mass, stiffness=model.stiffness, damping=c_si,
                 force_mean=model.mean_force)
             per["jump_up"][i, j] = float(js.jump_up_speed.sel(damping=c))
             per["jump_down"][i, j] = float(js.jump_down_speed.sel(damping=c))
@@ -487,7 +490,7 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         "p_pp_max": {"units": "m", "long_name": "largest peak-to-peak p"},
         "backside_contact_max": {"units": "1", "long_name": "largest back-flank fraction"},
         "not_settled": {"units": "1", "long_name": "case-speeds with status != 0"},
-        "damping": {"units": "N*s/m", "long_name": "mesh damping c"},
+        "damping": {"units": KINDS["damping"].cf, "long_name": "mesh damping c"},
         "at_speed": rpm,
         "budget_speed": dict(inputs[o.scenes[0]]["speed"].attrs),
     }

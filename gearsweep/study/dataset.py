@@ -14,10 +14,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from gearsweep._version import __version__
 from gearsweep.model import MeshModel, mesh_frequency, model_record
-from gearsweep.study.measured import scene_measured
 from gearsweep.study.display import display_coordinates
+from gearsweep.study.measured import scene_measured
 from gearsweep.study.outputs import VarSpec
 from gearsweep.study.provenance import coordinate_encoding, provenance
 
