@@ -226,7 +226,7 @@ def dataset(res: dict, args, command: str) -> xr.Dataset:
         for j, m in enumerate(METHODS):
             for e in orders:
                 orders[e][i, j] = fitted_orders(o["setting"][j], o[e][j], o["rhs"][j], m)
-    versions = {f"{k}_version": (_installed(k) or "not installed")
+    versions = {f"{k.replace('-', '_')}_version": (_installed(k) or "not installed")
                 for k in ("numba", "numbalsoda", "jax", "diffrax", "scikit-sundae", "scipy")}
     ds = xr.Dataset(
         {

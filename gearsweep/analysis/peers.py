@@ -243,11 +243,11 @@ def speed_bands(batch: Batch, ratio: float = 2.0) -> list[np.ndarray]:
 def run_gearsweep_banded(batch: Batch, method: str, spp: int, *, kink_aware: bool = False,
                          ratio: float = 2.0, repeat: int = 3) -> BatchRun:
     """One kernel call per speed band (``speed_bands``): ``spp`` steps per period in the band of
-    the lowest speed, fewer in faster bands so that the step times omega_n is no larger than in
-    the first band (steps per period scaled by rpm_min / band's lowest rpm, rounded up to a
-    multiple of ``precision.SAMPLES_PER_PERIOD``). The error of a fixed step is set by h omega_n,
-    largest at the lowest speed of each band: the same accuracy for less work where the speed
-    range is wide."""
+    the lowest speed, fewer in faster bands so that the step times omega_n is no larger than at
+    the lowest speed (steps per period scaled by rpm_min / band's lowest rpm, rounded up to a
+    multiple of ``precision.SAMPLES_PER_PERIOD``). Fewer steps for the fast cases; but the error
+    at a given h omega_n grows with speed (measured: docs/performance.md), so the same h omega_n
+    is not the same accuracy."""
     q = pr.SAMPLES_PER_PERIOD
     calls = []
     for idx in speed_bands(batch, ratio):
