@@ -163,3 +163,27 @@ def test_validate_and_estimate_never_compile(tmp_path):
     assert "cases" in proc.stdout
     assert time.perf_counter() - t0 < 20  # the process: interpreter and imports included
     assert not any((tmp_path / "cache").rglob("*.nbi"))
+
+
+def test_a_drive_beside_a_gear_takes_the_gears_base_radii():
+    """``drive:`` beside ``gear:`` does not ask again for the radii the gear pair has."""
+    from gearsweep.study.gearscene import scene_excitation
+    from gearsweep.study.runner import build_model
+
+    text = """\
+title: drive and gear
+scene:
+  kind: whine
+  gear: table1_consistent
+  torque: 50 N m
+  drive: {inertia_1: 1e-3 kg m^2, inertia_2: 2e-3 kg m^2}
+  speed: 3000 rpm
+"""
+    study = parse_study(text, "d.yaml")
+    ex = scene_excitation(study.scene)
+    m = build_model(study).mass
+    assert m == pytest.approx(1 / (ex.base_radius_1**2 / 1e-3 + ex.base_radius_2**2 / 2e-3))
+    no_gear = text.replace("  gear: table1_consistent\n", "  teeth: 48\n  stiffness: 1e9 N/m\n")
+    assert _lines(no_gear) == [
+        "s.yaml:2: scene: '{...}' -- 'drive.base_radius_1' and 'drive.base_radius_2' required (or"
+        " a 'gear', which gives the base radii)"]

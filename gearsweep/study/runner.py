@@ -53,7 +53,8 @@ def build_model(study: Study) -> MeshModel | MathieuModel:
         return MathieuModel(alpha=sc.alpha, beta=sc.beta, gamma=sc.gamma)
     if sc.drive is not None:
         d = sc.drive
-        mass = 1.0 / (d.base_radius_1**2 / d.inertia_1 + d.base_radius_2**2 / d.inertia_2)
+        rb1, rb2 = sc.drive_radii()  # the gear pair's where the drive does not repeat them
+        mass = 1.0 / (rb1**2 / d.inertia_1 + rb2**2 / d.inertia_2)
     else:
         mass = sc.mass
     r1 = sc.r1

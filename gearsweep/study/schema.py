@@ -52,7 +52,7 @@ from pydantic import (
 
 from gearsweep.errors import NO_VALUE, GeometryError, StudyError
 from gearsweep.model import SWEEPABLE
-from gearsweep.study.gearscene import GearField
+from gearsweep.study.gearscene import GearField, scene_excitation
 from gearsweep.units import QuantityKind, UnitParseError, to_si
 
 if TYPE_CHECKING:
@@ -89,8 +89,10 @@ class Drive(Strict):
 
     inertia_1: Inertia = Field(gt=0, description="polar inertia of the driving gear")
     inertia_2: Inertia = Field(gt=0, description="polar inertia of the driven gear")
-    base_radius_1: Length = Field(gt=0, description="base radius of the driving gear")
-    base_radius_2: Length = Field(gt=0, description="base radius of the driven gear")
+    base_radius_1: Length | None = Field(None, gt=0, description="base radius of the driving gear"
+                                         " (required without a scene.gear, which gives it)")
+    base_radius_2: Length | None = Field(None, gt=0, description="base radius of the driven gear"
+                                         " (required without a scene.gear, which gives it)")
 
 
 class StiffnessHarmonic(Strict):
@@ -152,6 +154,12 @@ class _Driven(Strict):
             raise ValueError("give at most one of 'mean_force' and 'torque'")
         if self.drive is not None and self.base_radius is not None:
             raise ValueError("'base_radius' is already given by 'drive.base_radius_1'")
+        if self.drive is not None and self.gear is None:
+            missing = [f"'drive.{f}'" for f in ("base_radius_1", "base_radius_2")
+                       if getattr(self.drive, f) is None]
+            if missing:
+                raise ValueError(f"{' and '.join(missing)} required (or a 'gear', which gives"
+                                 " the base radii)")
         if self.gear is None:
             missing = [f"'{f}'" for f in ("teeth", "stiffness") if getattr(self, f) is None]
             if missing:
@@ -173,7 +181,18 @@ class _Driven(Strict):
 
     @property
     def r1(self) -> float | None:
-        return self.drive.base_radius_1 if self.drive is not None else self.base_radius
+        if self.drive is not None and self.drive.base_radius_1 is not None:
+            return self.drive.base_radius_1
+        return self.base_radius
+
+    def drive_radii(self) -> tuple[float, float]:
+        """Base radii of the drive: as given, or the gear pair's where ``drive`` omits them."""
+        d = self.drive
+        if d.base_radius_1 is not None and d.base_radius_2 is not None:
+            return d.base_radius_1, d.base_radius_2
+        ex = scene_excitation(self)
+        return (d.base_radius_1 if d.base_radius_1 is not None else ex.base_radius_1,
+                d.base_radius_2 if d.base_radius_2 is not None else ex.base_radius_2)
 
 
 class WhineScene(_Driven):
@@ -771,8 +790,6 @@ def _check_gear(study: Study, file: str, raw=None) -> None:
     sc = study.scene
     if getattr(sc, "gear", None) is None:
         return
-    from gearsweep.study.gearscene import scene_excitation
-
     try:
         ex = scene_excitation(sc)
     except GeometryError as exc:
@@ -781,7 +798,7 @@ def _check_gear(study: Study, file: str, raw=None) -> None:
     if sc.drive is not None:
         for g, given, gear in ((1, sc.drive.base_radius_1, ex.base_radius_1),
                                (2, sc.drive.base_radius_2, ex.base_radius_2)):
-            if abs(given / gear - 1.0) > 1e-3:
+            if given is not None and abs(given / gear - 1.0) > 1e-3:
                 where = f"scene.drive.base_radius_{g}"
                 raise StudyError(file, where, _as_written(raw, _path_parts(where)) or given,
                                  f"the gear's base radius {gear * 1e3:.6g} mm (within 0.1 %), or"
