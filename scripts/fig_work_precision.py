@@ -119,7 +119,8 @@ def study(window: pr.Window) -> xr.Dataset:
         for m in FIXED:
             for e in ("trajectory_error", "amplitude_error"):
                 sel = ds[e].sel({"scene": s, "method": m})
-                orders[f"order_{s}_{m}_{e}"] = pr.fit_order(SPP, sel)
+                # CF: attribute names without hyphens (rk4-kink -> rk4_kink)
+                orders[f"order_{s}_{m}_{e}".replace("-", "_")] = pr.fit_order(SPP, sel)
     ds.attrs.update({
         "Conventions": "CF-1.10",
         "title": "Work-precision study of the gearsweep kernels",
@@ -160,7 +161,7 @@ def plot(ds: xr.Dataset, path: Path) -> None:
                 if s == "whine" and m.endswith("-kink"):
                     continue  # no backlash: identical to the plain step
                 e = ds.trajectory_error.sel({"scene": s, "method": m})
-                order = ds.attrs[f"order_{s}_{m}_trajectory_error"]
+                order = ds.attrs[f"order_{s}_{m}_trajectory_error".replace("-", "_")]
                 c, mk, ls = styles[m]
                 lab = f"{m}  (order {order:.2f})" if order != "nan" else m
                 ax.loglog(ds[cost].sel({"scene": s, "method": m}), e, color=c, marker=mk, ls=ls,
