@@ -161,6 +161,7 @@ def test_validate_and_estimate_never_compile(tmp_path):
                           env={"NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin"})
     assert proc.returncode == 0, proc.stderr
     assert "cases" in proc.stdout
+    assert "s to compile the kernel once (cold cache)" in proc.stdout, proc.stdout
     assert time.perf_counter() - t0 < 20  # the process: interpreter and imports included
     assert not any((tmp_path / "cache").rglob("*.nbi"))
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import replace
 from pathlib import Path
 
+import gearsweep.kernels as kernels
 from gearsweep.kernels import LANES
 from gearsweep.study.execute import (
     BASELINE_MEMORY,
@@ -34,13 +34,10 @@ COLD_COMPILE_SECONDS = {("rk4", False): 15.0, ("rk5", False): 25.0, ("rk4", True
 
 
 def _cache_dirs() -> list[Path]:
-    import gearsweep.kernels as k
-
-    dirs = [Path(k.__file__).parent / "__pycache__"]
+    """Where Numba keeps this package's compiled kernels: ``NUMBA_CACHE_DIR`` when set (then
+    only there), else the kernels' ``__pycache__``."""
     env = os.environ.get("NUMBA_CACHE_DIR")
-    if env:
-        dirs.append(Path(env))
-    return dirs
+    return [Path(env)] if env else [Path(kernels.__file__).parent / "__pycache__"]
 
 
 def compile_seconds(method: str, kink_aware: bool) -> float:
@@ -88,13 +85,6 @@ def line(est: Estimate, compile_s: float) -> str:
     extra = f"; includes about {compile_s:.0f} s to compile the kernel once (cold cache)" \
         if compile_s else ""
     return est.line() + extra
-
-
-def with_rate(est: Estimate, rate: float, compile_s: float) -> Estimate:
-    """``est`` at a measured kernel rate (the kernel time scaled; the rest kept)."""
-    kernel = est.seconds - compile_s - FIXED_SECONDS - est.output_bytes / WRITE_RATE
-    return replace(est, rate=rate, rate_source="measured",
-                   seconds=est.seconds - kernel + kernel * est.rate / rate)
 
 
 CHUNK_SECONDS = 30.0
