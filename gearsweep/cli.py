@@ -79,7 +79,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
         return 0
     plan = make_plan(study, text)
     est, compile_s = quick_estimate(plan)
-    check_limits(est, name)  # validate refuses what run refuses (without --yes)
+    if not args.yes:
+        check_limits(est, name)  # validate refuses what run refuses (without --yes)
     print(f"{name}: ok -- {_summary(study, plan, line(est, compile_s))}")
     return 0
 
@@ -342,6 +343,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=cmd_run)
     v = sub.add_parser("validate", help="check a study file without running it")
     v.add_argument("study", help="study file (- reads stdin)")
+    v.add_argument("--yes", action="store_true",
+                   help="accept a study beyond the limits (as run --yes would run it)")
     v.set_defaults(func=cmd_validate)
     a = sub.add_parser("advise", help="steps per period for a target accuracy, cost, warnings")
     a.add_argument("study")
@@ -377,6 +380,9 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print("gearsweep: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `gearsweep inspect r.nc | head`: the reader left; say nothing
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, as a shell reports it
 
 
 if __name__ == "__main__":
