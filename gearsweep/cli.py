@@ -82,7 +82,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
         return 0
     plan = make_plan(study, text)
     est, compile_s = quick_estimate(plan)
-    check_limits(est, name)  # validate refuses what run refuses (without --yes)
+    if not args.yes:
+        check_limits(est, name)  # validate refuses what run refuses (without --yes)
     print(f"{name}: ok -- {_summary(study, plan, line(est, compile_s))}")
     return 0
 
@@ -126,7 +127,7 @@ def _stoppable(backend):
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from gearsweep.study.estimate import line, quick_estimate
+    from gearsweep.study.estimate import CHUNK_SECONDS, chunk_cases, line, quick_estimate
     from gearsweep.study.execute import check_limits, cores, run_to_file
     from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
@@ -156,9 +157,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
     if args.workers is not None and args.workers < 1:
         raise StudyError(args.study, "--workers", args.workers, "a positive number of workers")
+    # Chunks of at most about 30 s (progress, and a kill loses at most one chunk).
+    chunk, capped = chunk_cases(plan, args.chunk_size)
+    if capped and args.chunk_size is not None and not args.quiet:
+        print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than about"
+              f" {CHUNK_SECONDS:.0f} s; using {chunk} cases per chunk", file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once).
-    est, compile_s = quick_estimate(plan, args.chunk_size,
-                                    threads=None if not args.workers else cores())
+    est, compile_s = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
     if args.estimate:
         print(f"{args.study}: {line(est, compile_s)}")
         return 0
@@ -173,12 +178,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         previous = signal.signal(signal.SIGINT, _on_sigint) \
             if threading.current_thread() is threading.main_thread() else None
         try:
-            ds = run_to_file(plan, out, backend=_stoppable(backend), chunk_cases=args.chunk_size,
+            ds = run_to_file(plan, out, backend=_stoppable(backend), chunk_cases=chunk,
                              progress=progress)
         except (KeyboardInterrupt, SystemError) as exc:
             if not (_STOP.is_set() or isinstance(exc, KeyboardInterrupt)):
                 raise
-            done, total = saved_chunks(plan, out, args.chunk_size)
+            done, total = saved_chunks(plan, out, chunk)
             raise Interrupted(f"interrupted: {done} of {total} chunks saved in"
                               f" {out}.chunks; run the same command to continue") from None
         finally:
@@ -344,6 +349,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=cmd_run)
     v = sub.add_parser("validate", help="check a study file without running it")
     v.add_argument("study", help="study file (- reads stdin)")
+    v.add_argument("--yes", action="store_true",
+                   help="accept a study beyond the limits (as run --yes would run it)")
     v.set_defaults(func=cmd_validate)
     a = sub.add_parser("advise", help="steps per period for a target accuracy, cost, warnings")
     a.add_argument("study")
@@ -379,6 +386,9 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print("gearsweep: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `gearsweep inspect r.nc | head`: the reader left; say nothing
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, as a shell reports it
 
 
 if __name__ == "__main__":

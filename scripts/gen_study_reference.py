@@ -18,22 +18,22 @@ import typing
 from pathlib import Path
 
 import annotated_types
-from gearsweep.study.mesh_runner import _ATTRS as MESH_VARIABLES
-from gearsweep.study.mesh_runner import MeshStudy
-from gearsweep.study.runner import make_plan
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.dataset import COORDS, STATUS_CODES, VARIABLES
 from gearsweep.study.gearscene import PRESETS, GearSpec, TipReliefSpec
+from gearsweep.study.mesh import _ATTRS as MESH_VARIABLES
 from gearsweep.study.outputs import OUTPUTS
+from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import (
     SCENE_PARAMETERS,
     Drive,
     Fluctuation,
     FullScene,
     MathieuScene,
+    MeshStudy,
     Range,
     RattleScene,
     Solver,

@@ -138,3 +138,39 @@ def test_an_unwritable_output_is_refused_before_computing(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("gearsweep: error: /proc/x.nc: --output: ") and err.count("\n") == 1
     assert time.perf_counter() - t0 < 5
+
+
+CONTINUED_6E6 = """\
+title: continuation, six million cases
+scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, backlash: 0.1 mm,
+        mean_force: 100 N, fluctuation: [{amplitude: 300 N, order: 1}]}
+sweep:
+  mean_force: {start: 100 N, stop: 700 N, num: 60}
+  speed: {start: 2000 rpm, stop: 12000 rpm, num: 50000}
+continuation: [up, down]
+solver: {steps_per_period: 32, transient_periods: 40, record_periods: 10}
+"""
+
+
+def test_a_six_million_case_continuation_is_not_one_chunk(tmp_path, capsys):
+    """Chunks of at most about 30 s, and a long study in several of them (progress per chunk,
+    a kill loses at most one), whatever --chunk-size asks for."""
+    from gearsweep.study.estimate import CHUNK_SECONDS, chunk_cases, quick_estimate
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import parse_study
+
+    plan = make_plan(parse_study(CONTINUED_6E6), CONTINUED_6E6)
+    assert len(plan.chunks()) == 1  # the runner's default alone: one chunk of 60 lanes
+    chunk, capped = chunk_cases(plan, None, threads=2)
+    est, _ = quick_estimate(plan, chunk, threads=2)
+    assert capped and est.chunks >= 2
+    for requested in (None, 6_000_000, 10**9):
+        chunk, _ = chunk_cases(plan, requested, threads=2)
+        est, compile_s = quick_estimate(plan, chunk, threads=2)
+        assert (est.seconds - compile_s) / est.chunks <= CHUNK_SECONDS
+    study = tmp_path / "c.yaml"
+    study.write_text(CONTINUED_6E6, encoding="utf-8")
+    assert main(["run", str(study), "--estimate", "--chunk-size", "6000000"]) == 0
+    out = capsys.readouterr()
+    assert "using 200000 cases per chunk" in out.err or "cases per chunk" in out.err
+    assert " in 1 chunk:" not in out.out

@@ -210,7 +210,7 @@ def test_netcdf_round_trip_keeps_values_and_attributes(tmp_path):
         assert ("units" in back[v].attrs) == (back[v].dtype.kind in "fiub"), v
         assert back[v].attrs.get("units") != "-", v
     for key in ("Conventions", "title", "history", "source", "study", "study_sha256", "method",
-                "steps_per_period", "transient_periods", "recorded_periods"):
+                "steps_per_period", "transient_periods", "record_periods"):
         assert key in back.attrs, key
     assert back.attrs["Conventions"] == "CF-1.10"
     assert not list(tmp_path.glob("*.partial"))

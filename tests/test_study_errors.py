@@ -132,8 +132,9 @@ def test_a_huge_grid_is_refused_by_validate_at_once(tmp_path, cases):
         code = ("import resource, sys, time; from gearsweep.cli import main;"
                 " import gearsweep.study.estimate, gearsweep.study.schema, gearsweep.units;"
                 " gearsweep.units.registry(); t0 = time.perf_counter();"
+                " rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss;"
                 f" rc = main({argv!r}); dt = time.perf_counter() - t0;"
-                " print(rc, dt, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+                " print(rc, dt, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0)")
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                               timeout=120, cwd=ROOT)
         rc, dt, rss_kb = proc.stdout.split()[-3:]
@@ -144,7 +145,7 @@ def test_a_huge_grid_is_refused_by_validate_at_once(tmp_path, cases):
             assert re.search(r"refused \(time > 10.0 min.*\): [\d,]+ cases", proc.stderr)
             assert proc.stderr.count("\n") == 1
         assert float(dt) < 1.0, (argv, dt)
-        assert int(rss_kb) * 1024 < 300e6
+        assert int(rss_kb) * 1024 < 300e6  # peak memory the command adds to the libraries
     assert not (tmp_path / "o.nc").exists()
 
 
@@ -160,5 +161,30 @@ def test_validate_and_estimate_never_compile(tmp_path):
                           env={"NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin"})
     assert proc.returncode == 0, proc.stderr
     assert "cases" in proc.stdout
+    assert "s to compile the kernel once (cold cache)" in proc.stdout, proc.stdout
     assert time.perf_counter() - t0 < 20  # the process: interpreter and imports included
     assert not any((tmp_path / "cache").rglob("*.nbi"))
+
+
+def test_a_drive_beside_a_gear_takes_the_gears_base_radii():
+    """``drive:`` beside ``gear:`` does not ask again for the radii the gear pair has."""
+    from gearsweep.study.gearscene import scene_excitation
+    from gearsweep.study.plan import build_model
+
+    text = """\
+title: drive and gear
+scene:
+  kind: whine
+  gear: table1_consistent
+  torque: 50 N m
+  drive: {inertia_1: 1e-3 kg m^2, inertia_2: 2e-3 kg m^2}
+  speed: 3000 rpm
+"""
+    study = parse_study(text, "d.yaml")
+    ex = scene_excitation(study.scene)
+    m = build_model(study).mass
+    assert m == pytest.approx(1 / (ex.base_radius_1**2 / 1e-3 + ex.base_radius_2**2 / 2e-3))
+    no_gear = text.replace("  gear: table1_consistent\n", "  teeth: 48\n  stiffness: 1e9 N/m\n")
+    assert _lines(no_gear) == [
+        ("s.yaml:2: scene: '{...}' -- 'drive.base_radius_1' and 'drive.base_radius_2' required (or"
+        " a 'gear', which gives the base radii)")]

@@ -84,8 +84,7 @@ def test_display_units_round_trip_and_every_kind_is_complete():
 
 def test_swept_coordinates_are_in_the_studys_units():
     """``ds.sel(backlash=0.1)`` for a study that swept ``backlash: [0.1 mm, 0.2 mm]``."""
-    from gearsweep.study.runner import run_study
-
+    from gearsweep.api import run_study
     from gearsweep.study.schema import parse_study
 
     text = """\

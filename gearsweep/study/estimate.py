@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import replace
 from pathlib import Path
 
 from gearsweep import kernels
@@ -35,11 +34,10 @@ COLD_COMPILE_SECONDS = {("rk4", False): 15.0, ("rk5", False): 25.0, ("rk4", True
 
 
 def _cache_dirs() -> list[Path]:
-    dirs = [Path(kernels.__file__).parent / "__pycache__"]
+    """Where Numba keeps this package's compiled kernels: ``NUMBA_CACHE_DIR`` when set (then
+    only there), else the kernels' ``__pycache__``."""
     env = os.environ.get("NUMBA_CACHE_DIR")
-    if env:
-        dirs.append(Path(env))
-    return dirs
+    return [Path(env)] if env else [Path(kernels.__file__).parent / "__pycache__"]
 
 
 def compile_seconds(method: str, kink_aware: bool) -> float:
@@ -89,8 +87,37 @@ def line(est: Estimate, compile_s: float) -> str:
     return est.line() + extra
 
 
-def with_rate(est: Estimate, rate: float, compile_s: float) -> Estimate:
-    """``est`` at a measured kernel rate (the kernel time scaled; the rest kept)."""
-    kernel = est.seconds - compile_s - FIXED_SECONDS - est.output_bytes / WRITE_RATE
-    return replace(est, rate=rate, rate_source="measured",
-                   seconds=est.seconds - kernel + kernel * est.rate / rate)
+CHUNK_SECONDS = 30.0
+"""Longest a chunk should take at the stated rate [s]: progress at least this often, and a kill
+loses at most this much work."""
+
+PROGRESS_CHUNKS = 10
+"""A study of more than ``PROGRESS_CHUNKS`` seconds is cut into at least about this many chunks
+(where its lanes allow), so that progress is shown while it runs."""
+
+
+def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
+                seconds: float = CHUNK_SECONDS) -> tuple[int | None, bool]:
+    """Cases per chunk to run with: ``requested`` (``None``: the runner's default, about 1e9
+    steps, the fast size) capped so that a chunk takes at most about ``seconds`` at the stated
+    rate, and a study of more than ``PROGRESS_CHUNKS`` seconds is not one chunk. Returns (cases
+    per chunk, or ``None`` for the default; whether it was capped).
+
+    A lane (one case, or one continued sweep along speed) is never split, so a chunk is at
+    least one round of kernel blocks over the cores (``LANES x threads`` lane-sweeps): smaller
+    chunks would leave cores idle.
+    """
+    threads = threads or cores()
+    ways = max(len(plan.directions), 1)
+    per_lane = plan.chain * ways
+    rate = STATED_RATE[plan.study.solver.method] * 1e6
+    round_s = plan.chain * LANES * plan.steps_per_case / rate  # one round of blocks [s]
+    round_lanes = max(LANES * threads // ways, 1)
+    total_s = math.ceil(plan.n_lanes / round_lanes) * round_s
+    target = min(seconds, max(total_s / PROGRESS_CHUNKS, 1.0))
+    lanes_max = max(int(target // round_s), 1) * round_lanes
+    lanes = (lanes_per_chunk(plan, requested) if requested is not None
+             else plan.default_lanes_per_chunk())
+    if lanes <= lanes_max:
+        return requested, False
+    return lanes_max * per_lane, True

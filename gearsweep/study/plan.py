@@ -51,7 +51,8 @@ def build_model(study: Study, torque: float | None = None) -> MeshModel | Mathie
         return MathieuModel(alpha=sc.alpha, beta=sc.beta, gamma=sc.gamma)
     if sc.drive is not None:
         d = sc.drive
-        mass = equivalent_mass(d.inertia_1, d.inertia_2, d.base_radius_1, d.base_radius_2)
+        rb1, rb2 = sc.drive_radii()  # the gear pair's where the drive does not repeat them
+        mass = equivalent_mass(d.inertia_1, d.inertia_2, rb1, rb2)
     else:
         mass = sc.mass
     r1 = sc.r1

@@ -32,7 +32,9 @@ def command_line() -> str:
     name = Path(argv[0]).name
     if name in ("gearsweep", "cli.py", "__main__.py") or argv[0] == "-m":
         name = "gearsweep"
-    return shlex.join([name, *argv[1:]])
+    elif argv[0] in ("-c", ""):  # python -c '...' or an interactive session
+        name = "python -c" if argv[0] == "-c" else "python"
+    return " ".join([name, shlex.join(argv[1:])]).strip()
 
 
 def provenance() -> str:

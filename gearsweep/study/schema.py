@@ -83,8 +83,10 @@ class Drive(Strict):
 
     inertia_1: Inertia = Field(gt=0, description="polar inertia of the driving gear")
     inertia_2: Inertia = Field(gt=0, description="polar inertia of the driven gear")
-    base_radius_1: Length = Field(gt=0, description="base radius of the driving gear")
-    base_radius_2: Length = Field(gt=0, description="base radius of the driven gear")
+    base_radius_1: Length | None = Field(None, gt=0, description="base radius of the driving gear"
+                                         " (required without a scene.gear, which gives it)")
+    base_radius_2: Length | None = Field(None, gt=0, description="base radius of the driven gear"
+                                         " (required without a scene.gear, which gives it)")
 
 
 class StiffnessHarmonic(Strict):
@@ -148,6 +150,12 @@ class _Driven(Strict):
             raise ValueError("give at most one of 'mean_force' and 'torque'")
         if self.drive is not None and self.base_radius is not None:
             raise ValueError("'base_radius' is already given by 'drive.base_radius_1'")
+        if self.drive is not None and self.gear is None:
+            missing = [f"'drive.{f}'" for f in ("base_radius_1", "base_radius_2")
+                       if getattr(self.drive, f) is None]
+            if missing:
+                raise ValueError(f"{' and '.join(missing)} required (or a 'gear', which gives"
+                                 " the base radii)")
         if self.excitation is not None:  # checked with the sweep (consistency_problems)
             return self
         if self.gear is None:
@@ -168,7 +176,18 @@ class _Driven(Strict):
 
     @property
     def r1(self) -> float | None:
-        return self.drive.base_radius_1 if self.drive is not None else self.base_radius
+        if self.drive is not None and self.drive.base_radius_1 is not None:
+            return self.drive.base_radius_1
+        return self.base_radius
+
+    def drive_radii(self) -> tuple[float, float]:
+        """Base radii of the drive: as given, or the gear pair's where ``drive`` omits them."""
+        d = self.drive
+        if d.base_radius_1 is not None and d.base_radius_2 is not None:
+            return d.base_radius_1, d.base_radius_2
+        pair = gear_pair(self.gear)  # the radii are geometry: any load gives the same
+        return (d.base_radius_1 if d.base_radius_1 is not None else pair.base_radius1,
+                d.base_radius_2 if d.base_radius_2 is not None else pair.base_radius2)
 
 
 class WhineScene(_Driven):
@@ -786,7 +805,7 @@ def _check_gear(study: Study, file: str, raw=None) -> None:
     if sc.drive is not None:
         for g, given, gear in ((1, sc.drive.base_radius_1, ex.base_radius_1),
                                (2, sc.drive.base_radius_2, ex.base_radius_2)):
-            if abs(given / gear - 1.0) > 1e-3:
+            if given is not None and abs(given / gear - 1.0) > 1e-3:
                 where = f"scene.drive.base_radius_{g}"
                 raise StudyError(file, where, _as_written(raw, _path_parts(where)) or given,
                                  f"the gear's base radius {gear * 1e3:.6g} mm (within 0.1 %), or"
