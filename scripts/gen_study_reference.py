@@ -22,8 +22,18 @@ from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
 from gearsweep.model import SWEEPABLE
+from gearsweep.study.analysis_specs import (
+    AnalysisStudy,
+    ArtifactMap,
+    JumpMap,
+    MethodStability,
+    RattleBalance,
+    RattleBudget,
+    WorkPrecision,
+)
 from gearsweep.study.dataset import COORDS, STATUS_CODES, VARIABLES
 from gearsweep.study.gearscene import PRESETS, GearSpec, TipReliefSpec
+from gearsweep.study.measured import ExcitationSpec
 from gearsweep.study.mesh import _ATTRS as MESH_VARIABLES
 from gearsweep.study.outputs import OUTPUTS
 from gearsweep.study.plan import make_plan
@@ -63,11 +73,25 @@ SECTIONS: list[tuple[str, type[BaseModel], str]] = [
     ("scene.gear.tip_relief", TipReliefSpec, ""),
     ("sweep.NAME as a range", Range, "Or a list of values, e.g. `[0.1 mm, 0.2 mm]`."),
     ("solver", Solver, ""),
+    ("scene.excitation (STE and stiffness from a file)", ExcitationSpec,
+     "Samples over a mesh cycle or a revolution, fitted to the Fourier series (docs/mesh.md)."),
     ("Top level of a static mesh study (type: mesh)", MeshStudy, ""),
+    ("Top level of an analysis study (type: analysis)", AnalysisStudy,
+     ("Computations that feed figures but are not a grid of cases; `analysis` is one of the"
+      " kinds below.")),
+    ("analysis, kind: method_stability", MethodStability, ""),
+    ("analysis, kind: artifact_map", ArtifactMap, ""),
+    ("analysis, kind: work_precision", WorkPrecision, ""),
+    ("analysis, kind: rattle_balance", RattleBalance, ""),
+    ("analysis, kind: rattle_budget", RattleBudget, ""),
+    ("analysis, kind: jump_map", JumpMap, ""),
 ]
 
 
 def _type_name(tp) -> str:
+    if isinstance(tp, typing.ForwardRef):  # a type alias named in a string annotation
+        return "the name of a result (`results/<name>.nc`)" if tp.__forward_arg__ == "ResultName" \
+            else tp.__forward_arg__
     origin = typing.get_origin(tp)
     if origin is typing.Annotated:
         return _type_name(typing.get_args(tp)[0])
