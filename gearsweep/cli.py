@@ -194,7 +194,12 @@ def cmd_run(args: argparse.Namespace) -> int:
                   " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
                   " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
     if not args.quiet:
+        # The file's elapsed_seconds is the chunk phase; the wall time adds the one-time
+        # loading (or compiling) of the kernel and the writing of the file: say both.
+        phase = ds.attrs.get("elapsed_seconds")
         print(f"{out}: {int(ds.attrs['cases'])} cases in {time.perf_counter() - t0:.2f} s"
+              + (f" (computing the chunks: {phase:.2f} s, the file's elapsed_seconds)"
+                 if phase is not None else "")
               + (f"; {flagged} flagged in 'status' (see its 'codes' attribute)" if flagged
                  else ""))
     ds.close()
