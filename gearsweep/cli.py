@@ -47,6 +47,21 @@ def _check_writable(path: Path) -> None:
         raise StudyError(str(path), "--output", str(path), "a writable path (permission denied)")
 
 
+def _plan(make_plan, study, text: str, path: str):
+    """``make_plan``, with a problem it finds (steps per period versus the outputs' sampling)
+    reported under the file's name and line, like the schema's own."""
+    from gearsweep.study.schema import line_of, load_yaml
+
+    try:
+        return make_plan(study, text)
+    except StudyError as exc:
+        if exc.file != "<study>":
+            raise
+        name = "<stdin>" if path == "-" else path
+        raise StudyError(name, exc.field, exc.value, exc.allowed,
+                         line_of(load_yaml(text, name), exc.field)) from None
+
+
 def _summary(study, plan, est_line: str) -> str:
     """validate's one line: scene, cases, solver, outputs, and the estimate."""
     from gearsweep.study.schema import replaced_by_sweep
@@ -77,7 +92,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
         print(f"{name}: ok -- {summary(study)}")
         return 0
-    plan = make_plan(study, text)
+    plan = _plan(make_plan, study, text, args.study)
     est, compile_s = quick_estimate(plan)
     if not args.yes:
         check_limits(est, name)  # validate refuses what run refuses (without --yes)
@@ -149,7 +164,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"{out}: static mesh study in {time.perf_counter() - t0:.2f} s")
         return 0
-    plan = make_plan(study, text)
+    plan = _plan(make_plan, study, text, args.study)
     if args.chunk_size is not None and args.chunk_size < 1:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
     if args.workers is not None and args.workers < 1:
@@ -292,7 +307,7 @@ def cmd_advise(args: argparse.Namespace) -> int:
     from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
-    plan = make_plan(study, text)
+    plan = _plan(make_plan, study, text, args.study)
     model = plan.model
     if not isinstance(model, MeshModel):
         raise StudyError(args.study, "scene.kind", study.scene.kind,
