@@ -47,6 +47,21 @@ def _check_writable(path: Path) -> None:
         raise StudyError(str(path), "--output", str(path), "a writable path (permission denied)")
 
 
+def _plan(make_plan, study, text: str, path: str):
+    """``make_plan``, with a problem it finds (steps per period versus the outputs' sampling)
+    reported under the file's name and line, like the schema's own."""
+    from gearsweep.study.schema import line_of, load_yaml
+
+    try:
+        return make_plan(study, text)
+    except StudyError as exc:
+        if exc.file != "<study>":
+            raise
+        name = "<stdin>" if path == "-" else path
+        raise StudyError(name, exc.field, exc.value, exc.allowed,
+                         line_of(load_yaml(text, name), exc.field)) from None
+
+
 def _summary(study, plan, est_line: str) -> str:
     """validate's one line: scene, cases, solver, outputs, and the estimate."""
     from gearsweep.study.schema import replaced_by_sweep
@@ -80,7 +95,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if getattr(study, "type", None) == "analysis":
         print(f"{name}: ok -- analysis study {study.analysis.kind!r}")
         return 0
-    plan = make_plan(study, text)
+    plan = _plan(make_plan, study, text, args.study)
     est, compile_s = quick_estimate(plan)
     if not args.yes:
         check_limits(est, name)  # validate refuses what run refuses (without --yes)
@@ -152,7 +167,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"{out}: {study.type} study in {time.perf_counter() - t0:.2f} s")
         return 0
-    plan = make_plan(study, text)
+    plan = _plan(make_plan, study, text, args.study)
     if args.chunk_size is not None and args.chunk_size < 1:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
     if args.workers is not None and args.workers < 1:
@@ -197,7 +212,12 @@ def cmd_run(args: argparse.Namespace) -> int:
                   " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
                   " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
     if not args.quiet:
+        # The file's elapsed_seconds is the chunk phase; the wall time adds the one-time
+        # loading (or compiling) of the kernel and the writing of the file: say both.
+        phase = ds.attrs.get("elapsed_seconds")
         print(f"{out}: {int(ds.attrs['cases'])} cases in {time.perf_counter() - t0:.2f} s"
+              + (f" (computing the chunks: {phase:.2f} s, the file's elapsed_seconds)"
+                 if phase is not None else "")
               + (f"; {flagged} flagged in 'status' (see its 'codes' attribute)" if flagged
                  else ""))
     ds.close()
@@ -293,7 +313,7 @@ def cmd_advise(args: argparse.Namespace) -> int:
     if getattr(study, "type", None) in ("mesh", "analysis"):
         raise StudyError(args.study, "type", study.type,
                          "a dynamic study (whine, rattle, full): nothing is integrated here")
-    plan = make_plan(study, text)
+    plan = _plan(make_plan, study, text, args.study)
     model = plan.model
     if not isinstance(model, MeshModel):
         raise StudyError(args.study, "scene.kind", study.scene.kind,

@@ -188,3 +188,16 @@ scene:
     assert _lines(no_gear) == [
         ("s.yaml:2: scene: '{...}' -- 'drive.base_radius_1' and 'drive.base_radius_2' required (or"
         " a 'gear', which gives the base radii)")]
+
+
+def test_a_problem_found_when_planning_names_the_file_and_line(tmp_path, capsys):
+    """Not '<study>': the planner's checks (steps per period versus the outputs' sampling)
+    are reported like the schema's."""
+    path = tmp_path / "sp.yaml"
+    path.write_text("title: t\nscene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
+                    " speed: 1000 rpm}\nsolver:\n  steps_per_period: 30\n"
+                    "outputs: [{spectrum: {samples_per_period: 16}}]\n", encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"gearsweep: error: {path}:4: solver.steps_per_period: 30 -- a multiple of 16"
+                   " (the samples per period the outputs need)\n")
