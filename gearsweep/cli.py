@@ -70,6 +70,7 @@ def _backend(args: argparse.Namespace):
 def cmd_run(args: argparse.Namespace) -> int:
     import numba
 
+    from gearsweep.kernels.cuda import resolve_device
     from gearsweep.study.execute import (
         check_limits,
         cores,
@@ -97,6 +98,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"{out}: static mesh study in {time.perf_counter() - t0:.2f} s")
         return 0
+    if args.device:  # --device overrides the study's solver.device
+        study = study.model_copy(update={"solver": study.solver.model_copy(
+            update={"device": args.device})})
+    resolve_device(study.solver.device)  # no GPU for device cuda: one line, exit 2, before work
     plan = make_plan(study, text)
     if args.chunk_size is not None and args.chunk_size < 1:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
@@ -246,6 +251,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the estimated time, memory and output size; do not run")
     r.add_argument("--yes", action="store_true",
                    help="run even if the estimate is beyond the limits (10 min, 2 GB)")
+    r.add_argument("--device", choices=("cpu", "cuda", "auto"),
+                   help="where the kernel runs (overrides solver.device; docs/gpu.md)")
     r.add_argument("--chunk-size", type=int, metavar="CASES",
                    help="about this many cases per chunk (checkpoint and progress unit)")
     r.set_defaults(func=cmd_run)

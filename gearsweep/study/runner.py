@@ -21,7 +21,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
-from gearsweep.kernels import LANES, STATUS_DIVERGED, simulate
+from gearsweep.kernels import LANES, STATUS_DIVERGED
+from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, kernel_inputs, mesh_frequency
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.dataset import build_dataset
@@ -387,7 +388,7 @@ def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) ->
         kin["x0"], kin["v0"] = x0, v0
     sps = plan.samples_per_period()
     t0 = time.perf_counter()
-    res = simulate(method=s.method, n_transient=s.transient_periods * spp,
+    res = kernel_for(s.device, s.precision)(method=s.method, n_transient=s.transient_periods * spp,
                    n_record=s.record_periods * spp, steps_per_period=spp,
                    signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
     KERNEL_CLOCK.add(time.perf_counter() - t0)
