@@ -305,6 +305,47 @@ def test_float32_needs_cuda():
         kernel_for("cpu", "float32")
 
 
+PTX_CHILD = """
+import json
+from numba import cuda, types
+from gearsweep.kernels import cuda as gk
+try:
+    from numba.cuda.cudadrv.nvvm import NVVM
+    NVVM()
+except Exception as exc:
+    print(json.dumps({"skip": f"no NVVM (the CUDA toolkit of the cuda extra): {exc}"[:200]}))
+    raise SystemExit(0)
+out = {}
+for method, gap, prec, kamp in ((4, True, "float64", False), (5, True, "float32", True)):
+    kern = gk._kernel(method, True, kamp, True, True, gap, True, prec)
+    a = (types.float64 if prec == "float64" else types.float32)[:, ::1]
+    sig = (a, a, a, a, *[types.int64] * 5, types.float64[:, ::1], types.int8[::1], a)
+    ptx, _ = cuda.compile_ptx(kern.py_func, sig, cc=(9, 0))
+    ops = [line.split()[0] for line in ptx.splitlines() if line.strip() and line.startswith("\t")]
+    out[f"rk{method}_{prec}"] = {"local": sum(".local" in o for o in ops),
+                                 "calls": sum(o.startswith("call") for o in ops),
+                                 "fma": sum(o.startswith("fma") for o in ops)}
+print(json.dumps(out))
+"""
+
+
+@needs_numba_cuda
+def test_kernels_compile_for_a_real_gpu():
+    """numba-cuda compiles the kernel (RK4 f64, RK5 f32, every term on) to PTX for sm_90 (H100)
+    without a GPU: what the simulator cannot check (the typing and lowering of the CPU helpers as
+    device functions). Registers only: no local memory, no calls. Needs NVVM, which the cuda
+    extra's toolkit brings; skipped without it."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    proc = subprocess.run([sys.executable, "-c", PTX_CHILD], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    if "skip" in out:
+        pytest.skip(out["skip"])
+    for name, ops in out.items():
+        assert ops["local"] == 0 and ops["calls"] == 0 and ops["fma"] > 10, (name, ops)
+
+
 @pytest.fixture(scope="module")
 def real_gpu() -> None:
     """Skips unless numba-cuda sees a real GPU (checked only when a ``gpu`` test runs: it loads
