@@ -129,8 +129,11 @@ def gpu_results(tmp_path_factory) -> dict:
     if not HAS_NUMBA_CUDA:
         pytest.skip("numba-cuda is not installed")
     # Once per test session, also under pytest-xdist: the first worker runs the child, the
-    # others wait for its files (the folder above basetemp is shared by the workers).
-    root = tmp_path_factory.getbasetemp().parent
+    # others wait for its files (under xdist the folder above a worker's basetemp is the
+    # session's, shared by its workers; without xdist basetemp itself is the session's).
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent
     out = root / "cuda_sim.npz"  # and cuda_sim.npz.nc: the study's result
     failed = root / "cuda_sim.failed"
     try:
