@@ -70,7 +70,7 @@ def _backend(args: argparse.Namespace):
 def cmd_run(args: argparse.Namespace) -> int:
     import numba
 
-    from gearsweep.kernels.cuda import resolve_device
+    from gearsweep.kernels.cuda import kernel_for
     from gearsweep.study.execute import (
         check_limits,
         cores,
@@ -101,7 +101,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.device:  # --device overrides the study's solver.device
         study = study.model_copy(update={"solver": study.solver.model_copy(
             update={"device": args.device})})
-    resolve_device(study.solver.device)  # no GPU for device cuda: one line, exit 2, before work
+    kernel_for(study.solver.device, study.solver.precision)  # no GPU: one line, exit 2, now
     plan = make_plan(study, text)
     if args.chunk_size is not None and args.chunk_size < 1:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")

@@ -95,9 +95,10 @@ def _cuda():
     return module
 
 
+@functools.cache
 def gpu_present() -> bool:
     """True when numba-cuda is installed and sees a real CUDA GPU (the simulator does not count).
-    Does not import numba-cuda when it is not installed."""
+    Does not import numba-cuda when it is not installed. Asked once per process."""
     if not _has_numba_cuda() or simulator():
         return False
     try:
