@@ -245,6 +245,35 @@ def test_device_cuda_resolves_on_simulator(gpu_results):
     assert gpu_results["cuda_resolves"]
 
 
+class _FakeCuda:
+    """Stands in for numba.cuda where only the free memory is asked for."""
+
+    def __init__(self, free: float) -> None:
+        self.free = free
+
+    def current_context(self):
+        return self
+
+    def get_memory_info(self):
+        return self.free, 2 * self.free
+
+
+@pytest.mark.parametrize(("n", "free", "per_case", "chunks"), [
+    (4_000_000, 80e9, 169, 4),       # B1 at 4e6 cases on an H100: 4 chunks, overlapped
+    (1_000_000, 80e9, 169, 2),       # 1e6: two chunks of at least 2^19
+    (100_000, 80e9, 169, 1),         # small: one launch
+    (1_000_000, 1e9, 169 + 6400, 27),  # a recorded signal: bounded by memory
+])
+def test_chunks_fit_memory_and_overlap(n, free, per_case, chunks):
+    from gearsweep.kernels.cuda import MEMORY_FRACTION, THREADS_PER_BLOCK, _chunk_cases
+
+    m = _chunk_cases(_FakeCuda(free), per_case, n, None)
+    assert -(-n // m) == chunks
+    assert 2 * m * per_case <= MEMORY_FRACTION * free
+    assert m == n or m % THREADS_PER_BLOCK == 0
+    assert _chunk_cases(_FakeCuda(free), per_case, n, 1000) == min(m, 1000)
+
+
 def test_kink_aware_with_backlash_is_refused():
     from gearsweep.kernels.cuda import simulate_cuda
 
@@ -322,7 +351,7 @@ out = {}
 for method, gap, prec, kamp in ((4, True, "float64", False), (5, True, "float32", True)):
     kern = gk._kernel(method, True, kamp, True, True, gap, True, prec)
     a = (types.float64 if prec == "float64" else types.float32)[:, ::1]
-    sig = (a, a, a, a, *[types.int64] * 5, types.float64[:, ::1], types.int8[::1], a)
+    sig = (a, types.int64, a, a, a, *[types.int64] * 5, types.float64[:, ::1], types.int8[::1], a)
     ptx, _ = cuda.compile_ptx(kern.py_func, sig, cc=(9, 0))
     ops = [line.split()[0] for line in ptx.splitlines() if line.strip() and line.startswith("\t")]
     out[f"rk{method}_{prec}"] = {"local": sum(".local" in o for o in ops),

@@ -60,7 +60,15 @@ THREADS_PER_BLOCK = 128
 """Threads (cases) per CUDA block: four warps; registers, not shared memory, bound occupancy."""
 
 MEMORY_FRACTION = 0.5
-"""Share of the device's free memory that one chunk (its two stream buffers) may take."""
+"""Share of the device's free memory that the two stream buffers may take together."""
+
+CHUNKS = 4
+"""A large batch goes in at least this many chunks, so that packing and copying one chunk
+overlaps the kernel of another ..."""
+
+MIN_CHUNK = 1 << 19
+"""... but no chunk below this many cases (two waves of resident threads on an H100, 132 SMs x
+2048), where a launch would leave the GPU part idle."""
 
 # Rows of the per-case parameter matrix sent to the device (one transfer per chunk).
 _PH, _PCM, _PKM, _PKA, _PGM, _PES, _PFS, _PB, _PBD, _PX0, _PV0 = range(11)
@@ -163,9 +171,9 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
             return 0.0, 0.0, 0.0, 0.0, 0.0
         return tab[j, 0], tab[j, 1], tab[j, 2], tab[j, 3], tab[j, 4]
 
-    def integrate(P, ktab, etab, ftab, S, n_transient, n_record, spp, stride, out, status, signal):
+    def integrate(P, n, ktab, etab, ftab, S, n_transient, n_record, spp, stride, out, status,
+                  signal):
         i = cuda.grid(1)
-        n = P.shape[1]
         if i >= n:
             return
         hh = P[_PH, i]
@@ -265,18 +273,20 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
 
 
 def _chunk_cases(cu, per_case: int, n: int, max_chunk: int | None) -> int:
-    """Cases per chunk: both stream buffers within ``MEMORY_FRACTION`` of the free memory."""
+    """Cases per chunk: ``n / CHUNKS`` but at least ``MIN_CHUNK``, both stream buffers within
+    ``MEMORY_FRACTION`` of the free memory, at most ``max_chunk``."""
     try:
         free = float(cu.current_context().get_memory_info()[0])
     except Exception:
         free = math.inf
     if not math.isfinite(free):  # the simulator reports no limit
         free = float(1 << 30)
-    m = int(free * MEMORY_FRACTION) // (2 * per_case)
+    tpb = THREADS_PER_BLOCK
+    m = -(-max(MIN_CHUNK, -(-n // CHUNKS)) // tpb) * tpb  # whole blocks, rounded up
+    fit = int(free * MEMORY_FRACTION) // (2 * per_case)
+    m = min(m, fit // tpb * tpb if fit >= tpb else fit)  # whole blocks, rounded down
     if max_chunk is not None:
         m = min(m, int(max_chunk))
-    if m >= THREADS_PER_BLOCK:  # whole blocks
-        m = m // THREADS_PER_BLOCK * THREADS_PER_BLOCK
     return max(1, min(m, n))
 
 
@@ -325,12 +335,12 @@ def simulate_cuda(
     S = next((t.shape[0] for t in tables if t is not None), 1)
     n_sig = (n_record + stride - 1) // stride if signal_stride > 0 else 0
 
-    params = np.empty((_N_PARAMS, n), dt)
-    for r, v in ((_PH, h), (_PCM, damping), (_PKM, k_mean),
-                 (_PKA, 1.0 if k_scale is None else k_scale), (_PGM, force), (_PES, ste_scale),
-                 (_PFS, fluct_scale), (_PB, 0.0 if half_gap is None else half_gap),
-                 (_PBD, bound), (_PX0, x0), (_PV0, v0)):
-        params[r] = np.broadcast_to(np.asarray(v, np.float64), (n,))
+    # per-case inputs as length-n views (no copy): each chunk is packed from them straight into
+    # its pinned buffer, while the GPU runs the chunk before
+    cols = [(r, np.broadcast_to(np.asarray(v, np.float64), (n,))) for r, v in (
+        (_PH, h), (_PCM, damping), (_PKM, k_mean), (_PKA, 1.0 if k_scale is None else k_scale),
+        (_PGM, force), (_PES, ste_scale), (_PFS, fluct_scale),
+        (_PB, 0.0 if half_gap is None else half_gap), (_PBD, bound), (_PX0, x0), (_PV0, v0))]
     dummy = np.zeros((1, len(rk.NODES)), dt)
     d_tabs = [cu.to_device(dummy if t is None else t.astype(dt)) for t in tables]
     kern = _kernel(rk.METHODS[method], tables[0] is not None, k_scale is not None,
@@ -381,17 +391,13 @@ def simulate_cuda(
         buf = sets[q % len(sets)]
         drain(buf)
         st = buf["stream"]
-        buf["h_in"][:, :k] = params[:, a:a + k]
-        d_in = buf["d_in"] if k == m else buf["d_in"][:, :k]
-        h_in = buf["h_in"] if k == m else buf["h_in"][:, :k]
-        if k == m:
-            d_in.copy_to_device(h_in, stream=st)
-        else:  # a last, shorter chunk: a contiguous array of its own
-            d_in = cu.to_device(np.ascontiguousarray(h_in), stream=st)
+        for r, col in cols:
+            buf["h_in"][r, :k] = col[a:a + k]
+        buf["d_in"].copy_to_device(buf["h_in"], stream=st)  # whole buffers: k <= m cases used
         tpb = min(THREADS_PER_BLOCK, 32 * -(-k // 32))
-        kern[-(-k // tpb), tpb, st](d_in, d_tabs[0], d_tabs[1], d_tabs[2], S, int(n_transient),
-                                    int(n_record), int(steps_per_period), stride, buf["d_out"],
-                                    buf["d_st"], buf["d_sig"])
+        kern[-(-k // tpb), tpb, st](buf["d_in"], k, d_tabs[0], d_tabs[1], d_tabs[2], S,
+                                    int(n_transient), int(n_record), int(steps_per_period), stride,
+                                    buf["d_out"], buf["d_st"], buf["d_sig"])
         buf["d_out"].copy_to_host(buf["h_out"], stream=st)
         buf["d_st"].copy_to_host(buf["h_st"], stream=st)
         if signal is not None:
