@@ -44,6 +44,7 @@ import functools
 import importlib.util
 import math
 import os
+import sys
 
 import numpy as np
 
@@ -81,7 +82,11 @@ def _has_numba_cuda() -> bool:
 
 
 def simulator() -> bool:
-    """True when numba's CUDA simulator is switched on (``NUMBA_ENABLE_CUDASIM=1``)."""
+    """True when numba's CUDA simulator is switched on (``NUMBA_ENABLE_CUDASIM=1``): as numba-cuda
+    read it when it was imported, else as the environment says now."""
+    config = sys.modules.get("numba.cuda.core.config")
+    if config is not None:
+        return bool(config.ENABLE_CUDASIM)
     return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") not in ("", "0")
 
 
