@@ -142,6 +142,7 @@ def _stoppable(backend):
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from gearsweep.kernels.cuda import kernel_for
     from gearsweep.study.estimate import CHUNK_SECONDS, chunk_cases, line, quick_estimate
     from gearsweep.study.execute import check_limits, cores, run_to_file
     from gearsweep.study.plan import make_plan
@@ -167,6 +168,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"{out}: {study.type} study in {time.perf_counter() - t0:.2f} s")
         return 0
+    if args.device:  # --device overrides the study's solver.device
+        study = study.model_copy(update={"solver": study.solver.model_copy(
+            update={"device": args.device})})
+    kernel_for(study.solver.device, study.solver.precision)  # no GPU: one line, exit 2, now
     plan = _plan(make_plan, study, text, args.study)
     if args.chunk_size is not None and args.chunk_size < 1:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
@@ -364,6 +369,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the estimated time, memory and output size; do not run")
     r.add_argument("--yes", action="store_true",
                    help="run even if the estimate is beyond the limits (10 min, 2 GB)")
+    r.add_argument("--device", choices=("cpu", "cuda", "auto"),
+                   help="where the kernel runs (overrides solver.device; docs/gpu.md)")
+    r.add_argument("--device", choices=("cpu", "cuda", "auto"),
+                   help="where the kernel runs (overrides solver.device; docs/gpu.md)")
     r.add_argument("--chunk-size", type=int, metavar="CASES",
                    help="about this many cases per chunk (checkpoint and progress unit)")
     r.set_defaults(func=cmd_run)

@@ -66,3 +66,8 @@ class ClusterError(GearsweepError):
 
 class LimitError(GearsweepError):
     """A study predicted beyond the time, memory or output limits, not confirmed with --yes."""
+
+
+class DeviceError(GearsweepError):
+    """A compute device asked for (``solver.device: cuda``) that this machine cannot provide, or a
+    feature that the device does not run (the kink-aware step on CUDA)."""

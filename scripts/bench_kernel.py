@@ -20,10 +20,22 @@ of the 10,000 amplitudes. With ``--scipy``, a few B1 cases are also solved with
 ``scipy.integrate.solve_ivp`` (RK45, DOP853, LSODA) at tolerances that reach our accuracy, and
 the per-case speed-up of our kernel on one thread over the fastest of them is printed.
 
+With ``--device cuda`` the same problems run on a CUDA GPU through
+``gearsweep.kernels.cuda.simulate_cuda`` at 1e4, 1e5, 1e6 and 4e6 cases (``--sizes``): case ``i``
+has the speed of B1/B2 case ``i mod 10,000`` (the 10,000 speeds repeated; below 10,000 cases,
+spread over them as on the CPU). One JSON line per problem and size, with the CPU lines' fields
+(``device``, ``gpu`` and ``precision`` in place of ``threads``); each time is the best of 3 whole
+``simulate_cuda`` calls after a warm-up (host packing, transfers and kernel), and every line gives
+the largest relative difference of max|p| from our CPU kernel's (the 10,000 speeds, computed once)
+and, with ``--reference``, from the C reference's. Without a GPU it stops with one line, exit 2
+(under ``NUMBA_ENABLE_CUDASIM=1`` it runs on numba's simulator: a smoke test, not a timing).
+
 Usage::
 
     python scripts/bench_kernel.py [--reference] [--dump DIR] [--problems B1,B2] [--cases N]
                                    [--scipy] [--scipy-cases I,J,K] [--scipy-budget SECONDS]
+    python scripts/bench_kernel.py --device cuda [--reference] [--sizes 10000,100000,...]
+                                   [--precision float32]
 """
 
 from __future__ import annotations
@@ -257,6 +269,78 @@ def scipy_comparison(indices: list[int], our_seconds_per_case: float, budget: fl
     return records
 
 
+# ----------------------------------------------------------------------------- CUDA
+CUDA_SIZES = "10000,100000,1000000,4000000"
+
+
+def cuda_indices(cases: int) -> np.ndarray:
+    """B1/B2 case index of each of ``cases`` GPU cases: the 10,000 speeds repeated (spread
+    evenly below 10,000 cases)."""
+    if cases < N_CASES:
+        return case_indices(cases)
+    return np.arange(cases, dtype=np.int64) % N_CASES
+
+
+def bench_cuda(args, problems: list[str]) -> int:
+    """``--device cuda``: B1/B2 on the GPU at each size; one JSON line per problem and size."""
+    from gearsweep.errors import DeviceError
+    from gearsweep.kernels.cuda import resolve_device, simulate_cuda, simulator
+
+    try:
+        resolve_device("cuda")
+    except DeviceError as exc:
+        print(f"bench_kernel: {exc}", file=sys.stderr)
+        return 2
+    from numba import cuda
+
+    gpu = "numba CUDA simulator" if simulator() else cuda.get_current_device().name
+    gpu = gpu.decode() if isinstance(gpu, bytes) else str(gpu)
+    sizes = [int(float(x)) for x in args.sizes.split(",") if x]
+    ref_dir = None
+    if args.reference:
+        if shutil.which("gcc") is None:
+            print(json.dumps({"reference": "skipped", "reason": "gcc not found"}), flush=True)
+        else:
+            ref_dir = Path(tempfile.mkdtemp(prefix="gearsweep-bench-"))
+            build_reference(args.bench_dir, ref_dir)
+    for problem in problems:
+        # our CPU kernel's amplitudes of the cases the GPU runs (all 10,000 from 10,000 cases)
+        cpu_idx = np.unique(cuda_indices(min(sizes)) if min(sizes) < N_CASES
+                            else np.arange(N_CASES))
+        cpu_amp = np.full(N_CASES, np.nan)
+        cpu_amp[cpu_idx] = amplitudes(problem_inputs(problem, cpu_idx))
+        ref_amp = np.loadtxt(ref_dir / f"{problem}.txt") if ref_dir is not None else None
+        for cases in sizes:
+            idx = cuda_indices(cases)
+            inputs = problem_inputs(problem, idx)
+
+            def run(inputs=inputs):
+                return simulate_cuda(**inputs, precision=args.precision)
+
+            stats = run().stats  # warm-up: compiles the kernel
+            best = math.inf
+            for _ in range(1 if simulator() else 3):
+                t0 = time.perf_counter()
+                stats = run().stats
+                best = min(best, time.perf_counter() - t0)
+            amp = np.maximum(stats["p_max"], -stats["p_min"])
+            steps = cases * (N_TRANSIENT + N_RECORD)
+            rec = {"problem": problem, "device": "cuda", "gpu": gpu, "precision": args.precision,
+                   "cases": cases, "steps": steps, "seconds": round(best, 4),
+                   "msteps_per_s": round(steps / best / 1e6, 1), "method": "rk4",
+                   "steps_per_period": STEPS_PER_PERIOD, "periods": PERIODS}
+            seen = ~np.isnan(cpu_amp[idx])
+            rec["max_rel_diff_vs_cpu"] = float(np.max(np.abs(amp[seen] - cpu_amp[idx][seen])
+                                                      / cpu_amp[idx][seen]))
+            if ref_amp is not None:
+                rec["max_rel_diff_vs_reference"] = float(np.max(np.abs(amp - ref_amp[idx])
+                                                                / ref_amp[idx]))
+            print(json.dumps(rec), flush=True)
+    if ref_dir is not None:
+        shutil.rmtree(ref_dir, ignore_errors=True)
+    return 0
+
+
 # ----------------------------------------------------------------------------- main
 def _compile_aside(problem: str, cases: int) -> subprocess.Popen:
     """Start a process that compiles (or loads) ``problem``'s kernel specialisation into the
@@ -285,6 +369,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="B1 case indices for the solve_ivp comparison")
     ap.add_argument("--scipy-budget", type=float, default=25.0,
                     help="seconds after which no further solve_ivp run is started")
+    ap.add_argument("--device", choices=("cpu", "cuda"), default="cpu",
+                    help="cuda: run on a CUDA GPU at --sizes cases (docs/gpu.md)")
+    ap.add_argument("--sizes", default=CUDA_SIZES,
+                    help="with --device cuda: comma-separated numbers of cases")
+    ap.add_argument("--precision", choices=("float64", "float32"), default="float64",
+                    help="with --device cuda: arithmetic of the state")
     ap.add_argument("--compile-only", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
 
@@ -297,6 +387,8 @@ def main(argv: list[str] | None = None) -> int:
                  " ../shared/bench; give its folder with --bench-dir)")
     if not 1 <= args.cases <= N_CASES:
         ap.error(f"--cases must be in 1..{N_CASES}")
+    if args.device == "cuda":
+        return bench_cuda(args, problems)
     indices = case_indices(args.cases)
     if args.compile_only:  # helper process of ``_compile_aside``: fill the Numba cache, exit
         for problem in problems:

@@ -63,6 +63,23 @@ def _tab(t) -> np.ndarray | None:
     return t
 
 
+def checked_inputs(h, method: str, n_transient: int, n_record: int, steps_per_period: int,
+                   tables: Sequence, signal_stride: int) -> tuple[np.ndarray, int, list, int]:
+    """The checks and conversions of ``simulate``'s arguments that every device shares: returns
+    ``h`` as float64, the number of cases, the three tables (``_tab``) and the signal stride."""
+    h = _own(np.atleast_1d(h))
+    n = h.shape[0]
+    if method not in rk.METHODS:
+        raise ValueError(f"method must be one of {sorted(rk.METHODS)}, got {method!r}")
+    if n_transient < 0 or n_record < 0 or steps_per_period < 1:
+        raise ValueError("step counts must be non-negative and steps_per_period >= 1")
+    tables = [_tab(t) for t in tables]
+    sizes = {t.shape[0] for t in tables if t is not None}
+    if len(sizes) > 1:
+        raise ValueError(f"coefficient tables cover different cycles: {sorted(sizes)} steps")
+    return h, n, tables, max(int(signal_stride), 1)
+
+
 def simulate(
     h,
     *,
@@ -116,18 +133,9 @@ def simulate(
         kinks of the dead zone (the plain step falls to order 2 there). Steps without crossings
         are the plain kernel's, bit for bit; without backlash the two are identical.
     """
-    h = _own(np.atleast_1d(h))
-    n = h.shape[0]
-    if method not in rk.METHODS:
-        raise ValueError(f"method must be one of {sorted(rk.METHODS)}, got {method!r}")
-    if n_transient < 0 or n_record < 0 or steps_per_period < 1:
-        raise ValueError("step counts must be non-negative and steps_per_period >= 1")
-    tables = [_tab(k_table), _tab(ste_table), _tab(fluct_table)]
-    sizes = {t.shape[0] for t in tables if t is not None}
-    if len(sizes) > 1:
-        raise ValueError(f"coefficient tables cover different cycles: {sorted(sizes)} steps")
+    h, n, tables, stride = checked_inputs(h, method, n_transient, n_record, steps_per_period,
+                                          (k_table, ste_table, fluct_table), signal_stride)
     signal = None
-    stride = max(int(signal_stride), 1)
     if signal_stride > 0:
         signal = np.full((n, (n_record + stride - 1) // stride), np.nan)
     # No more threads than blocks of lanes: waking an idle thread costs milliseconds, which

@@ -32,6 +32,8 @@ nodes per step serves both methods. (Dormand-Prince's fifth-order solution needs
 six with FSAL, and nodes at 1/5, 3/10, 4/5, 8/9, which would need a table per node.)
 """
 
+import math
+
 import numpy as np
 from numba import prange
 
@@ -246,6 +248,72 @@ def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
 
 
 @jit_inline
+def _rk4_step(X, V, hh, q2, h6, c, Ka, Kb, Kc, Ga, Gb, Gc, b, half_gap, kink, on, sh):
+    """One classic RK4 step of one case from (X, V); returns the end state (p, p').
+
+    ``hh``, ``q2``, ``h6``: h, h/2, h/6; ``c``: damping/mass; ``Ka, Kb, Kc`` and ``Ga, Gb, Gc``:
+    stiffness/mass and force/mass at the nodes 0, 1/2, 1 of the step; ``b``, ``half_gap``,
+    ``kink``, ``on``, ``sh``: the force law (``_stage_spring``). The one definition of the method:
+    the CPU lane loop ``_rk4_lanes`` and the CUDA kernel (``gearsweep.kernels.cuda``) both call it.
+    """
+    k1x = V
+    k1v = Ga - c * V - Ka * _stage_spring(X, b, half_gap, kink, on, sh)
+    x2 = X + q2 * k1x
+    v2 = V + q2 * k1v
+    k2x = v2
+    k2v = Gb - c * v2 - Kb * _stage_spring(x2, b, half_gap, kink, on, sh)
+    x3 = X + q2 * k2x
+    v3 = V + q2 * k2v
+    k3x = v3
+    k3v = Gb - c * v3 - Kb * _stage_spring(x3, b, half_gap, kink, on, sh)
+    x4 = X + hh * (_RK4_A43 * k3x)
+    v4 = V + hh * (_RK4_A43 * k3v)
+    k4x = v4
+    k4v = Gc - c * v4 - Kc * _stage_spring(x4, b, half_gap, kink, on, sh)
+    return (X + h6 * (_RK4_B1 * k1x + _RK4_B2 * k2x + _RK4_B3 * k3x + _RK4_B4 * k4x),
+            V + h6 * (_RK4_B1 * k1v + _RK4_B2 * k2v + _RK4_B3 * k3v + _RK4_B4 * k4v))
+
+
+@jit_inline
+def _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, kink, on, sh):
+    """One step of Butcher's six-stage fifth-order method for one case from (X, V); returns the
+    end state. ``K0..K4``, ``G0..G4``: stiffness/mass and force/mass at the ``NODES`` of the
+    step; other arguments as ``_rk4_step``. Used by ``_rk5_lanes`` and the CUDA kernel."""
+    # stage 1, c = 0
+    a1 = V
+    b1 = G0 - c * V - K0 * _stage_spring(X, b, half_gap, kink, on, sh)
+    # stage 2, c = 1/4
+    x2 = X + h * (_RK5_A21 * a1)
+    v2 = V + h * (_RK5_A21 * b1)
+    a2 = v2
+    b2 = G1 - c * v2 - K1 * _stage_spring(x2, b, half_gap, kink, on, sh)
+    # stage 3, c = 1/4
+    x3 = X + h * (_RK5_A31 * a1 + _RK5_A32 * a2)
+    v3 = V + h * (_RK5_A31 * b1 + _RK5_A32 * b2)
+    a3 = v3
+    b3 = G1 - c * v3 - K1 * _stage_spring(x3, b, half_gap, kink, on, sh)
+    # stage 4, c = 1/2
+    x4 = X + h * (_RK5_A42 * a2 + _RK5_A43 * a3)
+    v4 = V + h * (_RK5_A42 * b2 + _RK5_A43 * b3)
+    a4 = v4
+    b4 = G2 - c * v4 - K2 * _stage_spring(x4, b, half_gap, kink, on, sh)
+    # stage 5, c = 3/4
+    x5 = X + h * (_RK5_A51 * a1 + _RK5_A54 * a4)
+    v5 = V + h * (_RK5_A51 * b1 + _RK5_A54 * b4)
+    a5 = v5
+    b5 = G3 - c * v5 - K3 * _stage_spring(x5, b, half_gap, kink, on, sh)
+    # stage 6, c = 1
+    x6 = X + h * (_RK5_N61 * a1 + _RK5_N62 * a2 + _RK5_N63 * a3 + _RK5_N64 * a4
+                  + _RK5_N65 * a5) / _RK5_D6
+    v6 = V + h * (_RK5_N61 * b1 + _RK5_N62 * b2 + _RK5_N63 * b3 + _RK5_N64 * b4
+                  + _RK5_N65 * b5) / _RK5_D6
+    a6 = v6
+    b6 = G4 - c * v6 - K4 * _stage_spring(x6, b, half_gap, kink, on, sh)
+    return (X + h * (_RK5_B1 * (a1 + a6) + _RK5_B3 * (a3 + a5) + _RK5_B4 * a4) / _RK5_D,
+            V + h * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5) + _RK5_B4 * b4) / _RK5_D)
+
+
+@jit_inline
 def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     """One classic RK4 step for every lane of the block at offset ``o`` of ``w``; K, E, F: table
     rows of the step (5 nodes). ``rec``: the step's p enters the running statistics (its end
@@ -271,25 +339,10 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         Ga = _g(gl, el, E[0], etab, fl, F[0], ftab)
         Gb = _g(gl, el, E[2], etab, fl, F[2], ftab)
         Gc = _g(gl, el, E[4], etab, fl, F[4], ftab)
-        k1x = V
-        k1v = Ga - c * V - Ka * _stage_spring(X, b, half_gap, kink, on, sh)
-        x2 = X + q2 * k1x
-        v2 = V + q2 * k1v
-        k2x = v2
-        k2v = Gb - c * v2 - Kb * _stage_spring(x2, b, half_gap, kink, on, sh)
-        x3 = X + q2 * k2x
-        v3 = V + q2 * k2v
-        k3x = v3
-        k3v = Gb - c * v3 - Kb * _stage_spring(x3, b, half_gap, kink, on, sh)
-        x4 = X + hh * (_RK4_A43 * k3x)
-        v4 = V + hh * (_RK4_A43 * k3v)
-        k4x = v4
-        k4v = Gc - c * v4 - Kc * _stage_spring(x4, b, half_gap, kink, on, sh)
-        Xn = X + w[o + _H6 * LANES + l] * (_RK4_B1 * k1x + _RK4_B2 * k2x + _RK4_B3 * k3x
-                                           + _RK4_B4 * k4x)
+        Xn, Vn = _rk4_step(X, V, hh, q2, w[o + _H6 * LANES + l], c, Ka, Kb, Kc, Ga, Gb, Gc, b,
+                           half_gap, kink, on, sh)
         w[o + _X * LANES + l] = Xn
-        w[o + _V * LANES + l] = V + w[o + _H6 * LANES + l] * (
-            _RK4_B1 * k1v + _RK4_B2 * k2v + _RK4_B3 * k3v + _RK4_B4 * k4v)
+        w[o + _V * LANES + l] = Vn
         mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec, kink)
     return mask
 
@@ -321,40 +374,10 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         K2 = _k(kl, kal, K[2], ktab, kamp)
         K3 = _k(kl, kal, K[3], ktab, kamp)
         K4 = _k(kl, kal, K[4], ktab, kamp)
-        # stage 1, c = 0
-        a1 = V
-        b1 = G0 - c * V - K0 * _stage_spring(X, b, half_gap, kink, on, sh)
-        # stage 2, c = 1/4
-        x2 = X + h * (_RK5_A21 * a1)
-        v2 = V + h * (_RK5_A21 * b1)
-        a2 = v2
-        b2 = G1 - c * v2 - K1 * _stage_spring(x2, b, half_gap, kink, on, sh)
-        # stage 3, c = 1/4
-        x3 = X + h * (_RK5_A31 * a1 + _RK5_A32 * a2)
-        v3 = V + h * (_RK5_A31 * b1 + _RK5_A32 * b2)
-        a3 = v3
-        b3 = G1 - c * v3 - K1 * _stage_spring(x3, b, half_gap, kink, on, sh)
-        # stage 4, c = 1/2
-        x4 = X + h * (_RK5_A42 * a2 + _RK5_A43 * a3)
-        v4 = V + h * (_RK5_A42 * b2 + _RK5_A43 * b3)
-        a4 = v4
-        b4 = G2 - c * v4 - K2 * _stage_spring(x4, b, half_gap, kink, on, sh)
-        # stage 5, c = 3/4
-        x5 = X + h * (_RK5_A51 * a1 + _RK5_A54 * a4)
-        v5 = V + h * (_RK5_A51 * b1 + _RK5_A54 * b4)
-        a5 = v5
-        b5 = G3 - c * v5 - K3 * _stage_spring(x5, b, half_gap, kink, on, sh)
-        # stage 6, c = 1
-        x6 = X + h * (_RK5_N61 * a1 + _RK5_N62 * a2 + _RK5_N63 * a3 + _RK5_N64 * a4
-                      + _RK5_N65 * a5) / _RK5_D6
-        v6 = V + h * (_RK5_N61 * b1 + _RK5_N62 * b2 + _RK5_N63 * b3 + _RK5_N64 * b4
-                      + _RK5_N65 * b5) / _RK5_D6
-        a6 = v6
-        b6 = G4 - c * v6 - K4 * _stage_spring(x6, b, half_gap, kink, on, sh)
-        Xn = X + h * (_RK5_B1 * (a1 + a6) + _RK5_B3 * (a3 + a5) + _RK5_B4 * a4) / _RK5_D
+        Xn, Vn = _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, kink,
+                           on, sh)
         w[o + _X * LANES + l] = Xn
-        w[o + _V * LANES + l] = V + h * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5)
-                                         + _RK5_B4 * b4) / _RK5_D
+        w[o + _V * LANES + l] = Vn
         mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec, kink)
     return mask
 
@@ -529,20 +552,44 @@ def _split(w, o):
 
 @jit_inline
 def _record(w, o, l, X, half_gap):
-    """Enter p = X of lane ``l`` into its running statistics, branch-free (counts are sums of
-    0.0/1.0; an impact is a step from the gap into contact)."""
-    w[o + _MAX2 * LANES + l] = max(w[o + _MAX2 * LANES + l], X)  # the running extremes (see _split)
-    w[o + _MIN2 * LANES + l] = min(w[o + _MIN2 * LANES + l], X)
-    d = X - w[o + _SHIFT * LANES + l]
-    w[o + _SUM * LANES + l] += d
-    w[o + _SUM2 * LANES + l] += d * d
+    """Enter p = X of lane ``l`` into its running statistics (``_stat_step``)."""
+    r = w[o + _MAX2 * LANES + l], w[o + _MIN2 * LANES + l], w[o + _SUM * LANES + l], \
+        w[o + _SUM2 * LANES + l]
+    if half_gap is None:
+        r = _stat_step(X, r[0], r[1], r[2], r[3], w[o + _SHIFT * LANES + l], 0.0, 0.0, 0.0, 0.0,
+                       0.0, half_gap)
+    else:
+        r = _stat_step(X, r[0], r[1], r[2], r[3], w[o + _SHIFT * LANES + l], w[o + _B * LANES + l],
+                       w[o + _GAP * LANES + l], w[o + _BACK * LANES + l], w[o + _IMP * LANES + l],
+                       w[o + _PREV * LANES + l], half_gap)
+        w[o + _GAP * LANES + l] = r[4]
+        w[o + _BACK * LANES + l] = r[5]
+        w[o + _IMP * LANES + l] = r[6]
+        w[o + _PREV * LANES + l] = r[7]
+    w[o + _MAX2 * LANES + l] = r[0]  # the running extremes (see _split)
+    w[o + _MIN2 * LANES + l] = r[1]
+    w[o + _SUM * LANES + l] = r[2]
+    w[o + _SUM2 * LANES + l] = r[3]
+
+
+@jit_inline
+def _stat_step(X, pmax, pmin, s1, s2, shift, b, gaps, backs, impacts, prev, half_gap):
+    """The running statistics of one case after entering p = X, branch-free (counts are sums of
+    0.0/1.0; an impact is a step from the gap into contact): extremes, sums of (p - shift) and its
+    square, and with backlash the counts of steps apart / on the back flank / impacts and whether
+    the case was apart (``prev``). The one definition, used by ``_record`` and the CUDA kernel."""
+    pmax = max(pmax, X)
+    pmin = min(pmin, X)
+    d = X - shift
+    s1 += d
+    s2 += d * d
     if half_gap is not None:
-        b = w[o + _B * LANES + l]
         gap = 1.0 if abs(X) < b else 0.0
-        w[o + _GAP * LANES + l] += gap
-        w[o + _BACK * LANES + l] += 1.0 if X < -b else 0.0
-        w[o + _IMP * LANES + l] += w[o + _PREV * LANES + l] * (1.0 - gap)  # gap -> contact: an impact
-        w[o + _PREV * LANES + l] = gap
+        gaps += gap
+        backs += 1.0 if X < -b else 0.0
+        impacts += prev * (1.0 - gap)  # gap -> contact: an impact
+        prev = gap
+    return pmax, pmin, s1, s2, gaps, backs, impacts, prev
 
 
 @jit_inline
@@ -575,20 +622,28 @@ def _finish(w, o, i0, n, n_record, spp, stats, xf, vf, status):
             for q in range(N_STATS):
                 stats[i, q] = np.nan
             continue
-        mean_d = w[o + _SUM * LANES + l] / n_record
-        pmax = max(w[o + _MAX1 * LANES + l], w[o + _MAX2 * LANES + l])
-        pmin = min(w[o + _MIN1 * LANES + l], w[o + _MIN2 * LANES + l])
-        stats[i, ST_MAX] = pmax
-        stats[i, ST_MIN] = pmin
-        stats[i, ST_MEAN] = w[o + _SHIFT * LANES + l] + mean_d
-        stats[i, ST_RMS] = np.sqrt(max(w[o + _SUM2 * LANES + l] / n_record - mean_d * mean_d, 0.0))
-        stats[i, ST_CONTACT_LOSS] = w[o + _GAP * LANES + l] / n_record
-        stats[i, ST_BACKSIDE] = w[o + _BACK * LANES + l] / n_record
-        stats[i, ST_IMPACTS] = w[o + _IMP * LANES + l] * spp / n_record
-        drift = max(abs(w[o + _MAX2 * LANES + l] - w[o + _MAX1 * LANES + l]),
-                    abs(w[o + _MIN2 * LANES + l] - w[o + _MIN1 * LANES + l]))
-        pp = pmax - pmin
-        stats[i, ST_SETTLE] = drift / pp if pp > 0 else 0.0
+        out = _final_stats(n_record, spp, w[o + _MAX1 * LANES + l], w[o + _MIN1 * LANES + l],
+                           w[o + _MAX2 * LANES + l], w[o + _MIN2 * LANES + l],
+                           w[o + _SUM * LANES + l], w[o + _SUM2 * LANES + l],
+                           w[o + _SHIFT * LANES + l], w[o + _GAP * LANES + l],
+                           w[o + _BACK * LANES + l], w[o + _IMP * LANES + l])
+        for q in range(N_STATS):
+            stats[i, q] = out[q]
+
+
+@jit_inline
+def _final_stats(n_record, spp, max1, min1, max2, min2, s1, s2, shift, gaps, backs, impacts):
+    """The ``STAT_NAMES`` of one case from its accumulators after ``n_record`` recorded steps
+    (``_stat_step``; extremes of the first and second half of the window), as a tuple in the
+    order of the ``ST_*`` columns. Used by ``_finish`` and the CUDA kernel."""
+    mean_d = s1 / n_record
+    pmax = max(max1, max2)
+    pmin = min(min1, min2)
+    drift = max(abs(max2 - max1), abs(min2 - min1))
+    pp = pmax - pmin
+    return (pmax, pmin, shift + mean_d, math.sqrt(max(s2 / n_record - mean_d * mean_d, 0.0)),
+            gaps / n_record, backs / n_record, impacts * spp / n_record,
+            drift / pp if pp > 0 else 0.0)
 
 
 INTEGRATE = {RK4: _driver(RK4), RK5: _driver(RK5)}

@@ -9,7 +9,8 @@ import time
 
 import numpy as np
 
-from gearsweep.kernels import STATUS_DIVERGED, BatchResult, simulate
+from gearsweep.kernels import STATUS_DIVERGED, BatchResult
+from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import kernel_inputs
 from gearsweep.study.outputs import OUTPUTS
 from gearsweep.study.plan import (
@@ -161,7 +162,7 @@ def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) 
         kin["x0"], kin["v0"] = x0, v0
     sps = plan.samples_per_period()
     t0 = time.perf_counter()
-    res = simulate(method=s.method, n_transient=s.transient_periods * spp,
+    res = kernel_for(s.device, s.precision)(method=s.method, n_transient=s.transient_periods * spp,
                    n_record=s.record_periods * spp, steps_per_period=spp,
                    signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
     KERNEL_CLOCK.add(time.perf_counter() - t0)

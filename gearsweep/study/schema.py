@@ -261,6 +261,11 @@ class Solver(Strict):
         " mean stiffness at the case's load)")
     initial_velocity: float = Field(0.0, allow_inf_nan=False,
                                     description="p' at t = 0 in m/s (a bare number)")
+    device: Literal["cpu", "cuda", "auto"] = Field(
+        "cpu", description="where the kernel runs: cpu, cuda (a CUDA GPU, docs/gpu.md) or auto"
+        " (cuda where a GPU is present)")
+    precision: Literal["float64", "float32"] = Field(
+        "float64", description="float32: the state in single precision (device cuda only)")
     step_guard: Literal["warn", "skip", "off"] = Field(
         "warn", description="cases whose step is beyond the method's stability limit: flag them"
         " (warn), do not integrate them (skip, status 3), or do not check (off)")
