@@ -371,8 +371,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run even if the estimate is beyond the limits (10 min, 2 GB)")
     r.add_argument("--device", choices=("cpu", "cuda", "auto"),
                    help="where the kernel runs (overrides solver.device; docs/gpu.md)")
-    r.add_argument("--device", choices=("cpu", "cuda", "auto"),
-                   help="where the kernel runs (overrides solver.device; docs/gpu.md)")
     r.add_argument("--chunk-size", type=int, metavar="CASES",
                    help="about this many cases per chunk (checkpoint and progress unit)")
     r.set_defaults(func=cmd_run)
