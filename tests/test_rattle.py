@@ -13,7 +13,8 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.integrate import quad
 
-from gearsweep.analysis import hb, jumps, sweep
+import gearsweep
+from gearsweep.analysis import hb, jumps
 from gearsweep.kernels.batch import simulate
 from gearsweep.kernels.tables import fourier_table
 
@@ -355,21 +356,42 @@ def test_arc_length_continuation_turns_at_the_describing_function_folds():
 # up/down sweeps: jumps and hysteresis
 
 
+def study_sweeps(speed: dict, damping) -> tuple[np.ndarray, np.ndarray, np.ndarray, object]:
+    """Up and down sweeps of the Fig. 8 scene through the study path (continuation, each
+    sweep starting from the static equilibrium on the drive flank): speeds [rpm], amplitude
+    (p_pp / 2) of the run-up and the run-down, shape (lanes, speeds), and the Dataset."""
+    dampings = np.atleast_1d(damping)
+    sweep = {"speed": {"start": f"{speed['start']} rpm", "stop": f"{speed['stop']} rpm",
+                       "num": speed["num"]}}
+    if dampings.size > 1:
+        sweep["damping"] = [f"{c} N*s/m" for c in dampings]
+    ds = gearsweep.run({
+        "title": "Fig. 8 scene, up and down sweeps",
+        "scene": {"kind": "rattle", "mass": f"{M} kg", "teeth": TEETH, "stiffness": f"{K} N/m",
+                  "damping": f"{dampings[0]} N*s/m", "backlash": f"{2 * B} m",
+                  "mean_force": f"{FM} N", "fluctuation": [{"amplitude": f"{F0} N", "order": 1}]},
+        "sweep": sweep, "continuation": ["up", "down"],
+        "solver": {"method": "rk4", "steps_per_period": 64, "transient_periods": 40,
+                   "record_periods": 10, "initial_displacement": "static", "step_guard": "off"},
+        "outputs": ["stats"]})
+    amp = 0.5 * ds.p_pp
+    if "damping" not in amp.dims:
+        amp = amp.expand_dims("damping")
+    amp = amp.transpose("direction", "damping", "speed").values
+    return ds.speed.values, amp[0], amp[1], ds
+
+
 @pytest.fixture(scope="module")
 def fig8_sweeps():
-    speed = np.linspace(5000.0, 11000.0, 400)
-    kw = dict(teeth=TEETH, mass=M, stiffness=K, damping=C, half_gap=B, force_mean=FM,
-              force_amp=F0, steps_per_period=64, transient_periods=40, record_periods=10)
-    return speed, sweep.sweep(speed, "up", **kw), sweep.sweep(speed, "down", **kw)
+    return study_sweeps({"start": 5000.0, "stop": 11000.0, "num": 400}, C)
 
 
 def test_sweeps_settle(fig8_sweeps):
     """Every speed of both sweeps settles: settle_error (drift of the extremes between the two
     halves of the record, relative to peak-to-peak) below 3%."""
-    _s, up, down = fig8_sweeps
-    assert not up.diverged.any() and not down.diverged.any()
-    assert np.nanmax(up.stats["settle_error"]) < 0.03
-    assert np.nanmax(down.stats["settle_error"]) < 0.03
+    *_, ds = fig8_sweeps
+    assert not (ds.status == 1).any()
+    assert float(ds.settle_error.max()) < 0.03
 
 
 def test_jump_speeds_are_at_the_turning_points(fig8_sweeps):
@@ -377,8 +399,8 @@ def test_jump_speeds_are_at_the_turning_points(fig8_sweeps):
     grid steps (22.6 rpm) of the AFT turning points (the run-down jump of the sweep is the last
     speed before the fold, the midpoint rule adds half a step) and within 50 rpm (0.7%) of the
     describing function's."""
-    speed, up, down = fig8_sweeps
-    jp = jumps.find_jumps(speed, up.amplitude[0], down.amplitude[0])
+    speed, up, down, _ = fig8_sweeps
+    jp = jumps.find_jumps(speed, up[0], down[0])
     assert jp.up_size < -0.25 and jp.down_size > 0.25  # run-up drops, run-down rises
     system = hb.MeshSystem(mass=M, stiffness=K, damping=C, half_gap=B, force_mean=FM,
                            force_harmonics=(F0,))
@@ -398,10 +420,10 @@ def test_jump_speeds_are_at_the_turning_points(fig8_sweeps):
 def test_smooth_branches_stay_far_below_the_jump_threshold(fig8_sweeps):
     """The jump criterion's margin: away from the two jumps, no step of either sweep changes
     the amplitude by more than a fifth of the threshold."""
-    speed, up, down = fig8_sweeps
-    jp = jumps.find_jumps(speed, up.amplitude[0], down.amplitude[0])
+    speed, up, down, _ = fig8_sweeps
+    jp = jumps.find_jumps(speed, up[0], down[0])
     mid = 0.5 * (speed[1:] + speed[:-1])
-    for amp, at in ((up.amplitude[0], jp.up_speed), (down.amplitude[0], jp.down_speed)):
+    for amp, at in ((up[0], jp.up_speed), (down[0], jp.down_speed)):
         steps = np.abs(jumps.relative_steps(amp))
         assert np.max(steps[np.abs(mid - at) > 1.0]) < 0.25 / 5
 
@@ -424,11 +446,8 @@ def test_hysteresis_closes_as_damping_grows():
     ~200 rpm at low damping). Near closure the jumps shrink below the threshold (cusp), so the
     sweeps' band closes slightly before the describing function's."""
     damping = np.array([3500.0, 4900.0, 6000.0, 7000.0, 9000.0])
-    speed = np.linspace(6000.0, 11000.0, 250)
-    kw = dict(teeth=TEETH, mass=M, stiffness=K, damping=damping, half_gap=B, force_mean=FM,
-              force_amp=F0, steps_per_period=64, transient_periods=40, record_periods=10)
-    up, down = sweep.sweep(speed, "up", **kw), sweep.sweep(speed, "down", **kw)
-    width = jumps.find_jumps(speed, up.amplitude, down.amplitude).width
+    speed, up, down, _ = study_sweeps({"start": 6000.0, "stop": 11000.0, "num": 250}, damping)
+    width = jumps.find_jumps(speed, up, down).width
     assert np.all(np.diff(width) <= 0) and width[0] > 1000 and width[-1] == 0
     amps = np.unique(np.r_[np.linspace(0.01, 0.999, 300) * B,
                            B * (1 + np.geomspace(1e-8, 3, 4000))])
@@ -445,13 +464,7 @@ def test_hysteresis_closes_as_damping_grows():
     assert_allclose(width[has], df_width[has], rtol=0.2)
 
 
-def test_sweep_rejects_bad_input():
-    with pytest.raises(ValueError, match="direction"):
-        sweep.sweep([1.0, 2.0], "sideways", teeth=48, mass=M, stiffness=K, damping=C,
-                    half_gap=B, force_mean=0.0, force_amp=F0)
-    with pytest.raises(ValueError, match="increase"):
-        sweep.sweep([2.0, 1.0], "up", teeth=48, mass=M, stiffness=K, damping=C, half_gap=B,
-                    force_mean=0.0, force_amp=F0)
+def test_find_jumps_rejects_decreasing_speeds():
     with pytest.raises(ValueError, match="increase"):
         jumps.find_jumps([2.0, 1.0], [1.0, 1.0], [1.0, 1.0])
 

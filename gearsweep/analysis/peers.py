@@ -198,8 +198,11 @@ def gearsweep_kwargs(scenes: list[Scene], spp: int) -> dict:
     s0 = scenes[0]
     kw = s0.kernel_kwargs(spp)
     kw["h"] = np.array([s.period / spp for s in scenes])
-    if "ste_table" in kw:
-        kw["ste_scale"] = (np.array([s.omega for s in scenes]) / s0.omega) ** 2
+    # The scene's periodic forcing (the STE term, as the Scene carries it) scales with W^2.
+    w2 = (np.array([s.omega for s in scenes]) / s0.omega) ** 2
+    for table, scale in (("ste_table", "ste_scale"), ("fluct_table", "fluct_scale")):
+        if kw.get(table) is not None:
+            kw[scale] = np.asarray(kw[scale], dtype=float) * w2
     return kw
 
 
