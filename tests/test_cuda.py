@@ -117,7 +117,6 @@ def _child_main(out: str) -> None:
     res["f32_p_rms"], res["f32_xf"], res["f32_signal"] = r.stats["p_rms"], r.x_final, r.signal
     np.savez(out, **res)
     from gearsweep.api import run_study
-
     from gearsweep.study.dataset import write_netcdf
     from gearsweep.study.schema import parse_study
 
@@ -199,8 +198,8 @@ def test_study_on_cuda_gives_the_cpu_result(gpu_results):
     """``solver.device: cuda`` through the runner and writer: the same variables as the CPU run,
     to 1e-12 of each variable's largest magnitude."""
     import xarray as xr
-    from gearsweep.api import run_study
 
+    from gearsweep.api import run_study
     from gearsweep.study.schema import parse_study
 
     cpu = run_study(parse_study(SIM_STUDY.format(device="cpu")))
