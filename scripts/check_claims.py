@@ -111,6 +111,67 @@ def check_all(claims_file: Path, results: Path, root: Path = ROOT) -> list[str]:
     return out
 
 
+# ---------------------------------------------------------------- docs/claims/*.yaml (per figure)
+
+
+def _namespace(results: Path, cache: dict):
+    """``load(name)`` and the per-result names of docs/claims/README.md."""
+    from gearsweep.api import result_model, result_study
+    from gearsweep.study.jumps import jump_summary
+
+    def load(name: str) -> xr.Dataset:
+        path = results / f"{Path(name).stem if name.endswith('.nc') else name}.nc"
+        if path not in cache:
+            cache[path] = xr.open_dataset(path).load()
+        return cache[path]
+
+    def names(ds: xr.Dataset) -> dict:
+        js = jump_summary(ds) if "p_pp" in ds and "direction" in ds.dims else None
+        model = result_model(ds) if "model" in ds.attrs else None
+        scene = None
+        if model is not None:
+            scene = getattr(result_study(ds), "scene", None)
+        return {"ds": ds, "js": js, "model": model, "scene": scene, "load": load}
+
+    return load, names
+
+
+def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, list[str]]:
+    """(claims checked, reasons of the failed ones) of every ``folder/*.yaml`` in the
+    per-figure format of docs/claims/README.md (``tol``, ``scale``, names ``js``, ``model``...)."""
+    from gearsweep.analysis import hb, rattle, sensor
+
+    cache: dict = {}
+    docs: dict = {}
+    load, names = _namespace(results, cache)
+    n, out = 0, []
+    for path in sorted(folder.glob("*.yaml")):
+        for i, c in enumerate(yaml.safe_load(path.read_text(encoding="utf-8")) or []):
+            n += 1
+            cid = f"{path.name}[{i}]"
+            doc = root / c.get("doc", "docs/REPRODUCTION.md")
+            if doc not in docs:
+                docs[doc] = doc.read_text(encoding="utf-8") if doc.exists() else ""
+            quote, value = str(c["quote"]), float(c["value"])
+            if quote not in docs[doc]:
+                out.append(f"{cid}: quote not in {doc.name}: {quote!r}")
+                continue
+            # (a quote may state its number in words, "never separate", or as a range "91-94")
+            try:
+                env = {"np": np, "math": math, "hb": hb, "rattle": rattle, "sensor": sensor,
+                       **names(load(str(c["result"])))}
+                got = float(np.asarray(eval(str(c["expr"]),  # noqa: S307
+                                            {"__builtins__": SAFE_BUILTINS}, env)))
+            except Exception as exc:  # noqa: BLE001  any failure of the expression fails it
+                out.append(f"{cid}: expression {c['expr']!r} failed: {type(exc).__name__}: {exc}")
+                continue
+            got *= float(c.get("scale", 1.0))
+            if not abs(got - value) <= float(c.get("tol", 0.0)):
+                out.append(f"{cid}: {c['result']} gives {got:.6g} for {c['expr']!r}, the doc"
+                           f" quotes {value:g} (tolerance {c.get('tol', 0)})")
+    return n, out
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--claims", type=Path, default=ROOT / "docs" / "claims.yaml")
@@ -119,6 +180,11 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     n = len(load_claims(args.claims))
     failed = check_all(args.claims, args.results, args.root)
+    folder = args.root / "docs" / "claims"
+    if folder.is_dir():
+        m, more = check_folder(folder, args.results, args.root)
+        n += m
+        failed += more
     for why in failed:
         print(f"   FAIL {why}")
     print(f"== {n} quoted numbers checked against results: "

@@ -86,9 +86,17 @@ def plot(ds: xr.Dataset, path: Path) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--data", type=Path, default=None)
-    ap.add_argument("--out", type=Path, default=ROOT / "figures" / "work_precision_peers.png")
+    ap.add_argument("--results", type=Path, default=None,
+                    help="folder of results (the main job's); else results/, then docs/data/")
+    ap.add_argument("--figures", type=Path, default=ROOT / "figures")
+    ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
-    src = data_file(args.data)
+    args.out = args.out or args.figures / "work_precision_peers.png"
+    explicit = args.data
+    if explicit is None and args.results is not None:
+        candidate = args.results / "work_precision_peers.nc"
+        explicit = candidate if candidate.exists() else None
+    src = data_file(explicit)
     with xr.open_dataset(src) as ds:
         ds = ds.load()
     plot(ds, args.out)
