@@ -47,7 +47,7 @@ def plot_work_precision(ax: Axes, ds: xr.Dataset, *, scene: str, cost: str = "wa
     ax.set_xlabel(xlabel)
     ax.set_ylabel("trajectory error / amplitude [1]")
     rpm = float(sel.speed)
-    ax.set_title(f"{scene} scene, {rpm:.0f} rpm (driving gear): {sel.scene_description.item()}",
+    ax.set_title(f"{scene} scene, {rpm:.0f} rpm (driving gear):\n{sel.scene_description.item()}",
                  fontsize=10)
     if scene == "whine":
         ax.text(0.98, 0.98, "rk4-kink, rk5-kink: identical to rk4, rk5\n(no backlash)",
