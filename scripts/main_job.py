@@ -46,14 +46,18 @@ def check_reproduction(figures: Path, since: float) -> list[str]:
 
 
 def check_claims(results: Path) -> list[str]:
-    """Every number docs/claims.yaml lists must be what the result it cites gives."""
-    from check_claims import check_all, load_claims
+    """Every number docs/claims.yaml and docs/claims/*.yaml list must be what the result it
+    cites gives."""
+    from check_claims import check_all, check_folder, load_claims
 
     claims = ROOT / "docs" / "claims.yaml"
     failed = check_all(claims, results, ROOT)
+    n = len(load_claims(claims))
+    m, more = check_folder(ROOT / "docs" / "claims", results, ROOT)
+    failed += more
     for why in failed:
         print(f"   FAIL {why}", flush=True)
-    print(f"== docs/claims.yaml: {len(load_claims(claims))} quoted numbers, "
+    print(f"== docs/claims.yaml and docs/claims/: {n + m} quoted numbers, "
           + (f"{len(failed)} FAILED" if failed else "all hold"), flush=True)
     return [f"claims: {why}" for why in failed]
 
