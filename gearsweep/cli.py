@@ -10,6 +10,7 @@ import argparse
 import os
 import signal
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -17,7 +18,17 @@ from pathlib import Path
 import numpy as np
 
 from gearsweep import __version__
+from gearsweep.analysis.advise import advise
+from gearsweep.api import run_unchunked
 from gearsweep.errors import NO_VALUE, GearsweepError, ResultError, StudyError
+from gearsweep.kernels.cuda import kernel_for
+from gearsweep.model import MeshModel
+from gearsweep.study.dataset import write_netcdf
+from gearsweep.study.estimate import CHUNK_SECONDS, chunk_cases, line, quick_estimate
+from gearsweep.study.execute import DaskBackend, InProcess, check_limits, cores, run_to_file
+from gearsweep.study.plan import make_plan
+from gearsweep.study.schema import line_of, load_study, load_yaml, replaced_by_sweep, summary
+from gearsweep.study.workspace import OutputLock, check_partial, saved_chunks
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
@@ -30,7 +41,6 @@ def _default_output(study_path: str) -> Path:
 def _check_writable(path: Path) -> None:
     """Fail before the run, not after it, when the output cannot be written: a file is created
     and removed in its folder (what the atomic writer will do)."""
-    import tempfile
 
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
@@ -50,7 +60,6 @@ def _check_writable(path: Path) -> None:
 def _plan(make_plan, study, text: str, path: str):
     """``make_plan``, with a problem it finds (steps per period versus the outputs' sampling)
     reported under the file's name and line, like the schema's own."""
-    from gearsweep.study.schema import line_of, load_yaml
 
     try:
         return make_plan(study, text)
@@ -64,7 +73,6 @@ def _plan(make_plan, study, text: str, path: str):
 
 def _summary(study, plan, est_line: str) -> str:
     """validate's one line: scene, cases, solver, outputs, and the estimate."""
-    from gearsweep.study.schema import replaced_by_sweep
 
     swept = replaced_by_sweep(study)
     replaced = f"; the sweep replaces {', '.join(swept)}" if swept else ""
@@ -80,15 +88,10 @@ def _summary(study, plan, est_line: str) -> str:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from gearsweep.study.estimate import line, quick_estimate
-    from gearsweep.study.execute import check_limits
-    from gearsweep.study.plan import make_plan
-    from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
     name = "<stdin>" if args.study == "-" else args.study
     if getattr(study, "type", None) == "mesh":
-        from gearsweep.study.schema import summary
 
         print(f"{name}: ok -- {summary(study)}")
         return 0
@@ -104,7 +107,6 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _backend(args: argparse.Namespace):
-    from gearsweep.study.execute import DaskBackend, InProcess
 
     if args.scheduler:
         return DaskBackend(scheduler=args.scheduler)
@@ -142,12 +144,6 @@ def _stoppable(backend):
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from gearsweep.kernels.cuda import kernel_for
-    from gearsweep.study.estimate import CHUNK_SECONDS, chunk_cases, line, quick_estimate
-    from gearsweep.study.execute import check_limits, cores, run_to_file
-    from gearsweep.study.plan import make_plan
-    from gearsweep.study.schema import load_study
-    from gearsweep.study.workspace import OutputLock, check_partial, saved_chunks
 
     study, text = load_study(args.study)
     if args.study == "-" and not args.output:
@@ -156,8 +152,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not args.estimate:
         _check_writable(out)
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
-        from gearsweep.api import run_unchunked
-        from gearsweep.study.dataset import write_netcdf
 
         if args.estimate:
             print(f"{args.study}: a {study.type} study, computed in one piece: no estimate")
@@ -309,10 +303,6 @@ def _looks_like_study(path: Path) -> bool:
 
 def cmd_advise(args: argparse.Namespace) -> int:
     """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
-    from gearsweep.analysis.advise import advise
-    from gearsweep.model import MeshModel
-    from gearsweep.study.plan import make_plan
-    from gearsweep.study.schema import load_study
 
     study, text = load_study(args.study)
     if getattr(study, "type", None) in ("mesh", "analysis"):

@@ -7,20 +7,15 @@ next to the value from the method's stability polynomial.
 
 from __future__ import annotations
 
-import math
-
 from _common import open_result, parse
 
-from gearsweep.model import PAPER_RIG
 from gearsweep.plot.common import axes, save
 from gearsweep.plot.precision import plot_method_stability
 
 args = parse(__doc__.splitlines()[0])
 ds = open_result(args.results, "method_stability")
-rig = PAPER_RIG
-zeta = rig.damping / (2.0 * math.sqrt(rig.stiffness * rig.mass))
 fig, ax = axes(figsize=(7.5, 5))
-plot_method_stability(ax, ds, rig_zeta=zeta)
+plot_method_stability(ax, ds, rig_zeta=float(ds.attrs["paper_rig_zeta"]))
 ax.set_title(f"{ds.attrs['title']}\n(free linear oscillator; the kink-aware forms take the same "
              "steps inside a contact region)", fontsize=10)
 save(fig, args.figures / "method_stability.png")

@@ -20,7 +20,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from gearsweep.analysis.reference import PiecewiseSolution, reference_exact, reference_ivp
 from gearsweep.kernels import rk
@@ -118,6 +117,8 @@ def run_scipy(scene: Scene, method: str, rtol: float, window: Window, p_ref: np.
     """Integrate with ``solve_ivp`` as a user would: the dead zone in the right-hand side, no
     events, ``atol = rtol * response scale``, output at the sampling instants by the solver's
     dense output."""
+    from scipy.integrate import solve_ivp  # heavy: loaded only where a peer runs
+
     b = scene.half_gap
     w = scene.omega
     km, cm, gm = scene.k_mean, scene.damping, scene.g_mean

@@ -29,8 +29,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from gearsweep.model import Scene
 
@@ -126,6 +124,8 @@ def reference_ivp(
     -------
     PiecewiseSolution
     """
+    from scipy.integrate import solve_ivp  # heavy: loaded only where a reference is computed
+
     b = scene.half_gap
     scale = scene.response_scale()
     wn = max(scene.omega_n, scene.omega)
@@ -345,6 +345,8 @@ def reference_exact(
 
 def _first_crossing(piece, region: int, b: float, t0: float, t_end: float, dtau: float):
     """First time in (t0, t_end] at which the solution leaves ``region``; (time, boundary)."""
+    from scipy.optimize import brentq  # heavy: loaded only where a reference is computed
+
     bounds = {CONTACT: [(b, 1.0)], BACK: [(-b, -1.0)], GAP: [(b, -1.0), (-b, 1.0)]}[region]
     chunk = 512
     ta = t0

@@ -21,7 +21,7 @@ from gearsweep.analysis import precision as pr
 from gearsweep.analysis import rattle as rfit
 from gearsweep.analysis import stability as st
 from gearsweep.errors import ResultError
-from gearsweep.model import RPM, MeshModel, model_from_record
+from gearsweep.model import PAPER_RIG, RPM, MeshModel, model_from_record
 from gearsweep.study.analysis_specs import (
     AnalysisStudy,
     ArtifactMap,
@@ -80,7 +80,9 @@ def method_stability(o: MethodStability, inputs: dict | None = None
         "power": {"units": "1", "long_name": "power of z"},
         "method": {"long_name": "fixed-step method"},
     }
-    return data, coords, attrs, {"steps": o.steps}
+    rig = PAPER_RIG  # where the paper's rig sits on the zeta axis (figures mark it)
+    rig_zeta = rig.damping / (2.0 * math.sqrt(rig.stiffness * rig.mass))
+    return data, coords, attrs, {"steps": o.steps, "paper_rig_zeta": round(rig_zeta, 6)}
 
 
 def artifact_map(o: ArtifactMap, inputs: dict) -> tuple[dict, dict, dict, dict]:

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -31,8 +31,9 @@ from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
 
-if TYPE_CHECKING:
-    from gearsweep.study.plan import Plan
+Plan = Any
+"""What an output is given: a ``gearsweep.study.plan.Plan`` (its ``model``, ``study``, ``grids``,
+``options``). Named, not imported: the plan imports the outputs, so the outputs cannot import it."""
 
 
 @dataclass(frozen=True)
