@@ -236,3 +236,23 @@ def si_values(da) -> np.ndarray:
         if units == kind.cf:
             return np.asarray(from_display(values, kind.name), dtype=float)
     return values
+
+
+_SI_CF = {"m": "m", "N*s/m": "N s m-1", "N/m": "N m-1", "Pa": "Pa", "rad": "rad",
+          "kg*m**2": "kg m2", "N*m": "N m", "N": "N", "kg": "kg", "Hz": "Hz", "rpm": "rpm"}
+"""The SI unit of each kind as a UDUNITS string (pint spelling -> CF)."""
+
+
+def si_data_vars(ds):
+    """``ds`` (a result Dataset) with every data variable stored in a display unit (p in um,
+    stiffness in kN/mm, ...) converted to SI, its ``units`` attribute saying so; coordinates
+    are left in their display units. For code that computes in SI; idempotent."""
+    out = ds.copy()
+    for name in ds.data_vars:
+        da = ds[name]
+        kind = next((k for k in KINDS.values() if k.cf == da.attrs.get("units")), None)
+        if kind is None or display_factor(kind.name) == 1.0:
+            continue
+        out[name] = da.copy(data=from_display(np.asarray(da.values, float), kind.name))
+        out[name].attrs["units"] = _SI_CF[kind.si]
+    return out

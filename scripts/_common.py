@@ -7,6 +7,8 @@ from pathlib import Path
 
 import xarray as xr
 
+from gearsweep.units import si_data_vars
+
 
 def parse(description: str) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=description)
@@ -16,7 +18,10 @@ def parse(description: str) -> argparse.Namespace:
 
 
 def open_result(folder: Path, study: str) -> xr.Dataset:
+    """The result of ``study`` with its data variables in SI (the file stores display units, p
+    in um; the plot functions and the scripts' arithmetic work in SI and label in display
+    units). Coordinates stay in their display units (backlash in mm, damping in N s/mm)."""
     path = folder / f"{study}.nc"
     if not path.exists():
         raise SystemExit(f"{path} not found: run `gearsweep run studies/{study}.yaml` first")
-    return xr.load_dataset(path)
+    return si_data_vars(xr.load_dataset(path))

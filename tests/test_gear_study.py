@@ -14,11 +14,13 @@ from scipy.integrate import solve_ivp
 from gearsweep.cli import main
 from gearsweep.errors import GeometryError, StudyError
 from gearsweep.gear import GearPair, TipRelief, table1_consistent
+from gearsweep.gear.excitation import gear_excitation
 from gearsweep.gear.mesh import fourier, fourier_series, mesh_cycle, mesh_cycles
 from gearsweep.kernels import simulate
 from gearsweep.model import RPM, kernel_inputs
 from gearsweep.study.plan import build_model
 from gearsweep.study.schema import parse_study
+from gearsweep.units import si_values
 
 STUDIES = Path(__file__).resolve().parent.parent / "studies"
 
@@ -208,7 +210,8 @@ def test_mesh_study_refuses_table1_as_printed(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("extra, message", [
-    ("  torque: 50 N*m\n  stiffness: 1073 kN/mm\n", "give either 'gear' or typed-in stiffness"),
+    ("  torque: 50 N*m\n  stiffness_harmonics: [{amplitude: 179 kN/mm}]\n",
+     "need 'stiffness' too"),  # a typed-in k(t) beside a gear replaces the pair's as a whole
     ("  torque: 50 N*m\n  ste: [{amplitude: 5 um}]\n", "give either 'gear' or typed-in ste"),
     ("  torque: 50 N*m\n  teeth: 48\n", "give either 'gear' or typed-in teeth"),
     ("  torque: 50 N*m\n  base_radius: 56 mm\n", "typed-in base_radius"),
@@ -241,8 +244,8 @@ def test_gear_scene_sweeps_torque_with_k_and_ste_recomputed_per_load():
         alone = run(whine("table1_consistent", one, kind="rattle"))
         assert_allclose(swept.p_rms.isel(torque=i).values, alone.p_rms.values, rtol=1e-13)
         model = build_model(parse_study(whine("table1_consistent", one, kind="rattle")))
-        assert swept.gear_stiffness.values[i] == pytest.approx(model.stiffness, rel=1e-14)
-        assert e1[i] == pytest.approx(model.ste_harmonics[0].amplitude, rel=1e-14)
+        assert si_values(swept.gear_stiffness)[i] == pytest.approx(model.stiffness, rel=1e-14)
+        assert e1[i] == pytest.approx(model.ste_harmonics[0].amplitude * 1e6, rel=1e-14)  # um
 
 
 def test_gear_scene_refuses_a_stiffness_sweep():
@@ -267,8 +270,8 @@ def test_geometry_error_is_a_gearsweep_error_raised_by_parse_study():
 
 # --------------------------------------------------------------------------- mesh studies
 
-MESH_UNITS = {"ste": "m", "load_share": "1", "mesh_stiffness": "N m-1", "k_harmonic": "N m-1",
-              "k_phase": "rad", "ste_harmonic": "m", "ste_phase": "rad"}
+MESH_UNITS = {"ste": "um", "load_share": "1", "mesh_stiffness": "kN mm-1",
+              "k_harmonic": "kN mm-1", "k_phase": "rad", "ste_harmonic": "um", "ste_phase": "rad"}
 
 
 def test_mesh_study_netcdf_has_data_md_names_dims_units_and_mesh_cycle_values(tmp_path, capsys):
@@ -309,13 +312,13 @@ def test_mesh_study_netcdf_has_data_md_names_dims_units_and_mesh_cycle_values(tm
             cycles = mesh_cycles(pair, [10.0, 50.0, 100.0], n=64, tip_relief=relief)
             for q, mc in enumerate(cycles):
                 v = ds.sel(variant=variant).isel(torque=q)
-                assert_allclose(v["ste"].values, mc.ste, rtol=1e-12)
+                assert_allclose(si_values(v["ste"]), mc.ste, rtol=1e-12)  # the file: um
                 assert_allclose(v["load_share"].values, mc.load_share, rtol=1e-12)
                 amp, ph = fourier(mc.mesh_stiffness, 5)
-                assert_allclose(v["k_harmonic"].values, amp, rtol=1e-12)
+                assert_allclose(si_values(v["k_harmonic"]), amp, rtol=1e-12)  # kN/mm
                 # The stored Fourier series reproduces the stored STE to the truncation error.
-                e = fourier_series(v["ste_harmonic"].values, v["ste_phase"].values, phase)
-                assert np.abs(e - v["ste"].values).max() < 0.5 * np.ptp(mc.ste) + 1e-12
+                e = fourier_series(si_values(v["ste_harmonic"]), v["ste_phase"].values, phase)
+                assert np.abs(e - si_values(v["ste"])).max() < 0.5 * np.ptp(mc.ste) + 1e-12
     assert main(["inspect", str(tmp_path / "out.nc")]) == 0
     assert "static mesh study, 64 positions per mesh cycle" in capsys.readouterr().out
 
@@ -329,7 +332,7 @@ def test_single_torque_mesh_study_has_no_torque_dim():
     assert ds["ste"].dims == ("mesh_phase",)
     assert ds["load_share"].dims == ("mesh_phase", "pair")
     assert float(ds["torque"]) == 50.0 and ds["torque"].dims == ()
-    assert float(ds["k_harmonic"][0]) == pytest.approx(
+    assert si_values(ds["k_harmonic"])[0] == pytest.approx(
         mesh_cycle(table1_consistent(), 50.0, n=50).mesh_stiffness.mean(), rel=1e-12)
 
 
@@ -361,3 +364,26 @@ def test_scene_without_gear_still_needs_teeth_and_stiffness():
     with pytest.raises(StudyError, match=r"'harmonics' is the number of Fourier terms of a 'gear'"):
         parse_study("title: t\nscene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
                     " harmonics: 3}\nsweep: {speed: [100]}\n")
+
+
+def test_gear_scene_with_typed_in_stiffness_keeps_the_pairs_loaded_ste_and_phases():
+    """``stiffness`` (and ``stiffness_harmonics``) beside a ``gear`` replace the pair's k(t);
+    e(t) is then the pair's loaded STE, and a k_n without a phase keeps the pair's phase."""
+    text = ("title: t\nscene: {kind: whine, gear: table1_consistent, harmonics: 4, torque: 50 N*m,"
+            " mass: 0.1527 kg, damping: 5.5 N*s/mm, stiffness: 1073 kN/mm,"
+            " stiffness_harmonics: [{amplitude: 179 kN/mm}, {amplitude: 40 kN/mm, phase: 0 rad}]}"
+            "\nsweep: {speed: [3000 rpm]}\n")
+    model = build_model(parse_study(text))
+    pair = gear_excitation(table1_consistent(), 50.0, harmonics=4)
+    assert model.stiffness == pytest.approx(1.073e9)
+    assert [h.amplitude for h in model.stiffness_harmonics] == pytest.approx([1.79e8, 4.0e7])
+    assert model.stiffness_harmonics[0].phase == pair.stiffness_harmonics[0].phase
+    assert model.stiffness_harmonics[1].phase == 0.0  # typed
+    assert model.ste_harmonics == pair.ste_harmonics  # the loaded STE, not STE - F/k(t)
+    # the pair's own k(t) is another model (e(t) = STE - F / k(t), about zero for these teeth)
+    own = build_model(parse_study(text.replace(", stiffness: 1073 kN/mm", "").replace(
+        " stiffness_harmonics: [{amplitude: 179 kN/mm}, {amplitude: 40 kN/mm, phase: 0 rad}]",
+        "").replace("damping: 5.5 N*s/mm,", "damping: 5.5 N*s/mm")))
+    assert own.stiffness == pytest.approx(pair.stiffness)
+    with pytest.raises(StudyError, match="need 'stiffness' too"):
+        parse_study(text.replace(" stiffness: 1073 kN/mm,", ""))

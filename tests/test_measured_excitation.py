@@ -166,12 +166,12 @@ def test_whine_from_csv_runs_as_the_typed_in_scene(tmp_path):
     for v in ("p_rms", "p_pp", "p_mean", "p_max"):
         assert_allclose(ds_m[v].values, ds_t[v].values, rtol=1e-8, err_msg=v)
     assert float(ds_t.p_pp.min()) > 1e-7  # a real response, not zeros on both sides
-    assert float(ds_m.excitation_fit_residual_ste) < 1e-18
-    assert float(ds_m.excitation_fit_residual_stiffness) < 1e-6  # N/m of 2e8
-    assert ds_m.excitation_fit_residual_ste.attrs["units"] == "m"
+    assert float(ds_m.excitation_fit_residual_ste) < 1e-12  # um
+    assert float(ds_m.excitation_fit_residual_stiffness) < 1e-12  # kN/mm of 200
+    assert ds_m.excitation_fit_residual_ste.attrs["units"] == "um"
     assert list(ds_m.excitation_order.values) == [1, 2, 3, 4, 5]
     assert float(ds_m.excitation_ste_amplitude.sel(excitation_order=3)) == pytest.approx(
-        0.4e-6, rel=1e-10)
+        0.4, rel=1e-10)  # um
     assert float(ds_m.excitation_stiffness_phase.sel(excitation_order=2)) == pytest.approx(
         -1.9, abs=1e-10)
     model = json.loads(ds_m.attrs["model"])
@@ -200,7 +200,7 @@ def test_rattle_from_netcdf_with_angle_runs_as_the_typed_in_scene(tmp_path):
         assert_allclose(ds_m[v].values, ds_t[v].values, rtol=1e-8, atol=1e-15, err_msg=v)
     assert float(ds_t.contact_loss_fraction.max()) > 0.3  # the STE makes it rattle
     assert (ds_t.status.values == 0).all()
-    assert float(ds_m.excitation_fit_residual_ste) < 1e-18
+    assert float(ds_m.excitation_fit_residual_ste) < 1e-12  # um
     assert math.isnan(float(ds_m.excitation_fit_residual_stiffness))  # no stiffness in the file
 
 

@@ -64,7 +64,7 @@ def test_waterfall_draws_the_spectrum(ds):
     lines = ax.get_lines()
     assert len(lines) == 5
     x, y, z = lines[-1].get_data_3d()
-    assert_allclose(z, one.spectrum.values[-1, 1:] * 1e6)  # order 0 left out, in um
+    assert_allclose(z, one.spectrum.values[-1, 1:])  # order 0 left out; the file is in um
     assert_allclose(x, one.frequency.values[-1, 1:] * 1e-3)  # kHz above 5 kHz
     assert np.all(y == 18000.0)
     assert "[µm]" in ax.get_zlabel() and "[rpm]" in ax.get_ylabel()
@@ -77,7 +77,7 @@ def test_campbell_map_and_natural_frequency_curve(ds):
     plot_campbell(ax, one, natural_frequency_hz=f_n, floor=1e-3)
     mesh = ax.collections[0]
     assert_allclose(np.asarray(mesh.get_array()).reshape(17, 41),
-                    np.clip(one.spectrum.values.T * 1e6, 1e-3, None))
+                    np.clip(one.spectrum.values.T, 1e-3, None))  # um
     curve = ax.get_lines()[0]
     assert_allclose(curve.get_ydata(), f_n / one.mesh_frequency.values)
     # The circles sit where order n meets f_n: speed 60 f_n / (48 n).
@@ -90,12 +90,12 @@ def test_campbell_map_and_natural_frequency_curve(ds):
 def test_response_and_order_lines(ds):
     fig, ax = plt.subplots()
     plot_response_vs_speed(ax, ds, by="torque", variable="p_rms")
-    assert_allclose(ax.get_lines()[1].get_ydata(), ds.p_rms.sel(torque=50.0).values * 1e6)
+    assert_allclose(ax.get_lines()[1].get_ydata(), ds.p_rms.sel(torque=50.0).values)  # um
     fig, ax = plt.subplots()
     plot_order_lines(ax, ds.sel(torque=50.0), derivative=1, driven_teeth=32)
     line = ax.get_lines()[0]
     amp = ds.spectrum.sel(torque=50.0, order=1.0).values
     f = ds.frequency.sel(order=1.0).values
-    assert_allclose(line.get_ydata(), 2 * np.pi * f * amp * 1e3)  # mm/s
+    assert_allclose(line.get_ydata(), 2 * np.pi * f * amp * 1e-3)  # um/s -> mm/s
     assert_allclose(line.get_xdata(), ds.speed.values * 48 / 32)
     assert "[mm/s]" in ax.get_ylabel()

@@ -16,7 +16,7 @@ from gearsweep.errors import StudyError
 from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.plan import build_model
 from gearsweep.study.schema import parse_study
-from gearsweep.units import to_si
+from gearsweep.units import si_values, to_si
 
 RATTLE = """
 title: tiny rattle sweep
@@ -162,11 +162,11 @@ def test_linear_study_matches_the_analytic_frequency_response():
     # rk5 at 128 steps/period: integration error ~ (h w_n)^5 / 1000 << 1e-6 here (h w_n < 0.25).
     # The rms over whole periods of uniform samples of a sinusoid is exact (sum of cos^2 = N/2),
     # so it carries the integration error alone:
-    np.testing.assert_allclose(ds["p_rms"].values * np.sqrt(2), amp, rtol=1e-6)
-    np.testing.assert_allclose(ds["p_mean"].values, 50.0 / k, rtol=1e-9)
+    np.testing.assert_allclose(si_values(ds["p_rms"]) * np.sqrt(2), amp, rtol=1e-6)
+    np.testing.assert_allclose(si_values(ds["p_mean"]), 50.0 / k, rtol=1e-9)
     # Peaks are sampled at the steps: the extremes may miss the true peak by up to
     # 1 - cos(pi / 128) = 3.0e-4 of the amplitude, and never exceed it.
-    half_pp = ds["p_pp"].values / 2
+    half_pp = si_values(ds["p_pp"]) / 2
     assert np.all(half_pp <= amp * (1 + 1e-6))
     assert np.all(half_pp >= amp * (1 - (1 - np.cos(np.pi / 128)) - 1e-6))
     assert (ds["status"].values == 0).all()

@@ -105,3 +105,32 @@ solver: {steps_per_period: 32, transient_periods: 4, record_periods: 4}
     assert ds["backlash"].values == pytest.approx([0.1, 0.2])
     for name in ds.variables:
         assert ds[name].attrs.get("units") != "-", name
+
+
+def test_data_variables_are_in_display_units_too():
+    """p in um (the mean deflection F_m / k0 of a linear scene), spectra in um, and
+    ``si_data_vars`` gives SI back."""
+    from gearsweep.api import run_study
+    from gearsweep.study.schema import parse_study
+    from gearsweep.units import si_data_vars
+
+    text = """\
+title: p in um
+scene: {kind: whine, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, damping: 5.5 N s/mm,
+        mean_force: 100 N}
+sweep:
+  speed: [3000 rpm, 6000 rpm]
+solver: {steps_per_period: 32, transient_periods: 40, record_periods: 4}
+outputs: [stats, {spectrum: {max_order: 2}}]
+"""
+    ds = run_study(parse_study(text, "u.yaml"), text)
+    static_um = 100.0 / 1.073e9 * 1e6  # F_m / k0 = 0.0932 um
+    for name in ("p_rms", "p_pp", "p_mean", "spectrum"):
+        assert ds[name].attrs["units"] == "um", name
+    assert ds["p_mean"].values == pytest.approx([static_um] * 2, rel=1e-9)
+    assert ds["spectrum"].sel(order=0.0).values == pytest.approx([static_um] * 2, rel=1e-9)
+    si = si_data_vars(ds)
+    assert si["p_mean"].attrs["units"] == "m"
+    assert si["p_mean"].values == pytest.approx([static_um * 1e-6] * 2, rel=1e-12)
+    assert si_data_vars(si)["p_mean"].values == pytest.approx(si["p_mean"].values)  # idempotent
+    assert ds["speed"].values.tolist() == [3000.0, 6000.0]  # coordinates untouched

@@ -20,6 +20,7 @@ from matplotlib.figure import Figure
 
 from gearsweep.errors import ResultError
 from gearsweep.gear.mesh import MeshCycle
+from gearsweep.units import si_data_vars
 
 __all__ = [
     "plot_backlash_stiffness",
@@ -51,6 +52,7 @@ def _cycle(data: MeshCycle | xr.Dataset) -> _Cycle:
     if isinstance(data, MeshCycle):
         return _Cycle(data.phase, data.ste, data.load_share, data.in_contact,
                       data.pair.contact_ratio, data.pair.base_pitch, data.torque)
+    data = si_data_vars(data)  # a result stores display units (STE in um): here SI
     extra = set(data["ste"].dims) - {"mesh_phase"}
     if extra:
         raise ResultError(f"select one mesh cycle first (e.g. .sel(...)); extra dims {sorted(extra)}")

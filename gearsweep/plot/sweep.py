@@ -8,6 +8,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from gearsweep.plot.common import UM, axes
+from gearsweep.units import si_data_vars
 
 
 def _label(ds: xr.Dataset, dim: str, value) -> str:
@@ -58,6 +59,7 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
         Legend labels of the ``hue`` values (default: name = value unit).
     """
     fig, ax = axes(ax)
+    ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da, n_masked, n_all = settled(ds[var], ds)
     others = [d for d in da.dims if d not in ("speed", "direction")]
     if hue is None and others:

@@ -22,7 +22,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
 from gearsweep.model import model_from_record
-from gearsweep.units import si_values
+from gearsweep.units import si_data_vars, si_values
 
 __all__ = [
     "damping_labels",
@@ -103,6 +103,7 @@ def plot_waterfall(
     zlabel : str, optional
         Label of the amplitude axis (default: from the variable: p in µm or a force in N).
     """
+    ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da = ds[variable]
     if "speed" not in da.dims or "order" not in da.dims or da.ndim != 2:
         raise ValueError(f"{variable} must be on (speed, order) only, got {da.dims}")
@@ -164,6 +165,7 @@ def plot_campbell(
     driven_teeth : int, optional
         Speed axis in the driven gear's speed.
     """
+    ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da = ds[variable]
     is_force = da.attrs.get("units") == "N"
     scale = 1.0 if is_force else UM
@@ -232,6 +234,7 @@ def plot_response_vs_speed(
     relative : bool
         Draw each line divided by the line of the first value of ``by`` [-].
     """
+    ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da = ds[variable]
     speed = ds["speed"].values
     unit = ds[by].attrs.get("units", "")
@@ -284,6 +287,7 @@ def plot_order_lines(
     log : bool
         Logarithmic amplitude axis.
     """
+    ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     speed, speed_label = _speed_axis(ds, driven_teeth)
     scale, unit, what = {0: (UM, "µm", "displacement"), 1: (1e3, "mm/s", "velocity"),
                          2: (1.0, "m/s^2", "acceleration")}[derivative]

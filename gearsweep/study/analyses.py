@@ -33,7 +33,7 @@ from gearsweep.study.analysis_specs import (
 )
 from gearsweep.study.dataset import build_dataset
 from gearsweep.study.jumps import JUMP_VARIABLES, jump_summary
-from gearsweep.units import KINDS, from_display
+from gearsweep.units import KINDS, from_display, si_values
 
 DRIVEN_TEETH = 32
 """Teeth of Table 1's driven pinion (the rig's shaft the paper's rpm axes may refer to)."""
@@ -226,6 +226,11 @@ def work_precision(o: WorkPrecision, inputs: dict | None = None) -> tuple[dict, 
     return data, coords, attrs, settings
 
 
+def _si(da: xr.DataArray) -> xr.DataArray:
+    """A result variable in SI (results store display units: p in um, ...)."""
+    return da.copy(data=si_values(da))
+
+
 def _settled(da: xr.DataArray, ds: xr.Dataset) -> xr.DataArray:
     """``da`` where the case settled (status 0), NaN elsewhere."""
     return da.where((ds["status"] == 0).broadcast_like(da))
@@ -260,7 +265,7 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     f0, m, k, c, fm = fh.amplitude, model.mass, model.stiffness, model.damping, model.mean_force
     w_per_rpm = model.teeth * RPM * fh.order
     speed = ds["speed"].values
-    amp = _settled(0.5 * ds["p_pp"], ds).transpose("direction", "speed")
+    amp = _settled(0.5 * _si(ds["p_pp"]), ds).transpose("direction", "speed")
     grid = np.unique(np.r_[np.linspace(0.005 * b, 0.9999 * b, 400),
                            b * (1 + np.geomspace(1e-8, o.curve_top - 1, 4000))])
     common = dict(mass=m, stiffness=k, damping=c, half_gap=b, force_amp=f0)
@@ -322,7 +327,7 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "eq15_root": (("eq15_speed", "root"), r15),
         "graphical_root": (("line", "root"), g_roots),
         "flip_speed": ((), flip),
-        "flip_amplitude": ((), float(np.interp(flip, speed, 0.5 * ds["p_pp"].sel(
+        "flip_amplitude": ((), float(np.interp(flip, speed, 0.5 * _si(ds["p_pp"]).sel(
             direction="down").values)) if np.isfinite(flip) else np.nan),
         "jump_up_speed": ((), up_jump), "jump_down_speed": ((), down_jump),
         "jump_up_size": ((), float(js.jump_up_size)),
@@ -348,7 +353,8 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
                                               "describing_function_no_mean_force", "aft"])),
               "eq15_speed": (("eq15_speed",), sp15), "line": (("line",), np.array(list("ABC"))),
               "line_speed": (("line",), g_speed)}
-    rpm, amp_m = {"units": "rpm"}, {"units": "m"}
+    rpm, amp_m = {"units": "rpm"}, {"kind": "displacement"}  # kinds: given in SI, stored in
+    # their display units (gearsweep.units)
     attrs = {
         "amplitude": {**amp_m, "long_name": "integration: half peak-to-peak of p (settled cases;"
                       " NaN elsewhere)"},
@@ -400,9 +406,11 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "settle_error_max": {"units": "1", "long_name": "largest settle_error of the integration"},
         "not_settled": {"units": "1", "long_name": "case-speeds with status != 0"},
         "cases": {"units": "1", "long_name": "case-speeds of the integration"},
-        "mass": {"units": "kg", "long_name": "m_eq"}, "stiffness": {"units": "N/m"},
-        "damping": {"units": "N*s/m"}, "half_gap": {**amp_m, "long_name": "b = backlash / 2"},
-        "backlash": {**amp_m, "long_name": "backlash along the line of action"},
+        "mass": {"units": "kg", "long_name": "m_eq"},
+        "stiffness": {"kind": "stiffness", "long_name": "mesh stiffness k"},
+        "damping": {"kind": "damping", "long_name": "mesh damping c"},
+        "half_gap": {"kind": "length", "long_name": "b = backlash / 2"},
+        "backlash": {"kind": "length", "long_name": "backlash along the line of action"},
         "force_amplitude": {"units": "N", "long_name": "F0"},
         "force_order": {"units": "1", "long_name": "mesh order of F0"},
         "mean_force": {"units": "N", "long_name": "F_m"},
@@ -423,7 +431,7 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
     m8 = _model(fit, o.fitted)
     (fh,) = m8.force_harmonics
     w8 = m8.teeth * RPM
-    e1 = float(inputs[o.mesh]["ste_harmonic"].sel(harmonic=1))
+    e1 = float(_si(inputs[o.mesh]["ste_harmonic"]).sel(harmonic=1))
     first = inputs[o.scenes[0]]["speed"].values
     sp = np.linspace(float(first[0]), float(first[-1]), o.points)
     dampings = sorted({float(c) for n in o.scenes for c in inputs[n]["damping"].values},
@@ -452,7 +460,7 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
             opened = ds["speed"].values[(loss.sel(damping=c) > 0).values]
             if opened.size:
                 per["open_low"][i, j], per["open_high"][i, j] = opened.min(), opened.max()
-            per["p_pp_max"][i, j] = float(ds["p_pp"].sel(damping=c).max())
+            per["p_pp_max"][i, j] = float(_si(ds["p_pp"]).sel(damping=c).max())
             per["backside_max"][i, j] = float(ds["backside_contact_fraction"].sel(damping=c).max())
     at = np.asarray(o.at_speeds, float)
     sc = ("scene", "damping")
@@ -483,12 +491,13 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         "fitted_force": {"units": "N", "long_name": f"F0 fitted for {o.fitted}"},
         "fitted_order": {"units": "1", "long_name": "mesh order of the fitted force"},
         "mean_force": {"units": "N", "long_name": "mean mesh force F_m of the fitted scene"},
-        "ste_1": {"units": "m", "long_name": "e_1, the pair's first STE harmonic"},
-        "half_gap": {"units": "m", "long_name": "b = backlash / 2 of the fitted scene"},
+        "ste_1": {"kind": "displacement", "long_name": "e_1, the pair's first STE harmonic"},
+        "half_gap": {"kind": "length", "long_name": "b = backlash / 2 of the fitted scene"},
         "k_e1_fitted": {"units": "N", "long_name": "k e_1 at the fitted scene's k"},
         "inertia_force": {"units": "N", "long_name": "m_eq w^2 e_1 (w: mesh order 1)"},
         "inertia_force_at": {"units": "N", "long_name": "m_eq w^2 e_1 at at_speed"},
-        "scene_stiffness": {"units": "N/m", "long_name": "mean mesh stiffness k0 of the scene"},
+        "scene_stiffness": {"kind": "stiffness", "long_name": "mean mesh stiffness k0 of the"
+                            " scene"},
         "zeta": {"units": "1", "long_name": "damping ratio c / (2 sqrt(k m))"},
         "k_e1": {"units": "N", "long_name": "k e_1 at the scene's k"},
         "threshold": {"units": "N", "long_name": "least force amplitude that opens the mesh"
@@ -498,7 +507,7 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         "contact_loss_from": {**rpm, "long_name": "lowest speed with contact loss (either"
                               " sweep; NaN: none)"},
         "contact_loss_to": {**rpm, "long_name": "highest speed with contact loss"},
-        "p_pp_max": {"units": "m", "long_name": "largest peak-to-peak p"},
+        "p_pp_max": {"kind": "displacement", "long_name": "largest peak-to-peak p"},
         "backside_contact_max": {"units": "1", "long_name": "largest back-flank fraction"},
         "not_settled": {"units": "1", "long_name": "case-speeds with status != 0"},
         "damping": {"units": KINDS["damping"].cf, "long_name": "mesh damping c"},

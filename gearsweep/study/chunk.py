@@ -169,6 +169,8 @@ def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) 
     out: dict[str, np.ndarray] = {}
     for o in plan.outputs:
         out.update(OUTPUTS[o].compute(plan, params, res))
+    out = {name: plan.specs[name].to_result(a) if name in plan.specs else a
+           for name, a in out.items()}  # SI -> the unit the result stores (p in um)
     status = res.status.astype(np.int8)
     unsettled = (status == 0) & ~(res.stats["settle_error"] <= s.settle_tolerance)
     status[unsettled] = STATUS_NOT_SETTLED

@@ -19,6 +19,10 @@ from gearsweep.study.display import display_coordinates
 from gearsweep.study.measured import scene_measured
 from gearsweep.study.outputs import VarSpec
 from gearsweep.study.provenance import coordinate_encoding, provenance
+from gearsweep.units import KINDS, to_display
+
+UM = KINDS["displacement"].cf
+"""The unit of p (and of every displacement) in a result: um."""
 
 COORDS = {
     "speed": ("rpm", "shaft speed of the driving gear (gear 1)"),
@@ -42,16 +46,16 @@ COORDS = {
 """Units and long names of the coordinates of DATA.md (units as CF/UDUNITS strings)."""
 
 VARIABLES = {
-    "p_rms": ("m", "rms of p about its mean, steady state"),
-    "p_pp": ("m", "peak-to-peak of p, steady state"),
-    "p_max": ("m", "maximum of p, steady state"),
-    "p_min": ("m", "minimum of p, steady state"),
-    "p_mean": ("m", "mean of p, steady state"),
+    "p_rms": (UM, "rms of p about its mean, steady state"),
+    "p_pp": (UM, "peak-to-peak of p, steady state"),
+    "p_max": (UM, "maximum of p, steady state"),
+    "p_min": (UM, "minimum of p, steady state"),
+    "p_mean": (UM, "mean of p, steady state"),
     "contact_loss_fraction": ("1", "fraction of steady-state time with |p| < backlash/2"),
     "backside_contact_fraction": ("1", "fraction of steady-state time on the back flank"),
     "impacts_per_period": ("1", "entries into contact from the gap per mesh period"),
     "settle_error": ("1", "change of the extremes of p between the halves of the window / p_pp"),
-    "spectrum": ("m", "single-sided amplitude spectrum of p over whole mesh periods"),
+    "spectrum": (UM, "single-sided amplitude spectrum of p over whole mesh periods"),
     "floquet_multiplier": ("1", "largest |mu| of the monodromy matrix"),
     "unstable": ("1", "the equation is unstable (floquet_multiplier > 1)"),
     "integrator_unstable": ("1", "the method and step diverge where the equation does not"),
@@ -81,8 +85,9 @@ def build_dataset(
     Parameters
     ----------
     data_vars, coords : dict name -> (dims, values)
-        Values in SI (speed in rpm). Units and long names come from ``COORDS``/``VARIABLES``
-        unless ``var_attrs`` gives them.
+        Values as stored, with units and long names from ``COORDS``/``VARIABLES`` unless
+        ``var_attrs`` gives them. A variable whose ``var_attrs`` name a ``kind``
+        (``gearsweep.units.KINDS``) is given in SI and stored in that kind's display unit.
     title : str
     study_text : str
         The study YAML as run (kept verbatim with its sha256).
@@ -91,18 +96,21 @@ def build_dataset(
     """
     var_attrs = var_attrs or {}
 
-    def attrs(name: str, table: dict) -> dict:
+    def variable(name: str, dims: tuple[str, ...], values, table: dict) -> xr.Variable:
         a = {}
         if name in table:
             a["units"], a["long_name"] = table[name]
         a.update(var_attrs.get(name, {}))
+        kind = a.pop("kind", None)
+        if kind is not None:  # given in SI, stored in the kind's display unit
+            values, a["units"] = to_display(np.asarray(values), kind), KINDS[kind].cf
         a.setdefault("units", "1")
         a.setdefault("long_name", name.replace("_", " "))
-        return a
+        return xr.Variable(dims, values, a)
 
     ds = xr.Dataset(
-        {k: xr.Variable(d, v, attrs(k, VARIABLES)) for k, (d, v) in data_vars.items()},
-        coords={k: xr.Variable(d, v, attrs(k, COORDS)) for k, (d, v) in coords.items()},
+        {k: variable(k, d, v, VARIABLES) for k, (d, v) in data_vars.items()},
+        coords={k: variable(k, d, v, COORDS) for k, (d, v) in coords.items()},
     )
     if "status" in ds:
         ds["status"].attrs["flag_values"] = np.array(sorted(STATUS_CODES), dtype=np.int8)
@@ -259,7 +267,7 @@ def assemble(plan: Any, results: dict[str, np.ndarray], elapsed: float | None = 
         settings["elapsed_seconds"] = round(elapsed, 3)
     if kernel is not None:
         settings["kernel_seconds"] = round(kernel, 3)
-    var_attrs = {n: dict(sp.attrs) for n, sp in plan.specs.items()}
+    var_attrs = {n: sp.result_attrs() for n, sp in plan.specs.items()}
     ds = build_dataset(data_vars, coords, title=plan.study.title, study_text=plan.text,
                        settings=settings, var_attrs=var_attrs,
                        source=f"gearsweep study, scene {plan.study.scene.kind!r}")
@@ -272,6 +280,12 @@ def assemble(plan: Any, results: dict[str, np.ndarray], elapsed: float | None = 
     if "speed" in ds.coords and isinstance(plan.model, MeshModel):
         ds["speed"].attrs["gear"] = f"driving gear (gear 1, {plan.model.teeth} teeth)"
     return ds
+
+
+def display_variable(dims: tuple[str, ...], si_values, kind: str, **attrs) -> xr.Variable:
+    """A result variable of ``kind`` from SI values: stored in the kind's display unit."""
+    return xr.Variable(dims, to_display(np.asarray(si_values, float), kind),
+                       {"units": KINDS[kind].cf, **attrs})
 
 
 def gear_variables(plan: Any) -> dict[str, xr.Variable]:
@@ -297,16 +311,17 @@ def gear_variables(plan: Any) -> dict[str, xr.Variable]:
     return {
         "harmonic": xr.Variable(("harmonic",), np.arange(1, nh + 1), {
             "units": "1", "long_name": "harmonic order in mesh orders"}),
-        "gear_stiffness": xr.Variable(lead, stack([m.stiffness for m in models]), {
-            "units": "N m-1", "long_name": "mean mesh stiffness k0 of the gear pair at the load"}),
-        "gear_stiffness_harmonic": xr.Variable((*lead, "harmonic"), stack(
-            [amplitudes(m.stiffness_harmonics) for m in models]), {
-            "units": "N m-1", "long_name": "amplitude of the mesh stiffness harmonic k_n the "
-            "kernel used (none: constant stiffness)"}),
-        "gear_ste_harmonic": xr.Variable((*lead, "harmonic"), stack(
-            [amplitudes(m.ste_harmonics) for m in models]), {
-            "units": "m", "long_name": "amplitude of the transmission-error harmonic e_n the "
-            "kernel used (loaded STE with constant k0; STE - F/k(t) with k(t))"}),
+        "gear_stiffness": display_variable(lead, stack([m.stiffness for m in models]),
+                                           "stiffness", long_name="mean mesh stiffness k0 of the"
+                                           " gear pair at the load"),
+        "gear_stiffness_harmonic": display_variable(
+            (*lead, "harmonic"), stack([amplitudes(m.stiffness_harmonics) for m in models]),
+            "stiffness", long_name="amplitude of the mesh stiffness harmonic k_n the kernel used"
+            " (none: constant stiffness)"),
+        "gear_ste_harmonic": display_variable(
+            (*lead, "harmonic"), stack([amplitudes(m.ste_harmonics) for m in models]),
+            "displacement", long_name="amplitude of the transmission-error harmonic e_n the"
+            " kernel used (loaded STE with constant k0; STE - F/k(t) with k(t))"),
     }
 
 
@@ -320,25 +335,27 @@ def excitation_variables(plan: Any) -> dict[str, xr.Variable]:
     nan = float("nan")
     k_fit, e_fit = fit.stiffness_fit, fit.excitation_fit
     out = {
-        "excitation_fit_residual_ste": xr.Variable((), fit.ste_residual_rms, {
-            "units": "m", "long_name": "rms of measured STE - the model's quasi-static STE at the"
-            " samples (F_m / k(t) + e(t) with k(t); mean + e(t) with constant stiffness)",
-            "max": fit.ste_residual_max, "samples": e_fit.samples if e_fit else 0,
-            "file": ex.file, "harmonics": ex.harmonics, "span": ex.span}),
-        "excitation_fit_residual_stiffness": xr.Variable((), k_fit.residual_rms if k_fit else nan, {
-            "units": "N m-1", "long_name": "rms of measured mesh stiffness - its fitted series at"
-            " the samples", "max": k_fit.residual_max if k_fit else nan,
-            "samples": k_fit.samples if k_fit else 0, "file": ex.file}),
+        "excitation_fit_residual_ste": display_variable(
+            (), fit.ste_residual_rms, "displacement", long_name="rms of measured STE - the"
+            " model's quasi-static STE at the samples (F_m / k(t) + e(t) with k(t); mean + e(t)"
+            " with constant stiffness)", max=to_display(fit.ste_residual_max, "displacement"),
+            samples=e_fit.samples if e_fit else 0, file=ex.file, harmonics=ex.harmonics,
+            span=ex.span),
+        "excitation_fit_residual_stiffness": display_variable(
+            (), k_fit.residual_rms if k_fit else nan, "stiffness", long_name="rms of measured"
+            " mesh stiffness - its fitted series at the samples",
+            max=to_display(k_fit.residual_max if k_fit else nan, "stiffness"),
+            samples=k_fit.samples if k_fit else 0, file=ex.file),
     }
-    for name, f, unit, what in (("ste", e_fit, "m", "excitation e(t) the kernel used"),
-                                ("stiffness", k_fit, "N m-1", "mesh stiffness fitted")):
+    for name, f, kind, what in (("ste", e_fit, "displacement", "excitation e(t) the kernel used"),
+                                ("stiffness", k_fit, "stiffness", "mesh stiffness fitted")):
         if f is None:
             continue  # both fits have the same orders (gear.measured.fit_orders)
         out["excitation_order"] = xr.Variable(("excitation_order",), np.array(
             [h.order for h in f.harmonics]), {"units": "1", "long_name": "fitted mesh order"})
-        out[f"excitation_{name}_amplitude"] = xr.Variable(
-            ("excitation_order",), np.array([h.amplitude for h in f.harmonics]),
-            {"units": unit, "long_name": f"amplitude of the {what}, cos(2 pi order phi + phase)"})
+        out[f"excitation_{name}_amplitude"] = display_variable(
+            ("excitation_order",), np.array([h.amplitude for h in f.harmonics]), kind,
+            long_name=f"amplitude of the {what}, cos(2 pi order phi + phase)")
         out[f"excitation_{name}_phase"] = xr.Variable(
             ("excitation_order",), np.array([h.phase for h in f.harmonics]),
             {"units": "rad", "long_name": f"phase of the {what}"})

@@ -296,10 +296,15 @@ def scene_mean_force(scene: Any) -> float:
     return 0.0
 
 
-def typed_harmonics(items) -> tuple[Harmonic, ...]:
-    """Typed-in harmonics of a scene (order: position + 1 when not given)."""
-    return tuple(Harmonic(h.amplitude, h.order if h.order is not None else i + 1, h.phase)
-                 for i, h in enumerate(items))
+def typed_harmonics(items, phases: dict[float, float] | None = None) -> tuple[Harmonic, ...]:
+    """Typed-in harmonics of a scene (order: position + 1 when not given). A harmonic given
+    without a phase takes ``phases[order]`` (a gear pair's phase of that order), else 0."""
+    out = []
+    for i, h in enumerate(items):
+        order = h.order if h.order is not None else i + 1
+        phase = h.phase if h.phase is not None else (phases or {}).get(float(order), 0.0)
+        out.append(Harmonic(h.amplitude, order, phase))
+    return tuple(out)
 
 
 def _one_period(phi: np.ndarray, period: float) -> np.ndarray:

@@ -30,24 +30,25 @@ from gearsweep.gear import iso6336_stiffness, mesh_cycles
 from gearsweep.study.dataset import build_dataset
 from gearsweep.study.gearscene import gear_pair, tip_reliefs
 from gearsweep.study.schema import MeshStudy
+from gearsweep.units import KINDS
 
-_ATTRS = {
-    "ste": ("m", "static transmission error along the line of action"),
+_ATTRS = {  # name -> (kind of gearsweep.units, or a unit; long name)
+    "ste": ("displacement", "static transmission error along the line of action"),
     "load_share": ("1", "share of the load on each tooth pair"),
-    "mesh_stiffness": ("N m-1", "mesh stiffness (tangent, sum over loaded pairs)"),
-    "k_harmonic": ("N m-1", "Fourier amplitude of mesh stiffness (0 = mean)"),
+    "mesh_stiffness": ("stiffness", "mesh stiffness (tangent, sum over loaded pairs)"),
+    "k_harmonic": ("stiffness", "Fourier amplitude of mesh stiffness (0 = mean)"),
     "k_phase": ("rad", "Fourier phase of mesh stiffness, cos(2 pi n phase + k_phase)"),
-    "ste_harmonic": ("m", "Fourier amplitude of STE (0 = mean)"),
+    "ste_harmonic": ("displacement", "Fourier amplitude of STE (0 = mean)"),
     "ste_phase": ("rad", "Fourier phase of STE, cos(2 pi n phase + ste_phase)"),
     "in_contact": ("1", "tooth pair slot inside the geometric path of contact"),
     "mean_force": ("N", "normal load along the line of action T / r_b1"),
     "contact_ratio": ("1", "transverse contact ratio"),
-    "base_pitch": ("m", "base pitch"),
-    "base_radius_1": ("m", "base radius of the driving gear"),
-    "base_radius_2": ("m", "base radius of the driven gear"),
-    "gear_backlash": ("m", "backlash of the gear pair along the line of action"),
-    "iso_single_stiffness": ("N m-1", "ISO 6336-1 single stiffness c'"),
-    "iso_mesh_stiffness": ("N m-1", "ISO 6336-1 mesh stiffness c_gamma"),
+    "base_pitch": ("length", "base pitch"),
+    "base_radius_1": ("length", "base radius of the driving gear"),
+    "base_radius_2": ("length", "base radius of the driven gear"),
+    "gear_backlash": ("length", "backlash of the gear pair along the line of action"),
+    "iso_single_stiffness": ("stiffness", "ISO 6336-1 single stiffness c'"),
+    "iso_mesh_stiffness": ("stiffness", "ISO 6336-1 mesh stiffness c_gamma"),
     "pair": ("1", "tooth pair slot: slot j is at s_start + (mesh_phase + j) base pitch"),
     "harmonic": ("1", "Fourier harmonic order in mesh orders (0 = mean)"),
     "variant": ("-", "gear pair variant (label from the study)"),
@@ -128,7 +129,8 @@ def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
     }
     if multi:
         coords["variant"] = (("variant",), np.array(list(variants), dtype=str))
-    var_attrs = {k: {"units": u, "long_name": ln} for k, (u, ln) in _ATTRS.items()}
+    var_attrs = {k: {"kind" if u in KINDS else "units": u, "long_name": ln}
+                 for k, (u, ln) in _ATTRS.items()}  # a kind: stored in its display unit
     settings = {"scene": "mesh", "positions": study.positions, "harmonics": h,
                 "gears": "; ".join(described), "cases": len(variants) * len(torques),
                 "elapsed_seconds": round(time.perf_counter() - t0, 3)}

@@ -30,6 +30,7 @@ from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
+from gearsweep.units import KINDS, to_display
 
 Plan = Any
 """What an output is given: a ``gearsweep.study.plan.Plan`` (its ``model``, ``study``, ``grids``,
@@ -47,6 +48,17 @@ class VarSpec:
     aux_coords: dict[str, tuple[tuple[str, ...], np.ndarray]] = field(default_factory=dict)
     """Non-index coordinates ``name -> (dims, values)`` over the study's dims and the extra dims
     (e.g. ``frequency`` on ``(speed, order)``)."""
+    kind: str | None = None
+    """Kind of quantity (``gearsweep.units.KINDS``): ``compute`` returns SI values, the runner
+    stores them in the kind's display unit (p in um), and ``units`` is that unit."""
+
+    def result_attrs(self) -> dict:
+        """The variable's attributes in a result: ``attrs`` with the display unit of ``kind``."""
+        return dict(self.attrs, units=KINDS[self.kind].cf) if self.kind else dict(self.attrs)
+
+    def to_result(self, values: np.ndarray) -> np.ndarray:
+        """SI values from ``compute`` in the unit the result stores (``result_attrs``)."""
+        return to_display(values, self.kind) if self.kind else values
 
 
 class Output(Protocol):
@@ -75,8 +87,9 @@ class Stats:
         names = ["p_rms", "p_pp", "p_max", "p_min", "p_mean", "settle_error"]
         if plan.has_backlash:
             names += ["contact_loss_fraction", "backside_contact_fraction", "impacts_per_period"]
-        unit = {"units": "1"} if plan.dimensionless else {}
-        return {n: VarSpec(attrs=unit if n.startswith("p_") else {}) for n in names}
+        if plan.dimensionless:
+            return {n: VarSpec(attrs={"units": "1"}) for n in names}
+        return {n: VarSpec(kind="displacement" if n.startswith("p_") else None) for n in names}
 
     def compute(self, plan: Plan, params: dict[str, np.ndarray],
                 result: BatchResult) -> dict[str, np.ndarray]:
@@ -103,7 +116,7 @@ class SpectrumOptions(BaseModel):
                         " k(t) f(p) + c p' (variable force_spectrum) [N]")
     pinion: bool = Field(False, description="also what the pinion's sensors see: its angular"
                          " motion at the base circle r2 theta2 per line (pinion_spectrum) and its"
-                         " rms (pinion_rms) [m], from the mesh force by Eq. (4)"
+                         " rms (pinion_rms) [um], from the mesh force by Eq. (4)"
                          " (gearsweep.analysis.sensor); needs force and scene.drive")
 
     @model_validator(mode="after")
@@ -179,20 +192,21 @@ class Spectrum:
             f_mesh = mesh_frequency(plan.grids["speed"], plan.model.teeth)
             aux["frequency"] = (("speed", "order"), f_mesh[:, None] * order[None, :])
         common = dict(extra_dims=("order",), extra_coords={"order": order}, aux_coords=aux)
-        unit = {"units": "1"} if plan.dimensionless else {}
-        specs = {"spectrum": VarSpec(**common, attrs={
-            **unit, "samples_per_period": sps, "window": "none (whole mesh periods)"})}
+        specs = {"spectrum": VarSpec(
+            **common, kind=None if plan.dimensionless else "displacement",
+            attrs={**({"units": "1"} if plan.dimensionless else {}), "samples_per_period": sps,
+                   "window": "none (whole mesh periods)"})}
         if self._force(plan):
             specs["force_spectrum"] = VarSpec(**common, attrs={
                 "units": "N", "samples_per_period": sps,
                 "long_name": "single-sided amplitude spectrum of the dynamic mesh force"
                              " k(t) f(p) + c p' over whole mesh periods"})
         if self._pinion(plan):
-            specs["pinion_spectrum"] = VarSpec(**common, attrs={
-                "units": "m", "long_name": "pinion motion r2 theta2 per line: (r2^2 / I2)"
+            specs["pinion_spectrum"] = VarSpec(**common, kind="displacement", attrs={
+                "long_name": "pinion motion r2 theta2 per line: (r2^2 / I2)"
                 " |W_k| / (2 pi f_k)^2 of the mesh force W (Eq. 4); 0 at order 0"})
-            specs["pinion_rms"] = VarSpec(attrs={
-                "units": "m", "long_name": "rms of r2 theta2 over the kept lines: the doubly"
+            specs["pinion_rms"] = VarSpec(kind="displacement", attrs={
+                "long_name": "rms of r2 theta2 over the kept lines: the doubly"
                 " integrated tangential acceleration of the pinion at its base circle"})
         return specs
 

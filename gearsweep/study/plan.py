@@ -24,7 +24,7 @@ from gearsweep.model import Harmonic, MathieuModel, MeshModel, equivalent_mass, 
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
-from gearsweep.study.measured import scene_measured
+from gearsweep.study.measured import scene_measured, typed_harmonics
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
 from gearsweep.study.schema import Study, first_load
 from gearsweep.units import to_si
@@ -80,19 +80,22 @@ def build_model(study: Study, torque: float | None = None) -> MeshModel | Mathie
                 amp = math.nan
         fluct.append(Harmonic(amp, f.order, f.phase))
 
-    def harmonics(items) -> tuple[Harmonic, ...]:
-        return tuple(Harmonic(h.amplitude, h.order if h.order is not None else i + 1, h.phase)
-                     for i, h in enumerate(items))
-
-    if gear is not None:  # k(t), e(t) of the gear pair at the mean load (gearscene.py)
+    if gear is not None and sc.stiffness is not None:
+        # k(t) typed in beside the gear (e.g. the paper's printed k0, k1): e(t) is the pair's
+        # loaded STE at the load, as the paper drives Eq. (9) by its computed STE (Figs. 1-2);
+        # a typed k_n without a phase keeps the pair's phase of its order
+        teeth, k0, e_h = gear.teeth, sc.stiffness, gear.ste_harmonics
+        k_h = typed_harmonics(getattr(sc, "stiffness_harmonics", []),
+                              {h.order: h.phase for h in gear.stiffness_harmonics})
+    elif gear is not None:  # k(t), e(t) of the gear pair at the mean load (gearscene.py)
         teeth, k0, k_h, e_h = (gear.teeth, gear.stiffness, gear.stiffness_harmonics,
                                gear.no_load_te_harmonics)
         if sc.kind == "rattle":  # Eq. (13): constant k0, so e(t) is the loaded STE
             k_h, e_h = (), gear.ste_harmonics
     else:
         teeth, k0 = sc.teeth, sc.stiffness
-        k_h = harmonics(getattr(sc, "stiffness_harmonics", []))
-        e_h = harmonics(getattr(sc, "ste", []))
+        k_h = typed_harmonics(getattr(sc, "stiffness_harmonics", []))
+        e_h = typed_harmonics(getattr(sc, "ste", []))
     if getattr(sc, "excitation", None) is not None:  # samples from a file, fitted (measured.py)
         fit = scene_measured(sc, mean_force)
         if fit.stiffness is not None:  # k0 and, with k(t), k_n from the file

@@ -21,6 +21,8 @@ values it sweeps, how the speed axis is continued, the solver and the outputs::
 A scene of the gear drive may name a gear pair (``gear: table1_consistent`` or a mapping of
 ``GearPair`` fields) instead of ``teeth``, ``stiffness``, ``stiffness_harmonics`` and ``ste``: they
 are then computed from its static mesh at the scene's mean load (``gearsweep.study.gearscene``).
+A ``stiffness`` (and ``stiffness_harmonics``) typed in beside the gear replaces the pair's k(t);
+e(t) is then the pair's loaded STE (``plan.build_model``).
 A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh``).
 
 Every model forbids unknown keys. ``load_study`` turns any problem into one ``StudyError`` line:
@@ -93,7 +95,9 @@ class StiffnessHarmonic(Strict):
     amplitude: Stiffness = Field(ge=0, description="k_n of Eq. (1)")
     order: float | None = Field(None, gt=0, allow_inf_nan=False,
                                 description="mesh order (default: position + 1)")
-    phase: Angle = Field(0.0, description="phase a_n")
+    phase: Angle | None = Field(None, description="phase a_n (default 0; beside a 'gear': the"
+                                " pair's phase of that order, so that k(t) and the pair's STE"
+                                " keep their relative phase)")
 
 
 class SteHarmonic(Strict):
@@ -131,7 +135,10 @@ class _Driven(Strict):
     drive: Drive | None = None
     teeth: int | None = Field(None, gt=0, le=1000, description="teeth of the driving gear N1")
     stiffness: Stiffness | None = Field(None, gt=0, description="mean mesh stiffness k0")
-    gear: GearField | None = Field(None, description="gear pair giving k(t), e(t), N1, r1")
+    gear: GearField | None = Field(None, description="gear pair giving k(t), e(t), N1, r1;"
+                                   " with 'stiffness' (and 'stiffness_harmonics') typed in beside"
+                                   " it, those replace the pair's k(t) and e(t) is the pair's"
+                                   " loaded STE (the paper's use of its computed STE)")
     harmonics: int | None = Field(None, ge=1, le=100, description="Fourier harmonics of a gear")
     excitation: ExcitationSpec | None = Field(None, description="STE and/or stiffness samples"
                                               " from a file, fitted (study/measured.py)")
@@ -166,12 +173,14 @@ class _Driven(Strict):
             if self.harmonics is not None:
                 raise ValueError("'harmonics' is the number of Fourier terms of a 'gear'; no gear")
             return self
-        typed = [f for f in ("teeth", "stiffness", "stiffness_harmonics", "ste", "base_radius")
-                 if getattr(self, f, None)]
+        typed = [f for f in ("teeth", "ste", "base_radius") if getattr(self, f, None)]
         if typed:
             raise ValueError(f"give either 'gear' or typed-in {', '.join(typed)}, not both: the"
-                             " gear pair gives teeth, stiffness, stiffness_harmonics, ste and"
-                             " base_radius")
+                             " gear pair gives teeth, ste and base_radius (and stiffness and"
+                             " stiffness_harmonics, unless typed in to replace the pair's)")
+        if getattr(self, "stiffness_harmonics", None) and self.stiffness is None:
+            raise ValueError("'stiffness_harmonics' beside a 'gear' need 'stiffness' too: a"
+                             " typed-in k(t) replaces the pair's as a whole")
         return self
 
     @property
