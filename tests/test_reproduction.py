@@ -62,3 +62,29 @@ def test_analysis_studies_read_results_the_main_job_writes_first(study, name):
     assert source.exists(), f"{study} reads results/{name}.nc, but studies/{name}.yaml is missing"
     assert not is_analysis(source), f"{study} reads the analysis result {name}: not ordered"
     assert is_analysis(ROOT / "studies" / study)
+
+
+def test_fig05_variants_switch_off_one_source_of_the_main_study_and_nothing_else():
+    """Fig. 5's sources (issue 28, item 4) are told apart by switching each off: the STE-off
+    variant types in the main study's k(t) (phases copied from the pair), the ripple-off
+    variant keeps the pair's loaded STE with constant k0. Any other difference would confound
+    the comparison, and a stale copy of the phases would too."""
+    from gearsweep.study.plan import build_model
+    from gearsweep.study.schema import load_study
+
+    def model(name):
+        return build_model(load_study(ROOT / "studies" / f"{name}.yaml")[0])
+
+    full, no_ste, no_ripple = (model(n) for n in (
+        "fig05_waterfall", "fig05_waterfall_no_ste", "fig05_waterfall_no_ripple"))
+    for m in (no_ste, no_ripple):
+        for f in ("mass", "teeth", "stiffness", "damping"):
+            assert getattr(m, f) == getattr(full, f), f
+        assert m.mean_force == pytest.approx(full.mean_force, rel=1e-6)
+    assert no_ste.ste_harmonics == () and full.ste_harmonics
+    assert no_ripple.ste_harmonics == full.ste_harmonics
+    assert no_ripple.stiffness_harmonics == ()
+    assert len(no_ste.stiffness_harmonics) == len(full.stiffness_harmonics) == 3
+    for a, b in zip(no_ste.stiffness_harmonics, full.stiffness_harmonics, strict=True):
+        assert (a.amplitude, a.order) == (b.amplitude, b.order)
+        assert a.phase == pytest.approx(b.phase, abs=1e-5)
