@@ -20,6 +20,7 @@ from _common import open_result, parse
 
 from gearsweep.plot.common import save
 from gearsweep.plot.whine import (
+    damping_text,
     natural_frequency,
     plot_campbell,
     plot_order_lines,
@@ -35,16 +36,17 @@ def draw(ds: xr.Dataset, figures: Path, suffix: str = "") -> None:
     ax = fig.add_subplot(projection="3d")
     plot_waterfall(ax, ds, traces=40, natural_frequency_hz=f_n)
     ax.view_init(elev=28, azim=-62)
-    ax.set_title(f"{ds.attrs['title']}\ndynamic transmission error p (Eq. 9); 40 of"
-                 f" {ds.sizes['speed']} speeds drawn; order 0 (mean of p) left out",
+    ax.set_title(f"{ds.attrs['title']}\ndynamic transmission error p (Eq. 9), {damping_text(ds)};"
+                 f" 40 of {ds.sizes['speed']} speeds drawn; order 0 (mean of p) left out",
                  fontsize=9)
     print(save(fig, figures / f"fig05_waterfall{suffix}.png", dpi=150))
 
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 7.6), sharex=True,
                                   height_ratios=[1.4, 1.0], layout="constrained")
     plot_campbell(ax, ds, natural_frequency_hz=f_n)
-    ax.set_title(f"{ds.attrs['title']}\ndashed: order f_n / f_mesh, f_n = sqrt(k0/m)/2pi;"
-                 f" circles: order n meets f_n at 60 f_n / ({teeth} n) rpm", fontsize=9)
+    ax.set_title(f"{ds.attrs['title']}; {damping_text(ds)}\ndashed: order f_n / f_mesh,"
+                 f" f_n = sqrt(k0/m)/2pi; circles: order n meets f_n at 60 f_n / ({teeth} n) rpm",
+                 fontsize=9)
     ax.set_xlabel("")
     plot_order_lines(ax2, ds, orders=(1, 2, 3, 4), log=True)
     for n in (1, 2, 3, 4):
@@ -65,7 +67,7 @@ def draw_sources(results: Path, figures: Path) -> None:
         for n in (1, 2, 3, 4):
             ax.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
         ax.set_ylim(1e-4, 10)
-        ax.set_title(f"({tag}) {ds.attrs['title']}", fontsize=8.5, loc="left")
+        ax.set_title(f"({tag}) {ds.attrs['title']}\n{damping_text(ds)}", fontsize=8.5, loc="left")
     fig.suptitle("Where the mesh orders of Fig. 5 come from: the study, the STE off, the ripple"
                  " off; dotted: 60 f_n / (48 n)", fontsize=10)
     print(save(fig, figures / "fig05_order_sources.png", dpi=150))

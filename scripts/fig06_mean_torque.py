@@ -15,8 +15,9 @@ import textwrap
 import matplotlib.pyplot as plt
 from _common import open_result, parse
 
+from gearsweep import result_model
 from gearsweep.plot.common import save
-from gearsweep.plot.whine import natural_frequency, plot_response_vs_speed
+from gearsweep.plot.whine import damping_text, natural_frequency, plot_response_vs_speed
 
 args = parse(__doc__.splitlines()[0])
 studies = ("fig06_mean_torque", "fig06_mean_torque_relief", "fig06_mean_torque_paper_k")
@@ -29,7 +30,8 @@ for col, study in enumerate(studies):
     plot_response_vs_speed(ax, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n)
     ax.get_legend().set_loc("lower right")
     title = ds.attrs["title"].split(": ", 1)[-1]
-    ax.set_title(textwrap.fill(f"({'abc'[col]}) {title}; f_n = {f_n / 1e3:.2f} kHz", 62),
+    ax.set_title(textwrap.fill(f"({'abc'[col]}) {title}; f_n = {f_n / 1e3:.2f} kHz,"
+                               f" {damping_text(ds).split(', ')[1]} (at the first load)", 62),
                  fontsize=9)
     ax.set_xlabel("")
     plot_response_vs_speed(ax2, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n,
@@ -39,6 +41,8 @@ for col, study in enumerate(studies):
     if col:
         ax.set_ylabel("")
         ax2.set_ylabel("")
-fig.suptitle("Fig. 6: effect of the mean driving torque on the whine response (m_eq = 0.1527 kg,"
-             " c = 5.5 N s/mm); dotted: mesh order n meets f_n (at the first load)", fontsize=10)
+model = result_model(ds)
+fig.suptitle(f"Fig. 6: effect of the mean driving torque on the whine response (m_eq ="
+             f" {model.mass:g} kg, {damping_text(ds).split(', ')[0]}); dotted: mesh order n meets"
+             " f_n (at the first load)", fontsize=10)
 print(save(fig, args.figures / "fig06_mean_torque.png", dpi=150))

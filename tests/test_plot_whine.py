@@ -99,3 +99,19 @@ def test_response_and_order_lines(ds):
     assert_allclose(line.get_ydata(), 2 * np.pi * f * amp * 1e-3)  # um/s -> mm/s
     assert_allclose(line.get_xdata(), ds.speed.values * 48 / 32)
     assert "[mm/s]" in ax.get_ylabel()
+
+
+def test_unsettled_cases_are_masked_and_counted(ds):
+    """A steady-state value of a case that has not settled is not a curve point (issue 28,
+    item 10): it is drawn as a gap and counted in the legend."""
+    bad = ds.copy(deep=True)
+    bad["status"][{"speed": 2, "torque": 1}] = 2  # not settled
+    fig, ax = plt.subplots()
+    plot_response_vs_speed(ax, bad, by="torque", variable="p_rms")
+    y = ax.get_lines()[1].get_ydata()  # torque 50 N m
+    assert np.isnan(y[2]) and np.isfinite(np.delete(y, 2)).all()
+    assert ax.get_legend().get_title().get_text().startswith("1 of ")
+    fig, ax = plt.subplots()
+    plot_order_lines(ax, bad.sel(torque=50.0))
+    assert np.isnan(ax.get_lines()[0].get_ydata()[2])
+    assert ax.get_legend().get_title().get_text().startswith("1 of ")

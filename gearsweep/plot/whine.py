@@ -22,6 +22,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
 from gearsweep.model import model_from_record
+from gearsweep.plot.sweep import settled
 from gearsweep.units import si_data_vars, si_values
 
 __all__ = [
@@ -52,9 +53,18 @@ def damping_labels(ds: xr.Dataset) -> list[str]:
     with the resolved model's m_eq and k0 (a gear scene's ``gear_stiffness``, the largest over
     its loads when it sweeps torque)."""
     model = model_from_record(json.loads(ds.attrs["model"]))
-    k0 = float(ds["gear_stiffness"].max()) if "gear_stiffness" in ds else model.stiffness
+    k0 = float(si_values(ds["gear_stiffness"]).max()) if "gear_stiffness" in ds else model.stiffness
     return [f"c = {c / 1e3:g} N s/mm (ζ = {c / (2 * math.sqrt(k0 * model.mass)):.3f})"
             for c in si_values(ds["damping"])]
+
+
+def damping_text(ds: xr.Dataset) -> str:
+    """``c = ... N s/mm, ζ = ...`` of a result whose damping is not swept, from its resolved
+    model (ζ = c / (2 sqrt(k0 m_eq)); a gear scene that sweeps the load: k0 at the first load,
+    as ``natural_frequency``)."""
+    model = model_from_record(json.loads(ds.attrs["model"]))
+    zeta = model.damping / (2 * math.sqrt(model.stiffness * model.mass))
+    return f"c = {model.damping / 1e3:g} N s/mm, ζ = {zeta:.3f}"
 
 
 def driven_speed(ds: xr.Dataset, driven_teeth: int) -> np.ndarray:
@@ -235,7 +245,7 @@ def plot_response_vs_speed(
         Draw each line divided by the line of the first value of ``by`` [-].
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
-    da = ds[variable]
+    da, n_bad, n_all = settled(ds[variable], ds)  # a case that has not settled is no point
     speed = ds["speed"].values
     unit = ds[by].attrs.get("units", "")
     base = da.isel({by: 0}).values
@@ -257,7 +267,8 @@ def plot_response_vs_speed(
     first = f"{float(ds[by].values[0]):g} {unit}"
     ax.set_ylabel(f"{variable} / {variable} at {by} {first} [-]" if relative else f"{name} [µm]")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, title=f"{n_bad} of {n_all} cases not settled (masked)" if n_bad else None,
+              title_fontsize=8)
     return ax.figure
 
 
@@ -291,8 +302,10 @@ def plot_order_lines(
     speed, speed_label = _speed_axis(ds, driven_teeth)
     scale, unit, what = {0: (UM, "µm", "displacement"), 1: (1e3, "mm/s", "velocity"),
                          2: (1.0, "m/s^2", "acceleration")}[derivative]
+    spectrum, _, _ = settled(ds["spectrum"], ds)  # only settled cases are drawn
+    n_bad, n_all = settled(ds["status"], ds)[1:] if "status" in ds else (0, 0)  # cases
     for n in orders:
-        line = ds["spectrum"].sel(order=float(n))
+        line = spectrum.sel(order=float(n))
         w = 2 * math.pi * ds["frequency"].sel(order=float(n)).values
         ax.plot(speed, line.values * w**derivative * scale, lw=1.2, label=f"order {n}")
     ax.set_xlabel(speed_label)
@@ -300,5 +313,6 @@ def plot_order_lines(
     if log:
         ax.set_yscale("log")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, title=f"{n_bad} of {n_all} cases not settled (masked)" if n_bad else None,
+              title_fontsize=8)
     return ax.figure
