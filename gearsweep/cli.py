@@ -10,6 +10,7 @@ import argparse
 import os
 import signal
 import sys
+import textwrap
 import tempfile
 import threading
 import time
@@ -326,7 +327,9 @@ def cmd_advise(args: argparse.Namespace) -> int:
                backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=args.target,
                steps_per_period=s.steps_per_period,
                periods=s.transient_periods + s.record_periods)
-    print(f"{args.study}: {a.report()}")
+    scene = f"{study.scene.kind} scene" + (" with backlash" if plan.has_backlash else "")
+    print(f"{args.study}:")
+    print(textwrap.indent(a.report(scene), "  "))
     return 0
 
 
@@ -371,8 +374,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.set_defaults(func=cmd_validate)
     a = sub.add_parser("advise", help="steps per period for a target accuracy, cost, warnings")
     a.add_argument("study")
-    a.add_argument("--target", type=float, default=1e-6,
-                   help="trajectory error relative to the amplitude (default 1e-6)")
+    a.add_argument("--target", type=float, default=1e-4,
+                   help="trajectory error relative to the amplitude (default 1e-4; the report"
+                   " also gives the error the study's own steps per period reach)")
     a.set_defaults(func=cmd_advise)
     i = sub.add_parser("inspect", help="describe a result file in words")
     i.add_argument("result")

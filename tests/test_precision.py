@@ -235,7 +235,7 @@ def test_plain_rattle_advice_names_a_kink_aware_step_that_meets_the_target(rpm, 
                  backlash=4e-6, method=method, target=target)
     assert adv.kink_steps_per_period is not None
     assert adv.kink_steps_per_period < adv.steps_per_period
-    assert f"needs {adv.kink_steps_per_period} steps per period" in adv.report()
+    assert f"needs {adv.kink_steps_per_period} steps per period" in " ".join(adv.report().split())
     err = _trajectory_error(pr.rattle_scene(rpm), method, adv.kink_steps_per_period, True)
     assert err <= target, (adv.kink_steps_per_period, err)
 

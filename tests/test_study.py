@@ -303,8 +303,14 @@ def test_cli_advise_reports_steps_cost_and_stability(tmp_path, capsys):
     study.write_text(LINEAR.replace("speed: [6000 rpm,", "speed: [100 rpm, 6000 rpm,"))
     assert cli(["advise", str(study), "--target", "1e-6"]) == 0
     out = capsys.readouterr().out
-    assert "steps per mesh period" in out and "Msteps" in out
-    assert "beyond the rk5 stability limit" in out  # 100 rpm at 128 steps: h w_n = 14.8
+    assert max(len(line) for line in out.splitlines()) <= 100  # lines a terminal shows
+    flat = " ".join(out.split())
+    assert "steps per mesh period" in flat and "Msteps" in flat
+    assert "beyond the rk5 stability limit" in flat  # 100 rpm at 128 steps: h w_n = 14.8
+    assert "whine scene, rk5" in flat  # the study's own scene, not a calibration class
+    assert "For a target of 1.0e-06" in flat and "As written: 128 steps per mesh period" in flat
+    assert cli(["advise", str(study)]) == 0  # default target: 1e-4
+    assert "For a target of 1.0e-04" in " ".join(capsys.readouterr().out.split())
     mathieu = tmp_path / "m.yaml"
     mathieu.write_text("title: m\nscene: {kind: mathieu, alpha: 1, beta: 0.2}\n")
     assert cli(["advise", str(mathieu)]) == 2

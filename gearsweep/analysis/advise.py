@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -90,24 +91,26 @@ class Advice:
     kink_msteps: float | None = None
     warnings: list[str] = field(default_factory=list)
 
-    def report(self) -> str:
-        """One paragraph for a person."""
+    def report(self, scene: str | None = None, width: int = 96) -> str:
+        """A few lines of at most ``width`` characters for a person. ``scene`` names the case
+        (e.g. ``"full scene with backlash"``; default: the calibration class, whine or rattle)."""
         name = self.method + (" kink-aware" if self.kink_aware else "")
-        text = (
-            f"For a {self.scene_kind} case (omega_n = {self.omega_n:.4g} rad/s, damping ratio "
-            f"{self.zeta:.3f}) integrated with {name}, a trajectory error of "
-            f"{self.target:.1e} of the amplitude needs {self.steps_per_period} steps per mesh "
-            f"period (h omega_n = {self.h_omega_n:.3f} at the lowest speed, expected error "
-            f"{self.expected_error:.1e} from err <= {self.constant:.3g} (h omega_n)^"
-            f"{self.order:g}), costing {self.msteps:.3g} Msteps. The method is stable for "
-            f"h omega_n < {self.stability_limit:.3f}."
-        )
+        what = scene or f"{self.scene_kind} case"
+        lines = [
+            f"{what}, {name} (error constants of the {self.scene_kind} calibration): at the"
+            f" largest stiffness k0 + sum |k_n|, omega_n = {self.omega_n:.4g} rad/s and damping"
+            f" ratio {self.zeta:.3f}; the method is stable for h omega_n < {self.stability_limit:.3f}.",
+        ]
         if self.chosen is not None:
-            text += (f" The chosen {self.chosen} steps per period give an expected error of "
-                     f"{self.chosen_error:.1e}.")
-        for w in self.warnings:
-            text += f" WARNING: {w}"
-        return text
+            lines.append(f"As written: {self.chosen} steps per mesh period, expected trajectory"
+                         f" error {self.chosen_error:.1e} of the amplitude.")
+        lines.append(
+            f"For a target of {self.target:.1e}: {self.steps_per_period} steps per mesh period"
+            f" (h omega_n = {self.h_omega_n:.3f} at the lowest speed, expected error"
+            f" {self.expected_error:.1e} from err <= {self.constant:.3g} (h omega_n)^"
+            f"{self.order:g}), {self.msteps:.3g} Msteps.")
+        lines += [f"WARNING: {w}" for w in self.warnings]
+        return "\n".join(textwrap.fill(line, width, subsequent_indent="  ") for line in lines)
 
 
 def advise(
