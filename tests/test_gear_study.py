@@ -239,6 +239,9 @@ def test_gear_scene_sweeps_torque_with_k_and_ste_recomputed_per_load():
     assert swept.p_rms.dims == ("speed", "torque")
     e1 = swept.gear_ste_harmonic.sel(harmonic=1).values
     assert e1[0] < e1[1] < e1[2]  # the loaded STE grows with the load
+    pair = table1_consistent().check()  # the pair's geometry is in the result too
+    assert float(swept.gear_contact_ratio) == pytest.approx(pair.contact_ratio, rel=1e-14)
+    assert float(swept.gear_base_radius_1) == pytest.approx(pair.base_radius1 * 1e3, rel=1e-14)
     for i, t in enumerate(loads):
         one = f"  harmonics: 4\n  torque: {t} N*m\n"
         alone = run(whine("table1_consistent", one, kind="rattle"))

@@ -16,6 +16,7 @@ import xarray as xr
 
 from gearsweep.model import MeshModel, mesh_frequency, model_record
 from gearsweep.study.display import display_coordinates
+from gearsweep.study.gearscene import gear_pair
 from gearsweep.study.measured import scene_measured
 from gearsweep.study.outputs import VarSpec
 from gearsweep.study.provenance import coordinate_encoding, provenance
@@ -308,7 +309,15 @@ def gear_variables(plan: Any) -> dict[str, xr.Variable]:
     def amplitudes(harmonics) -> list[float]:
         return [h.amplitude for h in harmonics] + [0.0] * (nh - len(harmonics))
 
+    pair = gear_pair(plan.study.scene.gear).check()  # geometry: the same at every load
     return {
+        "gear_contact_ratio": xr.Variable((), pair.contact_ratio, {
+            "units": "1", "long_name": "transverse contact ratio of the gear pair",
+            "gear": pair.name}),
+        "gear_base_radius_1": display_variable((), pair.base_radius1, "length",
+                                               long_name="base radius of the driving gear 1"),
+        "gear_base_radius_2": display_variable((), pair.base_radius2, "length",
+                                               long_name="base radius of the driven gear 2"),
         "harmonic": xr.Variable(("harmonic",), np.arange(1, nh + 1), {
             "units": "1", "long_name": "harmonic order in mesh orders"}),
         "gear_stiffness": display_variable(lead, stack([m.stiffness for m in models]),
