@@ -18,6 +18,7 @@ import numpy as np
 import xarray as xr
 import yaml
 
+from gearsweep import result_model
 from gearsweep.plot.common import save
 from gearsweep.plot.stability import (
     plot_artifact_edges,
@@ -91,6 +92,8 @@ def fig72() -> None:
         return ds[var].transpose("damping", "speed").values
 
     mu = coarse.floquet_multiplier.values
+    rig = result_model(coarse)
+    zeta_per_damping = 1 / (2 * np.sqrt(rig.stiffness * rig.mass))  # zeta = c / (2 sqrt(k0 m))
     panels = [
         (coarse, grid(coarse, "unstable"), "#c0392b",
          f"(a) the equation: converged Floquet multiplier > 1 (largest: 1 - {1 - np.max(mu):.1e})",
@@ -109,11 +112,13 @@ def fig72() -> None:
     limit = _limit_speed(coarse)
     for ax, (ds, flag, color, title, why, label) in zip(axs.ravel(), panels, strict=True):
         plot_operating_map(speed, damping, flag, ax=ax, color=color, title=title, label=label,
-                           limit_speed=limit if ds is coarse and "(a)" not in title else None)
+                           limit_speed=limit if ds is coarse and "(a)" not in title else None,
+                           zeta_per_damping=zeta_per_damping)
         if why:
             _blank(ax, flag, why)
         ax.axhline(5.5, color="0.3", lw=0.8, ls=":")
-        ax.annotate("paper's c = 5.5 N s/mm (zeta = 0.215)", (speed.max(), 5.5), xytext=(-4, 3),
+        ax.annotate(f"paper's c = 5.5 N s/mm (ζ = {5500 * zeta_per_damping:.3f})", (speed.max(), 5.5),
+                    xytext=(-4, 3),
                     textcoords="offset points", ha="right", fontsize=7, color="0.3")
     sc = _scene(coarse)["scene"]
     fig.suptitle(f"Fig. 7.2  Stability of the rig versus speed and damping: k0 = "
@@ -128,6 +133,8 @@ def fig72_methods() -> None:
     out = _open("stability_artifact_map")
     methods = [str(m) for m in out.method.values]
     spps, damping, speed = out.steps_per_period.values, si_values(out.damping), out.speed.values
+    nz = damping > 0
+    zeta_per_damping = float(np.median(out.zeta.values[nz] / damping[nz]))  # zeta = c / (2 sqrt(k m))
     for m in methods:
         good = spps[out.reproduces_paper.loc[m].values.astype(bool)]
         print(f"  {m}: real interval {float(out.real_interval.loc[m]):.4f}, imaginary "
@@ -154,9 +161,10 @@ def fig72_methods() -> None:
         ax = fig.add_subplot(gs[1, k])
         flag = out.flag.loc[m].isel(steps_per_period=j200).values
         plot_operating_map(speed, damping, flag, ax=ax, label="criterion flags",
-                           title=f"{m}, {spps[j200]} steps per mesh period: "
-                                 + ("paper's shape" if bool(out.reproduces_paper.loc[m][j200])
-                                    else "NOT the paper's shape"))
+                           title=f"{m}, {spps[j200]} steps per mesh period:\n"
+                                 + ("the paper's shape" if bool(out.reproduces_paper.loc[m][j200])
+                                    else "NOT the paper's shape"),
+                           zeta_per_damping=zeta_per_damping)
         ax.axhline(5.5, color="0.3", lw=0.8, ls=":")
     fig.suptitle("Fig. 7.2 with four fifth-order Runge-Kutta methods: the paper's criterion at a "
                  "fixed step flags instability that the equation does not have (Floquet: stable "

@@ -142,8 +142,9 @@ def plot_rig_strutt(alpha: np.ndarray, ratio: np.ndarray, unstable: np.ndarray,
 def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
                        ax: Axes | None = None, title: str = "", color: str = UNSTABLE_COLOR,
                        limit_speed: np.ndarray | None = None, label: str = "unstable",
-                       log: bool = True) -> Figure:
-    """A yes/no map over driving-gear speed [rpm] and mesh damping c [N s/m].
+                       log: bool = True, zeta_per_damping: float | None = None) -> Figure:
+    """A yes/no map over driving-gear speed [rpm] and mesh damping c [N s/m]; with
+    ``zeta_per_damping`` (damping ratio per N s/m) a right-hand axis gives the damping ratio.
 
     Parameters
     ----------
@@ -177,6 +178,13 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
         ax.set_yscale("symlog", linthresh=0.01, linscale=0.5)
     ax.set_xlim(speed.min(), speed.max())
     ax.set_ylim(damping.min() / 1e3, damping.max() / 1e3)
+    if zeta_per_damping:
+        f = zeta_per_damping * 1e3  # per N s/mm, the axis unit
+        sec = ax.secondary_yaxis("right", functions=(lambda c: c * f, lambda z: z / f))
+        if log:  # the secondary axis does not take the parent's symlog by itself
+            sec.set_yscale("symlog", linthresh=0.01 * f, linscale=0.5)
+        sec.set_ylabel("damping ratio ζ [-]", fontsize=8)
+        sec.tick_params(labelsize=7)
     ax.set_title(title, fontsize=9)
     ax.legend(handles=handles, loc="lower right", fontsize=7, framealpha=0.9)
     return fig
