@@ -177,7 +177,7 @@ class MeshCycle:
     secant_stiffness: np.ndarray
 
     def as_arrays(self, n_harmonics: int = 10) -> dict[str, np.ndarray]:
-        """The mesh cycle under the names of ``shared/DATA.md`` (plain arrays, SI units).
+        """The mesh cycle under the names of docs/data-format.md (plain arrays, SI units).
 
         Parameters
         ----------

@@ -1,7 +1,7 @@
 """Whine figures from study results: waterfall (Fig. 5, Fig. 11), order/speed map (Campbell-style)
 and response versus speed for several mean torques (Fig. 6).
 
-Every function takes a matplotlib ``ax`` and a result Dataset of ``gearsweep run`` (DATA.md names:
+Every function takes a matplotlib ``ax`` and a result Dataset of ``gearsweep run`` (docs/data-format.md names:
 ``spectrum`` on ``(speed, order)`` with ``frequency`` and ``mesh_frequency`` coordinates, ``p_rms``
 ...), draws on ``ax`` and returns its figure. Data are in SI units; axes are labelled in
 engineering units (um, mm/s, kHz, rpm). ``plot_waterfall`` needs a 3-D axes
@@ -234,7 +234,7 @@ def plot_response_vs_speed(
     by : str
         The other swept dim (``torque`` [N m], ``mean_force`` [N], ``damping`` ...).
     variable : str
-        A DATA.md statistic of p [m] (drawn in um), e.g. ``p_rms`` or ``p_pp``.
+        A statistic (docs/data-format.md) of p [m] (drawn in um), e.g. ``p_rms`` or ``p_pp``.
     natural_frequency_hz : float, optional
         Mark the speeds 60 f_n / (n N1) where mesh order n meets f_n [Hz].
     orders : sequence of int

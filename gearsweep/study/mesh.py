@@ -2,7 +2,7 @@
 
 A mesh study computes :func:`gearsweep.gear.mesh_cycles` for one gear pair (``gear``) or several
 labelled variants (``gears``, a ``variant`` dim) at one torque or a swept torque (a ``torque``
-dim), and writes the DATA.md variables ``ste``, ``load_share`` (dim ``pair``) and
+dim), and writes the variables of docs/data-format.md ``ste``, ``load_share`` (dim ``pair``) and
 ``mesh_stiffness`` over ``mesh_phase`` and ``k_harmonic``, ``k_phase``, ``ste_harmonic``,
 ``ste_phase`` over ``harmonic``::
 
@@ -56,7 +56,7 @@ _ATTRS = {  # name -> (kind of gearsweep.units, or a unit; long name)
 
 
 def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
-    """Compute every mesh cycle of a mesh study and return its Dataset (DATA.md names).
+    """Compute every mesh cycle of a mesh study and return its Dataset (docs/data-format.md names).
 
     Returns
     -------

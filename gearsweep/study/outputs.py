@@ -75,7 +75,7 @@ class Output(Protocol):
 
 
 class Stats:
-    """Steady-state statistics of p (DATA.md): rms, peak-to-peak, extremes, mean, contact."""
+    """Steady-state statistics of p (docs/data-format.md): rms, peak-to-peak, extremes, mean, contact."""
 
     name = "stats"
     options_model = None
@@ -129,7 +129,7 @@ class SpectrumOptions(BaseModel):
 
 
 class Spectrum:
-    """Single-sided amplitude spectrum of p over the whole recorded mesh periods (DATA.md).
+    """Single-sided amplitude spectrum of p over the whole recorded mesh periods (docs/data-format.md).
 
     p is sampled ``samples_per_period`` times per mesh period over the ``record_periods`` whole
     periods, so mesh order r falls on bin ``r * record_periods`` exactly: no window, no leakage
@@ -269,7 +269,7 @@ TOL = 1e-6
 
 
 class Floquet:
-    """Floquet multipliers, integrator stability and the step guard rail (DATA.md names).
+    """Floquet multipliers, integrator stability and the step guard rail (docs/data-format.md names).
 
     For every case the homogeneous equation with the teeth in contact (f(p) = p, no forcing),
 
