@@ -1,0 +1,166 @@
+"""Every number written in docs/REPRODUCTION.md is accounted for (issue 28 item 11).
+
+A number is accounted for when it lies inside the quote of a claim whose value it is (a claim of
+docs/claims.yaml or docs/claims/*.yaml: scripts/check_claims.py, run by the main job, checks that
+value against the result), or inside a quote of docs/claims/not_results.yaml, the reviewed list
+of numbers that no result produces (the paper's inputs, study settings, constants of formulas,
+figure and equation numbers). This test needs no results: it checks coverage only.
+
+Not counted as numbers: inline code spans (`studies/fig05.yaml`), link targets ((mesh.md#...)),
+file names and paths (figures/x.png), and digits that are part of a symbol or name (k0, e_1, θ2,
+RK5, DOP853), i.e. a number that directly follows a letter or an underscore.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+DOC = ROOT / "docs" / "REPRODUCTION.md"
+NOT_RESULTS = ROOT / "docs" / "claims" / "not_results.yaml"
+WHYS = {"the paper's input", "the paper's text", "study setting", "formula", "figure or section",
+        "model setting", "derived from inputs", "tolerance or grid", "reference"}
+
+_spec = importlib.util.spec_from_file_location("check_claims", ROOT / "scripts" / "check_claims.py")
+cc = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(cc)
+
+# masked before numbers are read (replaced by blanks, so positions stay those of the doc)
+_MASKS = [
+    re.compile(r"`[^`\n]*`"),                                # inline code
+    re.compile(r"\]\([^)\s]*\)"),                             # link target
+    re.compile(r"[\w./-]*[\w-]+\.(?:png|ya?ml|nc|py|md|csv)\b(?:#[\w-]+)?"),  # file names, paths
+]
+
+
+def _masked(text: str) -> str:
+    for rx in _MASKS:
+        text = rx.sub(lambda m: " " * len(m.group()), text)
+    return text
+
+
+def doc_numbers(text: str) -> list[tuple[int, int, float]]:
+    """(start, end, value) of every number of ``text`` (NUMBER of scripts/check_claims.py)."""
+    masked = _masked(text)
+    out = []
+    for m in cc.NUMBER.finditer(masked):
+        start, tok = m.start(), m.group()
+        if tok[0] in "+-−":
+            # a sign glued to a digit ("1-3", "0.4-0.6") is a range dash: read the number alone
+            if start > 0 and (masked[start - 1].isalnum()):
+                start, tok = start + 1, tok[1:]
+        if start > 0 and (masked[start - 1].isalpha() or masked[start - 1] == "_"):
+            continue                                          # part of a name: k0, e_1, RK5
+        tok = tok.rstrip(",")
+        try:
+            value = float(tok.replace(",", "").replace("−", "-"))
+        except ValueError:
+            continue
+        out.append((start, start + len(tok), value))
+    return out
+
+
+def _spans(text: str, quote: str) -> list[tuple[int, int]]:
+    out, i = [], text.find(quote)
+    while i >= 0:
+        out.append((i, i + len(quote)))
+        i = text.find(quote, i + 1)
+    return out
+
+
+def reproduction_claims() -> list[dict]:
+    """Every claim (quote, value) that names docs/REPRODUCTION.md."""
+    claims = [c for c in cc.load_claims(ROOT / "docs" / "claims.yaml")
+              if c.get("doc", "docs/REPRODUCTION.md") == "docs/REPRODUCTION.md"]
+    for path in sorted((ROOT / "docs" / "claims").glob("*.yaml")):
+        if path == NOT_RESULTS:
+            continue
+        claims += [c for c in (yaml.safe_load(path.read_text(encoding="utf-8")) or [])
+                   if c.get("doc", "docs/REPRODUCTION.md") == "docs/REPRODUCTION.md"]
+    return claims
+
+
+def not_results() -> list[dict]:
+    return yaml.safe_load(NOT_RESULTS.read_text(encoding="utf-8"))["not_results"]
+
+
+def _same(a: float, b: float) -> bool:
+    return abs(abs(a) - abs(b)) <= 1e-12 * max(1.0, abs(b))
+
+
+def uncovered(text: str, claims: list[dict], listed: list[dict]) -> list[tuple[int, float]]:
+    """(position, value) of each number of ``text`` that no claim and no not-result covers."""
+    claim_spans = [(s, e, float(c["value"])) for c in claims for s, e in _spans(text, c["quote"])]
+    listed_spans = [span for n in listed for span in _spans(text, n["quote"])]
+    out = []
+    for start, end, value in doc_numbers(text):
+        if any(s <= start and end <= e and _same(value, v) for s, e, v in claim_spans):
+            continue
+        if any(s <= start and end <= e for s, e in listed_spans):
+            continue
+        out.append((start, value))
+    return out
+
+
+def test_number_reader():
+    text = ("k0 = 219 kN/mm at 1,000 rpm (Figs. 1-3, `studies/fig05.yaml`, figures/x2.png, "
+            "[mesh](mesh.md#a-1)); 0.4–0.6, −3.2 %, 1e-135, RK5, e_1, θ2, x = 0.48 / 0.52.")
+    got = [(text[s:e], v) for s, e, v in doc_numbers(text)]
+    assert got == [("219", 219.0), ("1,000", 1000.0), ("1", 1.0), ("3", 3.0), ("0.4", 0.4),
+                   ("0.6", 0.6), ("−3.2", -3.2), ("1e-135", 1e-135), ("0.48", 0.48),
+                   ("0.52", 0.52)]
+
+
+def test_not_results_list_is_well_formed():
+    text = DOC.read_text(encoding="utf-8")
+    entries = not_results()
+    quotes = [n["quote"] for n in entries]
+    assert len(quotes) == len(set(quotes)), "a not-result quote is listed twice"
+    for n in entries:
+        assert set(n) == {"quote", "why"}, n
+        assert n["why"] in WHYS, f"{n['quote']!r}: why must be one of {sorted(WHYS)}"
+        assert n["quote"] in text, f"not-result quote not in the doc: {n['quote']!r}"
+        assert doc_numbers(n["quote"]), f"not-result quote without a number: {n['quote']!r}"
+        # a quote needs words around its number, so that it cannot cover a result by accident
+        assert re.search(r"[^\W\d_]{2,}", _masked(n["quote"])) or len(n["quote"]) >= 12, n
+
+
+def test_claim_quotes_are_on_the_page():
+    """(A claim may check a number the quote writes in words, "never separate", "three of the
+    four"; such a claim covers no digit, so the coverage test below still needs one per digit.)"""
+    text = DOC.read_text(encoding="utf-8")
+    for c in reproduction_claims():
+        assert c["quote"] in text, f"claim quote not in the doc: {c['quote']!r}"
+
+
+def test_every_number_is_a_checked_result_or_a_listed_non_result():
+    text = DOC.read_text(encoding="utf-8")
+    missing = uncovered(text, reproduction_claims(), not_results())
+    lines = []
+    for pos, value in missing:
+        line = text.count("\n", 0, pos) + 1
+        ctx = text[max(0, pos - 40):pos + 40].replace("\n", " ")
+        lines.append(f"  line {line}: {value:g}   …{ctx}…")
+    assert not missing, (f"{len(missing)} numbers of docs/REPRODUCTION.md are neither checked by "
+                         "a claim nor listed in docs/claims/not_results.yaml:\n"
+                         + "\n".join(lines))
+
+
+def test_no_number_is_both_a_result_and_a_non_result():
+    """A not-result quote must not cover a number that a claim checks as a result there: the
+    reviewed list would then hide a result."""
+    text = DOC.read_text(encoding="utf-8")
+    claim_spans = [(s, e, float(c["value"])) for c in reproduction_claims()
+                   for s, e in _spans(text, c["quote"])]
+    both = []
+    for n in not_results():
+        for s0, e0 in _spans(text, n["quote"]):
+            for start, end, value in doc_numbers(text[s0:e0]):
+                a, b = s0 + start, s0 + end
+                if any(s <= a and b <= e and _same(value, v) for s, e, v in claim_spans):
+                    both.append(f"{value:g} in {n['quote']!r}")
+    assert not both, "listed as not a result, but checked as one: " + "; ".join(both)
