@@ -130,11 +130,26 @@ def test_not_results_list_is_well_formed():
 
 
 def test_claim_quotes_are_on_the_page():
-    """(A claim may check a number the quote writes in words, "never separate", "three of the
-    four"; such a claim covers no digit, so the coverage test below still needs one per digit.)"""
+    """Each claim's quote is on the page and its result is written by a study or a figure
+    script. (A claim may check a number the quote writes in words, "never separate", "three of
+    the four"; such a claim covers no digit, so the coverage test still needs one per digit.)"""
     text = DOC.read_text(encoding="utf-8")
+    studies = {p.stem for p in (ROOT / "studies").glob("*.yaml")}
+    scripts = "".join(p.read_text() for p in (ROOT / "scripts").glob("fig*.py"))
     for c in reproduction_claims():
         assert c["quote"] in text, f"claim quote not in the doc: {c['quote']!r}"
+        stem = Path(str(c["result"])).stem
+        assert stem in studies or f"{stem}.nc" in scripts, f"{c['quote']!r}: no study writes {stem}"
+
+
+def test_uncovered_finds_a_number_nobody_checks():
+    text = "k0 = 219 kN/mm at 50 N m, and 7 more"
+    claims = [{"quote": "k0 = 219 kN/mm", "value": 219}]
+    listed = [{"quote": "at 50 N m", "why": "the paper's input"}]
+    assert [v for _, v in uncovered(text, claims, listed)] == [7.0]
+    # a claim covers only the number it checks, not its neighbours in the quote
+    assert [v for _, v in uncovered(text, [{"quote": "219 kN/mm at 50", "value": 219}], [])] \
+        == [50.0, 7.0]
 
 
 def test_every_number_is_a_checked_result_or_a_listed_non_result():
