@@ -23,7 +23,8 @@ ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "REPRODUCTION.md"
 NOT_RESULTS = ROOT / "docs" / "claims" / "not_results.yaml"
 WHYS = {"the paper's input", "the paper's text", "study setting", "formula", "figure or section",
-        "model setting", "derived from inputs", "tolerance or grid", "reference"}
+        "model setting", "derived from inputs", "tolerance or grid", "reference",
+        "not in any result"}
 
 _spec = importlib.util.spec_from_file_location("check_claims", ROOT / "scripts" / "check_claims.py")
 cc = importlib.util.module_from_spec(_spec)
@@ -43,19 +44,21 @@ def _masked(text: str) -> str:
     return text
 
 
-def doc_numbers(text: str) -> list[tuple[int, int, float]]:
-    """(start, end, value) of every number of ``text`` (NUMBER of scripts/check_claims.py)."""
+def doc_numbers(text: str, names: list | None = None) -> list[tuple[int, int, float]]:
+    """(start, end, value) of every number of ``text`` (NUMBER of scripts/check_claims.py);
+    the digits of names (k0, RK5) are skipped, and appended to ``names`` if given."""
     masked = _masked(text)
     out = []
     for m in cc.NUMBER.finditer(masked):
-        start, tok = m.start(), m.group()
+        start, tok = m.start(), m.group().rstrip(",")
         if tok[0] in "+-−":
             # a sign glued to a digit ("1-3", "0.4-0.6") is a range dash: read the number alone
             if start > 0 and (masked[start - 1].isalnum()):
                 start, tok = start + 1, tok[1:]
         if start > 0 and (masked[start - 1].isalpha() or masked[start - 1] == "_"):
+            if names is not None:
+                names.append((start, tok))
             continue                                          # part of a name: k0, e_1, RK5
-        tok = tok.rstrip(",")
         try:
             value = float(tok.replace(",", "").replace("−", "-"))
         except ValueError:
@@ -113,6 +116,17 @@ def test_number_reader():
     assert got == [("219", 219.0), ("1,000", 1000.0), ("1", 1.0), ("3", 3.0), ("0.4", 0.4),
                    ("0.6", 0.6), ("−3.2", -3.2), ("1e-135", 1e-135), ("0.48", 0.48),
                    ("0.52", 0.52)]
+
+
+def test_no_number_hides_behind_a_letter():
+    """Digits glued to a letter are read as a name (k0, θ2, DOP853); a decimal or a long number
+    there ("x4.45") would escape the check: write "× 4.45" instead."""
+    text = DOC.read_text(encoding="utf-8")
+    names: list = []
+    doc_numbers(text, names)
+    bad = [(text.count("\n", 0, pos) + 1, tok) for pos, tok in names
+           if not re.fullmatch(r"\d{1,3}", tok)]
+    assert not bad, f"numbers glued to a letter (line, token): {bad}"
 
 
 def test_not_results_list_is_well_formed():
