@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+import re
+
 
 class GearsweepError(Exception):
     """Base class of every error that is the user's input, not a bug: one clear line, exit 2."""
@@ -50,6 +53,18 @@ class StudyError(GearsweepError):
         err.lines = seen
         err.args = ("\n".join(seen),)
         return err
+
+    def joined(self, other: StudyError) -> StudyError:
+        """This error with the problem lines of ``other`` of the same file, sorted by line."""
+
+        def line_no(text: str) -> float:
+            m = re.match(re.escape(self.file) + r":(\d+):", text)
+            return int(m.group(1)) if m else math.inf
+
+        lines = sorted(dict.fromkeys(self.lines + other.lines), key=line_no)
+        self.lines = lines
+        self.args = ("\n".join(lines),)
+        return self
 
 
 class GeometryError(GearsweepError):

@@ -74,7 +74,9 @@ def test_duplicate_keys_are_refused():
     text = GOOD.replace("  teeth: 48\n", "  teeth: 48\n  teeth: 50\n")
     assert _lines(text) == [("s.yaml:6: scene.teeth: duplicate key (also on line 5); each key at"
                             " most once in a mapping")]
-    assert _lines("title: a\ntitle: b\n")[0].startswith("s.yaml:2: title: duplicate key")
+    lines = _lines("title: a\ntitle: b\n")  # reported beside the file's other problems
+    assert any(ln.startswith("s.yaml:2: title: duplicate key") for ln in lines), lines
+    assert any("scene" in ln and "required" in ln for ln in lines), lines
 
 
 def test_a_range_from_high_to_low_is_refused():
@@ -201,3 +203,17 @@ def test_a_problem_found_when_planning_names_the_file_and_line(tmp_path, capsys)
     err = capsys.readouterr().err
     assert err == (f"gearsweep: error: {path}:4: solver.steps_per_period: 30 -- a multiple of 16"
                    " (the samples per period the outputs need)\n")
+
+
+def test_a_duplicate_key_a_scene_error_and_a_sweep_error_are_three_lines(tmp_path, capsys):
+    """Every problem of the file at once (issue 29): a duplicate key does not hide the schema's
+    problems, and a problem in the scene does not hide one in the sweep."""
+    path = tmp_path / "three.yaml"
+    path.write_text("title: three errors\nscene:\n  kind: whine\n  mass: 0.15 kg\n  teeth: 48\n"
+                    "  stiffness: 1073\n  damping: 5.5 N s/mm\n  damping: 6 N s/mm\nsweep:\n"
+                    "  speed: {start: 3000 rpm, stop: 1000 rpm, num: 5}\n", encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert [re.search(r"three\.yaml:(\d+): (\S+):", ln).groups() for ln in lines] == [
+        ("6", "scene.stiffness"), ("8", "scene.damping"), ("10", "sweep.speed.start")], lines
+    assert "has no unit" in lines[0] and "duplicate key" in lines[1] and "at most stop" in lines[2]

@@ -37,6 +37,7 @@ import re
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -44,6 +45,7 @@ import yaml
 from pydantic import (
     BeforeValidator,
     Field,
+    TypeAdapter,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -588,9 +590,12 @@ def _path_of(root: Any, target: Any, prefix: str = "") -> str | None:
     return None
 
 
-def load_yaml(text: str, file: str) -> Any:
+def load_yaml(text: str, file: str, duplicates: list | None = None) -> Any:
     """The YAML text as Python objects with line marks; every way the loader can fail (syntax,
-    tags, values it cannot construct, nesting, duplicate keys) raises one ``StudyError``."""
+    tags, values it cannot construct, nesting, duplicate keys) raises one ``StudyError``. With a
+    list ``duplicates``, duplicate keys are appended to it as problems ``(line, path, value,
+    message)`` instead (the last value of the key is kept), so that the caller reports them
+    together with the other problems of the file."""
     loader = None
     try:
         loader = _Loader(text)  # checks the characters at once (control characters: ReaderError)
@@ -626,7 +631,9 @@ def load_yaml(text: str, file: str) -> Any:
             path = f"{where}.{key}" if where else str(key)
             msg = f"duplicate key (also on line {first}); each key at most once in a mapping"
             problems.append((line, path, NO_VALUE, msg))
-        raise StudyError.many(file, problems)
+        if duplicates is None:
+            raise StudyError.many(file, problems)
+        duplicates.extend(problems)
     return raw
 
 
@@ -751,6 +758,19 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
     return out
 
 
+def _sweep_problems(raw: Any) -> list[Problem]:
+    """``grid_problems`` of the file's ``sweep:`` alone, when the study as a whole does not
+    validate (an error in the scene would otherwise hide those of the sweep)."""
+    sweep = raw.get("sweep") if isinstance(raw, dict) else None
+    if not isinstance(sweep, dict):
+        return []
+    try:
+        parsed = TypeAdapter(Study.model_fields["sweep"].annotation).validate_python(sweep)
+    except (ValidationError, RecursionError):
+        return []  # structural problems of the sweep are in the study's own errors
+    return grid_problems(SimpleNamespace(sweep=parsed))
+
+
 def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
     """Every error of ``exc`` as one ``StudyError`` (a line each; the name is kept for callers)."""
     return _error(file, _problems(exc, raw), raw)
@@ -762,7 +782,21 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | Analysi
 
     A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh``).
     """
-    raw = load_yaml(text, file)
+    duplicates: list = []
+    raw = load_yaml(text, file, duplicates)
+    try:
+        study = _parse_raw(raw, file)
+    except StudyError as exc:
+        if not duplicates:
+            raise
+        raise StudyError.many(file, duplicates).joined(exc) from None
+    if duplicates:
+        raise StudyError.many(file, duplicates)
+    return study
+
+
+def _parse_raw(raw: Any, file: str) -> Study | MeshStudy | AnalysisStudy:
+    """``parse_study`` of the loaded YAML (with line marks)."""
     if not isinstance(raw, dict):
         raise StudyError(file, "(top level)", type(raw).__name__,
                          "a mapping with title, scene, sweep, solver, outputs", 1)
@@ -781,7 +815,9 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | Analysi
     try:
         study = Study.model_validate(raw, context={"problems": problems, "file": file})
     except ValidationError as exc:
-        raise _first_error(exc, file, raw) from None
+        err = _first_error(exc, file, raw)
+        more = _sweep_problems(raw)  # the sweep checked apart: every problem of the file at once
+        raise (err.joined(_error(file, more, raw)) if more else err) from None
     except RecursionError:
         raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
     problems += grid_problems(study)
