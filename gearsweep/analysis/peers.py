@@ -422,6 +422,137 @@ def run_diffrax(batch: Batch, compiled, per_step: int, rtol: float, *, repeat: i
                     notes={"max_steps_in_batch": int(steps.max())}, seconds_median=med)
 
 
+DIFFRAX_EVENT_SOLVERS = ("Tsit5", "Dopri5", "Dopri8")
+MAX_SEGMENTS = 4096
+"""Bound on the linear pieces (backlash crossings + 1) of one case in ``diffrax_event_solver``."""
+EVENT_HYSTERESIS = 1e-9
+"""A piece ends EVENT_HYSTERESIS (in x = p / s) past its boundary, so that the next piece starts
+inside itself (its event function at 2 EVENT_HYSTERESIS > 0, clear of the root finder's
+tolerance); the force error of the overlap is of the order of its square."""
+
+
+def diffrax_event_solver(name: str, max_steps: int = 1 << 16, max_segments: int = MAX_SEGMENTS,
+                         dtmax_periods: float | None = None):
+    """diffrax with its event handling at the backlash crossings: a jitted ``vmap``-ed solve
+    ``f(params, ts, rtol) -> (p, steps, ok, segments)`` and the RHS evaluations per step.
+
+    Each case is integrated piece by piece: on a piece the contact state r (-1: contact on the
+    negative flank, 0: free flight in the gap, +1: contact on the positive flank) is fixed, the
+    right-hand side is the smooth linear one of that piece, f(p) = |r| (p - r b), and a
+    ``diffrax.Event`` with an ``optimistix.Newton`` root finder stops the solve where the piece
+    ends (|p| = b: c = p - b on r = +1, -p - b on r = -1, (b^2 - p^2) / b in the gap, each
+    positive inside its piece, plus ``EVENT_HYSTERESIS``; ``direction=False``: the solve stops on
+    a downcrossing of c). The right-hand side of a piece is its linear force continued past the
+    boundary (smooth, so the step that holds the crossing and its interpolant, in which the root
+    is found, see no kink). The next piece is chosen from the side and the sign of p' at the
+    crossing (both pieces have the same vector field on the boundary), and a ``lax.while_loop``
+    restarts ``diffeqsolve`` from the crossing (a new initial step each time) until the end
+    time. Under ``vmap`` the loop runs
+    until the case with the most crossings has finished (the other lanes are masked), and every
+    inner solve until its slowest lane has. Scenes with backlash only."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import diffrax
+    import jax.numpy as jnp
+    import optimistix as optx
+    from jax import lax
+
+    solver = getattr(diffrax, name)()
+    tab = solver.tableau
+    per_step = len(tab.c) + 1 - (1 if tab.fsal else 0)
+
+    def rhs(t, y, args):
+        d, r = args
+        x, u = y[0], y[1]
+        th = d[0] * t
+        c1, c2, c3 = jnp.cos(th), jnp.cos(2.0 * th), jnp.cos(3.0 * th)
+        k = d[2] + d[3] * c1 + d[4] * c2 + d[5] * c3
+        g = d[6] + d[7] * c1 + d[8] * c2 + d[9] * c3
+        s, wn, b = d[11], d[12], d[10]
+        f = jnp.abs(r) * (s * x - r * b)  # the piece's linear force, continued past its ends
+        return jnp.stack([wn * u, (g - d[1] * s * wn * u - k * f) / (s * wn)])
+
+    def cond_fn(t, y, args, **kwargs):
+        d, r = args
+        bx = d[10] / d[11]
+        x = y[0]
+        inside = jnp.where(r > 0, x - bx, jnp.where(r < 0, -x - bx, (bx - x) * (bx + x) / bx))
+        return inside + EVENT_HYSTERESIS
+
+    term = diffrax.ODETerm(rhs)
+    event = diffrax.Event(cond_fn, optx.Newton(rtol=1e-12, atol=1e-12), direction=False)
+
+    def one(d, ts, rtol):
+        m = ts.shape[0]
+        t_end = ts[-1]
+
+        def body(c):
+            t, y, r, out, nseg, steps, ok = c
+            sol = diffrax.diffeqsolve(
+                term, solver, t0=t, t1=t_end, dt0=None, y0=y, args=(d, r),
+                # (ts, t1=True) in one SaveAt loses t1 at an event (diffrax 0.7.2): two subs
+                saveat=diffrax.SaveAt(subs=[diffrax.SubSaveAt(ts=jnp.clip(ts, t, t_end)),
+                                            diffrax.SubSaveAt(t1=True)]),
+                stepsize_controller=diffrax.PIDController(
+                    rtol=rtol, atol=rtol,
+                    dtmax=None if dtmax_periods is None else dtmax_periods * 2 * jnp.pi / d[0]),
+                event=event, max_steps=max_steps, throw=False)
+            t1, y1, ys = sol.ts[1][0], sol.ys[1][0], sol.ys[0][:, 0]
+            hit = sol.result == diffrax.RESULTS.event_occurred
+            good = (sol.result == diffrax.RESULTS.successful) | hit
+            take = (ts > t) & (ts <= t1) & jnp.isfinite(ys)
+            out = jnp.where(take, ys * d[11], out)
+            side = jnp.sign(y1[0])
+            r1 = jnp.where(hit, jnp.where(side * y1[1] > 0, side, 0.0), r)
+            t1 = jnp.where(hit, t1, t_end)
+            return t1, y1, r1, out, nseg + 1, steps + sol.stats["num_steps"], ok & good
+
+        def cond(c):
+            return (c[0] < t_end) & c[6] & (c[4] < max_segments)
+
+        init = (jnp.zeros(()), jnp.zeros(2), jnp.zeros(()), jnp.full(m, jnp.nan),
+                jnp.zeros((), int), jnp.zeros((), int), jnp.ones((), bool))
+        t, _, _, out, nseg, steps, ok = lax.while_loop(cond, body, init)
+        return out, steps, ok & (t >= t_end), nseg
+
+    return jax.jit(jax.vmap(one, in_axes=(0, 0, None))), per_step
+
+
+def diffrax_event_compile(batch: Batch, name: str, **kw):
+    """As ``diffrax_compile`` for ``diffrax_event_solver`` (``kw``: its keywords)."""
+    import jax.numpy as jnp
+
+    if batch.scenes[0].half_gap is None:
+        raise ValueError("the events variant is for scenes with backlash")
+    fn, per_step = diffrax_event_solver(name, **kw)
+    t0 = time.perf_counter()
+    compiled = fn.lower(jnp.asarray(batch.params), jnp.asarray(batch.sample_times), 1e-6).compile()
+    return compiled, time.perf_counter() - t0, per_step
+
+
+def run_diffrax_events(batch: Batch, compiled, per_step: int, rtol: float, *,
+                       repeat: int = 3) -> BatchRun:
+    """``diffrax_event_solver`` over the batch. RHS evaluations: accepted + rejected steps of all
+    pieces times the new stages per step (the root finds' interpolant evaluations and the initial
+    step selection of each piece not counted)."""
+    import jax.numpy as jnp
+
+    d, ts = jnp.asarray(batch.params), jnp.asarray(batch.sample_times)
+
+    def go():
+        p, steps, ok, nseg = compiled(d, ts, rtol)
+        p.block_until_ready()
+        return np.asarray(p), np.asarray(steps), np.asarray(ok), np.asarray(nseg)
+
+    (p, steps, ok, nseg), sec, med = _timed(go, repeat)
+    p = p.copy()
+    p[~ok] = np.nan
+    return BatchRun(p, sec, batch.n, per_step * steps.astype(float), np.arange(batch.n),
+                    notes={"max_steps_in_batch": int(steps.max()), "pieces_max": int(nseg.max()),
+                           "pieces_mean": float(nseg.mean())}, seconds_median=med)
+
+
 # --------------------------------------------------------------------------- per-case peers
 
 
