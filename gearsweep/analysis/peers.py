@@ -12,9 +12,13 @@ Peers (all optional: each is imported inside its runner, none is a dependency of
 
 ``numbalsoda``
     LSODA (and DOP853) from inside a Numba ``prange`` loop over the cases, the right-hand side a
-    ``cfunc``; what a Numba user writes.
+    ``cfunc``; what a Numba user writes. With events (scenes with backlash): its ``solve_ivp``
+    (DOP853, a terminal event with a Brent root find) stopped at each backlash crossing and
+    restarted on the next piece (``run_numbalsoda_events``).
 ``diffrax``
     JAX, ``vmap`` over the cases, Tsit5 / Dopri5 / Dopri8 with ``PIDController``; on the CPU.
+    With events (scenes with backlash): ``diffrax.Event`` with an ``optimistix.Newton`` root
+    finder at each crossing, restarted in a ``lax.while_loop`` (``diffrax_event_solver``).
 ``sksundae``
     SUNDIALS CVODE (scikit-sundae), Adams, the right-hand side a Python function.
 ``scipy``
@@ -23,7 +27,8 @@ Peers (all optional: each is imported inside its runner, none is a dependency of
 All peers integrate the same equation in scaled variables, x = p / s, u = p' / (s omega_n) with
 s = ``Scene.response_scale()``, with ``atol = rtol``: the same tolerances as
 ``precision.run_scipy`` (atol = rtol s for p and rtol s omega_n for p'). The dead zone sits in the
-right-hand side (no events): f(p) = p - clip(p, -b, b), b = 0 without backlash.
+right-hand side (no events): f(p) = p - clip(p, -b, b), b = 0 without backlash; the events
+variants integrate one linear piece of it at a time (f = |r| (p - r b), contact state r).
 """
 
 from __future__ import annotations
@@ -348,6 +353,118 @@ def run_numbalsoda(batch: Batch, rtol: float, solver: str = "LSODA", *, repeat: 
 
     _, sec, med = _timed(go, repeat)
     return BatchRun(out.copy(), sec, batch.n, nfev.copy(), np.arange(batch.n), seconds_median=med)
+
+
+_NUMBALSODA_EVENTS: dict = {}
+NUMBALSODA_EVENT_HYSTERESIS = 1e-6
+"""As ``EVENT_HYSTERESIS`` for numbalsoda: its root finder stops within 1e-8 in tau, up to about
+1e-8 in x, and it stops on a sign change in either direction (a restart a little outside its
+piece would stop at once); the overlap's force error is of order 1e-12."""
+
+
+def _numbalsoda_events():
+    """Compile (once) numbalsoda's ``solve_ivp`` (DOP853 with events) driver, piece by piece as
+    ``diffrax_event_solver``, in the time tau = omega_n t (its Brent root finder has a fixed
+    absolute tolerance of 1e-8 in the time variable: in seconds that would be 1e-4 of a mesh
+    period)."""
+    if _NUMBALSODA_EVENTS:
+        return _NUMBALSODA_EVENTS
+    import numba as nb
+    from numbalsoda import lsoda_sig, solve_ivp
+
+    hyst = NUMBALSODA_EVENT_HYSTERESIS
+
+    @nb.cfunc(lsoda_sig)
+    def rhs(tau, y, dy, d):
+        x = y[0]
+        u = y[1]
+        wn = d[12]
+        th = d[0] * tau / wn
+        c1, c2, c3 = math.cos(th), math.cos(2.0 * th), math.cos(3.0 * th)
+        k = d[2] + d[3] * c1 + d[4] * c2 + d[5] * c3
+        g = d[6] + d[7] * c1 + d[8] * c2 + d[9] * c3
+        s = d[11]
+        r = d[14]
+        f = abs(r) * (s * x - r * d[10])
+        dy[0] = u
+        dy[1] = (g - d[1] * s * wn * u - k * f) / (s * wn * wn)
+
+    @nb.cfunc(lsoda_sig)
+    def event(tau, y, out, d):
+        bx = d[10] / d[11]
+        x = y[0]
+        r = d[14]
+        if r > 0:
+            c = x - bx
+        elif r < 0:
+            c = -x - bx
+        else:
+            c = (bx - x) * (bx + x) / bx
+        out[0] = c + hyst
+
+    @nb.njit(parallel=True)
+    def drive(fptr, eptr, params, ts, rtol, max_pieces, out, nfev, pieces, ok):
+        n = params.shape[0]
+        m = ts.shape[1]
+        for i in nb.prange(n):
+            data = np.zeros(16)
+            data[:14] = params[i]
+            wn = params[i, 12]
+            taus = ts[i] * wn
+            tau_end = taus[m - 1]
+            tau = 0.0
+            y = np.zeros(2)
+            k0 = 0
+            nf = 0
+            good = True
+            npc = 0
+            while k0 < m and npc < max_pieces:  # (empty t_eval: solve_ivp saves every step)
+                npc += 1
+                span = np.array([tau, tau_end])
+                sol = solve_ivp(fptr, span, y, taus[k0:], n_events=1, event_fcn=eptr,
+                                data=data.ctypes.data, rtol=rtol, atol=rtol)
+                nf += sol.nfev
+                if not sol.success:
+                    good = False
+                    break
+                nt = min(sol.t.shape[0], m - k0)
+                for j in range(nt):
+                    out[i, k0 + j] = sol.y[j, 0] * params[i, 11]
+                k0 += nt
+                if not sol.event_found:
+                    break
+                tau = sol.t_event
+                y = sol.y_event.copy()
+                side = 1.0 if y[0] > 0 else -1.0
+                data[14] = side if side * y[1] > 0 else 0.0
+            nfev[i] = nf
+            pieces[i] = npc
+            ok[i] = good and k0 == m
+
+    _NUMBALSODA_EVENTS.update(rhs=rhs, event=event, drive=drive)
+    return _NUMBALSODA_EVENTS
+
+
+def run_numbalsoda_events(batch: Batch, rtol: float, *, repeat: int = 3) -> BatchRun:
+    """numbalsoda's ``solve_ivp`` (DOP853) with a terminal event at each backlash crossing,
+    restarted on the next piece, ``prange`` over the cases (``_numbalsoda_events``)."""
+    if batch.scenes[0].half_gap is None:
+        raise ValueError("the events variant is for scenes with backlash")
+    e = _numbalsoda_events()
+    out = np.full(batch.sample_times.shape, np.nan)
+    nfev = np.zeros(batch.n)
+    pieces = np.zeros(batch.n, dtype=np.int64)
+    ok = np.zeros(batch.n, dtype=np.bool_)
+
+    def go():
+        e["drive"](e["rhs"].address, e["event"].address, batch.params, batch.sample_times, rtol,
+                   MAX_SEGMENTS, out, nfev, pieces, ok)
+
+    _, sec, med = _timed(go, repeat)
+    p = out.copy()
+    p[~ok] = np.nan
+    return BatchRun(p, sec, batch.n, nfev.copy(), np.arange(batch.n), seconds_median=med,
+                    notes={"pieces_max": int(pieces.max()), "pieces_mean": float(pieces.mean())})
 
 
 # --------------------------------------------------------------------------- diffrax
