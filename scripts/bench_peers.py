@@ -184,7 +184,8 @@ def run_scene(batch: P.Batch, ref: np.ndarray, args, log) -> dict:
                 break
 
     # numbalsoda
-    if _installed("numbalsoda"):
+    fams = set(args.families)
+    if "numbalsoda" in fams and _installed("numbalsoda"):
         for solver in ("LSODA", "DOP853"):
             m = f"numbalsoda-{solver}"
             compile_s[METHODS.index(m)] = P.numbalsoda_compile(batch, solver)
@@ -203,7 +204,7 @@ def run_scene(batch: P.Batch, ref: np.ndarray, args, log) -> dict:
 
             tolerances(m, run_nbev, cap=SLOW_BATCH_EVENTS)
     # diffrax
-    if _installed("diffrax") and _installed("jax"):
+    if "diffrax" in fams and _installed("diffrax") and _installed("jax"):
         for solver in P.DIFFRAX_SOLVERS:
             m = f"diffrax-{solver}"
             compiled, sec, per_step = P.diffrax_compile(batch, solver)
@@ -224,9 +225,9 @@ def run_scene(batch: P.Batch, ref: np.ndarray, args, log) -> dict:
 
                 tolerances(m, run_ev, cap=SLOW_BATCH_EVENTS)
     # serial peers
-    if _installed("scikit-sundae"):
+    if "scikit-sundae" in fams and _installed("scikit-sundae"):
         tolerances("cvode-Adams", lambda tol: P.run_cvode(batch, tol, serial), serial_run=True)
-    for solver in ("RK45", "DOP853", "LSODA"):
+    for solver in ("RK45", "DOP853", "LSODA") if "scipy" in fams else ():
         tolerances(f"scipy-{solver}", lambda tol, solver=solver: P.run_scipy(batch, solver, tol,
                                                                              serial),
                    serial_run=True)
@@ -345,10 +346,19 @@ def dataset(res: dict, args, command: str) -> xr.Dataset:
                         "Python right-hand side; wall_time = serial time per case / threads "
                         "(an ideal process pool)",
         "threads": cores_used(),
+        "jax_devices": _jax_devices(),
         "cpu_count": os.cpu_count(),
         **versions,
     })
     return ds
+
+
+def _jax_devices() -> str:
+    if not _installed("jax"):
+        return "jax not installed"
+    import jax
+
+    return ", ".join(str(d) for d in jax.devices())
 
 
 def cores_used() -> int:
@@ -427,12 +437,15 @@ def main() -> None:
     ap.add_argument("--processes", type=int, default=os.cpu_count() or 1,
                     help="processes for the reference solutions")
     ap.add_argument("--scenes", nargs="+", default=list(P.BATCHES))
+    ap.add_argument("--families", nargs="+", default=sorted(set(FAMILY.values())),
+                    help="packages to run (gearsweep always runs); e.g. diffrax alone on a GPU")
     ap.add_argument("--results", type=Path, default=ROOT / "results")
     ap.add_argument("--copy-to", type=Path, default=None, help="also copy the .nc into this folder")
     args = ap.parse_args()
     command = "scripts/bench_peers.py " + " ".join(
         f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items()
-        if k not in ("results", "copy_to", "scenes")) + " --scenes " + " ".join(args.scenes)
+        if k not in ("results", "copy_to", "scenes", "families")) + " --scenes " + " ".join(
+        args.scenes) + " --families " + " ".join(args.families)
     t_start = time.perf_counter()
 
     def log(msg):
