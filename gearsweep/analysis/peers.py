@@ -641,31 +641,42 @@ def diffrax_event_solver(name: str, max_steps: int = 1 << 16, max_segments: int 
     return jax.jit(jax.vmap(one, in_axes=(0, 0, None))), per_step
 
 
-def diffrax_event_compile(batch: Batch, name: str, **kw):
-    """As ``diffrax_compile`` for ``diffrax_event_solver`` (``kw``: its keywords)."""
+def diffrax_event_compile(batch: Batch, name: str, chunk: int | None = None, **kw):
+    """As ``diffrax_compile`` for ``diffrax_event_solver`` (``kw``: its keywords), for ``vmap``
+    over ``chunk`` cases at a time (None: the whole batch in one call)."""
     import jax.numpy as jnp
 
     if batch.scenes[0].half_gap is None:
         raise ValueError("the events variant is for scenes with backlash")
     fn, per_step = diffrax_event_solver(name, **kw)
+    n = batch.n if chunk is None else min(chunk, batch.n)
     t0 = time.perf_counter()
-    compiled = fn.lower(jnp.asarray(batch.params), jnp.asarray(batch.sample_times), 1e-6).compile()
+    compiled = fn.lower(jnp.asarray(batch.params[:n]), jnp.asarray(batch.sample_times[:n]),
+                        1e-6).compile()
     return compiled, time.perf_counter() - t0, per_step
 
 
 def run_diffrax_events(batch: Batch, compiled, per_step: int, rtol: float, *,
                        repeat: int = 3) -> BatchRun:
-    """``diffrax_event_solver`` over the batch. RHS evaluations: accepted + rejected steps of all
-    pieces times the new stages per step (the root finds' interpolant evaluations and the initial
-    step selection of each piece not counted)."""
+    """``diffrax_event_solver`` over the batch, in chunks of the cases the compiled function
+    takes (one call after the other; the last chunk padded with copies of the last case).
+    RHS evaluations: accepted + rejected steps of all pieces times the new stages per step (the
+    root finds' interpolant evaluations and the initial step selection of each piece not
+    counted)."""
     import jax.numpy as jnp
 
-    d, ts = jnp.asarray(batch.params), jnp.asarray(batch.sample_times)
+    k = compiled.in_avals[0][0].shape[0] if hasattr(compiled, "in_avals") else batch.n
+    n = batch.n
+    idx = np.minimum(np.arange(-(-n // k) * k), n - 1)
+    parts = [(jnp.asarray(batch.params[idx[j:j + k]]), jnp.asarray(batch.sample_times[idx[j:j + k]]))
+             for j in range(0, len(idx), k)]
 
     def go():
-        p, steps, ok, nseg = compiled(d, ts, rtol)
-        p.block_until_ready()
-        return np.asarray(p), np.asarray(steps), np.asarray(ok), np.asarray(nseg)
+        res = [compiled(d, ts, rtol) for d, ts in parts]
+        res[-1][0].block_until_ready()
+        p, steps, ok, nseg = (np.concatenate([np.asarray(r[i]) for r in res])[:n]
+                              for i in range(4))
+        return p, steps, ok, nseg
 
     (p, steps, ok, nseg), sec, med = _timed(go, repeat)
     p = p.copy()
