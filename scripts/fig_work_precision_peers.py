@@ -28,7 +28,7 @@ DRAWN = ("amplitude_error", "wall_time", "rhs_evaluations", "fitted_order", "set
 COLOR = {"gearsweep": "black", "numbalsoda": "C0", "diffrax": "C1", "scikit-sundae": "C2",
          "scipy": "C7"}
 EVENTS_COLOR = "C3"
-"""diffrax with events at the backlash crossings (``*-events``)."""
+"""Variants with events at the backlash crossings (``*-events``: diffrax, numbalsoda)."""
 MARKERS = "os^vDPX*<>hp8d"
 TARGETS = (1e-4, 1e-6, 1e-8)
 
@@ -77,8 +77,9 @@ def plot(ds: xr.Dataset, path: Path) -> None:
             if row == 1:
                 ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     fig.suptitle("Work-precision against the peers: solid black gearsweep (fixed step), dashed "
-                 "compiled peers (batch, all cores; red: diffrax with events at the backlash "
-                 "crossings),\ndotted Python-RHS peers (serial time / threads). Order: fitted "
+                 "compiled peers (batch, all cores; red: with events at the backlash "
+                 "crossings: diffrax, numbalsoda),\ndotted Python-RHS peers (serial time / "
+                 "threads). Order: fitted "
                  "slope of error against steps per period (gearsweep) or RHS evaluations per "
                  "case (peers).\nDash-dot lines: the targets 1e-4, 1e-6, 1e-8. "
                  f"{ds.attrs.get('threads', '?')} threads; {ds.attrs.get('history', '')}",
