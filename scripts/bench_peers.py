@@ -1,7 +1,9 @@
 """Work-precision against the compiled peers (issue 25): every method over batches of cases.
 
 Runs gearsweep's RK4 / RK5 (and the kink-aware steps where the scene has backlash), numbalsoda
-(LSODA, DOP853; Numba prange over the cases), diffrax (Tsit5, Dopri5, Dopri8; vmap, CPU),
+(LSODA, DOP853; Numba prange over the cases; and DOP853 with events at the backlash crossings
+where the scene has backlash), diffrax (Tsit5, Dopri5, Dopri8; vmap, CPU; and Dopri5, Dopri8
+with events at the backlash crossings),
 SUNDIALS CVODE (scikit-sundae, Adams) and scipy solve_ivp (RK45, DOP853, LSODA) on the whine
 scene, the rattle scene and benchmark B1 (see ``gearsweep.analysis.peers``), writes
 ``results/work_precision_peers.nc`` and prints, per scene, the cost per case at equal accuracy
@@ -38,18 +40,21 @@ from gearsweep.analysis.advise import advise
 ROOT = Path(__file__).resolve().parents[1]
 SPP = {"whine": (8, 16, 32, 64, 128, 256, 512, 1024), "rattle": (8, 16, 32, 64, 128, 256, 512, 1024),
        "B1": (16, 32, 64, 128, 256, 512, 1024, 2048)}
-_RTOL = (1e-3, 1e-5, 1e-7, 1e-9)
-RTOL = {"numbalsoda-LSODA": (*_RTOL, 1e-10), "numbalsoda-DOP853": (*_RTOL, 1e-10),
+_RTOL = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+RTOL = {"numbalsoda-LSODA": (*_RTOL, 1e-11), "numbalsoda-DOP853": (*_RTOL, 1e-11),
+        "numbalsoda-DOP853-events": (*_RTOL, 1e-11),
         "diffrax-Tsit5": _RTOL, "diffrax-Dopri5": _RTOL, "diffrax-Dopri8": (*_RTOL, 1e-11),
+        "diffrax-Dopri5-events": _RTOL, "diffrax-Dopri8-events": (*_RTOL, 1e-11),
         "cvode-Adams": _RTOL, "scipy-RK45": _RTOL, "scipy-DOP853": _RTOL, "scipy-LSODA": _RTOL}
-"""Tolerances of the peers: every second decade (the whole run in minutes on two cores), one
-more where the 1e-8 target needs it (numbalsoda: 1e-10; Dopri8, whose error per rtol is the
-largest: 1e-11)."""
+"""Tolerances of the peers: every decade from 1e-3 to 1e-10, one more where the 1e-8 target
+may need it (numbalsoda, Dopri8: 1e-11). The stopping rules below keep the run in minutes."""
 TARGETS = (1e-4, 1e-6, 1e-8)
 FAMILY = {"rk4": "gearsweep", "rk5": "gearsweep", "rk4-kink": "gearsweep", "rk5-kink": "gearsweep",
           "rk4-banded": "gearsweep", "rk5-banded": "gearsweep",
           "numbalsoda-LSODA": "numbalsoda", "numbalsoda-DOP853": "numbalsoda",
+          "numbalsoda-DOP853-events": "numbalsoda",
           "diffrax-Tsit5": "diffrax", "diffrax-Dopri5": "diffrax", "diffrax-Dopri8": "diffrax",
+          "diffrax-Dopri5-events": "diffrax", "diffrax-Dopri8-events": "diffrax",
           "cvode-Adams": "scikit-sundae", "scipy-RK45": "scipy", "scipy-DOP853": "scipy",
           "scipy-LSODA": "scipy"}
 METHODS = tuple(FAMILY)
@@ -62,7 +67,20 @@ ADVISED = ("rk4", "rk5", "rk4-kink", "rk5-kink")
 ADVISED_MAX_MSTEPS = 1500.0
 """An advised step count costing more lane-steps than this over the batch is not run."""
 SLOW_BATCH = 15.0
-"""A peer's batch slower than this [s]: its tighter tolerances are not run (``stopped``)."""
+"""A peer's batch (or a serial peer's run over its cases) slower than this [s]: its tighter
+tolerances are not run (``stopped``)."""
+SLOW_BATCH_EVENTS = 30.0
+"""The same for the variants with events at the backlash crossings (diffrax, numbalsoda DOP853;
+backlash scenes only): each restart costs, and the cap of 15 s would stop diffrax's before the
+1e-6 target."""
+EVENT_SOLVERS = ("Dopri5", "Dopri8")
+"""diffrax solvers run with events (``peers.diffrax_event_solver``); Tsit5 behaves as Dopri5."""
+EVENT_CHUNK = 50
+"""diffrax with events: ``vmap`` over this many cases per call, the calls one after the other
+(under ``vmap`` every piece of a call lasts as long as its slowest case: the cost per case grows
+with the lanes; trials before the run: 3.7 / 6.1 / 19.5 ms per case for chunks of 50 / 100 /
+200 at rtol 1e-5). The run also times one call over the whole batch at EVENT_ONE_CALL_RTOL."""
+EVENT_ONE_CALL_RTOL = 1e-5
 
 
 def _installed(dist: str) -> str | None:
@@ -83,6 +101,7 @@ def run_scene(batch: P.Batch, ref: np.ndarray, args, log) -> dict:
     ecases = np.full(len(METHODS), np.nan)
     compile_s = np.full(len(METHODS), np.nan)
     stopped = np.zeros(len(METHODS))
+    one_call = {}
     cores = numba.get_num_threads()
 
     def record(m, lev, setting, run, serial_run=False):
@@ -160,41 +179,77 @@ def run_scene(batch: P.Batch, ref: np.ndarray, args, log) -> dict:
             log(f"[{name}] advisor {am} @ {target:.0e}: {spp} steps/period, traj err "
                 f"{te.max():.2e}, amp err {ae.max():.2e}, {1e6 * r.seconds_per_case:.2f} us/case")
 
-    def tolerances(m, run):
+    def tolerances(m, run, serial_run=False, cap=SLOW_BATCH):
         i = METHODS.index(m)
         for lev, tol in enumerate(RTOL[m]):
-            r = best_of(lambda tol=tol: run(tol))
-            record(m, lev, tol, r)
-            if r.seconds > SLOW_BATCH and lev + 1 < len(RTOL[m]):
+            r = run(tol) if serial_run else best_of(lambda tol=tol: run(tol))
+            record(m, lev, tol, r, serial_run=serial_run)
+            if r.seconds > cap and lev + 1 < len(RTOL[m]):
                 stopped[i] = 1.0
-                log(f"[{name}] {m}: batch took {r.seconds:.1f} s > {SLOW_BATCH:g} s, tighter "
-                    "tolerances not run")
+                log(f"[{name}] {m}: {'serial run' if serial_run else 'batch'} took "
+                    f"{r.seconds:.1f} s > {cap:g} s, tighter tolerances not run")
                 break
 
     # numbalsoda
-    if _installed("numbalsoda"):
+    fams = set(args.families)
+    if "numbalsoda" in fams and _installed("numbalsoda"):
         for solver in ("LSODA", "DOP853"):
             m = f"numbalsoda-{solver}"
             compile_s[METHODS.index(m)] = P.numbalsoda_compile(batch, solver)
             tolerances(m, lambda tol, solver=solver: P.run_numbalsoda(batch, tol, solver, repeat=1))
+        if backlash:
+            m = "numbalsoda-DOP853-events"
+            t0 = time.perf_counter()
+            P.run_numbalsoda_events(P.BATCHES[name](4), 1e-3, repeat=1)
+            compile_s[METHODS.index(m)] = time.perf_counter() - t0
+
+            def run_nbev(tol, m=m):
+                r = P.run_numbalsoda_events(batch, tol, repeat=1)
+                log(f"[{name}] {m} {tol:.0e}: pieces per case max {r.notes['pieces_max']}, "
+                    f"mean {r.notes['pieces_mean']:.1f}")
+                return r
+
+            tolerances(m, run_nbev, cap=SLOW_BATCH_EVENTS)
     # diffrax
-    if _installed("diffrax") and _installed("jax"):
+    if "diffrax" in fams and _installed("diffrax") and _installed("jax"):
         for solver in P.DIFFRAX_SOLVERS:
             m = f"diffrax-{solver}"
             compiled, sec, per_step = P.diffrax_compile(batch, solver)
             compile_s[METHODS.index(m)] = sec
             tolerances(m, lambda tol, c=compiled, k=per_step: P.run_diffrax(batch, c, k, tol,
                                                                             repeat=1))
+        if backlash:
+            for solver in EVENT_SOLVERS:
+                m = f"diffrax-{solver}-events"
+                compiled, sec, per_step = P.diffrax_event_compile(batch, solver,
+                                                                  chunk=EVENT_CHUNK)
+                compile_s[METHODS.index(m)] = sec
+                if solver == EVENT_SOLVERS[0]:
+                    whole, sec1, _ = P.diffrax_event_compile(batch, solver)
+                    r1 = P.run_diffrax_events(batch, whole, per_step, EVENT_ONE_CALL_RTOL,
+                                              repeat=1)
+                    one_call[m] = (f"{m} rtol {EVENT_ONE_CALL_RTOL:g}, one vmap call over all "
+                                   f"{batch.n} cases: {1e6 * r1.seconds_per_case:.0f} us/case "
+                                   f"(compile {sec1:.1f} s)")
+                    log(f"[{name}] {one_call[m]}")
+                    del whole
+
+                def run_ev(tol, c=compiled, k=per_step, m=m):
+                    r = P.run_diffrax_events(batch, c, k, tol, repeat=1)
+                    log(f"[{name}] {m} {tol:.0e}: pieces per case max {r.notes['pieces_max']}, "
+                        f"mean {r.notes['pieces_mean']:.1f}; steps max {r.notes['max_steps_in_batch']}")
+                    return r
+
+                tolerances(m, run_ev, cap=SLOW_BATCH_EVENTS)
     # serial peers
-    if _installed("scikit-sundae"):
-        for lev, tol in enumerate(RTOL["cvode-Adams"]):
-            record("cvode-Adams", lev, tol, P.run_cvode(batch, tol, serial), serial_run=True)
-    for solver in ("RK45", "DOP853", "LSODA"):
-        for lev, tol in enumerate(RTOL[f"scipy-{solver}"]):
-            record(f"scipy-{solver}", lev, tol, P.run_scipy(batch, solver, tol, serial),
+    if "scikit-sundae" in fams and _installed("scikit-sundae"):
+        tolerances("cvode-Adams", lambda tol: P.run_cvode(batch, tol, serial), serial_run=True)
+    for solver in ("RK45", "DOP853", "LSODA") if "scipy" in fams else ():
+        tolerances(f"scipy-{solver}", lambda tol, solver=solver: P.run_scipy(batch, solver, tol,
+                                                                             serial),
                    serial_run=True)
     return {"batch": batch, "out": out, "cases": cases, "error_cases": ecases,
-            "compile": compile_s, "advised": adv, "stopped": stopped}
+            "compile": compile_s, "advised": adv, "stopped": stopped, "one_call": one_call}
 
 
 def fitted_orders(setting, err, rhs, method) -> float:
@@ -227,7 +282,8 @@ def dataset(res: dict, args, command: str) -> xr.Dataset:
             for e in orders:
                 orders[e][i, j] = fitted_orders(o["setting"][j], o[e][j], o["rhs"][j], m)
     versions = {f"{k.replace('-', '_')}_version": (_installed(k) or "not installed")
-                for k in ("numba", "numbalsoda", "jax", "diffrax", "scikit-sundae", "scipy")}
+                for k in ("numba", "numbalsoda", "jax", "diffrax", "optimistix", "scikit-sundae",
+                          "scipy")}
     ds = xr.Dataset(
         {
             "setting": var(d3, stack("setting"), "1",
@@ -252,7 +308,7 @@ def dataset(res: dict, args, command: str) -> xr.Dataset:
                                "cases compared with the reference"),
             "stopped": var(d2, np.stack([res[s]["stopped"] for s in scenes]), "1",
                            "1: tighter tolerances not run (batch slower than the cap)",
-                           cap_seconds=SLOW_BATCH),
+                           cap_seconds=SLOW_BATCH, cap_seconds_events=SLOW_BATCH_EVENTS),
             "compile_time": var(d2, np.stack([res[s]["compile"] for s in scenes]), "s",
                                 "first call (compile, or load from Numba's disk cache)"),
             "fitted_order": var(d2, orders["ae_max"], "1",
@@ -307,10 +363,23 @@ def dataset(res: dict, args, command: str) -> xr.Dataset:
                         "Python right-hand side; wall_time = serial time per case / threads "
                         "(an ideal process pool)",
         "threads": cores_used(),
+        "jax_devices": _jax_devices(),
+        "diffrax_events_chunk": f"diffrax *-events: vmap over {EVENT_CHUNK} cases per call, the "
+                                "calls one after the other",
+        "diffrax_events_one_call": "; ".join(f"{s}: {v}" for s in scenes
+                                             for v in res[s]["one_call"].values()) or "not run",
         "cpu_count": os.cpu_count(),
         **versions,
     })
     return ds
+
+
+def _jax_devices() -> str:
+    if not _installed("jax"):
+        return "jax not installed"
+    import jax
+
+    return ", ".join(str(d) for d in jax.devices())
 
 
 def cores_used() -> int:
@@ -389,12 +458,15 @@ def main() -> None:
     ap.add_argument("--processes", type=int, default=os.cpu_count() or 1,
                     help="processes for the reference solutions")
     ap.add_argument("--scenes", nargs="+", default=list(P.BATCHES))
+    ap.add_argument("--families", nargs="+", default=sorted(set(FAMILY.values())),
+                    help="packages to run (gearsweep always runs); e.g. diffrax alone on a GPU")
     ap.add_argument("--results", type=Path, default=ROOT / "results")
     ap.add_argument("--copy-to", type=Path, default=None, help="also copy the .nc into this folder")
     args = ap.parse_args()
     command = "scripts/bench_peers.py " + " ".join(
         f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items()
-        if k not in ("results", "copy_to", "scenes")) + " --scenes " + " ".join(args.scenes)
+        if k not in ("results", "copy_to", "scenes", "families")) + " --scenes " + " ".join(
+        args.scenes) + " --families " + " ".join(args.families)
     t_start = time.perf_counter()
 
     def log(msg):

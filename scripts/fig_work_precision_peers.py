@@ -27,7 +27,9 @@ DRAWN = ("amplitude_error", "wall_time", "rhs_evaluations", "fitted_order", "set
 """Variables the chart draws (tests/test_peers.py checks the committed file has them)."""
 COLOR = {"gearsweep": "black", "numbalsoda": "C0", "diffrax": "C1", "scikit-sundae": "C2",
          "scipy": "C7"}
-MARKERS = "os^vDPX*<>hp8"
+EVENTS_COLOR = "C3"
+"""Variants with events at the backlash crossings (``*-events``: diffrax, numbalsoda)."""
+MARKERS = "os^vDPX*<>hp8d"
 TARGETS = (1e-4, 1e-6, 1e-8)
 
 
@@ -61,7 +63,9 @@ def plot(ds: xr.Dataset, path: Path) -> None:
                 lab = f"{m} (order {order:.1f})" if math.isfinite(order) else f"{m} (order -)"
                 ls = "-" if fam == "gearsweep" else ("--" if fam in ("numbalsoda", "diffrax")
                                                      else ":")
-                ax.loglog(x[ok], y[ok], color=COLOR.get(fam, "C9"), marker=MARKERS[j % len(MARKERS)],
+                events = str(m).endswith("-events")
+                color = EVENTS_COLOR if events else COLOR.get(fam, "C9")
+                ax.loglog(x[ok], y[ok], color=color, marker=MARKERS[j % len(MARKERS)],
                           ls=ls, ms=5, lw=1.6 if fam == "gearsweep" else 1.1, label=lab)
             for t in TARGETS:
                 ax.axhline(t, color="0.6", lw=0.6, ls="-.")
@@ -73,10 +77,12 @@ def plot(ds: xr.Dataset, path: Path) -> None:
             if row == 1:
                 ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     fig.suptitle("Work-precision against the peers: solid black gearsweep (fixed step), dashed "
-                 "compiled peers (batch, all cores), dotted Python-RHS peers (serial time / "
-                 "threads).\nOrder: fitted slope of error against steps per period (gearsweep) "
-                 "or RHS evaluations per case (peers). Dash-dot lines: the targets 1e-4, 1e-6, "
-                 f"1e-8.\n{ds.attrs.get('threads', '?')} threads; {ds.attrs.get('history', '')}",
+                 "compiled peers (batch, all cores; red: with events at the backlash "
+                 "crossings: diffrax, numbalsoda),\ndotted Python-RHS peers (serial time / "
+                 "threads). Order: fitted "
+                 "slope of error against steps per period (gearsweep) or RHS evaluations per "
+                 "case (peers).\nDash-dot lines: the targets 1e-4, 1e-6, 1e-8. "
+                 f"{ds.attrs.get('threads', '?')} threads; {ds.attrs.get('history', '')}",
                  fontsize=9)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

@@ -90,6 +90,57 @@ def test_diffrax_tsit5(batch_ref):
                      ref, 1e-9)
 
 
+@pytest.mark.skipif(not (_has("diffrax") and _has("jax") and _has("optimistix")),
+                    reason="diffrax/jax/optimistix not installed")
+def test_diffrax_events_at_the_backlash_crossings():
+    # rattle: events at |p| = b restore the step control that the dead zone's kinks ruin; against
+    # the exact piecewise reference the events variant must be accurate at a tight tolerance and
+    # at least 10x more accurate than the same solver without events at the same tolerance
+    batch = P.rattle_batch(3, n_error=3)
+    ref = P.references(batch)
+    ev, _, per_step = P.diffrax_event_compile(batch, "Dopri5")
+    plain, _, _ = P.diffrax_compile(batch, "Dopri5")
+    tol = 1e-8
+    run = P.run_diffrax_events(batch, ev, per_step, tol, repeat=1)
+    te, ae = _max_errors(run, batch, ref)
+    te0, ae0 = _max_errors(P.run_diffrax(batch, plain, per_step, tol, repeat=1), batch, ref)
+    assert te < 1e-6 and ae < 1e-6, (te, ae)
+    assert te < te0 / 10 and ae < ae0 / 10, (te, te0, ae, ae0)
+    # every case went through its crossings piece by piece (about 4 per mesh period)
+    assert run.notes["pieces_max"] > 2 * batch.window.periods
+    assert np.all(run.rhs_evaluations > 0)
+    # and it converges with the tolerance
+    loose = _max_errors(P.run_diffrax_events(batch, ev, per_step, 1e-5, repeat=1), batch, ref)
+    assert te < loose[0] / 30
+
+
+@pytest.mark.skipif(not _has("numbalsoda"), reason="numbalsoda not installed")
+def test_numbalsoda_events_at_the_backlash_crossings():
+    # numbalsoda's solve_ivp (DOP853) stopped at each crossing and restarted on the next piece:
+    # more accurate than its DOP853 through the kinks at the same tolerance
+    batch = P.rattle_batch(3, n_error=3)
+    ref = P.references(batch)
+    tol = 1e-10
+    run = P.run_numbalsoda_events(batch, tol, repeat=1)
+    te, ae = _max_errors(run, batch, ref)
+    P.numbalsoda_compile(batch, "DOP853")
+    te0, ae0 = _max_errors(P.run_numbalsoda(batch, tol, "DOP853", repeat=1), batch, ref)
+    assert te < 1e-7 and ae < 1e-8, (te, ae)
+    assert te < te0 / 5, (te, te0)
+    assert 2 * batch.window.periods < run.notes["pieces_max"] < P.MAX_SEGMENTS
+    loose = _max_errors(P.run_numbalsoda_events(batch, 1e-6, repeat=1), batch, ref)
+    assert te < loose[0] / 30
+    with pytest.raises(ValueError, match="backlash"):
+        P.run_numbalsoda_events(P.whine_batch(2, n_error=2), tol, repeat=1)
+
+
+@pytest.mark.skipif(not (_has("diffrax") and _has("jax") and _has("optimistix")),
+                    reason="diffrax/jax/optimistix not installed")
+def test_diffrax_events_need_backlash():
+    with pytest.raises(ValueError, match="backlash"):
+        P.diffrax_event_compile(P.whine_batch(2, n_error=2), "Dopri5")
+
+
 @pytest.mark.skipif(not _has("sksundae"), reason="scikit-sundae not installed")
 def test_cvode(batch_ref):
     batch, ref = batch_ref

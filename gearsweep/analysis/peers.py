@@ -12,9 +12,13 @@ Peers (all optional: each is imported inside its runner, none is a dependency of
 
 ``numbalsoda``
     LSODA (and DOP853) from inside a Numba ``prange`` loop over the cases, the right-hand side a
-    ``cfunc``; what a Numba user writes.
+    ``cfunc``; what a Numba user writes. With events (scenes with backlash): its ``solve_ivp``
+    (DOP853, a terminal event with a Brent root find) stopped at each backlash crossing and
+    restarted on the next piece (``run_numbalsoda_events``).
 ``diffrax``
     JAX, ``vmap`` over the cases, Tsit5 / Dopri5 / Dopri8 with ``PIDController``; on the CPU.
+    With events (scenes with backlash): ``diffrax.Event`` with an ``optimistix`` root finder at
+    each crossing, restarted in a ``lax.while_loop`` (``diffrax_event_solver``).
 ``sksundae``
     SUNDIALS CVODE (scikit-sundae), Adams, the right-hand side a Python function.
 ``scipy``
@@ -23,7 +27,8 @@ Peers (all optional: each is imported inside its runner, none is a dependency of
 All peers integrate the same equation in scaled variables, x = p / s, u = p' / (s omega_n) with
 s = ``Scene.response_scale()``, with ``atol = rtol``: the same tolerances as
 ``precision.run_scipy`` (atol = rtol s for p and rtol s omega_n for p'). The dead zone sits in the
-right-hand side (no events): f(p) = p - clip(p, -b, b), b = 0 without backlash.
+right-hand side (no events): f(p) = p - clip(p, -b, b), b = 0 without backlash; the events
+variants integrate one linear piece of it at a time (f = |r| (p - r b), contact state r).
 """
 
 from __future__ import annotations
@@ -350,6 +355,118 @@ def run_numbalsoda(batch: Batch, rtol: float, solver: str = "LSODA", *, repeat: 
     return BatchRun(out.copy(), sec, batch.n, nfev.copy(), np.arange(batch.n), seconds_median=med)
 
 
+_NUMBALSODA_EVENTS: dict = {}
+NUMBALSODA_EVENT_HYSTERESIS = 1e-6
+"""As ``EVENT_HYSTERESIS`` for numbalsoda: its root finder stops within 1e-8 in tau, up to about
+1e-8 in x, and it stops on a sign change in either direction (a restart a little outside its
+piece would stop at once); the overlap's force error is of order 1e-12."""
+
+
+def _numbalsoda_events():
+    """Compile (once) numbalsoda's ``solve_ivp`` (DOP853 with events) driver, piece by piece as
+    ``diffrax_event_solver``, in the time tau = omega_n t (its Brent root finder has a fixed
+    absolute tolerance of 1e-8 in the time variable: in seconds that would be 1e-4 of a mesh
+    period)."""
+    if _NUMBALSODA_EVENTS:
+        return _NUMBALSODA_EVENTS
+    import numba as nb
+    from numbalsoda import lsoda_sig, solve_ivp
+
+    hyst = NUMBALSODA_EVENT_HYSTERESIS
+
+    @nb.cfunc(lsoda_sig)
+    def rhs(tau, y, dy, d):
+        x = y[0]
+        u = y[1]
+        wn = d[12]
+        th = d[0] * tau / wn
+        c1, c2, c3 = math.cos(th), math.cos(2.0 * th), math.cos(3.0 * th)
+        k = d[2] + d[3] * c1 + d[4] * c2 + d[5] * c3
+        g = d[6] + d[7] * c1 + d[8] * c2 + d[9] * c3
+        s = d[11]
+        r = d[14]
+        f = abs(r) * (s * x - r * d[10])
+        dy[0] = u
+        dy[1] = (g - d[1] * s * wn * u - k * f) / (s * wn * wn)
+
+    @nb.cfunc(lsoda_sig)
+    def event(tau, y, out, d):
+        bx = d[10] / d[11]
+        x = y[0]
+        r = d[14]
+        if r > 0:
+            c = x - bx
+        elif r < 0:
+            c = -x - bx
+        else:
+            c = (bx - x) * (bx + x) / bx
+        out[0] = c + hyst
+
+    @nb.njit(parallel=True)
+    def drive(fptr, eptr, params, ts, rtol, max_pieces, out, nfev, pieces, ok):
+        n = params.shape[0]
+        m = ts.shape[1]
+        for i in nb.prange(n):
+            data = np.zeros(16)
+            data[:14] = params[i]
+            wn = params[i, 12]
+            taus = ts[i] * wn
+            tau_end = taus[m - 1]
+            tau = 0.0
+            y = np.zeros(2)
+            k0 = 0
+            nf = 0
+            good = True
+            npc = 0
+            while k0 < m and npc < max_pieces:  # (empty t_eval: solve_ivp saves every step)
+                npc += 1
+                span = np.array([tau, tau_end])
+                sol = solve_ivp(fptr, span, y, taus[k0:], n_events=1, event_fcn=eptr,
+                                data=data.ctypes.data, rtol=rtol, atol=rtol)
+                nf += sol.nfev
+                if not sol.success:
+                    good = False
+                    break
+                nt = min(sol.t.shape[0], m - k0)
+                for j in range(nt):
+                    out[i, k0 + j] = sol.y[j, 0] * params[i, 11]
+                k0 += nt
+                if not sol.event_found:
+                    break
+                tau = sol.t_event
+                y = sol.y_event.copy()
+                side = 1.0 if y[0] > 0 else -1.0
+                data[14] = side if side * y[1] > 0 else 0.0
+            nfev[i] = nf
+            pieces[i] = npc
+            ok[i] = good and k0 == m
+
+    _NUMBALSODA_EVENTS.update(rhs=rhs, event=event, drive=drive)
+    return _NUMBALSODA_EVENTS
+
+
+def run_numbalsoda_events(batch: Batch, rtol: float, *, repeat: int = 3) -> BatchRun:
+    """numbalsoda's ``solve_ivp`` (DOP853) with a terminal event at each backlash crossing,
+    restarted on the next piece, ``prange`` over the cases (``_numbalsoda_events``)."""
+    if batch.scenes[0].half_gap is None:
+        raise ValueError("the events variant is for scenes with backlash")
+    e = _numbalsoda_events()
+    out = np.full(batch.sample_times.shape, np.nan)
+    nfev = np.zeros(batch.n)
+    pieces = np.zeros(batch.n, dtype=np.int64)
+    ok = np.zeros(batch.n, dtype=np.bool_)
+
+    def go():
+        e["drive"](e["rhs"].address, e["event"].address, batch.params, batch.sample_times, rtol,
+                   MAX_SEGMENTS, out, nfev, pieces, ok)
+
+    _, sec, med = _timed(go, repeat)
+    p = out.copy()
+    p[~ok] = np.nan
+    return BatchRun(p, sec, batch.n, nfev.copy(), np.arange(batch.n), seconds_median=med,
+                    notes={"pieces_max": int(pieces.max()), "pieces_mean": float(pieces.mean())})
+
+
 # --------------------------------------------------------------------------- diffrax
 
 
@@ -420,6 +537,153 @@ def run_diffrax(batch: Batch, compiled, per_step: int, rtol: float, *, repeat: i
     # under vmap every case runs until the slowest has finished (masked steps still cost)
     return BatchRun(p, sec, batch.n, per_step * steps.astype(float), np.arange(batch.n),
                     notes={"max_steps_in_batch": int(steps.max())}, seconds_median=med)
+
+
+DIFFRAX_EVENT_SOLVERS = ("Tsit5", "Dopri5", "Dopri8")
+MAX_SEGMENTS = 4096
+"""Bound on the linear pieces (backlash crossings + 1) of one case in ``diffrax_event_solver``."""
+EVENT_HYSTERESIS = 1e-9
+"""A piece ends EVENT_HYSTERESIS (in x = p / s) past its boundary, so that the next piece starts
+inside itself (its event function at 2 EVENT_HYSTERESIS > 0, clear of the root finder's
+tolerance); the force error of the overlap is of the order of its square."""
+
+
+def diffrax_event_solver(name: str, max_steps: int = 1 << 16, max_segments: int = MAX_SEGMENTS,
+                         dtmax_periods: float | None = None, root_finder: str = "bisection"):
+    """diffrax with its event handling at the backlash crossings: a jitted ``vmap``-ed solve
+    ``f(params, ts, rtol) -> (p, steps, ok, segments)`` and the RHS evaluations per step.
+
+    Each case is integrated piece by piece: on a piece the contact state r (-1: contact on the
+    negative flank, 0: free flight in the gap, +1: contact on the positive flank) is fixed, the
+    right-hand side is the smooth linear one of that piece, f(p) = |r| (p - r b), continued past
+    the piece's ends (so the step that holds the crossing, and its interpolant in which the root
+    is found, see no kink), and a ``diffrax.Event`` stops the solve where the piece ends (|p| = b:
+    c = p - b on r = +1, -p - b on r = -1, (b^2 - p^2) / b in the gap, each positive inside its
+    piece, plus ``EVENT_HYSTERESIS``; ``direction=False``: the solve stops on a downcrossing of
+    c). ``root_finder``: "bisection" (default; ``optimistix.Bisection`` within the step that
+    holds the crossing) or "newton" (``optimistix.Newton``, the documented choice; measured, it
+    fails to converge on some crossings of Dopri8 at rtol 1e-3 to 1e-5 and of Dopri5 at 1e-3).
+    The next piece is chosen from the side and the sign of p' at the crossing (both pieces have
+    the same vector field on the boundary), and a ``lax.while_loop`` restarts ``diffeqsolve``
+    from the crossing (a new initial step each time) until the end time. Under ``vmap`` the loop
+    runs until the case with the most crossings has finished (the other lanes are masked), and
+    every inner solve until its slowest lane has. Scenes with backlash only."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import diffrax
+    import jax.numpy as jnp
+    import optimistix as optx
+    from jax import lax
+
+    solver = getattr(diffrax, name)()
+    tab = solver.tableau
+    per_step = len(tab.c) + 1 - (1 if tab.fsal else 0)
+
+    def rhs(t, y, args):
+        d, r = args
+        x, u = y[0], y[1]
+        th = d[0] * t
+        c1, c2, c3 = jnp.cos(th), jnp.cos(2.0 * th), jnp.cos(3.0 * th)
+        k = d[2] + d[3] * c1 + d[4] * c2 + d[5] * c3
+        g = d[6] + d[7] * c1 + d[8] * c2 + d[9] * c3
+        s, wn, b = d[11], d[12], d[10]
+        f = jnp.abs(r) * (s * x - r * b)  # the piece's linear force, continued past its ends
+        return jnp.stack([wn * u, (g - d[1] * s * wn * u - k * f) / (s * wn)])
+
+    def cond_fn(t, y, args, **kwargs):
+        d, r = args
+        bx = d[10] / d[11]
+        x = y[0]
+        inside = jnp.where(r > 0, x - bx, jnp.where(r < 0, -x - bx, (bx - x) * (bx + x) / bx))
+        return inside + EVENT_HYSTERESIS
+
+    term = diffrax.ODETerm(rhs)
+    if root_finder == "newton":
+        finder = optx.Newton(rtol=1e-12, atol=1e-12)
+    else:  # c > 0 at the step's start, <= 0 at its end (a downcrossing): flip
+        finder = optx.Bisection(rtol=1e-14, atol=1e-12, flip=True)
+    event = diffrax.Event(cond_fn, finder, direction=False)
+
+    def one(d, ts, rtol):
+        m = ts.shape[0]
+        t_end = ts[-1]
+
+        def body(c):
+            t, y, r, out, nseg, steps, ok = c
+            sol = diffrax.diffeqsolve(
+                term, solver, t0=t, t1=t_end, dt0=None, y0=y, args=(d, r),
+                # (ts, t1=True) in one SaveAt loses t1 at an event (diffrax 0.7.2): two subs
+                saveat=diffrax.SaveAt(subs=[diffrax.SubSaveAt(ts=jnp.clip(ts, t, t_end)),
+                                            diffrax.SubSaveAt(t1=True)]),
+                stepsize_controller=diffrax.PIDController(
+                    rtol=rtol, atol=rtol,
+                    dtmax=None if dtmax_periods is None else dtmax_periods * 2 * jnp.pi / d[0]),
+                event=event, max_steps=max_steps, throw=False)
+            t1, y1, ys = sol.ts[1][0], sol.ys[1][0], sol.ys[0][:, 0]
+            hit = sol.result == diffrax.RESULTS.event_occurred
+            good = (sol.result == diffrax.RESULTS.successful) | hit
+            take = (ts > t) & (ts <= t1) & jnp.isfinite(ys)
+            out = jnp.where(take, ys * d[11], out)
+            side = jnp.sign(y1[0])
+            r1 = jnp.where(hit, jnp.where(side * y1[1] > 0, side, 0.0), r)
+            t1 = jnp.where(hit, t1, t_end)
+            return t1, y1, r1, out, nseg + 1, steps + sol.stats["num_steps"], ok & good
+
+        def cond(c):
+            return (c[0] < t_end) & c[6] & (c[4] < max_segments)
+
+        init = (jnp.zeros(()), jnp.zeros(2), jnp.zeros(()), jnp.full(m, jnp.nan),
+                jnp.zeros((), int), jnp.zeros((), int), jnp.ones((), bool))
+        t, _, _, out, nseg, steps, ok = lax.while_loop(cond, body, init)
+        return out, steps, ok & (t >= t_end), nseg
+
+    return jax.jit(jax.vmap(one, in_axes=(0, 0, None))), per_step
+
+
+def diffrax_event_compile(batch: Batch, name: str, chunk: int | None = None, **kw):
+    """As ``diffrax_compile`` for ``diffrax_event_solver`` (``kw``: its keywords), for ``vmap``
+    over ``chunk`` cases at a time (None: the whole batch in one call)."""
+    import jax.numpy as jnp
+
+    if batch.scenes[0].half_gap is None:
+        raise ValueError("the events variant is for scenes with backlash")
+    fn, per_step = diffrax_event_solver(name, **kw)
+    n = batch.n if chunk is None else min(chunk, batch.n)
+    t0 = time.perf_counter()
+    compiled = fn.lower(jnp.asarray(batch.params[:n]), jnp.asarray(batch.sample_times[:n]),
+                        1e-6).compile()
+    return compiled, time.perf_counter() - t0, per_step
+
+
+def run_diffrax_events(batch: Batch, compiled, per_step: int, rtol: float, *,
+                       repeat: int = 3) -> BatchRun:
+    """``diffrax_event_solver`` over the batch, in chunks of the cases the compiled function
+    takes (one call after the other; the last chunk padded with copies of the last case).
+    RHS evaluations: accepted + rejected steps of all pieces times the new stages per step (the
+    root finds' interpolant evaluations and the initial step selection of each piece not
+    counted)."""
+    import jax.numpy as jnp
+
+    k = compiled.in_avals[0][0].shape[0] if hasattr(compiled, "in_avals") else batch.n
+    n = batch.n
+    idx = np.minimum(np.arange(-(-n // k) * k), n - 1)
+    parts = [(jnp.asarray(batch.params[idx[j:j + k]]), jnp.asarray(batch.sample_times[idx[j:j + k]]))
+             for j in range(0, len(idx), k)]
+
+    def go():
+        res = [compiled(d, ts, rtol) for d, ts in parts]
+        res[-1][0].block_until_ready()
+        p, steps, ok, nseg = (np.concatenate([np.asarray(r[i]) for r in res])[:n]
+                              for i in range(4))
+        return p, steps, ok, nseg
+
+    (p, steps, ok, nseg), sec, med = _timed(go, repeat)
+    p = p.copy()
+    p[~ok] = np.nan
+    return BatchRun(p, sec, batch.n, per_step * steps.astype(float), np.arange(batch.n),
+                    notes={"max_steps_in_batch": int(steps.max()), "pieces_max": int(nseg.max()),
+                           "pieces_mean": float(nseg.mean())}, seconds_median=med)
 
 
 # --------------------------------------------------------------------------- per-case peers
