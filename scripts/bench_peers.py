@@ -36,6 +36,7 @@ import xarray as xr
 from gearsweep.analysis import peers as P
 from gearsweep.analysis import precision as pr
 from gearsweep.analysis.advise import advise
+from gearsweep.study.dataset import write_netcdf
 
 ROOT = Path(__file__).resolve().parents[1]
 SPP = {"whine": (8, 16, 32, 64, 128, 256, 512, 1024), "rattle": (8, 16, 32, 64, 128, 256, 512, 1024),
@@ -487,7 +488,7 @@ def main() -> None:
     ds = dataset(res, args, command)
     args.results.mkdir(parents=True, exist_ok=True)
     path = args.results / "work_precision_peers.nc"
-    ds.to_netcdf(path)
+    write_netcdf(ds, path)  # atomic, CF: no _FillValue on coordinates
     if args.copy_to:
         args.copy_to.mkdir(parents=True, exist_ok=True)
         shutil.copy(path, args.copy_to / path.name)
