@@ -47,11 +47,11 @@ from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
 from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, run_chunk
 from gearsweep.study.dataset import (
+    ResultFile,
     assemble,
     empty_results,
     result_layout,
     store_chunk,
-    write_netcdf,
 )
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
 
@@ -314,17 +314,20 @@ _KERNEL_LOCK = threading.Lock()
 
 
 def _chunk_task(plan: Plan, lane0: int, lane1: int, procs_per_host: dict[str, int]
-                ) -> dict[str, np.ndarray]:
-    """A chunk on a dask worker, with Numba's threads set to this worker's share of the cores."""
+                ) -> tuple[dict[str, np.ndarray], float]:
+    """A chunk on a dask worker, with Numba's threads set to this worker's share of the cores:
+    its arrays and the seconds the worker spent in the kernel for it."""
     import numba
     from distributed import get_worker
 
     host = urlparse(get_worker().address).hostname or ""
     procs = procs_per_host.get(host) or max(procs_per_host.values(), default=1)
     threads = max(1, min(numba.config.NUMBA_NUM_THREADS, cores() // procs))
-    with _KERNEL_LOCK:
+    with _KERNEL_LOCK:  # one chunk at a time per process: the clock's difference is this chunk's
         numba.set_num_threads(threads)
-        return _run_chunk(plan, lane0, lane1)
+        k0 = KERNEL_CLOCK.seconds
+        arrays = _run_chunk(plan, lane0, lane1)
+        return arrays, KERNEL_CLOCK.seconds - k0
 
 
 class DaskBackend:
@@ -348,6 +351,9 @@ class DaskBackend:
         self.scheduler, self.workers, self.timeout = scheduler, workers, timeout
         self.cluster = None
         self.client = None
+        self.kernel_seconds = 0.0
+        """Seconds the workers spent in the kernel for the chunks of the last ``run``, summed
+        over the workers (so up to workers x the wall time of the chunk phase)."""
 
     def __enter__(self) -> DaskBackend:
         from distributed import Client, LocalCluster
@@ -400,6 +406,7 @@ class DaskBackend:
         if self.client is None:
             raise RuntimeError("enter the backend first: with DaskBackend(...) as backend: ...")
         procs = self._procs_per_host()
+        self.kernel_seconds = 0.0
         window = 2 * sum(procs.values()) + 2  # keeps every worker busy, bounds memory in flight
         sha = hashlib.sha256(plan.text.encode()).hexdigest()[:16]
         pending = iter(todo)
@@ -422,12 +429,13 @@ class DaskBackend:
         for fut in queue:
             a, b = where.pop(fut.key)
             try:
-                arrays = fut.result()
+                arrays, seconds = fut.result()
             except Exception as exc:
                 msg = str(exc).splitlines()[0] if str(exc) else ""
                 raise ClusterError(f"{self.scheduler or 'local cluster'}: chunk of lanes {a}-{b}"
                                    f" failed: {type(exc).__name__}: {msg}") from exc
             fut.release()
+            self.kernel_seconds += seconds
             yield a, b, arrays
             submit()
 
@@ -466,12 +474,15 @@ def _open_store(plan: Plan, checkpoint: str | Path | None, chunks: list[tuple[in
 
 def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
              backend: InProcess | DaskBackend | None, store: ChunkStore | None, progress: bool,
-             sink=None) -> tuple[float, float | None]:
-    """Compute the chunks ``todo``; pass each to ``sink(lane0, lane1, arrays)`` (if given) and
-    save it to ``store`` (if given) in a background thread while the next one computes.
+             sink=None, file: ResultFile | None = None,
+             done: list[tuple[int, int]] = ()) -> tuple[float, float | None]:
+    """Compute the chunks ``todo``; pass each to ``sink(lane0, lane1, arrays)`` (if given), and
+    save it to ``store`` and write it into ``file`` (if given) in a background thread while the
+    next one computes. The chunks ``done`` (already in ``store``) are written into ``file`` by
+    the same thread first, while the first chunks compute.
 
-    Returns the chunk phase's seconds (after the one-time warm-up) and, in-process, the part of
-    them spent in the kernel (``runner.KERNEL_CLOCK``).
+    Returns the chunk phase's seconds (after the one-time warm-up) and the part of them spent in
+    the kernel (``KERNEL_CLOCK`` in this process; under dask, summed over the workers).
     """
     from tqdm import tqdm
 
@@ -480,24 +491,40 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
                desc=plan.study.title[:30], file=sys.stderr, disable=not progress, leave=False,
                smoothing=0.1, mininterval=0, miniters=1)  # a refresh per finished chunk
     be = backend if backend is not None else InProcess()
-    if todo and isinstance(be, InProcess):
-        warm_up(plan, todo[0])
-    t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
-    k0 = KERNEL_CLOCK.seconds
-    # One background thread writes the checkpoint files while the next chunk computes (the
-    # kernel releases the GIL); at most two saves wait, so at most two chunks more are held.
-    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-checkpoint")
+    # One background thread saves the checkpoint files and writes the result file while the
+    # next chunk computes (the kernel releases the GIL, and so do netCDF4's writes); at most two
+    # chunks wait for it, so at most two chunks more are held.
+    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-writer")
+
+    def keep(a: int, b: int, arrays: dict[str, np.ndarray]) -> None:
+        if store is not None:
+            store.save(a, b, arrays)
+        if file is not None:
+            file.write(a, b, arrays)
+
+    def resumed() -> None:
+        for a, b in done:
+            file.write(a, b, store.load(a, b))
+
     saves: list = []
+    if file is not None and done:
+        saves.append(writer.submit(resumed))
     try:
+        if todo and isinstance(be, InProcess):
+            warm_up(plan, todo[0])
+        t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
+        k0 = KERNEL_CLOCK.seconds
         for a, b, arrays in be.run(plan, todo):
             if sink is not None:
                 sink(a, b, arrays)
-            if store is not None:
-                saves.append(writer.submit(store.save, a, b, arrays))
-                while len(saves) > 2:
-                    saves.pop(0).result()
+            saves.append(writer.submit(keep, a, b, arrays))
+            while len(saves) > 2:
+                saves.pop(0).result()
             del arrays
             bar.update((b - a) * per_lane)
+        for f in saves:  # the chunk phase ends when the last chunk is saved
+            f.result()
+        elapsed = time.perf_counter() - t0
     finally:
         try:
             for f in saves:  # what was computed is saved, even if the run is failing
@@ -505,9 +532,9 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
         finally:
             writer.shutdown()
             bar.close()
-    # Time in the kernel is known for chunks computed in this process only.
-    kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) else None
-    return time.perf_counter() - t0, kernel
+    kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) \
+        else getattr(be, "kernel_seconds", None)
+    return elapsed, kernel
 
 
 def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
@@ -547,27 +574,20 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     return assemble(plan, results, elapsed, kernel)
 
 
-def _streamed_results(plan: Plan, store: ChunkStore, chunks: list[tuple[int, int]]) -> dict:
-    """The result arrays as dask arrays over the chunk files, in lane order: writing them reads
-    one chunk's block at a time (``checkpoint.Record``)."""
-    import dask.array as da
-
-    maps = [store.records(a, b) for a, b in chunks]
-    axis = 1 if plan.continued else 0
-    return {name: da.concatenate([da.from_array(m[name], chunks=m[name].shape) for m in maps],
-                                 axis=axis)
-            for name in result_layout(plan, 1)}
-
-
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
                 chunk_cases: int | None = None, progress: bool = False) -> xr.Dataset:
-    """Run ``plan`` with checkpoints next to ``output``, write the netCDF atomically, clean up.
+    """Run ``plan`` with checkpoints next to ``output``, writing the netCDF as the chunks finish.
 
-    The results stream to disk: every finished chunk goes to its checkpoint file and is dropped
-    from memory; the netCDF is then written block by block from the checkpoint files, so the
-    memory a run needs depends on the chunk size, not on the number of cases.
-    A run killed at any point leaves the chunks it finished; running the same study to the same
-    output again computes only the others and writes the same file.
+    The results stream to disk: every finished chunk goes, in a background thread that overlaps
+    the next chunk's kernel, to its checkpoint file and into the result file (``ResultFile``,
+    being written as ``OUT.nc.chunks/<sha256>/writing.nc``), and is dropped from memory; after
+    the last chunk the file gets its global attributes and is renamed to ``output``. So the
+    memory a run needs depends on the chunk size, not on the number of cases, and no pass over
+    the results follows the computation.
+    A run killed at any point leaves the chunks it finished (the half-written netCDF is not
+    trusted: a re-run writes it afresh); running the same study to the same output again
+    computes only the others, writes the saved ones into the new file while they compute, and
+    writes the same file.
 
     Returns the written file opened lazily (``xr.open_dataset(output, chunks={})``: dask
     arrays, loaded when used).
@@ -576,10 +596,13 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     store, done = _open_store(plan, output, chunks)
     todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
-    elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend, store,
-                               progress)
-    ds = assemble(plan, _streamed_results(plan, store, chunks), elapsed, kernel)
-    write_netcdf(ds, output)
-    del ds
+    file = ResultFile(plan, output, tmp=store.folder / "writing.nc")
+    try:
+        elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend,
+                                   store, progress, file=file, done=done)
+    except BaseException:
+        file.abort()
+        raise
+    file.close(elapsed, kernel)
     remove_checkpoints(output)
     return xr.open_dataset(output, chunks={})
