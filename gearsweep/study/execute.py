@@ -474,15 +474,18 @@ def _open_store(plan: Plan, checkpoint: str | Path | None, chunks: list[tuple[in
 
 def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
              backend: InProcess | DaskBackend | None, store: ChunkStore | None, progress: bool,
-             sink=None, file: ResultFile | None = None,
-             done: list[tuple[int, int]] = ()) -> tuple[float, float | None]:
+             sink=None, open_file=None, done: list[tuple[int, int]] = ()
+             ) -> tuple[float, float | None, ResultFile | None]:
     """Compute the chunks ``todo``; pass each to ``sink(lane0, lane1, arrays)`` (if given), and
-    save it to ``store`` and write it into ``file`` (if given) in a background thread while the
-    next one computes. The chunks ``done`` (already in ``store``) are written into ``file`` by
-    the same thread first, while the first chunks compute.
+    save it to ``store`` and write it into the result file (if ``open_file`` is given) in a
+    background thread while the next one computes.
 
-    Returns the chunk phase's seconds (after the one-time warm-up) and the part of them spent in
-    the kernel (``KERNEL_CLOCK`` in this process; under dask, summed over the workers).
+    The background thread first creates the result file (``open_file()``, a ``ResultFile``:
+    its set-up overlaps the first chunk's kernel) and writes into it the chunks ``done`` (already in
+    ``store``), while the first chunks compute. Returns the chunk phase's seconds (after the
+    one-time warm-up), the part of them spent in the kernel (``KERNEL_CLOCK`` in this process;
+    under dask, summed over the workers) and the result file, every chunk written, to be closed
+    by the caller (on an error it is removed here).
     """
     from tqdm import tqdm
 
@@ -496,22 +499,25 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     # chunks wait for it, so at most two chunks more are held.
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-writer")
 
+    files: list[ResultFile] = []
+
     def keep(a: int, b: int, arrays: dict[str, np.ndarray]) -> None:
         if store is not None:
             store.save(a, b, arrays)
-        if file is not None:
-            file.write(a, b, arrays)
+        if files:
+            files[0].write(a, b, arrays)
 
-    def resumed() -> None:
+    def start() -> None:
+        files.append(open_file())
         for a, b in done:
-            file.write(a, b, store.load(a, b))
+            files[0].write(a, b, store.load(a, b))
 
     saves: list = []
-    if file is not None and done:
-        saves.append(writer.submit(resumed))
     try:
         if todo and isinstance(be, InProcess):
             warm_up(plan, todo[0])
+        if open_file is not None:  # after the warm-up: Python beside Python gains nothing (the
+            saves.append(writer.submit(start))  # GIL), beside the kernel it does
         t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
         k0 = KERNEL_CLOCK.seconds
         for a, b, arrays in be.run(plan, todo):
@@ -525,16 +531,21 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
         for f in saves:  # the chunk phase ends when the last chunk is saved
             f.result()
         elapsed = time.perf_counter() - t0
-    finally:
+    except BaseException:
         try:
             for f in saves:  # what was computed is saved, even if the run is failing
-                f.result()
+                f.exception()
         finally:
             writer.shutdown()
             bar.close()
+            if files:
+                files[0].abort()
+        raise
+    writer.shutdown()
+    bar.close()
     kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) \
         else getattr(be, "kernel_seconds", None)
-    return elapsed, kernel
+    return elapsed, kernel, files[0] if files else None
 
 
 def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
@@ -568,9 +579,9 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
         store_chunk(results, plan, a, b, store.load(a, b))
     todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
-    elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend, store,
-                               progress, sink=lambda a, b, arrays: store_chunk(results, plan, a,
-                                                                                b, arrays))
+    elapsed, kernel, _ = _compute(
+        plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
+        sink=lambda a, b, arrays: store_chunk(results, plan, a, b, arrays))
     return assemble(plan, results, elapsed, kernel)
 
 
@@ -596,13 +607,9 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     store, done = _open_store(plan, output, chunks)
     todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
-    file = ResultFile(plan, output, tmp=store.folder / "writing.nc")
-    try:
-        elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend,
-                                   store, progress, file=file, done=done)
-    except BaseException:
-        file.abort()
-        raise
+    elapsed, kernel, file = _compute(
+        plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
+        open_file=lambda: ResultFile(plan, output, tmp=store.folder / "writing.nc"), done=done)
     file.close(elapsed, kernel)
     remove_checkpoints(output)
     return xr.open_dataset(output, chunks={})
