@@ -600,8 +600,8 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     computes only the others, writes the saved ones into the new file while they compute, and
     writes the same file.
 
-    Returns the written file opened lazily (``xr.open_dataset(output, chunks={})``: dask
-    arrays, loaded when used).
+    Returns the written file opened lazily (``xr.open_dataset(output)``: each variable read
+    when used; not dask arrays, whose first computation imports dask.distributed, 0.2-0.6 s).
     """
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
     store, done = _open_store(plan, output, chunks)
@@ -612,4 +612,4 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
         open_file=lambda: ResultFile(plan, output, tmp=store.folder / "writing.nc"), done=done)
     file.close(elapsed, kernel)
     remove_checkpoints(output)
-    return xr.open_dataset(output, chunks={})
+    return xr.open_dataset(output)
