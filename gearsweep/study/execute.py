@@ -68,7 +68,9 @@ FIXED_SECONDS = 3.0
 """Time of a run that does not depend on its size: loading the compiled kernel, netCDF setup [s]."""
 
 WRITE_RATE = 100e6
-"""Bytes of results written per second (netCDF4 with zlib level 1) [bytes/s]."""
+"""Bytes of results written per second [bytes/s], counted as if the writing were not overlapped
+with the kernel (conservative: with zstd level 1 the writer thread writes about 250 MB/s here,
+beside the kernel; docs/scale.md)."""
 
 
 @dataclass(frozen=True)
