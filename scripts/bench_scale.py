@@ -35,7 +35,8 @@ import xarray as xr
 
 from gearsweep.kernels import simulate
 from gearsweep.model import kernel_inputs
-from gearsweep.study.execute import warm_up
+from gearsweep.study.estimate import chunk_cases
+from gearsweep.study.execute import lanes_per_chunk, warm_up
 from gearsweep.study.plan import _lane_params, make_plan
 from gearsweep.study.schema import load_study
 
@@ -94,15 +95,16 @@ def main() -> None:
     args = p.parse_args()
     study, text = load_study(args.study)
     plan = make_plan(study, text)
+    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None)[0]))  # the CLI's chunks
     if args.bare:
-        warm_up(plan, plan.chunks()[0])
-        print(bare_kernel_seconds(plan, plan.chunks()))
+        warm_up(plan, chunks[0])
+        print(bare_kernel_seconds(plan, chunks))
         return
     if plan.continued:
         sys.exit("bench_scale compares non-continued studies (one kernel call per chunk)")
     steps = plan.n_cases * plan.steps_per_case
     print(f"{args.study}: {plan.n_cases:,} cases x {plan.steps_per_case} steps = {steps:.3g}"
-          f" steps in {len(plan.chunks())} chunks")
+          f" steps in {len(chunks)} chunks")
     bare, chunk, wall, rss, inrun = [], [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "scale.nc"
@@ -123,7 +125,7 @@ def main() -> None:
           f" bare kernel's in the same repeat: median {statistics.median(ratios):.3f},"
           f" {min(ratios):.3f} to {max(ratios):.3f})")
     print(f"study, whole run:   {mw:.2f} s  {steps / mw / 1e6:.0f} Msteps/s"
-          f" (process start, plan, chunks, assembly, netCDF write)")
+          f" (process start, plan, chunks with the netCDF written beside them, exit)")
     print(f"chunk phase / its own kernel time, same run: median {statistics.median(inrun):.3f}"
           f" ({min(inrun):.3f} to {max(inrun):.3f})")
     print(f"peak RSS {max(rss) / 1e6:.0f} MB, output {size / 1e6:.1f} MB")

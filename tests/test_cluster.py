@@ -127,6 +127,8 @@ def test_local_cluster_identical_to_in_process(tmp_path, rattle_reference):
     assert proc.wait(timeout=600) == 0
     with xr.open_dataset(out) as ds:
         assert_same(ds.load(), rattle_reference)
+        # the workers' time in the kernel, summed over them (issue 29: it was missing)
+        assert 0 < ds.attrs["kernel_seconds"] <= 2 * ds.attrs["elapsed_seconds"]
 
 
 def test_unreachable_scheduler_is_one_line(tmp_path):

@@ -22,6 +22,7 @@ from gearsweep.cli import main
 from gearsweep.errors import LimitError
 from gearsweep.study import execute
 from gearsweep.study.checkpoint import ChunkStore, chunk_folder
+from gearsweep.study.dataset import _boxes, write_netcdf
 from gearsweep.study.execute import InProcess, Limits, check_limits, estimate, run_plan
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import parse_study
@@ -362,8 +363,8 @@ def test_result_file_has_ordinary_permissions(tmp_path):
 
 def test_run_to_file_streams_results_without_full_arrays(rattle_reference, tmp_path, monkeypatch):
     """``run_to_file`` never builds the full-size result arrays (its memory depends on the chunk
-    size only): the file is written block by block from the chunk files, and equals the
-    in-memory result."""
+    size only): the file is written chunk by chunk as they finish, and equals the in-memory
+    result."""
 
     def no_full_arrays(plan):
         raise AssertionError("run_to_file built the full result arrays")
@@ -371,8 +372,51 @@ def test_run_to_file_streams_results_without_full_arrays(rattle_reference, tmp_p
     monkeypatch.setattr(execute, "empty_results", no_full_arrays)
     out = tmp_path / "s.nc"
     ds = execute.run_to_file(plan_of(RATTLE), out, chunk_cases=CHUNK)
-    assert ds["p_pp"].chunks is not None  # the file opened lazily
+    assert not ds["p_pp"].variable._in_memory  # the file opened lazily
     assert_same(ds.load(), rattle_reference)
     ds.close()
-    with netCDF4.Dataset(out) as nc:  # one file chunk per block of the streamed arrays
+    with netCDF4.Dataset(out) as nc:  # chunked (dataset.file_chunks), compressed
         assert nc["p_pp"].chunking() != "contiguous"
+
+
+def _file_layout(path: Path) -> dict:
+    """Per variable of a netCDF file: dims, dtype, chunking, filters, attributes; and the
+    global attributes' names in order."""
+    with netCDF4.Dataset(path) as nc:
+        out = {name: (v.dimensions, v.dtype, v.chunking(), v.filters(),
+                      {k: str(v.getncattr(k)) for k in v.ncattrs()})
+               for name, v in nc.variables.items()}
+        out["(global)"] = list(nc.ncattrs())
+    return out
+
+
+@pytest.mark.parametrize("text, chunk", [(RATTLE, CHUNK), (LONG.replace(
+    "transient_periods: 3000, record_periods: 1000", "transient_periods: 30, record_periods: 10"),
+    170)])
+def test_streamed_file_is_the_in_process_file(text, chunk, tmp_path):
+    """The file ``run_to_file`` writes as the chunks finish (chunks of 170 cases: not whole rows
+    of 40 dampings, so most chunks are written as several hyperslabs) holds the data, the
+    coordinates, the attributes and the encoding (codec, file chunks) that ``write_netcdf``
+    gives the in-memory result of ``run_plan``: bitwise."""
+    plan = plan_of(text)
+    ref = tmp_path / "in_memory.nc"
+    write_netcdf(run_plan(plan), ref)
+    out = tmp_path / "streamed.nc"
+    execute.run_to_file(plan, out, chunk_cases=chunk).close()
+    with xr.open_dataset(ref) as a, xr.open_dataset(out) as b:
+        assert_same(a.load(), b.load())
+    assert _file_layout(ref) == _file_layout(out)
+
+
+def test_boxes_cover_a_lane_range_in_order():
+    """``_boxes``: any lane range of a C-order grid as consecutive boxes, whole rows in one."""
+    shape = [4, 3, 5]
+    grid = np.arange(60).reshape(shape)
+    for a in range(0, 61, 7):
+        for b in range(a, 61, 11):
+            boxes = _boxes(a, b, shape)
+            got = np.concatenate([grid[tuple(slice(*s) for s in box)].ravel()
+                                  for _, _, box in boxes] or [np.array([], int)])
+            assert got.tolist() == list(range(a, b))
+            assert [x for x, _, _ in boxes] == sorted(x for x, _, _ in boxes)
+    assert len(_boxes(15, 45, shape)) == 1  # rows 1 and 2 whole: one box

@@ -13,10 +13,13 @@ Next to the output ``OUT.nc`` a run keeps ``OUT.nc.chunks/<study_sha256>/``:
   records, not ``np.savez``: the zip container's CRC pass and copy cost 2.5x the write itself,
   and the last chunk's write is not hidden behind a computing chunk.
 
-A re-run of the same study to the same output loads the chunk files that are there and computes
-only the missing ones. ``run_to_file`` then writes the netCDF from these files block by block
-(``ChunkStore.records``: each array read only when its block is written, so the results are
-never all in memory), and removes the whole ``OUT.nc.chunks`` folder.
+The result file itself is written as the chunks finish (``dataset.ResultFile``, in
+``OUT.nc.chunks/<study_sha256>/writing.nc`` until it is complete), by the same background thread
+that saves the chunk files. An HDF5 file cut off mid-write is not trusted: a re-run of the same
+study to the same output checks the chunk files that are there (``ChunkStore.records``: shapes
+and dtypes from the headers, without reading the data), computes only the missing chunks, writes
+the saved ones into a new result file while those compute, and finally removes the whole
+``OUT.nc.chunks`` folder.
 
 Setting the environment variable ``GEARSWEEP_CHUNK_LOG`` to a file path appends one line
 ``<lane0> <lane1>`` to it per chunk computed and saved (read when a chunk is saved, not at import):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import tempfile
 from datetime import UTC, datetime
@@ -132,11 +133,86 @@ def build_dataset(
     return ds
 
 
+CODEC = "zstd"
+"""Compression of the result variables: ``"zstd"`` (level 1), ``"zlib"`` (level 1),
+``"blosc_lz4"`` or ``"none"``. Chosen by measurement (docs/scale.md, "Writing the result file"):
+on the 1e6-case rattle result zstd writes 46 MB for 0.18 s of CPU, zlib with shuffle 42 MB for
+0.93 s; the writer shares the cores with the kernel, so its CPU time is what a run pays. Readers
+need HDF5's zstd filter: the netCDF4 wheels ship it (and point HDF5_PLUGIN_PATH at it on import),
+as does netCDF-C >= 4.9 built with plugins."""
+
+SHUFFLE = False
+"""HDF5's byte-shuffle filter before the codec: used with zlib (42 instead of 46 MB, and faster);
+netCDF4-python applies it with zlib only (with zstd it is ignored)."""
+
+FILE_CHUNK_BYTES = 1 << 20
+"""Uncompressed size of one chunk of a result variable in the file (at most) [bytes]."""
+
 CHUNK_CACHE_BYTES = 1 << 20
-"""HDF5 chunk cache per variable while a streamed Dataset is written [bytes]."""
+"""HDF5 chunk cache per variable while a dask-backed Dataset is written [bytes]."""
 
 
-def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
+def file_chunks(shape: tuple[int, ...], itemsize: int, target: int | None = None
+                ) -> tuple[int, ...]:
+    """Chunk shape of a variable in the file: whole trailing dims, then as many rows of the
+    next dim as fit in ``target`` bytes, one along the dims before (C order, so a run of
+    consecutive lanes fills whole file chunks)."""
+    target = target or FILE_CHUNK_BYTES
+    chunks = [max(1, n) for n in shape]
+    size = itemsize
+    for i in range(len(shape) - 1, -1, -1):
+        if size * chunks[i] <= target:
+            size *= chunks[i]
+            continue
+        chunks[i] = max(1, target // size)
+        chunks[:i] = [1] * i
+        break
+    return tuple(chunks)
+
+
+def variable_encoding(var: xr.Variable | xr.DataArray, codec: str | None = None,
+                      shuffle: bool | None = None) -> dict:
+    """netCDF4 encoding of one numeric data variable: codec, shuffle and chunk shape."""
+    codec = codec or CODEC
+    shuffle = SHUFFLE if shuffle is None else shuffle
+    enc: dict[str, Any] = {}
+    if codec == "zlib":
+        enc.update(zlib=True, complevel=1, shuffle=shuffle)
+    elif codec == "zstd":
+        enc.update(compression="zstd", complevel=1, shuffle=shuffle)
+    elif codec == "blosc_lz4":
+        enc.update(compression="blosc_lz4", blosc_shuffle=1 if shuffle else 0)
+    elif codec != "none":
+        raise ValueError(f"unknown codec {codec!r}: zlib, zstd, blosc_lz4 or none")
+    if var.ndim and var.size:
+        dtype = np.dtype(np.int8) if var.dtype == bool else var.dtype
+        enc["chunksizes"] = file_chunks(var.shape, dtype.itemsize)
+    return enc
+
+
+def result_encoding(ds: xr.Dataset, codec: str | None = None,
+                    shuffle: bool | None = None) -> dict[str, dict]:
+    """netCDF4 encoding of a result Dataset: no ``_FillValue`` on coordinates (CF 2.5.1), the
+    codec and the chunk layout on every numeric data variable. The streamed writer
+    (``ResultFile``) and ``write_netcdf`` use the same, so their files are laid out alike."""
+    encoding = coordinate_encoding(ds)
+    for k in ds.data_vars:
+        if ds[k].dtype.kind in "fiub":
+            encoding[k] = variable_encoding(ds[k].variable, codec, shuffle)
+    return encoding
+
+
+def _finish(tmp: Path, path: Path) -> None:
+    """fsync ``tmp``, give it ordinary permissions and rename it to ``path``."""
+    with open(tmp, "rb+") as fh:
+        os.fsync(fh.fileno())
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp made it private (0600); a result file is not
+    os.replace(tmp, path)
+
+
+def write_netcdf(ds: xr.Dataset, path: str | Path, codec: str | None = None) -> Path:
     """Write ``ds`` to ``path`` atomically: a temporary file in the same folder, then rename.
 
     A reader never sees a half-written file at ``path``; a crash leaves the old file (if any).
@@ -149,15 +225,12 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
     os.close(fd)
     try:
         ds = ds.copy(deep=False)  # the caller's Dataset keeps its own chunks
-        encoding = coordinate_encoding(ds)  # CF 2.5.1: no _FillValue on coordinates
+        encoding = result_encoding(ds, codec)
         for k in ds.data_vars:
-            if ds[k].chunks:  # dask-backed (streamed from disk): regular blocks, one file chunk
-                size = {d: max(c) for d, c in zip(ds[k].dims, ds[k].chunks, strict=True)}
-                ds[k] = ds[k].chunk(size)  # each (a written chunk is never read back)
-            if ds[k].dtype.kind in "fiub":
-                encoding[k] = {"zlib": True, "complevel": 1}
-                if ds[k].chunks:
-                    encoding[k]["chunksizes"] = tuple(max(c) for c in ds[k].chunks)
+            if ds[k].chunks and "chunksizes" in encoding.get(k, {}):
+                # dask-backed: one block per file chunk (a written chunk is never read back)
+                ds[k] = ds[k].chunk(dict(zip(ds[k].dims, encoding[k]["chunksizes"],
+                                             strict=True)))
         if any(ds[k].chunks for k in ds.data_vars):
             import dask
             import netCDF4
@@ -175,16 +248,159 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
                 netCDF4.set_chunk_cache(*cache)
         else:
             ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp made it private (0600); a result file is not
-        os.replace(tmp, path)
+        _finish(Path(tmp), path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+class _SkipResults:
+    """xarray's ``ArrayWriter`` interface: writes the coordinates and the other variables of
+    the skeleton at once, and leaves the result variables (``skip``) to ``ResultFile.write``."""
+
+    def __init__(self, skip: set[str]) -> None:
+        self.skip = skip
+
+    def add(self, source, target, region=None) -> None:
+        if getattr(target, "variable_name", None) in self.skip:
+            return
+        target[region or ...] = np.asarray(source)
+
+
+class ResultFile:
+    """The netCDF file of a plan's results, written chunk by chunk as the chunks finish.
+
+    ``ResultFile(plan, path)`` creates ``tmp`` (default: a temporary file beside ``path``) with
+    every dimension, coordinate, variable and attribute of the Dataset that ``assemble`` builds,
+    the result variables still unwritten; ``write(lane0, lane1, arrays)`` puts one chunk's
+    arrays (``run_chunk``'s layout) where they belong, in any order, as one hyperslab per run of
+    whole rows; ``close(elapsed, kernel)`` writes the global attributes (in ``assemble``'s
+    order, with the run's timings), fsyncs and renames ``tmp`` to ``path``; ``abort()`` removes
+    ``tmp``. The data, coordinates, attributes and encoding are those ``write_netcdf`` gives the
+    in-memory Dataset of ``run_plan`` (tested). Not thread-safe: one thread writes at a time.
+    """
+
+    def __init__(self, plan: Any, path: str | Path, tmp: str | Path | None = None,
+                 codec: str | None = None, shuffle: bool | None = None) -> None:
+        from xarray.backends.netCDF4_ import NETCDF4_PYTHON_LOCK, NetCDF4DataStore
+        from xarray.conventions import encode_dataset_coordinates
+
+        self.plan, self.path = plan, Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        if tmp is None:
+            fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".partial",
+                                       dir=self.path.parent)
+            os.close(fd)
+        self.tmp = Path(tmp)
+        self.layout = result_layout(plan, 1)
+        template = assemble(plan, _placeholders(plan), elapsed=0.0, kernel=0.0)
+        encoding = result_encoding(template, codec, shuffle)
+        variables, self.attrs = encode_dataset_coordinates(template)
+        for k, enc in encoding.items():
+            variables[k].encoding = enc
+        self.dims = {name: template[name].dims for name in self.layout}
+        # The library's lock only: xarray's default adds a per-file write lock for dask, whose
+        # look-up imports dask.distributed (0.6 s); this file has one writer.
+        self.store = NetCDF4DataStore.open(str(self.tmp), mode="w", format="NETCDF4",
+                                           lock=NETCDF4_PYTHON_LOCK)
+        try:
+            self.store.store(variables, {}, set(encoding), _SkipResults(set(self.layout)))
+            self.vars = {name: self.store.ds.variables[name] for name in self.layout}
+            for var in self.vars.values():
+                var.set_auto_maskandscale(False)
+                chunking = var.chunking()
+                if chunking != "contiguous":  # room for the partly filled chunks at the edges
+                    size = int(np.prod(chunking)) * var.dtype.itemsize
+                    var.set_var_chunk_cache(size=max(3 * size, 1 << 20))
+        except BaseException:
+            self.abort()
+            raise
+
+    def write(self, lane0: int, lane1: int, arrays: dict[str, np.ndarray]) -> None:
+        """Write the arrays of lanes ``[lane0, lane1)`` into the file."""
+        plan = self.plan
+        lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
+        for lo, hi, box in _boxes(lane0, lane1, lane_shape):
+            for name, arr in arrays.items():
+                var = self.vars[name]
+                spec_extra = arr.shape[3:] if plan.continued else arr.shape[1:]
+                box_shape = [b - a for a, b in box]
+                if plan.continued:
+                    piece = arr[:, lo - lane0:hi - lane0]
+                    piece = piece.reshape([piece.shape[0], *box_shape, piece.shape[2],
+                                           *spec_extra])
+                    now = ["direction", *plan.lane_dims, "speed"]
+                else:
+                    piece = arr[lo - lane0:hi - lane0].reshape([*box_shape, *spec_extra])
+                    now = list(plan.lane_dims)
+                dims = self.dims[name]
+                now += list(dims[len(now):])  # the extra dims, in the same order
+                piece = np.transpose(piece, [now.index(d) for d in dims])
+                where = dict(zip(plan.lane_dims, box, strict=True))
+                index = tuple(slice(*where[d]) if d in where else slice(None) for d in dims)
+                var[index] = np.ascontiguousarray(piece, dtype=var.dtype)
+
+    def close(self, elapsed: float | None = None, kernel: float | None = None) -> Path:
+        """Write the global attributes with the run's timings, close, fsync and rename."""
+        attrs = dict(self.attrs)
+        for key, value in (("elapsed_seconds", elapsed), ("kernel_seconds", kernel)):
+            if value is None:
+                attrs.pop(key, None)
+            else:
+                attrs[key] = round(value, 3)
+        try:
+            self.store.set_attributes({k: self.store.encode_attribute(v)
+                                       for k, v in attrs.items()})
+            self.store.close()
+            _finish(self.tmp, self.path)
+        except BaseException:
+            self.abort()
+            raise
+        return self.path
+
+    def abort(self) -> None:
+        """Close and remove the unfinished file."""
+        try:
+            self.store.close()
+        except Exception:  # noqa: BLE001 -- already failing; the file goes anyway
+            pass
+        self.tmp.unlink(missing_ok=True)
+
+
+def _placeholders(plan: Any) -> dict[str, np.ndarray]:
+    """Result arrays of the full shape that hold no memory (one element, broadcast)."""
+    return {name: np.broadcast_to(np.zeros((), dtype), shape)
+            for name, (shape, dtype) in result_layout(plan, plan.n_lanes).items()}
+
+
+def _boxes(a: int, b: int, shape: list[int]) -> list[tuple[int, int, tuple[tuple[int, int], ...]]]:
+    """Lanes ``[a, b)`` of a C-order grid of ``shape`` as consecutive boxes: (first lane, end
+    lane, ((start, stop) per dim)). A run of whole rows is one box."""
+    if a >= b:
+        return []
+    if len(shape) <= 1:
+        return [(a, b, ((a, b),) * len(shape))]
+    inner = math.prod(shape[1:])
+    i0, r0 = divmod(a, inner)
+    i1, r1 = divmod(b, inner)
+    out = []
+
+    def within(i: int, lo: int, hi: int) -> None:
+        for x, y, box in _boxes(lo, hi, shape[1:]):
+            out.append((i * inner + x, i * inner + y, ((i, i + 1), *box)))
+
+    if i0 == i1:
+        within(i0, r0, r1)
+        return out
+    if r0:
+        within(i0, r0, inner)
+        i0 += 1
+    if i1 > i0:
+        out.append((i0 * inner, i1 * inner, ((i0, i1), *((0, n) for n in shape[1:]))))
+    if r1:
+        within(i1, 0, r1)
+    return out
 
 
 # --------------------------------------------------------------------------- a plan's results

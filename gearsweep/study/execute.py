@@ -47,11 +47,11 @@ from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
 from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, run_chunk
 from gearsweep.study.dataset import (
+    ResultFile,
     assemble,
     empty_results,
     result_layout,
     store_chunk,
-    write_netcdf,
 )
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
 
@@ -68,7 +68,9 @@ FIXED_SECONDS = 3.0
 """Time of a run that does not depend on its size: loading the compiled kernel, netCDF setup [s]."""
 
 WRITE_RATE = 100e6
-"""Bytes of results written per second (netCDF4 with zlib level 1) [bytes/s]."""
+"""Bytes of results written per second [bytes/s], counted as if the writing were not overlapped
+with the kernel (conservative: with zstd level 1 the writer thread writes about 250 MB/s here,
+beside the kernel; docs/scale.md)."""
 
 
 @dataclass(frozen=True)
@@ -314,17 +316,42 @@ _KERNEL_LOCK = threading.Lock()
 
 
 def _chunk_task(plan: Plan, lane0: int, lane1: int, procs_per_host: dict[str, int]
-                ) -> dict[str, np.ndarray]:
-    """A chunk on a dask worker, with Numba's threads set to this worker's share of the cores."""
+                ) -> tuple[dict[str, np.ndarray], float]:
+    """A chunk on a dask worker, with Numba's threads set to this worker's share of the cores:
+    its arrays and the seconds the worker spent in the kernel for it."""
     import numba
     from distributed import get_worker
 
     host = urlparse(get_worker().address).hostname or ""
     procs = procs_per_host.get(host) or max(procs_per_host.values(), default=1)
     threads = max(1, min(numba.config.NUMBA_NUM_THREADS, cores() // procs))
-    with _KERNEL_LOCK:
+    with _KERNEL_LOCK:  # one chunk at a time per process: the clock's difference is this chunk's
         numba.set_num_threads(threads)
-        return _run_chunk(plan, lane0, lane1)
+        k0 = KERNEL_CLOCK.seconds
+        arrays = _run_chunk(plan, lane0, lane1)
+        return arrays, KERNEL_CLOCK.seconds - k0
+
+
+def _start_method(config) -> str:
+    """How a local cluster starts its worker processes: ``"fork"`` where dask's default
+    (``"spawn"``) is not overridden, on Linux, while this process has not started Numba's thread
+    pool (the OpenMP layer's is not fork-safe); else dask's setting.
+
+    A forked worker inherits the imported numpy, numba, xarray and gearsweep and the loaded
+    kernel; a spawned one imports them again, on the same cores as the client: measured on this
+    2-core machine, 1e6 cases with ``--workers 2``, the run outside its chunk phase took 2.1-2.3 s
+    forked against 5.0-6.1 s spawned (load average about 4).
+    """
+    method = config.get("distributed.worker.multiprocessing-method", "spawn")
+    try:
+        from numba.np.ufunc import parallel
+
+        started = bool(parallel._is_initialized)
+    except (ImportError, AttributeError):
+        started = True
+    if method != "spawn" or started or not sys.platform.startswith("linux"):
+        return method
+    return "fork"
 
 
 class DaskBackend:
@@ -348,16 +375,22 @@ class DaskBackend:
         self.scheduler, self.workers, self.timeout = scheduler, workers, timeout
         self.cluster = None
         self.client = None
+        self.kernel_seconds = 0.0
+        """Seconds the workers spent in the kernel for the chunks of the last ``run``, summed
+        over the workers (so up to workers x the wall time of the chunk phase)."""
 
     def __enter__(self) -> DaskBackend:
+        import dask
         from distributed import Client, LocalCluster
 
         where = self.scheduler or f"a local cluster of {self.workers} workers"
         try:
             if self.workers is not None:
-                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
-                                            processes=True, dashboard_address=None,
-                                            silence_logs=logging.ERROR)
+                with dask.config.set({"distributed.worker.multiprocessing-method":
+                                      _start_method(dask.config)}):
+                    self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
+                                                processes=True, dashboard_address=None,
+                                                silence_logs=logging.ERROR)
                 self.client = Client(self.cluster)
             else:
                 self.client = Client(self.scheduler, timeout=f"{min(self.timeout, 10.0)}s")
@@ -400,6 +433,7 @@ class DaskBackend:
         if self.client is None:
             raise RuntimeError("enter the backend first: with DaskBackend(...) as backend: ...")
         procs = self._procs_per_host()
+        self.kernel_seconds = 0.0
         window = 2 * sum(procs.values()) + 2  # keeps every worker busy, bounds memory in flight
         sha = hashlib.sha256(plan.text.encode()).hexdigest()[:16]
         pending = iter(todo)
@@ -422,12 +456,13 @@ class DaskBackend:
         for fut in queue:
             a, b = where.pop(fut.key)
             try:
-                arrays = fut.result()
+                arrays, seconds = fut.result()
             except Exception as exc:
                 msg = str(exc).splitlines()[0] if str(exc) else ""
                 raise ClusterError(f"{self.scheduler or 'local cluster'}: chunk of lanes {a}-{b}"
                                    f" failed: {type(exc).__name__}: {msg}") from exc
             fut.release()
+            self.kernel_seconds += seconds
             yield a, b, arrays
             submit()
 
@@ -466,12 +501,18 @@ def _open_store(plan: Plan, checkpoint: str | Path | None, chunks: list[tuple[in
 
 def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
              backend: InProcess | DaskBackend | None, store: ChunkStore | None, progress: bool,
-             sink=None) -> tuple[float, float | None]:
-    """Compute the chunks ``todo``; pass each to ``sink(lane0, lane1, arrays)`` (if given) and
-    save it to ``store`` (if given) in a background thread while the next one computes.
+             sink=None, open_file=None, done: list[tuple[int, int]] = ()
+             ) -> tuple[float, float | None, ResultFile | None]:
+    """Compute the chunks ``todo``; pass each to ``sink(lane0, lane1, arrays)`` (if given), and
+    save it to ``store`` and write it into the result file (if ``open_file`` is given) in a
+    background thread while the next one computes.
 
-    Returns the chunk phase's seconds (after the one-time warm-up) and, in-process, the part of
-    them spent in the kernel (``runner.KERNEL_CLOCK``).
+    The background thread first creates the result file (``open_file()``, a ``ResultFile``:
+    its set-up overlaps the first chunk's kernel) and writes into it the chunks ``done`` (already in
+    ``store``), while the first chunks compute. Returns the chunk phase's seconds (after the
+    one-time warm-up), the part of them spent in the kernel (``KERNEL_CLOCK`` in this process;
+    under dask, summed over the workers) and the result file, every chunk written, to be closed
+    by the caller (on an error it is removed here).
     """
     from tqdm import tqdm
 
@@ -480,34 +521,58 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
                desc=plan.study.title[:30], file=sys.stderr, disable=not progress, leave=False,
                smoothing=0.1, mininterval=0, miniters=1)  # a refresh per finished chunk
     be = backend if backend is not None else InProcess()
-    if todo and isinstance(be, InProcess):
-        warm_up(plan, todo[0])
-    t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
-    k0 = KERNEL_CLOCK.seconds
-    # One background thread writes the checkpoint files while the next chunk computes (the
-    # kernel releases the GIL); at most two saves wait, so at most two chunks more are held.
-    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-checkpoint")
+    # One background thread saves the checkpoint files and writes the result file while the
+    # next chunk computes (the kernel releases the GIL, and so do netCDF4's writes); at most two
+    # chunks wait for it, so at most two chunks more are held.
+    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-writer")
+
+    files: list[ResultFile] = []
+
+    def keep(a: int, b: int, arrays: dict[str, np.ndarray]) -> None:
+        if store is not None:
+            store.save(a, b, arrays)
+        if files:
+            files[0].write(a, b, arrays)
+
+    def start() -> None:
+        files.append(open_file())
+        for a, b in done:
+            files[0].write(a, b, store.load(a, b))
+
     saves: list = []
     try:
+        if todo and isinstance(be, InProcess):
+            warm_up(plan, todo[0])
+        if open_file is not None:  # after the warm-up: Python beside Python gains nothing (the
+            saves.append(writer.submit(start))  # GIL), beside the kernel it does
+        t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
+        k0 = KERNEL_CLOCK.seconds
         for a, b, arrays in be.run(plan, todo):
             if sink is not None:
                 sink(a, b, arrays)
-            if store is not None:
-                saves.append(writer.submit(store.save, a, b, arrays))
-                while len(saves) > 2:
-                    saves.pop(0).result()
+            saves.append(writer.submit(keep, a, b, arrays))
+            while len(saves) > 2:
+                saves.pop(0).result()
             del arrays
             bar.update((b - a) * per_lane)
-    finally:
+        for f in saves:  # the chunk phase ends when the last chunk is saved
+            f.result()
+        elapsed = time.perf_counter() - t0
+    except BaseException:
         try:
             for f in saves:  # what was computed is saved, even if the run is failing
-                f.result()
+                f.exception()
         finally:
             writer.shutdown()
             bar.close()
-    # Time in the kernel is known for chunks computed in this process only.
-    kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) else None
-    return time.perf_counter() - t0, kernel
+            if files:
+                files[0].abort()
+        raise
+    writer.shutdown()
+    bar.close()
+    kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) \
+        else getattr(be, "kernel_seconds", None)
+    return elapsed, kernel, files[0] if files else None
 
 
 def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
@@ -541,45 +606,37 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
         store_chunk(results, plan, a, b, store.load(a, b))
     todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
-    elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend, store,
-                               progress, sink=lambda a, b, arrays: store_chunk(results, plan, a,
-                                                                                b, arrays))
+    elapsed, kernel, _ = _compute(
+        plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
+        sink=lambda a, b, arrays: store_chunk(results, plan, a, b, arrays))
     return assemble(plan, results, elapsed, kernel)
-
-
-def _streamed_results(plan: Plan, store: ChunkStore, chunks: list[tuple[int, int]]) -> dict:
-    """The result arrays as dask arrays over the chunk files, in lane order: writing them reads
-    one chunk's block at a time (``checkpoint.Record``)."""
-    import dask.array as da
-
-    maps = [store.records(a, b) for a, b in chunks]
-    axis = 1 if plan.continued else 0
-    return {name: da.concatenate([da.from_array(m[name], chunks=m[name].shape) for m in maps],
-                                 axis=axis)
-            for name in result_layout(plan, 1)}
 
 
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
                 chunk_cases: int | None = None, progress: bool = False) -> xr.Dataset:
-    """Run ``plan`` with checkpoints next to ``output``, write the netCDF atomically, clean up.
+    """Run ``plan`` with checkpoints next to ``output``, writing the netCDF as the chunks finish.
 
-    The results stream to disk: every finished chunk goes to its checkpoint file and is dropped
-    from memory; the netCDF is then written block by block from the checkpoint files, so the
-    memory a run needs depends on the chunk size, not on the number of cases.
-    A run killed at any point leaves the chunks it finished; running the same study to the same
-    output again computes only the others and writes the same file.
+    The results stream to disk: every finished chunk goes, in a background thread that overlaps
+    the next chunk's kernel, to its checkpoint file and into the result file (``ResultFile``,
+    being written as ``OUT.nc.chunks/<sha256>/writing.nc``), and is dropped from memory; after
+    the last chunk the file gets its global attributes and is renamed to ``output``. So the
+    memory a run needs depends on the chunk size, not on the number of cases, and no pass over
+    the results follows the computation.
+    A run killed at any point leaves the chunks it finished (the half-written netCDF is not
+    trusted: a re-run writes it afresh); running the same study to the same output again
+    computes only the others, writes the saved ones into the new file while they compute, and
+    writes the same file.
 
-    Returns the written file opened lazily (``xr.open_dataset(output, chunks={})``: dask
-    arrays, loaded when used).
+    Returns the written file opened lazily (``xr.open_dataset(output)``: each variable read
+    when used; not dask arrays, whose first computation imports dask.distributed, 0.2-0.6 s).
     """
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
     store, done = _open_store(plan, output, chunks)
     todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
-    elapsed, kernel = _compute(plan, todo, sum(b - a for a, b in done) * per_lane, backend, store,
-                               progress)
-    ds = assemble(plan, _streamed_results(plan, store, chunks), elapsed, kernel)
-    write_netcdf(ds, output)
-    del ds
+    elapsed, kernel, file = _compute(
+        plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
+        open_file=lambda: ResultFile(plan, output, tmp=store.folder / "writing.nc"), done=done)
+    file.close(elapsed, kernel)
     remove_checkpoints(output)
-    return xr.open_dataset(output, chunks={})
+    return xr.open_dataset(output)
