@@ -194,7 +194,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             if threading.current_thread() is threading.main_thread() else None
         try:
             ds = run_to_file(plan, out, backend=_stoppable(backend), chunk_cases=chunk,
-                             progress=progress)
+                             progress=progress, codec=args.codec)
         except (KeyboardInterrupt, SystemError) as exc:
             if not (_STOP.is_set() or isinstance(exc, KeyboardInterrupt)):
                 raise
@@ -366,6 +366,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="where the kernel runs (overrides solver.device; docs/gpu.md)")
     r.add_argument("--chunk-size", type=int, metavar="CASES",
                    help="about this many cases per chunk (checkpoint and progress unit)")
+    r.add_argument("--codec", choices=("zstd", "zlib", "none"),
+                   help="compression of the result (default zstd, fastest to write; zlib for"
+                        " readers whose HDF5 lacks the zstd filter, docs/data-format.md)")
     r.set_defaults(func=cmd_run)
     v = sub.add_parser("validate", help="check a study file without running it")
     v.add_argument("study", help="study file (- reads stdin)")

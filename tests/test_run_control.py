@@ -174,3 +174,16 @@ def test_a_six_million_case_continuation_is_not_one_chunk(tmp_path, capsys):
     out = capsys.readouterr()
     assert "using 200000 cases per chunk" in out.err or "cases per chunk" in out.err
     assert " in 1 chunk:" not in out.out
+
+
+def test_codec_zlib_writes_the_same_numbers_for_readers_without_zstd(tmp_path):
+    """``--codec zlib``: a file any HDF5 reads, with the numbers of the default (zstd) file."""
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "8"), encoding="utf-8")
+    assert main(["run", str(study), "-o", str(tmp_path / "z.nc"), "-q"]) == 0
+    assert main(["run", str(study), "-o", str(tmp_path / "l.nc"), "-q", "--codec", "zlib"]) == 0
+    with xr.open_dataset(tmp_path / "z.nc") as z, xr.open_dataset(tmp_path / "l.nc") as zl:
+        assert zl["p_rms"].encoding.get("zlib") is True
+        assert z["p_rms"].encoding.get("zstd") is True
+        for name in z.data_vars:
+            np.testing.assert_array_equal(z[name].values, zl[name].values)

@@ -613,7 +613,8 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
 
 
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
-                chunk_cases: int | None = None, progress: bool = False) -> xr.Dataset:
+                chunk_cases: int | None = None, progress: bool = False,
+                codec: str | None = None) -> xr.Dataset:
     """Run ``plan`` with checkpoints next to ``output``, writing the netCDF as the chunks finish.
 
     The results stream to disk: every finished chunk goes, in a background thread that overlaps
@@ -636,7 +637,8 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     per_lane = plan.chain * max(len(plan.directions), 1)
     elapsed, kernel, file = _compute(
         plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
-        open_file=lambda: ResultFile(plan, output, tmp=store.folder / "writing.nc"), done=done)
+        open_file=lambda: ResultFile(plan, output, tmp=store.folder / "writing.nc", codec=codec),
+        done=done)
     file.close(elapsed, kernel)
     remove_checkpoints(output)
     return xr.open_dataset(output)
