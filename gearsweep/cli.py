@@ -10,8 +10,8 @@ import argparse
 import os
 import signal
 import sys
-import textwrap
 import tempfile
+import textwrap
 import threading
 import time
 from pathlib import Path
@@ -25,7 +25,13 @@ from gearsweep.errors import NO_VALUE, GearsweepError, ResultError, StudyError
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
 from gearsweep.study.dataset import write_netcdf
-from gearsweep.study.estimate import CHUNK_SECONDS, chunk_cases, line, quick_estimate
+from gearsweep.study.estimate import (
+    CHUNK_SECONDS,
+    chunk_cases,
+    line,
+    quick_estimate,
+    shortest_chunk_seconds,
+)
 from gearsweep.study.execute import DaskBackend, InProcess, check_limits, cores, run_to_file
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import line_of, load_study, load_yaml, replaced_by_sweep, summary
@@ -177,6 +183,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     if capped and args.chunk_size is not None and not args.quiet:
         print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than about"
               f" {CHUNK_SECONDS:.0f} s; using {chunk} cases per chunk", file=sys.stderr)
+    floor_s = shortest_chunk_seconds(plan)
+    if plan.continued and floor_s > CHUNK_SECONDS and not args.quiet:
+        print(f"gearsweep: note: one continued sweep ({plan.chain:,} speeds) takes about"
+              f" {floor_s:.0f} s and is never split (its state carries from speed to speed): a"
+              " chunk lasts at least that long and a kill loses up to that much; split the speed"
+              " range into several studies for shorter chunks", file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once).
     est, compile_s = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
     if args.estimate:

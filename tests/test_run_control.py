@@ -187,3 +187,18 @@ def test_codec_zlib_writes_the_same_numbers_for_readers_without_zstd(tmp_path):
         assert z["p_rms"].encoding.get("zstd") is True
         for name in z.data_vars:
             np.testing.assert_array_equal(z[name].values, zl[name].values)
+
+
+def test_a_continued_sweep_too_long_for_one_chunk_is_said_before_running(tmp_path, capsys):
+    """One continued sweep is never split (its state carries from speed to speed): when it alone
+    lasts beyond the chunk target, the run says so before computing (issue 29: a kill loses at
+    most one chunk, and here a chunk is that long)."""
+    study = tmp_path / "long.yaml"
+    study.write_text(CONTINUED_6E6.replace("  mean_force: {start: 100 N, stop: 700 N, num: 60}\n",
+                                           "").replace("num: 50000", "num: 1000000"),
+                     encoding="utf-8")
+    t0 = time.perf_counter()
+    assert main(["run", str(study), "--estimate", "-o", str(tmp_path / "o.nc")]) == 0
+    err = capsys.readouterr().err
+    assert "one continued sweep (1,000,000 speeds)" in err and "never split" in err
+    assert time.perf_counter() - t0 < 5

@@ -97,9 +97,10 @@ class Advice:
         name = self.method + (" kink-aware" if self.kink_aware else "")
         what = scene or f"{self.scene_kind} case"
         lines = [
-            f"{what}, {name} (error constants of the {self.scene_kind} calibration): at the"
-            f" largest stiffness k0 + sum |k_n|, omega_n = {self.omega_n:.4g} rad/s and damping"
-            f" ratio {self.zeta:.3f}; the method is stable for h omega_n < {self.stability_limit:.3f}.",
+            (f"{what}, {name} (error constants of the {self.scene_kind} calibration): at the"
+             f" largest stiffness k0 + sum |k_n|, omega_n = {self.omega_n:.4g} rad/s and damping"
+             f" ratio {self.zeta:.3f}; the method is stable for h omega_n <"
+             f" {self.stability_limit:.3f}."),
         ]
         if self.chosen is not None:
             lines.append(f"As written: {self.chosen} steps per mesh period, expected trajectory"

@@ -96,6 +96,13 @@ PROGRESS_CHUNKS = 10
 (where its lanes allow), so that progress is shown while it runs."""
 
 
+def shortest_chunk_seconds(plan: Plan) -> float:
+    """Predicted time of the smallest chunk [s]: one round of kernel blocks, each lane run
+    whole (a continued sweep carries its state from speed to speed and is never split), at the
+    stated rate. Above ``CHUNK_SECONDS`` a chunk cannot be made as short as the runner wants."""
+    return plan.chain * LANES * plan.steps_per_case / (STATED_RATE[plan.study.solver.method] * 1e6)
+
+
 def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
                 seconds: float = CHUNK_SECONDS) -> tuple[int | None, bool]:
     """Cases per chunk to run with: ``requested`` (``None``: the runner's default, about 1e9
@@ -110,8 +117,7 @@ def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
     threads = threads or cores()
     ways = max(len(plan.directions), 1)
     per_lane = plan.chain * ways
-    rate = STATED_RATE[plan.study.solver.method] * 1e6
-    round_s = plan.chain * LANES * plan.steps_per_case / rate  # one round of blocks [s]
+    round_s = shortest_chunk_seconds(plan)  # one round of blocks [s]
     round_lanes = max(LANES * threads // ways, 1)
     total_s = math.ceil(plan.n_lanes / round_lanes) * round_s
     target = min(seconds, max(total_s / PROGRESS_CHUNKS, 1.0))
