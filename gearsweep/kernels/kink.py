@@ -97,7 +97,7 @@ import numpy as np
 from numba import prange
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
-from gearsweep.jit import jit, jit_inline, jit_parallel
+from gearsweep.jit import jit_helper, jit_parallel
 from gearsweep.kernels.rk import (
     _B,
     _BIT,
@@ -194,7 +194,7 @@ _MONO = np.array([[3.0, 0.0, 0.0, 0.0, 0.0],
 """Inverse Vandermonde matrix of the nodes 0, 1/4, 1/2, 3/4, 1: monomial coefficients in theta
 of the quartic through five node values."""
 
-@jit_inline
+@jit_helper
 def _monomials(row, P, q):
     """P[q, :] = coefficients of the quartic in theta through the five node values ``row``."""
     for k in range(5):
@@ -204,7 +204,7 @@ def _monomials(row, P, q):
         P[q, k] = acc
 
 
-@jit_inline
+@jit_helper
 def _monomial_table(ktab, etab, ftab, S):
     """Monomial coefficients of every step's quartics (``_monomials``), once per batch: table
     [j, q] for step j of the cycle and q = 0, 1, 2 for the stiffness, STE and torque shapes
@@ -220,28 +220,28 @@ def _monomial_table(ktab, etab, ftab, S):
     return PT
 
 
-@jit_inline
+@jit_helper
 def _val(P, q, th):
     return (((P[q, 4] * th + P[q, 3]) * th + P[q, 2]) * th + P[q, 1]) * th + P[q, 0]
 
 
-@jit_inline
+@jit_helper
 def _d1(P, q, th):
     return ((4.0 * P[q, 4] * th + 3.0 * P[q, 3]) * th + 2.0 * P[q, 2]) * th + P[q, 1]
 
 
-@jit_inline
+@jit_helper
 def _d2(P, q, th):
     return (12.0 * P[q, 4] * th + 6.0 * P[q, 3]) * th + 2.0 * P[q, 2]
 
 
-@jit_inline
+@jit_helper
 def _region(x, b):
     """+1 beyond b (drive flank in contact), -1 below -b (back flank), 0 in the gap."""
     return (1.0 if x > b else 0.0) - (1.0 if x < -b else 0.0)
 
 
-@jit_inline
+@jit_helper
 def _kg(P, th, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Stiffness/mass and force/mass at fraction ``th`` of the step, from the quartics (terms
     that are off are pruned as in the plain kernel)."""
@@ -250,7 +250,7 @@ def _kg(P, th, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     return kk, gg
 
 
-@jit_inline
+@jit_helper
 def _kg_dt(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
     """First and second time derivatives of stiffness/mass and force/mass at ``th``."""
     K1 = 0.0
@@ -270,7 +270,7 @@ def _kg_dt(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
     return K1, K2, G1, G2
 
 
-@jit_inline
+@jit_helper
 def _substep(rk4, X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """One RK step of the same method from fraction ``ta`` to ``tb`` of the step ``h``, with the
     force law f(p) = sw (p - sh) of one region extended smoothly beyond its boundary: the stages
@@ -334,7 +334,7 @@ def _substep(rk4, X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
             V + H * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5) + _RK5_B4 * b4) * (1.0 / _RK5_D))
 
 
-@jit_inline
+@jit_helper
 def _hermite_root(X, V, TX, TV, H, bd):
     """Fraction s in [0, 1] where the cubic Hermite interpolant of (X, V) -> (TX, TV) over a
     step H meets ``bd`` (start and end on opposite sides), branch-free: the secant estimate and
@@ -351,7 +351,7 @@ def _hermite_root(X, V, TX, TV, H, bd):
     return _newton_cubic(s, c0, c1, c2, c3)  # one step: ``_project`` corrects the rest
 
 
-@jit_inline
+@jit_helper
 def _newton_cubic(s, c0, c1, c2, c3):
     """One Newton step on c0 + c1 s + c2 s^2 + c3 s^3 = 0, kept inside [0, 1]."""
     g = c0 + s * (c1 + s * (c2 + s * c3))
@@ -359,7 +359,7 @@ def _newton_cubic(s, c0, c1, c2, c3):
     return min(max(s - g / dg if dg != 0.0 else s, 0.0), 1.0)
 
 
-@jit_inline
+@jit_helper
 def _hermite_return(X, V, TX, TV, H, bd):
     """As ``_hermite_root`` for a start on the boundary (just after a crossing): the smallest
     root in (0, 1] of the quadratic g(s) / s (1 if none)."""
@@ -384,7 +384,7 @@ def _hermite_return(X, V, TX, TV, H, bd):
     return min(max(s, 0.0), 1.0)
 
 
-@jit
+@jit_helper
 def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Redo one step of one lane that crossed a boundary, any number of crossings (up to
     ``MAX_CROSSINGS``); returns (x, v, substeps taken). The scalar path, for what the vectorised
@@ -451,12 +451,12 @@ def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl,
     return TX, TV, nsub
 
 
-@jit_inline
+@jit_helper
 def _d3(P, q, th):
     return 24.0 * P[q, 4] * th + 6.0 * P[q, 3]
 
 
-@jit_inline
+@jit_helper
 def _kg_dt3(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
     """Third time derivatives of stiffness/mass and force/mass at ``th`` (as ``_kg_dt``)."""
     K3 = 0.0
@@ -471,7 +471,7 @@ def _kg_dt3(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
     return K3, G3
 
 
-@jit_inline
+@jit_helper
 def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """From the state (X, V) at fraction ``tc`` of the step, near the boundary ``bd``: the time
     tau to the boundary and the state there, from a Taylor polynomial in time of the method's
@@ -508,7 +508,7 @@ def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
     return tn, x, v, ok
 
 
-@jit_inline
+@jit_helper
 def _newton_poly(t, dx, c1, c2, c3, c4, c5):
     """One Newton step for the root of dx + c1 t + c2 t^2 + c3 t^3 + c4 t^4 + c5 t^5."""
     g = dx + t * (c1 + t * (c2 + t * (c3 + t * (c4 + t * c5))))
@@ -516,7 +516,7 @@ def _newton_poly(t, dx, c1, c2, c3, c4, c5):
     return t - g / dg if dg != 0.0 else t
 
 
-@jit_inline
+@jit_helper
 def _quintic(s, y0, d0, q2, c3, c4, c5):
     """Value and s-derivative of y0 + d0 s + q2 s^2 + c3 s^3 + c4 s^4 + c5 s^5."""
     y = y0 + s * (d0 + s * (q2 + s * (c3 + s * (c4 + s * c5))))
@@ -524,14 +524,14 @@ def _quintic(s, y0, d0, q2, c3, c4, c5):
     return y, dy
 
 
-@jit_inline
+@jit_helper
 def _newton_quintic(s, y0, d0, q2, c3, c4, c5):
     """One Newton step on the quintic of ``_quintic`` for its root, kept inside [0, 1]."""
     y, dy = _quintic(s, y0, d0, q2, c3, c4, c5)
     return min(max(s - y / dy if dy != 0.0 else s, 0.0), 1.0)
 
 
-@jit_inline
+@jit_helper
 def _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Crossing step of RK4 (see ``_fix_lanes``): returns (x, v, ok) at the step's end.
 
@@ -589,7 +589,7 @@ def _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab, kl
     return x, v, ok
 
 
-@jit_inline
+@jit_helper
 def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, etab, ftab,
                  kl, kal, gl, el, fl):
     """Crossing step of RK5 (see ``_fix_lanes``): returns (x, v, ok) at the step's end. The
@@ -624,7 +624,7 @@ def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, e
     return x, v, ok
 
 
-@jit_inline
+@jit_helper
 def _fix_lanes(rk4, w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
     """Correct, in place, the crossing steps among lanes l0 .. l0 + nv - 1 of the block at
     offset ``o`` of ``w`` (``bits``: their crossing bits; ``nv`` a multiple of 8) in one
@@ -700,7 +700,7 @@ def _fix_lanes(rk4, w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
     return hard
 
 
-@jit_inline
+@jit_helper
 def _popcount(x):
     """Number of set bits of a 32-bit mask (LANES <= 32), branch-free (SWAR)."""
     x = x - ((x >> 1) & 0x55555555)
@@ -709,13 +709,13 @@ def _popcount(x):
     return ((x * 0x01010101) & 0xFFFFFFFF) >> 24
 
 
-@jit_inline
+@jit_helper
 def _gsl(m):
     """Offset of slot ``m`` of the group scratch: block m // LANES, lane m % LANES."""
     return (m // LANES) * _BLOCK + (m & (LANES - 1))
 
 
-@jit_inline
+@jit_helper
 def _gather(w, g0, m, i):
     """Copy the rows a fix-up reads of the lane at ``w[i]`` (row 0) into slot ``m`` of the group
     blocks at offset ``g0``."""
@@ -724,7 +724,7 @@ def _gather(w, g0, m, i):
         w[k + r * LANES] = w[i + r * LANES]
 
 
-@jit_inline
+@jit_helper
 def _scatter(w, g0, m, i):
     """Copy slot ``m``'s fixed-up end state and substep count back to the lane at ``w[i]``."""
     k = g0 + _gsl(m)
@@ -737,7 +737,7 @@ _ROWS_IN = (_XO, _VO, _X, _V, _H, _B, _C, _KM, _KA, _GM, _ES, _FS, _NSUB)
 """Rows a crossing lane's fix-up reads (gathered into the group scratch)."""
 
 
-@jit_inline
+@jit_helper
 def _fix_jobs(rk4, a, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab):
     """Run the fix-up jobs: job t is the lanes jlo[t] .. jhi[t] - 1 of the block at offset jo[t]
     of the scratch ``a`` (one of the kink block's own blocks, or of the group blocks after
@@ -764,7 +764,7 @@ def _fix_jobs(rk4, a, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, fta
             a[i + _NSUB * LANES] += ns
 
 
-@jit_inline
+@jit_helper
 def _live(w, o, nlive):
     """Crossing-mask bits of the block's lanes that hold a running case: the first ``nlive``
     lanes (those past the batch's end repeat its last case), less the diverged ones."""

@@ -37,7 +37,7 @@ import math
 import numpy as np
 from numba import prange
 
-from gearsweep.jit import jit_inline, jit_parallel
+from gearsweep.jit import jit_helper, jit_parallel
 from gearsweep.kernels import tableaux
 
 LANES = 32
@@ -137,7 +137,7 @@ _N_ROWS = 28
 _BLOCK = _N_ROWS * LANES
 
 
-@jit_inline
+@jit_helper
 def _dead_zone(x, b):
     """Backlash force law f(p) of Eq. (8), branch-free: p - clip(p, -b, b)."""
     y = x if x < b else b
@@ -145,14 +145,14 @@ def _dead_zone(x, b):
     return x - y
 
 
-@jit_inline
+@jit_helper
 def _spring(x, b, half_gap):
     if half_gap is None:
         return x
     return _dead_zone(x, b)
 
 
-@jit_inline
+@jit_helper
 def _k(km, ka, kt, ktab, kamp):
     """Stiffness/mass at one node: the mean alone when the stiffness is constant, the table
     alone when every case shares it (``kamp is None``), else mean + scale * table."""
@@ -163,7 +163,7 @@ def _k(km, ka, kt, ktab, kamp):
     return km + ka * kt
 
 
-@jit_inline
+@jit_helper
 def _g(gm, es, et, etab, fs, ft, ftab):
     """Force/mass at one node: mean force, STE term and torque fluctuation, as switched on."""
     g = gm
@@ -174,7 +174,7 @@ def _g(gm, es, et, etab, fs, ft, ftab):
     return g
 
 
-@jit_inline
+@jit_helper
 def _row(tab, j):
     """The 5 node values of step ``j`` as a tuple (registers, not memory); zeros when off."""
     if tab is None:
@@ -182,7 +182,7 @@ def _row(tab, j):
     return (tab[j, 0], tab[j, 1], tab[j, 2], tab[j, 3], tab[j, 4])
 
 
-@jit_inline
+@jit_helper
 def _scratch(nsub):
     """Zeroed scratch of ``nsub`` blocks, one flat array starting on a 64-byte boundary (Numba
     aligns to 32 bytes only; an AVX-512 load or store that straddles two cache lines is slower).
@@ -195,7 +195,7 @@ def _scratch(nsub):
     return buf[off:off + size]
 
 
-@jit_inline
+@jit_helper
 def _law(X, b, half_gap, kink):
     """The force law f(p) = on (p - sh) that the kink-aware kernel's trial step uses in every
     stage: the law of the region of the step's start p = X (contact beyond +-b: on, sh = +-b;
@@ -209,7 +209,7 @@ def _law(X, b, half_gap, kink):
     return True, 0.0
 
 
-@jit_inline
+@jit_helper
 def _stage_spring(x, b, half_gap, kink, on, sh):
     """f(p) at a stage: the start region's law in the kink-aware kernel (see ``_law``; one
     subtraction with AVX-512 zero-masking), else ``_spring``."""
@@ -218,7 +218,7 @@ def _stage_spring(x, b, half_gap, kink, on, sh):
     return _spring(x, b, half_gap)
 
 
-@jit_inline
+@jit_helper
 def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
     """Bookkeeping of lane ``l`` after its step from (X, V) to end position Xn, while all three
     are in registers; returns the lane's crossing bit (0 or 1 << l).
@@ -247,7 +247,7 @@ def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
     return np.int64(0)
 
 
-@jit_inline
+@jit_helper
 def _rk4_step(X, V, hh, q2, h6, c, Ka, Kb, Kc, Ga, Gb, Gc, b, half_gap, kink, on, sh):
     """One classic RK4 step of one case from (X, V); returns the end state (p, p').
 
@@ -274,7 +274,7 @@ def _rk4_step(X, V, hh, q2, h6, c, Ka, Kb, Kc, Ga, Gb, Gc, b, half_gap, kink, on
             V + h6 * (_RK4_B1 * k1v + _RK4_B2 * k2v + _RK4_B3 * k3v + _RK4_B4 * k4v))
 
 
-@jit_inline
+@jit_helper
 def _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, kink, on, sh):
     """One step of Butcher's six-stage fifth-order method for one case from (X, V); returns the
     end state. ``K0..K4``, ``G0..G4``: stiffness/mass and force/mass at the ``NODES`` of the
@@ -313,7 +313,7 @@ def _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, k
             V + h * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5) + _RK5_B4 * b4) / _RK5_D)
 
 
-@jit_inline
+@jit_helper
 def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     """One classic RK4 step for every lane of the block at offset ``o`` of ``w``; K, E, F: table
     rows of the step (5 nodes). ``rec``: the step's p enters the running statistics (its end
@@ -347,7 +347,7 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     return mask
 
 
-@jit_inline
+@jit_helper
 def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     """One step of Butcher's six-stage fifth-order method for every lane (arguments and result
     as RK4)."""
@@ -409,8 +409,8 @@ def _driver(method):
                 E = _row(etab, j)
                 F = _row(ftab, j)
                 # Recorded steps update the statistics inside the lane loop, while the new p is
-                # in registers. ``rec`` is a literal at each call site, so each of the two inlined
-                # copies is one branch-free vector loop (a run-time flag stops LLVM from
+                # in registers. ``rec`` is a constant at each call site, so each of the two
+                # copies LLVM inlines is one branch-free vector loop (a run-time flag stops LLVM from
                 # vectorising the dead-zone case: B2 0.16 s -> 0.25 s). The first recorded step
                 # sets the origin of the sums and the contact state the statistics start from.
                 rec = s > n_transient
@@ -474,7 +474,7 @@ _INTEGRATE_DOC = """Integrate a batch of cases; see the module docstring for the
     """
 
 
-@jit_inline
+@jit_helper
 def _cycle(ktab, etab, ftab):
     """Steps per excitation cycle: the length of whichever table is present (1 if none)."""
     if ktab is not None:
@@ -486,7 +486,7 @@ def _cycle(ktab, etab, ftab):
     return 1
 
 
-@jit_inline
+@jit_helper
 def _load(w, o, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0):
     """Fill the scratch array of the block starting at case ``i0`` (lanes past ``n`` repeat the
     last case; their results are discarded)."""
@@ -508,7 +508,7 @@ def _load(w, o, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, boun
             w[o + _B * LANES + l] = half_gap[i]
 
 
-@jit_inline
+@jit_helper
 def _sample(w, o, signal, r, stride, i0, n):
     """Store p of the block's cases as recorded step ``r`` if it falls on the stride."""
     if r % stride == 0:
@@ -517,7 +517,7 @@ def _sample(w, o, signal, r, stride, i0, n):
                 signal[i0 + l, r // stride] = w[o + _X * LANES + l]
 
 
-@jit_inline
+@jit_helper
 def _start_record(w, o, half_gap):
     """Reset the running statistics at the first recorded step."""
     for l in range(LANES):
@@ -533,14 +533,14 @@ def _start_record(w, o, half_gap):
             w[o + _PREV * LANES + l] = 1.0 if abs(w[o + _X * LANES + l]) < w[o + _B * LANES + l] else 0.0
 
 
-@jit_inline
+@jit_helper
 def _accumulate(w, o, half_gap):
     """Enter the current state of every lane into the running statistics."""
     for l in range(LANES):
         _record(w, o, l, w[o + _X * LANES + l], half_gap)
 
 
-@jit_inline
+@jit_helper
 def _split(w, o):
     """Halfway through the window: keep the extremes so far as the first half's, restart."""
     for l in range(LANES):
@@ -550,7 +550,7 @@ def _split(w, o):
         w[o + _MIN2 * LANES + l] = np.inf
 
 
-@jit_inline
+@jit_helper
 def _record(w, o, l, X, half_gap):
     """Enter p = X of lane ``l`` into its running statistics (``_stat_step``)."""
     r = w[o + _MAX2 * LANES + l], w[o + _MIN2 * LANES + l], w[o + _SUM * LANES + l], \
@@ -572,7 +572,7 @@ def _record(w, o, l, X, half_gap):
     w[o + _SUM2 * LANES + l] = r[3]
 
 
-@jit_inline
+@jit_helper
 def _stat_step(X, pmax, pmin, s1, s2, shift, b, gaps, backs, impacts, prev, half_gap):
     """The running statistics of one case after entering p = X, branch-free (counts are sums of
     0.0/1.0; an impact is a step from the gap into contact): extremes, sums of (p - shift) and its
@@ -592,7 +592,7 @@ def _stat_step(X, pmax, pmin, s1, s2, shift, b, gaps, backs, impacts, prev, half
     return pmax, pmin, s1, s2, gaps, backs, impacts, prev
 
 
-@jit_inline
+@jit_helper
 def _check(w, o):
     """Stop lanes whose state is non-finite or beyond the bound (checked once per mesh period)."""
     for l in range(LANES):
@@ -602,7 +602,7 @@ def _check(w, o):
             w[o + _V * LANES + l] = 0.0
 
 
-@jit_inline
+@jit_helper
 def _finish(w, o, i0, n, n_record, spp, stats, xf, vf, status):
     """Turn the accumulators of one block into per-case statistics and final states."""
     for l in range(LANES):
@@ -631,7 +631,7 @@ def _finish(w, o, i0, n, n_record, spp, stats, xf, vf, status):
             stats[i, q] = out[q]
 
 
-@jit_inline
+@jit_helper
 def _final_stats(n_record, spp, max1, min1, max2, min2, s1, s2, shift, gaps, backs, impacts):
     """The ``STAT_NAMES`` of one case from its accumulators after ``n_record`` recorded steps
     (``_stat_step``; extremes of the first and second half of the window), as a tuple in the
