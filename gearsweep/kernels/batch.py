@@ -209,22 +209,25 @@ def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
     ``workers`` times faster; the later ``simulate`` calls of this process load them from the
     cache. With the cache warm it costs the start of the processes (about 2 s).
 
-    Calls that use the same driver go to the same process: each driver keeps one cache index,
-    and two processes that write it at once could drop one's entry (it would then be compiled
-    again here, never wrongly loaded). ``workers`` defaults to the cores this process may use;
-    with one worker or one driver the calls are compiled in this process.
+    Calls that use the same compiled function (driver and combination of terms switched off,
+    ``rk.Specialised``) go to the same process: each keeps one cache index, which Numba updates
+    by read-modify-write. ``workers`` defaults to the cores this process may use; with one worker
+    or one function the calls are compiled in this process.
     """
     t0 = time.perf_counter()
-    groups: dict[tuple[str, bool], list[dict]] = {}
+    groups: dict[tuple, list[dict]] = {}
     for call in calls:
-        key = (call.get("method", "rk4"),
-               bool(call.get("kink_aware")) and call.get("half_gap") is not None)
+        kinks = bool(call.get("kink_aware")) and call.get("half_gap") is not None
+        key = (call.get("method", "rk4"), kinks,
+               *(call.get(k) is not None for k in ("k_scale", "k_table", "ste_table",
+                                                   "fluct_table", "half_gap")),
+               int(call.get("signal_stride") or 0) > 0)
         groups.setdefault(key, []).append(dict(call))
     if workers is None:
         workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
             os.cpu_count() or 1)
     # the most expensive drivers first: the pool hands the cheap ones to whichever is free
-    order = sorted(groups, key=lambda k: -_COST.get(k, 1.0) * len(groups[k]))
+    order = sorted(groups, key=lambda k: -_COST.get(k[:2], 1.0) * len(groups[k]))
     workers = max(1, min(int(workers), len(order)))
     if workers == 1:
         for key in order:

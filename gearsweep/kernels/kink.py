@@ -97,8 +97,9 @@ import numpy as np
 from numba import prange
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
-from gearsweep.jit import jit_helper, jit_parallel
+from gearsweep.jit import jit_helper
 from gearsweep.kernels.rk import (
+    Specialised,
     _B,
     _BIT,
     _BLOCK,
@@ -777,6 +778,11 @@ def _live(w, o, nlive):
 
 def _driver(method):
     """The kink-aware batch driver of one method (see ``rk._driver``)."""
+    return Specialised(lambda: _integrate_function(method), f"integrate_kink_rk{method}")
+
+
+def _integrate_function(method):
+    """A new Python function of the kink-aware driver of one method (``_driver`` compiles it)."""
     rk4 = method == RK4
 
     def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
@@ -911,7 +917,6 @@ def _driver(method):
                         substeps[i0 + l] = w[q * _BLOCK + _NSUB * LANES + l]
         return stats, xf, vf, status, substeps
 
-    integrate.__name__ = integrate.__qualname__ = f"integrate_kink_rk{method}"
     integrate.__doc__ = """Integrate a batch of cases with kink-aware steps.
 
     Arguments as ``gearsweep.kernels.rk.INTEGRATE``'s drivers, and ``sub``: plain blocks of
@@ -926,7 +931,7 @@ def _driver(method):
     substeps : ndarray (n,)
         Extra work at crossings in step-equivalents (right-hand-side evaluations / stages).
     """
-    return jit_parallel(integrate)
+    return integrate
 
 
 def sub_blocks(n, threads):

@@ -33,6 +33,9 @@ six with FSAL, and nodes at 1/5, 3/10, 4/5, 8/9, which would need a table per no
 """
 
 import math
+import threading
+from collections import Counter
+from types import SimpleNamespace
 
 import numpy as np
 from numba import prange
@@ -382,10 +385,65 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     return mask
 
 
+OPTIONAL = {"kamp": 3, "ktab": 4, "etab": 7, "ftab": 9, "half_gap": 10, "signal": 17}
+"""The drivers' arguments that may be ``None`` (a term switched off), by position."""
+
+
+class Specialised:
+    """A batch driver as one compiled function per combination of the terms switched off
+    (``OPTIONAL`` arguments that are ``None``), each with a Numba cache index of its own.
+
+    Calling it picks (and on first use creates) the function of the arguments' combination: a run
+    loads from the disk cache only what it calls, and two processes that compile different
+    combinations at once (``batch.precompile``, the main job's workers, dask workers on a cold
+    cache) never update the same index (Numba updates an index by read-modify-write, and an
+    entry lost that way could point at another specialisation's data file). ``make()`` returns
+    a new Python function of the driver; ``stats`` sums Numba's cache counters over the
+    combinations used in this process.
+    """
+
+    def __init__(self, make, name: str) -> None:
+        self._make = make
+        self._name = name
+        self._drivers: dict[tuple[bool, ...], object] = {}
+        self._lock = threading.Lock()
+
+    def driver(self, args):
+        """The compiled function for ``args`` (the driver's positional arguments)."""
+        key = tuple(args[i] is not None for i in OPTIONAL.values())
+        d = self._drivers.get(key)
+        if d is None:
+            with self._lock:
+                d = self._drivers.get(key)
+                if d is None:
+                    f = self._make()
+                    tag = "".join(f"{k[0] if k != 'kamp' else 'a'}{int(on)}"
+                                  for k, on in zip(OPTIONAL, key, strict=True))
+                    f.__name__ = f.__qualname__ = f"{self._name}_{tag}"
+                    d = self._drivers[key] = jit_parallel(f)
+        return d
+
+    def __call__(self, *args):
+        return self.driver(args)(*args)
+
+    @property
+    def stats(self):
+        hits, misses = Counter(), Counter()
+        for d in list(self._drivers.values()):
+            hits.update(d.stats.cache_hits)
+            misses.update(d.stats.cache_misses)
+        return SimpleNamespace(cache_hits=hits, cache_misses=misses)
+
+
 def _driver(method):
     """The batch driver of one method (a separate compiled function per method, so that a scene
-    compiles only the method it uses: Butcher's RK5 loop takes twice as long to compile as RK4's).
-    """
+    compiles only the method it uses: Butcher's RK5 loop takes twice as long to compile as RK4's;
+    and per combination of terms switched off, ``Specialised``)."""
+    return Specialised(lambda: _integrate_function(method), f"integrate_rk{method}")
+
+
+def _integrate_function(method):
+    """A new Python function of the batch driver of one method (``_driver`` compiles it)."""
     rk4 = method == RK4
 
     def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
@@ -439,9 +497,8 @@ def _driver(method):
             _finish(w, 0, i0, n, n_record, steps_per_period, stats, xf, vf, status)
         return stats, xf, vf, status
 
-    integrate.__name__ = integrate.__qualname__ = f"integrate_rk{method}"
     integrate.__doc__ = _INTEGRATE_DOC
-    return jit_parallel(integrate)
+    return integrate
 
 
 _INTEGRATE_DOC = """Integrate a batch of cases; see the module docstring for the model.
