@@ -98,6 +98,7 @@ from numba import prange
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
 from gearsweep.jit import jit_helper
+from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 from gearsweep.kernels.rk import (
     Specialised,
     _B,
@@ -804,6 +805,7 @@ def _integrate_function(method):
         nblocks = (nplain + sub - 1) // sub
         PT = _monomial_table(ktab, etab, ftab, S)
         for blk in prange(nblocks):
+            csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
             w = _scratch(2 * sub)  # the kink block's plain blocks, then the group's blocks
             g0 = sub * _BLOCK
             for q in range(sub):
@@ -915,6 +917,7 @@ def _integrate_function(method):
                     _finish(w, q * _BLOCK, i0, n, n_record, steps_per_period, stats, xf, vf, status)
                     for l in range(min(LANES, n - i0)):
                         substeps[i0 + l] = w[q * _BLOCK + _NSUB * LANES + l]
+            ftz_restore(csr)
         return stats, xf, vf, status, substeps
 
     integrate.__doc__ = """Integrate a batch of cases with kink-aware steps.

@@ -42,6 +42,7 @@ from numba import prange
 
 from gearsweep.jit import jit_helper, jit_parallel
 from gearsweep.kernels import tableaux
+from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 
 LANES = 32
 """Cases advanced together in one vectorised block (four AVX-512 or eight AVX2 registers). 64
@@ -456,6 +457,7 @@ def _integrate_function(method):
         status = np.zeros(n, np.int8)
         nblocks = (n + LANES - 1) // LANES
         for blk in prange(nblocks):
+            csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
             i0 = blk * LANES
             w = _scratch(1)
             _load(w, 0, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0)
@@ -495,6 +497,7 @@ def _integrate_function(method):
                 if jp == 0:
                     _check(w, 0)
             _finish(w, 0, i0, n, n_record, steps_per_period, stats, xf, vf, status)
+            ftz_restore(csr)
         return stats, xf, vf, status
 
     integrate.__doc__ = _INTEGRATE_DOC
