@@ -195,7 +195,10 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
 
 _COST = {("rk4", False): 1.0, ("rk5", False): 1.5, ("rk4", True): 4.0, ("rk5", True): 6.0}
 """Rough cold compile time of one specialisation of each driver, relative to plain RK4 (measured
-on the work-precision scenes: 11-16 s, 16-25 s, 68 s and 97 s)."""
+on the work-precision scenes with Numba-IR inlining: 11-16 s, 16-25 s, 68 s and 97 s; with LLVM
+inlining, ``gearsweep.jit.jit_helper``, all are several times shorter and the kink-aware drivers
+weigh relatively more: B1's plain RK4 4 s, B2's kink-aware RK4 44 s at load 5). Only the order
+of the calls depends on it."""
 
 
 def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
