@@ -97,7 +97,8 @@ import numpy as np
 from numba import prange
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
-from gearsweep.jit import jit_helper
+from gearsweep.jit import inlined_copies, jit_helper, jit_inline
+from gearsweep.kernels import rk
 from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 from gearsweep.kernels.rk import (
     Specialised,
@@ -161,6 +162,21 @@ from gearsweep.kernels.rk import (
     _start_record,
 )
 
+# The rk helpers this driver calls, as copies inlined at Numba IR level, like this module's own
+# helpers (``jit_inline``; why: ``gearsweep.jit.inlined_copies``). ``_fixup``, the scalar path for
+# rare lanes, stays a function of its own (its helpers are inlined into it).
+_RK = inlined_copies({name: getattr(rk, name) for name in (
+    "_accumulate", "_check", "_cycle", "_finish", "_g", "_k", "_load", "_rk4_lanes", "_rk5_lanes",
+    "_row", "_sample", "_scratch", "_split", "_start_record", "_law", "_stage_spring", "_spring",
+    "_dead_zone", "_after_step", "_record", "_stat_step", "_final_stats", "_rk4_step",
+    "_rk5_step")})
+_accumulate, _check, _cycle, _finish = (_RK[n] for n in ("_accumulate", "_check", "_cycle",
+                                                         "_finish"))
+_g, _k, _load, _rk4_lanes, _rk5_lanes = (_RK[n] for n in ("_g", "_k", "_load", "_rk4_lanes",
+                                                          "_rk5_lanes"))
+_row, _sample, _scratch, _split, _start_record = (_RK[n] for n in (
+    "_row", "_sample", "_scratch", "_split", "_start_record"))
+
 MAX_CROSSINGS = 4
 """Crossings handled within one step; further ones are stepped over as in the plain kernel."""
 NEWTON_MAX = 4
@@ -196,7 +212,7 @@ _MONO = np.array([[3.0, 0.0, 0.0, 0.0, 0.0],
 """Inverse Vandermonde matrix of the nodes 0, 1/4, 1/2, 3/4, 1: monomial coefficients in theta
 of the quartic through five node values."""
 
-@jit_helper
+@jit_inline
 def _monomials(row, P, q):
     """P[q, :] = coefficients of the quartic in theta through the five node values ``row``."""
     for k in range(5):
@@ -206,7 +222,7 @@ def _monomials(row, P, q):
         P[q, k] = acc
 
 
-@jit_helper
+@jit_inline
 def _monomial_table(ktab, etab, ftab, S):
     """Monomial coefficients of every step's quartics (``_monomials``), once per batch: table
     [j, q] for step j of the cycle and q = 0, 1, 2 for the stiffness, STE and torque shapes
@@ -222,28 +238,28 @@ def _monomial_table(ktab, etab, ftab, S):
     return PT
 
 
-@jit_helper
+@jit_inline
 def _val(P, q, th):
     return (((P[q, 4] * th + P[q, 3]) * th + P[q, 2]) * th + P[q, 1]) * th + P[q, 0]
 
 
-@jit_helper
+@jit_inline
 def _d1(P, q, th):
     return ((4.0 * P[q, 4] * th + 3.0 * P[q, 3]) * th + 2.0 * P[q, 2]) * th + P[q, 1]
 
 
-@jit_helper
+@jit_inline
 def _d2(P, q, th):
     return (12.0 * P[q, 4] * th + 6.0 * P[q, 3]) * th + 2.0 * P[q, 2]
 
 
-@jit_helper
+@jit_inline
 def _region(x, b):
     """+1 beyond b (drive flank in contact), -1 below -b (back flank), 0 in the gap."""
     return (1.0 if x > b else 0.0) - (1.0 if x < -b else 0.0)
 
 
-@jit_helper
+@jit_inline
 def _kg(P, th, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Stiffness/mass and force/mass at fraction ``th`` of the step, from the quartics (terms
     that are off are pruned as in the plain kernel)."""
@@ -252,7 +268,7 @@ def _kg(P, th, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     return kk, gg
 
 
-@jit_helper
+@jit_inline
 def _kg_dt(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
     """First and second time derivatives of stiffness/mass and force/mass at ``th``."""
     K1 = 0.0
@@ -272,7 +288,7 @@ def _kg_dt(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
     return K1, K2, G1, G2
 
 
-@jit_helper
+@jit_inline
 def _substep(rk4, X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """One RK step of the same method from fraction ``ta`` to ``tb`` of the step ``h``, with the
     force law f(p) = sw (p - sh) of one region extended smoothly beyond its boundary: the stages
@@ -336,7 +352,7 @@ def _substep(rk4, X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
             V + H * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5) + _RK5_B4 * b4) * (1.0 / _RK5_D))
 
 
-@jit_helper
+@jit_inline
 def _hermite_root(X, V, TX, TV, H, bd):
     """Fraction s in [0, 1] where the cubic Hermite interpolant of (X, V) -> (TX, TV) over a
     step H meets ``bd`` (start and end on opposite sides), branch-free: the secant estimate and
@@ -353,7 +369,7 @@ def _hermite_root(X, V, TX, TV, H, bd):
     return _newton_cubic(s, c0, c1, c2, c3)  # one step: ``_project`` corrects the rest
 
 
-@jit_helper
+@jit_inline
 def _newton_cubic(s, c0, c1, c2, c3):
     """One Newton step on c0 + c1 s + c2 s^2 + c3 s^3 = 0, kept inside [0, 1]."""
     g = c0 + s * (c1 + s * (c2 + s * c3))
@@ -361,7 +377,7 @@ def _newton_cubic(s, c0, c1, c2, c3):
     return min(max(s - g / dg if dg != 0.0 else s, 0.0), 1.0)
 
 
-@jit_helper
+@jit_inline
 def _hermite_return(X, V, TX, TV, H, bd):
     """As ``_hermite_root`` for a start on the boundary (just after a crossing): the smallest
     root in (0, 1] of the quadratic g(s) / s (1 if none)."""
@@ -453,12 +469,12 @@ def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl,
     return TX, TV, nsub
 
 
-@jit_helper
+@jit_inline
 def _d3(P, q, th):
     return 24.0 * P[q, 4] * th + 6.0 * P[q, 3]
 
 
-@jit_helper
+@jit_inline
 def _kg_dt3(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
     """Third time derivatives of stiffness/mass and force/mass at ``th`` (as ``_kg_dt``)."""
     K3 = 0.0
@@ -473,7 +489,7 @@ def _kg_dt3(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
     return K3, G3
 
 
-@jit_helper
+@jit_inline
 def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """From the state (X, V) at fraction ``tc`` of the step, near the boundary ``bd``: the time
     tau to the boundary and the state there, from a Taylor polynomial in time of the method's
@@ -510,7 +526,7 @@ def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
     return tn, x, v, ok
 
 
-@jit_helper
+@jit_inline
 def _newton_poly(t, dx, c1, c2, c3, c4, c5):
     """One Newton step for the root of dx + c1 t + c2 t^2 + c3 t^3 + c4 t^4 + c5 t^5."""
     g = dx + t * (c1 + t * (c2 + t * (c3 + t * (c4 + t * c5))))
@@ -518,7 +534,7 @@ def _newton_poly(t, dx, c1, c2, c3, c4, c5):
     return t - g / dg if dg != 0.0 else t
 
 
-@jit_helper
+@jit_inline
 def _quintic(s, y0, d0, q2, c3, c4, c5):
     """Value and s-derivative of y0 + d0 s + q2 s^2 + c3 s^3 + c4 s^4 + c5 s^5."""
     y = y0 + s * (d0 + s * (q2 + s * (c3 + s * (c4 + s * c5))))
@@ -526,14 +542,14 @@ def _quintic(s, y0, d0, q2, c3, c4, c5):
     return y, dy
 
 
-@jit_helper
+@jit_inline
 def _newton_quintic(s, y0, d0, q2, c3, c4, c5):
     """One Newton step on the quintic of ``_quintic`` for its root, kept inside [0, 1]."""
     y, dy = _quintic(s, y0, d0, q2, c3, c4, c5)
     return min(max(s - y / dy if dy != 0.0 else s, 0.0), 1.0)
 
 
-@jit_helper
+@jit_inline
 def _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Crossing step of RK4 (see ``_fix_lanes``): returns (x, v, ok) at the step's end.
 
@@ -591,7 +607,7 @@ def _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab, kl
     return x, v, ok
 
 
-@jit_helper
+@jit_inline
 def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, etab, ftab,
                  kl, kal, gl, el, fl):
     """Crossing step of RK5 (see ``_fix_lanes``): returns (x, v, ok) at the step's end. The
@@ -626,7 +642,7 @@ def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, e
     return x, v, ok
 
 
-@jit_helper
+@jit_inline
 def _fix_lanes(rk4, w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
     """Correct, in place, the crossing steps among lanes l0 .. l0 + nv - 1 of the block at
     offset ``o`` of ``w`` (``bits``: their crossing bits; ``nv`` a multiple of 8) in one
@@ -702,7 +718,7 @@ def _fix_lanes(rk4, w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
     return hard
 
 
-@jit_helper
+@jit_inline
 def _popcount(x):
     """Number of set bits of a 32-bit mask (LANES <= 32), branch-free (SWAR)."""
     x = x - ((x >> 1) & 0x55555555)
@@ -711,13 +727,13 @@ def _popcount(x):
     return ((x * 0x01010101) & 0xFFFFFFFF) >> 24
 
 
-@jit_helper
+@jit_inline
 def _gsl(m):
     """Offset of slot ``m`` of the group scratch: block m // LANES, lane m % LANES."""
     return (m // LANES) * _BLOCK + (m & (LANES - 1))
 
 
-@jit_helper
+@jit_inline
 def _gather(w, g0, m, i):
     """Copy the rows a fix-up reads of the lane at ``w[i]`` (row 0) into slot ``m`` of the group
     blocks at offset ``g0``."""
@@ -726,7 +742,7 @@ def _gather(w, g0, m, i):
         w[k + r * LANES] = w[i + r * LANES]
 
 
-@jit_helper
+@jit_inline
 def _scatter(w, g0, m, i):
     """Copy slot ``m``'s fixed-up end state and substep count back to the lane at ``w[i]``."""
     k = g0 + _gsl(m)
@@ -739,7 +755,7 @@ _ROWS_IN = (_XO, _VO, _X, _V, _H, _B, _C, _KM, _KA, _GM, _ES, _FS, _NSUB)
 """Rows a crossing lane's fix-up reads (gathered into the group scratch)."""
 
 
-@jit_helper
+@jit_inline
 def _fix_jobs(rk4, a, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab):
     """Run the fix-up jobs: job t is the lanes jlo[t] .. jhi[t] - 1 of the block at offset jo[t]
     of the scratch ``a`` (one of the kink block's own blocks, or of the group blocks after
@@ -766,7 +782,7 @@ def _fix_jobs(rk4, a, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, fta
             a[i + _NSUB * LANES] += ns
 
 
-@jit_helper
+@jit_inline
 def _live(w, o, nlive):
     """Crossing-mask bits of the block's lanes that hold a running case: the first ``nlive``
     lanes (those past the batch's end repeat its last case), less the diverged ones."""
