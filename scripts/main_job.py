@@ -52,15 +52,33 @@ def run_study(study: Path, out: Path) -> tuple[int, float]:
     return code, time.perf_counter() - t0
 
 
-def compile_for(study: Path) -> tuple[int, float]:
-    """Compile (into the disk cache) the kernel specialisations an analysis study will use
+def compile_tasks(studies: list[Path]) -> list[tuple[Path, list[int]]]:
+    """(study, indices of its ``kernel_calls``) per kernel specialisation the analysis studies
+    ``studies`` will use, the costliest first: one task each, so that the workers compile
+    different specialisations side by side (``gearsweep.kernels.batch.specialisation``)."""
+    from gearsweep.kernels.batch import compile_cost, specialisation
+    from gearsweep.study.analyses import kernel_calls
+    from gearsweep.study.schema import load_study
+
+    tasks = []
+    for study in studies:
+        groups: dict[tuple, list[int]] = {}
+        for i, call in enumerate(kernel_calls(load_study(str(study))[0])):
+            groups.setdefault(specialisation(call), []).append(i)
+        tasks += [(compile_cost(k), study, idx) for k, idx in groups.items()]
+    return [(study, idx) for _, study, idx in sorted(tasks, key=lambda t: -t[0])]
+
+
+def compile_for(study: Path, indices: list[int]) -> tuple[int, float]:
+    """Compile (into the disk cache) the kernel calls ``indices`` of an analysis study
     (``gearsweep.study.analyses.kernel_calls``): (0, seconds)."""
     from gearsweep.kernels.batch import precompile
     from gearsweep.study.analyses import kernel_calls
     from gearsweep.study.schema import load_study
 
     t0 = time.perf_counter()
-    precompile(kernel_calls(load_study(str(study))[0]), workers=1)
+    calls = kernel_calls(load_study(str(study))[0])
+    precompile([calls[i] for i in indices], workers=1)
     return 0, time.perf_counter() - t0
 
 
@@ -72,10 +90,11 @@ def _worker_threads(threads: int) -> None:
 
 
 def run_studies(studies: list[Path], results: Path, jobs: int,
-                compile_first: list[Path] = ()) -> list[str]:
+                compile_first: list[tuple[Path, list[int]]] = ()) -> list[str]:
     """Run ``studies``, ``jobs`` at a time (in this process if 1); print each one's time as it
-    ends; return the names of those that failed. ``compile_first``: studies whose kernels the
-    workers compile (``compile_for``) before they start on ``studies``."""
+    ends; return the names of those that failed. ``compile_first``: kernel specialisations of
+    analysis studies (``compile_tasks``) that the workers compile before they start on
+    ``studies``."""
     failed = []
 
     def report(study: Path, code: int, dt: float, what: str = "") -> None:
@@ -91,8 +110,8 @@ def run_studies(studies: list[Path], results: Path, jobs: int,
     threads = max(1, cores() // jobs)
     with ProcessPoolExecutor(min(jobs, len(studies)), mp_context=get_context("spawn"),
                              initializer=_worker_threads, initargs=(threads,)) as pool:
-        futures = {pool.submit(compile_for, study): (study, " (compiling)")
-                   for study in compile_first}
+        futures = {pool.submit(compile_for, study, idx): (study, f" (compiling {len(idx)})")
+                   for study, idx in compile_first}
         futures.update({pool.submit(run_study, study, results / f"{study.stem}.nc"): (study, "")
                         for study in studies})
         for f in as_completed(futures):
@@ -164,7 +183,8 @@ def main() -> int:
           " alone)" if timed else f"== {len(studies)} studies ({args.jobs} at a time)", flush=True)
     t0 = time.perf_counter()
     failed += run_studies(plain, args.results, args.jobs,
-                          [s for s in timed if is_analysis(s)] if args.jobs > 1 else [])
+                          compile_tasks([s for s in timed if is_analysis(s)])
+                          if args.jobs > 1 else [])
     failed += run_studies(analysis, args.results, args.jobs)  # they may read the others' results
     failed += run_studies(timed, args.results, 1)
     print(f"== studies done in {time.perf_counter() - t0:.1f} s", flush=True)

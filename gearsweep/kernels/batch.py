@@ -193,12 +193,29 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
     return out
 
 
-_COST = {("rk4", False): 1.0, ("rk5", False): 1.5, ("rk4", True): 4.0, ("rk5", True): 6.0}
+_COST = {("rk4", False): 1.0, ("rk5", False): 1.5, ("rk4", True): 15.0, ("rk5", True): 20.0}
 """Rough cold compile time of one specialisation of each driver, relative to plain RK4 (measured
-on the work-precision scenes with Numba-IR inlining: 11-16 s, 16-25 s, 68 s and 97 s; with LLVM
-inlining, ``gearsweep.jit.jit_helper``, all are several times shorter and the kink-aware drivers
-weigh relatively more: B1's plain RK4 4 s, B2's kink-aware RK4 44 s at load 5). Only the order
-of the calls depends on it."""
+on the work-precision scenes with Numba-IR inlining: 11-16 s, 16-25 s, 68 s and 97 s; the
+plain drivers' helpers are now inlined by LLVM, ``gearsweep.jit.jit_helper``, and compile several
+times faster, B1's RK4 in 4 s; the kink-aware ones keep Numba-IR inlining and their times, so
+they weigh relatively more). Only the order of the calls depends on it."""
+
+
+def specialisation(call: dict) -> tuple:
+    """Which compiled function (``rk.Specialised``) a ``simulate`` call of these keyword arguments
+    uses: (method, kink-aware, then whether k_scale, k_table, ste_table, fluct_table, half_gap
+    and a signal are given). Calls with different keys can be compiled in different processes at
+    once; ``compile_cost`` gives a rough relative cold compile time."""
+    kinks = bool(call.get("kink_aware")) and call.get("half_gap") is not None
+    return (call.get("method", "rk4"), kinks,
+            *(call.get(k) is not None for k in ("k_scale", "k_table", "ste_table", "fluct_table",
+                                                "half_gap")),
+            int(call.get("signal_stride") or 0) > 0)
+
+
+def compile_cost(key: tuple) -> float:
+    """Rough relative cold compile time of the function of ``specialisation`` key ``key``."""
+    return _COST.get(key[:2], 1.0)
 
 
 def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
@@ -220,12 +237,7 @@ def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
     t0 = time.perf_counter()
     groups: dict[tuple, list[dict]] = {}
     for call in calls:
-        kinks = bool(call.get("kink_aware")) and call.get("half_gap") is not None
-        key = (call.get("method", "rk4"), kinks,
-               *(call.get(k) is not None for k in ("k_scale", "k_table", "ste_table",
-                                                   "fluct_table", "half_gap")),
-               int(call.get("signal_stride") or 0) > 0)
-        groups.setdefault(key, []).append(dict(call))
+        groups.setdefault(specialisation(call), []).append(dict(call))
     if workers is None:
         workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
             os.cpu_count() or 1)
