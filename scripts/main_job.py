@@ -5,9 +5,16 @@ docs/claims.yaml lists is what its result gives (scripts/check_claims.py).
 Analysis studies (``type: analysis``) run after the others: some read their results.
 
     python scripts/main_job.py [--results results] [--figures figures] [--only PATTERN]
+                               [--jobs N]
 
-Runs in-process on the embedded default (no cluster). A study or figure script that fails is
-reported and the others still run; the exit code is 1 if anything failed.
+The studies run in ``--jobs`` worker processes side by side (default: one per core), each with
+cores / jobs kernel threads: on a cold Numba cache most of a study's time is compiling its
+kernel specialisations, which Numba does on one core, so the workers compile different
+specialisations at once (each has a cache index of its own, ``gearsweep.kernels.rk.Specialised``)
+and every later study loads them. Studies that time themselves (``TIMED``) run after the pool,
+alone, in this process, with all cores. ``--jobs 1`` runs every study in this process. A study
+or figure script that fails is reported and the others still run; the exit code is 1 if anything
+failed.
 """
 
 from __future__ import annotations
@@ -19,9 +26,102 @@ import re
 import subprocess
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from multiprocessing import get_context
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+
+TIMED = ("work_precision",)
+"""Studies whose results hold wall times (work_precision: seconds per case of each method): run
+alone, with all cores, after the others."""
+
+
+def cores() -> int:
+    """The cores this process may use."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
+        os.cpu_count() or 1)
+
+
+def run_study(study: Path, out: Path) -> tuple[int, float]:
+    """Run one study with the gearsweep CLI in this process: (exit code, seconds)."""
+    from gearsweep.cli import main as gearsweep
+
+    t0 = time.perf_counter()
+    code = gearsweep(["run", str(study), "-o", str(out), "-q"])
+    return code, time.perf_counter() - t0
+
+
+def compile_tasks(studies: list[Path]) -> list[tuple[Path, list[int]]]:
+    """(study, indices of its ``kernel_calls``) per kernel specialisation the analysis studies
+    ``studies`` will use, the costliest first: one task each, so that the workers compile
+    different specialisations side by side (``gearsweep.kernels.batch.specialisation``)."""
+    from gearsweep.kernels.batch import compile_cost, specialisation
+    from gearsweep.study.analyses import kernel_calls
+    from gearsweep.study.schema import load_study
+
+    tasks = []
+    for study in studies:
+        groups: dict[tuple, list[int]] = {}
+        for i, call in enumerate(kernel_calls(load_study(str(study))[0])):
+            groups.setdefault(specialisation(call), []).append(i)
+        tasks += [(compile_cost(k), study, idx) for k, idx in groups.items()]
+    return [(study, idx) for _, study, idx in sorted(tasks, key=lambda t: -t[0])]
+
+
+def compile_for(study: Path, indices: list[int]) -> tuple[int, float]:
+    """Compile (into the disk cache) the kernel calls ``indices`` of an analysis study
+    (``gearsweep.study.analyses.kernel_calls``): (0, seconds)."""
+    from gearsweep.kernels.batch import precompile
+    from gearsweep.study.analyses import kernel_calls
+    from gearsweep.study.schema import load_study
+
+    t0 = time.perf_counter()
+    calls = kernel_calls(load_study(str(study))[0])
+    precompile([calls[i] for i in indices], workers=1)
+    return 0, time.perf_counter() - t0
+
+
+def _worker_threads(threads: int) -> None:
+    """Pool initializer: this worker's share of the cores for the kernels (set before Numba is
+    imported; with more threads than cores, OpenMP's spinning threads would slow every kernel
+    call of the continued sweeps)."""
+    os.environ["NUMBA_NUM_THREADS"] = str(threads)
+
+
+def run_studies(studies: list[Path], results: Path, jobs: int,
+                compile_first: list[tuple[Path, list[int]]] = ()) -> list[str]:
+    """Run ``studies``, ``jobs`` at a time (in this process if 1); print each one's time as it
+    ends; return the names of those that failed. ``compile_first``: kernel specialisations of
+    analysis studies (``compile_tasks``) that the workers compile before they start on
+    ``studies``."""
+    failed = []
+
+    def report(study: Path, code: int, dt: float, what: str = "") -> None:
+        name = study.name + what
+        print(f"   {'ok  ' if code == 0 else 'FAIL'} {name:<40} {dt:7.1f} s", flush=True)
+        if code:
+            failed.append(name)
+
+    if jobs <= 1 or len(studies) <= 1:
+        for study in studies:
+            report(study, *run_study(study, results / f"{study.stem}.nc"))
+        return failed
+    threads = max(1, cores() // jobs)
+    with ProcessPoolExecutor(min(jobs, len(studies)), mp_context=get_context("spawn"),
+                             initializer=_worker_threads, initargs=(threads,)) as pool:
+        futures = {pool.submit(compile_for, study, idx): (study, f" (compiling {len(idx)})")
+                   for study, idx in compile_first}
+        futures.update({pool.submit(run_study, study, results / f"{study.stem}.nc"): (study, "")
+                        for study in studies})
+        for f in as_completed(futures):
+            study, what = futures[f]
+            try:
+                report(study, *f.result(), what)
+            except Exception as exc:  # a worker that died: the study failed, the others go on
+                print(f"     {type(exc).__name__}: {exc}", flush=True)
+                report(study, 1, float("nan"), what)
+    return failed
 
 
 def listed_figures() -> list[str]:
@@ -67,37 +167,51 @@ def main() -> int:
     p.add_argument("--results", type=Path, default=ROOT / "results")
     p.add_argument("--figures", type=Path, default=ROOT / "figures")
     p.add_argument("--only", default="*", help="glob on study and script names")
+    p.add_argument("--jobs", type=int, default=cores(),
+                   help="studies run side by side in worker processes (default: one per core)")
     args = p.parse_args()
-
-    from gearsweep.cli import main as gearsweep
 
     failed: list[str] = []
     t_all = time.perf_counter()
     t_start = time.time()
-    studies = sorted((s for s in (ROOT / "studies").glob("*.yaml")
-                      if fnmatch.fnmatch(s.stem, args.only)), key=lambda s: (is_analysis(s), s))
-    print(f"== {len(studies)} studies", flush=True)
-    for study in studies:
-        t0 = time.perf_counter()
-        out = args.results / f"{study.stem}.nc"
-        code = gearsweep(["run", str(study), "-o", str(out), "-q"])
-        dt = time.perf_counter() - t0
-        print(f"   {'ok  ' if code == 0 else 'FAIL'} {study.name:<40} {dt:7.1f} s", flush=True)
-        if code:
-            failed.append(study.name)
+    studies = sorted(s for s in (ROOT / "studies").glob("*.yaml")
+                     if fnmatch.fnmatch(s.stem, args.only))
+    timed = [s for s in studies if s.stem in TIMED]
+    analysis = [s for s in studies if is_analysis(s) and s not in timed]
+    plain = [s for s in studies if s not in analysis and s not in timed]
+    print(f"== {len(studies)} studies ({args.jobs} at a time; then {', '.join(s.stem for s in timed)}"
+          " alone)" if timed else f"== {len(studies)} studies ({args.jobs} at a time)", flush=True)
+    t0 = time.perf_counter()
+    failed += run_studies(plain, args.results, args.jobs,
+                          compile_tasks([s for s in timed if is_analysis(s)])
+                          if args.jobs > 1 else [])
+    failed += run_studies(analysis, args.results, args.jobs)  # they may read the others' results
+    failed += run_studies(timed, args.results, 1)
+    print(f"== studies done in {time.perf_counter() - t0:.1f} s", flush=True)
     scripts = sorted(s for s in (ROOT / "scripts").glob("fig*.py") if fnmatch.fnmatch(s.stem, args.only))
-    print(f"== {len(scripts)} figure scripts", flush=True)
+    print(f"== {len(scripts)} figure scripts ({args.jobs} at a time)", flush=True)
+    t0 = time.perf_counter()
     env = dict(os.environ, MPLBACKEND="Agg")
-    for script in scripts:
-        t0 = time.perf_counter()
+
+    def draw(script: Path) -> tuple[subprocess.CompletedProcess, float]:
+        t = time.perf_counter()
         r = subprocess.run([sys.executable, str(script), "--results", str(args.results),
                             "--figures", str(args.figures)], cwd=ROOT, env=env,
                            capture_output=True, text=True)
-        dt = time.perf_counter() - t0
-        print(f"   {'ok  ' if r.returncode == 0 else 'FAIL'} {script.name:<40} {dt:7.1f} s", flush=True)
-        if r.returncode:
-            failed.append(script.name)
-            print("     " + (r.stderr.strip().splitlines() or ["(no output)"])[-1], flush=True)
+        return r, time.perf_counter() - t
+
+    # the scripts only read results and draw: side by side, each in its own process
+    with ThreadPoolExecutor(max(1, args.jobs)) as pool:
+        futures = {pool.submit(draw, script): script for script in scripts}
+        for f in as_completed(futures):
+            script = futures[f]
+            r, dt = f.result()
+            print(f"   {'ok  ' if r.returncode == 0 else 'FAIL'} {script.name:<40} {dt:7.1f} s",
+                  flush=True)
+            if r.returncode:
+                failed.append(script.name)
+                print("     " + (r.stderr.strip().splitlines() or ["(no output)"])[-1], flush=True)
+    print(f"== figure scripts done in {time.perf_counter() - t0:.1f} s", flush=True)
     if args.only == "*":
         failed += check_reproduction(args.figures, t_start)
         failed += check_claims(args.results)

@@ -193,9 +193,29 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
     return out
 
 
-_COST = {("rk4", False): 1.0, ("rk5", False): 1.5, ("rk4", True): 4.0, ("rk5", True): 6.0}
+_COST = {("rk4", False): 1.0, ("rk5", False): 1.5, ("rk4", True): 15.0, ("rk5", True): 20.0}
 """Rough cold compile time of one specialisation of each driver, relative to plain RK4 (measured
-on the work-precision scenes: 11-16 s, 16-25 s, 68 s and 97 s)."""
+on the work-precision scenes with Numba-IR inlining: 11-16 s, 16-25 s, 68 s and 97 s; the
+plain drivers' helpers are now inlined by LLVM, ``gearsweep.jit.jit_helper``, and compile several
+times faster, B1's RK4 in 4 s; the kink-aware ones keep Numba-IR inlining and their times, so
+they weigh relatively more). Only the order of the calls depends on it."""
+
+
+def specialisation(call: dict) -> tuple:
+    """Which compiled function (``rk.Specialised``) a ``simulate`` call of these keyword arguments
+    uses: (method, kink-aware, then whether k_scale, k_table, ste_table, fluct_table, half_gap
+    and a signal are given). Calls with different keys can be compiled in different processes at
+    once; ``compile_cost`` gives a rough relative cold compile time."""
+    kinks = bool(call.get("kink_aware")) and call.get("half_gap") is not None
+    return (call.get("method", "rk4"), kinks,
+            *(call.get(k) is not None for k in ("k_scale", "k_table", "ste_table", "fluct_table",
+                                                "half_gap")),
+            int(call.get("signal_stride") or 0) > 0)
+
+
+def compile_cost(key: tuple) -> float:
+    """Rough relative cold compile time of the function of ``specialisation`` key ``key``."""
+    return _COST.get(key[:2], 1.0)
 
 
 def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
@@ -209,22 +229,20 @@ def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
     ``workers`` times faster; the later ``simulate`` calls of this process load them from the
     cache. With the cache warm it costs the start of the processes (about 2 s).
 
-    Calls that use the same driver go to the same process: each driver keeps one cache index,
-    and two processes that write it at once could drop one's entry (it would then be compiled
-    again here, never wrongly loaded). ``workers`` defaults to the cores this process may use;
-    with one worker or one driver the calls are compiled in this process.
+    Calls that use the same compiled function (driver and combination of terms switched off,
+    ``rk.Specialised``) go to the same process: each keeps one cache index, which Numba updates
+    by read-modify-write. ``workers`` defaults to the cores this process may use; with one worker
+    or one function the calls are compiled in this process.
     """
     t0 = time.perf_counter()
-    groups: dict[tuple[str, bool], list[dict]] = {}
+    groups: dict[tuple, list[dict]] = {}
     for call in calls:
-        key = (call.get("method", "rk4"),
-               bool(call.get("kink_aware")) and call.get("half_gap") is not None)
-        groups.setdefault(key, []).append(dict(call))
+        groups.setdefault(specialisation(call), []).append(dict(call))
     if workers is None:
         workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
             os.cpu_count() or 1)
     # the most expensive drivers first: the pool hands the cheap ones to whichever is free
-    order = sorted(groups, key=lambda k: -_COST.get(k, 1.0) * len(groups[k]))
+    order = sorted(groups, key=lambda k: -_COST.get(k[:2], 1.0) * len(groups[k]))
     workers = max(1, min(int(workers), len(order)))
     if workers == 1:
         for key in order:

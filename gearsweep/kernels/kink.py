@@ -97,8 +97,11 @@ import numpy as np
 from numba import prange
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
-from gearsweep.jit import jit, jit_inline, jit_parallel
+from gearsweep.jit import inlined_copies, jit_helper, jit_inline
+from gearsweep.kernels import rk
+from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 from gearsweep.kernels.rk import (
+    Specialised,
     _B,
     _BIT,
     _BLOCK,
@@ -158,6 +161,21 @@ from gearsweep.kernels.rk import (
     _split,
     _start_record,
 )
+
+# The rk helpers this driver calls, as copies inlined at Numba IR level, like this module's own
+# helpers (``jit_inline``; why: ``gearsweep.jit.inlined_copies``). ``_fixup``, the scalar path for
+# rare lanes, stays a function of its own (its helpers are inlined into it).
+_RK = inlined_copies({name: getattr(rk, name) for name in (
+    "_accumulate", "_check", "_cycle", "_finish", "_g", "_k", "_load", "_rk4_lanes", "_rk5_lanes",
+    "_row", "_sample", "_scratch", "_split", "_start_record", "_law", "_stage_spring", "_spring",
+    "_dead_zone", "_after_step", "_record", "_stat_step", "_final_stats", "_rk4_step",
+    "_rk5_step")})
+_accumulate, _check, _cycle, _finish = (_RK[n] for n in ("_accumulate", "_check", "_cycle",
+                                                         "_finish"))
+_g, _k, _load, _rk4_lanes, _rk5_lanes = (_RK[n] for n in ("_g", "_k", "_load", "_rk4_lanes",
+                                                          "_rk5_lanes"))
+_row, _sample, _scratch, _split, _start_record = (_RK[n] for n in (
+    "_row", "_sample", "_scratch", "_split", "_start_record"))
 
 MAX_CROSSINGS = 4
 """Crossings handled within one step; further ones are stepped over as in the plain kernel."""
@@ -384,7 +402,7 @@ def _hermite_return(X, V, TX, TV, H, bd):
     return min(max(s, 0.0), 1.0)
 
 
-@jit
+@jit_helper
 def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Redo one step of one lane that crossed a boundary, any number of crossings (up to
     ``MAX_CROSSINGS``); returns (x, v, substeps taken). The scalar path, for what the vectorised
@@ -777,6 +795,11 @@ def _live(w, o, nlive):
 
 def _driver(method):
     """The kink-aware batch driver of one method (see ``rk._driver``)."""
+    return Specialised(lambda: _integrate_function(method), f"integrate_kink_rk{method}")
+
+
+def _integrate_function(method):
+    """A new Python function of the kink-aware driver of one method (``_driver`` compiles it)."""
     rk4 = method == RK4
 
     def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
@@ -798,6 +821,7 @@ def _driver(method):
         nblocks = (nplain + sub - 1) // sub
         PT = _monomial_table(ktab, etab, ftab, S)
         for blk in prange(nblocks):
+            csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
             w = _scratch(2 * sub)  # the kink block's plain blocks, then the group's blocks
             g0 = sub * _BLOCK
             for q in range(sub):
@@ -909,9 +933,9 @@ def _driver(method):
                     _finish(w, q * _BLOCK, i0, n, n_record, steps_per_period, stats, xf, vf, status)
                     for l in range(min(LANES, n - i0)):
                         substeps[i0 + l] = w[q * _BLOCK + _NSUB * LANES + l]
+            ftz_restore(csr)
         return stats, xf, vf, status, substeps
 
-    integrate.__name__ = integrate.__qualname__ = f"integrate_kink_rk{method}"
     integrate.__doc__ = """Integrate a batch of cases with kink-aware steps.
 
     Arguments as ``gearsweep.kernels.rk.INTEGRATE``'s drivers, and ``sub``: plain blocks of
@@ -926,7 +950,7 @@ def _driver(method):
     substeps : ndarray (n,)
         Extra work at crossings in step-equivalents (right-hand-side evaluations / stages).
     """
-    return jit_parallel(integrate)
+    return integrate
 
 
 def sub_blocks(n, threads):

@@ -33,12 +33,16 @@ six with FSAL, and nodes at 1/5, 3/10, 4/5, 8/9, which would need a table per no
 """
 
 import math
+import threading
+from collections import Counter
+from types import SimpleNamespace
 
 import numpy as np
 from numba import prange
 
-from gearsweep.jit import jit_inline, jit_parallel
+from gearsweep.jit import jit_helper, jit_parallel
 from gearsweep.kernels import tableaux
+from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 
 LANES = 32
 """Cases advanced together in one vectorised block (four AVX-512 or eight AVX2 registers). 64
@@ -137,7 +141,7 @@ _N_ROWS = 28
 _BLOCK = _N_ROWS * LANES
 
 
-@jit_inline
+@jit_helper
 def _dead_zone(x, b):
     """Backlash force law f(p) of Eq. (8), branch-free: p - clip(p, -b, b)."""
     y = x if x < b else b
@@ -145,14 +149,14 @@ def _dead_zone(x, b):
     return x - y
 
 
-@jit_inline
+@jit_helper
 def _spring(x, b, half_gap):
     if half_gap is None:
         return x
     return _dead_zone(x, b)
 
 
-@jit_inline
+@jit_helper
 def _k(km, ka, kt, ktab, kamp):
     """Stiffness/mass at one node: the mean alone when the stiffness is constant, the table
     alone when every case shares it (``kamp is None``), else mean + scale * table."""
@@ -163,7 +167,7 @@ def _k(km, ka, kt, ktab, kamp):
     return km + ka * kt
 
 
-@jit_inline
+@jit_helper
 def _g(gm, es, et, etab, fs, ft, ftab):
     """Force/mass at one node: mean force, STE term and torque fluctuation, as switched on."""
     g = gm
@@ -174,7 +178,7 @@ def _g(gm, es, et, etab, fs, ft, ftab):
     return g
 
 
-@jit_inline
+@jit_helper
 def _row(tab, j):
     """The 5 node values of step ``j`` as a tuple (registers, not memory); zeros when off."""
     if tab is None:
@@ -182,7 +186,7 @@ def _row(tab, j):
     return (tab[j, 0], tab[j, 1], tab[j, 2], tab[j, 3], tab[j, 4])
 
 
-@jit_inline
+@jit_helper
 def _scratch(nsub):
     """Zeroed scratch of ``nsub`` blocks, one flat array starting on a 64-byte boundary (Numba
     aligns to 32 bytes only; an AVX-512 load or store that straddles two cache lines is slower).
@@ -195,7 +199,7 @@ def _scratch(nsub):
     return buf[off:off + size]
 
 
-@jit_inline
+@jit_helper
 def _law(X, b, half_gap, kink):
     """The force law f(p) = on (p - sh) that the kink-aware kernel's trial step uses in every
     stage: the law of the region of the step's start p = X (contact beyond +-b: on, sh = +-b;
@@ -209,7 +213,7 @@ def _law(X, b, half_gap, kink):
     return True, 0.0
 
 
-@jit_inline
+@jit_helper
 def _stage_spring(x, b, half_gap, kink, on, sh):
     """f(p) at a stage: the start region's law in the kink-aware kernel (see ``_law``; one
     subtraction with AVX-512 zero-masking), else ``_spring``."""
@@ -218,7 +222,7 @@ def _stage_spring(x, b, half_gap, kink, on, sh):
     return _spring(x, b, half_gap)
 
 
-@jit_inline
+@jit_helper
 def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
     """Bookkeeping of lane ``l`` after its step from (X, V) to end position Xn, while all three
     are in registers; returns the lane's crossing bit (0 or 1 << l).
@@ -247,7 +251,7 @@ def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
     return np.int64(0)
 
 
-@jit_inline
+@jit_helper
 def _rk4_step(X, V, hh, q2, h6, c, Ka, Kb, Kc, Ga, Gb, Gc, b, half_gap, kink, on, sh):
     """One classic RK4 step of one case from (X, V); returns the end state (p, p').
 
@@ -274,7 +278,7 @@ def _rk4_step(X, V, hh, q2, h6, c, Ka, Kb, Kc, Ga, Gb, Gc, b, half_gap, kink, on
             V + h6 * (_RK4_B1 * k1v + _RK4_B2 * k2v + _RK4_B3 * k3v + _RK4_B4 * k4v))
 
 
-@jit_inline
+@jit_helper
 def _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, kink, on, sh):
     """One step of Butcher's six-stage fifth-order method for one case from (X, V); returns the
     end state. ``K0..K4``, ``G0..G4``: stiffness/mass and force/mass at the ``NODES`` of the
@@ -313,7 +317,7 @@ def _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, k
             V + h * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5) + _RK5_B4 * b4) / _RK5_D)
 
 
-@jit_inline
+@jit_helper
 def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     """One classic RK4 step for every lane of the block at offset ``o`` of ``w``; K, E, F: table
     rows of the step (5 nodes). ``rec``: the step's p enters the running statistics (its end
@@ -347,7 +351,7 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     return mask
 
 
-@jit_inline
+@jit_helper
 def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     """One step of Butcher's six-stage fifth-order method for every lane (arguments and result
     as RK4)."""
@@ -382,10 +386,65 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
     return mask
 
 
+OPTIONAL = {"kamp": 3, "ktab": 4, "etab": 7, "ftab": 9, "half_gap": 10, "signal": 17}
+"""The drivers' arguments that may be ``None`` (a term switched off), by position."""
+
+
+class Specialised:
+    """A batch driver as one compiled function per combination of the terms switched off
+    (``OPTIONAL`` arguments that are ``None``), each with a Numba cache index of its own.
+
+    Calling it picks (and on first use creates) the function of the arguments' combination: a run
+    loads from the disk cache only what it calls, and two processes that compile different
+    combinations at once (``batch.precompile``, the main job's workers, dask workers on a cold
+    cache) never update the same index (Numba updates an index by read-modify-write, and an
+    entry lost that way could point at another specialisation's data file). ``make()`` returns
+    a new Python function of the driver; ``stats`` sums Numba's cache counters over the
+    combinations used in this process.
+    """
+
+    def __init__(self, make, name: str) -> None:
+        self._make = make
+        self._name = name
+        self._drivers: dict[tuple[bool, ...], object] = {}
+        self._lock = threading.Lock()
+
+    def driver(self, args):
+        """The compiled function for ``args`` (the driver's positional arguments)."""
+        key = tuple(args[i] is not None for i in OPTIONAL.values())
+        d = self._drivers.get(key)
+        if d is None:
+            with self._lock:
+                d = self._drivers.get(key)
+                if d is None:
+                    f = self._make()
+                    tag = "".join(f"{k[0] if k != 'kamp' else 'a'}{int(on)}"
+                                  for k, on in zip(OPTIONAL, key, strict=True))
+                    f.__name__ = f.__qualname__ = f"{self._name}_{tag}"
+                    d = self._drivers[key] = jit_parallel(f)
+        return d
+
+    def __call__(self, *args):
+        return self.driver(args)(*args)
+
+    @property
+    def stats(self):
+        hits, misses = Counter(), Counter()
+        for d in list(self._drivers.values()):
+            hits.update(d.stats.cache_hits)
+            misses.update(d.stats.cache_misses)
+        return SimpleNamespace(cache_hits=hits, cache_misses=misses)
+
+
 def _driver(method):
     """The batch driver of one method (a separate compiled function per method, so that a scene
-    compiles only the method it uses: Butcher's RK5 loop takes twice as long to compile as RK4's).
-    """
+    compiles only the method it uses: Butcher's RK5 loop takes twice as long to compile as RK4's;
+    and per combination of terms switched off, ``Specialised``)."""
+    return Specialised(lambda: _integrate_function(method), f"integrate_rk{method}")
+
+
+def _integrate_function(method):
+    """A new Python function of the batch driver of one method (``_driver`` compiles it)."""
     rk4 = method == RK4
 
     def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
@@ -398,6 +457,7 @@ def _driver(method):
         status = np.zeros(n, np.int8)
         nblocks = (n + LANES - 1) // LANES
         for blk in prange(nblocks):
+            csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
             i0 = blk * LANES
             w = _scratch(1)
             _load(w, 0, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0)
@@ -409,8 +469,8 @@ def _driver(method):
                 E = _row(etab, j)
                 F = _row(ftab, j)
                 # Recorded steps update the statistics inside the lane loop, while the new p is
-                # in registers. ``rec`` is a literal at each call site, so each of the two inlined
-                # copies is one branch-free vector loop (a run-time flag stops LLVM from
+                # in registers. ``rec`` is a constant at each call site, so each of the two
+                # copies LLVM inlines is one branch-free vector loop (a run-time flag stops LLVM from
                 # vectorising the dead-zone case: B2 0.16 s -> 0.25 s). The first recorded step
                 # sets the origin of the sums and the contact state the statistics start from.
                 rec = s > n_transient
@@ -437,11 +497,11 @@ def _driver(method):
                 if jp == 0:
                     _check(w, 0)
             _finish(w, 0, i0, n, n_record, steps_per_period, stats, xf, vf, status)
+            ftz_restore(csr)
         return stats, xf, vf, status
 
-    integrate.__name__ = integrate.__qualname__ = f"integrate_rk{method}"
     integrate.__doc__ = _INTEGRATE_DOC
-    return jit_parallel(integrate)
+    return integrate
 
 
 _INTEGRATE_DOC = """Integrate a batch of cases; see the module docstring for the model.
@@ -474,7 +534,7 @@ _INTEGRATE_DOC = """Integrate a batch of cases; see the module docstring for the
     """
 
 
-@jit_inline
+@jit_helper
 def _cycle(ktab, etab, ftab):
     """Steps per excitation cycle: the length of whichever table is present (1 if none)."""
     if ktab is not None:
@@ -486,7 +546,7 @@ def _cycle(ktab, etab, ftab):
     return 1
 
 
-@jit_inline
+@jit_helper
 def _load(w, o, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, bound, x0, v0):
     """Fill the scratch array of the block starting at case ``i0`` (lanes past ``n`` repeat the
     last case; their results are discarded)."""
@@ -508,7 +568,7 @@ def _load(w, o, i0, n, h, cm, kmean, kamp, gmean, escale, fscale, half_gap, boun
             w[o + _B * LANES + l] = half_gap[i]
 
 
-@jit_inline
+@jit_helper
 def _sample(w, o, signal, r, stride, i0, n):
     """Store p of the block's cases as recorded step ``r`` if it falls on the stride."""
     if r % stride == 0:
@@ -517,7 +577,7 @@ def _sample(w, o, signal, r, stride, i0, n):
                 signal[i0 + l, r // stride] = w[o + _X * LANES + l]
 
 
-@jit_inline
+@jit_helper
 def _start_record(w, o, half_gap):
     """Reset the running statistics at the first recorded step."""
     for l in range(LANES):
@@ -533,14 +593,14 @@ def _start_record(w, o, half_gap):
             w[o + _PREV * LANES + l] = 1.0 if abs(w[o + _X * LANES + l]) < w[o + _B * LANES + l] else 0.0
 
 
-@jit_inline
+@jit_helper
 def _accumulate(w, o, half_gap):
     """Enter the current state of every lane into the running statistics."""
     for l in range(LANES):
         _record(w, o, l, w[o + _X * LANES + l], half_gap)
 
 
-@jit_inline
+@jit_helper
 def _split(w, o):
     """Halfway through the window: keep the extremes so far as the first half's, restart."""
     for l in range(LANES):
@@ -550,7 +610,7 @@ def _split(w, o):
         w[o + _MIN2 * LANES + l] = np.inf
 
 
-@jit_inline
+@jit_helper
 def _record(w, o, l, X, half_gap):
     """Enter p = X of lane ``l`` into its running statistics (``_stat_step``)."""
     r = w[o + _MAX2 * LANES + l], w[o + _MIN2 * LANES + l], w[o + _SUM * LANES + l], \
@@ -572,7 +632,7 @@ def _record(w, o, l, X, half_gap):
     w[o + _SUM2 * LANES + l] = r[3]
 
 
-@jit_inline
+@jit_helper
 def _stat_step(X, pmax, pmin, s1, s2, shift, b, gaps, backs, impacts, prev, half_gap):
     """The running statistics of one case after entering p = X, branch-free (counts are sums of
     0.0/1.0; an impact is a step from the gap into contact): extremes, sums of (p - shift) and its
@@ -592,7 +652,7 @@ def _stat_step(X, pmax, pmin, s1, s2, shift, b, gaps, backs, impacts, prev, half
     return pmax, pmin, s1, s2, gaps, backs, impacts, prev
 
 
-@jit_inline
+@jit_helper
 def _check(w, o):
     """Stop lanes whose state is non-finite or beyond the bound (checked once per mesh period)."""
     for l in range(LANES):
@@ -602,7 +662,7 @@ def _check(w, o):
             w[o + _V * LANES + l] = 0.0
 
 
-@jit_inline
+@jit_helper
 def _finish(w, o, i0, n, n_record, spp, stats, xf, vf, status):
     """Turn the accumulators of one block into per-case statistics and final states."""
     for l in range(LANES):
@@ -631,7 +691,7 @@ def _finish(w, o, i0, n, n_record, spp, stats, xf, vf, status):
             stats[i, q] = out[q]
 
 
-@jit_inline
+@jit_helper
 def _final_stats(n_record, spp, max1, min1, max2, min2, s1, s2, shift, gaps, backs, impacts):
     """The ``STAT_NAMES`` of one case from its accumulators after ``n_record`` recorded steps
     (``_stat_step``; extremes of the first and second half of the window), as a tuple in the
