@@ -101,7 +101,6 @@ from gearsweep.jit import inlined_copies, jit_helper, jit_inline
 from gearsweep.kernels import rk
 from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 from gearsweep.kernels.rk import (
-    Specialised,
     _B,
     _BIT,
     _BLOCK,
@@ -146,20 +145,7 @@ from gearsweep.kernels.rk import (
     N_STATS,
     RK4,
     RK5,
-    _accumulate,
-    _check,
-    _cycle,
-    _finish,
-    _g,
-    _k,
-    _load,
-    _rk4_lanes,
-    _rk5_lanes,
-    _row,
-    _sample,
-    _scratch,
-    _split,
-    _start_record,
+    Specialised,
 )
 
 # The rk helpers this driver calls, as copies inlined at Numba IR level, like this module's own
