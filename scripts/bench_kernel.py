@@ -1,4 +1,4 @@
-"""Kernel benchmark: problems B1 and B2 of ``../shared/bench/README.md`` through the public API.
+"""Kernel benchmark: problems B1 and B2 (docs/benchmark.md) through the public API.
 
 The problems are solved exactly as specified there (classic RK4, 64 steps per mesh period, 200 mesh
 periods from rest, 10,000 speeds) by ``gearsweep.kernels.simulate`` (no copy of the kernel):
@@ -60,7 +60,7 @@ from gearsweep.kernels import fourier_table, simulate
 BENCH_DIR = Path(__file__).resolve().parents[2] / "shared" / "bench"
 """Where ``run_reference.sh`` lives (``/work/shared/bench``); ``--bench-dir`` overrides it."""
 
-# Problem data of ../shared/bench/README.md (SI units).
+# Problem data of B1 and B2 (docs/benchmark.md; SI units).
 MASS = 0.1527  # equivalent mass m [kg]
 DAMPING = 5500.0  # mesh damping c [N s/m]
 K0 = 1.073e9  # mean mesh stiffness [N/m]

@@ -1,5 +1,5 @@
 """Wall time of the kink-aware kernel against the plain kernel on problem B2 of
-``/work/shared/bench/README.md`` (10,000 cases, RK4, 64 steps per mesh period, 200 periods,
+docs/benchmark.md (problem B2: 10,000 cases, RK4, 64 steps per mesh period, 200 periods,
 backlash 4 um). Prints one JSON line per kernel and the ratio; best of ``--repeat`` runs after a
 warm-up (compilation), both kernels timed in the same run, alternating.
 

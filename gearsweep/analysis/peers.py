@@ -119,7 +119,7 @@ def rattle_batch(n: int = 1000, **kw) -> Batch:
 
 
 def b1_batch(n: int = 1000, **kw) -> Batch:
-    """Benchmark B1 (``../shared/bench``): the whine scene's model at 1000-20000 rpm, 200 mesh
+    """Benchmark B1 (docs/benchmark.md): the whine scene's model at 1000-20000 rpm, 200 mesh
     periods from rest, the last 100 recorded."""
     return Batch("B1", pr.whine_scene, 1000.0, 20000.0, n, pr.Window(100, 100), **kw)
 
