@@ -183,19 +183,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     if capped and args.chunk_size is not None and not args.quiet:
         print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than about"
               f" {CHUNK_SECONDS:.0f} s; using {chunk} cases per chunk", file=sys.stderr)
-    floor_s = shortest_chunk_seconds(plan)
-    if plan.continued and floor_s > CHUNK_SECONDS and not args.quiet:
-        print(f"gearsweep: note: one continued sweep ({plan.chain:,} speeds) takes about"
-              f" {floor_s:.0f} s and is never split (its state carries from speed to speed): a"
-              " chunk lasts at least that long and a kill loses up to that much; split the speed"
-              " range into several studies for shorter chunks", file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once).
     est, compile_s = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
     if args.estimate:
         print(f"{args.study}: {line(est, compile_s)}")
+        _long_sweep_note(plan, args)
         return 0
     if not args.yes:
         check_limits(est, args.study)
+    _long_sweep_note(plan, args)
     progress = not args.quiet and sys.stderr.isatty()
     with OutputLock(out), _backend(args) as backend:
         check_partial(plan, out)
@@ -238,6 +234,16 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 class Interrupted(Exception):
     """A run stopped by Ctrl-C (SIGINT): one line, exit 130."""
+
+
+def _long_sweep_note(plan, args: argparse.Namespace) -> None:
+    """One line when a continued sweep alone lasts beyond the chunk target: it is never split."""
+    floor_s = shortest_chunk_seconds(plan)
+    if plan.continued and floor_s > CHUNK_SECONDS and not args.quiet:
+        print(f"gearsweep: note: one continued sweep ({plan.chain:,} speeds) takes about"
+              f" {floor_s:.0f} s and is never split (its state carries from speed to speed): a"
+              " chunk lasts at least that long and a kill loses up to that much; split the speed"
+              " range into several studies for shorter chunks", file=sys.stderr)
 
 
 def _counts(ds) -> tuple[int, int]:

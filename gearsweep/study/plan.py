@@ -10,14 +10,19 @@ runs them (here or on dask) and ``gearsweep.study.dataset`` puts them together.
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import math
+import os
+import tempfile
 from dataclasses import dataclass, field
 from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from gearsweep.analysis.stability import ray_limit, step_limit_hw
+from gearsweep.analysis.stability import ray_limit, stability_polynomial, step_limit_hw
 from gearsweep.errors import StudyError
 from gearsweep.kernels import LANES
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, equivalent_mass, hill_parameters
@@ -264,7 +269,32 @@ _GUARD_MARGIN = 2e-3
 @lru_cache(maxsize=4)
 def _hw_table(method: str) -> tuple[np.ndarray, np.ndarray, float]:
     """(zeta grid, largest stable h w_n on it, largest stable h|lambda| on the negative real
-    axis) of ``method``, solved once from its stability polynomial."""
+    axis) of ``method``, solved once from its stability polynomial and kept on disk beside the
+    Numba cache (``__pycache__``), keyed by the source of the solver and the polynomial: about
+    0.4 s of solving that every run of a guarded study would otherwise pay at start-up."""
+    key = hashlib.sha256(repr((
+        inspect.getsource(_solve_hw_table), inspect.getsource(step_limit_hw),
+        inspect.getsource(ray_limit), stability_polynomial(method))).encode()).hexdigest()[:16]
+    path = Path(__file__).parent / "__pycache__" / f"hw_table.{method}.{key}.npz"
+    try:
+        with np.load(path) as f:
+            return f["zeta"], f["hw"], float(f["real"])
+    except (OSError, KeyError, ValueError):
+        pass
+    zeta, hw, real = _solve_hw_table(method)
+    try:  # atomic: a concurrent reader sees the whole file or none
+        path.parent.mkdir(exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, zeta=zeta, hw=hw, real=real)
+        os.replace(tmp, path)
+    except OSError:  # a read-only installation: solve it in every process
+        pass
+    return zeta, hw, real
+
+
+def _solve_hw_table(method: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """``_hw_table`` solved from the stability polynomial."""
     # The limit has square-root behaviour at zeta -> 0 (RK5) and zeta -> 1+ (the fast over-damped
     # pole), and the pole's angle arccos(-zeta) has it at zeta -> 1-: below 1 a cosine grid
     # (quadratic at both ends), above 1 geometric in zeta - 1 (steps of 3.8 %).
