@@ -52,10 +52,11 @@ def run_study(study: Path, out: Path) -> tuple[int, float]:
     return code, time.perf_counter() - t0
 
 
-def compile_tasks(studies: list[Path]) -> list[tuple[Path, list[int]]]:
-    """(study, indices of its ``kernel_calls``) per kernel specialisation the analysis studies
-    ``studies`` will use, the costliest first: one task each, so that the workers compile
-    different specialisations side by side (``gearsweep.kernels.batch.specialisation``)."""
+def compile_tasks(studies: list[Path]) -> list[tuple[float, Path, list[int]]]:
+    """(relative compile cost, study, indices of its ``kernel_calls``) per kernel specialisation
+    the analysis studies ``studies`` will use, the costliest first: one task each, so that the
+    workers compile different specialisations side by side
+    (``gearsweep.kernels.batch.specialisation``, ``compile_cost``)."""
     from gearsweep.kernels.batch import compile_cost, specialisation
     from gearsweep.study.analyses import kernel_calls
     from gearsweep.study.schema import load_study
@@ -66,7 +67,7 @@ def compile_tasks(studies: list[Path]) -> list[tuple[Path, list[int]]]:
         for i, call in enumerate(kernel_calls(load_study(str(study))[0])):
             groups.setdefault(specialisation(call), []).append(i)
         tasks += [(compile_cost(k), study, idx) for k, idx in groups.items()]
-    return [(study, idx) for _, study, idx in sorted(tasks, key=lambda t: -t[0])]
+    return sorted(tasks, key=lambda t: -t[0])
 
 
 def compile_for(study: Path, indices: list[int]) -> tuple[int, float]:
@@ -89,12 +90,24 @@ def _worker_threads(threads: int) -> None:
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
 
 
+KINK_STUDY_COST = 15.0
+"""Relative cold compile cost of a study with kink-aware steps (``batch.compile_cost`` of its
+driver): such a study is started among the costliest compile tasks, not after the others, so
+that the kink-aware compilations, a minute each, run side by side from the start."""
+
+
+def study_cost(study: Path) -> float:
+    """Relative cold compile cost of a plain study: kink-aware steps cost most."""
+    text = study.read_text(encoding="utf-8")
+    return KINK_STUDY_COST if re.search(r"^\s*kink_aware:\s*true\b", text, re.M) else 0.0
+
+
 def run_studies(studies: list[Path], results: Path, jobs: int,
-                compile_first: list[tuple[Path, list[int]]] = ()) -> list[str]:
+                compile_first: list[tuple[float, Path, list[int]]] = ()) -> list[str]:
     """Run ``studies``, ``jobs`` at a time (in this process if 1); print each one's time as it
     ends; return the names of those that failed. ``compile_first``: kernel specialisations of
-    analysis studies (``compile_tasks``) that the workers compile before they start on
-    ``studies``."""
+    analysis studies (``compile_tasks``) that the workers compile beside ``studies``; tasks and
+    studies are started costliest compilation first (``study_cost``)."""
     failed = []
 
     def report(study: Path, code: int, dt: float, what: str = "") -> None:
@@ -110,10 +123,17 @@ def run_studies(studies: list[Path], results: Path, jobs: int,
     threads = max(1, cores() // jobs)
     with ProcessPoolExecutor(min(jobs, len(studies)), mp_context=get_context("spawn"),
                              initializer=_worker_threads, initargs=(threads,)) as pool:
-        futures = {pool.submit(compile_for, study, idx): (study, f" (compiling {len(idx)})")
-                   for study, idx in compile_first}
-        futures.update({pool.submit(run_study, study, results / f"{study.stem}.nc"): (study, "")
-                        for study in studies})
+        work = [(cost, 0, i) for i, (cost, _, _) in enumerate(compile_first)]
+        work += [(study_cost(study), 1, i) for i, study in enumerate(studies)]
+        futures = {}
+        for _, is_study, i in sorted(work, key=lambda w: (-w[0], w[1], w[2])):  # stable order
+            if is_study:
+                study = studies[i]
+                futures[pool.submit(run_study, study, results / f"{study.stem}.nc")] = (study, "")
+            else:
+                _, study, idx = compile_first[i]
+                futures[pool.submit(compile_for, study, idx)] = (study,
+                                                                 f" (compiling {len(idx)})")
         for f in as_completed(futures):
             study, what = futures[f]
             try:
