@@ -95,32 +95,20 @@ def bare_run(study: Path, threads: int | None) -> float:
 
 
 def bare(study: Path) -> None:
-    """Child mode: print the bare kernel's seconds on the study's chunks (as the CLI cuts them)."""
-    import numpy as np
+    """Child mode: print the bare kernel's seconds on the study's chunks (as the CLI cuts them;
+    ``bench_scale.bare_kernel_seconds``, the one timing loop of both scripts)."""
+    from bench_scale import bare_kernel_seconds
 
-    from gearsweep.kernels import simulate
-    from gearsweep.model import kernel_inputs
     from gearsweep.study.estimate import chunk_cases
     from gearsweep.study.execute import lanes_per_chunk, warm_up
-    from gearsweep.study.plan import _lane_params, make_plan
+    from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
     st, text = load_study(str(study))
     plan = make_plan(st, text)
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None)[0]))
     warm_up(plan, chunks[0])
-    s = plan.study.solver
-    total = 0.0
-    for a, b in chunks:
-        kin = kernel_inputs(plan.model, _lane_params(plan, a, b), b - a, s.steps_per_period,
-                            s.divergence_factor, s.initial_displacement, s.initial_velocity)
-        with np.errstate(all="ignore"):
-            t0 = time.perf_counter()
-            simulate(method=s.method, n_transient=s.transient_periods * s.steps_per_period,
-                     n_record=s.record_periods * s.steps_per_period,
-                     steps_per_period=s.steps_per_period, **kin)
-            total += time.perf_counter() - t0
-    print(total)
+    print(bare_kernel_seconds(plan, chunks))
 
 
 def measure(study: Path, size: float, repeats: int, threads: int | None,
