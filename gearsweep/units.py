@@ -134,14 +134,88 @@ def _bare(value: object, kind: Kind, number: float) -> float:
                          f"{kind.examples[0]}'")
 
 
+_UNIT_ONLY = re.compile(r"^[A-Za-z_]+(?:(?:\*\*|\^)-?\d+)?"
+                        r"(?:(?:\s*[*/]\s*|\s+)[A-Za-z_]+(?:(?:\*\*|\^)-?\d+)?)*$")
+"""A unit after the number that scales it linearly (``kN/mm``, ``N*s/mm``, ``kg*m**2``): its
+factor is the same for every number, so it can be kept (``to_si``'s cache)."""
+
+
+@cache
+def _factor_cache_path():
+    import hashlib
+    from importlib.metadata import version
+    from pathlib import Path
+
+    source = Path(__file__).read_bytes()  # pint's version from its metadata: no import of pint
+    key = hashlib.sha256(source + version("pint").encode()).hexdigest()[:16]
+    return Path(__file__).parent / "__pycache__" / f"unit_factors.{key}.json"
+
+
+@cache
+def _factors() -> dict:
+    """(normalised unit, kind) -> SI value of one such unit, kept on disk beside the Numba cache:
+    a study whose units were all seen before is read without building pint's registry (about
+    0.5 s of every run's start-up). Keyed by this module's source and pint's version."""
+    import json
+
+    try:
+        return json.loads(_factor_cache_path().read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+
+
+def _keep_factor(key: str, factor: float) -> None:
+    import json
+    import os
+    import tempfile
+
+    table = _factors()
+    table[key] = factor
+    try:  # atomic; a concurrent writer may drop an entry: it is computed again next time
+        path = _factor_cache_path()
+        path.parent.mkdir(exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(table, fh)
+        os.replace(tmp, path)
+    except OSError:  # a read-only installation: pint in every process
+        pass
+
+
 def to_si(value: object, kind: str) -> float:
     """Parse ``value`` (a number or a string with units) into a float in the SI unit of ``kind``.
+
+    A number followed by a plain unit (``1073 kN/mm``) is its number times the unit's factor,
+    which pint computes once per unit and kind (``_factors``); anything else goes through pint.
 
     Raises
     ------
     UnitParseError
         With a message naming the expected kind and a unit to write.
     """
+    if isinstance(value, str):
+        text = normalise(value)
+        m = _NUMBER.match(text)
+        unit = text[m.end():].strip() if m else ""
+        if m and _UNIT_ONLY.match(unit):
+            key = f"{unit}|{kind}"
+            factor = _factors().get(key)
+            if factor is None:
+                try:
+                    factor = _to_si_pint(f"1 {unit}", kind)
+                except UnitParseError:
+                    factor = None  # the value itself goes through pint for its own message
+                else:
+                    _keep_factor(key, factor)
+            if factor is not None:
+                result = float(m.group(0).replace("_", "")) * factor
+                if math.isfinite(result):
+                    return result
+    return _to_si_pint(value, kind)
+
+
+def _to_si_pint(value: object, kind: str) -> float:
+    """``to_si`` through pint's registry."""
     k = KINDS[kind]
     unit_hint = k.examples[0]
     if isinstance(value, bool):
@@ -203,11 +277,17 @@ def kind_of(value: object, kinds: tuple[str, ...]) -> str:
 
 @cache
 def display_factor(kind: str) -> float:
-    """Display value per SI value of ``kind`` (e.g. 1000 for a length: m -> mm)."""
+    """Display value per SI value of ``kind`` (e.g. 1000 for a length: m -> mm); pint's, kept
+    with ``to_si``'s factors."""
     k = KINDS[kind]
     if k.si == k.display:
         return 1.0
-    return float(registry().Quantity(1.0, k.si).to(k.display).magnitude)
+    key = f"display|{kind}"
+    factor = _factors().get(key)
+    if factor is None:
+        factor = float(registry().Quantity(1.0, k.si).to(k.display).magnitude)
+        _keep_factor(key, factor)
+    return factor
 
 
 def to_display(values, kind: str):

@@ -134,3 +134,26 @@ outputs: [stats, {spectrum: {max_order: 2}}]
     assert si["p_mean"].values == pytest.approx([static_um * 1e-6] * 2, rel=1e-12)
     assert si_data_vars(si)["p_mean"].values == pytest.approx(si["p_mean"].values)  # idempotent
     assert ds["speed"].values.tolist() == [3000.0, 6000.0]  # coordinates untouched
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_the_kept_unit_factors_give_pints_numbers(kind):
+    """``to_si`` reads 'number unit' as number x the unit's kept factor: for every documented
+    spelling the same float as pint on the whole text (bit for bit), twice (computed, then kept)."""
+    from gearsweep.units import _to_si_pint
+
+    for spelling in KINDS[kind].examples:
+        if spelling.startswith("("):
+            continue
+        unit = spelling.split(" (")[0]
+        for number in ("0.1", "2.5", "-3e-2", "1073"):
+            text = f"{number} {unit}"
+            try:
+                want = _to_si_pint(text, kind)
+            except UnitParseError:
+                continue
+            assert to_si(text, kind) == want, text
+            assert to_si(text, kind) == want, text  # from the kept factor
+    with pytest.raises(UnitParseError, match="expected"):
+        to_si("3 mm", "stiffness")  # a wrong unit still gets pint's message
+    assert to_si("200*32/48 rpm", "speed") == pytest.approx(133.333333333)  # arithmetic: pint
