@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import subprocess
 from pathlib import Path
 
 import xarray as xr
 
 from gearsweep.units import si_data_vars
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def parse(description: str) -> argparse.Namespace:
@@ -25,3 +28,13 @@ def open_result(folder: Path, study: str) -> xr.Dataset:
     if not path.exists():
         raise SystemExit(f"{path} not found: run `gearsweep run studies/{study}.yaml` first")
     return si_data_vars(xr.load_dataset(path))
+
+
+def git_commit() -> str:
+    """The repository's short commit (``unknown`` outside a git checkout): for the provenance
+    the benchmark and calibration scripts write."""
+    try:
+        return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                              capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"

@@ -24,7 +24,6 @@ import datetime as dt
 import math
 import os
 import shutil
-import subprocess
 import time
 from importlib import metadata
 from pathlib import Path
@@ -32,6 +31,7 @@ from pathlib import Path
 import numba
 import numpy as np
 import xarray as xr
+from _common import git_commit
 
 from gearsweep.analysis import peers as P
 from gearsweep.analysis import precision as pr
@@ -356,7 +356,7 @@ def dataset(res: dict, args, command: str) -> xr.Dataset:
         "Conventions": "CF-1.10",
         "title": "Work-precision of gearsweep against compiled and interpreted peers (issue 25)",
         "history": f"{dt.datetime.now(dt.UTC).isoformat(timespec='seconds')} {command}",
-        "source": f"scripts/bench_peers.py, gearsweep {_commit()}",
+        "source": f"scripts/bench_peers.py, gearsweep {git_commit()}",
         "reference": "gearsweep.analysis.precision.reference: exact piecewise solution (rattle), "
                      "DOP853 rtol 1e-12 with crossings as events (whine, B1)",
         "error_cases": "evenly spread over the batch, first and last case included",
@@ -386,13 +386,6 @@ def _jax_devices() -> str:
 def cores_used() -> int:
     return numba.get_num_threads()
 
-
-def _commit() -> str:
-    try:
-        return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-                              capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def tables(ds: xr.Dataset, error: str = "amplitude_error") -> str:

@@ -12,8 +12,9 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
-import subprocess
 from pathlib import Path
+
+from _common import git_commit
 
 from gearsweep.analysis import precision as pr
 
@@ -31,13 +32,6 @@ ORDER = {"rk4": 4, "rk5": 5}
 def _split(name: str) -> tuple[str, bool]:
     return name.split("-")[0], name.endswith("-kink")
 
-
-def _commit() -> str:
-    try:
-        return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-                              capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def calibrate(window: pr.Window) -> dict:
@@ -68,7 +62,7 @@ def calibrate(window: pr.Window) -> dict:
         "description": "trajectory error <= C (h omega_n)^order, C = upper envelope over the "
                        "calibration runs; error relative to the amplitude (see "
                        "gearsweep.analysis.precision)",
-        "source": f"scripts/calibrate_advisor.py, gearsweep {_commit()}, "
+        "source": f"scripts/calibrate_advisor.py, gearsweep {git_commit()}, "
                   f"{dt.datetime.now(dt.UTC).date().isoformat()}",
         "calibration_speeds_rpm": CALIBRATION_RPM,
         "window_periods": [window.transient_periods, window.record_periods],
