@@ -469,6 +469,20 @@ def run_numbalsoda_events(batch: Batch, rtol: float, *, repeat: int = 3) -> Batc
 
 # --------------------------------------------------------------------------- diffrax
 
+def _scaled_rhs(jnp, t, y, d, f):
+    """The batch's equation in scaled variables for diffrax: ``d`` one case's row of the
+    parameter matrix (columns ``W, C, KM, K1..K3, G0..G3, B, S, WN``), ``f`` the spring's
+    deflection function of p = s x (the diffrax variants differ only there)."""
+    u = y[1]
+    th = d[0] * t
+    c1, c2, c3 = jnp.cos(th), jnp.cos(2.0 * th), jnp.cos(3.0 * th)
+    k = d[2] + d[3] * c1 + d[4] * c2 + d[5] * c3
+    g = d[6] + d[7] * c1 + d[8] * c2 + d[9] * c3
+    s, wn = d[11], d[12]
+    return jnp.stack([wn * u, (g - d[1] * s * wn * u - k * f) / (s * wn)])
+
+
+
 
 DIFFRAX_SOLVERS = ("Tsit5", "Dopri5", "Dopri8")
 
@@ -487,15 +501,8 @@ def diffrax_solver(name: str, max_steps: int = 1 << 20):
     per_step = len(tab.c) + 1 - (1 if tab.fsal else 0)
 
     def rhs(t, y, d):
-        x, u = y[0], y[1]
-        th = d[0] * t
-        c1, c2, c3 = jnp.cos(th), jnp.cos(2.0 * th), jnp.cos(3.0 * th)
-        k = d[2] + d[3] * c1 + d[4] * c2 + d[5] * c3
-        g = d[6] + d[7] * c1 + d[8] * c2 + d[9] * c3
-        s, wn, b = d[11], d[12], d[10]
-        p = s * x
-        f = p - jnp.clip(p, -b, b)
-        return jnp.stack([wn * u, (g - d[1] * s * wn * u - k * f) / (s * wn)])
+        p, b = d[11] * y[0], d[10]
+        return _scaled_rhs(jnp, t, y, d, p - jnp.clip(p, -b, b))  # the dead zone in the RHS
 
     term = diffrax.ODETerm(rhs)
 
@@ -581,15 +588,8 @@ def diffrax_event_solver(name: str, max_steps: int = 1 << 16, max_segments: int 
     per_step = len(tab.c) + 1 - (1 if tab.fsal else 0)
 
     def rhs(t, y, args):
-        d, r = args
-        x, u = y[0], y[1]
-        th = d[0] * t
-        c1, c2, c3 = jnp.cos(th), jnp.cos(2.0 * th), jnp.cos(3.0 * th)
-        k = d[2] + d[3] * c1 + d[4] * c2 + d[5] * c3
-        g = d[6] + d[7] * c1 + d[8] * c2 + d[9] * c3
-        s, wn, b = d[11], d[12], d[10]
-        f = jnp.abs(r) * (s * x - r * b)  # the piece's linear force, continued past its ends
-        return jnp.stack([wn * u, (g - d[1] * s * wn * u - k * f) / (s * wn)])
+        d, r = args  # the piece's linear force, continued past its ends
+        return _scaled_rhs(jnp, t, y, d, jnp.abs(r) * (d[11] * y[0] - r * d[10]))
 
     def cond_fn(t, y, args, **kwargs):
         d, r = args
