@@ -10,8 +10,13 @@ diverged cases and results agree with plain IEEE arithmetic to a few ulp.
 """
 
 import types
+from collections import Counter
 
 import numba
+from numba.core import ir, ir_utils
+from numba.core.compiler import CompilerBase, DefaultPassBuilder
+from numba.core.compiler_machinery import FunctionPass, register_pass
+from numba.core.typed_passes import NopythonRewrites
 
 OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
 
@@ -40,24 +45,29 @@ jit_inline = numba.njit(inline="always", **{**OPTIONS, "cache": False})
 ``inlined_copies``)."""
 
 
-def inlined_copies(funcs: dict) -> dict:
-    """``jit_inline`` copies of ``jit_helper`` functions of one module (name -> dispatcher), whose
-    calls of one another go to the copies.
+def inlined_copies(funcs: dict, constants: dict | None = None, keep: tuple = ()) -> dict:
+    """``jit_inline`` copies of jitted functions of one module (name -> dispatcher), whose calls
+    of one another go to the copies; the functions named in ``keep`` are copied as functions of
+    their own (``jit_helper``: a scalar path for rare lanes, with its helpers inlined into it).
+    ``constants``: module globals that the copies see with other values. Numba freezes globals
+    into the code, so a branch on one is pruned before inlining: the RK4 copies of the
+    kink-aware helpers do not inline, type and lower the RK5 code, and vice versa.
 
     For the kink-aware drivers: with their helpers inlined by LLVM they ran B2 6.5 times slower
     (1.65-1.73 s against 0.26-0.31 s, ``scripts/bench_kink.py --threads 1``, same amplitudes):
-    the lane loops and fix-ups are too large for LLVM's inliner, and not inlined, the literal
-    flags they take (``rec``, ``kink``, ``rk4``) are run-time branches that stop vectorisation.
-    Inlined at Numba IR level the flags are pruned as before, at the old compile cost (about a
-    minute per kink-aware specialisation); the plain drivers keep the LLVM-inlined helpers."""
+    the literal flags they take (``rec``, ``kink``) stay run-time branches that stop
+    vectorisation. Inlined at Numba IR level the flags are pruned; the plain drivers keep the
+    LLVM-inlined helpers."""
     shared = None
     out = {}
     for name, d in funcs.items():
         f = d.py_func
         if shared is None:
             shared = dict(f.__globals__)
-        out[name] = jit_inline(types.FunctionType(f.__code__, shared, f.__name__, f.__defaults__,
-                                                  f.__closure__))
+            shared.update(constants or {})
+        deco = jit_helper if name in keep else jit_inline
+        out[name] = deco(types.FunctionType(f.__code__, shared, f.__name__, f.__defaults__,
+                                            f.__closure__))
     if shared is not None:
         shared.update(out)
     return out
@@ -65,3 +75,70 @@ def inlined_copies(funcs: dict) -> dict:
 
 jit_parallel = numba.njit(parallel=True, **OPTIONS)
 """Decorator for the batch drivers that spread blocks of cases over all cores with ``prange``."""
+
+
+@register_pass(mutates_CFG=False, analysis_only=False)
+class _CopyPropagation(FunctionPass):
+    """Replace every variable that is only ever a copy of another variable (one definition each,
+    ``a = b``, same type) by that variable, and drop the copies.
+
+    Numba's IR inliner binds each argument of an inlined call to a new variable; a new variable
+    that holds an array (or a tuple of them) is reference-counted, and in the lane loops those
+    calls into Numba's runtime stop LLVM from vectorising. With one definition each, ``b`` cannot
+    change after ``a = b`` and ``a`` holds its value wherever it is read, so the replacement is
+    exact. (Numba's own copy propagation, which its parallel pipeline runs over a ``prange`` body,
+    solves a data-flow problem over every block: 6.5 of the kink-aware RK5 driver's 40 s.)"""
+
+    _name = "gearsweep_copy_propagation"
+
+    def __init__(self):
+        FunctionPass.__init__(self)
+
+    def run_pass(self, state):
+        blocks, typemap = state.func_ir.blocks, state.typemap
+        defs = Counter(st.target.name for b in blocks.values() for st in b.body
+                       if isinstance(st, ir.Assign))
+        copy_of = {}
+        for b in blocks.values():
+            for st in b.body:
+                if isinstance(st, ir.Assign) and isinstance(st.value, ir.Var):
+                    a, v = st.target.name, st.value.name
+                    if defs[a] == 1 and defs[v] == 1 and typemap[a] == typemap[v]:
+                        copy_of[a] = st.value
+        if not copy_of:
+            return False
+
+        def root(var):
+            while var.name in copy_of:
+                var = copy_of[var.name]
+            return var
+
+        ir_utils.replace_vars(blocks, {a: root(v) for a, v in copy_of.items()})
+        for b in blocks.values():
+            b.body = [st for st in b.body if not (isinstance(st, ir.Assign)
+                                                  and isinstance(st.value, ir.Var)
+                                                  and st.value.name == st.target.name)]
+        state.func_ir._definitions = ir_utils.build_definitions(blocks)
+        return True
+
+
+class _InlinedCompiler(CompilerBase):
+    """Numba's nopython pipeline plus ``_CopyPropagation`` where the parallel pipeline has its
+    passes: after type inference, the phi nodes stripped and the rewrites."""
+
+    def define_pipelines(self):
+        pm = DefaultPassBuilder.define_nopython_pipeline(self.state)
+        pm.add_pass_after(_CopyPropagation, NopythonRewrites)
+        pm.finalize()
+        return [pm]
+
+
+jit_block = numba.njit(pipeline_class=_InlinedCompiler, **{**OPTIONS, "cache": False})
+"""Decorator for the work of one block of a driver whose helpers are inlined at Numba IR level
+(the kink-aware drivers, ``inlined_copies``). Every inlined call binds its arguments to new
+variables, and a new variable that holds an array is reference-counted: in the lane loops, calls
+into Numba's runtime that stop LLVM from vectorising (B2's kink-aware kernel ran 6.4 times
+slower). Copy propagation removes those copies, as Numba's parallel pipeline does for a
+``prange`` body, without that pipeline's passes over the whole body (compiled inside the
+``prange`` loop, the kink-aware RK4 driver took 73 s to compile, of which 28 s in parfor
+fusion; as a function of its own compiled with this pipeline, see docs/benchmark.md)."""

@@ -223,7 +223,7 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
                                gfun(gm, es, E[0], ET, fs, F[0], FT),
                                gfun(gm, es, E[2], ET, fs, F[2], FT),
                                gfun(gm, es, E[4], ET, fs, F[4], FT),
-                               b, GAP, False, True, 0.0)
+                               b, GAP, True, 0.0)
             else:
                 Xn, Vn = step5(X, V, hh, c,
                                kfun(km, ka, K[0], KT, KA), kfun(km, ka, K[1], KT, KA),
@@ -234,7 +234,7 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
                                gfun(gm, es, E[2], ET, fs, F[2], FT),
                                gfun(gm, es, E[3], ET, fs, F[3], FT),
                                gfun(gm, es, E[4], ET, fs, F[4], FT),
-                               b, GAP, False, True, 0.0)
+                               b, GAP, True, 0.0)
             X = dt(Xn)
             V = dt(Vn)
             j = j + 1 if j + 1 < S else 0

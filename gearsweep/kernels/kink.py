@@ -97,7 +97,7 @@ import numpy as np
 from numba import prange
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
-from gearsweep.jit import inlined_copies, jit_helper, jit_inline
+from gearsweep.jit import inlined_copies, jit_block, jit_helper, jit_inline
 from gearsweep.kernels import rk
 from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 from gearsweep.kernels.rk import (
@@ -155,13 +155,19 @@ _RK = inlined_copies({name: getattr(rk, name) for name in (
     "_accumulate", "_check", "_cycle", "_finish", "_g", "_k", "_load", "_rk4_lanes", "_rk5_lanes",
     "_row", "_sample", "_scratch", "_split", "_start_record", "_law", "_stage_spring", "_spring",
     "_dead_zone", "_after_step", "_record", "_stat_step", "_final_stats", "_rk4_step",
-    "_rk5_step")})
+    "_rk5_step")}, {"_KINK": True})
 _accumulate, _check, _cycle, _finish = (_RK[n] for n in ("_accumulate", "_check", "_cycle",
                                                          "_finish"))
 _g, _k, _load, _rk4_lanes, _rk5_lanes = (_RK[n] for n in ("_g", "_k", "_load", "_rk4_lanes",
                                                           "_rk5_lanes"))
 _row, _sample, _scratch, _split, _start_record = (_RK[n] for n in (
     "_row", "_sample", "_scratch", "_split", "_start_record"))
+
+_RK4_METHOD = True
+"""The method the fix-up helpers below serve (``_substep`` ... ``_fix_jobs``): a module global,
+not an argument, so that the copies of them for each method (``_FIXUPS``) are compiled with the
+other method's branch pruned before Numba inlines them (an argument would keep both: the RK4
+driver inlined, typed and lowered RK5's correction too)."""
 
 MAX_CROSSINGS = 4
 """Crossings handled within one step; further ones are stepped over as in the plain kernel."""
@@ -275,14 +281,14 @@ def _kg_dt(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
 
 
 @jit_inline
-def _substep(rk4, X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
+def _substep(X, V, ta, tb, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """One RK step of the same method from fraction ``ta`` to ``tb`` of the step ``h``, with the
     force law f(p) = sw (p - sh) of one region extended smoothly beyond its boundary: the stages
     never see the kink (a stage on the far side of the boundary evaluated with the dead zone
     itself would cost O(H^4) per crossing and cap RK5 at order 4)."""
     eta = tb - ta
     H = eta * h
-    if rk4:
+    if _RK4_METHOD:
         tm = ta + _RK4_A21 * eta
         K1, G1 = _kg(P, ta, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
         K2, G2 = _kg(P, tm, ktab, kamp, etab, ftab, kl, kal, gl, el, fl)
@@ -389,7 +395,7 @@ def _hermite_return(X, V, TX, TV, H, bd):
 
 
 @jit_helper
-def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
+def _fixup(X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """Redo one step of one lane that crossed a boundary, any number of crossings (up to
     ``MAX_CROSSINGS``); returns (x, v, substeps taken). The scalar path, for what the vectorised
     ``_fix_lanes`` leaves: several crossings in one step, a start on a boundary, a crossing
@@ -426,9 +432,9 @@ def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl,
         CX = X
         CV = V
         for _r in range(NEWTON_MAX):
-            CX, CV = _substep(rk4, X, V, th, tc, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal,
+            CX, CV = _substep(X, V, th, tc, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal,
                               gl, el, fl)
-            tn, PX, PV, ok = _project(rk4, CX, CV, tc, bd, h, sw, sh, c, P, ktab, kamp, etab,
+            tn, PX, PV, ok = _project(CX, CV, tc, bd, h, sw, sh, c, P, ktab, kamp, etab,
                                       ftab, kl, kal, gl, el, fl)
             nsub += 2
             if ok and tn >= th:
@@ -449,7 +455,7 @@ def _fixup(rk4, X0, V0, TX, TV, h, b, c, P, ktab, kamp, etab, ftab, kl, kal, gl,
             break
         sw = abs(reg)
         sh = b if reg > 0.0 else -b
-        TX, TV = _substep(rk4, X, V, th, 1.0, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal,
+        TX, TV = _substep(X, V, th, 1.0, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal,
                           gl, el, fl)
         nsub += 1
     return TX, TV, nsub
@@ -476,7 +482,7 @@ def _kg_dt3(P, th, ih, ktab, kamp, etab, ftab, kal, el, fl):
 
 
 @jit_inline
-def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
+def _project(X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal, gl, el, fl):
     """From the state (X, V) at fraction ``tc`` of the step, near the boundary ``bd``: the time
     tau to the boundary and the state there, from a Taylor polynomial in time of the method's
     order (degree 4 for RK4, 5 for RK5) with the force law sw (p - sh) of the region being left.
@@ -495,7 +501,7 @@ def _project(rk4, X, V, tc, bd, h, sw, sh, c, P, ktab, kamp, etab, ftab, kl, kal
     j = G1 - c * a - K1 * f - K0 * fv
     sn = G2 - c * j - K2 * f - 2.0 * K1 * fv - K0 * sw * a
     c5 = 0.0
-    if not rk4:  # fifth derivative of p
+    if not _RK4_METHOD:  # fifth derivative of p
         K3, G3 = _kg_dt3(P, tc, ih, ktab, kamp, etab, ftab, kal, el, fl)
         c5 = (G3 - c * sn - K3 * f - 3.0 * K2 * fv - 3.0 * K1 * sw * a - K0 * sw * j) * (1.0 / 120.0)
     dx = X - bd
@@ -623,13 +629,13 @@ def _correct_rk5(X0, V0, TX, TV, h, ih, c, sw, sh, bd, P, K, E, F, ktab, kamp, e
     ok = abs(s1 - s) <= GROUP_TOL
     y, dy = _quintic(s1, y0, d0, q2, c3, c4, c5)
     # the new region's law: the gap after contact, the flank bd after the gap
-    x, v = _substep(False, bd + y, dy / h, s1, 1.0, h, 1.0 - sw, bd, c, P, ktab, kamp, etab,
+    x, v = _substep(bd + y, dy / h, s1, 1.0, h, 1.0 - sw, bd, c, P, ktab, kamp, etab,
                     ftab, kl, kal, gl, el, fl)
     return x, v, ok
 
 
 @jit_inline
-def _fix_lanes(rk4, w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
+def _fix_lanes(w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
     """Correct, in place, the crossing steps among lanes l0 .. l0 + nv - 1 of the block at
     offset ``o`` of ``w`` (``bits``: their crossing bits; ``nv`` a multiple of 8) in one
     branch-free pass vectorised across the lanes like the lane loops; returns the bits of the
@@ -686,7 +692,7 @@ def _fix_lanes(rk4, w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
         sh = b if X0 > 0.0 else -b
         # the boundary crossed: the flank being left, or (from the gap) the one reached
         bd = sh if sw != 0.0 else (b if TX > 0.0 else -b)
-        if rk4:
+        if _RK4_METHOD:
             FX, FV, ok = _correct_rk4(X0, V0, TX, TV, h, ih, c, sw, bd, P, ktab, kamp, etab, ftab,
                                       kl, kal, gl, el, fl)
         else:
@@ -699,7 +705,7 @@ def _fix_lanes(rk4, w, o, l0, nv, bits, P, K, E, F, ktab, kamp, etab, ftab):
         w[i + _X * LANES] = FX if take else TX
         w[i + _V * LANES] = FV if take else TV
         # RK4: the coefficients at the crossing; RK5: a substep and two p'' evaluations
-        w[i + _NSUB * LANES] += (0.25 if rk4 else 4.0 / 3.0) if take else 0.0
+        w[i + _NSUB * LANES] += (0.25 if _RK4_METHOD else 4.0 / 3.0) if take else 0.0
         hard |= _BIT[l] if crossed and not easy else np.int64(0)
     return hard
 
@@ -742,7 +748,7 @@ _ROWS_IN = (_XO, _VO, _X, _V, _H, _B, _C, _KM, _KA, _GM, _ES, _FS, _NSUB)
 
 
 @jit_inline
-def _fix_jobs(rk4, a, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab):
+def _fix_jobs(a, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab):
     """Run the fix-up jobs: job t is the lanes jlo[t] .. jhi[t] - 1 of the block at offset jo[t]
     of the scratch ``a`` (one of the kink block's own blocks, or of the group blocks after
     them), crossing bits jbits[t]. One call site of the vectorised ``_fix_lanes`` for both (each
@@ -753,12 +759,12 @@ def _fix_jobs(rk4, a, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, fta
         # carry Numba's wraparound test, and LLVM would not vectorise _fix_lanes
         o = jo[t] & 0x7FFFFFFF
         lo = jlo[t] & (LANES - 8)
-        hard = _fix_lanes(rk4, a, o, lo, (jhi[t] - lo) & (2 * LANES - 8), jbits[t], P, K, E, F,
+        hard = _fix_lanes(a, o, lo, (jhi[t] - lo) & (2 * LANES - 8), jbits[t], P, K, E, F,
                           ktab, kamp, etab, ftab)
         while hard != 0:
             i = o + np.int64(trailing_zeros(hard))
             hard &= hard - 1
-            X, V, ns = _fixup(rk4, a[i + _XO * LANES], a[i + _VO * LANES], a[i + _X * LANES],
+            X, V, ns = _fixup(a[i + _XO * LANES], a[i + _VO * LANES], a[i + _X * LANES],
                               a[i + _V * LANES], a[i + _H * LANES], a[i + _B * LANES],
                               a[i + _C * LANES], P, ktab, kamp, etab, ftab, a[i + _KM * LANES],
                               a[i + _KA * LANES], a[i + _GM * LANES], a[i + _ES * LANES],
@@ -779,6 +785,12 @@ def _live(w, o, nlive):
     return bits
 
 
+_FIXUPS = {m: inlined_copies({name: globals()[name] for name in (
+    "_substep", "_project", "_fixup", "_correct_rk4", "_correct_rk5", "_fix_lanes", "_fix_jobs")},
+    {"_RK4_METHOD": m == RK4}, keep=("_fixup",)) for m in (RK4, RK5)}
+"""The fix-up helpers of each method (``_RK4_METHOD``)."""
+
+
 def _driver(method):
     """The kink-aware batch driver of one method (see ``rk._driver``)."""
     return Specialised(lambda: _integrate_function(method), f"integrate_kink_rk{method}")
@@ -787,6 +799,127 @@ def _driver(method):
 def _integrate_function(method):
     """A new Python function of the kink-aware driver of one method (``_driver`` compiles it)."""
     rk4 = method == RK4
+    fix_jobs = _FIXUPS[method]["_fix_jobs"]
+
+    def block(blk, nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale,
+              ftab, half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal,
+              stride, stats, xf, vf, status, substeps):
+        """The work of kink block ``blk`` (see ``integrate``): a function of its own
+        (``jit_block``), called once per block from the ``prange`` loop. Written inside the
+        loop, Numba's parallel passes went over all of the inlined helpers (73 s to compile the
+        RK4 driver, 28 s of it parfor fusion; now about 18 s, docs/benchmark.md)."""
+        csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
+        w = _scratch(2 * sub)  # the kink block's plain blocks, then the group's blocks
+        g0 = sub * _BLOCK
+        for q in range(sub):
+            _load(w, q * _BLOCK, (blk + q * nblocks) * LANES, n, h, cm, kmean, kamp, gmean, escale,
+                  fscale, half_gap, bound, x0, v0)
+        P = np.zeros((3, 5))
+        # fix-up jobs (see _fix_jobs)
+        jo = np.zeros(2 * sub, np.int64)
+        jlo = np.zeros(2 * sub, np.int64)
+        jhi = np.zeros(2 * sub, np.int64)
+        jbits = np.zeros(2 * sub, np.int64)
+        slot = np.zeros(sub * LANES, np.int64)
+        masks = np.zeros(sub, np.int64)
+        live = np.zeros(sub, np.int64)  # bits of the lanes that hold a case still running
+        for q in range(sub):
+            live[q] = _live(w, q * _BLOCK, n - (blk + q * nblocks) * LANES)
+        half = n_transient + n_record // 2
+        j = 0
+        jp = 0
+        # The statistics take the START state of step s for s > n_transient (inside the lane
+        # loop, see rk._after_step): the end state of step s - 1 after its fix-up. The end
+        # state of the last step is entered after the loop. The plain kernel records the end
+        # states of steps n_transient ... end: the same states, the same statistics.
+        for s in range(n_transient + n_record + 1):
+            rec = s > n_transient
+            if rec:
+                for q in range(sub):
+                    if s == n_transient + 1:
+                        _start_record(w, q * _BLOCK, half_gap)
+                    if s == half + 1:
+                        _split(w, q * _BLOCK)
+            if s == n_transient + n_record:  # past the last step: record its end state
+                if rec:
+                    for q in range(sub):
+                        _accumulate(w, q * _BLOCK, half_gap)
+                break
+            K = _row(ktab, j)
+            E = _row(etab, j)
+            F = _row(ftab, j)
+            # First every sub-block's trial step, each returning its crossing mask; then the
+            # fix-ups of all of them. No branch between the lane
+            # loops depends on a mask, so the next sub-block's loop does not wait for one.
+            for q in range(sub):
+                o = q * _BLOCK
+                if rk4:
+                    if rec:
+                        masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
+                    else:
+                        masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F,
+                                              False)
+                elif rec:
+                    masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
+                else:
+                    masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
+            # Each block's crossing lanes: where they fill most of the vectors they span (the
+            # usual case: neighbouring cases of a sweep cross in the same steps), fixed up in
+            # place; otherwise gathered into the group, whose vectors they then fill.
+            nj = 0
+            nc = 0
+            for q in range(sub):
+                mask = masks[q] & live[q]
+                if mask == 0:
+                    continue
+                o = q * _BLOCK
+                lo = (np.int64(trailing_zeros(mask)) >> 3) << 3
+                hi = ((63 - np.int64(leading_zeros(mask))) | 7) + 1
+                if _popcount(mask) >= DENSE * (hi - lo):
+                    jo[nj] = o
+                    jlo[nj] = lo
+                    jhi[nj] = hi
+                    jbits[nj] = mask
+                    nj += 1
+                else:
+                    while mask != 0:
+                        i = o + np.int64(trailing_zeros(mask))
+                        mask &= mask - 1
+                        _gather(w, g0, nc, i)
+                        slot[nc] = i
+                        nc += 1
+            for q in range((nc + LANES - 1) // LANES):
+                m = min(LANES, nc - q * LANES)
+                jo[nj] = g0 + q * _BLOCK
+                jlo[nj] = 0
+                jhi[nj] = (m + 7) & -8
+                jbits[nj] = (np.int64(1) << m) - 1  # m <= LANES <= 32
+                nj += 1
+            if nj > 0:
+                for r in range(3):
+                    for k in range(5):
+                        P[r, k] = PT[j, r, k]
+                fix_jobs(w, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab)
+                for m in range(nc):
+                    _scatter(w, g0, m, slot[m])
+            j = j + 1 if j + 1 < S else 0
+            jp = jp + 1 if jp + 1 < steps_per_period else 0
+            for q in range(sub):
+                if signal is not None and s >= n_transient:
+                    _sample(w, q * _BLOCK, signal, s - n_transient, stride, (blk + q * nblocks) * LANES,
+                            n)
+                if jp == 0:
+                    _check(w, q * _BLOCK)
+                    live[q] = _live(w, q * _BLOCK, n - (blk + q * nblocks) * LANES)
+        for q in range(sub):
+            i0 = (blk + q * nblocks) * LANES
+            if i0 < n:
+                _finish(w, q * _BLOCK, i0, n, n_record, steps_per_period, stats, xf, vf, status)
+                for l in range(min(LANES, n - i0)):
+                    substeps[i0 + l] = w[q * _BLOCK + _NSUB * LANES + l]
+        ftz_restore(csr)
+
+    block_fn = jit_block(block)
 
     def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
                   v0, n_transient, n_record, steps_per_period, signal, stride, sub):
@@ -806,120 +939,10 @@ def _integrate_function(method):
         nplain = (n + LANES - 1) // LANES
         nblocks = (nplain + sub - 1) // sub
         PT = _monomial_table(ktab, etab, ftab, S)
-        for blk in prange(nblocks):
-            csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
-            w = _scratch(2 * sub)  # the kink block's plain blocks, then the group's blocks
-            g0 = sub * _BLOCK
-            for q in range(sub):
-                _load(w, q * _BLOCK, (blk + q * nblocks) * LANES, n, h, cm, kmean, kamp, gmean, escale,
-                      fscale, half_gap, bound, x0, v0)
-            P = np.zeros((3, 5))
-            # fix-up jobs (see _fix_jobs)
-            jo = np.zeros(2 * sub, np.int64)
-            jlo = np.zeros(2 * sub, np.int64)
-            jhi = np.zeros(2 * sub, np.int64)
-            jbits = np.zeros(2 * sub, np.int64)
-            slot = np.zeros(sub * LANES, np.int64)
-            masks = np.zeros(sub, np.int64)
-            live = np.zeros(sub, np.int64)  # bits of the lanes that hold a case still running
-            for q in range(sub):
-                live[q] = _live(w, q * _BLOCK, n - (blk + q * nblocks) * LANES)
-            half = n_transient + n_record // 2
-            j = 0
-            jp = 0
-            # The statistics take the START state of step s for s > n_transient (inside the lane
-            # loop, see rk._after_step): the end state of step s - 1 after its fix-up. The end
-            # state of the last step is entered after the loop. The plain kernel records the end
-            # states of steps n_transient ... end: the same states, the same statistics.
-            for s in range(n_transient + n_record + 1):
-                rec = s > n_transient
-                if rec:
-                    for q in range(sub):
-                        if s == n_transient + 1:
-                            _start_record(w, q * _BLOCK, half_gap)
-                        if s == half + 1:
-                            _split(w, q * _BLOCK)
-                if s == n_transient + n_record:  # past the last step: record its end state
-                    if rec:
-                        for q in range(sub):
-                            _accumulate(w, q * _BLOCK, half_gap)
-                    break
-                K = _row(ktab, j)
-                E = _row(etab, j)
-                F = _row(ftab, j)
-                # First every sub-block's trial step, each returning its crossing mask; then the
-                # fix-ups of all of them. No branch between the lane
-                # loops depends on a mask, so the next sub-block's loop does not wait for one.
-                for q in range(sub):
-                    o = q * _BLOCK
-                    if rk4:
-                        if rec:
-                            masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F,
-                                                  True, True)
-                        else:
-                            masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F,
-                                                  False, True)
-                    elif rec:
-                        masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True,
-                                              True)
-                    else:
-                        masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False,
-                                              True)
-                # Each block's crossing lanes: where they fill most of the vectors they span (the
-                # usual case: neighbouring cases of a sweep cross in the same steps), fixed up in
-                # place; otherwise gathered into the group, whose vectors they then fill.
-                nj = 0
-                nc = 0
-                for q in range(sub):
-                    mask = masks[q] & live[q]
-                    if mask == 0:
-                        continue
-                    o = q * _BLOCK
-                    lo = (np.int64(trailing_zeros(mask)) >> 3) << 3
-                    hi = ((63 - np.int64(leading_zeros(mask))) | 7) + 1
-                    if _popcount(mask) >= DENSE * (hi - lo):
-                        jo[nj] = o
-                        jlo[nj] = lo
-                        jhi[nj] = hi
-                        jbits[nj] = mask
-                        nj += 1
-                    else:
-                        while mask != 0:
-                            i = o + np.int64(trailing_zeros(mask))
-                            mask &= mask - 1
-                            _gather(w, g0, nc, i)
-                            slot[nc] = i
-                            nc += 1
-                for q in range((nc + LANES - 1) // LANES):
-                    m = min(LANES, nc - q * LANES)
-                    jo[nj] = g0 + q * _BLOCK
-                    jlo[nj] = 0
-                    jhi[nj] = (m + 7) & -8
-                    jbits[nj] = (np.int64(1) << m) - 1  # m <= LANES <= 32
-                    nj += 1
-                if nj > 0:
-                    for r in range(3):
-                        for k in range(5):
-                            P[r, k] = PT[j, r, k]
-                    _fix_jobs(rk4, w, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab)
-                    for m in range(nc):
-                        _scatter(w, g0, m, slot[m])
-                j = j + 1 if j + 1 < S else 0
-                jp = jp + 1 if jp + 1 < steps_per_period else 0
-                for q in range(sub):
-                    if signal is not None and s >= n_transient:
-                        _sample(w, q * _BLOCK, signal, s - n_transient, stride, (blk + q * nblocks) * LANES,
-                                n)
-                    if jp == 0:
-                        _check(w, q * _BLOCK)
-                        live[q] = _live(w, q * _BLOCK, n - (blk + q * nblocks) * LANES)
-            for q in range(sub):
-                i0 = (blk + q * nblocks) * LANES
-                if i0 < n:
-                    _finish(w, q * _BLOCK, i0, n, n_record, steps_per_period, stats, xf, vf, status)
-                    for l in range(min(LANES, n - i0)):
-                        substeps[i0 + l] = w[q * _BLOCK + _NSUB * LANES + l]
-            ftz_restore(csr)
+        for blk in prange(nblocks):  # np.int64: the prange index is unsigned in the gufunc
+            block_fn(np.int64(blk), nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean, escale, etab,
+                     fscale, ftab, half_gap, bound, x0, v0, n_transient, n_record,
+                     steps_per_period, signal, stride, stats, xf, vf, status, substeps)
         return stats, xf, vf, status, substeps
 
     integrate.__doc__ = """Integrate a batch of cases with kink-aware steps.

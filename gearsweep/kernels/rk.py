@@ -141,6 +141,13 @@ _N_ROWS = 28
 _BLOCK = _N_ROWS * LANES
 
 
+_KINK = False
+"""Whether the lane code below is the kink-aware kernel's (``gearsweep.kernels.kink``, which
+compiles copies of it with ``_KINK = True``) or the plain kernel's. A module global, not an
+argument: Numba freezes it into the code, so each kernel's copy is compiled with the other's
+branches pruned (as an argument, the kink-aware driver inlined both at Numba IR level)."""
+
+
 @jit_helper
 def _dead_zone(x, b):
     """Backlash force law f(p) of Eq. (8), branch-free: p - clip(p, -b, b)."""
@@ -200,43 +207,43 @@ def _scratch(nsub):
 
 
 @jit_helper
-def _law(X, b, half_gap, kink):
+def _law(X, b, half_gap):
     """The force law f(p) = on (p - sh) that the kink-aware kernel's trial step uses in every
     stage: the law of the region of the step's start p = X (contact beyond +-b: on, sh = +-b;
     gap: off), extended smoothly beyond its boundaries, so that the trial step is one smooth
     trajectory that ``kink._fix_lanes`` can interpolate. Where every stage stays in the start
     region this is the dead zone itself, bit for bit: p - b in contact (the plain kernel's own
-    operation) and 0 in the gap. The plain kernel (``kink`` False) keeps the dead zone in every
+    operation) and 0 in the gap. The plain kernel (``_KINK`` False) keeps the dead zone in every
     stage."""
-    if kink and half_gap is not None:
+    if _KINK and half_gap is not None:
         return (X > b) | (X < -b), (b if X > b else -b)
     return True, 0.0
 
 
 @jit_helper
-def _stage_spring(x, b, half_gap, kink, on, sh):
+def _stage_spring(x, b, half_gap, on, sh):
     """f(p) at a stage: the start region's law in the kink-aware kernel (see ``_law``; one
     subtraction with AVX-512 zero-masking), else ``_spring``."""
-    if kink and half_gap is not None:
+    if _KINK and half_gap is not None:
         return (x - sh) if on else 0.0
     return _spring(x, b, half_gap)
 
 
 @jit_helper
-def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
+def _after_step(w, o, l, X, V, Xn, half_gap, rec):
     """Bookkeeping of lane ``l`` after its step from (X, V) to end position Xn, while all three
     are in registers; returns the lane's crossing bit (0 or 1 << l).
 
     Plain kernel: with ``rec`` the end p enters the statistics; the bit is 0. Kink-aware kernel
-    (``kink``): the start state is kept for the fix-up (rows _XO, _VO); the bit is set if the
+    (``_KINK``): the start state is kept for the fix-up (rows _XO, _VO); the bit is set if the
     step ended in another region of the dead zone (p > b, |p| <= b, p < -b) than it started, so
     its trial step, taken with the start region's law, must be redone; with ``rec`` the START p
     enters the statistics: a fix-up may still change the end p, and the start p of step s is the
     final end p of step s - 1 (the driver shifts the window by one step and records the last end
-    p after its loop, so both kernels record the same states). ``rec`` and ``kink`` are
-    literals at every call site: each combination is one branch-free vector loop, and the bits
+    p after its loop, so both kernels record the same states). ``rec`` is a literal at every
+    call site and ``_KINK`` a constant: each combination is one branch-free vector loop, and the bits
     OR-reduce into a vector register (no separate pass over the lanes)."""
-    if kink:
+    if _KINK:
         w[o + _XO * LANES + l] = X
         w[o + _VO * LANES + l] = V
         if rec:
@@ -252,76 +259,76 @@ def _after_step(w, o, l, X, V, Xn, half_gap, rec, kink):
 
 
 @jit_helper
-def _rk4_step(X, V, hh, q2, h6, c, Ka, Kb, Kc, Ga, Gb, Gc, b, half_gap, kink, on, sh):
+def _rk4_step(X, V, hh, q2, h6, c, Ka, Kb, Kc, Ga, Gb, Gc, b, half_gap, on, sh):
     """One classic RK4 step of one case from (X, V); returns the end state (p, p').
 
     ``hh``, ``q2``, ``h6``: h, h/2, h/6; ``c``: damping/mass; ``Ka, Kb, Kc`` and ``Ga, Gb, Gc``:
     stiffness/mass and force/mass at the nodes 0, 1/2, 1 of the step; ``b``, ``half_gap``,
-    ``kink``, ``on``, ``sh``: the force law (``_stage_spring``). The one definition of the method:
+    ``on``, ``sh``: the force law (``_stage_spring``). The one definition of the method:
     the CPU lane loop ``_rk4_lanes`` and the CUDA kernel (``gearsweep.kernels.cuda``) both call it.
     """
     k1x = V
-    k1v = Ga - c * V - Ka * _stage_spring(X, b, half_gap, kink, on, sh)
+    k1v = Ga - c * V - Ka * _stage_spring(X, b, half_gap, on, sh)
     x2 = X + q2 * k1x
     v2 = V + q2 * k1v
     k2x = v2
-    k2v = Gb - c * v2 - Kb * _stage_spring(x2, b, half_gap, kink, on, sh)
+    k2v = Gb - c * v2 - Kb * _stage_spring(x2, b, half_gap, on, sh)
     x3 = X + q2 * k2x
     v3 = V + q2 * k2v
     k3x = v3
-    k3v = Gb - c * v3 - Kb * _stage_spring(x3, b, half_gap, kink, on, sh)
+    k3v = Gb - c * v3 - Kb * _stage_spring(x3, b, half_gap, on, sh)
     x4 = X + hh * (_RK4_A43 * k3x)
     v4 = V + hh * (_RK4_A43 * k3v)
     k4x = v4
-    k4v = Gc - c * v4 - Kc * _stage_spring(x4, b, half_gap, kink, on, sh)
+    k4v = Gc - c * v4 - Kc * _stage_spring(x4, b, half_gap, on, sh)
     return (X + h6 * (_RK4_B1 * k1x + _RK4_B2 * k2x + _RK4_B3 * k3x + _RK4_B4 * k4x),
             V + h6 * (_RK4_B1 * k1v + _RK4_B2 * k2v + _RK4_B3 * k3v + _RK4_B4 * k4v))
 
 
 @jit_helper
-def _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, kink, on, sh):
+def _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, on, sh):
     """One step of Butcher's six-stage fifth-order method for one case from (X, V); returns the
     end state. ``K0..K4``, ``G0..G4``: stiffness/mass and force/mass at the ``NODES`` of the
     step; other arguments as ``_rk4_step``. Used by ``_rk5_lanes`` and the CUDA kernel."""
     # stage 1, c = 0
     a1 = V
-    b1 = G0 - c * V - K0 * _stage_spring(X, b, half_gap, kink, on, sh)
+    b1 = G0 - c * V - K0 * _stage_spring(X, b, half_gap, on, sh)
     # stage 2, c = 1/4
     x2 = X + h * (_RK5_A21 * a1)
     v2 = V + h * (_RK5_A21 * b1)
     a2 = v2
-    b2 = G1 - c * v2 - K1 * _stage_spring(x2, b, half_gap, kink, on, sh)
+    b2 = G1 - c * v2 - K1 * _stage_spring(x2, b, half_gap, on, sh)
     # stage 3, c = 1/4
     x3 = X + h * (_RK5_A31 * a1 + _RK5_A32 * a2)
     v3 = V + h * (_RK5_A31 * b1 + _RK5_A32 * b2)
     a3 = v3
-    b3 = G1 - c * v3 - K1 * _stage_spring(x3, b, half_gap, kink, on, sh)
+    b3 = G1 - c * v3 - K1 * _stage_spring(x3, b, half_gap, on, sh)
     # stage 4, c = 1/2
     x4 = X + h * (_RK5_A42 * a2 + _RK5_A43 * a3)
     v4 = V + h * (_RK5_A42 * b2 + _RK5_A43 * b3)
     a4 = v4
-    b4 = G2 - c * v4 - K2 * _stage_spring(x4, b, half_gap, kink, on, sh)
+    b4 = G2 - c * v4 - K2 * _stage_spring(x4, b, half_gap, on, sh)
     # stage 5, c = 3/4
     x5 = X + h * (_RK5_A51 * a1 + _RK5_A54 * a4)
     v5 = V + h * (_RK5_A51 * b1 + _RK5_A54 * b4)
     a5 = v5
-    b5 = G3 - c * v5 - K3 * _stage_spring(x5, b, half_gap, kink, on, sh)
+    b5 = G3 - c * v5 - K3 * _stage_spring(x5, b, half_gap, on, sh)
     # stage 6, c = 1
     x6 = X + h * (_RK5_N61 * a1 + _RK5_N62 * a2 + _RK5_N63 * a3 + _RK5_N64 * a4
                   + _RK5_N65 * a5) / _RK5_D6
     v6 = V + h * (_RK5_N61 * b1 + _RK5_N62 * b2 + _RK5_N63 * b3 + _RK5_N64 * b4
                   + _RK5_N65 * b5) / _RK5_D6
     a6 = v6
-    b6 = G4 - c * v6 - K4 * _stage_spring(x6, b, half_gap, kink, on, sh)
+    b6 = G4 - c * v6 - K4 * _stage_spring(x6, b, half_gap, on, sh)
     return (X + h * (_RK5_B1 * (a1 + a6) + _RK5_B3 * (a3 + a5) + _RK5_B4 * a4) / _RK5_D,
             V + h * (_RK5_B1 * (b1 + b6) + _RK5_B3 * (b3 + b5) + _RK5_B4 * b4) / _RK5_D)
 
 
 @jit_helper
-def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
+def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec):
     """One classic RK4 step for every lane of the block at offset ``o`` of ``w``; K, E, F: table
     rows of the step (5 nodes). ``rec``: the step's p enters the running statistics (its end
-    p in the plain kernel; with ``kink``, its start p, see ``_after_step``). Returns the bit mask
+    p in the plain kernel; in the kink-aware one, its start p, see ``_after_step``). Returns the bit mask
     of the lanes whose step crossed a backlash boundary (kink-aware kernel only, else 0)."""
     mask = np.int64(0)
     for l in range(LANES):
@@ -333,7 +340,7 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         kal = w[o + _KA * LANES + l]
         X = w[o + _X * LANES + l]
         V = w[o + _V * LANES + l]
-        on, sh = _law(X, b, half_gap, kink)
+        on, sh = _law(X, b, half_gap)
         Ka = _k(kl, kal, K[0], ktab, kamp)
         Kb = _k(kl, kal, K[2], ktab, kamp)
         Kc = _k(kl, kal, K[4], ktab, kamp)
@@ -344,15 +351,15 @@ def _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         Gb = _g(gl, el, E[2], etab, fl, F[2], ftab)
         Gc = _g(gl, el, E[4], etab, fl, F[4], ftab)
         Xn, Vn = _rk4_step(X, V, hh, q2, w[o + _H6 * LANES + l], c, Ka, Kb, Kc, Ga, Gb, Gc, b,
-                           half_gap, kink, on, sh)
+                           half_gap, on, sh)
         w[o + _X * LANES + l] = Xn
         w[o + _V * LANES + l] = Vn
-        mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec, kink)
+        mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec)
     return mask
 
 
 @jit_helper
-def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
+def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec):
     """One step of Butcher's six-stage fifth-order method for every lane (arguments and result
     as RK4)."""
     mask = np.int64(0)
@@ -367,7 +374,7 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         fl = w[o + _FS * LANES + l]
         X = w[o + _X * LANES + l]
         V = w[o + _V * LANES + l]
-        on, sh = _law(X, b, half_gap, kink)
+        on, sh = _law(X, b, half_gap)
         G0 = _g(gl, el, E[0], etab, fl, F[0], ftab)
         G1 = _g(gl, el, E[1], etab, fl, F[1], ftab)
         G2 = _g(gl, el, E[2], etab, fl, F[2], ftab)
@@ -378,11 +385,11 @@ def _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec, kink):
         K2 = _k(kl, kal, K[2], ktab, kamp)
         K3 = _k(kl, kal, K[3], ktab, kamp)
         K4 = _k(kl, kal, K[4], ktab, kamp)
-        Xn, Vn = _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, kink,
-                           on, sh)
+        Xn, Vn = _rk5_step(X, V, h, c, K0, K1, K2, K3, K4, G0, G1, G2, G3, G4, b, half_gap, on,
+                           sh)
         w[o + _X * LANES + l] = Xn
         w[o + _V * LANES + l] = Vn
-        mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec, kink)
+        mask |= _after_step(w, o, l, X, V, Xn, half_gap, rec)
     return mask
 
 
@@ -478,13 +485,13 @@ def _integrate_function(method):
                     _split(w, 0)
                 if rk4:
                     if rec:
-                        _rk4_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, True, False)
+                        _rk4_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
                     else:
-                        _rk4_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, False, False)
+                        _rk4_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
                 elif rec:
-                    _rk5_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, True, False)
+                    _rk5_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
                 else:
-                    _rk5_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, False, False)
+                    _rk5_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
                 j = j + 1 if j + 1 < S else 0
                 jp = jp + 1 if jp + 1 < steps_per_period else 0
                 if s == n_transient:
