@@ -796,8 +796,9 @@ def _driver(method):
     return Specialised(lambda: _integrate_function(method), f"integrate_kink_rk{method}")
 
 
-def _integrate_function(method):
-    """A new Python function of the kink-aware driver of one method (``_driver`` compiles it)."""
+def _block_function(method):
+    """A new Python function of the work of one kink block of one method (``jit_block``
+    compiles it; the drivers of every combination of terms call the same one)."""
     rk4 = method == RK4
     fix_jobs = _FIXUPS[method]["_fix_jobs"]
 
@@ -919,7 +920,19 @@ def _integrate_function(method):
                     substeps[i0 + l] = w[q * _BLOCK + _NSUB * LANES + l]
         ftz_restore(csr)
 
-    block_fn = jit_block(block)
+    return block
+
+
+_BLOCK_RK4 = jit_block(_block_function(RK4))
+_BLOCK_RK5 = jit_block(_block_function(RK5))
+"""The work of one kink block, per method. Module globals, not closure variables of the
+driver: Numba's cache key hashes a closure's variables, and a dispatcher pickles differently in
+every process (the driver was compiled again by every run)."""
+
+
+def _integrate_function(method):
+    """A new Python function of the kink-aware driver of one method (``_driver`` compiles it)."""
+    rk4 = method == RK4
 
     def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
                   v0, n_transient, n_record, steps_per_period, signal, stride, sub):
@@ -940,9 +953,16 @@ def _integrate_function(method):
         nblocks = (nplain + sub - 1) // sub
         PT = _monomial_table(ktab, etab, ftab, S)
         for blk in prange(nblocks):  # np.int64: the prange index is unsigned in the gufunc
-            block_fn(np.int64(blk), nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean, escale, etab,
-                     fscale, ftab, half_gap, bound, x0, v0, n_transient, n_record,
-                     steps_per_period, signal, stride, stats, xf, vf, status, substeps)
+            if rk4:
+                _BLOCK_RK4(np.int64(blk), nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean,
+                           escale, etab, fscale, ftab, half_gap, bound, x0, v0, n_transient,
+                           n_record, steps_per_period, signal, stride, stats, xf, vf, status,
+                           substeps)
+            else:
+                _BLOCK_RK5(np.int64(blk), nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean,
+                           escale, etab, fscale, ftab, half_gap, bound, x0, v0, n_transient,
+                           n_record, steps_per_period, signal, stride, stats, xf, vf, status,
+                           substeps)
         return stats, xf, vf, status, substeps
 
     integrate.__doc__ = """Integrate a batch of cases with kink-aware steps.
