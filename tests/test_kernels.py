@@ -480,6 +480,37 @@ def test_precompile_in_other_processes_fills_the_cache(tmp_path):
     assert stats == {"hits": [1, 1], "misses": [0, 0]}
 
 
+_KINK_CHILD = """
+import json
+import numpy as np
+from gearsweep.kernels import kink
+from gearsweep.kernels.batch import simulate
+
+simulate(np.full(4, 1e-4), damping=10.0, k_mean=4e6, force=1.0, half_gap=1e-7, kink_aware=True,
+         steps_per_period=8, n_transient=3, n_record=5)
+d = kink.INTEGRATE[kink.RK4]
+print(json.dumps([sum(d.stats.cache_hits.values()), sum(d.stats.cache_misses.values())]))
+"""
+
+
+def test_kink_aware_driver_is_loaded_from_the_cache_by_the_next_process(tmp_path):
+    """A kink-aware driver compiled by one process is loaded from the disk cache by the next
+    (its cache key hashes the driver's closure variables: a compiled function among them pickled
+    differently in every process, and every run compiled the driver again)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "child.py"
+    script.write_text(_KINK_CHILD)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    runs = [json.loads(subprocess.run([sys.executable, str(script)], env=env, capture_output=True,
+                                      text=True, timeout=600, check=True).stdout.splitlines()[-1])
+            for _ in range(2)]
+    assert runs == [[0, 1], [1, 0]]
+
+
 def test_one_compiled_driver_per_combination_of_terms():
     """Each combination of terms switched off is a compiled function with its own name (and so
     its own Numba cache index): processes compiling different combinations never share one."""

@@ -193,12 +193,10 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
     return out
 
 
-_COST = {("rk4", False): 1.0, ("rk5", False): 1.5, ("rk4", True): 15.0, ("rk5", True): 20.0}
-"""Rough cold compile time of one specialisation of each driver, relative to plain RK4 (measured
-on the work-precision scenes with Numba-IR inlining: 11-16 s, 16-25 s, 68 s and 97 s; the
-plain drivers' helpers are now inlined by LLVM, ``gearsweep.jit.jit_helper``, and compile several
-times faster, B1's RK4 in 4 s; the kink-aware ones keep Numba-IR inlining and their times, so
-they weigh relatively more). Only the order of the calls depends on it."""
+_COST = {("rk4", False): 1.0, ("rk5", False): 1.5, ("rk4", True): 4.0, ("rk5", True): 7.0}
+"""Rough cold compile time of one specialisation of each driver, relative to plain RK4 (B2's
+specialisations, one process each, 25 Nov 2026: plain RK4 4.6 s, kink-aware RK4 18 s and RK5
+31 s, docs/benchmark.md). Only the order of the calls depends on it."""
 
 
 def specialisation(call: dict) -> tuple:
