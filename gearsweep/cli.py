@@ -430,5 +430,26 @@ def main(argv: list[str] | None = None) -> int:
         return 141  # 128 + SIGPIPE, as a shell reports it
 
 
+def entry() -> None:
+    """The ``gearsweep`` command: ``main``, then exit without Python's teardown.
+
+    Freeing every module of numpy, xarray, Numba and LLVM at exit took 0.33 s after the work was
+    done (an 8-case study: 1.47 s from start to exit, 1.11 s with this), longer than the study's
+    own computing. Everything the run leaves behind is already closed when ``main`` returns (the
+    result file, the lock, the checkpoint folder); the exit handlers (``atexit``: logging, file
+    locks, finalizers, a dask cluster's shutdown) and the output streams are run and flushed here
+    as Python would, and only the freeing of memory is left to the operating system."""
+    import atexit
+
+    code = main()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (BrokenPipeError, ValueError):  # a reader that left, a stream already closed
+            pass
+    atexit._run_exitfuncs()
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()
