@@ -438,10 +438,14 @@ def entry() -> None:
     own computing. Everything the run leaves behind is already closed when ``main`` returns (the
     result file, the lock, the checkpoint folder); the exit handlers (``atexit``: logging, file
     locks, finalizers, a dask cluster's shutdown) and the output streams are run and flushed here
-    as Python would, and only the freeing of memory is left to the operating system."""
+    as Python would, and only the freeing of memory is left to the operating system. Under a
+    profiler or a tracer the exit is Python's own (``python -m cProfile -m gearsweep.cli`` writes
+    its profile after ``main`` returns)."""
     import atexit
 
     code = main()
+    if sys.getprofile() is not None or sys.gettrace() is not None:
+        sys.exit(code)  # under a profiler or a tracer (coverage, a debugger): let them finish
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()

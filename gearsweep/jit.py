@@ -9,8 +9,11 @@ LLVM vectorise divisions.
 diverged cases and results agree with plain IEEE arithmetic to a few ulp.
 """
 
+import importlib.util
+import sys
 import types
 from collections import Counter
+from pathlib import Path
 
 import numba
 from numba.core import ir, ir_utils
@@ -142,3 +145,36 @@ slower). Copy propagation removes those copies, as Numba's parallel pipeline doe
 ``prange`` body, without that pipeline's passes over the whole body (compiled inside the
 ``prange`` loop, the kink-aware RK4 driver took 73 s to compile, of which 28 s in parfor
 fusion; as a function of its own compiled with this pipeline, see docs/benchmark.md)."""
+
+
+def _blas_check_without_import() -> None:
+    """Numba's set-up on the first kernel call asks whether SciPy's BLAS is there by importing
+    ``scipy.linalg`` (``numba.np.arraymath._check_blas``): 0.2 s of every run, which uses no BLAS.
+    That one question is answered from the files instead (the extension module is there or
+    not: the same answer); every other caller of ``ensure_blas`` (Numba compiling a linear
+    algebra function) still gets Numba's own, import and checks included."""
+    if "numba.np.arraymath" in sys.modules:
+        return
+    try:
+        from numba.np import linalg
+    except ImportError:  # pragma: no cover - another Numba layout: leave it alone
+        return
+    real = getattr(linalg, "ensure_blas", None)
+    if real is None:  # pragma: no cover
+        return
+
+    def ensure_blas():
+        if sys._getframe(1).f_code.co_name == "_check_blas" and _scipy_blas_installed():
+            return None
+        return real()
+
+    linalg.ensure_blas = ensure_blas
+
+
+def _scipy_blas_installed() -> bool:
+    spec = importlib.util.find_spec("scipy")
+    return spec is not None and spec.submodule_search_locations is not None and any(
+        any(Path(d, "linalg").glob("cython_blas.*")) for d in spec.submodule_search_locations)
+
+
+_blas_check_without_import()

@@ -420,3 +420,32 @@ def test_boxes_cover_a_lane_range_in_order():
             assert got.tolist() == list(range(a, b))
             assert [x for x, _, _ in boxes] == sorted(x for x, _, _ in boxes)
     assert len(_boxes(15, 45, shape)) == 1  # rows 1 and 2 whole: one box
+
+
+def test_xarray_still_sees_dask_arrays_and_pint_quantities_after_the_lazy_probes():
+    """``study.dataset`` lets xarray test for dask arrays and pint quantities without importing
+    dask or pint (0.4 s of every run): once they are imported, xarray must still keep a pint
+    quantity and a dask array as they are, and a NumPy array as NumPy."""
+    import subprocess
+    import sys
+
+    code = """
+import sys
+import numpy as np
+import gearsweep.study.dataset
+import xarray as xr
+v = xr.Variable("x", np.arange(3.0))
+assert type(v.data) is np.ndarray
+assert "dask" not in sys.modules and "pint" not in sys.modules, "probes imported them"
+import dask.array as da
+import pint
+q = pint.UnitRegistry().Quantity(np.arange(3.0), "m")
+assert type(xr.Variable("x", q).data).__name__ == "Quantity"
+d = xr.DataArray(da.ones(4, chunks=2))
+assert d.chunks == ((2, 2),) and type(d.data).__module__.startswith("dask")
+assert xr.DataArray(da.ones(4, chunks=2)).sum().compute() == 4
+print("ok")
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"

@@ -24,53 +24,59 @@ from gearsweep.study.outputs import VarSpec
 from gearsweep.study.provenance import coordinate_encoding, provenance
 from gearsweep.units import KINDS, to_display
 
-
-class _DaskArrayType(type):
-    """Stands for ``dask.array.Array`` in xarray's ``isinstance`` tests without importing dask:
-    an object can only be a dask array if ``dask.array`` has been imported."""
-
-    def __instancecheck__(cls, obj) -> bool:
-        da = sys.modules.get("dask.array")
-        return da is not None and isinstance(obj, da.Array)
+_DUCK_ARRAYS = {"dask": ("dask.array", "Array"), "pint": ("pint", "Quantity"),
+                "sparse": ("sparse", "SparseArray"), "cupy": ("cupy", "ndarray"),
+                "cubed": ("cubed", "Array")}
+"""The duck-array libraries xarray tests every wrapped array against (``array_type(name)``):
+the module and class an array of each would be an instance of."""
 
 
-class _DaskArray(metaclass=_DaskArrayType):
-    pass
+def _probe(module: str, cls: str) -> type:
+    """A class that stands for ``module.cls`` in ``isinstance`` tests without importing
+    ``module``: an object can only be an instance of it once the module has been imported."""
+
+    class Meta(type):
+        def __instancecheck__(self, obj) -> bool:
+            mod = sys.modules.get(module)
+            return mod is not None and isinstance(obj, getattr(mod, cls))
+
+    return Meta(f"{cls}Probe", (), {})
 
 
-def _lazy_dask_probe() -> None:
-    """Let xarray test for dask arrays without importing dask.
+def _lazy_duck_array_probes() -> None:
+    """Let xarray ask whether an array is a dask array or a pint quantity (and the like) without
+    importing dask or pint.
 
-    xarray asks ``array_type("dask")`` whenever it wraps an array (``Variable``, indexes), and the
-    first ask imports dask and dask.array when they are installed: 0.3 s of every ``gearsweep
-    run``, which never makes a dask array (an 8-case study took 1.75 s, its libraries' imports
-    0.88 s). The answer is the same without the import (see ``_DaskArrayType``); the module and
-    its version are still imported when asked for. Nothing is changed when dask is already
-    imported or xarray's private cache is not where it was (xarray 2025.x)."""
+    xarray asks ``array_type(name)`` whenever it wraps an array (``Variable``, indexes), and the
+    first ask imports the library when it is installed: dask and dask.array 0.3 s, pint 0.13 s of
+    every ``gearsweep run``, which makes neither (an 8-case study took 1.75 s, the imports of its
+    libraries 0.88 s). The answers are the same without the imports (see ``_probe``); the modules
+    and their versions are still imported when xarray asks for those. Nothing is changed for a
+    library already imported, or if xarray's private cache is not where it was (xarray 2025.x)."""
     try:
-        from xarray.namedarray import pycompat
+        from xarray.namedarray import pycompat, utils
     except ImportError:  # pragma: no cover - another xarray layout: leave it alone
         return
     cache = getattr(pycompat, "_cached_duck_array_modules", None)
-    if not isinstance(cache, dict) or "dask" in cache or "dask" in sys.modules:
+    base = getattr(pycompat, "DuckArrayModule", None)
+    if not isinstance(cache, dict) or base is None:  # pragma: no cover
         return
 
-    class LazyDask(pycompat.DuckArrayModule):
-        def __init__(self) -> None:  # noqa: D107 - nothing imported here
-            self.type = (_DaskArray,)
+    class Lazy(base):
+        def __init__(self, name: str, probe: type) -> None:  # noqa: D107 - nothing imported
+            self.name = name
+            self.type = (probe,)
 
-        def __getattr__(self, name):  # module, version, available: the real thing, on demand
-            real = pycompat.DuckArrayModule("dask")
-            cache["dask"] = real
-            return getattr(real, name)
+        def __getattr__(self, attr):  # module, version, available: the real thing, on demand
+            real = base(self.name)
+            cache[self.name] = real
+            return getattr(real, attr)
 
-    cache["dask"] = LazyDask()
-    # and "is this a dask collection?" (asked of every array it wraps) is answered False without
-    # importing dask.base for an object that lacks ``__dask_graph__``, as dask itself answers
-    try:
-        from xarray.namedarray import utils
-    except ImportError:  # pragma: no cover
-        return
+    for name, (module, cls) in _DUCK_ARRAYS.items():
+        if name not in cache and name not in sys.modules:
+            cache[name] = Lazy(name, _probe(module, cls))
+    # "is this a dask collection?" (asked of every array it wraps): False without importing
+    # dask.base for an object that lacks ``__dask_graph__``, as dask itself answers
     real = getattr(utils, "is_dask_collection", None)
     if real is not None:
         def is_dask_collection(x):
@@ -79,7 +85,7 @@ def _lazy_dask_probe() -> None:
         utils.is_dask_collection = is_dask_collection
 
 
-_lazy_dask_probe()
+_lazy_duck_array_probes()
 
 UM = KINDS["displacement"].cf
 """The unit of p (and of every displacement) in a result: um."""
