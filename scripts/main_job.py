@@ -214,6 +214,25 @@ def draw_figure(script: Path, results: Path, figures: Path) -> tuple[int, str, f
     return code, err.getvalue(), time.perf_counter() - t
 
 
+def draw_figures(scripts: list[Path], results: Path, figures: Path, jobs: int):
+    """Run the figure scripts ``jobs`` at a time, each in a process of its own forked from a
+    server that has imported what they all import (``FIGURE_PRELOAD``, ``draw_figure``); yield
+    (script, exit code, standard error, seconds) as each ends. A process that dies counts as a
+    failed script; the others go on."""
+    os.environ["MPLBACKEND"] = "Agg"
+    ctx = get_context("forkserver")
+    ctx.set_forkserver_preload(list(FIGURE_PRELOAD))
+    with ProcessPoolExecutor(max(1, jobs), mp_context=ctx, max_tasks_per_child=1) as pool:
+        futures = {pool.submit(draw_figure, script, results, figures): script
+                   for script in scripts}
+        for f in as_completed(futures):
+            try:
+                code, err, dt = f.result()
+            except Exception as exc:  # a worker that died
+                code, err, dt = 1, f"{type(exc).__name__}: {exc}", float("nan")
+            yield futures[f], code, err, dt
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--results", type=Path, default=ROOT / "results")
@@ -243,25 +262,11 @@ def main() -> int:
     scripts = sorted(s for s in (ROOT / "scripts").glob("fig*.py") if fnmatch.fnmatch(s.stem, args.only))
     print(f"== {len(scripts)} figure scripts ({args.jobs} at a time)", flush=True)
     t0 = time.perf_counter()
-    # The scripts only read results and draw: side by side, each in a process of its own, forked
-    # from a server that has imported what they all import (``draw_figure``).
-    os.environ["MPLBACKEND"] = "Agg"
-    ctx = get_context("forkserver")
-    ctx.set_forkserver_preload(list(FIGURE_PRELOAD))
-    with ProcessPoolExecutor(max(1, args.jobs), mp_context=ctx, max_tasks_per_child=1) as pool:
-        futures = {pool.submit(draw_figure, script, args.results, args.figures): script
-                   for script in scripts}
-        for f in as_completed(futures):
-            script = futures[f]
-            try:
-                code, err, dt = f.result()
-            except Exception as exc:  # a worker that died: the script failed, the others go on
-                code, err, dt = 1, f"{type(exc).__name__}: {exc}", float("nan")
-            print(f"   {'ok  ' if code == 0 else 'FAIL'} {script.name:<40} {dt:7.1f} s",
-                  flush=True)
-            if code:
-                failed.append(script.name)
-                print("     " + (err.strip().splitlines() or ["(no output)"])[-1], flush=True)
+    for script, code, err, dt in draw_figures(scripts, args.results, args.figures, args.jobs):
+        print(f"   {'ok  ' if code == 0 else 'FAIL'} {script.name:<40} {dt:7.1f} s", flush=True)
+        if code:
+            failed.append(script.name)
+            print("     " + (err.strip().splitlines() or ["(no output)"])[-1], flush=True)
     print(f"== figure scripts done in {time.perf_counter() - t0:.1f} s", flush=True)
     if args.only == "*":
         failed += check_reproduction(args.figures, t_start)

@@ -88,3 +88,45 @@ def test_fig05_variants_switch_off_one_source_of_the_main_study_and_nothing_else
     for a, b in zip(no_ste.stiffness_harmonics, full.stiffness_harmonics, strict=True):
         assert (a.amplitude, a.order) == (b.amplitude, b.order)
         assert a.phase == pytest.approx(b.phase, abs=1e-5)
+
+
+_DRAW_CHILD = """
+import json, sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[1])
+from main_job import draw_figures
+
+if __name__ == "__main__":
+    tmp = Path(sys.argv[2])
+    scripts = sorted(tmp.glob("fig*.py"))
+    out = {s.name: [code, err.strip().splitlines()[-1:] if err.strip() else []]
+           for s, code, err, _ in draw_figures(scripts, tmp, tmp, 2)}
+    print(json.dumps(out))
+"""
+
+
+def test_main_job_figure_scripts_report_exit_codes_and_errors(tmp_path):
+    """``main_job.draw_figures`` runs each script as ``python SCRIPT --results R --figures F``
+    would (forked from a preloaded server): its exit code, the last line of its error, and a
+    failing script does not stop the others."""
+    import json
+    import subprocess
+    import sys
+
+    (tmp_path / "fig_ok.py").write_text(
+        "import argparse, sys\n"
+        "p = argparse.ArgumentParser(); p.add_argument('--results'); p.add_argument('--figures')\n"
+        "a = p.parse_args()\n"
+        "open(a.figures + '/ok.txt', 'w').write(sys.argv[0])\n")
+    (tmp_path / "fig_raises.py").write_text("raise ValueError('no such result: x.nc')\n")
+    (tmp_path / "fig_exits.py").write_text("import sys\nsys.exit(3)\n")
+    child = tmp_path / "child.py"
+    child.write_text(_DRAW_CHILD)
+    r = subprocess.run([sys.executable, str(child), str(ROOT / "scripts"), str(tmp_path)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out == {"fig_ok.py": [0, []],
+                   "fig_raises.py": [1, ["ValueError: no such result: x.nc"]],
+                   "fig_exits.py": [3, []]}
+    assert (tmp_path / "ok.txt").read_text().endswith("fig_ok.py")
