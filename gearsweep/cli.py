@@ -20,11 +20,9 @@ import numpy as np
 
 from gearsweep import __version__
 from gearsweep.analysis.advise import advise
-from gearsweep.api import run_unchunked
 from gearsweep.errors import NO_VALUE, GearsweepError, ResultError, StudyError
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
-from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.estimate import (
     CHUNK_SECONDS,
     chunk_cases,
@@ -163,6 +161,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.estimate:
             print(f"{args.study}: a {study.type} study, computed in one piece: no estimate")
             return 0
+        from gearsweep.api import run_unchunked
+        from gearsweep.study.dataset import write_netcdf
+
         t0 = time.perf_counter()
         with OutputLock(out):
             write_netcdf(run_unchunked(study, text, out.parent), out)

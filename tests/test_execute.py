@@ -369,7 +369,9 @@ def test_run_to_file_streams_results_without_full_arrays(rattle_reference, tmp_p
     def no_full_arrays(plan):
         raise AssertionError("run_to_file built the full result arrays")
 
-    monkeypatch.setattr(execute, "empty_results", no_full_arrays)
+    from gearsweep.study import dataset
+
+    monkeypatch.setattr(dataset, "empty_results", no_full_arrays)  # what run_plan builds them with
     out = tmp_path / "s.nc"
     ds = execute.run_to_file(plan_of(RATTLE), out, chunk_cases=CHUNK)
     assert not ds["p_pp"].variable._in_memory  # the file opened lazily
