@@ -17,9 +17,13 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "gearsweep"
 
-LAZY_OK = {"gearsweep/__init__.py"}
+LAZY_OK = {"gearsweep/__init__.py", "gearsweep/cli.py", "gearsweep/study/execute.py"}
 """Modules that import gearsweep's own modules inside functions on purpose: the package's
-``__getattr__`` loads the API on first use (``import gearsweep`` stays as cheap as its version)."""
+``__getattr__`` loads the API on first use (``import gearsweep`` stays as cheap as its version);
+``cli`` and ``study.execute`` import ``study.dataset`` (and ``api``), and with it xarray, pandas
+and netCDF4 (0.35 s), where a result is built: in ``run_to_file`` that is the writer thread,
+beside the first chunk's kernel (docs/scale.md). import-linter still sees these edges (it reads
+imports inside functions too); only these three modules may have them."""
 
 FIGURE_FORBIDDEN = ("gearsweep.kernels", "gearsweep.analysis", "gearsweep.model", "gearsweep.study.plan",
                     "gearsweep.study.chunk", "gearsweep.study.execute", "gearsweep.api.run")
