@@ -25,6 +25,8 @@ from functools import cache
 
 import numpy as np
 
+from gearsweep.files import atomic_write
+
 
 @dataclass(frozen=True)
 class Kind:
@@ -166,18 +168,13 @@ def _factors() -> dict:
 
 def _keep_factor(key: str, factor: float) -> None:
     import json
-    import os
-    import tempfile
 
     table = _factors()
     table[key] = factor
-    try:  # atomic; a concurrent writer may drop an entry: it is computed again next time
+    try:  # a concurrent writer may drop an entry: it is computed again next time
         path = _factor_cache_path()
         path.parent.mkdir(exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(table, fh)
-        os.replace(tmp, path)
+        atomic_write(path, lambda fh: fh.write(json.dumps(table).encode()), durable=False)
     except OSError:  # a read-only installation: pint in every process
         pass
 

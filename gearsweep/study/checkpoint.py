@@ -31,13 +31,13 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import numpy.lib.format as fmt
 
 from gearsweep._version import __version__
+from gearsweep.files import atomic_write
 
 MANIFEST = "manifest.json"
 SUFFIX = ".npys"
@@ -50,20 +50,6 @@ def chunk_folder(output: str | Path) -> Path:
     """The folder that holds the checkpoints of every study written to ``output``."""
     output = Path(output)
     return output.with_name(output.name + ".chunks")
-
-
-def _atomic_write(path: Path, write) -> None:
-    """Call ``write(file_object)`` on a temporary file next to ``path``, fsync, then rename."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 class ChunkStore:
@@ -113,7 +99,7 @@ class ChunkStore:
             for f in self.folder.iterdir():
                 if f.is_file():
                     f.unlink()
-            _atomic_write(mpath, lambda fh: fh.write(
+            atomic_write(mpath, lambda fh: fh.write(
                 json.dumps(self.manifest, indent=1).encode("utf-8")))
             return []
         return [c for c in self.chunks if self.path(*c).is_file()]
@@ -125,7 +111,7 @@ class ChunkStore:
             for arr in arrays.values():
                 fmt.write_array(fh, np.ascontiguousarray(arr), allow_pickle=False)
 
-        _atomic_write(self.path(lane0, lane1), write)
+        atomic_write(self.path(lane0, lane1), write)
         log = os.environ.get("GEARSWEEP_CHUNK_LOG")
         if log:
             with open(log, "a", encoding="utf-8") as fh:

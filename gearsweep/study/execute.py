@@ -603,9 +603,9 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     ``kernel_seconds`` is the part of it spent in the kernel (``runner.KERNEL_CLOCK``), so their
     ratio is the study's overhead over the bare kernel, measured in the same run.
     """
-    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
     from gearsweep.study.dataset import assemble, empty_results, store_chunk
 
+    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
     results = empty_results(plan)
     store, done = _open_store(plan, checkpoint, chunks)
     for a, b in done:

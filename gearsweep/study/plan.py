@@ -13,8 +13,6 @@ from __future__ import annotations
 import hashlib
 import inspect
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -24,6 +22,7 @@ import numpy as np
 
 from gearsweep.analysis.stability import ray_limit, stability_polynomial, step_limit_hw
 from gearsweep.errors import StudyError
+from gearsweep.files import atomic_write
 from gearsweep.kernels import LANES
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, equivalent_mass, hill_parameters
 from gearsweep.model import fluctuating_force as eq7_force
@@ -282,12 +281,9 @@ def _hw_table(method: str) -> tuple[np.ndarray, np.ndarray, float]:
     except (OSError, KeyError, ValueError):
         pass
     zeta, hw, real = _solve_hw_table(method)
-    try:  # atomic: a concurrent reader sees the whole file or none
+    try:  # a concurrent reader sees the whole file or none
         path.parent.mkdir(exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, zeta=zeta, hw=hw, real=real)
-        os.replace(tmp, path)
+        atomic_write(path, lambda fh: np.savez(fh, zeta=zeta, hw=hw, real=real), durable=False)
     except OSError:  # a read-only installation: solve it in every process
         pass
     return zeta, hw, real

@@ -1,0 +1,29 @@
+"""Files written whole or not at all: the one atomic writer of the package (checkpoints, and the
+start-up caches kept beside the Numba cache)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO
+
+
+def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: bool = True) -> None:
+    """Call ``write(file_object)`` on a temporary file next to ``path``, then rename it to
+    ``path``: a reader, or a run killed meanwhile, sees the old file or the new one, never a part
+    of it. ``durable``: fsync before the rename (checkpoints, which a resumed run trusts); a
+    cache that can be computed again skips it. On any error the temporary file is removed and the
+    error raised."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+            if durable:
+                fh.flush()
+                os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
