@@ -9,17 +9,21 @@ LLVM vectorise divisions.
 diverged cases and results agree with plain IEEE arithmetic to a few ulp.
 """
 
+import copy
 import importlib.util
 import sys
 import types
-from collections import Counter
+from collections import Counter, defaultdict
 from pathlib import Path
 
 import numba
-from numba.core import ir, ir_utils
+from numba.core import ir, ir_utils, postproc
+from numba.core.analysis import compute_cfg_from_blocks
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 from numba.core.compiler_machinery import FunctionPass, register_pass
+from numba.core.inline_closurecall import InlineWorker, callee_ir_validator
 from numba.core.typed_passes import NopythonRewrites
+from numba.core.untyped_passes import InlineInlinables
 
 OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
 
@@ -51,7 +55,7 @@ jit_inline = numba.njit(inline="always", **{**OPTIONS, "cache": False})
 def inlined_copies(funcs: dict, constants: dict | None = None, keep: tuple = ()) -> dict:
     """``jit_inline`` copies of jitted functions of one module (name -> dispatcher), whose calls
     of one another go to the copies; the functions named in ``keep`` are copied as functions of
-    their own (``jit_helper``: a scalar path for rare lanes, with its helpers inlined into it).
+    their own (``jit_block``: a scalar path for rare lanes, with its helpers inlined into it).
     ``constants``: module globals that the copies see with other values. Numba freezes globals
     into the code, so a branch on one is pruned before inlining: the RK4 copies of the
     kink-aware helpers do not inline, type and lower the RK5 code, and vice versa.
@@ -68,7 +72,7 @@ def inlined_copies(funcs: dict, constants: dict | None = None, keep: tuple = ())
         if shared is None:
             shared = dict(f.__globals__)
             shared.update(constants or {})
-        deco = jit_helper if name in keep else jit_inline
+        deco = jit_block if name in keep else jit_inline
         out[name] = deco(types.FunctionType(f.__code__, shared, f.__name__, f.__defaults__,
                                             f.__closure__))
     if shared is not None:
@@ -125,15 +129,109 @@ class _CopyPropagation(FunctionPass):
         return True
 
 
+class _MemoInlineWorker(InlineWorker):
+    """Numba's inliner, running the untyped pipeline over each callee once per process instead
+    of once per call site (``inline_ir`` copies the IR it is given before changing it, so one
+    IR serves every call site). The IR depends on the function only: its globals are frozen
+    when it is first translated, and every ``jit_block`` function has the same options."""
+
+    _ir: dict = {}
+    """(Python function, SSA flag) -> the callee's IR after the untyped pipeline."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._compiler_pipeline = _untyped_pipeline  # the callees' own inlining memoized too
+
+    def run_untyped_passes(self, func, enable_ssa=False):
+        key = (func, enable_ssa)
+        found = self._ir.get(key)
+        if found is None:
+            found = self._ir[key] = super().run_untyped_passes(func, enable_ssa)
+            for block in found.blocks.values():
+                if type(block.scope) is ir.Scope:
+                    block.scope.__class__ = _CopiedScope
+        else:
+            self.flags.enable_ssa = enable_ssa  # as the pipeline run would have set it
+        return found
+
+
+class _CopiedScope(ir.Scope):
+    """The scope of a callee's IR that ``_MemoInlineWorker`` keeps, copied cheaply.
+
+    The inliner copies a callee's blocks one by one with ``copy.deepcopy``, and every block (and
+    every variable in it) carries the scope, which lists all of the callee's variables: each
+    inlining copied every variable once per block (a callee of 100 blocks and 1000 variables,
+    100,000 objects). The inliner only reads the names and places of the listed variables and
+    defines new ones in the copy; this copy shares the listed (immutable) variables and copies
+    the tables that the copy's definitions change."""
+
+    def __deepcopy__(self, memo):
+        new = copy.copy(self)
+        new.localvars = copy.copy(self.localvars)
+        new.localvars._con = dict(self.localvars._con)
+        new.redefined = defaultdict(int, self.redefined)
+        new.var_redefinitions = defaultdict(set, {k: set(v) for k, v in
+                                                  self.var_redefinitions.items()})
+        memo[id(self)] = new
+        return new
+
+
+@register_pass(mutates_CFG=True, analysis_only=False)
+class _MemoInlineInlinables(InlineInlinables):
+    """Numba's ``inline_inlinables`` pass, with ``_MemoInlineWorker``.
+
+    Numba runs its whole untyped pipeline, inlining included, over the bytecode of a function
+    it inlines at every call site and at every level: the kink-aware block inlines the lane
+    steps, whose helpers inline theirs, and the same helpers were translated and inlined again
+    for every call (6.3 of the kink-aware RK4 block's 18 s). The loop is Numba's own
+    (``InlineInlinables.run_pass``); only the worker differs."""
+
+    _name = "gearsweep_inline_inlinables"
+
+    def run_pass(self, state):
+        worker = _MemoInlineWorker(state.typingctx, state.targetctx, state.locals,
+                                   state.pipeline, state.flags, validator=callee_ir_validator)
+        modified = False
+        work_list = list(state.func_ir.blocks.items())
+        while work_list:
+            _, block = work_list.pop()
+            for i, instr in enumerate(block.body):
+                if isinstance(instr, ir.Assign) and isinstance(instr.value, ir.Expr) \
+                        and instr.value.op == "call":
+                    if ir_utils.guard(self._do_work, state, work_list, block, i, instr.value,
+                                      worker):
+                        modified = True
+                        break  # the block was split: its rest is on the work list
+        if modified:
+            cfg = compute_cfg_from_blocks(state.func_ir.blocks)
+            for dead in cfg.dead_nodes():
+                del state.func_ir.blocks[dead]
+            postproc.PostProcessor(state.func_ir).run()
+            state.func_ir.blocks = ir_utils.simplify_CFG(state.func_ir.blocks)
+        return True
+
+
+def _memo_inlining(pm):
+    """``pm`` with Numba's ``InlineInlinables`` replaced by ``_MemoInlineInlinables``."""
+    pm.passes = [(_MemoInlineInlinables if p is InlineInlinables else p, d) for p, d in pm.passes]
+    pm.finalize()
+    return pm
+
+
+def _untyped_pipeline(state):
+    """Numba's untyped pipeline (what its inliner runs over a callee), inlining memoized."""
+    return _memo_inlining(DefaultPassBuilder.define_untyped_pipeline(state))
+
+
 class _InlinedCompiler(CompilerBase):
-    """Numba's nopython pipeline plus ``_CopyPropagation`` where the parallel pipeline has its
-    passes: after type inference, the phi nodes stripped and the rewrites."""
+    """Numba's nopython pipeline with memoized inlining (``_MemoInlineInlinables``) and
+    ``_CopyPropagation`` where the parallel pipeline has its passes: after type inference, the
+    phi nodes stripped and the rewrites."""
 
     def define_pipelines(self):
         pm = DefaultPassBuilder.define_nopython_pipeline(self.state)
         pm.add_pass_after(_CopyPropagation, NopythonRewrites)
-        pm.finalize()
-        return [pm]
+        return [_memo_inlining(pm)]
 
 
 jit_block = numba.njit(pipeline_class=_InlinedCompiler, **{**OPTIONS, "cache": False})
