@@ -11,6 +11,7 @@ diverged cases and results agree with plain IEEE arithmetic to a few ulp.
 
 import copy
 import importlib.util
+import os
 import sys
 import types
 from collections import Counter, defaultdict
@@ -24,6 +25,44 @@ from numba.core.compiler_machinery import FunctionPass, register_pass
 from numba.core.inline_closurecall import InlineWorker, callee_ir_validator
 from numba.core.typed_passes import NopythonRewrites
 from numba.core.untyped_passes import InlineInlinables
+
+VECTOR_BITS_ENV = "GEARSWEEP_VECTOR_BITS"
+"""Environment variable: ``256`` keeps LLVM's own preference for 256-bit vectors on AVX-512
+machines (see ``_prefer_512_bit_vectors``)."""
+
+
+def _prefer_512_bit_vectors() -> None:
+    """On a CPU with AVX-512, let LLVM vectorise with 512-bit registers.
+
+    LLVM's tuning for Intel's AVX-512 CPUs prefers 256-bit vectors (older ones lowered their
+    clock under 512-bit work), which leaves the lane loops 16 vector registers: the RK4 step, its
+    constants and the running statistics of a lane do not fit, and every recorded step moves
+    them through memory. With 512-bit vectors (32 registers, 8 lanes each) B1 runs 1.3 and B2
+    1.4 times faster on one core (``scripts/bench_kernel.py``, docs/benchmark.md), with results
+    identical bit for bit (each lane's arithmetic is the same; tested).
+
+    Numba takes the target's features once, when it creates its code generator (at the first
+    jitted function of the process), so this runs on import, before the kernels are defined.
+    It applies to every function Numba compiles in this process, and the features are part of
+    Numba's cache key (code cached with other features is compiled again). Left alone: a CPU
+    without AVX-512, a target the user chose (``NUMBA_CPU_NAME`` or ``NUMBA_CPU_FEATURES``), a
+    code generator that already exists, and ``GEARSWEEP_VECTOR_BITS=256``."""
+    if os.environ.get(VECTOR_BITS_ENV, "512").strip() == "256":
+        return
+    if numba.config.CPU_NAME is not None or numba.config.CPU_FEATURES is not None:
+        return
+    from numba.core.registry import cpu_target
+
+    if "_toplevel_target_context" in vars(cpu_target):  # pragma: no cover - compiled before
+        return
+    import llvmlite.binding as ll
+
+    features = ll.get_host_cpu_features()
+    if features.get("avx512f", False):
+        numba.config.CPU_FEATURES = features.flatten() + ",-prefer-256-bit"
+
+
+_prefer_512_bit_vectors()
 
 OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
 

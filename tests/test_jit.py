@@ -79,3 +79,45 @@ def test_a_copied_scope_is_independent_of_its_original():
     assert set(scope.localvars._con) == {"x"}
     assert set(twin.scope.localvars._con) == {"x", "x.1", "y"}
     assert scope.redefined == {} and twin.scope.redefined == {"x": 1}
+
+
+_B2_LIKE = """
+import sys, numpy as np
+from gearsweep.kernels.batch import simulate
+from gearsweep.kernels.tables import fourier_table
+n, spp = 37, 16
+w = 48 * np.linspace(1000.0, 20000.0, n) * 2 * np.pi / 60
+ktab = (1.073e9 + fourier_table((179e6, 40e6, 10e6), (1, 2, 3), (0, 0, 0), spp)) / 0.1527
+etab = fourier_table((5e-6, 1e-6, 0.3e-6), (1, 2, 3), (0, 0, 0), spp, derivative=2)
+r = simulate(h=2 * np.pi / w / spp, damping=5500 / 0.1527, k_table=ktab, force=833 / 0.1527,
+             ste_scale=-(w**2), ste_table=etab, half_gap=2e-6, n_transient=spp * 20,
+             n_record=spp * 20 + 3, steps_per_period=spp)
+np.save(sys.argv[1], np.column_stack([r.stats[k] for k in sorted(r.stats)] + [r.x_final]))
+"""
+
+
+def test_512_bit_vectors_give_the_results_of_256_bit_ones_bit_for_bit(tmp_path):
+    """``_prefer_512_bit_vectors`` changes how LLVM vectorises, never a lane's arithmetic."""
+    import os
+    import subprocess
+    import sys
+
+    import llvmlite.binding as ll
+    from numba.core.registry import cpu_target
+
+    features = cpu_target.target_context.codegen()._tm_features
+    avx512 = ll.get_host_cpu_features().get("avx512f", False)
+    user_chose = os.environ.get("NUMBA_CPU_NAME") or os.environ.get("NUMBA_CPU_FEATURES") \
+        or os.environ.get(gj.VECTOR_BITS_ENV) == "256"
+    assert features.endswith(",-prefer-256-bit") == (avx512 and not user_chose)
+    out = {}
+    for bits in ("512", "256"):
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / f"cache{bits}"))
+        env[gj.VECTOR_BITS_ENV] = bits
+        env.pop("NUMBA_CPU_FEATURES", None)
+        env.pop("NUMBA_CPU_NAME", None)
+        path = tmp_path / f"r{bits}.npy"
+        subprocess.run([sys.executable, "-c", _B2_LIKE, str(path)], env=env, check=True)
+        out[bits] = np.load(path)
+    assert np.isfinite(out["256"]).all(axis=1).sum() >= 30  # two low speeds diverge at 16 steps
+    assert np.array_equal(out["512"], out["256"], equal_nan=True)

@@ -791,41 +791,6 @@ _FIXUPS = {m: inlined_copies({name: globals()[name] for name in (
 """The fix-up helpers of each method (``_RK4_METHOD``)."""
 
 
-def _trial_function(method, rec):
-    """A new Python function of the trial step of every lane of one plain block, for one method
-    and one value of ``rec`` (``jit_block`` compiles it)."""
-    lanes = _rk4_lanes if method == RK4 else _rk5_lanes
-
-    def trial(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F):
-        return lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, rec)
-
-    return trial
-
-
-def _fix_function(method):
-    """A new Python function of the fix-up jobs of one method (``jit_block`` compiles it)."""
-    fix_jobs = _FIXUPS[method]["_fix_jobs"]
-
-    def fix(w, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab):
-        fix_jobs(w, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab)
-
-    return fix
-
-
-# The pieces of a kink block's work that are compiled on their own, each with its flags frozen
-# (method, ``rec``) and its helpers inlined: the trial steps with and without the statistics, and
-# the fix-ups. One function with all of them inlined took longer to compile than its pieces (the
-# kink-aware RK5 driver: 22.5 s against 18.6 s; Numba's passes over one function grow faster
-# than its size), and runs no faster (B2: identical results, same time). Module globals, as
-# ``_BLOCK_RK4``.
-_TRIAL_RK4 = jit_block(_trial_function(RK4, False))
-_TRIAL_RK4_REC = jit_block(_trial_function(RK4, True))
-_TRIAL_RK5 = jit_block(_trial_function(RK5, False))
-_TRIAL_RK5_REC = jit_block(_trial_function(RK5, True))
-_FIX_RK4 = jit_block(_fix_function(RK4))
-_FIX_RK5 = jit_block(_fix_function(RK5))
-
-
 def _driver(method):
     """The kink-aware batch driver of one method (see ``rk._driver``)."""
     return Specialised(lambda: _integrate_function(method), f"integrate_kink_rk{method}")
@@ -835,6 +800,7 @@ def _block_function(method):
     """A new Python function of the work of one kink block of one method (``jit_block``
     compiles it; the drivers of every combination of terms call the same one)."""
     rk4 = method == RK4
+    fix_jobs = _FIXUPS[method]["_fix_jobs"]
 
     def block(blk, nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale,
               ftab, half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal,
@@ -842,7 +808,7 @@ def _block_function(method):
         """The work of kink block ``blk`` (see ``integrate``): a function of its own
         (``jit_block``), called once per block from the ``prange`` loop. Written inside the
         loop, Numba's parallel passes went over all of the inlined helpers (73 s to compile the
-        RK4 driver, 28 s of it parfor fusion; now about 14 s, docs/benchmark.md)."""
+        RK4 driver, 28 s of it parfor fusion; now about 15 s, docs/benchmark.md)."""
         csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
         w = _scratch(2 * sub)  # the kink block's plain blocks, then the group's blocks
         g0 = sub * _BLOCK
@@ -890,13 +856,14 @@ def _block_function(method):
                 o = q * _BLOCK
                 if rk4:
                     if rec:
-                        masks[q] = _TRIAL_RK4_REC(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F)
+                        masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
                     else:
-                        masks[q] = _TRIAL_RK4(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F)
+                        masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F,
+                                              False)
                 elif rec:
-                    masks[q] = _TRIAL_RK5_REC(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F)
+                    masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
                 else:
-                    masks[q] = _TRIAL_RK5(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F)
+                    masks[q] = _rk5_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, False)
             # Each block's crossing lanes: where they fill most of the vectors they span (the
             # usual case: neighbouring cases of a sweep cross in the same steps), fixed up in
             # place; otherwise gathered into the group, whose vectors they then fill.
@@ -933,14 +900,7 @@ def _block_function(method):
                 for r in range(3):
                     for k in range(5):
                         P[r, k] = PT[j, r, k]
-                # np.int64: typed as the literal 0 of its first assignment, nj would compile
-                # the fix-ups a second time
-                if rk4:
-                    _FIX_RK4(w, jo, jlo, jhi, jbits, np.int64(nj), P, K, E, F, ktab, kamp, etab,
-                             ftab)
-                else:
-                    _FIX_RK5(w, jo, jlo, jhi, jbits, np.int64(nj), P, K, E, F, ktab, kamp, etab,
-                             ftab)
+                fix_jobs(w, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab)
                 for m in range(nc):
                     _scatter(w, g0, m, slot[m])
             j = j + 1 if j + 1 < S else 0
