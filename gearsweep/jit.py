@@ -91,13 +91,16 @@ jit_inline = numba.njit(inline="always", **{**OPTIONS, "cache": False})
 ``inlined_copies``)."""
 
 
-def inlined_copies(funcs: dict, constants: dict | None = None, keep: tuple = ()) -> dict:
+def inlined_copies(funcs: dict, constants: dict | None = None, keep: tuple = (),
+                   tag: str = "") -> dict:
     """``jit_inline`` copies of jitted functions of one module (name -> dispatcher), whose calls
     of one another go to the copies; the functions named in ``keep`` are copied as functions of
     their own (``jit_block``: a scalar path for rare lanes, with its helpers inlined into it).
     ``constants``: module globals that the copies see with other values. Numba freezes globals
     into the code, so a branch on one is pruned before inlining: the RK4 copies of the
     kink-aware helpers do not inline, type and lower the RK5 code, and vice versa.
+    ``tag``: appended to the names of the ``keep`` copies, which must differ from those of the
+    other copies of the same function (see ``unique_name``).
 
     For the kink-aware drivers: with their helpers inlined by LLVM they ran B2 6.5 times slower
     (1.65-1.73 s against 0.26-0.31 s, ``scripts/bench_kink.py --threads 1``, same amplitudes):
@@ -111,12 +114,29 @@ def inlined_copies(funcs: dict, constants: dict | None = None, keep: tuple = ())
         if shared is None:
             shared = dict(f.__globals__)
             shared.update(constants or {})
-        deco = jit_block if name in keep else jit_inline
-        out[name] = deco(types.FunctionType(f.__code__, shared, f.__name__, f.__defaults__,
-                                            f.__closure__))
+        copy_ = types.FunctionType(f.__code__, shared, f.__name__, f.__defaults__, f.__closure__)
+        if name in keep:
+            out[name] = jit_block(unique_name(copy_, f"{f.__name__}_{tag}" if tag else f.__name__))
+        else:
+            out[name] = jit_inline(copy_)
     if shared is not None:
         shared.update(out)
     return out
+
+
+def unique_name(func: types.FunctionType, name: str) -> types.FunctionType:
+    """``func`` renamed ``name`` (``__name__`` and ``__qualname__``), for a function compiled on
+    its own (not inlined) of which other copies exist: the drivers per combination of terms, the
+    kink block and its scalar fix-up per method.
+
+    Numba names a compiled function's symbol after its module, qualified name and argument types
+    and a counter of the process that compiled it. Two copies of one function (same qualified
+    name) compiled in two processes can get the same symbol, and when a third process loads
+    both drivers from the cache, the second one's calls are linked to the first one's copy: the
+    kink-aware RK5 driver ran the RK4 block (its fitted order 4.06 instead of 5.1,
+    ``tests/test_kernels.py``)."""
+    func.__name__ = func.__qualname__ = name
+    return func
 
 
 jit_parallel = numba.njit(parallel=True, **OPTIONS)

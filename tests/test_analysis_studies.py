@@ -88,8 +88,9 @@ def test_rattle_balance_reads_the_result_it_balances(tmp_path):
     assert float(bal.jump_down_speed) == float(js.jump_down_speed)
     amp = (0.5 * res.p_pp).where(res.status == 0).sel(direction="up").values
     assert_allclose(bal.amplitude.sel(direction="up").values, amp)
-    d = rfit.eq15_distance(res.speed.values, amp, omega_per_rpm=w, force_amp=f0, stiffness=k,
-                           mass=m, half_gap=b)
+    assert res.p_pp.attrs["units"] == "um"  # eq15_distance takes SI
+    d = rfit.eq15_distance(res.speed.values, amp * 1e-6, omega_per_rpm=w, force_amp=f0,
+                           stiffness=k, mass=m, half_gap=b)
     assert_allclose(bal.eq15_distance.sel(direction="up").values, d.relative)
     assert bal.aft_speed.size > 10 and bal.attrs["input_small"] == res.attrs["study_sha256"]
     jm = gearsweep.run({"type": "analysis", "title": "jumps", "analysis": {
@@ -145,10 +146,10 @@ def test_pinion_output_is_eq4_per_line_of_the_mesh_force():
     fs = ds.force_spectrum.where(ds.order > 0, 0.0)
     want = sensor.pinion_displacement(fs.values, ds.frequency.values[None, :, :],
                                       base_radius_2=37.5877e-3, inertia_2=3.1567e-4)
-    assert_allclose(ds.pinion_spectrum.values, want, rtol=1e-14)
+    assert ds.pinion_spectrum.attrs["units"] == ds.pinion_rms.attrs["units"] == "um"
+    assert_allclose(ds.pinion_spectrum.values, want * 1e6, rtol=1e-14)  # want in m
     assert (ds.pinion_spectrum.sel(order=0.0) == 0).all()
-    assert_allclose(ds.pinion_rms.values, sensor.spectrum_rms(want), rtol=1e-14)
-    assert ds.pinion_rms.attrs["units"] == "m"
+    assert_allclose(ds.pinion_rms.values, sensor.spectrum_rms(want) * 1e6, rtol=1e-14)
     study = _full(["8.9 N*m"], "static", pinion=True)
     study["scene"].pop("drive")
     study["scene"].update({"mass": "0.1547 kg", "base_radius": "56.3816 mm"})

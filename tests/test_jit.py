@@ -121,3 +121,64 @@ def test_512_bit_vectors_give_the_results_of_256_bit_ones_bit_for_bit(tmp_path):
         out[bits] = np.load(path)
     assert np.isfinite(out["256"]).all(axis=1).sum() >= 30  # two low speeds diverge at 16 steps
     assert np.array_equal(out["512"], out["256"], equal_nan=True)
+
+
+_TWO_COPIES = '''
+from gearsweep.jit import jit, jit_block, unique_name
+
+def _make(k):
+    def f(x):  # long enough that LLVM calls it rather than inlining it
+        for i in range(3):
+BODY
+        return x + k
+    return f
+
+RENAME = {rename}
+F1 = jit_block(unique_name(_make(1.0), "f_1") if RENAME else _make(1.0))
+F2 = jit_block(unique_name(_make(2.0), "f_2") if RENAME else _make(2.0))
+
+@jit
+def d1(x):
+    return F1(x)
+
+@jit
+def d2(x):
+    return F2(x)
+'''
+
+
+def test_copies_of_one_function_compiled_in_two_processes_stay_apart(tmp_path):
+    """Two copies of one function (the kink block of each method), each called by a cached
+    driver compiled in a process of its own: a third process that loads both drivers must run
+    each one's own copy. With the copies' names the same, Numba gave them the same symbol (its
+    counter starts alike in every process) and the second driver ran the first one's copy."""
+    import os
+    import subprocess
+    import sys
+
+    from gearsweep.kernels import kink
+
+    assert kink._BLOCK_RK4.py_func.__qualname__ != kink._BLOCK_RK5.py_func.__qualname__
+    assert (kink._FIXUPS[kink.RK4]["_fixup"].py_func.__qualname__
+            != kink._FIXUPS[kink.RK5]["_fixup"].py_func.__qualname__)
+    got = {}
+    for rename in (False, True):
+        folder = tmp_path / f"rename{rename}"
+        folder.mkdir()
+        body = "\n".join(f"            x = x * 0.5 + {j}.0 * x * x" for j in range(60))
+        (folder / "twocopies.py").write_text(_TWO_COPIES.format(rename=rename)
+                                             .replace("BODY", body))
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(folder), *sys.path]),
+                   NUMBA_CACHE_DIR=str(folder / "cache"))
+
+        def run(code, env=env):
+            return subprocess.run([sys.executable, "-c", "import twocopies as t; " + code],
+                                  env=env, check=True, capture_output=True, text=True).stdout
+
+        run("t.d1(0.0)")  # each driver compiled (and cached) in a process of its own
+        run("t.d2(0.0)")
+        got[rename] = run("print(t.d1(0.0), t.d2(0.0), t.d1.stats.cache_hits, "
+                          "t.d2.stats.cache_hits)").split()
+    assert got[True][:2] == ["1.0", "2.0"]
+    assert got[True][2:] != ["Counter()", "Counter()"]  # both loaded from the cache
+    assert got[False][:2] == ["1.0", "1.0"]  # the failure the names prevent, still Numba's

@@ -110,8 +110,8 @@ def test_kink_equals_plain_when_nothing_crosses(method):
     sc = pr.rattle_scene(3000.0)
     kw = sc.kernel_kwargs(64)
     kw["h"] = np.repeat(kw["h"], 40)
-    x0 = sc.half_gap + sc.g_mean / sc.k_mean
-    args = dict(method=method, n_transient=640, n_record=640, signal_stride=8, x0=x0, **kw)
+    kw["x0"] = sc.half_gap + sc.g_mean / sc.k_mean  # the static deflection, in contact
+    args = dict(method=method, n_transient=640, n_record=640, signal_stride=8, **kw)
     a = simulate(**args)
     b = simulate(**args, kink_aware=True)
     assert b.substeps.sum() == 0
@@ -278,9 +278,10 @@ def test_study_solver_kink_aware_reaches_the_kernel():
         r = simulate(method="rk4", n_transient=40 * 32, n_record=20 * 32, kink_aware=True,
                      **sc.kernel_kwargs(32))
         for name in ("p_max", "p_min"):
+            assert ds["true"][name].attrs["units"] == "um"  # the kernel's stats are in m
             got = float(ds["true"][name].isel(speed=i))
             plain = float(ds["false"][name].isel(speed=i))
-            assert got == pytest.approx(r.stats[name][0], rel=1e-9)
+            assert got == pytest.approx(r.stats[name][0] * 1e6, rel=1e-9)
             assert abs(plain - got) > 1e-6 * abs(got)
 
 
@@ -318,7 +319,8 @@ def test_kink_aware_order_with_time_varying_stiffness_and_all_tables(method, lo,
         # first forcing harmonic through the fluctuation table, the others through the STE table
         a, r, ph = zip(*sc.g_harmonics, strict=True)
         kw["fluct_table"], kw["fluct_scale"] = fourier_table(a[:1], r[:1], ph[:1], spp), 1.0
-        kw["ste_table"] = fourier_table(a[1:], r[1:], ph[1:], spp)
+        kw["ste_table"], kw["ste_scale"] = fourier_table(a[1:], r[1:], ph[1:], spp), 1.0
+        kw["k_scale"] = np.ones(1)  # K = k_mean + k_scale * k_table: the per-case scale path
         stride = spp // pr.SAMPLES_PER_PERIOD
         res = simulate(method=method, n_transient=w.transient_periods * spp + stride - 1,
                        n_record=w.record_periods * spp - stride + 1, signal_stride=stride,

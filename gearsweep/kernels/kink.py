@@ -97,7 +97,7 @@ import numpy as np
 from numba import prange
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
-from gearsweep.jit import inlined_copies, jit_block, jit_helper, jit_inline
+from gearsweep.jit import inlined_copies, jit_block, jit_helper, jit_inline, unique_name
 from gearsweep.kernels import rk
 from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 from gearsweep.kernels.rk import (
@@ -787,7 +787,7 @@ def _live(w, o, nlive):
 
 _FIXUPS = {m: inlined_copies({name: globals()[name] for name in (
     "_substep", "_project", "_fixup", "_correct_rk4", "_correct_rk5", "_fix_lanes", "_fix_jobs")},
-    {"_RK4_METHOD": m == RK4}, keep=("_fixup",)) for m in (RK4, RK5)}
+    {"_RK4_METHOD": m == RK4}, keep=("_fixup",), tag=f"rk{m}") for m in (RK4, RK5)}
 """The fix-up helpers of each method (``_RK4_METHOD``)."""
 
 
@@ -923,8 +923,8 @@ def _block_function(method):
     return block
 
 
-_BLOCK_RK4 = jit_block(_block_function(RK4))
-_BLOCK_RK5 = jit_block(_block_function(RK5))
+_BLOCK_RK4 = jit_block(unique_name(_block_function(RK4), "kink_block_rk4"))
+_BLOCK_RK5 = jit_block(unique_name(_block_function(RK5), "kink_block_rk5"))
 """The work of one kink block, per method. Module globals, not closure variables of the
 driver: Numba's cache key hashes a closure's variables, and a dispatcher pickles differently in
 every process (the driver was compiled again by every run)."""

@@ -40,7 +40,7 @@ from types import SimpleNamespace
 import numpy as np
 from numba import prange
 
-from gearsweep.jit import jit_helper, jit_parallel
+from gearsweep.jit import jit_helper, jit_parallel, unique_name
 from gearsweep.kernels import tableaux
 from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 
@@ -427,8 +427,7 @@ class Specialised:
                     f = self._make()
                     tag = "".join(f"{k[0] if k != 'kamp' else 'a'}{int(on)}"
                                   for k, on in zip(OPTIONAL, key, strict=True))
-                    f.__name__ = f.__qualname__ = f"{self._name}_{tag}"
-                    d = self._drivers[key] = jit_parallel(f)
+                    d = self._drivers[key] = jit_parallel(unique_name(f, f"{self._name}_{tag}"))
         return d
 
     def __call__(self, *args):
