@@ -133,8 +133,8 @@ def unique_name(func: types.FunctionType, name: str) -> types.FunctionType:
     and a counter of the process that compiled it. Two copies of one function (same qualified
     name) compiled in two processes can get the same symbol, and when a third process loads
     both drivers from the cache, the second one's calls are linked to the first one's copy: the
-    kink-aware RK5 driver ran the RK4 block (its fitted order 4.06 instead of 5.1,
-    ``tests/test_kernels.py``)."""
+    kink-aware RK5 driver ran the RK4 block (its fitted order 4.06 instead of 5.1 in
+    ``tests/test_precision.py``; the mechanism: ``tests/test_jit.py``)."""
     func.__name__ = func.__qualname__ = name
     return func
 
