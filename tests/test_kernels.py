@@ -511,6 +511,52 @@ def test_kink_aware_driver_is_loaded_from_the_cache_by_the_next_process(tmp_path
     assert runs == [[0, 1], [1, 0]]
 
 
+_KINK_PAIR_CHILD = """
+import json, sys
+import numpy as np
+from gearsweep.kernels import kink
+from gearsweep.kernels.batch import simulate
+
+out = {}
+for method in sys.argv[1:]:
+    r = simulate(np.linspace(2e-5, 4e-5, 9), method=method, damping=10.0, k_mean=4e8,
+                 force=40.0, half_gap=1e-7, x0=1e-6, kink_aware=True, steps_per_period=16,
+                 n_transient=64, n_record=64)
+    out[method] = [float(v) for k in sorted(r.stats) for v in r.stats[k]] + [float(r.substeps.sum())]
+hits = sum(sum(d.stats.cache_hits.values()) for d in kink.INTEGRATE.values())
+print(json.dumps([out, hits]))
+"""
+
+
+@pytest.mark.slow  # compiles the kink-aware RK4 and RK5 drivers: about 40 s
+def test_kink_aware_drivers_cached_by_two_processes_run_their_own_code(tmp_path):
+    """The kink-aware RK4 and RK5 drivers compiled (and cached) by two processes, then both
+    loaded by a third: each runs its own method (their blocks once shared a symbol name, and the
+    RK5 driver ran the RK4 block: ``gearsweep.jit.unique_name``). The third process's RK5 results
+    equal those of a process that compiled RK5 alone, bit for bit, and differ from RK4's."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "child.py"
+    script.write_text(_KINK_PAIR_CHILD)
+
+    def run(*methods, cache="cache"):
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / cache))
+        return json.loads(subprocess.run([sys.executable, str(script), *methods], env=env,
+                                         capture_output=True, text=True, timeout=900,
+                                         check=True).stdout.splitlines()[-1])
+
+    alone, _ = run("rk5", cache="alone")
+    run("rk4")
+    run("rk5")
+    both, hits = run("rk4", "rk5")
+    assert hits == 2  # both drivers loaded from the cache, none compiled
+    assert both["rk5"] == alone["rk5"]
+    assert both["rk5"] != both["rk4"] and both["rk5"][-1] > 0  # crossings were fixed up
+
+
 def test_one_compiled_driver_per_combination_of_terms():
     """Each combination of terms switched off is a compiled function with its own name (and so
     its own Numba cache index): processes compiling different combinations never share one."""
