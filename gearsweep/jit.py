@@ -45,8 +45,9 @@ def _prefer_512_bit_vectors() -> None:
     jitted function of the process), so this runs on import, before the kernels are defined.
     It applies to every function Numba compiles in this process, and the features are part of
     Numba's cache key (code cached with other features is compiled again). Left alone: a CPU
-    without AVX-512, a target the user chose (``NUMBA_CPU_NAME`` or ``NUMBA_CPU_FEATURES``), a
-    code generator that already exists, and ``GEARSWEEP_VECTOR_BITS=256``."""
+    without AVX-512 (or with AVX off, ``NUMBA_ENABLE_AVX=0``), a target the user chose
+    (``NUMBA_CPU_NAME`` or ``NUMBA_CPU_FEATURES``), a code generator that already exists, and
+    ``GEARSWEEP_VECTOR_BITS=256``."""
     if os.environ.get(VECTOR_BITS_ENV, "512").strip() == "256":
         return
     if numba.config.CPU_NAME is not None or numba.config.CPU_FEATURES is not None:
@@ -55,11 +56,11 @@ def _prefer_512_bit_vectors() -> None:
 
     if "_toplevel_target_context" in vars(cpu_target):  # pragma: no cover - compiled before
         return
-    import llvmlite.binding as ll
+    from numba.core.codegen import get_host_cpu_features
 
-    features = ll.get_host_cpu_features()
-    if features.get("avx512f", False):
-        numba.config.CPU_FEATURES = features.flatten() + ",-prefer-256-bit"
+    features = get_host_cpu_features()  # Numba's own: '' where LLVM cannot tell, AVX off if
+    if "+avx512f" in features.split(","):  # NUMBA_ENABLE_AVX=0
+        numba.config.CPU_FEATURES = features + ",-prefer-256-bit"
 
 
 _prefer_512_bit_vectors()
