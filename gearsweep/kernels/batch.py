@@ -193,10 +193,11 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
     return out
 
 
-_COST = {("rk4", False): 1.0, ("rk5", False): 1.5, ("rk4", True): 4.0, ("rk5", True): 7.0}
+_COST = {("rk4", False): 1.0, ("rk5", False): 1.1, ("rk4", True): 2.7, ("rk5", True): 3.6}
 """Rough cold compile time of one specialisation of each driver, relative to plain RK4 (B2's
-specialisations, one process each, 25 Nov 2026: plain RK4 4.6 s, kink-aware RK4 18 s and RK5
-31 s, docs/benchmark.md). Only the order of the calls depends on it."""
+specialisations, one process each, 25 Nov 2026, night: plain RK4 5.6 s and RK5 6.1 s,
+kink-aware RK4 15 s and RK5 20 s, docs/benchmark.md). Only the order of the calls depends on
+it."""
 
 
 def specialisation(call: dict) -> tuple:
