@@ -13,8 +13,9 @@ from typing import IO
 def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: bool = True) -> None:
     """Call ``write(file_object)`` on a temporary file next to ``path``, then rename it to
     ``path``: a reader, or a run killed meanwhile, sees the old file or the new one, never a part
-    of it. ``durable``: fsync before the rename (checkpoints, which a resumed run trusts); a
-    cache that can be computed again skips it. On any error the temporary file is removed and the
+    of it (once the process is gone: its bytes are in the system's page cache). ``durable``:
+    fsync before the rename, so that the new file also survives a power loss (the manifest of a
+    checkpoint folder); files that can be computed again (caches, chunk checkpoints) skip it. On any error the temporary file is removed and the
     error raised."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:

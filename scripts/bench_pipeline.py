@@ -21,6 +21,7 @@ The load average is printed with every line: this machine is shared.
     PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e4,1e5,1e6,1e7 --threads 2 --repeats 3
     PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e6 --workers 1,2 --repeats 3
     PYTHONPATH=. python scripts/bench_pipeline.py --codecs   # write time and size per codec, 1e6
+    PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e7 --codec none   # runs with --codec
 
 A warm Numba cache is assumed (run any study once first); the first line of each size is a
 discarded warm-up run unless ``--no-warm-up``.
@@ -66,13 +67,16 @@ def _env(threads: int | None) -> dict:
     return env
 
 
-def whole_run(study: Path, out: Path, threads: int | None, workers: int | None) -> dict:
+def whole_run(study: Path, out: Path, threads: int | None, workers: int | None,
+              codec: str | None = None) -> dict:
     """One ``gearsweep run`` in a fresh process: wall seconds, peak RSS, the file's timings."""
     import xarray as xr
 
     cmd = [sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o", str(out), "-q", "--yes"]
     if workers:
         cmd += ["--workers", str(workers)]
+    if codec:
+        cmd += ["--codec", codec]
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, cwd=ROOT, env=_env(threads))
     _, status, usage = os.wait4(proc.pid, 0)
@@ -112,17 +116,17 @@ def bare(study: Path) -> None:
 
 
 def measure(study: Path, size: float, repeats: int, threads: int | None,
-            workers: int | None, tmp: Path, warm: bool) -> dict:
+            workers: int | None, tmp: Path, warm: bool, codec: str | None = None) -> dict:
     out = tmp / "out.nc"
     if warm:
-        whole_run(study, out, threads, workers)
+        whole_run(study, out, threads, workers, codec)
     runs, kernels = [], []
     for _ in range(repeats):
         kernels.append(bare_run(study, threads))
-        runs.append(whole_run(study, out, threads, workers))
+        runs.append(whole_run(study, out, threads, workers, codec))
     med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
     return {
-        "cases": int(size), "threads": threads, "workers": workers or 0,
+        "cases": int(size), "threads": threads, "workers": workers or 0, "codec": codec or "default",
         "whole_s": round(med["wall"], 3), "kernel_only_s": round(statistics.median(kernels), 3),
         "ratio": round(statistics.median(r["wall"] / k for r, k in zip(runs, kernels,
                                                                         strict=True)), 3),
@@ -206,6 +210,7 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--no-warm-up", action="store_true")
     p.add_argument("--codecs", action="store_true", help="the codec table instead (1e6 cases)")
+    p.add_argument("--codec", help="pass --codec CODEC to gearsweep run (default: its default)")
     p.add_argument("--bare", metavar="STUDY", help="child mode: print the bare kernel's seconds")
     args = p.parse_args()
     if args.bare:
@@ -228,12 +233,14 @@ def main() -> None:
             study = study_file(size, tmp)
             base = None
             for t in threads:
-                row = measure(study, size, args.repeats, t, None, tmp, not args.no_warm_up)
+                row = measure(study, size, args.repeats, t, None, tmp, not args.no_warm_up,
+                              args.codec)
                 base = base or row
                 print(json.dumps(row), flush=True)
             one = None
             for w in workers:
-                row = measure(study, size, args.repeats, None, w, tmp, not args.no_warm_up)
+                row = measure(study, size, args.repeats, None, w, tmp, not args.no_warm_up,
+                              args.codec)
                 one = one or (row if w == 1 else None)
                 if one is not None:
                     row["efficiency"] = round(row["cases_per_s"] / (w * one["cases_per_s"]), 3)

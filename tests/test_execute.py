@@ -167,23 +167,28 @@ def test_changed_study_does_not_reuse_chunks(tmp_path, monkeypatch):
 
 
 def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path, monkeypatch):
-    """A truncated chunk file and a chunk of the wrong shape are computed again, not trusted."""
+    """Chunk files cut short (in a header, in the last array: a process killed mid-write never
+    leaves one, a machine that lost power can, as chunk files are not fsync'ed), left empty, or of
+    the wrong shape are computed again, not trusted; the intact one is reused."""
     log = tmp_path / "chunks.log"
     monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
     out = tmp_path / "r.nc"
     plan = plan_of(RATTLE)
     chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
+    assert len(chunks) >= 6
     with pytest.raises(Crash):
-        run_plan(plan, backend=CrashAfter(3), checkpoint=out, chunk_cases=CHUNK)
+        run_plan(plan, backend=CrashAfter(5), checkpoint=out, chunk_cases=CHUNK)
     import hashlib
 
     store = ChunkStore(out, hashlib.sha256(RATTLE.encode()).hexdigest(), plan.n_lanes, chunks)
-    p0 = store.path(*chunks[0])
+    p0, p3 = store.path(*chunks[0]), store.path(*chunks[3])
     p0.write_bytes(p0.read_bytes()[:100])
     store.save(*chunks[1], {"status": np.zeros(3, np.int8)})
+    store.path(*chunks[2]).write_bytes(b"")
+    p3.write_bytes(p3.read_bytes()[:-1])
     log.unlink()
     ds = run_plan(plan, checkpoint=out, chunk_cases=CHUNK)
-    assert sorted(read_log(log)) == sorted([chunks[0], chunks[1], *chunks[3:]])
+    assert sorted(read_log(log)) == sorted([*chunks[:4], *chunks[5:]])  # chunks[4] reused
     assert_same(ds, rattle_reference)
 
 

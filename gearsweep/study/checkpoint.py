@@ -8,10 +8,16 @@ Next to the output ``OUT.nc`` a run keeps ``OUT.nc.chunks/<study_sha256>/``:
   never reads stale chunks.
 * ``chunk_<lane0>_<lane1>.npys``: the arrays ``run_chunk`` returned for lanes ``[lane0, lane1)``:
   one ``.npy`` record (NumPy's format, ``numpy.lib.format``) of their names, then one per array in
-  that order. Written to a temporary file, flushed to disk, then renamed (``os.replace``), so a
-  chunk file is either complete or absent, whatever kills the run (SIGKILL, power loss). Plain
-  records, not ``np.savez``: the zip container's CRC pass and copy cost 2.5x the write itself,
-  and the last chunk's write is not hidden behind a computing chunk.
+  that order. Written to a temporary file, then renamed (``os.replace``), so a chunk file is
+  either complete or absent, whatever kills the process (Ctrl-C, SIGKILL, out of memory): the
+  bytes are in the system's page cache the moment the write returns. They are not fsync'ed: the
+  system writes them to disk on its own (Linux: within ``vm.dirty_expire_centisecs``, 30 s), and
+  a run that finishes first removes them before they ever reach the disk; fsync'ing every chunk
+  cost a 1e7-case run 0.58 s of its 15 s (medians of 4 alternating runs, docs/scale.md). So a
+  machine that loses power can lose the chunks of the last half minute or so; a chunk file left
+  empty or cut short is not read (``records`` checks every header and size) and its chunk is
+  computed again. Plain records, not ``np.savez``: the zip container's CRC pass and copy cost
+  2.5x the write itself, and the last chunk's write is not hidden behind a computing chunk.
 
 The result file itself is written as the chunks finish (``dataset.ResultFile``, in
 ``OUT.nc.chunks/<study_sha256>/writing.nc`` until it is complete), by the same background thread
@@ -111,7 +117,7 @@ class ChunkStore:
             for arr in arrays.values():
                 fmt.write_array(fh, np.ascontiguousarray(arr), allow_pickle=False)
 
-        atomic_write(self.path(lane0, lane1), write)
+        atomic_write(self.path(lane0, lane1), write, durable=False)  # module docstring: no fsync
         log = os.environ.get("GEARSWEEP_CHUNK_LOG")
         if log:
             with open(log, "a", encoding="utf-8") as fh:
