@@ -15,8 +15,8 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: b
     ``path``: a reader, or a run killed meanwhile, sees the old file or the new one, never a part
     of it (once the process is gone: its bytes are in the system's page cache). ``durable``:
     fsync before the rename, so that the new file also survives a power loss (the manifest of a
-    checkpoint folder); files that can be computed again (caches, chunk checkpoints) skip it. On any error the temporary file is removed and the
-    error raised."""
+    checkpoint folder); files that can be computed again (caches, chunk checkpoints) skip it.
+    On any error the temporary file is removed and the error raised."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
