@@ -22,6 +22,7 @@ The load average is printed with every line: this machine is shared.
     PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e6 --workers 1,2 --repeats 3
     PYTHONPATH=. python scripts/bench_pipeline.py --codecs   # write time and size per codec, 1e6
     PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e7 --codec none   # runs with --codec
+    PYTHONPATH=. python scripts/bench_pipeline.py --gpu-study 1e7   # on a GPU (docs/gpu.md)
 
 A warm Numba cache is assumed (run any study once first); the first line of each size is a
 discarded warm-up run unless ``--no-warm-up``.
@@ -61,18 +62,23 @@ def load() -> str:
 
 
 def _env(threads: int | None) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    """The children's environment: this checkout first on the path (before, not instead of, a
+    ``PYTHONPATH`` already set: the device machine's packages live in a folder of their own)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p))
     if threads:
         env["NUMBA_NUM_THREADS"] = str(threads)
     return env
 
 
 def whole_run(study: Path, out: Path, threads: int | None, workers: int | None,
-              codec: str | None = None) -> dict:
-    """One ``gearsweep run`` in a fresh process: wall seconds, peak RSS, the file's timings."""
+              codec: str | None = None, extra: tuple[str, ...] = ()) -> dict:
+    """One ``gearsweep run`` in a fresh process: wall seconds, peak RSS, the file's timings.
+    ``extra``: more arguments of ``gearsweep run``."""
     import xarray as xr
 
-    cmd = [sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o", str(out), "-q", "--yes"]
+    cmd = [sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o", str(out), "-q", "--yes",
+           *extra]
     if workers:
         cmd += ["--workers", str(workers)]
     if codec:
@@ -138,6 +144,25 @@ def measure(study: Path, size: float, repeats: int, threads: int | None,
         "repeats": repeats, "whole_runs_s": [round(r["wall"], 3) for r in runs],
         "kernel_only_runs_s": [round(k, 3) for k in kernels], "load": load(),
     }
+
+
+def gpu_study(size: float, tmp: Path, repeats: int) -> None:
+    """The scale study of ``size`` cases on the GPU (``--device cuda``) in one chunk, as
+    docs/gpu.md says (the runner's default chunks are sized for CPU cores): per repeat, after a
+    warm-up run that compiles, the whole run's wall time against the run's own kernel seconds
+    (``simulate_cuda`` calls: packing, transfers and kernel). One JSON line."""
+    study = study_file(size, tmp)
+    out = tmp / "gpu.nc"
+    extra = ("--device", "cuda", "--chunk-size", str(int(size)))
+    whole_run(study, out, None, None, extra=extra)
+    runs = [whole_run(study, out, None, None, extra=extra) for _ in range(repeats)]
+    print(json.dumps({
+        "cases": int(size), "device": "cuda",
+        "whole_s": round(statistics.median(r["wall"] for r in runs), 3),
+        "run_kernel_s": round(statistics.median(r["kernel"] for r in runs), 3),
+        "ratio_own_kernel": round(statistics.median(r["wall"] / r["kernel"] for r in runs), 3),
+        "peak_rss_mb": round(max(r["rss"] for r in runs) / 1e6, 1),
+        "whole_runs_s": [round(r["wall"], 3) for r in runs], "load": load()}), flush=True)
 
 
 # ------------------------------------------------------------------------------------ codecs
@@ -212,9 +237,15 @@ def main() -> None:
     p.add_argument("--codecs", action="store_true", help="the codec table instead (1e6 cases)")
     p.add_argument("--codec", help="pass --codec CODEC to gearsweep run (default: its default)")
     p.add_argument("--bare", metavar="STUDY", help="child mode: print the bare kernel's seconds")
+    p.add_argument("--gpu-study", type=float, metavar="SIZE",
+                   help="the scale study of SIZE cases on the GPU instead (docs/gpu.md)")
     args = p.parse_args()
     if args.bare:
         bare(Path(args.bare))
+        return
+    if args.gpu_study:
+        with tempfile.TemporaryDirectory() as tmp:
+            gpu_study(args.gpu_study, Path(tmp), args.repeats)
         return
     sizes = [float(s) for s in args.sizes.split(",") if s]
     threads = [int(t) for t in args.threads.split(",") if t]

@@ -1,0 +1,166 @@
+#!/usr/bin/env bash
+# The measurements that need a bigger machine than CI's (16 cores and one CUDA GPU), in one call.
+#
+# Issue 23 wants the pipeline and kernel figures on 16 cores (docs/scale.md, docs/benchmark.md)
+# and the GPU backend's targets are still to be measured on a GPU (docs/gpu.md). A session that is
+# lent the device machine (16 cores, one H100 or H200, no network) has 15 minutes of it in all,
+# so everything runs from this one prepared script, step by step, most wanted first, each step
+# with its own time limit inside one overall deadline, each writing its output under $OUT as soon
+# as it ends (what finished comes back even if a later step runs out of time).
+#
+# On this machine, once (fetches the wheels the device image lacks, about 45 MB, into .whl/ and
+# copies the C reference kernel into .bench/; git ignores both folders):
+#
+#     scripts/device_check.sh prepare [BENCH_DIR]      # BENCH_DIR: default ../shared/bench
+#
+# Then one call of the device tool: command `bash scripts/device_check.sh run`, carry
+# [".whl", ".bench"], timeout_s 600. Read $OUT/summary.txt first. A rehearsal on any machine
+# (small sizes, the GPU steps answer "no GPU"): `SMALL=1 OUT=/tmp/dc scripts/device_check.sh run`.
+#
+# Steps of `run` (their files under $OUT):
+#   env.txt            machine, GPU, versions of the packages the run used, Numba's threading layer
+#   kernel_cpu.jsonl   B1/B2 on 1 thread and all cores against the C reference (bench_kernel.py)
+#   pipeline.jsonl     whole run / kernel-only at 1e6 and 1e7 cases on all cores (bench_pipeline.py)
+#   gpu_tests.txt      pytest -m gpu tests/test_cuda.py: the real GPU against the CPU kernel
+#   kernel_gpu.jsonl   B1/B2 on the GPU, float64 then float32, against the CPU kernel and C
+#   workers.jsonl      --workers 1,2,4,8,16 at 1e6 cases against in-process (bench_pipeline.py)
+#   gpu_study.txt      the 1e7-case study on the GPU: whole run against its kernel seconds
+#   summary.txt        one line per step: exit status and seconds
+set -u
+
+mode=${1:-}
+here=$(cd "$(dirname "$0")/.." && pwd)
+cd "$here"
+
+if [ "$mode" = "prepare" ]; then
+  bench=${2:-"$here/../shared/bench"}
+  set -e
+  mkdir -p .whl .bench
+  cp "$bench/reference_kernel.c" "$bench/run_reference.sh" .bench/
+  # The versions this repository is tested with (pyproject.toml and CI's install), CPython 3.12
+  # (the device image's). Not llvmlite (60 MB, over the call's 64 MB): the image's is used.
+  python3 -m pip download --no-deps --only-binary=:all: --python-version 3.12 \
+    --implementation cp --platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 \
+    --platform manylinux_2_24_x86_64 --platform manylinux_2_17_x86_64 \
+    --platform manylinux2014_x86_64 --platform manylinux1_x86_64 -d .whl -q \
+    numpy==2.4.6 numba==0.68.1 numba-cuda==0.30.4 netCDF4==1.7.5.1.post1 cftime==1.6.6.1 \
+    xarray==2026.9.0 pydantic==2.14.4 pydantic_core==2.50.5 annotated-types==0.8.0 \
+    typing-inspection==0.4.5 Pint==0.25.3 flexcache==0.3 flexparser==0.4 platformdirs==4.14.8 \
+    dask==2026.8.0 distributed==2026.8.0 partd==1.4.2 locket==1.0.0 tblib==3.2.2 zict==3.0.0 \
+    tornado==6.6.1
+  du -sh .whl .bench
+  echo "now: the device tool's run with command 'bash scripts/device_check.sh run'," \
+       "carry ['.whl', '.bench'], timeout_s 600"
+  exit 0
+fi
+
+if [ "$mode" != "run" ]; then
+  echo "usage: scripts/device_check.sh prepare [BENCH_DIR] | run" >&2
+  exit 2
+fi
+
+OUT=${OUT:-/tmp/device_check}
+mkdir -p "$OUT"
+export PYTHONUNBUFFERED=1
+PY=${PYTHON:-python3}
+start=$(date +%s)
+deadline=$((start + ${DEADLINE:-560}))
+summary="$OUT/summary.txt"
+: > "$summary"
+
+# step NAME LIMIT_S OUTFILE CMD...: runs CMD with at most LIMIT_S seconds (less if the overall
+# deadline is nearer), stdout and stderr into $OUT/OUTFILE, one line into summary.txt.
+step() {
+  local name=$1 limit=$2 file=$3
+  shift 3
+  local left=$((deadline - $(date +%s)))
+  if [ "$left" -lt 20 ]; then
+    echo "$name: skipped (deadline)" | tee -a "$summary"
+    return
+  fi
+  [ "$limit" -gt "$left" ] && limit=$left
+  local t0 rc
+  t0=$(date +%s)
+  timeout -k 5 "$limit" "$@" > "$OUT/$file" 2>&1
+  rc=$?
+  echo "$name: exit $rc in $(($(date +%s) - t0)) s (limit $limit s) -> $file" | tee -a "$summary"
+}
+
+# The carried wheels: packages the image lacks, and numpy/numba/numba-cuda at the versions this
+# repository is tested with (numba-cuda 0.30 fails to load its CUDA target under numpy 2.5).
+if ls .whl/*.whl > /dev/null 2>&1; then
+  "$PY" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
+    --target /tmp/site .whl/*.whl > "$OUT/install.txt" 2>&1
+  export PYTHONPATH="/tmp/site:$here${PYTHONPATH:+:$PYTHONPATH}"
+  # numba 0.68 needs the image's llvmlite to be 0.50.x; else fall back to the image's numba
+  if ! "$PY" -c "import numba" >> "$OUT/install.txt" 2>&1; then
+    echo "carried numba does not load with the image's llvmlite: using the image's numba" \
+      | tee -a "$summary"
+    rm -rf /tmp/site/numba /tmp/site/numba-*.dist-info
+  fi
+else
+  export PYTHONPATH="$here${PYTHONPATH:+:$PYTHONPATH}"
+fi
+export NUMBA_CACHE_DIR=${NUMBA_CACHE_DIR:-/tmp/numba_cache}
+[ -z "${CUDA_HOME:-}" ] && [ -d /usr/local/cuda ] && export CUDA_HOME=/usr/local/cuda
+
+{
+  date -u
+  echo "nproc $(nproc)"
+  grep -m1 "model name" /proc/cpuinfo
+  nvidia-smi -L 2>&1 | head -3
+  "$PY" - <<'EOF'
+import importlib, sys
+print("python", sys.version.split()[0])
+for name in ("numpy", "numba", "llvmlite", "numba_cuda", "xarray", "netCDF4", "pydantic", "pint",
+             "dask", "distributed", "scipy", "pandas"):
+    try:
+        m = importlib.import_module(name)
+        print(name, getattr(m, "__version__", "?"), getattr(m, "__file__", ""))
+    except Exception as exc:  # noqa: BLE001 - a report, not a program
+        print(name, "MISSING:", type(exc).__name__, str(exc).splitlines()[0][:120])
+try:
+    import numba
+    import numpy as np
+
+    @numba.njit(parallel=True)
+    def f(a):
+        for i in numba.prange(a.size):
+            a[i] += 1.0
+
+    f(np.zeros(64))
+    print("numba threads", numba.get_num_threads(), "layer", numba.threading_layer())
+except Exception as exc:  # noqa: BLE001
+    print("numba parallel: FAILED", exc)
+try:
+    from numba import cuda
+    print("numba.cuda from", cuda.__file__)
+    print("cuda available", cuda.is_available())
+except Exception as exc:  # noqa: BLE001
+    print("numba.cuda: FAILED", exc)
+EOF
+} > "$OUT/env.txt" 2>&1
+echo "env: $(grep -c MISSING "$OUT/env.txt") package(s) missing -> env.txt" | tee -a "$summary"
+
+ref=()
+[ -f .bench/run_reference.sh ] && ref=(--reference --bench-dir .bench)
+if [ -n "${SMALL:-}" ]; then  # rehearsal: the same steps, small
+  sizes=1e4; workers=1,2; worker_size=1e4; cases=(--cases 1000); gpu_sizes=(--sizes 10000)
+  study_size=1e4
+else
+  sizes=1e6,1e7; workers=1,2,4,8,16; worker_size=1e6; cases=(); gpu_sizes=(); study_size=1e7
+fi
+threads=$(nproc)
+
+step kernel_cpu 120 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${cases[@]}" --rounds 3
+step pipeline 150 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$sizes" \
+  --threads "$threads" --repeats 3
+step gpu_tests 150 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -m gpu tests/test_cuda.py
+step kernel_gpu 100 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda "${ref[@]}" \
+  "${gpu_sizes[@]}"
+step kernel_gpu32 60 kernel_gpu32.jsonl "$PY" scripts/bench_kernel.py --device cuda \
+  --precision float32 "${ref[@]}" "${gpu_sizes[@]}"
+step workers 120 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
+  --workers "$workers" --threads "$threads" --repeats 2
+step gpu_study 90 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size"
+echo "total $(($(date +%s) - start)) s" | tee -a "$summary"
