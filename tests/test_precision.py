@@ -205,8 +205,13 @@ def test_advised_step_meets_target_on_held_out_cases(kind, rpm, damping, k0, met
     """Speeds, dampings and stiffnesses not used in the calibration
     (``scripts/fig_work_precision.py --calibrate``: 3000-12000 rpm whine, 7000-13000 rpm rattle, both
     at c = 5500 N s/m, k0 = 1.073e9 N/m): the advised step count must reach the target
-    trajectory error against the reference. Measured errors are 0.16-0.5 of the target (the
-    advisor aims at target / 2)."""
+    trajectory error against the reference, and not by far (the advisor aims at target / 2).
+    Measured: 0.157-0.490 of the target where the error model is the method's order (smooth,
+    or kink-aware), so the floor target / 10 fails advice about twice the steps needed (order 4;
+    8x the steps: 4096 times less error); the plain step through the backlash kinks (order 2)
+    0.059: its error depends on where the crossings fall within the step, and the constant is
+    the envelope over the calibration speeds, hence its floor target / 30 (8x the steps: 64
+    times less error, still caught)."""
     make = pr.whine_scene if kind == "whine" else pr.rattle_scene
     scene = make(rpm, damping=damping, k0=k0)
     adv = advise(mass=pr.MASS, k0=k0, damping=damping, speed_rpm=[rpm], teeth=pr.TEETH,
@@ -214,7 +219,8 @@ def test_advised_step_meets_target_on_held_out_cases(kind, rpm, damping, k0, met
                  backlash=4e-6 if kind == "rattle" else None, method=method, kink_aware=kink,
                  target=target)
     err = _trajectory_error(scene, method, adv.steps_per_period, kink)
-    assert err <= target, (adv.steps_per_period, err)
+    floor = target / (30 if kind == "rattle" and not kink else 10)
+    assert floor <= err <= target, (adv.steps_per_period, err)
 
 
 def _trajectory_error(scene, method, steps_per_period, kink_aware):

@@ -11,7 +11,7 @@ import pytest
 
 from gearsweep.analysis import stability as st
 from gearsweep.kernels import rk, tableaux
-from gearsweep.kernels.floquet import monodromy
+from gearsweep.kernels.floquet import floquet, mathieu_parameters, monodromy
 
 FIFTH = tableaux.FIFTH_ORDER
 
@@ -128,6 +128,25 @@ def test_artifact_map_on_the_rig():
     fine = st.artifact_map(speed[:2], c, k0=1073e6, k1=179e6, mass=0.1527, teeth=48,
                            methods=("rk5",), steps_per_period=(2048,))
     assert not fine["flag"].any()
+    # Every flagged speed lies below the method's guard speed, 60 omega_n / (teeth S (h
+    # omega_n)*): frozen coefficients at k_max = k0 + k1, (h omega_n)* from step_limit_hw at
+    # that damping ratio (infinite undamped for the tableaux with no imaginary-axis interval).
+    # With c = 5500 N s/m the highest flagged speed is 160-170 rpm against guards of 181-189:
+    # a map or a guard 10 % off fails. The equation itself is stable at every one of these
+    # speeds (Floquet, converged): what is flagged is the integrator's.
+    k0, k1, m, teeth, S = 1073e6, 179e6, 0.1527, 48, 200
+    dense = np.linspace(60.0, 400.0, 35)
+    am = st.artifact_map(dense, c, k0=k0, k1=k1, mass=m, teeth=teeth, steps_per_period=(S,))
+    wn = math.sqrt((k0 + k1) / m)
+    zeta = c / (2.0 * math.sqrt((k0 + k1) * m))
+    for im, method in enumerate(am["methods"]):
+        with np.errstate(divide="ignore"):
+            guard = 60.0 * wn / (teeth * S * st.step_limit_hw(method, zeta))  # rpm, per c
+        highest = np.where(am["flag"][im, 0], dense, -np.inf).max(axis=-1)
+        assert np.all(highest <= guard), (method, highest, guard)
+        assert 150.0 <= highest[1] < guard[1], (method, highest[1])  # damped: a region below
+    exact = floquet(*mathieu_parameters(k0, k1, m, c[1], teeth * dense / 60.0))
+    assert exact.converged.all() and not exact.unstable.any()
 
 
 def test_reproduces_paper_logic():
