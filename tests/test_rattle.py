@@ -335,8 +335,11 @@ def test_lower_branch_with_mean_force_period_doubles():
 def test_arc_length_continuation_turns_at_the_describing_function_folds():
     """AFT continuation passes both folds of the Fig. 8 scene; the turning points lie within
     0.5% of the describing function's (the single harmonic misplaces the folds by about that
-    much: 8025 vs 8002 rpm, 7507 vs 7495 rpm), the multiplier crosses 1 at each fold (stable
-    outside, unstable between them) and the middle branch is unstable."""
+    much: 8025 vs 8002 rpm, 7507 vs 7495 rpm), the largest Floquet multiplier crosses 1 at each
+    fold (saddle-node: above 1 on the middle branch, below it on either side), the upper branch
+    before the first fold is stable, and the lower branch after the second fold is stable only
+    up to its flip (multiplier below -1, period doubling: 7,542 rpm in docs/rattle.md; between
+    the branch points at 7530 and 7561 rpm here) and unstable above it."""
     system = hb.MeshSystem(mass=M, stiffness=K, damping=C, half_gap=B, force_mean=FM,
                            force_harmonics=(F0,))
     br = hb.aft_continuation(system, 6000 * RPM2W, 8600 * RPM2W, harmonics=15, n_time=512)
@@ -347,9 +350,14 @@ def test_arc_length_continuation_turns_at_the_describing_function_folds():
     tp_df = np.sort(hb.turning_points(cv.omega, cv.amplitude))
     assert tp.size == 2 and tp_df.size == 2
     assert_allclose(tp, tp_df, rtol=5e-3)
-    turn = np.nonzero(np.diff(np.sign(np.diff(br.omega))))[0] + 1
-    assert np.all(br.stable[: turn[0] - 1])
-    assert not np.any(br.stable[turn[0] + 1: turn[1] - 1])
+    i, j = np.nonzero(np.diff(np.sign(np.diff(br.omega))))[0] + 1
+    mu = br.multiplier
+    assert mu[i - 1] < 1.0 < mu[i + 1] and mu[j - 1] > 1.0 > mu[j + 1]
+    assert np.all(br.stable[: i - 1])
+    assert not np.any(br.stable[i + 1: j - 1])
+    rpm_after = br.omega[j + 1:] / RPM2W
+    assert (rpm_after < 7535.0).any() and np.all(br.stable[j + 1:][rpm_after < 7535.0])
+    assert rpm_after.max() > 8000.0 and not np.any(br.stable[j + 1:][rpm_after > 7550.0])
 
 
 # --------------------------------------------------------------------------------------------
