@@ -179,6 +179,21 @@ def _keep_factor(key: str, factor: float) -> None:
         pass
 
 
+_SPLIT_NUMBER = re.compile(r"\d\s+\d+(?:\.\d*)?(?=\s|$|[A-Za-z_])")
+"""Digits, a space, a number that is not the start of a unit (``2 000 rpm``, not ``50 1/s``)."""
+
+
+def _check_number_text(value: str) -> None:
+    """Refuse the number spellings that pint would read as something else, silently: a decimal
+    comma (``4,92 N s/mm``: a tuple, which came out as 0) and digit groups apart (``2 000 rpm``:
+    2 times 0 times rpm, also 0)."""
+    if "," in value:
+        raise UnitParseError("a comma in a quantity; write the decimal separator as '.' (e.g."
+                             " 4.92) and no thousands separators")
+    if _SPLIT_NUMBER.search(value):
+        raise UnitParseError("a space inside a number; write it without (e.g. 2000)")
+
+
 def to_si(value: object, kind: str) -> float:
     """Parse ``value`` (a number or a string with units) into a float in the SI unit of ``kind``.
 
@@ -191,6 +206,7 @@ def to_si(value: object, kind: str) -> float:
         With a message naming the expected kind and a unit to write.
     """
     if isinstance(value, str):
+        _check_number_text(value)
         text = normalise(value)
         m = _NUMBER.match(text)
         unit = text[m.end():].strip() if m else ""
@@ -293,6 +309,24 @@ def to_display(values, kind: str):
     if f == 1.0:
         return values
     return values * f if not isinstance(values, list | tuple) else np.asarray(values) * f
+
+
+COORDINATE_DIGITS = 14
+"""Significant digits of a swept coordinate in the result (``decimal_coordinates``)."""
+
+
+def decimal_coordinates(values) -> np.ndarray:
+    """Swept values in their display unit, rounded to ``COORDINATE_DIGITS`` significant digits.
+
+    The kernel runs in SI, and the way back to the unit a study was written in multiplies twice
+    (``100 um`` is 9.999999999999999e-05 m, and 0.09999999999999999 mm): rounding to 14 digits
+    gives back the decimal number that was written (0.1), so that ``ds.sel(backlash=0.1)`` finds
+    it, while a value that needs all 15-17 digits moves by at most 5e-15 of itself. Points inside
+    a ``{start, stop, num}`` range are rounded the same way; select those with
+    ``method="nearest"``."""
+    out = np.asarray(values, dtype=float)
+    return np.array([float(f"{v:.{COORDINATE_DIGITS}g}") for v in out.ravel()]
+                    ).reshape(out.shape)
 
 
 def from_display(values, kind: str):

@@ -12,12 +12,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import compliance_checker  # noqa: F401 - the test extra installs it; missing is a failure
 import pytest
 import xarray as xr
 
 from gearsweep.cli import main
-
-import compliance_checker  # noqa: F401 - the test extra installs it; missing is a failure
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -59,6 +59,20 @@ def test_a_bare_number_in_a_dimensioned_field_is_refused(value, kind, message):
     assert str(err.value) == message
 
 
+@pytest.mark.parametrize(("value", "kind", "message"), [
+    ("4,92 N*s/mm", "damping", "a comma in a quantity"),
+    ("0,1527 kg", "mass", "a comma in a quantity"),
+    ("300,5 N", "force", "a comma in a quantity"),
+    ("2 000 rpm", "speed", "a space inside a number"),
+    ("1 073 kN/mm", "stiffness", "a space inside a number"),
+])
+def test_decimal_commas_and_digit_gaps_are_refused(value, kind, message):
+    """pint reads '4,92 N*s/mm' as a tuple and '2 000 rpm' as 2 * 0 rpm: both came out as 0.0
+    and a study ran with no damping (an outside reader's finding); now one line says why."""
+    with pytest.raises(UnitParseError, match=message):
+        to_si(value, kind)
+
+
 def test_documented_exceptions_to_the_bare_number_rule():
     assert to_si(3000, "speed") == 3000.0  # a shaft speed is read in rpm (study reference)
     assert to_si(0, "length") == 0.0  # zero is zero in any unit
@@ -83,7 +97,11 @@ def test_display_units_round_trip_and_every_kind_is_complete():
 
 
 def test_swept_coordinates_are_in_the_studys_units():
-    """``ds.sel(backlash=0.1)`` for a study that swept ``backlash: [0.1 mm, 0.2 mm]``."""
+    """``ds.sel(backlash=0.1)`` for a study that swept ``backlash: [100 um, 0.2 mm]``, and the
+    same for values whose way through SI is not exact in floating point (100 um -> 1e-4 m ->
+    0.09999999999999999 mm, 0.7 N s/mm -> 0.7000000000000001, 50 Hz -> 3000 rpm, the points of
+    a range 0.1-0.7 mm: an outside reader's sel() raised KeyError on each before the
+    coordinates were rounded to 14 significant digits)."""
     from gearsweep.api import run_study
     from gearsweep.study.schema import parse_study
 
@@ -92,17 +110,22 @@ title: units in the file
 scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, backlash: 0.1 mm,
         mean_force: 100 N, fluctuation: [{amplitude: 300 N, order: 1}]}
 sweep:
-  backlash: [0.1 mm, 0.2 mm]
-  damping: [100 N s/m, 5.5 N s/mm]
-  speed: [6000 rpm]
+  backlash: [100 um, 0.2 mm]
+  damping: [100 N s/m, 0.7 N s/mm, 5.5 N s/mm]
+  speed: [50 Hz, 6000 rpm]
 solver: {steps_per_period: 32, transient_periods: 4, record_periods: 4}
 """
     ds = run_study(parse_study(text, "u.yaml"), text)
     assert ds["backlash"].attrs["units"] == "mm" and ds["damping"].attrs["units"] == "N s mm-1"
     assert ds["speed"].attrs["units"] == "rpm"
-    assert ds.sel(backlash=0.1).sizes["damping"] == 2
-    assert list(ds["damping"].values) == pytest.approx([0.1, 5.5])
-    assert ds["backlash"].values == pytest.approx([0.1, 0.2])
+    assert ds.sel(backlash=0.1).sizes["damping"] == 3
+    assert ds.sel(backlash=0.1, damping=0.7, speed=3000.0).p_rms.size == 1
+    assert list(ds["damping"].values) == [0.1, 0.7, 5.5]  # exactly the decimals written
+    assert list(ds["backlash"].values) == [0.1, 0.2]
+    ranged = text.replace("backlash: [100 um, 0.2 mm]",
+                          "backlash: {start: 0.1 mm, stop: 0.7 mm, num: 7}")
+    ds = run_study(parse_study(ranged, "u.yaml"), ranged)
+    assert list(ds["backlash"].values) == [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7]
     for name in ds.variables:
         assert ds[name].attrs.get("units") != "-", name
 

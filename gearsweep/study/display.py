@@ -3,7 +3,9 @@
 ``display_coordinates`` rewrites the swept coordinates of a result Dataset from the SI numbers
 the kernel ran with into the display unit of their kind (backlash in mm, damping in N s/mm,
 stiffness in kN/mm, speed in rpm, torque in N m, ...) with that unit in their ``units`` attribute,
-so that a study sweeping ``backlash: [0.1 mm, 0.2 mm]`` gives ``ds.sel(backlash=0.1)``.
+so that a study sweeping ``backlash: [0.1 mm, 0.2 mm]`` (or ``[100 um, 200 um]``) gives
+``ds.sel(backlash=0.1)``: the values are rounded to 14 significant digits
+(``units.decimal_coordinates``), which removes the float noise of the way through SI.
 Dimensionless quantities carry CF's ``units: "1"``; string coordinates carry no unit.
 """
 
@@ -12,7 +14,7 @@ from __future__ import annotations
 import xarray as xr
 
 from gearsweep.model import SWEEPABLE
-from gearsweep.units import KINDS, to_display
+from gearsweep.units import KINDS, decimal_coordinates, to_display
 
 P_MEANING = ("p: the dynamic transmission error, the relative displacement of the two gears along"
              " the line of action, Eq. (5) of Choi, Lee & Shin (1997); dimensionless in the"
@@ -33,7 +35,8 @@ def display_coordinates(ds: xr.Dataset) -> xr.Dataset:
         if kind is None or kind == "dimensionless":
             continue
         attrs = dict(var.attrs, units=KINDS[kind].cf)
-        ds = ds.assign_coords({name: (var.dims, to_display(var.values, kind), attrs)})
+        values = decimal_coordinates(to_display(var.values, kind))  # 100 um -> 0.1 (mm), exactly
+        ds = ds.assign_coords({name: (var.dims, values, attrs)})
     for name in ds.data_vars:
         if ds[name].attrs.get("units") == "-":
             ds[name].attrs["units"] = "1"
