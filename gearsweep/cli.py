@@ -43,13 +43,24 @@ def _default_output(study_path: str) -> Path:
     return Path("results") / (Path(study_path).stem + ".nc")
 
 
-def _check_writable(path: Path) -> None:
+def _check_writable(path: Path, study: str | None = None) -> None:
     """Fail before the run, not after it, when the output cannot be written: a file is created
-    and removed in its folder (what the atomic writer will do)."""
+    and removed in its folder (what the atomic writer will do). The result replaces the file at
+    ``path`` by renaming a new one over it, so ``path`` must be a regular file or nothing: not a
+    folder, not a device (``-o /dev/null`` replaced the device with a file), and not the study
+    file being run."""
 
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
         raise StudyError(str(path), "--output", str(path), "a file path, not a folder")
+    if path.exists() and not path.is_file():
+        raise StudyError(str(path), "--output", str(path),
+                         "a regular file or a new path (this is a device, a pipe or a socket,"
+                         " which the result would replace)")
+    if study not in (None, "-") and path.exists() and Path(study).exists() \
+            and os.path.samefile(path, study):
+        raise StudyError(str(path), "--output", str(path),
+                         "another path than the study file's (the result would replace it)")
     try:
         folder.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
@@ -153,9 +164,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     study, text = load_study(args.study)
     if args.study == "-" and not args.output:
         raise StudyError("<stdin>", "--output", NO_VALUE, "a study read from stdin needs -o OUT.nc")
+    if args.output is not None and not args.output.strip():
+        raise StudyError(args.study, "--output", args.output, "a file path (it is empty)")
     out = Path(args.output) if args.output else _default_output(args.study)
     if not args.estimate:
-        _check_writable(out)
+        _check_writable(out, args.study)
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
 
         if args.estimate:

@@ -9,6 +9,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO
 
+from gearsweep.errors import ResultError
+
 
 def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: bool = True) -> None:
     """Call ``write(file_object)`` on a temporary file next to ``path``, then rename it to
@@ -28,3 +30,15 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: b
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def check_replaceable(path: str | Path) -> None:
+    """Raise ``ResultError`` unless ``path`` is a regular file or nothing: a result is written
+    beside it and renamed over it, which would replace a device, a pipe or a socket with a file
+    (``-o /dev/null`` did, as root) and fail on a folder."""
+    path = Path(path)
+    if path.is_dir():
+        raise ResultError(f"{path}: a folder, not a file path for the result")
+    if path.exists() and not path.is_file():
+        raise ResultError(f"{path}: not a regular file (a device, a pipe or a socket); the result"
+                          " would replace it: give a file path")

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -19,11 +20,18 @@ import pytest
 import xarray as xr
 
 from gearsweep.cli import main
-from gearsweep.errors import LimitError
+from gearsweep.errors import LimitError, ResultError
 from gearsweep.study import execute
 from gearsweep.study.checkpoint import ChunkStore, chunk_folder
 from gearsweep.study.dataset import _boxes, write_netcdf
-from gearsweep.study.execute import InProcess, Limits, check_limits, estimate, run_plan
+from gearsweep.study.execute import (
+    InProcess,
+    Limits,
+    check_limits,
+    estimate,
+    run_plan,
+    run_to_file,
+)
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import parse_study
 
@@ -315,6 +323,25 @@ def test_unwritable_output_fails_before_the_run(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "--output" in err
     assert time.perf_counter() - t0 < 10  # no integration (the study would take hours)
+
+
+def test_an_output_that_is_not_a_regular_file_or_is_the_study_is_refused(tmp_path, capsys):
+    """The result is renamed over its path, so the path must be a regular file or nothing: a
+    FIFO (like /dev/null, which ``-o /dev/null`` replaced with a file when run as root), the
+    study file itself (replaced by the netCDF) and an empty ``-o`` are refused in one line before
+    any computing, and left as they were; from Python, ``run_to_file`` refuses the FIFO too."""
+    study = tmp_path / "big.yaml"
+    study.write_text(BIG, encoding="utf-8")
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    for out, says in ((fifo, "regular file"), (study, "study file"), ("", "empty")):
+        assert main(["run", str(study), "-o", str(out), "--yes"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "--output" in err and says in err, err
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode) and study.read_text(encoding="utf-8") == BIG
+    with pytest.raises(ResultError, match="not a regular file"):
+        run_to_file(plan_of(RATTLE), fifo)
+    assert not chunk_folder(fifo).exists()
 
 
 def test_pathological_cases_are_flagged_not_fatal():

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from gearsweep.files import check_replaceable
 from gearsweep.model import MeshModel, mesh_frequency, model_record
 from gearsweep.study.display import display_coordinates
 from gearsweep.study.gearscene import gear_pair
@@ -284,6 +285,7 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, codec: str | None = None) -> 
     file), so the whole Dataset need not fit in memory.
     """
     path = Path(path)
+    check_replaceable(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     os.close(fd)

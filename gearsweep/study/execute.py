@@ -43,6 +43,7 @@ from urllib.parse import urlparse
 import numpy as np
 
 from gearsweep.errors import ClusterError, LimitError
+from gearsweep.files import check_replaceable
 from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
 from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, run_chunk
@@ -637,6 +638,7 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     Returns the written file opened lazily (``xr.open_dataset(output)``: each variable read
     when used; not dask arrays, whose first computation imports dask.distributed, 0.2-0.6 s).
     """
+    check_replaceable(output)  # before any computing
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
     store, done = _open_store(plan, output, chunks)
     todo = [c for c in chunks if c not in done]
