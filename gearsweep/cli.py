@@ -7,6 +7,7 @@ traceback is shown only with ``--debug``.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import sys
@@ -334,6 +335,9 @@ def _looks_like_study(path: Path) -> bool:
 def cmd_advise(args: argparse.Namespace) -> int:
     """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
 
+    if not (math.isfinite(args.target) and 0.0 < args.target < 1.0):
+        raise StudyError(args.study, "--target", args.target,
+                         "a relative error between 0 and 1 (e.g. 1e-4)")
     study, text = load_study(args.study)
     if getattr(study, "type", None) in ("mesh", "analysis"):
         raise StudyError(args.study, "type", study.type,
