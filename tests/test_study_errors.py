@@ -49,6 +49,23 @@ def test_three_errors_give_three_lines_with_line_numbers():
     ], lines
 
 
+def test_an_empty_output_list_and_a_value_swept_twice_are_refused():
+    """``outputs: []`` (a result of status flags only) and a sweep that lists one value twice,
+    in any spelling (``100 um`` after ``0.1 mm``: the file's coordinate would hold 0.1 twice and
+    ``sel`` could not tell them apart) were accepted; each is one line now."""
+    assert _lines(GOOD + "outputs: []\n") == [
+        ("s.yaml:12: outputs: [] -- at least one output (leave the key out for stats); allowed:"
+        " floquet, spectrum, stats")]
+    twice = GOOD.replace("speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                         "speed: [6000 rpm, 100 Hz]\n  backlash: [0.1 mm, 0.2 mm, 100 um]")
+    assert _lines(twice) == [
+        ("s.yaml:10: sweep.speed[1]: '100 Hz' -- a value not already in the list (the same as"
+        " sweep.speed[0], '6000 rpm'): each value once, or ds.sel() cannot tell them apart"),
+        ("s.yaml:11: sweep.backlash[2]: '100 um' -- a value not already in the list (the same as"
+        " sweep.backlash[0], '0.1 mm'): each value once, or ds.sel() cannot tell them apart")]
+    parse_study(twice.replace("100 um", "300 um").replace("100 Hz", "110 Hz"), "s.yaml")
+
+
 def test_a_typo_in_kind_says_did_you_mean():
     assert _lines(GOOD.replace("kind: rattle", "kind: whin")) == [
         ("s.yaml:3: scene.kind: 'whin' -- did you mean 'whine'? (allowed: whine, rattle, full,"

@@ -79,7 +79,7 @@ from gearsweep.study.quantities import (
     Strict,
     Torque,
 )
-from gearsweep.units import UnitParseError, to_si
+from gearsweep.units import UnitParseError, decimal_coordinates, to_display, to_si
 
 
 class Drive(Strict):
@@ -406,6 +406,9 @@ def consistency_problems(study: Study) -> list[Problem]:
                                f" {', '.join(sorted(OUTPUTS))}"))
     if len(set(names)) != len(names):
         out.append(Problem("outputs", NO_VALUE, "list each output at most once"))
+    if not names:
+        out.append(Problem("outputs", [], f"at least one output (leave the key out for stats);"
+                           f" allowed: {', '.join(sorted(OUTPUTS))}"))
     return out
 
 
@@ -447,6 +450,18 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
                 out.append(Problem(where, v, f"{name} must be >= 0"))
             else:
                 values.append(val)
+        shown = [float(v) for v in decimal_coordinates(to_display(np.asarray(values), kind))] \
+            if kind != "dimensionless" else values  # as the file's coordinate will hold them
+        if not is_range and len(values) == len(raw) and len(set(shown)) < len(shown):
+            seen: dict[float, int] = {}
+            for key, val in zip((k for k, _ in raw), shown, strict=True):
+                if val in seen:
+                    out.append(Problem(f"sweep.{name}[{key}]", raw[key][1],
+                                       f"a value not already in the list (the same as"
+                                       f" sweep.{name}[{seen[val]}], {raw[seen[val]][1]!r}):"
+                                       " each value once, or ds.sel() cannot tell them apart"))
+                    break
+                seen[val] = key
         if is_range and len(values) == 2:
             a, b = values
             if spec.spacing == "log" and (a <= 0 or b <= 0):
