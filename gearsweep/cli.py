@@ -212,6 +212,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         check_partial(plan, out)
         if not args.quiet and est.seconds > 30:
             print(f"{args.study}: {line(est, compile_s)}", file=sys.stderr)
+        saved, total = saved_chunks(plan, out, chunk)
+        if saved and not args.quiet:
+            print(f"{out}: resuming: {saved} of {total} chunks already saved in {out}.chunks,"
+                  " computing the others", file=sys.stderr)
         t0 = time.perf_counter()
         previous = signal.signal(signal.SIGINT, _on_sigint) \
             if threading.current_thread() is threading.main_thread() else None

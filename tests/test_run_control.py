@@ -68,10 +68,12 @@ def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_pat
     assert not out.exists() and chunk_folder(out).is_dir()
     done = len(log.read_text().splitlines())
     assert done < 20
-    # The same command completes it, computing only the missing chunks.
-    rc = subprocess.run(_cmd(study, out), cwd=tmp_path, env=_env(log), capture_output=True,
-                        text=True, timeout=600)
+    # The same command completes it, computing only the missing chunks, and says so first.
+    resume = [c for c in _cmd(study, out) if c != "-q"]
+    rc = subprocess.run(resume, cwd=tmp_path, env=_env(log), capture_output=True, text=True,
+                        timeout=600)
     assert rc.returncode == 0, rc.stderr
+    assert f"resuming: {done} of 20 chunks already saved in" in rc.stderr, rc.stderr
     assert len(log.read_text().splitlines()) == 20
     rc = subprocess.run(_cmd(study, ref), cwd=tmp_path, env=_env(), capture_output=True,
                         text=True, timeout=600)

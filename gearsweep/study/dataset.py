@@ -102,15 +102,16 @@ COORDS = {
     "stiffness": ("N m-1", "mean mesh stiffness k0"),
     "direction": ("-", "order in which speed was swept, state carried between speeds"),
     "frequency": ("Hz", "spectrum frequency"),
-    "order": ("-", "spectrum frequency / mesh frequency"),
-    "alpha": ("-", "Mathieu parameter alpha = k0 / (m (N w)^2)"),
-    "beta": ("-", "Mathieu parameter beta = k1 / (m (N w)^2)"),
-    "gamma": ("-", "Mathieu parameter gamma = c / (m N w)"),
-    "mesh_phase": ("-", "position in one mesh cycle"),
+    "order": ("1", "spectrum frequency / mesh frequency"),
+    "alpha": ("1", "Mathieu parameter alpha = k0 / (m (N w)^2)"),
+    "beta": ("1", "Mathieu parameter beta = k1 / (m (N w)^2)"),
+    "gamma": ("1", "Mathieu parameter gamma = c / (m N w)"),
+    "mesh_phase": ("1", "position in one mesh cycle"),
     "method": ("-", "integrator name"),
-    "steps_per_period": ("-", "integration steps per mesh period"),
+    "steps_per_period": ("1", "integration steps per mesh period"),
 }
-"""Units and long names of the coordinates of DATA.md (units as CF/UDUNITS strings)."""
+"""Units and long names of the coordinates of DATA.md (units as CF/UDUNITS strings: "1" for a
+dimensionless number; the string labels, direction and method, carry none in the file)."""
 
 VARIABLES = {
     "p_rms": (UM, "rms of p about its mean, steady state"),
