@@ -26,6 +26,7 @@ from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
 from gearsweep.study.estimate import (
     CHUNK_SECONDS,
+    before_refusing,
     chunk_cases,
     line,
     quick_estimate,
@@ -117,8 +118,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
         return 0
     plan = _plan(make_plan, study, text, args.study)
     est, compile_s = quick_estimate(plan)
-    if not args.yes:
-        check_limits(est, name)  # validate refuses what run refuses (without --yes)
+    if not args.yes:  # validate refuses what run refuses (without --yes)
+        est, compile_s = before_refusing(plan, est)
+        check_limits(est, name)
     print(f"{name}: ok -- {_summary(study, plan, line(est, compile_s))}")
     return 0
 
@@ -205,6 +207,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         _long_sweep_note(plan, args)
         return 0
     if not args.yes:
+        est, compile_s = before_refusing(plan, est, chunk, None if not args.workers else cores())
         check_limits(est, args.study)
     _long_sweep_note(plan, args)
     progress = not args.quiet and sys.stderr.isatty()

@@ -223,3 +223,30 @@ def test_the_estimate_sees_a_compiled_driver_in_the_cache(tmp_path, monkeypatch)
     assert compile_seconds("rk4", True) == 0.0 and compile_seconds("rk5", False) == 0.0
     (folder / "rk.integrate_rk4_a0k0e0f1h1s1-456.py311.nbi").write_bytes(b"")
     assert compile_seconds("rk4", False) == 0.0
+
+
+def test_a_study_over_the_time_limit_at_the_stated_rate_is_measured_before_refusing(monkeypatch):
+    """The stated rate (350 Msteps/s per core for RK4) is a floor: a study it puts over the
+    10-minute limit is estimated again at the rate measured on the machine (here: made 3x the
+    stated), and refused only if it is still over; one under the limit is not measured."""
+    from gearsweep.study import estimate as est_mod
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import parse_study
+
+    calls = []
+
+    def fake_measure(plan, threads):
+        calls.append(threads)
+        return 3 * est_mod.STATED_RATE[plan.study.solver.method]
+
+    monkeypatch.setattr(est_mod, "measure_rate", fake_measure)
+    text = STUDY.replace("NUM", "400000").replace("record_periods: 50", "record_periods: 10000")
+    plan = make_plan(parse_study(text, "s.yaml"), text)
+    stated, _ = est_mod.quick_estimate(plan, threads=2)
+    assert stated.over() and stated.rate_source == "stated"
+    measured, _ = est_mod.before_refusing(plan, stated, threads=2)
+    assert calls == [2] and measured.rate_source == "measured"
+    assert measured.seconds < stated.seconds / 2 and not measured.over()
+    small, _ = est_mod.quick_estimate(make_plan(parse_study(STUDY.replace("NUM", "10"), "s.yaml"),
+                                                STUDY), threads=2)
+    assert est_mod.before_refusing(plan, small, threads=2)[0] is small and calls == [2]
