@@ -85,7 +85,7 @@ def test_grids_linear_log_and_lists():
 BAD = [
     ("mass: 0.1527 kg", "mass: -1 kg", "scene.mass", "greater than 0"),
     ("mass: 0.1527 kg", "mass: 5 m", "scene.mass", "expected mass"),
-    ("mass: 0.1527 kg", "mass: 0.15 kg\n  colour: red", "scene.colour", "unknown field"),
+    ("mass: 0.1527 kg", "mass: 0.15 kg\n  colour: red", "scene.colour", "not a field of a rattle scene"),
     ("steps_per_period: 32", "steps_per_period: 0", "solver.steps_per_period", "greater than or equal to 4"),
     ("record_periods: 20", "record_periods: 0", "solver.record_periods", "greater than or equal to 1"),
     ("method: rk4", "method: euler", "solver.method", "'rk4' or 'rk5'"),
@@ -93,7 +93,7 @@ BAD = [
     ("num: 13}", "num: 0}", "sweep.speed.num", "greater than or equal to 1"),
     ("damping: [1500 N*s/m, 3000 N*s/m]", "damping: [-5 N*s/m]", "sweep.damping", ">= 0"),
     ("damping: [1500 N*s/m, 3000 N*s/m]", "damping: [5 kg]", "sweep.damping", "damping"),
-    ("damping: [1500 N*s/m, 3000 N*s/m]", "alpha: [1, 2]", "alpha", "not a parameter"),
+    ("damping: [1500 N*s/m, 3000 N*s/m]", "alpha: [1, 2]", "alpha", "not a sweepable parameter"),
     ("continuation: [up, down]", "continuation: [sideways]", "continuation[0]", "'up' or 'down'"),
     ("backlash: 4 um", "backlash: 0 um", "scene.backlash", "greater than 0"),
     ("title: tiny rattle sweep", "title: ''", "title", "at least 1"),

@@ -66,6 +66,23 @@ def test_an_empty_output_list_and_a_value_swept_twice_are_refused():
     parse_study(twice.replace("100 um", "300 um").replace("100 Hz", "110 Hz"), "s.yaml")
 
 
+def test_an_unknown_field_is_matched_against_the_fields_where_it_stands():
+    """A field of another scene kind says so (it was "'backlash' is an unknown field -- did you
+    mean 'backlash'?"); a misspelling is matched against the fields of where it stands (a range:
+    'step' was matched to 'ste', a scene field); an empty file or a list says what it holds
+    (was 'NoneType', '_Seq')."""
+    assert _lines(GOOD.replace("kind: rattle", "kind: whine").replace(
+        "mean_force: 100 N", "mean_force: 100 N\n  speed: 5000 rpm")) == [
+        ("s.yaml:7: scene.backlash: 'backlash' is not a field of a whine scene (it is one of a"
+        " rattle or full scene)")]
+    assert _lines(GOOD.replace("num: 3}", "num: 3, step: 500 rpm}")) == [
+        ("s.yaml:10: sweep.speed.step: 'step' is not a field of a {start, stop, num} range -- did"
+        " you mean 'stop'?")]
+    assert _lines("") == [("s.yaml:1: (top level): the file holds nothing (an empty file); a study"
+                          " is a mapping with title, scene, sweep, solver, outputs")]
+    assert _lines("- a\n- b\n")[0].startswith("s.yaml:1: (top level): the file holds a list;")
+
+
 def test_a_typo_in_kind_says_did_you_mean():
     assert _lines(GOOD.replace("kind: rattle", "kind: whin")) == [
         ("s.yaml:3: scene.kind: 'whin' -- did you mean 'whine'? (allowed: whine, rattle, full,"
@@ -74,7 +91,8 @@ def test_a_typo_in_kind_says_did_you_mean():
 
 def test_an_unknown_field_says_did_you_mean():
     assert _lines(GOOD.replace("mean_force: 100 N", "mean_forse: 100 N")) == [
-        "s.yaml:8: scene.mean_forse: 'mean_forse' is an unknown field -- did you mean 'mean_force'?"]
+        ("s.yaml:8: scene.mean_forse: 'mean_forse' is not a field of a rattle scene -- did you mean"
+        " 'mean_force'?")]
 
 
 def test_errors_in_sweep_and_outputs_point_at_their_lines():

@@ -368,8 +368,8 @@ def consistency_problems(study: Study) -> list[Problem]:
         if name not in allowed:
             close = difflib.get_close_matches(name, sorted(allowed), n=1)
             hint = f"did you mean {close[0]!r}? " if close else ""
-            out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a parameter of the {sc.kind!r}"
-                               f" scene; {hint}allowed: {', '.join(sorted(allowed))}"))
+            out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a sweepable parameter of the"
+                               f" {sc.kind!r} scene; {hint}allowed: {', '.join(sorted(allowed))}"))
     if sc.kind != "mathieu":
         if "speed" not in study.sweep and sc.speed is None:
             out.append(Problem("scene.speed", "(missing)",
@@ -426,7 +426,9 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
     positive = {"speed", "mass", "stiffness", "backlash"}
     out: list[Problem] = []
     for name, spec in study.sweep.items():
-        kind = SWEEPABLE.get(name, "torque")
+        if name not in SWEEPABLE:
+            continue  # not a sweepable parameter: one line from consistency_problems, not more
+        kind = SWEEPABLE[name]
         is_range = isinstance(spec, Range)
         raw = [("start", spec.start), ("stop", spec.stop)] if is_range else list(enumerate(spec))
         if not raw:
@@ -706,6 +708,40 @@ def _vocabulary() -> tuple[str, ...]:
     return tuple(sorted(names))
 
 
+_SCENES = {"whine": "WhineScene", "rattle": "RattleScene", "full": "FullScene",
+           "mathieu": "MathieuScene"}
+
+
+def _unknown_field(key: str, parent: list, raw: Any) -> str:
+    """Why ``key`` is not allowed under ``parent``: a field of another scene kind is named as
+    such, and a misspelling is matched against the fields of where it stands (a range's,
+    the solver's, the scene's), not every field of every model."""
+    choices: tuple[str, ...] | None = None
+    where = ""
+    if len(parent) == 2 and parent[0] == "sweep":
+        choices, where = tuple(Range.model_fields), "a {start, stop, num} range"
+    elif parent == ["solver"]:
+        choices, where = tuple(Solver.model_fields), "solver"
+    elif parent == []:
+        choices, where = tuple(Study.model_fields), "a study"
+    elif parent == ["scene"]:
+        scene = raw.get("scene") if isinstance(raw, dict) else None
+        kind = scene.get("kind") if isinstance(scene, dict) else None
+        if kind in _SCENES:
+            choices = tuple(globals()[_SCENES[kind]].model_fields)
+            where = f"a {kind} scene"
+            others = [k for k, m in _SCENES.items() if key in globals()[m].model_fields]
+            if others:
+                return (f"{key!r} is not a field of {where} (it is one of a"
+                        f" {' or '.join(others)} scene)")
+    if choices is None:
+        return f"{key!r} is an unknown field" + (_did_you_mean(key, _vocabulary())
+                                                 or " (see docs/study-reference.md)")
+    hint = _did_you_mean(key, choices)
+    return f"{key!r} is not a field of {where}" + (
+        hint or f"; its fields: {', '.join(c for c in choices if c != 'kind')}")
+
+
 def _did_you_mean(word: Any, choices) -> str:
     close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
     return f" -- did you mean {close[0]!r}?" if close else ""
@@ -743,8 +779,7 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
         if t == "extra_forbidden":
             key = parts[-1] if parts else value
             value = NO_VALUE
-            msg = f"{key!r} is an unknown field" + (_did_you_mean(key, _vocabulary())
-                                                     or " (see docs/study-reference.md)")
+            msg = _unknown_field(str(key), parts[:-1], raw)
         elif t == "missing":
             value, msg = "(missing)", "this field is required"
         elif t == "union_tag_invalid":
@@ -813,8 +848,11 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | Analysi
 def _parse_raw(raw: Any, file: str) -> Study | MeshStudy | AnalysisStudy:
     """``parse_study`` of the loaded YAML (with line marks)."""
     if not isinstance(raw, dict):
-        raise StudyError(file, "(top level)", type(raw).__name__,
-                         "a mapping with title, scene, sweep, solver, outputs", 1)
+        held = "nothing (an empty file)" if raw is None else (
+            "a list" if isinstance(raw, list) else f"a single value {raw!r}")
+        raise StudyError(file, "(top level)", NO_VALUE,
+                         f"the file holds {held}; a study is a mapping with title, scene, sweep,"
+                         " solver, outputs", 1)
     if "type" in raw and raw["type"] not in ("mesh", "analysis"):
         raise StudyError(file, "type", raw["type"], "'mesh' (a static mesh study), 'analysis'"
                          " (method stability, work-precision), or no 'type' for a dynamic study",
