@@ -84,7 +84,7 @@ _NUMBER = re.compile(r"^\s*[-+]?(?:\d[\d_]*\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 _WORD_ALIASES = {
     "RPM": "rpm", "Rpm": "rpm", "Nm": "N*m", "Nmm": "N*mm", "kNm": "kN*m", "kNmm": "kN*mm",
-    "micron": "um", "microns": "um", "Nms": "N*m*s",
+    "micron": "um", "microns": "um", "Nms": "N*m*s", "Ns": "N*s", "kNs": "kN*s",
 }
 _SPELLINGS = (
     (re.compile(r"\b(?:rev|r)\s*/\s*min\b"), "rpm"),
@@ -255,6 +255,11 @@ def _to_si_pint(value: object, kind: str) -> float:
         # power tower such as "10**10**10 N" would take forever; with floats it overflows at once.
         q = ureg.Quantity(_INTEGER.sub(r"\1.0", normalise(value)))
     except Exception as exc:  # pint raises many kinds of errors for malformed text
+        names = getattr(exc, "unit_names", None)
+        if names:  # pint's UndefinedUnitError
+            unknown = ", ".join(repr(n) for n in names)
+            raise UnitParseError(f"unknown unit {unknown}; a {kind} is written e.g."
+                                 f" '1 {unit_hint}' ({', '.join(k.examples)})") from None
         raise UnitParseError(f"cannot read {value!r} as a quantity ({type(exc).__name__})") from None
     if not isinstance(q, pint.Quantity):
         return _bare(value, k, float(q))

@@ -73,6 +73,15 @@ def test_decimal_commas_and_digit_gaps_are_refused(value, kind, message):
         to_si(value, kind)
 
 
+def test_an_unknown_unit_is_named_with_the_spellings_of_its_kind():
+    """pint's UndefinedUnitError was the message; now the unit and what to write instead."""
+    with pytest.raises(UnitParseError) as err:
+        to_si("1073 kN/mmm", "stiffness")
+    assert str(err.value) == ("unknown unit 'mmm'; a stiffness is written e.g. '1 kN/mm'"
+                              " (kN/mm, N/um, N/m, N/mm)")
+    assert to_si("4.92 Ns/mm", "damping") == pytest.approx(4920.0)  # as 'Nm' is N*m
+
+
 def test_documented_exceptions_to_the_bare_number_rule():
     assert to_si(3000, "speed") == 3000.0  # a shaft speed is read in rpm (study reference)
     assert to_si(0, "length") == 0.0  # zero is zero in any unit
