@@ -55,6 +55,10 @@ def _check_writable(path: Path, study: str | None = None) -> None:
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
         raise StudyError(str(path), "--output", str(path), "a file path, not a folder")
+    for above in path.parents:
+        if above.exists() and not above.is_dir():
+            raise StudyError(str(path), "--output", str(path),
+                             f"a path in a folder ({above} is a file)")
     if path.exists() and not path.is_file():
         raise StudyError(str(path), "--output", str(path),
                          "a regular file or a new path (this is a device, a pipe or a socket,"
@@ -284,7 +288,10 @@ def describe(path: str | Path) -> str:
     try:
         ds = xr.open_dataset(path)
     except (OSError, ValueError) as exc:
-        raise ResultError(f"{path}: cannot open as a netCDF result ({exc})") from None
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if "IO backends" in why:  # xarray: no engine recognises the file
+            why = "not a netCDF file"
+        raise ResultError(f"{path}: cannot open as a netCDF result ({why})") from None
     with ds:
         lines = [f"{path}: {ds.attrs.get('title', '(no title)')}"]
         if ds.attrs.get("scene") == "mesh":

@@ -318,10 +318,11 @@ def test_unwritable_output_fails_before_the_run(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
     t0 = time.perf_counter()
-    for out in (blocker / "out.nc", tmp_path):
+    for out, says in ((blocker / "out.nc", "file is a file"), (blocker / "a" / "out.nc", "is a file"),
+                      (tmp_path, "not a folder")):
         assert main(["run", str(study), "-o", str(out), "--yes"]) == 2
         err = capsys.readouterr().err
-        assert err.count("\n") == 1 and "--output" in err
+        assert err.count("\n") == 1 and "--output" in err and says in err, err
     assert time.perf_counter() - t0 < 10  # no integration (the study would take hours)
 
 
@@ -342,6 +343,23 @@ def test_an_output_that_is_not_a_regular_file_or_is_the_study_is_refused(tmp_pat
     with pytest.raises(ResultError, match="not a regular file"):
         run_to_file(plan_of(RATTLE), fifo)
     assert not chunk_folder(fifo).exists()
+
+
+def test_a_result_given_as_a_study_and_a_text_given_as_a_result_are_one_line(tmp_path, capsys):
+    """``advise``/``validate``/``run`` on a netCDF result say it is one (was "a readable UTF-8
+    file (not UTF-8 text)"); ``inspect`` on a text file says it is not netCDF in one line (was
+    three, with xarray's engine list and two URLs)."""
+    result = tmp_path / "r.nc"
+    write_netcdf(xr.Dataset({"x": ("i", np.arange(3.0))}), result)
+    for command in ("advise", "validate", "run"):
+        assert main([command, str(result)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "this is a netCDF result" in err, err
+    text = tmp_path / "notes.txt"
+    text.write_text("not a result\n", encoding="utf-8")
+    assert main(["inspect", str(text)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not a netCDF file" in err, err
 
 
 def test_pathological_cases_are_flagged_not_fatal():

@@ -1005,7 +1005,19 @@ def read_text(path: str | Path) -> tuple[str, str]:
         return path.read_text(encoding="utf-8"), str(path)
     except (OSError, UnicodeDecodeError) as exc:
         why = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
-        raise StudyError(str(path), "(file)", str(path), f"a readable UTF-8 file ({why})") from None
+        if isinstance(exc, UnicodeDecodeError) and _is_netcdf(path):
+            why = "this is a netCDF result; 'gearsweep inspect' describes it"
+        raise StudyError(str(path), "(file)", str(path), f"a study file in YAML ({why})") from None
+
+
+def _is_netcdf(path: Path) -> bool:
+    """Whether ``path`` starts as a netCDF file does (classic ``CDF`` or HDF5-based)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError:
+        return False
+    return head.startswith((b"CDF\x01", b"CDF\x02", b"CDF\x05", b"\x89HDF\r\n\x1a\n"))
 
 
 def load_study(path: str | Path) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
