@@ -391,7 +391,10 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="gearsweep", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(
+        prog="gearsweep",
+        description="Batch parameter studies of spur gear dynamics: validate a study (YAML), run it"
+                    " to a netCDF result, advise on its step, inspect a result.")
     p.add_argument("--version", action="version", version=f"gearsweep {__version__}")
     p.add_argument("--debug", action="store_true",
                    help="show tracebacks (accepted anywhere on the command line)")
@@ -429,7 +432,7 @@ def build_parser() -> argparse.ArgumentParser:
                    " also gives the error the study's own steps per period reach)")
     a.set_defaults(func=cmd_advise)
     i = sub.add_parser("inspect", help="describe a result file in words")
-    i.add_argument("result")
+    i.add_argument("result", help="a result file (.nc) written by gearsweep run")
     i.set_defaults(func=cmd_inspect)
     return p
 
