@@ -83,6 +83,17 @@ def test_an_unknown_field_is_matched_against_the_fields_where_it_stands():
     assert _lines("- a\n- b\n")[0].startswith("s.yaml:1: (top level): the file holds a list;")
 
 
+def test_a_bare_scene_gets_every_missing_field_at_once():
+    """A scene with only its kind: mass (or drive), teeth and stiffness, and the speed, in one
+    run (an outside reader met them over three)."""
+    assert _lines("title: x\nscene:\n  kind: whine\n") == [
+        ("s.yaml:2: scene: '{...}' -- give exactly one of 'mass' (m_eq) and 'drive' (inertias,"
+        " radii); 'teeth' and 'stiffness' required (or a 'gear' that gives teeth, stiffness and"
+        " their harmonics)"),
+        ("s.yaml:2: scene.speed: '(missing)' -- the speed must be swept (sweep.speed) or given"
+        " (scene.speed)")]
+
+
 def test_a_typo_in_kind_says_did_you_mean():
     assert _lines(GOOD.replace("kind: rattle", "kind: whin")) == [
         ("s.yaml:3: scene.kind: 'whin' -- did you mean 'whine'? (allowed: whine, rattle, full,"

@@ -153,25 +153,31 @@ class _Driven(Strict):
 
     @model_validator(mode="after")
     def _mass_and_force(self) -> _Driven:
+        # The independent problems of the scene at once, in one message (the file's line of
+        # the scene): a user fixing one at a time met them over several runs.
+        problems = []
         if (self.mass is None) == (self.drive is None):
-            raise ValueError("give exactly one of 'mass' (m_eq) and 'drive' (inertias, radii)")
+            problems.append("give exactly one of 'mass' (m_eq) and 'drive' (inertias, radii)")
         if self.mean_force is not None and self.torque is not None:
-            raise ValueError("give at most one of 'mean_force' and 'torque'")
+            problems.append("give at most one of 'mean_force' and 'torque'")
         if self.drive is not None and self.base_radius is not None:
-            raise ValueError("'base_radius' is already given by 'drive.base_radius_1'")
+            problems.append("'base_radius' is already given by 'drive.base_radius_1'")
         if self.drive is not None and self.gear is None:
             missing = [f"'drive.{f}'" for f in ("base_radius_1", "base_radius_2")
                        if getattr(self.drive, f) is None]
             if missing:
-                raise ValueError(f"{' and '.join(missing)} required (or a 'gear', which gives"
-                                 " the base radii)")
+                problems.append(f"{' and '.join(missing)} required (or a 'gear', which gives"
+                                " the base radii)")
+        if self.gear is None and self.excitation is None:
+            missing = [f"'{f}'" for f in ("teeth", "stiffness") if getattr(self, f) is None]
+            if missing:
+                problems.append(f"{' and '.join(missing)} required (or a 'gear' that gives"
+                                " teeth, stiffness and their harmonics)")
+        if problems:
+            raise ValueError("; ".join(problems))
         if self.excitation is not None:  # checked with the sweep (consistency_problems)
             return self
         if self.gear is None:
-            missing = [f"'{f}'" for f in ("teeth", "stiffness") if getattr(self, f) is None]
-            if missing:
-                raise ValueError(f"{' and '.join(missing)} required (or a 'gear' that gives"
-                                 " teeth, stiffness and their harmonics)")
             if self.harmonics is not None:
                 raise ValueError("'harmonics' is the number of Fourier terms of a 'gear'; no gear")
             return self
@@ -809,9 +815,15 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
 
 
 def _sweep_problems(raw: Any) -> list[Problem]:
-    """``grid_problems`` of the file's ``sweep:`` alone, when the study as a whole does not
-    validate (an error in the scene would otherwise hide those of the sweep)."""
+    """``grid_problems`` of the file's ``sweep:`` alone, and a speed given nowhere, when the
+    study as a whole does not validate (an error in the scene would otherwise hide those)."""
     sweep = raw.get("sweep") if isinstance(raw, dict) else None
+    scene = raw.get("scene") if isinstance(raw, dict) else None
+    if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full") \
+            and "speed" not in scene and not (isinstance(sweep, dict) and "speed" in sweep):
+        return [Problem("scene.speed", "(missing)",
+                        "the speed must be swept (sweep.speed) or given (scene.speed)"),
+                *_sweep_problems({"sweep": sweep})]
     if not isinstance(sweep, dict):
         return []
     try:
