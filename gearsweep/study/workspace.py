@@ -77,7 +77,8 @@ def check_partial(plan, out: str | Path) -> None:
         if folder.is_dir() and folder.name != mine and any(folder.glob(f"*{SUFFIX}")):
             n = sum(1 for _ in folder.glob(f"*{SUFFIX}"))
             raise BusyError(f"{out}: {root} holds {n} saved chunk(s) of another study (an"
-                            " interrupted run); finish it with that study, or remove"
+                            " interrupted run; the study is its file's text, so an edit, a"
+                            " comment too, makes another); finish it with that study, or remove"
                             f" {root} to start this one")
 
 
