@@ -295,16 +295,16 @@ def describe(path: str | Path) -> str:
     with ds:
         lines = [f"{path}: {ds.attrs.get('title', '(no title)')}"]
         if ds.attrs.get("scene") == "mesh":
-            lines.append(f"  made by {ds.attrs.get('history', '?')}; static mesh study,"
-                         f" {ds.attrs.get('positions', '?')} positions per mesh cycle")
+            lines.append(f"  static mesh study, {ds.attrs.get('positions', '?')} positions per"
+                         " mesh cycle")
         else:
-            lines.append(f"  made by {ds.attrs.get('history', '?')}; scene "
-                         f"{ds.attrs.get('scene', '?')}, {ds.attrs.get('method', '?')} at "
+            lines.append(f"  scene {ds.attrs.get('scene', '?')}, {ds.attrs.get('method', '?')} at "
                          f"{ds.attrs.get('steps_per_period', '?')} steps per mesh period, "
                          f"{ds.attrs.get('transient_periods', '?')} transient + "
                          f"{ds.attrs.get('record_periods', ds.attrs.get('recorded_periods', '?'))}"
                          " recorded periods")
-        lines.append("  swept:")
+        lines.append(f"  history: {ds.attrs.get('history', '?')}")
+        lines.append("  dimensions:")
         for d in ds.dims:
             c = ds[d] if d in ds.coords else None
             if c is not None and c.size and c.dtype.kind in "fi":
