@@ -67,9 +67,11 @@ def _check_writable(path: Path, study: str | None = None) -> None:
             and os.path.samefile(path, study):
         raise StudyError(str(path), "--output", str(path),
                          "another path than the study file's (the result would replace it)")
+    existing = folder  # folders still to be made are made by the run, not by this check (a
+    while not existing.exists() and existing != existing.parent:  # refused run left them)
+        existing = existing.parent
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=existing)
         os.close(fd)
         os.unlink(tmp)
     except OSError as exc:

@@ -288,8 +288,12 @@ BIG = RATTLE.replace("stop: 12000 rpm, num: 12}", "stop: 12000 rpm, num: 4000000
 
 
 def test_cli_refuses_a_huge_study_and_estimates_it(tmp_path, capsys):
+    """Refused in one line with its estimate, leaving nothing behind: no file, no checkpoint
+    folder, and no output folder made for it (the writability check made the folders first)."""
     study = tmp_path / "big.yaml"
     study.write_text(BIG, encoding="utf-8")
+    assert main(["run", str(study), "-o", str(tmp_path / "new" / "sub" / "big.nc")]) == 2
+    assert "refused" in capsys.readouterr().err and not (tmp_path / "new").exists()
     out = tmp_path / "big.nc"
     assert main(["run", str(study), "-o", str(out)]) == 2
     err = capsys.readouterr().err
