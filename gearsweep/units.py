@@ -330,8 +330,19 @@ def decimal_coordinates(values) -> np.ndarray:
     a ``{start, stop, num}`` range are rounded the same way; select those with
     ``method="nearest"``."""
     out = np.asarray(values, dtype=float)
-    return np.array([float(f"{v:.{COORDINATE_DIGITS}g}") for v in out.ravel()]
-                    ).reshape(out.shape)
+    flat = out.ravel().copy()
+    ok = np.isfinite(flat) & (flat != 0.0)
+    exp = np.zeros(flat.shape, dtype=int)
+    exp[ok] = np.floor(np.log10(np.abs(flat[ok]))).astype(int)
+    keep = COORDINATE_DIGITS - 1 - exp  # decimals kept; k = round(v 10^keep) has 14 digits
+    up = ok & (keep >= 0) & (keep <= 22)  # 10^keep is exact: k / 10^keep is the nearest double
+    down = ok & (keep < 0) & (keep >= -22)  # to the decimal k 10^-keep, as float("...") gives
+    p = 10.0 ** np.abs(np.clip(keep, -22, 22))
+    flat[up] = np.round(flat[up] * p[up]) / p[up]  # a tie in the 15th digit may round either way
+    flat[down] = np.round(flat[down] / p[down]) * p[down]
+    rest = ok & ~up & ~down  # beyond 1e-9 .. 1e35: by way of text (one number at a time)
+    flat[rest] = [float(f"{v:.{COORDINATE_DIGITS}g}") for v in flat[rest]]
+    return flat.reshape(out.shape)
 
 
 def from_display(values, kind: str):
