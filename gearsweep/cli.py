@@ -34,7 +34,14 @@ from gearsweep.study.estimate import (
 )
 from gearsweep.study.execute import DaskBackend, InProcess, check_limits, cores, run_to_file
 from gearsweep.study.plan import make_plan
-from gearsweep.study.schema import line_of, load_study, load_yaml, replaced_by_sweep, summary
+from gearsweep.study.schema import (
+    is_netcdf,
+    line_of,
+    load_study,
+    load_yaml,
+    replaced_by_sweep,
+    summary,
+)
 from gearsweep.study.workspace import OutputLock, check_partial, saved_chunks
 
 EXIT_USAGE = 2
@@ -335,15 +342,14 @@ def describe(path: str | Path) -> str:
 
 
 def _looks_like_study(path: Path) -> bool:
-    """A text file that starts like a study (netCDF/HDF5 files start with a binary magic)."""
+    """A text file that starts like a study (not a netCDF file, which starts with its magic)."""
+    if is_netcdf(path):
+        return False
     try:
         with open(path, "rb") as fh:
-            head = fh.read(4096)
+            text = fh.read(4096).decode("utf-8", "replace")
     except OSError:
         return False
-    if head.startswith((b"CDF", b"\x89HDF")):
-        return False
-    text = head.decode("utf-8", "replace")
     return any(line.split(":")[0].strip() in ("title", "scene", "type", "sweep")
                for line in text.splitlines() if ":" in line)
 

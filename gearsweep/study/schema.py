@@ -1017,12 +1017,12 @@ def read_text(path: str | Path) -> tuple[str, str]:
         return path.read_text(encoding="utf-8"), str(path)
     except (OSError, UnicodeDecodeError) as exc:
         why = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
-        if isinstance(exc, UnicodeDecodeError) and _is_netcdf(path):
+        if isinstance(exc, UnicodeDecodeError) and is_netcdf(path):
             why = "this is a netCDF result; 'gearsweep inspect' describes it"
         raise StudyError(str(path), "(file)", str(path), f"a study file in YAML ({why})") from None
 
 
-def _is_netcdf(path: Path) -> bool:
+def is_netcdf(path: Path) -> bool:
     """Whether ``path`` starts as a netCDF file does (classic ``CDF`` or HDF5-based)."""
     try:
         with open(path, "rb") as fh:
