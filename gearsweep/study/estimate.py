@@ -15,6 +15,7 @@ from pathlib import Path
 
 from gearsweep import kernels
 from gearsweep.kernels import LANES
+from gearsweep.study import execute
 from gearsweep.study.execute import (
     BASELINE_MEMORY,
     FIXED_SECONDS,
@@ -90,6 +91,12 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     return est, compile_s
 
 
+MAX_SPEEDUP = 4.0
+"""The most a machine's measured rate is taken to exceed the stated one (this 2-core AVX-512 VM:
+2.0-2.4x): a study whose stated kernel time is beyond that many times the limit is refused
+without measuring (and, on a cold cache, without compiling)."""
+
+
 def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
                     threads: int | None = None) -> tuple[Estimate, float]:
     """``est`` again at the rate measured on this machine, where the stated rate puts it over
@@ -98,9 +105,16 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
     The stated rate is a floor for any AVX2 machine: on this 2-core AVX-512 one the kernel runs
     about twice as fast, so a study of 3-5 minutes was refused as over 10. Measuring costs about
     0.3 s with a warm cache (``execute.measure_rate``), or the one-time compile with a cold one,
-    which the run would pay anyway; only a study that would otherwise be refused pays it."""
-    if "time" not in " ".join(est.over()):
-        return est, 0.0
+    which the run would pay anyway; only a study that would otherwise be refused for its time
+    alone, and that a faster rate could bring under the limit (``MAX_SPEEDUP``), pays it."""
+    over = est.over()
+    if over != [o for o in over if o.startswith("time")] or not over:
+        return est, 0.0  # within the limits, or refused for memory or output whatever the rate
+    s = plan.study.solver
+    kernel = est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE \
+        - compile_seconds(s.method, s.kink_aware)
+    if kernel / MAX_SPEEDUP > execute.LIMITS.seconds:
+        return est, 0.0  # no machine is that much faster: refused at once, nothing compiled
     rate = measure_rate(plan, threads or cores())
     return quick_estimate(plan, chunk_cases, threads, rate=rate)
 
