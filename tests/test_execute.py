@@ -174,6 +174,30 @@ def test_changed_study_does_not_reuse_chunks(tmp_path, monkeypatch):
     assert not chunk_folder(out).exists()  # the stale chunks of the first study went too
 
 
+def test_an_edit_that_changes_no_value_keeps_the_saved_chunks(tmp_path, monkeypatch):
+    """A comment added, the spacing and the order of keys changed: the same study (its key is
+    of the validated study, not of the text), so the chunks an interrupted run saved are used;
+    the result file keeps the new text. Changed values make another study (the test above)."""
+    log = tmp_path / "chunks.log"
+    monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
+    out = tmp_path / "r.nc"
+    plan = plan_of(RATTLE)
+    chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
+    with pytest.raises(Crash):
+        run_plan(plan, backend=CrashAfter(3), checkpoint=out, chunk_cases=CHUNK)
+    edited = "# the same study, commented\n" + RATTLE.replace("backlash: 0.2 mm",
+                                                             "backlash:    0.2 mm   # total")
+    plan2 = plan_of(edited)
+    assert plan2.text != plan.text and plan2.study_key == plan.study_key
+    assert plan_of(RATTLE.replace("backlash: 0.2 mm", "backlash: 0.3 mm")).study_key \
+        != plan.study_key
+    log.unlink()
+    ds = execute.run_to_file(plan2, out, chunk_cases=CHUNK)
+    assert read_log(log) == chunks[3:]  # the three saved chunks were used
+    assert ds.attrs["study"].startswith("# the same study, commented")
+    assert_same(ds, run_plan(plan2))  # bitwise the uninterrupted run of the edited study
+
+
 def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path, monkeypatch):
     """Chunk files cut short (in a header, in the last array: a process killed mid-write never
     leaves one, a machine that lost power can, as chunk files are not fsync'ed), left empty, or of
@@ -186,9 +210,7 @@ def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path,
     assert len(chunks) >= 6
     with pytest.raises(Crash):
         run_plan(plan, backend=CrashAfter(5), checkpoint=out, chunk_cases=CHUNK)
-    import hashlib
-
-    store = ChunkStore(out, hashlib.sha256(RATTLE.encode()).hexdigest(), plan.n_lanes, chunks)
+    store = ChunkStore(out, plan.study_key, plan.n_lanes, chunks)
     p0, p3 = store.path(*chunks[0]), store.path(*chunks[3])
     p0.write_bytes(p0.read_bytes()[:100])
     store.save(*chunks[1], {"status": np.zeros(3, np.int8)})

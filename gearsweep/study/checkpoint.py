@@ -1,10 +1,11 @@
 """Checkpoints of a running study: every finished chunk on disk, so a re-run resumes.
 
-Next to the output ``OUT.nc`` a run keeps ``OUT.nc.chunks/<study_sha256>/``:
+Next to the output ``OUT.nc`` a run keeps ``OUT.nc.chunks/<study_key>/`` (``Plan.study_key``: the
+sha256 of the study as validated, so a comment or spacing edited in its file keeps the chunks):
 
-* ``manifest.json``: the study's sha256, the gearsweep version, the number of lanes and the chunk
+* ``manifest.json``: the study's key, the gearsweep version, the number of lanes and the chunk
   layout (lane ranges). A folder whose manifest does not match the run (another layout, another
-  version) is emptied before use; a changed study has another sha256, hence another folder, and
+  version) is emptied before use; a changed study has another key, hence another folder, and
   never reads stale chunks.
 * ``chunk_<lane0>_<lane1>.npys``: the arrays ``run_chunk`` returned for lanes ``[lane0, lane1)``:
   one ``.npy`` record (NumPy's format, ``numpy.lib.format``) of their names, then one per array in
@@ -20,7 +21,7 @@ Next to the output ``OUT.nc`` a run keeps ``OUT.nc.chunks/<study_sha256>/``:
   2.5x the write itself, and the last chunk's write is not hidden behind a computing chunk.
 
 The result file itself is written as the chunks finish (``dataset.ResultFile``, in
-``OUT.nc.chunks/<study_sha256>/writing.nc`` until it is complete), by the same background thread
+``OUT.nc.chunks/<study_key>/writing.nc`` until it is complete), by the same background thread
 that saves the chunk files. An HDF5 file cut off mid-write is not trusted: a re-run of the same
 study to the same output checks the chunk files that are there (``ChunkStore.records``: shapes
 and dtypes from the headers, without reading the data), computes only the missing chunks, writes
@@ -48,8 +49,9 @@ from gearsweep.files import atomic_write
 MANIFEST = "manifest.json"
 SUFFIX = ".npys"
 """Chunk files: ``chunk_<lane0>_<lane1>.npys``."""
-FORMAT = 2
-"""Version of the folder layout (bump when chunk files change meaning)."""
+FORMAT = 3
+"""Version of the folder layout (bump when chunk files change meaning; 3: folders named by the
+study's key, no longer by the sha256 of its text)."""
 
 
 def chunk_folder(output: str | Path) -> Path:
@@ -59,27 +61,27 @@ def chunk_folder(output: str | Path) -> Path:
 
 
 class ChunkStore:
-    """The chunk files of one study (by sha256) written to one output.
+    """The chunk files of one study (by its key) written to one output.
 
     Parameters
     ----------
     output : path
         The result file the study writes (the checkpoints live in ``<output>.chunks``).
-    study_sha256 : str
-        Hex digest of the study text; the folder's name.
+    study_key : str
+        ``Plan.study_key`` (sha256 of the study as validated); the folder's name.
     n_lanes : int
         Lanes of the study (see ``gearsweep.study.plan``).
     chunks : list of (int, int)
         Lane ranges ``[lane0, lane1)`` of the chunks, in order.
     """
 
-    def __init__(self, output: str | Path, study_sha256: str, n_lanes: int,
+    def __init__(self, output: str | Path, study_key: str, n_lanes: int,
                  chunks: list[tuple[int, int]]) -> None:
         self.root = chunk_folder(output)
-        self.folder = self.root / study_sha256
+        self.folder = self.root / study_key
         self.manifest = {
             "format": FORMAT,
-            "study_sha256": study_sha256,
+            "study_key": study_key,
             "gearsweep_version": __version__,
             "n_lanes": int(n_lanes),
             "chunks": [[int(a), int(b)] for a, b in chunks],

@@ -25,7 +25,6 @@ before a run; ``check_limits`` refuses a study beyond ``LIMITS`` unless confirme
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import math
 import os
@@ -438,7 +437,7 @@ class DaskBackend:
         procs = self._procs_per_host()
         self.kernel_seconds = 0.0
         window = 2 * sum(procs.values()) + 2  # keeps every worker busy, bounds memory in flight
-        sha = hashlib.sha256(plan.text.encode()).hexdigest()[:16]
+        sha = plan.study_key[:16]
         pending = iter(todo)
         where: dict[str, tuple[int, int]] = {}
         queue = as_completed()
@@ -489,8 +488,7 @@ def _open_store(plan: Plan, checkpoint: str | Path | None, chunks: list[tuple[in
     study is removed, so that it is computed again."""
     if checkpoint is None:
         return None, []
-    sha = hashlib.sha256(plan.text.encode()).hexdigest()
-    store = ChunkStore(checkpoint, sha, plan.n_lanes, chunks)
+    store = ChunkStore(checkpoint, plan.study_key, plan.n_lanes, chunks)
     done = []
     for a, b in store.open():
         try:

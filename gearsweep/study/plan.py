@@ -145,6 +145,17 @@ class Plan:
         return bool(self.directions)
 
     @property
+    def study_key(self) -> str:
+        """sha256 of the study as validated (its fields as JSON, keys sorted): the name of its
+        checkpoint folder. An edit of the file that leaves every value as it was (a comment, the
+        spacing, the order of keys) keeps the chunks saved by an interrupted run; a changed value,
+        the title included, makes another study. (``study_sha256`` in a result is of the text.)"""
+        import json
+
+        dump = json.dumps(self.study.model_dump(mode="json"), sort_keys=True)
+        return hashlib.sha256(dump.encode()).hexdigest()
+
+    @property
     def has_backlash(self) -> bool:
         return isinstance(self.model, MeshModel) and (self.model.backlash > 0
                                                        or "backlash" in self.grids)

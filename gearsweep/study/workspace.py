@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import os
 from pathlib import Path
 
@@ -64,7 +63,7 @@ class OutputLock:
 
 
 def _sha(plan) -> str:
-    return hashlib.sha256(plan.text.encode()).hexdigest()
+    return plan.study_key
 
 
 def check_partial(plan, out: str | Path) -> None:
@@ -77,9 +76,8 @@ def check_partial(plan, out: str | Path) -> None:
         if folder.is_dir() and folder.name != mine and any(folder.glob(f"*{SUFFIX}")):
             n = sum(1 for _ in folder.glob(f"*{SUFFIX}"))
             raise BusyError(f"{out}: {root} holds {n} saved chunk(s) of another study (an"
-                            " interrupted run; the study is its file's text, so an edit, a"
-                            " comment too, makes another); finish it with that study, or remove"
-                            f" {root} to start this one")
+                            " interrupted run of a study with other values); finish it with that"
+                            f" study, or remove {root} to start this one")
 
 
 def saved_chunks(plan, out: str | Path, chunk_cases: int | None = None) -> tuple[int, int]:
