@@ -15,6 +15,7 @@ number the kernel used, SI), the solver settings and the package version: ``resu
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from pathlib import Path
 
 import xarray as xr
@@ -43,10 +44,13 @@ def load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
         The one line the CLI prints for the same input.
     """
     if isinstance(study, Study | MeshStudy | AnalysisStudy):
+        text = getattr(study, "source_text", None)
+        if text is not None and _parses_to(text, study):  # the text it was read from, with its
+            return study, text  # units and comments (result_study's, say), if still the same
         return study, yaml.safe_dump(study.model_dump(mode="json", exclude_none=True),
                                      sort_keys=False)
     if isinstance(study, dict):
-        text = yaml.safe_dump(study, sort_keys=False)
+        text = yaml.safe_dump(_plain(study, "(study)"), sort_keys=False)
         return parse_study(text, "<dict>"), text
     if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study
                                    and study.strip().endswith((".yaml", ".yml"))):
@@ -55,6 +59,37 @@ def load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
         return parse_study(study, "<text>"), study
     raise StudyError("<study>", "(study)", type(study).__name__,
                      "a path, YAML text, a dict or a gearsweep Study")
+
+
+def _parses_to(text: str, study) -> bool:
+    """Whether ``text`` validates to ``study`` (a study changed after it was read does not)."""
+    try:
+        return parse_study(text, "<study>") == study
+    except StudyError:
+        return False
+
+
+def _plain(value, where: str):
+    """``value`` with the containers and numbers a user builds a study from in Python (numpy
+    scalars and arrays, tuples, ``Path``, other mappings) as YAML's plain types; anything else
+    is one ``StudyError`` naming the field."""
+    import numpy as np
+
+    if isinstance(value, str | bool | int | float) or value is None:
+        return value
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value.tolist())]
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v, f"{where}.{k}" if where != "(study)" else str(k))
+                for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    raise StudyError("<dict>", where, repr(value)[:60],
+                     "a number, a string with units (e.g. '5 N m'), a list or a mapping")
 
 
 def run_unchunked(study: MeshStudy | AnalysisStudy, text: str = "",
@@ -128,16 +163,25 @@ def open_result(path: str | Path) -> xr.Dataset:
     return ds
 
 
-def result_model(ds: xr.Dataset) -> MeshModel | MathieuModel:
-    """The resolved model a dynamic result was computed with (every number in SI)."""
-    if "model" not in ds.attrs:
+def result_model(ds: xr.Dataset | str | Path) -> MeshModel | MathieuModel:
+    """The resolved model a dynamic result (a Dataset, or a result file's path) was computed
+    with (every number in SI)."""
+    if isinstance(ds, str | Path):
+        ds = open_result(ds)
+    if not isinstance(ds, xr.Dataset) or "model" not in ds.attrs:
         raise ResultError("this result carries no resolved model (a mesh study, or written by an"
                           " older gearsweep)")
     return model_from_record(json.loads(ds.attrs["model"]))
 
 
-def result_study(ds: xr.Dataset) -> Study | MeshStudy:
-    """The study a result was computed from (validated again from the text it carries)."""
+def result_study(ds: xr.Dataset | str | Path) -> Study | MeshStudy:
+    """The study a result (a Dataset, or a result file's path) was computed from, validated again
+    from the text it carries; ``run`` of it runs that text."""
+    if isinstance(ds, str | Path):
+        ds = open_result(ds)
+    if not isinstance(ds, xr.Dataset) or "study" not in ds.attrs:
+        raise ResultError("not a gearsweep result (no 'study' attribute): give the Dataset of"
+                          " gearsweep.run or open_result, or a result file's path")
     return parse_study(ds.attrs["study"], "<result>")
 
 

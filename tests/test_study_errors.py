@@ -94,6 +94,19 @@ def test_a_bare_scene_gets_every_missing_field_at_once():
         " (scene.speed)")]
 
 
+def test_a_torque_fluctuation_needs_a_base_radius():
+    """Without scene.base_radius, drive or gear, a torque amplitude cannot become a force (F = T
+    / r1): refused in one line; it was accepted and every case came out 'diverged' (NaN)."""
+    text = GOOD.replace("mean_force: 100 N\n",
+                        "mean_force: 100 N\n  fluctuation: [{amplitude: 5 N m, order: 1}]\n")
+    assert _lines(text) == [
+        ("s.yaml:9: scene.fluctuation[0].amplitude: '5 N m' -- a force (e.g. '300 N'), or give"
+        " scene.base_radius or scene.drive for a torque amplitude: F = T / r1")]
+    parse_study(text.replace("5 N m", "300 N"), "s.yaml")
+    parse_study(text.replace("mean_force: 100 N", "mean_force: 100 N\n  base_radius: 30 mm"),
+                "s.yaml")
+
+
 def test_a_typo_in_kind_says_did_you_mean():
     assert _lines(GOOD.replace("kind: rattle", "kind: whin")) == [
         ("s.yaml:3: scene.kind: 'whin' -- did you mean 'whine'? (allowed: whine, rattle, full,"

@@ -21,7 +21,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from gearsweep.study.quantities import Speed, Strict
+from gearsweep.study.quantities import Speed, Strict, WholeStudy
 
 Method = Literal["rk4", "rk5"]
 
@@ -177,7 +177,7 @@ AnalysisSpec = Annotated[MethodStability | WorkPrecision | ArtifactMap | RattleB
 """The ``analysis:`` mapping of an analysis study."""
 
 
-class AnalysisStudy(Strict):
+class AnalysisStudy(WholeStudy):
     """An analysis study: a title and one ``analysis`` (see the kinds above)."""
 
     type: Literal["analysis"]

@@ -9,7 +9,7 @@ import math
 from functools import partial
 from typing import Annotated, Any
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict
+from pydantic import BaseModel, BeforeValidator, ConfigDict, PrivateAttr
 
 from gearsweep.units import QuantityKind, UnitParseError, to_si
 
@@ -39,3 +39,15 @@ class Strict(BaseModel):
     """A study model: unknown keys and non-finite numbers are errors; frozen once validated."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class WholeStudy(Strict):
+    """A whole study (dynamic, mesh or analysis): also the YAML text it was validated from, if
+    any (``source_text``, set by ``schema.parse_study``), so that running it again runs that
+    text, with its units and comments."""
+
+    _source_text: str | None = PrivateAttr(default=None)
+
+    @property
+    def source_text(self) -> str | None:
+        return self._source_text

@@ -78,6 +78,7 @@ from gearsweep.study.quantities import (
     Stiffness,
     Strict,
     Torque,
+    WholeStudy,
 )
 from gearsweep.units import UnitParseError, decimal_coordinates, to_display, to_si
 
@@ -107,6 +108,15 @@ class SteHarmonic(Strict):
     order: float | None = Field(None, gt=0, allow_inf_nan=False,
                                 description="mesh order (default: position + 1)")
     phase: Angle = Field(0.0, description="phase")
+
+
+def _is_torque(value: Any) -> bool:
+    """Whether a fluctuation amplitude is a torque (it does not read as a force)."""
+    try:
+        to_si(value, "force")
+    except (ValueError, UnitParseError):
+        return True
+    return False
 
 
 class Fluctuation(Strict):
@@ -310,7 +320,7 @@ class OutputRequest(Strict):
     options: dict[str, Any] = Field(default_factory=dict)
 
 
-class Study(Strict):
+class Study(WholeStudy):
     title: str = Field(min_length=1)
     description: str = ""
     scene: Scene
@@ -393,6 +403,13 @@ def consistency_problems(study: Study) -> list[Problem]:
         elif ("torque" in study.sweep or sc.torque is not None) and sc.r1 is None:
             out.append(Problem("scene.base_radius", "(missing)", "a torque needs the driving"
                                " gear's base radius: scene.base_radius or scene.drive"))
+        elif sc.r1 is None and sc.drive is None:
+            for i, f in enumerate(getattr(sc, "fluctuation", [])):
+                if _is_torque(f.amplitude):  # Eq. (7) needs r1 (and the drive's inertia)
+                    out.append(Problem(f"scene.fluctuation[{i}].amplitude", f.amplitude,
+                                       "a force (e.g. '300 N'), or give scene.base_radius or"
+                                       " scene.drive for a torque amplitude: F = T / r1"))
+                    break
         out += [Problem(*p) for p in excitation_problems(sc, study.sweep)]
         if "torque" in study.sweep and "mean_force" in study.sweep:
             out.append(Problem("sweep.mean_force", NO_VALUE, "sweep torque or mean_force, not both"))
@@ -854,6 +871,7 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | Analysi
         raise StudyError.many(file, duplicates).joined(exc) from None
     if duplicates:
         raise StudyError.many(file, duplicates)
+    study._source_text = text
     return study
 
 
@@ -931,7 +949,7 @@ def _check_gear(study: Study, file: str, raw=None) -> None:
 # --------------------------------------------------------------------------- mesh studies
 
 
-class MeshStudy(Strict):
+class MeshStudy(WholeStudy):
     """A static mesh study: gear pair(s) x torque(s) -> mesh cycle, Fourier series."""
 
     type: Literal["mesh"]
