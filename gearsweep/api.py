@@ -132,6 +132,12 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     xarray.Dataset
         In memory; the same variables, coordinates and attributes as the file the CLI writes.
     """
+    if output is not None and not isinstance(output, str | Path):
+        raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
+    if chunk_cases is not None and (isinstance(chunk_cases, bool)
+                                    or not isinstance(chunk_cases, int) or chunk_cases < 1):
+        raise StudyError("<study>", "chunk_cases", repr(chunk_cases)[:60],
+                         "a positive whole number of cases")
     st, text = load(study)
     if isinstance(st, MeshStudy | AnalysisStudy):
         ds = run_unchunked(st, text, Path(output).parent if output is not None else "results")

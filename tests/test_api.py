@@ -130,3 +130,16 @@ def test_open_result_refuses_a_study_and_a_missing_file(write_study, small_whine
         gearsweep.open_result(write_study(small_whine))
     with pytest.raises(ResultError, match="no such"):
         gearsweep.open_result(tmp_path / "nope.nc")
+
+
+def test_bad_output_and_chunk_cases_from_python_are_one_line(small_whine):
+    """From Python as from the CLI: an output that cannot be written, or not a path, and a chunk
+    size that is not a positive whole number are one line (an OS error from deep inside, or a
+    silent run, before)."""
+    with pytest.raises(ResultError, match=r"/proc/x\.nc: cannot write the result here"):
+        gearsweep.run(small_whine, output="/proc/x.nc")
+    for kw, field in ((dict(output=5), "output"), (dict(chunk_cases=0), "chunk_cases"),
+                      (dict(chunk_cases=2.5), "chunk_cases"), (dict(chunk_cases=True), "chunk_cases")):
+        with pytest.raises(StudyError, match=field) as err:
+            gearsweep.run(small_whine, **kw)
+        assert "\n" not in str(err.value)

@@ -107,6 +107,18 @@ def test_a_torque_fluctuation_needs_a_base_radius():
                 "s.yaml")
 
 
+def test_a_range_of_equal_values_is_refused():
+    """``{start: 1 N s/mm, stop: 1 N s/mm, num: 3}`` gave three equal coordinates that sel()
+    could not tell apart (as a value listed twice, which is refused); one value with num 1 is
+    fine."""
+    text = GOOD.replace("speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                        "speed: {start: 5000 rpm, stop: 5000 rpm, num: 3}")
+    assert _lines(text) == [
+        ("s.yaml:10: sweep.speed.stop: '5000 rpm' -- a stop above start ('5000 rpm'): 3 equal"
+        " values could not be told apart by ds.sel(); one value is [value]")]
+    parse_study(text.replace("num: 3", "num: 1"), "s.yaml")
+
+
 def test_a_typo_in_kind_says_did_you_mean():
     assert _lines(GOOD.replace("kind: rattle", "kind: whin")) == [
         ("s.yaml:3: scene.kind: 'whin' -- did you mean 'whine'? (allowed: whine, rattle, full,"

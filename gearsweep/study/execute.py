@@ -41,7 +41,7 @@ from urllib.parse import urlparse
 
 import numpy as np
 
-from gearsweep.errors import ClusterError, LimitError
+from gearsweep.errors import ClusterError, LimitError, ResultError
 from gearsweep.files import check_replaceable
 from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
@@ -638,7 +638,11 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     """
     check_replaceable(output)  # before any computing
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
-    store, done = _open_store(plan, output, chunks)
+    try:
+        store, done = _open_store(plan, output, chunks)
+    except OSError as exc:  # the folder cannot be made or written (/proc/x.nc, read-only)
+        raise ResultError(f"{output}: cannot write the result here"
+                          f" ({exc.strerror or type(exc).__name__})") from None
     todo = [c for c in chunks if c not in done]
     per_lane = plan.chain * max(len(plan.directions), 1)
     elapsed, kernel, file = _compute(

@@ -489,7 +489,11 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
                 seen[val] = key
         if is_range and len(values) == 2:
             a, b = values
-            if spec.spacing == "log" and (a <= 0 or b <= 0):
+            if a == b and spec.num > 1:
+                out.append(Problem(f"sweep.{name}.stop", spec.stop, f"a stop above start"
+                                   f" ({spec.start!r}): {spec.num} equal values could not be told"
+                                   " apart by ds.sel(); one value is [value]"))
+            elif spec.spacing == "log" and (a <= 0 or b <= 0):
                 out.append(Problem(f"sweep.{name}", NO_VALUE,
                                    "log spacing needs positive start and stop"))
             elif with_order and a > b:
