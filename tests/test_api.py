@@ -143,3 +143,23 @@ def test_bad_output_and_chunk_cases_from_python_are_one_line(small_whine):
         with pytest.raises(StudyError, match=field) as err:
             gearsweep.run(small_whine, **kw)
         assert "\n" not in str(err.value)
+
+
+def test_a_response_that_has_died_away_is_settled():
+    """A free vibration with nothing driving it decays to round-off (p_pp about 1e-16 m): its
+    settle_error is round-off over round-off (0.7 here), and it was flagged 'not settled'
+    (status 2); below 1e-9 of the static scale it is settled. The same scene driven by a mean
+    force, lightly damped, keeps its ordinary settle test (one transient period: flagged)."""
+    free = {"title": "free", "scene": {"kind": "whine", "mass": "0.1527 kg", "teeth": 48,
+                                       "stiffness": "1073 kN/mm", "damping": "5.5 N s/mm",
+                                       "mean_force": "0 N", "speed": "2000 rpm"},
+            "solver": {"steps_per_period": 32, "transient_periods": 40, "record_periods": 10,
+                       "initial_displacement": "1 um"}}
+    ds = gearsweep.run(free)
+    assert ds.settle_error.item() > 0.05 and ds.status.item() == 0
+    assert ds.p_pp.item() < 1e-9  # um
+    driven = {**free, "scene": {**free["scene"], "damping": "0.05 N s/mm", "mean_force": "1000 N",
+                                "stiffness_harmonics": [{"amplitude": "179 kN/mm"}]},
+              "solver": {**free["solver"], "transient_periods": 1, "record_periods": 4,
+                         "initial_displacement": "50 um"}}
+    assert gearsweep.run(driven).status.item() == 2  # light damping, one transient period
