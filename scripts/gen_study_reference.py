@@ -128,7 +128,8 @@ def _bounds(field) -> str:
             if v is not None and isinstance(m, annotated_types.BaseMetadata):
                 out.append(f"{sym} {v:g}" if isinstance(v, float) else f"{sym} {v}")
         if getattr(m, "min_length", None):
-            out.append(f"at least {m.min_length} character(s)")
+            what = "character(s)" if field.annotation is str else "value(s)"
+            out.append(f"at least {m.min_length} {what}")
     return ", ".join(out)
 
 
@@ -210,6 +211,7 @@ def _variable_rows() -> list[str]:
     units, long_name = VARIABLES["status"]
     rows.append(f"| (always) | `status` | {units} | - | {_cell(long_name)} |")
     for name, (units, long_name) in MESH_VARIABLES.items():
+        units = KINDS[units].cf if units in KINDS else units  # a kind: the unit the file holds
         rows.append(f"| (type: mesh) | `{name}` | {units} | - | {_cell(long_name)} |")
     return rows
 
