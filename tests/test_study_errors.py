@@ -119,6 +119,17 @@ def test_a_range_of_equal_values_is_refused():
     parse_study(text.replace("num: 3", "num: 1"), "s.yaml")
 
 
+def test_a_quantity_or_a_word_field_says_what_was_wrong_with_the_quantity():
+    """solver.initial_displacement is a displacement or 'static': a bare number or a mass got
+    "Input should be 'static'" (the word's branch); now the quantity's message, and the word."""
+    text = GOOD.replace("method: rk4,", "method: rk4, initial_displacement: 2.0,")
+    assert _lines(text) == [("s.yaml:11: solver.initial_displacement: 2 has no unit; write e.g."
+                            " '2 um' (or 'static')")]
+    assert _lines(text.replace("2.0", "2 kg")) == [
+        ("s.yaml:11: solver.initial_displacement: '2 kg' -- has units of [mass], expected"
+        " displacement (e.g. '1 um') (or 'static')")]
+
+
 def test_a_typo_in_kind_says_did_you_mean():
     assert _lines(GOOD.replace("kind: rattle", "kind: whin")) == [
         ("s.yaml:3: scene.kind: 'whin' -- did you mean 'whine'? (allowed: whine, rattle, full,"

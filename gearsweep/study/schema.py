@@ -791,6 +791,11 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
                 (q[:len(path)] == path and q != path) or (q == path and not _is_branch_mismatch(f))
                 for q, f in errs):
             continue
+        kept = by_path.get(path)
+        if kept is not None and kept["type"] == "literal_error" and e["type"] == "value_error":
+            # a quantity or a word ('static'): the quantity's message says what was wrong
+            by_path[path] = {**e, "or_literal": kept.get("ctx", {}).get("expected", "")}
+            continue
         by_path.setdefault(path, e)
     out = []
     for path, e in by_path.items():
@@ -831,6 +836,8 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             msg = "a finite number (not nan or inf)"
         elif "has no unit" in msg:
             value = NO_VALUE
+        if e.get("or_literal"):
+            msg += f" (or {e['or_literal']})"
         out.append(Problem(_loc(parts), value, msg))
     return out
 
