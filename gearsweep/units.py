@@ -357,6 +357,10 @@ def si_values(da) -> np.ndarray:
     """The values of a result's coordinate or variable in SI, read through its ``units``
     attribute: a display unit of a known kind (``mm``, ``N s mm-1``, ``kN mm-1``, ``um``, ...)
     is converted, anything else (an SI or dimensionless unit) is returned as it is."""
+    if not hasattr(da, "attrs") or not hasattr(da, "dims") or hasattr(da, "data_vars"):
+        raise TypeError(f"si_values takes one variable or coordinate of a result (ds.p_rms,"
+                        f" ds.backlash), not a {type(da).__name__}; a whole Dataset:"
+                        " si_data_vars(ds)")
     units = da.attrs.get("units")
     values = np.asarray(da.values)
     for kind in KINDS.values():
@@ -374,6 +378,9 @@ def si_data_vars(ds):
     """``ds`` (a result Dataset) with every data variable stored in a display unit (p in um,
     stiffness in kN/mm, ...) converted to SI, its ``units`` attribute saying so; coordinates
     are left in their display units. For code that computes in SI; idempotent."""
+    if not hasattr(ds, "data_vars"):
+        raise TypeError(f"si_data_vars takes a result Dataset, not a {type(ds).__name__}; one"
+                        " variable: si_values(ds.p_rms)")
     out = ds.copy()
     for name in ds.data_vars:
         da = ds[name]

@@ -210,3 +210,20 @@ def test_the_kept_unit_factors_give_pints_numbers(kind):
     with pytest.raises(UnitParseError, match="expected"):
         to_si("3 mm", "stiffness")  # a wrong unit still gets pint's message
     assert to_si("200*32/48 rpm", "speed") == pytest.approx(133.333333333)  # arithmetic: pint
+
+
+def test_si_helpers_refuse_the_wrong_kind_of_object():
+    """si_values of a whole Dataset returned a bound method wrapped in an array (an outside
+    reader's finding); each helper now names the other for the other kind of object."""
+    import xarray as xr
+
+    from gearsweep.units import si_data_vars, si_values
+
+    ds = xr.Dataset({"p_rms": ("x", [1.0], {"units": "um"})}, coords={"x": [0.0]})
+    assert si_values(ds.p_rms)[0] == pytest.approx(1e-6)
+    with pytest.raises(TypeError, match="si_data_vars"):
+        si_values(ds)
+    with pytest.raises(TypeError, match="si_data_vars"):
+        si_values(np.array([1.0]))
+    with pytest.raises(TypeError, match=r"si_values\(ds\.p_rms\)"):
+        si_data_vars(ds.p_rms)
