@@ -136,14 +136,21 @@ def test_chunking_does_not_change_results(rattle_reference):
     assert (rattle_reference["status"] != 3).all()
 
 
-def test_resume_after_crash_computes_only_missing_chunks(rattle_reference, tmp_path, monkeypatch):
+def _interrupted(tmp_path: Path, monkeypatch, crash_after: int):
+    """(chunk log, output, plan, chunks) after a checkpointed run of RATTLE that crashed after
+    ``crash_after`` chunks."""
     log = tmp_path / "chunks.log"
     monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
     out = tmp_path / "r.nc"
     plan = plan_of(RATTLE)
     chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
     with pytest.raises(Crash):
-        run_plan(plan, backend=CrashAfter(3), checkpoint=out, chunk_cases=CHUNK)
+        run_plan(plan, backend=CrashAfter(crash_after), checkpoint=out, chunk_cases=CHUNK)
+    return log, out, plan, chunks
+
+
+def test_resume_after_crash_computes_only_missing_chunks(rattle_reference, tmp_path, monkeypatch):
+    log, out, plan, chunks = _interrupted(tmp_path, monkeypatch, 3)
     first = read_log(log)
     assert first == chunks[:3]
     folder = chunk_folder(out)
@@ -175,16 +182,10 @@ def test_changed_study_does_not_reuse_chunks(tmp_path, monkeypatch):
 
 
 def test_an_edit_that_changes_no_value_keeps_the_saved_chunks(tmp_path, monkeypatch):
-    """A comment added, the spacing and the order of keys changed: the same study (its key is
-    of the validated study, not of the text), so the chunks an interrupted run saved are used;
-    the result file keeps the new text. Changed values make another study (the test above)."""
-    log = tmp_path / "chunks.log"
-    monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
-    out = tmp_path / "r.nc"
-    plan = plan_of(RATTLE)
-    chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
-    with pytest.raises(Crash):
-        run_plan(plan, backend=CrashAfter(3), checkpoint=out, chunk_cases=CHUNK)
+    """A comment added and the spacing changed: the same study (its key is of the validated
+    study, not of the text), so the chunks an interrupted run saved are used; the result file
+    keeps the new text. Changed values make another study (the test above)."""
+    log, out, plan, chunks = _interrupted(tmp_path, monkeypatch, 3)
     edited = "# the same study, commented\n" + RATTLE.replace("backlash: 0.2 mm",
                                                              "backlash:    0.2 mm   # total")
     plan2 = plan_of(edited)
