@@ -43,20 +43,25 @@ def load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
     StudyError, GeometryError
         The one line the CLI prints for the same input.
     """
+    return _load(study)[:2]
+
+
+def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str]:
+    """``load``, and the name its errors are reported under (the file's path, ``<dict>``...)."""
     if isinstance(study, Study | MeshStudy | AnalysisStudy):
         text = getattr(study, "source_text", None)
         if text is not None and _parses_to(text, study):  # the text it was read from, with its
-            return study, text  # units and comments (result_study's, say), if still the same
+            return study, text, "<study>"  # units and comments (result_study's, say), if the same
         return study, yaml.safe_dump(study.model_dump(mode="json", exclude_none=True),
-                                     sort_keys=False)
+                                     sort_keys=False), "<study>"
     if isinstance(study, dict):
         text = yaml.safe_dump(_plain(study, "(study)"), sort_keys=False)
-        return parse_study(text, "<dict>"), text
+        return parse_study(text, "<dict>"), text, "<dict>"
     if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study
                                    and study.strip().endswith((".yaml", ".yml"))):
-        return load_study(study)
+        return (*load_study(study), str(study))
     if isinstance(study, str):
-        return parse_study(study, "<text>"), study
+        return parse_study(study, "<text>"), study, "<text>"
     raise StudyError("<study>", "(study)", type(study).__name__,
                      "a path, YAML text, a dict or a gearsweep Study")
 
@@ -138,17 +143,16 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
                                     or not isinstance(chunk_cases, int) or chunk_cases < 1):
         raise StudyError("<study>", "chunk_cases", repr(chunk_cases)[:60],
                          "a positive whole number of cases")
-    st, text = load(study)
+    st, text, name = _load(study)
     if isinstance(st, MeshStudy | AnalysisStudy):
         ds = run_unchunked(st, text, Path(output).parent if output is not None else "results")
         if output is not None:
             write_netcdf(ds, output)
         return ds
+    plan = make_plan(st, text, name)
     if output is None:
-        return run_plan(make_plan(st, text), backend=InProcess(), progress=progress,
-                        chunk_cases=chunk_cases)
-    with run_to_file(make_plan(st, text), output, chunk_cases=chunk_cases,
-                     progress=progress) as lazy:
+        return run_plan(plan, backend=InProcess(), progress=progress, chunk_cases=chunk_cases)
+    with run_to_file(plan, output, chunk_cases=chunk_cases, progress=progress) as lazy:
         return lazy.load()
 
 

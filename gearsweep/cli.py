@@ -36,9 +36,7 @@ from gearsweep.study.execute import DaskBackend, InProcess, check_limits, cores,
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import (
     is_netcdf,
-    line_of,
     load_study,
-    load_yaml,
     replaced_by_sweep,
     summary,
 )
@@ -89,17 +87,8 @@ def _check_writable(path: Path, study: str | None = None) -> None:
 
 
 def _plan(make_plan, study, text: str, path: str):
-    """``make_plan``, with a problem it finds (steps per period versus the outputs' sampling)
-    reported under the file's name and line, like the schema's own."""
-
-    try:
-        return make_plan(study, text)
-    except StudyError as exc:
-        if exc.file != "<study>":
-            raise
-        name = "<stdin>" if path == "-" else path
-        raise StudyError(name, exc.field, exc.value, exc.allowed,
-                         line_of(load_yaml(text, name), exc.field)) from None
+    """``make_plan`` with its problems reported under the study file's name and line."""
+    return make_plan(study, text, "<stdin>" if path == "-" else path)
 
 
 def _summary(study, plan, est_line: str) -> str:

@@ -30,7 +30,7 @@ from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
 from gearsweep.study.measured import scene_measured, typed_harmonics
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
-from gearsweep.study.schema import Study, first_load
+from gearsweep.study.schema import Study, first_load, line_of, load_yaml
 from gearsweep.units import to_si
 
 STATUS_NOT_SETTLED = 2
@@ -229,8 +229,21 @@ class Plan:
         return [(a, min(a + lanes_per_chunk, n)) for a in range(0, n, lanes_per_chunk)]
 
 
-def make_plan(study: Study, text: str = "") -> Plan:
-    """Grids, dims and output specs of a study (nothing is integrated yet)."""
+def make_plan(study: Study, text: str = "", file: str | None = None) -> Plan:
+    """Grids, dims and output specs of a study (nothing is integrated yet).
+
+    A problem found here (steps per period against the outputs' sampling, an output's options)
+    is reported under ``file`` and the line of its field in ``text``, like the schema's own."""
+    try:
+        return _make_plan(study, text)
+    except StudyError as exc:
+        if exc.file != "<study>" or file is None or not text:
+            raise
+        raise StudyError(file, exc.field, exc.value, exc.allowed,
+                         line_of(load_yaml(text, file), exc.field)) from None
+
+
+def _make_plan(study: Study, text: str) -> Plan:
     dims = list(study.sweep)
     grids = {d: study.grid(d) for d in dims}
     if study.scene.kind != "mathieu" and "speed" not in grids:
