@@ -22,6 +22,7 @@ import numpy as np
 from gearsweep import __version__
 from gearsweep.analysis.advise import advise
 from gearsweep.errors import NO_VALUE, GearsweepError, ResultError, StudyError
+from gearsweep.files import replace_problem
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
 from gearsweep.study.estimate import (
@@ -58,16 +59,13 @@ def _check_writable(path: Path, study: str | None = None) -> None:
     file being run."""
 
     folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise StudyError(str(path), "--output", str(path), "a file path, not a folder")
+    problem = replace_problem(path)
+    if problem is not None:
+        raise StudyError(str(path), "--output", str(path), problem)
     for above in path.parents:
         if above.exists() and not above.is_dir():
             raise StudyError(str(path), "--output", str(path),
                              f"a path in a folder ({above} is a file)")
-    if path.exists() and not path.is_file():
-        raise StudyError(str(path), "--output", str(path),
-                         "a regular file or a new path (this is a device, a pipe or a socket,"
-                         " which the result would replace)")
     if study not in (None, "-") and path.exists() and Path(study).exists() \
             and os.path.samefile(path, study):
         raise StudyError(str(path), "--output", str(path),
@@ -86,7 +84,7 @@ def _check_writable(path: Path, study: str | None = None) -> None:
         raise StudyError(str(path), "--output", str(path), "a writable path (permission denied)")
 
 
-def _plan(make_plan, study, text: str, path: str):
+def _plan(study, text: str, path: str):
     """``make_plan`` with its problems reported under the study file's name and line."""
     return make_plan(study, text, "<stdin>" if path == "-" else path)
 
@@ -118,7 +116,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if getattr(study, "type", None) == "analysis":
         print(f"{name}: ok -- analysis study {study.analysis.kind!r}")
         return 0
-    plan = _plan(make_plan, study, text, args.study)
+    plan = _plan(study, text, args.study)
     est, compile_s = quick_estimate(plan)
     if not args.yes:  # validate refuses what run refuses (without --yes)
         est, compile_s = before_refusing(plan, est)
@@ -192,7 +190,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         study = study.model_copy(update={"solver": study.solver.model_copy(
             update={"device": args.device})})
     kernel_for(study.solver.device, study.solver.precision)  # no GPU: one line, exit 2, now
-    plan = _plan(make_plan, study, text, args.study)
+    plan = _plan(study, text, args.study)
     if args.chunk_size is not None and args.chunk_size < 1:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
     if args.workers is not None and args.workers < 1:
@@ -353,7 +351,7 @@ def cmd_advise(args: argparse.Namespace) -> int:
     if getattr(study, "type", None) in ("mesh", "analysis"):
         raise StudyError(args.study, "type", study.type,
                          "a dynamic study (whine, rattle, full): nothing is integrated here")
-    plan = _plan(make_plan, study, text, args.study)
+    plan = _plan(study, text, args.study)
     model = plan.model
     if not isinstance(model, MeshModel):
         raise StudyError(args.study, "scene.kind", study.scene.kind,

@@ -32,13 +32,21 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: b
         raise
 
 
-def check_replaceable(path: str | Path) -> None:
-    """Raise ``ResultError`` unless ``path`` is a regular file or nothing: a result is written
-    beside it and renamed over it, which would replace a device, a pipe or a socket with a file
-    (``-o /dev/null`` did, as root) and fail on a folder."""
+def replace_problem(path: str | Path) -> str | None:
+    """Why a result cannot be renamed over ``path`` (``None``: it is a regular file or nothing).
+    A result is written beside its path and renamed over it, which would replace a device, a
+    pipe or a socket with a file (``-o /dev/null`` did, as root) and fails on a folder."""
     path = Path(path)
     if path.is_dir():
-        raise ResultError(f"{path}: a folder, not a file path for the result")
+        return "a file path, not a folder"
     if path.exists() and not path.is_file():
-        raise ResultError(f"{path}: not a regular file (a device, a pipe or a socket); the result"
-                          " would replace it: give a file path")
+        return ("a regular file or a new path (this is a device, a pipe or a socket, which the"
+                " result would replace)")
+    return None
+
+
+def check_replaceable(path: str | Path) -> None:
+    """Raise ``ResultError`` unless a result can be renamed over ``path`` (``replace_problem``)."""
+    problem = replace_problem(path)
+    if problem is not None:
+        raise ResultError(f"{path}: not a place for the result: {problem}")

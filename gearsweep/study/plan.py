@@ -70,9 +70,9 @@ def build_model(study: Study, torque: float | None = None) -> MeshModel | Mathie
         mean_force = sc.torque / r1
     fluct = []
     for f in sc.fluctuation:
-        try:
+        if not f.is_torque:
             amp = to_si(f.amplitude, "force")
-        except ValueError:
+        else:
             # A driving-torque amplitude: Eq. (7) with the drive's inertia, or F = T / r1
             # (the rigid-pinion limit I2 -> infinity) when only m_eq and r1 are known.
             torque = to_si(f.amplitude, "torque")

@@ -110,15 +110,6 @@ class SteHarmonic(Strict):
     phase: Angle = Field(0.0, description="phase")
 
 
-def _is_torque(value: Any) -> bool:
-    """Whether a fluctuation amplitude is a torque (it does not read as a force)."""
-    try:
-        to_si(value, "force")
-    except (ValueError, UnitParseError):
-        return True
-    return False
-
-
 class Fluctuation(Strict):
     """A harmonic of the driving-torque fluctuation: a force [N] or a torque [N m] (Eq. 7)."""
 
@@ -138,6 +129,15 @@ class Fluctuation(Strict):
             except UnitParseError:
                 pass
         raise ValueError("expected a force (e.g. '300 N') or a torque (e.g. '5 N*m')")
+
+    @property
+    def is_torque(self) -> bool:
+        """The amplitude is a driving torque (it does not read as a force): Eq. (7) or F = T/r1."""
+        try:
+            to_si(self.amplitude, "force")
+        except UnitParseError:
+            return True
+        return False
 
 
 class _Driven(Strict):
@@ -375,6 +375,9 @@ class Problem:
     message: str
 
 
+SPEED_MISSING = "the speed must be swept (sweep.speed) or given (scene.speed)"
+
+
 def consistency_problems(study: Study) -> list[Problem]:
     """What the fields' own checks cannot see: sweep vs scene, outputs, continuation."""
     out: list[Problem] = []
@@ -388,8 +391,7 @@ def consistency_problems(study: Study) -> list[Problem]:
                                f" {sc.kind!r} scene; {hint}allowed: {', '.join(sorted(allowed))}"))
     if sc.kind != "mathieu":
         if "speed" not in study.sweep and sc.speed is None:
-            out.append(Problem("scene.speed", "(missing)",
-                               "the speed must be swept (sweep.speed) or given (scene.speed)"))
+            out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
         if sc.gear is not None:
             if "stiffness" in study.sweep:
                 out.append(Problem("sweep.stiffness", NO_VALUE, "a gear scene computes its"
@@ -405,7 +407,7 @@ def consistency_problems(study: Study) -> list[Problem]:
                                " gear's base radius: scene.base_radius or scene.drive"))
         elif sc.r1 is None and sc.drive is None:
             for i, f in enumerate(getattr(sc, "fluctuation", [])):
-                if _is_torque(f.amplitude):  # Eq. (7) needs r1 (and the drive's inertia)
+                if f.is_torque:  # Eq. (7) needs r1 (and the drive's inertia)
                     out.append(Problem(f"scene.fluctuation[{i}].amplitude", f.amplitude,
                                        "a force (e.g. '300 N'), or give scene.base_radius or"
                                        " scene.drive for a torque amplitude: F = T / r1"))
@@ -735,8 +737,8 @@ def _vocabulary() -> tuple[str, ...]:
     return tuple(sorted(names))
 
 
-_SCENES = {"whine": "WhineScene", "rattle": "RattleScene", "full": "FullScene",
-           "mathieu": "MathieuScene"}
+_SCENES = {"whine": WhineScene, "rattle": RattleScene, "full": FullScene,
+           "mathieu": MathieuScene}
 
 
 def _unknown_field(key: str, parent: list, raw: Any) -> str:
@@ -755,9 +757,9 @@ def _unknown_field(key: str, parent: list, raw: Any) -> str:
         scene = raw.get("scene") if isinstance(raw, dict) else None
         kind = scene.get("kind") if isinstance(scene, dict) else None
         if kind in _SCENES:
-            choices = tuple(globals()[_SCENES[kind]].model_fields)
+            choices = tuple(_SCENES[kind].model_fields)
             where = f"a {kind} scene"
-            others = [k for k, m in _SCENES.items() if key in globals()[m].model_fields]
+            others = [k for k, m in _SCENES.items() if key in m.model_fields]
             if others:
                 return (f"{key!r} is not a field of {where} (it is one of a"
                         f" {' or '.join(others)} scene)")
@@ -847,18 +849,17 @@ def _sweep_problems(raw: Any) -> list[Problem]:
     study as a whole does not validate (an error in the scene would otherwise hide those)."""
     sweep = raw.get("sweep") if isinstance(raw, dict) else None
     scene = raw.get("scene") if isinstance(raw, dict) else None
+    out = []
     if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full") \
             and "speed" not in scene and not (isinstance(sweep, dict) and "speed" in sweep):
-        return [Problem("scene.speed", "(missing)",
-                        "the speed must be swept (sweep.speed) or given (scene.speed)"),
-                *_sweep_problems({"sweep": sweep})]
-    if not isinstance(sweep, dict):
-        return []
-    try:
-        parsed = TypeAdapter(Study.model_fields["sweep"].annotation).validate_python(sweep)
-    except (ValidationError, RecursionError):
-        return []  # structural problems of the sweep are in the study's own errors
-    return grid_problems(SimpleNamespace(sweep=parsed))
+        out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
+    if isinstance(sweep, dict):
+        try:
+            parsed = TypeAdapter(Study.model_fields["sweep"].annotation).validate_python(sweep)
+        except (ValidationError, RecursionError):
+            return out  # structural problems of the sweep are in the study's own errors
+        out += grid_problems(SimpleNamespace(sweep=parsed))
+    return out
 
 
 def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
