@@ -13,18 +13,18 @@
 #
 #     scripts/device_check.sh prepare [BENCH_DIR]      # BENCH_DIR: default ../shared/bench
 #
-# Then one call of the device tool: command `bash scripts/device_check.sh run`, carry
-# [".whl", ".bench"], timeout_s 600. Read $OUT/summary.txt first. A rehearsal on any machine
+# Then one call of the device tool: command `DEADLINE=470 bash scripts/device_check.sh run`, carry
+# [".whl", ".bench"], timeout_s 500 (a machine's start costs 1-2 of the session's 15 minutes). Read $OUT/summary.txt first. A rehearsal on any machine
 # (small sizes, the GPU steps answer "no GPU"): `SMALL=1 OUT=/tmp/dc scripts/device_check.sh run`.
 #
 # Steps of `run` (their files under $OUT):
-#   env.txt            machine, GPU, versions of the packages the run used, Numba's threading layer
+#   env.txt            the wheels' install; machine, GPU, package versions, Numba's threading layer
 #   kernel_cpu.jsonl   B1/B2 on 1 thread and all cores against the C reference (bench_kernel.py)
 #   pipeline.jsonl     whole run / kernel-only at 1e6 and 1e7 cases on all cores (bench_pipeline.py)
-#   gpu_tests.txt      pytest -m gpu tests/test_cuda.py: the real GPU against the CPU kernel
-#   kernel_gpu.jsonl   B1/B2 on the GPU, float64 then float32, against the CPU kernel and C
-#   workers.jsonl      --workers 1,2,4,8,16 at 1e6 cases against in-process (bench_pipeline.py)
+#   kernel_gpu.jsonl   B1/B2 on the GPU in float64 (then float32, last), against the CPU kernel and C
 #   gpu_study.txt      the 1e7-case study on the GPU: whole run against its kernel seconds
+#   gpu_tests.txt      the real-GPU tests of tests/test_cuda.py (PTX, every scene against the CPU)
+#   workers.jsonl      --workers 1,2,4,8,16 at 1e6 cases against in-process (bench_pipeline.py)
 #   summary.txt        one line per step: exit status and seconds
 set -u
 
@@ -66,10 +66,11 @@ PY=${PYTHON:-python3}
 start=$(date +%s)
 deadline=$((start + ${DEADLINE:-560}))
 summary="$OUT/summary.txt"
-: > "$summary"
+rm -f "$OUT"/*.txt "$OUT"/*.jsonl
 
 # step NAME LIMIT_S OUTFILE CMD...: runs CMD with at most LIMIT_S seconds (less if the overall
-# deadline is nearer), stdout and stderr into $OUT/OUTFILE, one line into summary.txt.
+# deadline is nearer), stdout and stderr appended to $OUT/OUTFILE, one line into summary.txt.
+# (The device tool brings back at most 8 files, so steps of one kind share a file.)
 step() {
   local name=$1 limit=$2 file=$3
   shift 3
@@ -81,7 +82,7 @@ step() {
   [ "$limit" -gt "$left" ] && limit=$left
   local t0 rc
   t0=$(date +%s)
-  timeout -k 5 "$limit" "$@" > "$OUT/$file" 2>&1
+  timeout -k 5 "$limit" "$@" >> "$OUT/$file" 2>&1
   rc=$?
   echo "$name: exit $rc in $(($(date +%s) - t0)) s (limit $limit s) -> $file" | tee -a "$summary"
 }
@@ -90,10 +91,10 @@ step() {
 # repository is tested with (numba-cuda 0.30 fails to load its CUDA target under numpy 2.5).
 if ls .whl/*.whl > /dev/null 2>&1; then
   "$PY" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
-    --target /tmp/site .whl/*.whl > "$OUT/install.txt" 2>&1
+    --target /tmp/site .whl/*.whl >> "$OUT/env.txt" 2>&1
   export PYTHONPATH="/tmp/site:$here${PYTHONPATH:+:$PYTHONPATH}"
   # numba 0.68 needs the image's llvmlite to be 0.50.x; else fall back to the image's numba
-  if ! "$PY" -c "import numba" >> "$OUT/install.txt" 2>&1; then
+  if ! "$PY" -c "import numba" >> "$OUT/env.txt" 2>&1; then
     echo "carried numba does not load with the image's llvmlite: using the image's numba" \
       | tee -a "$summary"
     rm -rf /tmp/site/numba /tmp/site/numba-*.dist-info
@@ -139,7 +140,7 @@ try:
 except Exception as exc:  # noqa: BLE001
     print("numba.cuda: FAILED", exc)
 EOF
-} > "$OUT/env.txt" 2>&1
+} >> "$OUT/env.txt" 2>&1
 echo "env: $(grep -c MISSING "$OUT/env.txt") package(s) missing -> env.txt" | tee -a "$summary"
 
 ref=()
@@ -152,15 +153,17 @@ else
 fi
 threads=$(nproc)
 
-step kernel_cpu 120 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${cases[@]}" --rounds 3
-step pipeline 150 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$sizes" \
-  --threads "$threads" --repeats 3
-step gpu_tests 150 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -m gpu tests/test_cuda.py
-step kernel_gpu 100 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda "${ref[@]}" \
+step kernel_cpu 75 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${cases[@]}" --rounds 3
+step pipeline 110 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$sizes" \
+  --threads "$threads" --repeats "${REPEATS:-3}"
+step kernel_gpu 60 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda "${ref[@]}" \
   "${gpu_sizes[@]}"
-step kernel_gpu32 60 kernel_gpu32.jsonl "$PY" scripts/bench_kernel.py --device cuda \
+step gpu_study 50 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size" \
+  --repeats 2
+step gpu_tests 110 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -n 4 -k real_gpu \
+  tests/test_cuda.py
+step workers 80 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
+  --workers "$workers" --threads "$threads" --repeats 1
+step kernel_gpu32 40 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda \
   --precision float32 "${ref[@]}" "${gpu_sizes[@]}"
-step workers 120 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
-  --workers "$workers" --threads "$threads" --repeats 2
-step gpu_study 90 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size"
 echo "total $(($(date +%s) - start)) s" | tee -a "$summary"

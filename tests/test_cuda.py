@@ -160,9 +160,18 @@ def gpu_results(tmp_path_factory) -> dict:
     return res
 
 
+class _CpuResults(dict):
+    """The CPU kernel's result of a (scene, method) run, computed when first asked for: a test
+    process (an xdist worker) compiles only the specialisations its tests need."""
+
+    def __missing__(self, run):
+        self[run] = simulate(**run_kw(*run))
+        return self[run]
+
+
 @pytest.fixture(scope="module")
 def cpu_results() -> dict:
-    return {run: simulate(**run_kw(*run)) for run in RUNS}
+    return _CpuResults()
 
 
 def _rel(a: np.ndarray, b: np.ndarray, scale: float) -> float:

@@ -45,6 +45,7 @@ import importlib.util
 import math
 import os
 import sys
+import warnings
 
 import numpy as np
 
@@ -59,6 +60,9 @@ PRECISIONS = {"float64": np.float64, "float32": np.float32}
 
 THREADS_PER_BLOCK = 128
 """Threads (cases) per CUDA block: four warps; registers, not shared memory, bound occupancy."""
+
+LOW_OCCUPANCY = r"Grid size \d+ will likely result in GPU under-utilization"
+"""numba-cuda's performance warning for a launch of few blocks, silenced: a study of few cases."""
 
 MEMORY_FRACTION = 0.5
 """Share of the device's free memory that the two stream buffers may take together."""
@@ -400,9 +404,11 @@ def simulate_cuda(
             buf["h_in"][r, :k] = col[a:a + k]
         buf["d_in"].copy_to_device(buf["h_in"], stream=st)  # whole buffers: k <= m cases used
         tpb = min(THREADS_PER_BLOCK, 32 * -(-k // 32))
-        kern[-(-k // tpb), tpb, st](buf["d_in"], k, d_tabs[0], d_tabs[1], d_tabs[2], S,
-                                    int(n_transient), int(n_record), int(steps_per_period), stride,
-                                    buf["d_out"], buf["d_st"], buf["d_sig"])
+        with warnings.catch_warnings():  # a small study fills few blocks; not the user's fault
+            warnings.filterwarnings("ignore", message=LOW_OCCUPANCY)
+            kern[-(-k // tpb), tpb, st](buf["d_in"], k, d_tabs[0], d_tabs[1], d_tabs[2], S,
+                                        int(n_transient), int(n_record), int(steps_per_period),
+                                        stride, buf["d_out"], buf["d_st"], buf["d_sig"])
         buf["d_out"].copy_to_host(buf["h_out"], stream=st)
         buf["d_st"].copy_to_host(buf["h_st"], stream=st)
         if signal is not None:
