@@ -15,11 +15,15 @@ Printed per (size, threads or workers): the medians of the whole run, of the ker
 of the run's own ``kernel_seconds``, the median of the per-repeat ratios whole / kernel-only and
 whole / own kernel time (the latter is free of the machine's drift between the two processes), the
 peak memory, the output size, the throughput (cases per second of whole run) and, for workers,
-the efficiency = throughput / (N x one worker's throughput) and the ratio to the in-process run.
-The load average is printed with every line: this machine is shared.
+the efficiency = throughput / (N x one worker's throughput) (``efficiency_run``: the same of the
+run's own elapsed time, without the interpreter's start and exit) and the ratio to the in-process
+run. Each worker is one process, and a chunk uses the cores of its host shared among the workers
+there: on one machine, N workers together use all its cores, whatever N. ``--pin`` pins each run
+with N workers (and its kernel-only run) to N cores, one per worker, which measures how the
+workers scale. The load average is printed with every line: this machine is shared.
 
     PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e4,1e5,1e6,1e7 --threads 2 --repeats 3
-    PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e6 --workers 1,2 --repeats 3
+    PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e6 --workers 1,2 --repeats 3 [--pin]
     PYTHONPATH=. python scripts/bench_pipeline.py --codecs   # write time and size per codec, 1e6
     PYTHONPATH=. python scripts/bench_pipeline.py --sizes 1e7 --codec none   # runs with --codec
     PYTHONPATH=. python scripts/bench_pipeline.py --gpu-study 1e7   # on a GPU (docs/gpu.md)
@@ -72,9 +76,11 @@ def _env(threads: int | None) -> dict:
 
 
 def whole_run(study: Path, out: Path, threads: int | None, workers: int | None,
-              codec: str | None = None, extra: tuple[str, ...] = ()) -> dict:
+              codec: str | None = None, extra: tuple[str, ...] = (),
+              cpus: int | None = None) -> dict:
     """One ``gearsweep run`` in a fresh process: wall seconds, peak RSS, the file's timings.
-    ``extra``: more arguments of ``gearsweep run``."""
+    ``extra``: more arguments of ``gearsweep run``; ``cpus``: the process (and the workers it
+    starts) pinned to the first ``cpus`` cores."""
     import xarray as xr
 
     cmd = [sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o", str(out), "-q", "--yes",
@@ -84,7 +90,7 @@ def whole_run(study: Path, out: Path, threads: int | None, workers: int | None,
     if codec:
         cmd += ["--codec", codec]
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, cwd=ROOT, env=_env(threads))
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=_env(threads), preexec_fn=_pin(cpus))
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     proc.returncode = os.waitstatus_to_exitcode(status)
@@ -97,10 +103,18 @@ def whole_run(study: Path, out: Path, threads: int | None, workers: int | None,
             "elapsed": elapsed, "kernel": kernel}
 
 
-def bare_run(study: Path, threads: int | None) -> float:
+def _pin(cpus: int | None):
+    """A ``preexec_fn`` that pins the child to the first ``cpus`` cores of this process's."""
+    if not cpus:
+        return None
+    mine = sorted(os.sched_getaffinity(0))[:cpus]
+    return lambda: os.sched_setaffinity(0, mine)
+
+
+def bare_run(study: Path, threads: int | None, cpus: int | None = None) -> float:
     """Seconds in ``simulate`` over the CLI's chunks of ``study``, in a fresh process."""
     r = subprocess.run([sys.executable, __file__, "--bare", str(study)], check=True, cwd=ROOT,
-                       env=_env(threads), capture_output=True, text=True)
+                       env=_env(threads), capture_output=True, text=True, preexec_fn=_pin(cpus))
     return float(r.stdout.split()[-1])
 
 
@@ -122,14 +136,15 @@ def bare(study: Path) -> None:
 
 
 def measure(study: Path, size: float, repeats: int, threads: int | None,
-            workers: int | None, tmp: Path, warm: bool, codec: str | None = None) -> dict:
+            workers: int | None, tmp: Path, warm: bool, codec: str | None = None,
+            cpus: int | None = None) -> dict:
     out = tmp / "out.nc"
     if warm:
-        whole_run(study, out, threads, workers, codec)
+        whole_run(study, out, threads, workers, codec, cpus=cpus)
     runs, kernels = [], []
     for _ in range(repeats):
-        kernels.append(bare_run(study, threads))
-        runs.append(whole_run(study, out, threads, workers, codec))
+        kernels.append(bare_run(study, threads, cpus))
+        runs.append(whole_run(study, out, threads, workers, codec, cpus=cpus))
     med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
     return {
         "cases": int(size), "threads": threads, "workers": workers or 0, "codec": codec or "default",
@@ -147,22 +162,24 @@ def measure(study: Path, size: float, repeats: int, threads: int | None,
 
 
 def gpu_study(size: float, tmp: Path, repeats: int) -> None:
-    """The scale study of ``size`` cases on the GPU (``--device cuda``) in one chunk, as
-    docs/gpu.md says (the runner's default chunks are sized for CPU cores): per repeat, after a
+    """The scale study of ``size`` cases on the GPU (``--device cuda``): per repeat, after a
     warm-up run that compiles, the whole run's wall time against the run's own kernel seconds
-    (``simulate_cuda`` calls: packing, transfers and kernel). One JSON line."""
+    (``simulate_cuda`` calls: packing, transfers and kernel). One JSON line with the runner's
+    GPU chunks (``cuda.CHUNK_STEPS``), one with the whole study in one chunk."""
     study = study_file(size, tmp)
     out = tmp / "gpu.nc"
-    extra = ("--device", "cuda", "--chunk-size", str(int(size)))
-    whole_run(study, out, None, None, extra=extra)
-    runs = [whole_run(study, out, None, None, extra=extra) for _ in range(repeats)]
-    print(json.dumps({
-        "cases": int(size), "device": "cuda",
-        "whole_s": round(statistics.median(r["wall"] for r in runs), 3),
-        "run_kernel_s": round(statistics.median(r["kernel"] for r in runs), 3),
-        "ratio_own_kernel": round(statistics.median(r["wall"] / r["kernel"] for r in runs), 3),
-        "peak_rss_mb": round(max(r["rss"] for r in runs) / 1e6, 1),
-        "whole_runs_s": [round(r["wall"], 3) for r in runs], "load": load()}), flush=True)
+    for chunking, extra in (("default", ("--device", "cuda")),
+                            ("one chunk", ("--device", "cuda", "--chunk-size", str(int(size))))):
+        whole_run(study, out, None, None, extra=extra)
+        runs = [whole_run(study, out, None, None, extra=extra) for _ in range(repeats)]
+        print(json.dumps({
+            "cases": int(size), "device": "cuda", "chunks": chunking,
+            "whole_s": round(statistics.median(r["wall"] for r in runs), 3),
+            "run_elapsed_s": round(statistics.median(r["elapsed"] for r in runs), 3),
+            "run_kernel_s": round(statistics.median(r["kernel"] for r in runs), 3),
+            "ratio_own_kernel": round(statistics.median(r["wall"] / r["kernel"] for r in runs), 3),
+            "peak_rss_mb": round(max(r["rss"] for r in runs) / 1e6, 1),
+            "whole_runs_s": [round(r["wall"], 3) for r in runs], "load": load()}), flush=True)
 
 
 # ------------------------------------------------------------------------------------ codecs
@@ -232,6 +249,9 @@ def main() -> None:
     p.add_argument("--threads", default="2", help="Numba threads in-process, comma-separated")
     p.add_argument("--workers", default="", help="--workers counts, comma-separated (in-process"
                    " at the first thread count is measured beside them)")
+    p.add_argument("--pin", action="store_true",
+                   help="with --workers N: pin the run (and the kernel-only run) to N cores, so"
+                        " that the workers' scaling is measured, one core per worker")
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--no-warm-up", action="store_true")
     p.add_argument("--codecs", action="store_true", help="the codec table instead (1e6 cases)")
@@ -270,11 +290,17 @@ def main() -> None:
                 print(json.dumps(row), flush=True)
             one = None
             for w in workers:
+                cpus = w if args.pin else None
                 row = measure(study, size, args.repeats, None, w, tmp, not args.no_warm_up,
-                              args.codec)
+                              args.codec, cpus)
+                if cpus:
+                    row["cpus"] = cpus
                 one = one or (row if w == 1 else None)
                 if one is not None:
                     row["efficiency"] = round(row["cases_per_s"] / (w * one["cases_per_s"]), 3)
+                    # the same of the run's own elapsed time (no interpreter start or exit)
+                    row["efficiency_run"] = round(one["run_elapsed_s"] / (w * row["run_elapsed_s"]),
+                                                  3)
                 if base is not None:
                     row["vs_in_process"] = round(row["whole_s"] / base["whole_s"], 3)
                 print(json.dumps(row), flush=True)

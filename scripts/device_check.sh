@@ -74,6 +74,7 @@ rm -f "$OUT"/*.txt "$OUT"/*.jsonl
 step() {
   local name=$1 limit=$2 file=$3
   shift 3
+  case ",$STEPS," in *",$name,"*) ;; *) return ;; esac  # not asked for in this call
   local left=$((deadline - $(date +%s)))
   if [ "$left" -lt 20 ]; then
     echo "$name: skipped (deadline)" | tee -a "$summary"
@@ -147,23 +148,32 @@ ref=()
 [ -f .bench/run_reference.sh ] && ref=(--reference --bench-dir .bench)
 if [ -n "${SMALL:-}" ]; then  # rehearsal: the same steps, small
   sizes=1e4; workers=1,2; worker_size=1e4; cases=(--cases 1000); gpu_sizes=(--sizes 10000)
-  study_size=1e4
+  study_size=1e4; scaling_cases=(--cases 2000)
 else
   sizes=1e6,1e7; workers=1,2,4,8,16; worker_size=1e6; cases=(); gpu_sizes=(); study_size=1e7
+  scaling_cases=(--cases 100000)
 fi
 threads=$(nproc)
 
+# The steps, most wanted first. STEPS picks some (default: the first call's set); the second
+# call of 26 Nov 2026 ran STEPS=gpu_tests,kernel_gpu,gpu_study,startup,workers_pinned,scaling,pipeline
+STEPS=${STEPS:-kernel_cpu,pipeline,kernel_gpu,gpu_study,gpu_tests,workers,kernel_gpu32}
 step kernel_cpu 75 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${cases[@]}" --rounds 3
-step pipeline 110 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$sizes" \
+step gpu_tests 120 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -p no:benchmark -n 4 \
+  -k real_gpu tests/test_cuda.py
+step pipeline 110 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "${PIPELINE_SIZES:-$sizes}" \
   --threads "$threads" --repeats "${REPEATS:-3}"
 step kernel_gpu 60 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda "${ref[@]}" \
   "${gpu_sizes[@]}"
-step gpu_study 50 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size" \
+step gpu_study 70 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size" \
   --repeats 2
-step gpu_tests 110 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -n 4 -k real_gpu \
-  tests/test_cuda.py
+step startup 40 env.txt "$PY" scripts/bench_startup.py  # the start of a process, on this image
 step workers 80 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
   --workers "$workers" --threads "$threads" --repeats 1
+step workers_pinned 100 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
+  --workers "$workers" --pin --threads "$threads" --repeats 1
+step scaling 50 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${scaling_cases[@]}" \
+  --rounds 2
 step kernel_gpu32 40 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda \
   --precision float32 "${ref[@]}" "${gpu_sizes[@]}"
 echo "total $(($(date +%s) - start)) s" | tee -a "$summary"

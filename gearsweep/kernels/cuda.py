@@ -45,6 +45,7 @@ import importlib.util
 import math
 import os
 import sys
+import threading
 import warnings
 
 import numpy as np
@@ -122,6 +123,27 @@ def gpu_present() -> bool:
         return bool(_cuda().is_available())
     except Exception:  # a broken driver or toolkit: no usable GPU
         return False
+
+
+def planned_device(device: str) -> str:
+    """Where a study's chunks will run, for sizing and estimating them: ``"cuda"`` when the study
+    asks for ``cuda`` (whether or not a GPU is there: running it is refused with one line by
+    ``resolve_device``), or for ``auto`` on a machine with a GPU; else ``"cpu"``. Never raises."""
+    return "cuda" if device == "cuda" or (device == "auto" and gpu_present()) else "cpu"
+
+
+STATED_STEPS_PER_SECOND = 8e10
+"""A GPU's rate for estimates [steps/s, the whole device]: B2 (backlash, RK4, float64) at 1e6
+cases in whole ``simulate_cuda`` calls (packing, transfers, kernel), measured on an H200 on
+26 Nov 2026: 8.2e10 (B1 9.1e10; at 4e6 cases 1.1e11 and 1.4e11; docs/gpu.md). An H100 has the
+same 132 SMs. Not a promise: RK5 and the other terms cost more per step."""
+
+CHUNK_STEPS = 4e9
+"""Integration steps per chunk of a study on the GPU (the CPU's ``plan.CHUNK_STEPS`` is 1e9):
+about 0.05 s of an H100/H200, 1.6e6 cases of 2,560 steps (``studies/heavy/scale_1e6.yaml``).
+Writing a chunk's results takes longer than integrating it, so a study is cut into several
+chunks (seven at 1e7 such cases): the writer saves one while the GPU integrates the next,
+and memory holds a few chunks, not the whole study."""
 
 
 def resolve_device(device: str) -> str:
@@ -366,8 +388,45 @@ def simulate_cuda(
     signal = np.empty((n, n_sig)) if n_sig else None
 
     # two buffer sets, one per stream: chunk k uses set k % 2 while chunk k - 1 finishes
+    with _BUFFER_LOCK:
+        sets = _buffer_sets(cu, dt, m, max(n_sig, 1), min(2, -(-n // m)))
+        _run_chunks(cu, kern, sets, cols, d_tabs, n, m, S, n_transient, n_record,
+                    steps_per_period, stride, n_sig, stats, xf, vf, status, signal)
+    return BatchResult(
+        stats={name: stats[q] for q, name in enumerate(rk.STAT_NAMES)},
+        x_final=xf,
+        v_final=vf,
+        status=status,
+        signal=signal,
+        substeps=np.zeros(n) if kink_aware else None,
+    )
+
+
+class _Clock:
+    """Seconds the GPU spent in the kernel (CUDA events around each launch), summed over calls:
+    the kernel alone, without the packing and transfers that ``simulate_cuda``'s wall time
+    includes. 0 on the simulator, which records no times."""
+
+    seconds = 0.0
+
+
+GPU_CLOCK = _Clock()
+
+_BUFFER_LOCK = threading.Lock()
+_BUFFERS: dict = {}
+
+
+def _buffer_sets(cu, dt, m: int, sig_cols: int, count: int) -> list[dict]:
+    """``count`` sets of pinned host and device buffers for chunks of ``m`` cases, kept from the
+    last call when they are big enough: allocating them (page-locking some 100 MB of host memory)
+    cost more than the kernel of a 1e5-case call; the study runner calls once per chunk."""
+    key = (np.dtype(dt).str, sig_cols)
+    have = _BUFFERS.get("sets")
+    if have is not None and _BUFFERS["key"] == key and _BUFFERS["m"] >= m and len(have) >= count:
+        return have[:count]
+    _BUFFERS.clear()  # drop the old ones first: their device memory is needed
     sets = []
-    for _ in range(min(2, -(-n // m))):
+    for _ in range(count):
         st = cu.stream()
         sets.append(dict(
             stream=st,
@@ -377,16 +436,24 @@ def simulate_cuda(
             d_out=cu.device_array((_N_OUT, m), np.float64, stream=st),
             h_st=cu.pinned_array(m, np.int8),
             d_st=cu.device_array(m, np.int8, stream=st),
-            h_sig=cu.pinned_array((m, max(n_sig, 1)), dt),
-            d_sig=cu.device_array((m, max(n_sig, 1)), dt, stream=st),
+            h_sig=cu.pinned_array((m, sig_cols), dt),
+            d_sig=cu.device_array((m, sig_cols), dt, stream=st),
             pending=None,
         ))
+    _BUFFERS.update(key=key, m=m, sets=sets)
+    return sets
+
+
+def _run_chunks(cu, kern, sets, cols, d_tabs, n, m, S, n_transient, n_record, steps_per_period,
+                stride, n_sig, stats, xf, vf, status, signal) -> None:
+    """Chunks of ``m`` cases through the buffer ``sets`` in turn (see ``simulate_cuda``)."""
 
     def drain(buf):
         if buf["pending"] is None:
             return
-        a, k = buf["pending"]
+        a, k, ev0, ev1 = buf["pending"]
         buf["stream"].synchronize()
+        GPU_CLOCK.seconds += max(ev0.elapsed_time(ev1), 0.0) / 1e3
         stats[:, a:a + k] = buf["h_out"][:rk.N_STATS, :k]
         xf[a:a + k] = buf["h_out"][rk.N_STATS, :k]
         vf[a:a + k] = buf["h_out"][rk.N_STATS + 1, :k]
@@ -395,32 +462,34 @@ def simulate_cuda(
             signal[a:a + k] = buf["h_sig"][:k, :n_sig]
         buf["pending"] = None
 
-    for q, a in enumerate(range(0, n, m)):
-        k = min(m, n - a)
-        buf = sets[q % len(sets)]
-        drain(buf)
-        st = buf["stream"]
-        for r, col in cols:
-            buf["h_in"][r, :k] = col[a:a + k]
-        buf["d_in"].copy_to_device(buf["h_in"], stream=st)  # whole buffers: k <= m cases used
-        tpb = min(THREADS_PER_BLOCK, 32 * -(-k // 32))
-        with warnings.catch_warnings():  # a small study fills few blocks; not the user's fault
-            warnings.filterwarnings("ignore", message=LOW_OCCUPANCY)
-            kern[-(-k // tpb), tpb, st](buf["d_in"], k, d_tabs[0], d_tabs[1], d_tabs[2], S,
-                                        int(n_transient), int(n_record), int(steps_per_period),
-                                        stride, buf["d_out"], buf["d_st"], buf["d_sig"])
-        buf["d_out"].copy_to_host(buf["h_out"], stream=st)
-        buf["d_st"].copy_to_host(buf["h_st"], stream=st)
-        if signal is not None:
-            buf["d_sig"].copy_to_host(buf["h_sig"], stream=st)
-        buf["pending"] = (a, k)
-    for buf in sets:
-        drain(buf)
-    return BatchResult(
-        stats={name: stats[q] for q, name in enumerate(rk.STAT_NAMES)},
-        x_final=xf,
-        v_final=vf,
-        status=status,
-        signal=signal,
-        substeps=np.zeros(n) if kink_aware else None,
-    )
+    try:
+        for q, a in enumerate(range(0, n, m)):
+            k = min(m, n - a)
+            buf = sets[q % len(sets)]
+            drain(buf)
+            st = buf["stream"]
+            for r, col in cols:
+                buf["h_in"][r, :k] = col[a:a + k]
+            buf["d_in"].copy_to_device(buf["h_in"], stream=st)  # whole buffers: k <= m used
+            tpb = min(THREADS_PER_BLOCK, 32 * -(-k // 32))
+            ev0, ev1 = cu.event(), cu.event()
+            ev0.record(st)
+            with warnings.catch_warnings():  # a small study fills few blocks: not a fault
+                warnings.filterwarnings("ignore", message=LOW_OCCUPANCY)
+                kern[-(-k // tpb), tpb, st](buf["d_in"], k, d_tabs[0], d_tabs[1], d_tabs[2], S,
+                                            int(n_transient), int(n_record),
+                                            int(steps_per_period), stride, buf["d_out"],
+                                            buf["d_st"], buf["d_sig"])
+            ev1.record(st)
+            buf["d_out"].copy_to_host(buf["h_out"], stream=st)
+            buf["d_st"].copy_to_host(buf["h_st"], stream=st)
+            if signal is not None:
+                buf["d_sig"].copy_to_host(buf["h_sig"], stream=st)
+            buf["pending"] = (a, k, ev0, ev1)
+        for buf in sets:
+            drain(buf)
+    finally:  # an error part way: the kept buffers must not say a chunk is pending
+        for buf in sets:
+            if buf["pending"] is not None:
+                buf["stream"].synchronize()
+                buf["pending"] = None

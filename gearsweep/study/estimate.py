@@ -14,7 +14,7 @@ import os
 from pathlib import Path
 
 from gearsweep import kernels
-from gearsweep.kernels import LANES
+from gearsweep.kernels import LANES, cuda
 from gearsweep.study import execute
 from gearsweep.study.execute import (
     BASELINE_MEMORY,
@@ -72,14 +72,20 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     def rounds(lanes: int) -> int:
         return math.ceil(math.ceil(lanes * ways / LANES) / threads)
 
-    lane_steps = float(full * rounds(per) + (rounds(rest) if rest else 0)) * plan.chain * LANES \
-        * plan.steps_per_case
     source = "measured" if rate else "stated"
-    rate = rate or STATED_RATE[s.method]
+    if plan.device == "cuda":  # one thread per lane: the steps themselves, at the GPU's rate
+        kernel_s = float(plan.n_cases) * plan.steps_per_case / cuda.STATED_STEPS_PER_SECOND
+        rate = cuda.STATED_STEPS_PER_SECOND / 1e6
+        source = "stated"
+    else:
+        lane_steps = float(full * rounds(per) + (rounds(rest) if rest else 0)) * plan.chain \
+            * LANES * plan.steps_per_case
+        rate = rate or STATED_RATE[s.method]
+        kernel_s = lane_steps / (rate * 1e6)
     per_case = _case_bytes(plan)
     results = float(plan.n_cases) * per_case
     compile_s = compile_seconds(s.method, s.kink_aware)
-    seconds = lane_steps / (rate * 1e6) + FIXED_SECONDS + results / WRITE_RATE + compile_s
+    seconds = kernel_s + FIXED_SECONDS + results / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.chain * ways
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
     memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
@@ -87,7 +93,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
                    chunks=full + (1 if rest else 0), threads=threads, rate=rate,
                    rate_source=source, seconds=seconds, memory_bytes=memory,
-                   output_bytes=results + coords)
+                   output_bytes=results + coords, device=plan.device)
     return est, compile_s
 
 
@@ -108,8 +114,9 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
     which the run would pay anyway; only a study that would otherwise be refused for its time
     alone, and that a faster rate could bring under the limit (``MAX_SPEEDUP``), pays it."""
     over = est.over()
-    if over != [o for o in over if o.startswith("time")] or not over:
-        return est, 0.0  # within the limits, or refused for memory or output whatever the rate
+    if over != [o for o in over if o.startswith("time")] or not over or est.device == "cuda":
+        return est, 0.0  # within the limits, refused for memory or output whatever the rate,
+        # or on the GPU (the CPU kernel's rate says nothing of it)
     s = plan.study.solver
     kernel = est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE \
         - compile_seconds(s.method, s.kink_aware)
@@ -156,6 +163,12 @@ def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
     threads = threads or cores()
     ways = max(len(plan.directions), 1)
     per_lane = plan.chain * ways
+    if plan.device == "cuda":  # a lane per GPU thread: capped at ``seconds`` at the GPU's rate
+        lanes_max = max(int(seconds * cuda.STATED_STEPS_PER_SECOND
+                            / (per_lane * plan.steps_per_case)), 1)
+        lanes = (lanes_per_chunk(plan, requested) if requested is not None
+                 else plan.default_lanes_per_chunk())
+        return (requested, False) if lanes <= lanes_max else (lanes_max * per_lane, True)
     round_s = shortest_chunk_seconds(plan)  # one round of blocks [s]
     round_lanes = max(LANES * threads // ways, 1)
     total_s = math.ceil(plan.n_lanes / round_lanes) * round_s

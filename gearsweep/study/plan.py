@@ -24,6 +24,8 @@ from gearsweep.analysis.stability import ray_limit, stability_polynomial, step_l
 from gearsweep.errors import StudyError
 from gearsweep.files import atomic_write
 from gearsweep.kernels import LANES
+from gearsweep.kernels.cuda import CHUNK_STEPS as GPU_CHUNK_STEPS
+from gearsweep.kernels.cuda import planned_device
 from gearsweep.model import Harmonic, MathieuModel, MeshModel, equivalent_mass, hill_parameters
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.gearscene import scene_excitation
@@ -209,10 +211,17 @@ class Plan:
         need = [OUTPUTS[o].signal_samples_per_period(self) for o in self.outputs]
         return max(need, default=0)
 
+    @property
+    def device(self) -> str:
+        """``"cpu"`` or ``"cuda"``: where the chunks will run (``cuda.planned_device``)."""
+        return planned_device(self.study.solver.device)
+
     def default_lanes_per_chunk(self) -> int:
-        """Lanes per chunk for about ``CHUNK_STEPS`` steps (and ``CHUNK_SIGNAL_BYTES``)."""
+        """Lanes per chunk for about ``CHUNK_STEPS`` steps on the CPU, ``cuda.CHUNK_STEPS`` on
+        the GPU (and at most ``CHUNK_SIGNAL_BYTES`` of recorded signal)."""
         per_lane = self.steps_per_case * self.chain * max(len(self.directions), 1)
-        lanes_per_chunk = max(4 * LANES, int(CHUNK_STEPS // max(per_lane, 1)))
+        steps = CHUNK_STEPS if self.device == "cpu" else GPU_CHUNK_STEPS
+        lanes_per_chunk = max(4 * LANES, int(steps // max(per_lane, 1)))
         # Up and down sweeps of a lane run side by side: one signal per direction.
         signal = (self.samples_per_period() * self.study.solver.record_periods * 8
                   * max(len(self.directions), 1))
