@@ -161,7 +161,7 @@ def measure(study: Path, size: float, repeats: int, threads: int | None,
     }
 
 
-def gpu_study(size: float, tmp: Path, repeats: int) -> None:
+def gpu_study(size: float, tmp: Path, repeats: int, codec: str | None = None) -> None:
     """The scale study of ``size`` cases on the GPU (``--device cuda``): per repeat, after a
     warm-up run that compiles, the whole run's wall time against the run's own kernel seconds
     (``simulate_cuda`` calls: packing, transfers and kernel). One JSON line with the runner's
@@ -170,10 +170,10 @@ def gpu_study(size: float, tmp: Path, repeats: int) -> None:
     out = tmp / "gpu.nc"
     for chunking, extra in (("default", ("--device", "cuda")),
                             ("one chunk", ("--device", "cuda", "--chunk-size", str(int(size))))):
-        whole_run(study, out, None, None, extra=extra)
-        runs = [whole_run(study, out, None, None, extra=extra) for _ in range(repeats)]
+        whole_run(study, out, None, None, codec, extra=extra)
+        runs = [whole_run(study, out, None, None, codec, extra=extra) for _ in range(repeats)]
         print(json.dumps({
-            "cases": int(size), "device": "cuda", "chunks": chunking,
+            "cases": int(size), "device": "cuda", "chunks": chunking, "codec": codec or "default",
             "whole_s": round(statistics.median(r["wall"] for r in runs), 3),
             "run_elapsed_s": round(statistics.median(r["elapsed"] for r in runs), 3),
             "run_kernel_s": round(statistics.median(r["kernel"] for r in runs), 3),
@@ -265,7 +265,7 @@ def main() -> None:
         return
     if args.gpu_study:
         with tempfile.TemporaryDirectory() as tmp:
-            gpu_study(args.gpu_study, Path(tmp), args.repeats)
+            gpu_study(args.gpu_study, Path(tmp), args.repeats, args.codec)
         return
     sizes = [float(s) for s in args.sizes.split(",") if s]
     threads = [int(t) for t in args.threads.split(",") if t]

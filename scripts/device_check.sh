@@ -156,7 +156,8 @@ fi
 threads=$(nproc)
 
 # The steps, most wanted first. STEPS picks some (default: the first call's set); the second
-# call of 26 Nov 2026 ran STEPS=gpu_tests,kernel_gpu,gpu_study,startup,workers_pinned,scaling,pipeline
+# call of 26 Nov 2026 ran STEPS=gpu_tests,kernel_gpu,gpu_study,gpu_study_none,startup,pipeline_1e7,
+# pipeline_none,workers_pinned,scaling
 STEPS=${STEPS:-kernel_cpu,pipeline,kernel_gpu,gpu_study,gpu_tests,workers,kernel_gpu32}
 step kernel_cpu 75 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${cases[@]}" --rounds 3
 step gpu_tests 120 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -p no:benchmark -n 4 \
@@ -167,7 +168,13 @@ step kernel_gpu 60 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda 
   "${gpu_sizes[@]}"
 step gpu_study 70 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size" \
   --repeats 2
+step gpu_study_none 45 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size" \
+  --repeats 2 --codec none
 step startup 40 env.txt "$PY" scripts/bench_startup.py  # the start of a process, on this image
+step pipeline_1e7 65 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
+  --threads "$threads" --repeats 2
+step pipeline_none 65 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
+  --threads "$threads" --repeats 2 --codec none
 step workers 80 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
   --workers "$workers" --threads "$threads" --repeats 1
 step workers_pinned 100 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
