@@ -25,8 +25,7 @@ With ``--device cuda`` the same problems run on a CUDA GPU through
 has the speed of B1/B2 case ``i mod 10,000`` (the 10,000 speeds repeated; below 10,000 cases,
 spread over them as on the CPU). One JSON line per problem and size, with the CPU lines' fields
 (``device``, ``gpu`` and ``precision`` in place of ``threads``); each time is the best of 3 whole
-``simulate_cuda`` calls after a warm-up (host packing, transfers and kernel; ``kernel_seconds``:
-the kernel alone, CUDA events around the launches, best of the same 3), and every line gives
+``simulate_cuda`` calls after a warm-up (host packing, transfers and kernel), and every line gives
 the largest relative difference of max|p| from our CPU kernel's (the 10,000 speeds, computed once)
 and, with ``--reference``, from the C reference's. Without a GPU it stops with one line, exit 2
 (under ``NUMBA_ENABLE_CUDASIM=1`` it runs on numba's simulator: a smoke test, not a timing).
@@ -281,7 +280,7 @@ CUDA_SIZES = "10000,100000,1000000,4000000"
 def bench_cuda(args, problems: list[str]) -> int:
     """``--device cuda``: B1/B2 on the GPU at each size; one JSON line per problem and size."""
     from gearsweep.errors import DeviceError
-    from gearsweep.kernels.cuda import GPU_CLOCK, resolve_device, simulate_cuda, simulator
+    from gearsweep.kernels.cuda import resolve_device, simulate_cuda, simulator
 
     try:
         resolve_device("cuda")
@@ -315,21 +314,17 @@ def bench_cuda(args, problems: list[str]) -> int:
                 return simulate_cuda(**inputs, precision=args.precision)
 
             stats = run().stats  # warm-up: compiles the kernel, allocates the buffers
-            best = best_kernel = math.inf
+            best = math.inf
             for _ in range(1 if simulator() else 3):
-                t0, k0 = time.perf_counter(), GPU_CLOCK.seconds
+                t0 = time.perf_counter()
                 stats = run().stats
                 best = min(best, time.perf_counter() - t0)
-                best_kernel = min(best_kernel, GPU_CLOCK.seconds - k0)
             amp = np.maximum(stats["p_max"], -stats["p_min"])
             steps = cases * (N_TRANSIENT + N_RECORD)
             rec = {"problem": problem, "device": "cuda", "gpu": gpu, "precision": args.precision,
                    "cases": cases, "steps": steps, "seconds": round(best, 4),
                    "msteps_per_s": round(steps / best / 1e6, 1), "method": "rk4",
                    "steps_per_period": STEPS_PER_PERIOD, "periods": PERIODS}
-            if best_kernel > 0:  # CUDA events around the launches (none on the simulator)
-                rec["kernel_seconds"] = round(best_kernel, 4)
-                rec["kernel_msteps_per_s"] = round(steps / best_kernel / 1e6, 1)
             seen = ~np.isnan(cpu_amp[idx])
             rec["max_rel_diff_vs_cpu"] = float(np.max(np.abs(amp[seen] - cpu_amp[idx][seen])
                                                       / cpu_amp[idx][seen]))
