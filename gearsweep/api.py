@@ -7,14 +7,17 @@
     gearsweep.result_model(ds)                                  # the MeshModel the kernel ran
 
 Every problem with the input raises a :class:`gearsweep.errors.GearsweepError` whose message is the
-one line the command line prints. A result file carries the study text, the resolved model (every
-number the kernel used, SI), the solver settings and the package version: ``result_study`` and
-``result_model`` rebuild them, so a study can be run again from its result alone.
+one line the command line prints; cases beyond the integrator's step limit (``solver.step_guard:
+warn``) give one :class:`gearsweep.errors.StepLimitWarning`, the line it prints as a warning.
+A result file carries the study text, the resolved model (every number the kernel used, SI), the
+solver settings and the package version: ``result_study`` and ``result_model`` rebuild them, so a
+study can be run again from its result alone.
 """
 
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -26,7 +29,7 @@ from gearsweep.model import MathieuModel, MeshModel, model_from_record
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_specs import AnalysisStudy
 from gearsweep.study.dataset import write_netcdf
-from gearsweep.study.execute import InProcess, run_plan, run_to_file
+from gearsweep.study.execute import InProcess, run_plan, run_to_file, step_limit_warning
 from gearsweep.study.mesh import run_mesh_study
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study
@@ -108,11 +111,22 @@ def run_unchunked(study: MeshStudy | AnalysisStudy, text: str = "",
 
 def run_study(study: Study | MeshStudy | AnalysisStudy, text: str = "",
               progress: bool = False) -> xr.Dataset:
-    """Run every chunk of a validated study in this process and return its Dataset in memory."""
+    """Run every chunk of a validated study in this process and return its Dataset in memory
+    (cases beyond the step limit: one ``StepLimitWarning``, as ``run``)."""
     if isinstance(study, MeshStudy | AnalysisStudy):
         return run_unchunked(study, text)
     plan = make_plan(study, text)
-    return run_plan(plan, backend=InProcess(), progress=progress)
+    ds = run_plan(plan, backend=InProcess(), progress=progress)
+    _warn_step_limit(plan, ds, "<study>")
+    return ds
+
+
+def _warn_step_limit(plan, ds: xr.Dataset, where: str | Path) -> None:
+    """A ``StepLimitWarning`` (the line the CLI prints) if cases of ``ds`` are beyond the step
+    limit, pointing at the caller of ``run`` or ``run_study``."""
+    found = step_limit_warning(plan, ds, where)
+    if found is not None:
+        warnings.warn(found, stacklevel=3)
 
 
 def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = False,
@@ -136,6 +150,13 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     -------
     xarray.Dataset
         In memory; the same variables, coordinates and attributes as the file the CLI writes.
+
+    Warns
+    -----
+    StepLimitWarning
+        Once, if cases use a step beyond the method's stability limit (``solver.step_guard:
+        warn``; they are marked in ``beyond_step_limit``): the line the CLI prints, naming
+        ``output`` or else the study.
     """
     if output is not None and not isinstance(output, str | Path):
         raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
@@ -151,9 +172,12 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         return ds
     plan = make_plan(st, text, name)
     if output is None:
-        return run_plan(plan, backend=InProcess(), progress=progress, chunk_cases=chunk_cases)
-    with run_to_file(plan, output, chunk_cases=chunk_cases, progress=progress) as lazy:
-        return lazy.load()
+        ds = run_plan(plan, backend=InProcess(), progress=progress, chunk_cases=chunk_cases)
+    else:
+        with run_to_file(plan, output, chunk_cases=chunk_cases, progress=progress) as lazy:
+            ds = lazy.load()
+    _warn_step_limit(plan, ds, name if output is None else output)
+    return ds
 
 
 def open_result(path: str | Path) -> xr.Dataset:

@@ -33,7 +33,14 @@ from gearsweep.study.estimate import (
     quick_estimate,
     shortest_chunk_seconds,
 )
-from gearsweep.study.execute import DaskBackend, InProcess, check_limits, cores, run_to_file
+from gearsweep.study.execute import (
+    DaskBackend,
+    InProcess,
+    check_limits,
+    cores,
+    run_to_file,
+    step_limit_warning,
+)
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import (
     is_netcdf,
@@ -235,12 +242,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             if previous is not None:
                 signal.signal(signal.SIGINT, previous)
             _STOP.clear()
-        n_bad, flagged = _counts(ds)
-        if n_bad:
-            print(f"gearsweep: warning: {out}: {n_bad} case(s) use a step beyond the stability limit"
-                  f" of {study.solver.method} at {study.solver.steps_per_period} steps/period; their"
-                  " results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
-                  " solver.steps_per_period or set solver.step_guard: skip)", file=sys.stderr)
+        beyond = step_limit_warning(plan, ds, out)
+        if beyond is not None:  # the text gearsweep.run warns, as one line
+            print(f"gearsweep: warning: {beyond}", file=sys.stderr)
+        flagged = _flagged(ds)
     if not args.quiet:
         # The file's elapsed_seconds is the chunk phase; the wall time adds the one-time
         # loading (or compiling) of the kernel and the writing of the file: say both.
@@ -268,12 +273,10 @@ def _long_sweep_note(plan, args: argparse.Namespace) -> None:
               " range into several studies for shorter chunks", file=sys.stderr)
 
 
-def _counts(ds) -> tuple[int, int]:
-    """(cases beyond the step limit, cases with a nonzero status) of a written result (its
-    variables are read lazily from the file: only these two are read here)."""
-    beyond = int(ds["beyond_step_limit"].sum()) if "beyond_step_limit" in ds else 0
-    flagged = int((ds["status"] != 0).sum()) if "status" in ds else 0
-    return beyond, flagged
+def _flagged(ds) -> int:
+    """Cases with a nonzero status of a written result (read lazily from the file: only
+    ``status`` is read here)."""
+    return int((ds["status"] != 0).sum()) if "status" in ds else 0
 
 
 def describe(path: str | Path) -> str:

@@ -1,4 +1,5 @@
-"""The package's own exceptions. The CLI maps every ``GearsweepError`` to one line and exit code 2."""
+"""The package's own exceptions and warnings. The CLI maps every ``GearsweepError`` to one line and
+exit code 2, and prints a ``StepLimitWarning`` as one ``gearsweep: warning:`` line."""
 
 from __future__ import annotations
 
@@ -86,3 +87,10 @@ class LimitError(GearsweepError):
 class DeviceError(GearsweepError):
     """A compute device asked for (``solver.device: cuda``) that this machine cannot provide, or a
     feature that the device does not run (the kink-aware step on CUDA)."""
+
+
+class StepLimitWarning(UserWarning):
+    """Cases of a study run with ``solver.step_guard: warn`` (the default) whose step lies beyond
+    the method's stability limit: the result marks them in ``beyond_step_limit`` and their
+    values may be spoiled by the integrator. ``gearsweep.run`` warns it; the CLI prints the same
+    line. Its text: ``gearsweep.study.execute.step_limit_warning``."""

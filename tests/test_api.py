@@ -13,7 +13,8 @@ import xarray as xr
 from conftest import RIG
 
 import gearsweep
-from gearsweep.errors import GearsweepError, ResultError, StudyError
+from gearsweep.cli import main as cli
+from gearsweep.errors import GearsweepError, ResultError, StepLimitWarning, StudyError
 from gearsweep.model import MeshModel, model_from_record, model_record
 
 VOLATILE = ("history", "elapsed_seconds", "kernel_seconds")
@@ -177,3 +178,33 @@ def test_a_problem_found_when_planning_names_the_file_and_line_from_python_too(s
             gearsweep.run(given)
         assert str(err.value).startswith(f"{name}:") and str(err.value).split(":")[1].isdigit()
         assert "solver.steps_per_period: 24 -- a multiple of 16" in str(err.value)
+
+
+def test_cases_beyond_the_step_limit_warn_from_python_with_the_clis_line(small_whine, write_study,
+                                                                         tmp_path, capsys):
+    """``solver.step_guard: warn`` (the default) marks the cases whose step is beyond the method's
+    stability limit in ``beyond_step_limit``; only the CLI said so, a result from Python was
+    silent. Now ``run`` and ``run_study`` give one ``StepLimitWarning`` with the line the CLI
+    prints (the CLI: that line alone, no Python warning); ``skip`` and ``off`` give none."""
+    small_whine["sweep"]["speed"] = ["300 rpm", "3000 rpm", "6000 rpm"]  # 300 rpm: h w_n = 10.9
+    path = write_study(small_whine)
+    with pytest.warns(StepLimitWarning) as got:
+        ds = gearsweep.run(path, output=tmp_path / "api.nc")
+    assert ds.beyond_step_limit.values.tolist() == [True, False, False]
+    assert [str(w.message) for w in got] == [
+        (f"{tmp_path / 'api.nc'}: 1 case(s) use a step beyond the stability limit of rk4 at 32"
+         " steps/period; their results may be spoiled by the integrator (variable"
+         " 'beyond_step_limit'; raise solver.steps_per_period or set solver.step_guard: skip)")]
+    assert got[0].filename == __file__  # points at the caller's line
+    assert cli(["run", str(path), "-o", str(tmp_path / "cli.nc"), "-q"]) == 0
+    cli_line = str(got[0].message).replace(str(tmp_path / "api.nc"), str(tmp_path / "cli.nc"))
+    assert capsys.readouterr().err == f"gearsweep: warning: {cli_line}\n"
+    with pytest.warns(StepLimitWarning, match=r"^<dict>: 1 case\(s\) use a step beyond") as got:
+        gearsweep.run(small_whine)
+    assert len(got) == 1
+    with pytest.warns(StepLimitWarning, match=r"^<study>: 1 case\(s\)") as got:
+        gearsweep.api.run_study(gearsweep.api.load(small_whine)[0])
+    assert len(got) == 1
+    for guard in ("skip", "off"):  # no warning (an error here: filterwarnings = error)
+        small_whine["solver"]["step_guard"] = guard
+        assert "beyond_step_limit" not in gearsweep.run(small_whine)

@@ -12,7 +12,7 @@ import xarray as xr
 
 from gearsweep.api import run_study
 from gearsweep.cli import main as cli
-from gearsweep.errors import StudyError
+from gearsweep.errors import StepLimitWarning, StudyError
 from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.plan import build_model
 from gearsweep.study.schema import parse_study
@@ -191,7 +191,8 @@ def test_diverging_case_is_flagged_and_neighbours_are_untouched():
     # At 100 rpm the step is h w_n = 14.8, far beyond RK5's stability limit (~3.4): that case
     # blows up. It must be stopped and flagged, and the other speeds must not change (bitwise).
     bad = _study(LINEAR.replace("speed: [6000 rpm,", "speed: [100 rpm, 6000 rpm,"))
-    ds = run_study(bad, "")
+    with pytest.warns(StepLimitWarning, match=r"^<study>: 1 case\(s\) use a step beyond"):
+        ds = run_study(bad, "")
     assert ds["status"].sel(speed=100.0).item() == 1
     assert np.isnan(ds["p_pp"].sel(speed=100.0).item())
     np.testing.assert_array_equal(ds["p_pp"].isel(speed=slice(1, None)).values, ds_ok["p_pp"].values)
@@ -265,7 +266,12 @@ def test_step_guard_warns_or_skips_cases_beyond_the_stability_limit(tmp_path, ca
     # 100 rpm with 10 teeth and 128 steps per mesh period: h w_n = 14.8, beyond any RK limit;
     # the other speeds are within it (h w_n <= 0.25).
     text = LINEAR.replace("speed: [6000 rpm,", "speed: [100 rpm, 6000 rpm,")
-    warn = run_study(_study(text), "")
+    with pytest.warns(StepLimitWarning) as said:
+        warn = run_study(_study(text), "")
+    assert [str(w.message) for w in said] == [
+        ("<study>: 1 case(s) use a step beyond the stability limit of rk5 at 128 steps/period;"
+         " their results may be spoiled by the integrator (variable 'beyond_step_limit'; raise"
+         " solver.steps_per_period or set solver.step_guard: skip)")]
     np.testing.assert_array_equal(warn["beyond_step_limit"].values, [True, False, False, False])
     skip = run_study(_study(text.replace("method: rk5,", "method: rk5, step_guard: skip,")), "")
     assert "beyond_step_limit" not in skip
@@ -275,8 +281,8 @@ def test_step_guard_warns_or_skips_cases_beyond_the_stability_limit(tmp_path, ca
     study = tmp_path / "coarse.yaml"
     study.write_text(text)
     assert cli(["run", str(study), "-o", str(tmp_path / "c.nc"), "-q"]) == 0
-    err = capsys.readouterr().err
-    assert "1 case(s) use a step beyond the stability limit" in err
+    err = capsys.readouterr().err  # the same line, printed once (no Python warning)
+    assert err == f"gearsweep: warning: {tmp_path / 'c.nc'}{str(said[0].message).removeprefix('<study>')}\n"
 
 
 @pytest.mark.parametrize("method", ["rk4", "rk5"])

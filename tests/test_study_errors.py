@@ -299,3 +299,94 @@ def test_a_duplicate_key_a_scene_error_and_a_sweep_error_are_three_lines(tmp_pat
     assert [re.search(r"three\.yaml:(\d+): (\S+):", ln).groups() for ln in lines] == [
         ("6", "scene.stiffness"), ("8", "scene.damping"), ("10", "sweep.speed.start")], lines
     assert "has no unit" in lines[0] and "duplicate key" in lines[1] and "at most stop" in lines[2]
+
+
+WHOLE = "a whole number (not true or false)"
+"""What an integer field of a study says to YAML's true or false."""
+
+
+@pytest.mark.parametrize(("old", "new", "where"), [
+    ("teeth: 48", "teeth: true", "5: scene.teeth: True"),
+    ("num: 3}", "num: true}", "10: sweep.speed.num: True"),
+    ("steps_per_period: 32", "steps_per_period: false", "11: solver.steps_per_period: False"),
+    ("transient_periods: 4", "transient_periods: false", "11: solver.transient_periods: False"),
+    ("record_periods: 4}", "record_periods: true}", "11: solver.record_periods: True"),
+    ("record_periods: 4}\n", "record_periods: 4}\noutputs: [{spectrum: {samples_per_period: true}}]\n",
+     "12: outputs[0].spectrum.samples_per_period: True"),
+])
+def test_true_or_false_is_not_a_whole_number(old, new, where):
+    """An integer field took YAML's true and false as 1 and 0 (pydantic's lax mode): ``teeth:
+    true`` ran a scene of one tooth. Now one line, as for any other wrong value."""
+    assert _lines(GOOD.replace(old, new)) == [f"s.yaml:{where} -- {WHOLE}"]
+    parse_study(GOOD.replace(old, new.replace("true", "16").replace("false", "16")), "s.yaml")
+
+
+@pytest.mark.parametrize(("study", "old", "new", "where"), [
+    ("fig01_02_mesh_cycle.yaml", "positions: 200", "positions: true", "positions"),
+    ("table1_profile_shift.yaml", "z1: 48", "z1: true", "gear.z1"),
+    ("whine_measured_ste.yaml", "harmonics: 10}", "harmonics: true}", "scene.excitation.harmonics"),
+    ("work_precision.yaml", "[8, 16, 32,", "[8, true, 32,",
+     "analysis.work_precision.steps_per_period[1]"),
+])
+def test_true_or_false_is_not_a_whole_number_in_mesh_gear_and_analysis_studies(study, old, new,
+                                                                                where):
+    path = ROOT / "studies" / study  # its own path: the excitation's file is found beside it
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    with pytest.raises(StudyError) as err:
+        parse_study(text.replace(old, new), str(path))
+    [line] = err.value.lines
+    assert line.startswith(f"{path}:") and line.endswith(f": {where}: True -- {WHOLE}"), line
+    parse_study(text, str(path))
+
+
+def test_every_integer_field_of_a_study_refuses_true_and_false():
+    """Every ``int`` of every model a study file is validated by (the scenes, the gear, the
+    measured excitation, the outputs' options, mesh and analysis studies) is ``Count``: a new
+    integer field that is a plain ``int`` fails here."""
+    import typing
+
+    from pydantic import BaseModel
+
+    from gearsweep.study.analysis_specs import AnalysisStudy
+    from gearsweep.study.outputs import OUTPUTS
+    from gearsweep.study.quantities import Count
+    from gearsweep.study.schema import MeshStudy, Study
+
+    def plain_ints(tp, where: str, seen: set) -> list[str]:
+        if tp is int:
+            return [where]
+        if typing.get_origin(tp) is typing.Annotated:
+            args = typing.get_args(tp)
+            if args[0] is int:
+                return [] if tuple(tp.__metadata__) == tuple(Count.__metadata__) else [where]
+            return plain_ints(args[0], where, seen)
+        if isinstance(tp, type) and issubclass(tp, BaseModel):
+            if tp in seen:
+                return []
+            seen.add(tp)
+            out = []
+            for name, f in tp.model_fields.items():
+                ann = f.annotation
+                if ann is int:  # Annotated[int, ...] with the field's constraints
+                    ok = any(m in f.metadata for m in Count.__metadata__)
+                    out += [] if ok else [f"{tp.__name__}.{name}"]
+                else:
+                    out += plain_ints(ann, f"{tp.__name__}.{name}", seen)
+            return out
+        return [w for a in typing.get_args(tp) for w in plain_ints(a, where, seen)]
+
+    seen: set = set()
+    roots = [Study, MeshStudy, AnalysisStudy, *(getattr(o, "options_model", None) for o in OUTPUTS.values()
+                                                if getattr(o, "options_model", None))]
+    assert [w for m in roots for w in plain_ints(m, m.__name__, seen)] == []
+    counted = sum(1 for m in seen for f in m.model_fields.values()
+                  if any(x in f.metadata for x in Count.__metadata__))
+    assert counted >= 10  # the walk reached the models (teeth, num, steps_per_period, ...)
+
+
+def test_validate_says_true_is_not_a_whole_number_in_one_line(tmp_path, capsys):
+    path = tmp_path / "t.yaml"
+    path.write_text(GOOD.replace("teeth: 48", "teeth: true"), encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == f"gearsweep: error: {path}:5: scene.teeth: True -- {WHOLE}\n"

@@ -21,7 +21,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from gearsweep.study.quantities import Speed, Strict, WholeStudy
+from gearsweep.study.quantities import Count, Speed, Strict, WholeStudy
 
 Method = Literal["rk4", "rk5"]
 
@@ -39,8 +39,8 @@ class MethodStability(Strict):
                                  1.2, 1.6],
         min_length=1, description="damping ratios measured by integration [1]")
     zeta_max: float = Field(1.6, gt=0, le=10, description="end of the polynomial's curve [1]")
-    curve_points: int = Field(321, ge=2, le=100_000)
-    steps: int = Field(4_000_000, ge=1000, le=100_000_000,
+    curve_points: Count = Field(321, ge=2, le=100_000)
+    steps: Count = Field(4_000_000, ge=1000, le=100_000_000,
                        description="steps integrated per trial step (bisection)")
 
     @model_validator(mode="after")
@@ -60,7 +60,7 @@ class ArtifactMap(Strict):
                             " resolved model and its speed and damping grids")
     methods: list[Literal["rk5", "fehlberg5", "cashkarp5", "dopri5"]] = Field(
         default_factory=lambda: ["rk5", "fehlberg5", "cashkarp5", "dopri5"], min_length=1)
-    steps_per_period: list[int] = Field(
+    steps_per_period: list[Count] = Field(
         default_factory=lambda: list(range(100, 421, 20)), min_length=1)
 
     @model_validator(mode="after")
@@ -84,17 +84,17 @@ class WorkPrecision(Strict):
     rattle_speed: Speed = Field(9000.0, gt=0, description="speed of the rattle scene [rpm]")
     methods: list[Literal["rk4", "rk5", "rk4-kink", "rk5-kink"]] = Field(
         default_factory=lambda: ["rk4", "rk5", "rk4-kink", "rk5-kink"], min_length=1)
-    steps_per_period: list[int] = Field(
+    steps_per_period: list[Count] = Field(
         default_factory=lambda: [8, 16, 32, 64, 128, 256, 512, 1024], min_length=3)
     peers: list[Literal["RK45", "DOP853", "LSODA"]] = Field(
         default_factory=lambda: ["RK45", "DOP853", "LSODA"])
     rtol: list[float] = Field(
         default_factory=lambda: [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10], min_length=1)
-    transient_periods: int = Field(40, ge=1, le=100_000)
-    record_periods: int = Field(20, ge=1, le=100_000)
-    copies: int = Field(64, ge=1, le=1_000_000,
+    transient_periods: Count = Field(40, ge=1, le=100_000)
+    record_periods: Count = Field(20, ge=1, le=100_000)
+    copies: Count = Field(64, ge=1, le=1_000_000,
                         description="identical cases per kernel call (cost = time / copies)")
-    repeat: int = Field(3, ge=1, le=100, description="timings per point; the best is kept")
+    repeat: Count = Field(3, ge=1, le=100, description="timings per point; the best is kept")
 
     @model_validator(mode="after")
     def _steps(self) -> WorkPrecision:
@@ -119,8 +119,8 @@ class RattleBalance(Strict):
 
     kind: Literal["rattle_balance"]
     result: ResultName
-    harmonics: int = Field(25, ge=1, le=200, description="AFT harmonics")
-    n_time: int = Field(1024, ge=16, le=1 << 16, description="AFT time samples per period")
+    harmonics: Count = Field(25, ge=1, le=200, description="AFT harmonics")
+    n_time: Count = Field(1024, ge=16, le=1 << 16, description="AFT time samples per period")
     curve_top: float = Field(3.0, gt=1, le=100,
                              description="describing-function curve up to this many b [1]")
     eq15_step: Speed = Field(50.0, gt=0, description="speed step of the Eq. (15) points [rpm]")
@@ -143,7 +143,7 @@ class RattleBudget(Strict):
     scenes: list[ResultName] = Field(min_length=1)
     names: list[str] = Field(min_length=1, description="a short name per scene (legends)")
     mesh: ResultName = Field(description="the pair's mesh study (its ste_harmonic gives e_1)")
-    points: int = Field(200, ge=2, le=100_000, description="speeds of the budget lines")
+    points: Count = Field(200, ge=2, le=100_000, description="speeds of the budget lines")
     at_speeds: list[Speed] = Field(default_factory=lambda: [7500.0, 8000.0],
                                    description="speeds where m w^2 e_1 is reported [rpm]")
 

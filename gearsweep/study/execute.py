@@ -41,7 +41,7 @@ from urllib.parse import urlparse
 
 import numpy as np
 
-from gearsweep.errors import ClusterError, LimitError, ResultError
+from gearsweep.errors import ClusterError, LimitError, ResultError, StepLimitWarning
 from gearsweep.files import check_replaceable
 from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
@@ -661,6 +661,24 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     import xarray as xr
 
     return xr.open_dataset(output)
+
+
+def step_limit_warning(plan: Plan, ds: xr.Dataset, where: str | Path) -> StepLimitWarning | None:
+    """The one line about the cases of the result ``ds`` of ``plan`` whose step is beyond the
+    method's stability limit (``solver.step_guard: warn``: its variable ``beyond_step_limit``),
+    named after ``where`` (the result file, or the study); ``None`` when there are none.
+    ``gearsweep.run`` warns it and the CLI prints it (``gearsweep: warning: ...``): one text."""
+    if "beyond_step_limit" not in ds:  # step_guard skip or off
+        return None
+    n = int(ds["beyond_step_limit"].sum())
+    if not n:
+        return None
+    s = plan.study.solver
+    return StepLimitWarning(
+        f"{where}: {n} case(s) use a step beyond the stability limit of {s.method} at"
+        f" {s.steps_per_period} steps/period; their results may be spoiled by the integrator"
+        " (variable 'beyond_step_limit'; raise solver.steps_per_period or set"
+        " solver.step_guard: skip)")
 
 
 def _result_file(plan: Plan, output: str | Path, tmp: Path, codec: str | None) -> ResultFile:

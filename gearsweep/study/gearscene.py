@@ -41,7 +41,7 @@ from pydantic import BeforeValidator, Field, model_validator
 
 from gearsweep.gear import GearPair, TipRelief, table1_as_printed, table1_consistent
 from gearsweep.gear.excitation import DEFAULT_HARMONICS, GearExcitation, gear_excitation
-from gearsweep.study.quantities import Angle, Length, Pressure, Strict
+from gearsweep.study.quantities import Angle, Count, Length, Pressure, Strict
 
 PRESETS = {"table1_consistent": table1_consistent, "table1_as_printed": table1_as_printed}
 """Named gear pairs a study can use as ``gear: NAME`` or ``gear: {preset: NAME, ...}``."""
@@ -76,8 +76,8 @@ class GearSpec(Strict):
 
     preset: Literal["table1_consistent", "table1_as_printed"] | None = None
     module: Length | None = Field(None, gt=0, description="module [m]")
-    z1: int | None = Field(None, ge=3, le=10_000, description="teeth of the driving gear 1")
-    z2: int | None = Field(None, ge=3, le=10_000, description="teeth of the driven gear 2")
+    z1: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driving gear 1")
+    z2: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driven gear 2")
     face_width: Length | None = Field(None, gt=0, description="face width [m]")
     pressure_angle: Angle | None = Field(None, gt=0, description="reference pressure angle [rad]")
     x1: float | None = Field(None, description="profile shift coefficient of gear 1")

@@ -47,7 +47,7 @@ from gearsweep.gear.measured import (
     min_samples,
 )
 from gearsweep.model import Harmonic
-from gearsweep.study.quantities import Strict
+from gearsweep.study.quantities import Count, Strict
 from gearsweep.units import UnitParseError, to_si
 
 POSITION = {"mesh_phase": "mesh_phase", "angle": "angle", "roll_angle": "angle"}
@@ -209,7 +209,7 @@ class ExcitationSpec(Strict):
     """``excitation:``: the scene's STE and/or mesh stiffness as samples in a file, fitted."""
 
     file: str = Field(min_length=1, description="CSV or netCDF file (relative to the study file)")
-    harmonics: int = Field(10, ge=1, le=100, description="highest mesh order of the fit")
+    harmonics: Count = Field(10, ge=1, le=100, description="highest mesh order of the fit")
     span: Literal["mesh_cycle", "revolution"] = Field(
         "mesh_cycle", description="the samples cover one mesh cycle or one revolution of the"
         " driving gear")

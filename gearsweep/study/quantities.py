@@ -1,6 +1,7 @@
 """Quantity fields of the study models: a string with units (``gearsweep.units``), parsed once into
 SI. Every pydantic model of a study file (``schema``, ``gearscene``, ``analysis_specs``) takes its
-dimensioned fields from here, so that a quantity is parsed and checked the same way everywhere.
+dimensioned fields from here, so that a quantity is parsed and checked the same way everywhere;
+and its integer fields (``Count``: true and false are not numbers).
 """
 
 from __future__ import annotations
@@ -33,6 +34,17 @@ Length, Mass, Force, Torque = Q("length"), Q("mass"), Q("force"), Q("torque")
 Damping, Stiffness, Inertia, Angle, Speed = (Q("damping"), Q("stiffness"), Q("inertia"),
                                             Q("angle"), Q("speed"))
 Displacement, Pressure = Q("displacement"), Q("pressure")
+
+
+def _whole(value: Any) -> Any:
+    if isinstance(value, bool):
+        raise ValueError("a whole number (not true or false)")
+    return value
+
+
+Count = Annotated[int, BeforeValidator(_whole)]
+"""An integer field of a study (teeth, steps, periods, harmonics, ...): YAML's ``true`` and
+``false`` are refused (pydantic's lax mode took them as 1 and 0); otherwise pydantic's ``int``."""
 
 
 class Strict(BaseModel):

@@ -68,6 +68,7 @@ from gearsweep.study.measured import ExcitationSpec, excitation_problems
 from gearsweep.study.outputs import OUTPUTS, configure
 from gearsweep.study.quantities import (
     Angle,
+    Count,
     Damping,
     Displacement,
     Force,
@@ -145,13 +146,13 @@ class _Driven(Strict):
 
     mass: Mass | None = Field(None, gt=0, description="equivalent mass m_eq")
     drive: Drive | None = None
-    teeth: int | None = Field(None, gt=0, le=1000, description="teeth of the driving gear N1")
+    teeth: Count | None = Field(None, gt=0, le=1000, description="teeth of the driving gear N1")
     stiffness: Stiffness | None = Field(None, gt=0, description="mean mesh stiffness k0")
     gear: GearField | None = Field(None, description="gear pair giving k(t), e(t), N1, r1;"
                                    " with 'stiffness' (and 'stiffness_harmonics') typed in beside"
                                    " it, those replace the pair's k(t) and e(t) is the pair's"
                                    " loaded STE (the paper's use of its computed STE)")
-    harmonics: int | None = Field(None, ge=1, le=100, description="Fourier harmonics of a gear")
+    harmonics: Count | None = Field(None, ge=1, le=100, description="Fourier harmonics of a gear")
     excitation: ExcitationSpec | None = Field(None, description="STE and/or stiffness samples"
                                               " from a file, fitted (study/measured.py)")
     damping: Damping = Field(0.0, ge=0, description="mesh viscous damping c")
@@ -267,19 +268,19 @@ class Range(Strict):
 
     start: float | str
     stop: float | str
-    num: int = Field(ge=1, le=10_000_000)
+    num: Count = Field(ge=1, le=10_000_000)
     spacing: Literal["linear", "log"] = "linear"
 
 
 class Solver(Strict):
     method: Literal["rk4", "rk5"] = "rk4"
-    steps_per_period: int = Field(64, ge=4, le=65536, description="steps per mesh period")
+    steps_per_period: Count = Field(64, ge=4, le=65536, description="steps per mesh period")
     kink_aware: bool = Field(
         False, description="redo steps that cross the backlash boundaries in pieces that end on "
         "them (gearsweep.kernels.kink): keeps the method's order 4/5 with backlash, where the "
         "plain step falls to order 2; no effect without backlash")
-    transient_periods: int = Field(100, ge=0, description="mesh periods discarded")
-    record_periods: int = Field(50, ge=1, description="mesh periods recorded for statistics")
+    transient_periods: Count = Field(100, ge=0, description="mesh periods discarded")
+    record_periods: Count = Field(50, ge=1, description="mesh periods recorded for statistics")
     divergence_factor: float = Field(1e6, gt=1, description="|p| bound / static scale")
     settle_tolerance: float = Field(1e-2, gt=0, description="settle_error above it: status 2")
     initial_displacement: Literal["static"] | Displacement = Field(
@@ -971,8 +972,8 @@ class MeshStudy(WholeStudy):
     gears: dict[str, GearField] | None = Field(None, description="labelled variants")
     torque: Torque | None = Field(None, gt=0, description="driving torque T1 [N m]")
     sweep: dict[Literal["torque"], list[float | str] | Range] = Field(default_factory=dict)
-    positions: int = Field(200, ge=8, le=100_000, description="positions per mesh cycle")
-    harmonics: int = Field(10, ge=1, description="Fourier harmonics kept")
+    positions: Count = Field(200, ge=8, le=100_000, description="positions per mesh cycle")
+    harmonics: Count = Field(10, ge=1, description="Fourier harmonics kept")
 
     @model_validator(mode="after")
     def _consistent(self) -> MeshStudy:
