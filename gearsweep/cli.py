@@ -203,7 +203,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise StudyError(args.study, "--workers", args.workers, "a positive number of workers")
     # Chunks of at most about 30 s (progress, and a kill loses at most one chunk).
-    chunk, capped = chunk_cases(plan, args.chunk_size)
+    chunk, capped = chunk_cases(plan, args.chunk_size, workers=args.workers)
     if capped and args.chunk_size is not None and not args.quiet:
         print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than about"
               f" {CHUNK_SECONDS:.0f} s; using {chunk} cases per chunk", file=sys.stderr)

@@ -124,7 +124,7 @@ def _child_main(out: str) -> None:
     again = simulate_cuda(**run_kw("rattle", "rk4"), max_chunk=2)
     now = [b["h_in"] for b in cuda_module._BUFFERS["sets"]]
     res["buffers_reused"] = np.array(len(kept) == len(now) == 2
-                                     and all(a is b for a, b in zip(kept, now)))
+                                     and all(a is b for a, b in zip(kept, now, strict=True)))
     res["reused_same"] = np.array(all(np.array_equal(first.stats[s], again.stats[s], equal_nan=True)
                                       for s in first.stats)
                                   and np.array_equal(first.signal, again.signal, equal_nan=True))

@@ -178,6 +178,65 @@ def test_a_six_million_case_continuation_is_not_one_chunk(tmp_path, capsys):
     assert " in 1 chunk:" not in out.out
 
 
+def _scale_plan(speeds: int, device: str = "cpu", transient: int = 60):
+    """``studies/heavy/scale_1e6.yaml`` with ``speeds`` speeds (10,000 cases per speed), on
+    ``device``, with ``transient`` transient periods."""
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import parse_study
+
+    text = (Path(__file__).parents[1] / "studies/heavy/scale_1e6.yaml").read_text(encoding="utf-8")
+    text = text.replace("num: 100}", f"num: {speeds}}}", 1)
+    text = text.replace("transient_periods: 60", f"transient_periods: {transient}\n  device: {device}")
+    return make_plan(parse_study(text), text)
+
+
+def test_every_worker_gets_chunks():
+    """--workers N cuts the default chunks so that each worker process has about
+    CHUNKS_PER_WORKER of them (a 1e6-case study was 3 chunks, and 8 or 16 workers were no faster
+    than 4 on a 16-core machine), never below WORKER_CHUNK_STEPS steps; in-process, unchanged."""
+    from gearsweep.study.estimate import CHUNKS_PER_WORKER, WORKER_CHUNK_STEPS, chunk_cases
+    from gearsweep.study.execute import lanes_per_chunk
+
+    plan = _scale_plan(100)  # 1e6 cases of 2,560 steps
+    alone = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None, threads=16)[0]))
+    assert len(alone) < 8
+    for workers in (2, 4, 8, 16):
+        chunk, _ = chunk_cases(plan, None, threads=16, workers=workers)
+        chunks = plan.chunks(lanes_per_chunk(plan, chunk))
+        steps = [(b - a) * plan.steps_per_case for a, b in chunks[:-1]]
+        assert len(chunks) >= min(CHUNKS_PER_WORKER * workers, 1e6 * 2560 / WORKER_CHUNK_STEPS)
+        assert len(chunks) >= workers and min(steps) >= WORKER_CHUNK_STEPS
+    assert chunk_cases(plan, None, threads=16, workers=1) == chunk_cases(plan, None, threads=16)
+    assert chunk_cases(plan, 50_000, workers=16)[0] == 50_000  # what the user asked for stays
+
+
+def test_a_gpu_study_is_chunked_and_estimated_for_the_gpu():
+    """device: cuda plans chunks of about cuda.CHUNK_STEPS (the CPU's are 1e9 steps) and states
+    the GPU's rate, so that a study hours long on the CPU is not refused for it, and not measured
+    on the CPU before refusing. (Planning and estimating need no GPU.)"""
+    from gearsweep.kernels import cuda
+    from gearsweep.study.estimate import MAX_SPEEDUP, before_refusing, quick_estimate
+    from gearsweep.study.execute import LIMITS
+    from gearsweep.study.plan import CHUNK_STEPS
+
+    cpu, gpu = _scale_plan(1000), _scale_plan(1000, "cuda")  # 1e7 cases of 2,560 steps
+    assert (cpu.device, gpu.device) == ("cpu", "cuda")
+    per = cpu.steps_per_case
+    assert abs(cpu.default_lanes_per_chunk() * per - CHUNK_STEPS) <= per
+    assert abs(gpu.default_lanes_per_chunk() * per - cuda.CHUNK_STEPS) <= per
+    assert len(gpu.chunks()) >= 5  # the writer overlaps the GPU, memory holds a few chunks
+    est, _ = quick_estimate(gpu)
+    assert "on the GPU at 8e+04 Msteps/s (stated)" in est.line() and est.device == "cuda"
+    cpu, gpu = _scale_plan(1000, transient=6000), _scale_plan(1000, "cuda", transient=6000)
+    cpu_est, _ = quick_estimate(cpu, threads=2)
+    est, _ = quick_estimate(gpu)
+    kernel_s = gpu.n_cases * gpu.steps_per_case / cuda.STATED_STEPS_PER_SECOND
+    # on the CPU beyond MAX_SPEEDUP x the limit (refused at once); on the GPU within it
+    assert cpu_est.seconds > MAX_SPEEDUP * LIMITS.seconds
+    assert kernel_s < est.seconds < LIMITS.seconds
+    assert before_refusing(gpu, est)[0] is est
+
+
 def test_codec_zlib_writes_the_same_numbers_for_readers_without_zstd(tmp_path):
     """``--codec zlib``: a file any HDF5 reads, with the numbers of the default (zstd) file."""
     study = tmp_path / "s.yaml"

@@ -149,12 +149,25 @@ def shortest_chunk_seconds(plan: Plan) -> float:
     return plan.chain * LANES * plan.steps_per_case / (STATED_RATE[plan.study.solver.method] * 1e6)
 
 
+CHUNKS_PER_WORKER = 3
+"""With ``--workers N`` the default chunks are cut into at least about this many per worker
+process, so that every worker has work and the last chunks' tail is short: at the default
+1e9 steps a 1e6-case study was 3 chunks, and 8 or 16 workers ran its chunk phase no faster than
+4 (2.0, 2.65 and 2.67 s; 16-core machine, 26 Nov 2026, docs/scale.md)."""
+
+WORKER_CHUNK_STEPS = 1e8
+"""... but a chunk of at least about this many steps (0.1 s of one core), so that dask's cost
+per task (milliseconds) and the work around each kernel call stay small beside it."""
+
+
 def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
-                seconds: float = CHUNK_SECONDS) -> tuple[int | None, bool]:
+                seconds: float = CHUNK_SECONDS, workers: int | None = None
+                ) -> tuple[int | None, bool]:
     """Cases per chunk to run with: ``requested`` (``None``: the runner's default, about 1e9
-    steps, the fast size) capped so that a chunk takes at most about ``seconds`` at the stated
-    rate, and a study of more than ``PROGRESS_CHUNKS`` seconds is not one chunk. Returns (cases
-    per chunk, or ``None`` for the default; whether it was capped).
+    steps, the fast size; with ``workers`` processes, at least ``CHUNKS_PER_WORKER`` chunks
+    each where the study is big enough) capped so that a chunk takes at most about ``seconds``
+    at the stated rate, and a study of more than ``PROGRESS_CHUNKS`` seconds is not one chunk.
+    Returns (cases per chunk, or ``None`` for the default; whether it was capped).
 
     A lane (one case, or one continued sweep along speed) is never split, so a chunk is at
     least one round of kernel blocks over the cores (``LANES x threads`` lane-sweeps): smaller
@@ -163,6 +176,12 @@ def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
     threads = threads or cores()
     ways = max(len(plan.directions), 1)
     per_lane = plan.chain * ways
+    if requested is None and workers and workers > 1 and plan.device == "cpu":
+        default = plan.default_lanes_per_chunk()
+        floor = math.ceil(WORKER_CHUNK_STEPS / (per_lane * plan.steps_per_case))
+        lanes = max(math.ceil(plan.n_lanes / (CHUNKS_PER_WORKER * workers)), floor, 4 * LANES)
+        if lanes < default:
+            requested = lanes * per_lane
     if plan.device == "cuda":  # a lane per GPU thread: capped at ``seconds`` at the GPU's rate
         lanes_max = max(int(seconds * cuda.STATED_STEPS_PER_SECOND
                             / (per_lane * plan.steps_per_case)), 1)
