@@ -22,7 +22,7 @@ import xarray as xr
 from gearsweep.cli import main
 from gearsweep.errors import LimitError, ResultError
 from gearsweep.study import execute
-from gearsweep.study.checkpoint import ChunkStore, chunk_folder
+from gearsweep.study.checkpoint import ChunkStore, chunk_folder, remove_checkpoints
 from gearsweep.study.dataset import _boxes, write_netcdf
 from gearsweep.study.execute import (
     InProcess,
@@ -34,6 +34,7 @@ from gearsweep.study.execute import (
 )
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import parse_study
+from gearsweep.study.workspace import saved_chunks
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -223,17 +224,28 @@ def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path,
     assert_same(ds, rattle_reference)
 
 
-def test_other_chunk_layout_starts_afresh(rattle_reference, tmp_path, monkeypatch):
+def test_a_resumed_run_keeps_the_saved_chunk_layout(rattle_reference, tmp_path, monkeypatch):
+    """Resumed with another chunk size (another --chunk-size, --workers count or device), a run
+    keeps the interrupted run's layout and computes only the chunks not saved; with nothing saved,
+    or once the result is complete, the chunk size asked for applies."""
     log = tmp_path / "chunks.log"
     monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
     out = tmp_path / "r.nc"
     plan = plan_of(RATTLE)
+    chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
+    other = plan.chunks(execute.lanes_per_chunk(plan, 96))
+    assert set(chunks) != set(other)
     with pytest.raises(Crash):
         run_plan(plan, backend=CrashAfter(2), checkpoint=out, chunk_cases=CHUNK)
+    assert saved_chunks(plan, out, 96) == (2, len(chunks))  # what the CLI says on resuming
     log.unlink()
     ds = run_plan(plan, checkpoint=out, chunk_cases=96)
-    assert read_log(log) == plan.chunks(execute.lanes_per_chunk(plan, 96))
+    assert read_log(log) == chunks[2:]  # the two saved chunks were used, in their layout
     assert_same(ds, rattle_reference)
+    remove_checkpoints(out)
+    log.unlink()
+    run_plan(plan, checkpoint=out, chunk_cases=96)
+    assert read_log(log) == other
 
 
 def test_resume_after_sigkill(tmp_path):

@@ -4,9 +4,10 @@ Next to the output ``OUT.nc`` a run keeps ``OUT.nc.chunks/<study_key>/`` (``Plan
 sha256 of the study as validated, so a comment or spacing edited in its file keeps the chunks):
 
 * ``manifest.json``: the study's key, the gearsweep version, the number of lanes and the chunk
-  layout (lane ranges). A folder whose manifest does not match the run (another layout, another
-  version) is emptied before use; a changed study has another key, hence another folder, and
-  never reads stale chunks.
+  layout (lane ranges). A re-run keeps the saved layout (``saved_layout``), whatever chunk size
+  it would choose itself; a folder whose manifest does not match the run (another version) is
+  emptied before use; a changed study has another key, hence another folder, and never reads
+  stale chunks.
 * ``chunk_<lane0>_<lane1>.npys``: the arrays ``run_chunk`` returned for lanes ``[lane0, lane1)``:
   one ``.npy`` record (NumPy's format, ``numpy.lib.format``) of their names, then one per array in
   that order. Written to a temporary file, then renamed (``os.replace``), so a chunk file is
@@ -60,6 +61,34 @@ def chunk_folder(output: str | Path) -> Path:
     return output.with_name(output.name + ".chunks")
 
 
+def saved_layout(output: str | Path, study_key: str, n_lanes: int
+                 ) -> list[tuple[int, int]] | None:
+    """The chunk layout of an interrupted run of this study (same key, gearsweep version and
+    number of lanes) that left chunk files next to ``output``; else ``None``.
+
+    A resumed run keeps this layout whatever chunk size it would choose now (another
+    ``--chunk-size``, another ``--workers`` count, another device), so that no saved chunk is
+    computed again. (Until 26 Nov 2026 another layout emptied the folder; since the default
+    chunks depend on ``--workers`` and the device, that would have thrown away finished work.)
+    """
+    folder = chunk_folder(output) / study_key
+    try:
+        old = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+        chunks = [(int(a), int(b)) for a, b in old["chunks"]]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    if (old.get("format"), old.get("study_key"), old.get("gearsweep_version"),
+            old.get("n_lanes")) != (FORMAT, study_key, __version__, n_lanes):
+        return None
+    ends = [0] + [b for _, b in chunks]
+    if not chunks or ends[-1] != n_lanes or any(
+            a != e for (a, _), e in zip(chunks, ends[:-1], strict=True)):
+        return None  # not a contiguous cover of the lanes: not a layout to trust
+    if not any(folder.glob(f"chunk_*{SUFFIX}")):
+        return None
+    return chunks
+
+
 class ChunkStore:
     """The chunk files of one study (by its key) written to one output.
 
@@ -95,7 +124,8 @@ class ChunkStore:
     def open(self) -> list[tuple[int, int]]:
         """Create or check the folder; return the chunks whose files are present.
 
-        A folder left by a run with another chunk layout or gearsweep version is emptied first.
+        A folder left by a run with another chunk layout (the caller did not keep it: see
+        ``saved_layout``) or gearsweep version is emptied first.
         """
         self.folder.mkdir(parents=True, exist_ok=True)
         mpath = self.folder / MANIFEST

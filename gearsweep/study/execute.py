@@ -44,7 +44,7 @@ import numpy as np
 from gearsweep.errors import ClusterError, LimitError, ResultError, StepLimitWarning
 from gearsweep.files import check_replaceable
 from gearsweep.kernels import LANES
-from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints
+from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints, saved_layout
 from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, run_chunk
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
 
@@ -488,6 +488,15 @@ def _fits(plan: Plan, a: int, b: int, arrays: dict[str, np.ndarray]) -> bool:
         arr.shape == want[name][0] and arr.dtype == want[name][1] for name, arr in arrays.items())
 
 
+def chunks_to_run(plan: Plan, output: str | Path | None, chunk_cases: int | None
+                  ) -> list[tuple[int, int]]:
+    """The chunks (lane ranges) of ``plan`` written to ``output``: those of an interrupted run
+    of the same study there (``checkpoint.saved_layout``), else about ``chunk_cases`` cases
+    each (``None``: the runner's default)."""
+    saved = None if output is None else saved_layout(output, plan.study_key, plan.n_lanes)
+    return saved or plan.chunks(lanes_per_chunk(plan, chunk_cases))
+
+
 def _open_store(plan: Plan, checkpoint: str | Path | None, chunks: list[tuple[int, int]]
                 ) -> tuple[ChunkStore | None, list[tuple[int, int]]]:
     """The checkpoint store of ``plan`` next to ``checkpoint`` (``None``: no store) and the
@@ -611,7 +620,7 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     """
     from gearsweep.study.dataset import assemble, empty_results, store_chunk
 
-    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
+    chunks = chunks_to_run(plan, checkpoint, chunk_cases)
     results = empty_results(plan)
     store, done = _open_store(plan, checkpoint, chunks)
     for a, b in done:
@@ -644,7 +653,7 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     when used; not dask arrays, whose first computation imports dask.distributed, 0.2-0.6 s).
     """
     check_replaceable(output)  # before any computing
-    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
+    chunks = chunks_to_run(plan, output, chunk_cases)
     try:
         store, done = _open_store(plan, output, chunks)
     except OSError as exc:  # the folder cannot be made or written (/proc/x.nc, read-only)

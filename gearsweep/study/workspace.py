@@ -17,7 +17,7 @@ from pathlib import Path
 
 from gearsweep.errors import GearsweepError
 from gearsweep.study.checkpoint import SUFFIX, chunk_folder
-from gearsweep.study.execute import lanes_per_chunk
+from gearsweep.study.execute import chunks_to_run
 
 
 class BusyError(GearsweepError):
@@ -82,7 +82,7 @@ def check_partial(plan, out: str | Path) -> None:
 
 def saved_chunks(plan, out: str | Path, chunk_cases: int | None = None) -> tuple[int, int]:
     """(chunks of ``plan`` saved next to ``out``, chunks in all)."""
-    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases))
+    chunks = chunks_to_run(plan, out, chunk_cases)
     folder = chunk_folder(out) / _sha(plan)
     done = sum(1 for a, b in chunks if (folder / f"chunk_{a}_{b}{SUFFIX}").is_file())
     return done, len(chunks)
