@@ -423,7 +423,8 @@ def _buffer_sets(cu, dt, m: int, sig_cols: int, count: int) -> list[dict]:
     """``count`` sets of pinned host and device buffers for chunks of ``m`` cases, kept from the
     last call when they are big enough: allocating them in every call (page-locking some 200 MB
     of host memory at 1e6 cases) cost as much as the kernel: B1 at 1e6 cases took 0.141 s a call
-    with, 0.076 s without (H200, 26 Nov 2026). The study runner calls once per chunk."""
+    with, 0.076 s without (H200, 26 Nov 2026, two calls on two fresh machines). The study
+    runner calls once per chunk."""
     key = (np.dtype(dt).str, sig_cols)
     have = _BUFFERS.get("sets")
     if have is not None and _BUFFERS["key"] == key and _BUFFERS["m"] >= m and len(have) >= count:
