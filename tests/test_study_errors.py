@@ -325,8 +325,7 @@ def test_true_or_false_is_not_a_whole_number(old, new, where):
     ("fig01_02_mesh_cycle.yaml", "positions: 200", "positions: true", "positions"),
     ("table1_profile_shift.yaml", "z1: 48", "z1: true", "gear.z1"),
     ("whine_measured_ste.yaml", "harmonics: 10}", "harmonics: true}", "scene.excitation.harmonics"),
-    ("work_precision.yaml", "[8, 16, 32,", "[8, true, 32,",
-     "analysis.work_precision.steps_per_period[1]"),
+    ("work_precision.yaml", "[8, 16, 32,", "[8, true, 32,", "analysis.steps_per_period[1]"),
 ])
 def test_true_or_false_is_not_a_whole_number_in_mesh_gear_and_analysis_studies(study, old, new,
                                                                                 where):
@@ -383,6 +382,86 @@ def test_every_integer_field_of_a_study_refuses_true_and_false():
     counted = sum(1 for m in seen for f in m.model_fields.values()
                   if any(x in f.metadata for x in Count.__metadata__))
     assert counted >= 10  # the walk reached the models (teeth, num, steps_per_period, ...)
+
+
+WORK_PRECISION = ROOT / "studies" / "work_precision.yaml"
+METHOD_STABILITY = ROOT / "studies" / "method_stability.yaml"
+
+
+def _analysis_lines(path: Path, old: str, new: str) -> list[str]:
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    with pytest.raises(StudyError) as err:
+        parse_study(text.replace(old, new), "a.yaml")
+    return err.value.lines
+
+
+def test_an_analysis_error_names_the_field_as_written_and_its_own_line():
+    """The analysis' kind is a key pydantic adds to the error's location
+    (``analysis.work_precision.steps_per_period[1]``), not one of the file: the path named it and
+    the line was that of ``analysis:`` (8), where the file has no such key. Now the path is the
+    file's and the line the field's, several lines below ``analysis:``."""
+    text = WORK_PRECISION.read_text(encoding="utf-8")
+    assert text.splitlines()[7] == "analysis:" and "steps_per_period" in text.splitlines()[11]
+    assert _analysis_lines(WORK_PRECISION, "[8, 16, 32,", "[8, true, 32,") == [
+        f"a.yaml:12: analysis.steps_per_period[1]: True -- {WHOLE}"]
+    assert _analysis_lines(
+        WORK_PRECISION, "peers: [RK45, DOP853, LSODA]\n",
+        "peers: [RK45, DOP853, LSODA]\n  copies: 0\n  repeat: many\n") == [
+        "a.yaml:14: analysis.copies: 0 -- Input should be greater than or equal to 1",
+        ("a.yaml:15: analysis.repeat: 'many' -- Input should be a valid integer, unable to parse"
+        " string as an integer")]
+    assert _analysis_lines(METHOD_STABILITY, "steps: 200000", "steps: 20") == [
+        "a.yaml:12: analysis.steps: 20 -- Input should be greater than or equal to 1000"]
+    # a check of the whole analysis stays on the line of analysis:
+    assert _analysis_lines(WORK_PRECISION, "[8, 16, 32, 64,", "[10, 16, 32, 64,") == [
+        ("a.yaml:8: analysis: '{...}' -- steps_per_period must be multiples of 8 (the common"
+        " sampling grid)")]
+
+
+def test_an_unknown_or_missing_analysis_field_is_told_in_the_analysis_words():
+    """An unknown key in an analysis is matched against the fields of its kind (a 'peer' got
+    "did you mean 'speed'?", from the fields of the scenes), a field of another kind says so,
+    and a missing or unknown kind lists the analyses (it said "a scene needs a kind: whine,
+    rattle, full or mathieu", and "not a scene kind")."""
+    assert _analysis_lines(WORK_PRECISION, "  peers:", "  peer:") == [
+        ("a.yaml:13: analysis.peer: 'peer' is not a field of a work_precision analysis -- did you"
+        " mean 'peers'?")]
+    assert _analysis_lines(METHOD_STABILITY, "steps: 200000", "steps: 200000\n  rtol: [0.1]") == [
+        ("a.yaml:13: analysis.rtol: 'rtol' is not a field of a method_stability analysis (it is one"
+        " of a work_precision analysis)")]
+    kinds = "method_stability, work_precision, artifact_map, rattle_balance, rattle_budget"
+    assert _analysis_lines(METHOD_STABILITY, "  kind: method_stability\n", "") == [
+        f"a.yaml:8: analysis.kind: '(missing)' -- an analysis needs a kind: {kinds} or jump_map"]
+    assert _analysis_lines(METHOD_STABILITY, "kind: method_stability", "kind: zzz") == [
+        f"a.yaml:9: analysis.kind: 'zzz' -- not an analysis kind; allowed: {kinds}, jump_map"]
+    # the scene's own words are unchanged
+    assert _lines("title: m\nscene:\n  alpha: 1\n") == [
+        "s.yaml:2: scene.kind: '(missing)' -- a scene needs a kind: whine, rattle, full or mathieu"]
+    assert _lines("title: m\nscene:\n  kind: zzz\n") == [
+        "s.yaml:3: scene.kind: 'zzz' -- not a scene kind; allowed: whine, rattle, full, mathieu"]
+
+
+def test_a_scene_error_names_the_field_as_written_and_its_own_line():
+    """The scene's kind is dropped from the path as the analysis' is (``scene.alpha``, not
+    ``scene.mathieu.alpha``), and a key named like a kind is kept (a ``mathieu:`` key in the scene
+    was "'scene' is not a field of a study -- did you mean 'scene'?")."""
+    text = "title: m\nscene:\n  kind: mathieu\n  alpha: 0.25\n  gamma: 0.01\n"
+    assert _lines(text.replace("gamma: 0.01", "gamma: -1")) == [
+        "s.yaml:5: scene.gamma: -1 -- Input should be greater than or equal to 0"]
+    assert _lines(text + "  mathieu: 1\n") == [
+        ("s.yaml:6: scene.mathieu: 'mathieu' is not a field of a mathieu scene; its fields: alpha,"
+        " beta, gamma")]
+
+
+def test_validate_names_an_analysis_field_and_its_line_in_one_line(tmp_path, capsys):
+    path = tmp_path / "wp.yaml"
+    path.write_text(WORK_PRECISION.read_text(encoding="utf-8").replace("[8, 16, 32,",
+                                                                       "[8, true, 32,"),
+                    encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == (f"gearsweep: error: {path}:12: analysis.steps_per_period[1]:"
+                                       f" True -- {WHOLE}\n")
 
 
 def test_validate_says_true_is_not_a_whole_number_in_one_line(tmp_path, capsys):

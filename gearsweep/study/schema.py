@@ -34,6 +34,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import typing
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -55,7 +56,7 @@ from pydantic import (
 from gearsweep.errors import NO_VALUE, GeometryError, StudyError
 from gearsweep.gear.excitation import static_mesh
 from gearsweep.model import SWEEPABLE
-from gearsweep.study.analysis_specs import AnalysisStudy
+from gearsweep.study.analysis_specs import AnalysisSpec, AnalysisStudy
 from gearsweep.study.gearscene import (
     GearField,
     GearSpec,
@@ -691,17 +692,32 @@ _BRANCHES = ("list[union[float,str]]", "Range", "float", "str", "int", "list", "
              "literal['up','down']")
 
 
+def _kinds(union: Any) -> dict[str, type]:
+    """Tag -> model of a union discriminated by ``kind`` (``Annotated[A | B, Field(...)]``)."""
+    members = typing.get_args(typing.get_args(union)[0])
+    return {typing.get_args(m.model_fields["kind"].annotation)[0]: m for m in members}
+
+
+_SCENES = _kinds(Scene)
+_ANALYSES = _kinds(AnalysisSpec)
+_TAGGED = {"scene": _SCENES, "analysis": _ANALYSES}
+"""The fields that hold a union tagged by ``kind``, and the models of their kinds."""
+
+
 def _user_path(loc: tuple) -> list[str | int]:
     """The parts of a pydantic error location that are keys and indices of the user's file
-    (without the scene kind's tag and pydantic's names of union branches and validators)."""
+    (without the tag of a scene's or an analysis' kind and pydantic's names of union branches
+    and validators)."""
     parts: list[str | int] = []
-    for p in loc:
+    for i, p in enumerate(loc):
         if isinstance(p, int):
             parts.append(p)
             continue
         p = str(p)
-        if p in ("whine", "rattle", "full", "mathieu") and parts and parts[-1] == "scene":
-            continue  # the discriminator's tag is not part of the user's path
+        if i and p in _TAGGED.get(str(loc[i - 1]), ()):
+            # the tag pydantic puts after a tagged union's field ('analysis', 'work_precision',
+            # 'steps_per_period'): not a key of the file, whose line it would miss
+            continue
         if p.startswith(("function-", "literal[", "union[", "list[", "dict[")) or p in _BRANCHES:
             continue
         parts.append(p)
@@ -738,14 +754,10 @@ def _vocabulary() -> tuple[str, ...]:
     return tuple(sorted(names))
 
 
-_SCENES = {"whine": WhineScene, "rattle": RattleScene, "full": FullScene,
-           "mathieu": MathieuScene}
-
-
 def _unknown_field(key: str, parent: list, raw: Any) -> str:
-    """Why ``key`` is not allowed under ``parent``: a field of another scene kind is named as
-    such, and a misspelling is matched against the fields of where it stands (a range's,
-    the solver's, the scene's), not every field of every model."""
+    """Why ``key`` is not allowed under ``parent``: a field of another scene (or analysis) kind
+    is named as such, and a misspelling is matched against the fields of where it stands (a
+    range's, the solver's, the scene's, the analysis'), not every field of every model."""
     choices: tuple[str, ...] | None = None
     where = ""
     if len(parent) == 2 and parent[0] == "sweep":
@@ -754,16 +766,17 @@ def _unknown_field(key: str, parent: list, raw: Any) -> str:
         choices, where = tuple(Solver.model_fields), "solver"
     elif parent == []:
         choices, where = tuple(Study.model_fields), "a study"
-    elif parent == ["scene"]:
-        scene = raw.get("scene") if isinstance(raw, dict) else None
-        kind = scene.get("kind") if isinstance(scene, dict) else None
-        if kind in _SCENES:
-            choices = tuple(_SCENES[kind].model_fields)
-            where = f"a {kind} scene"
-            others = [k for k, m in _SCENES.items() if key in m.model_fields]
+    elif len(parent) == 1 and parent[0] in _TAGGED:
+        noun, kinds = parent[0], _TAGGED[parent[0]]
+        held = raw.get(noun) if isinstance(raw, dict) else None
+        kind = held.get("kind") if isinstance(held, dict) else None
+        if kind in kinds:
+            choices = tuple(kinds[kind].model_fields)
+            where = f"a {kind} {noun}"
+            others = [k for k, m in kinds.items() if key in m.model_fields]
             if others:
                 return (f"{key!r} is not a field of {where} (it is one of a"
-                        f" {' or '.join(others)} scene)")
+                        f" {' or '.join(others)} {noun})")
     if choices is None:
         return f"{key!r} is an unknown field" + (_did_you_mean(key, _vocabulary())
                                                  or " (see docs/study-reference.md)")
@@ -820,14 +833,18 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
         elif t == "union_tag_invalid":
             ctx = e.get("ctx", {})
             tags = re.findall(r"'([^']*)'", str(ctx.get("expected_tags", "")))
+            noun = _noun(parts)
             parts.append("kind")
             value = ctx.get("tag", value)
             hint = _did_you_mean(value, tags)
             msg = (hint.removeprefix(" -- ") + f" (allowed: {', '.join(tags)})" if hint
-                   else f"not a scene kind; allowed: {', '.join(tags)}")
+                   else f"not {_a(noun)} kind; allowed: {', '.join(tags)}")
         elif t == "union_tag_not_found":
+            noun = _noun(parts)
+            tags = list(_TAGGED[noun])
             parts.append("kind")
-            value, msg = "(missing)", "a scene needs a kind: whine, rattle, full or mathieu"
+            value = "(missing)"
+            msg = f"{_a(noun)} needs a kind: {', '.join(tags[:-1])} or {tags[-1]}"
         elif t == "literal_error":
             allowed = re.findall(r"'([^']*)'", str(e.get("ctx", {}).get("expected", "")))
             hint = _did_you_mean(value, allowed)
@@ -843,6 +860,15 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             msg += f" (or {e['or_literal']})"
         out.append(Problem(_loc(parts), value, msg))
     return out
+
+
+def _noun(parts: list) -> str:
+    """What a tagged union's field holds: a scene or an analysis."""
+    return str(parts[-1]) if parts and parts[-1] in _TAGGED else "scene"
+
+
+def _a(noun: str) -> str:
+    return f"{'an' if noun[0] in 'aeiou' else 'a'} {noun}"
 
 
 def _sweep_problems(raw: Any) -> list[Problem]:
