@@ -76,6 +76,7 @@ from gearsweep.study.quantities import (
     Inertia,
     Length,
     Mass,
+    Real,
     Speed,
     Stiffness,
     Strict,
@@ -98,8 +99,8 @@ class Drive(Strict):
 
 class StiffnessHarmonic(Strict):
     amplitude: Stiffness = Field(ge=0, description="k_n of Eq. (1)")
-    order: float | None = Field(None, gt=0, allow_inf_nan=False,
-                                description="mesh order (default: position + 1)")
+    order: Real | None = Field(None, gt=0, allow_inf_nan=False,
+                               description="mesh order (default: position + 1)")
     phase: Angle | None = Field(None, description="phase a_n (default 0; beside a 'gear': the"
                                 " pair's phase of that order, so that k(t) and the pair's STE"
                                 " keep their relative phase)")
@@ -107,18 +108,28 @@ class StiffnessHarmonic(Strict):
 
 class SteHarmonic(Strict):
     amplitude: Displacement = Field(ge=0, description="STE harmonic e_n")
-    order: float | None = Field(None, gt=0, allow_inf_nan=False,
-                                description="mesh order (default: position + 1)")
+    order: Real | None = Field(None, gt=0, allow_inf_nan=False,
+                               description="mesh order (default: position + 1)")
     phase: Angle = Field(0.0, description="phase")
+
+
+AMPLITUDE = "expected a force (e.g. '300 N') or a torque (e.g. '5 N*m')"
 
 
 class Fluctuation(Strict):
     """A harmonic of the driving-torque fluctuation: a force [N] or a torque [N m] (Eq. 7)."""
 
-    amplitude: float | str = Field(description="force [N] or driving torque [N m] amplitude")
-    order: float = Field(gt=0, allow_inf_nan=False,
-                         description="mesh order (1 = mesh frequency; 1/teeth = shaft)")
+    amplitude: Real | str = Field(description="force [N] or driving torque [N m] amplitude")
+    order: Real = Field(gt=0, allow_inf_nan=False,
+                        description="mesh order (1 = mesh frequency; 1/teeth = shaft)")
     phase: Angle = Field(0.0, description="phase")
+
+    @field_validator("amplitude", mode="before")
+    @classmethod
+    def _not_true_or_false(cls, v: Any) -> Any:
+        if isinstance(v, bool):  # told what an amplitude is (a quantity), not Real's 'a number'
+            raise ValueError(AMPLITUDE)
+        return v
 
     @field_validator("amplitude")
     @classmethod
@@ -130,7 +141,7 @@ class Fluctuation(Strict):
                 return v
             except UnitParseError:
                 pass
-        raise ValueError("expected a force (e.g. '300 N') or a torque (e.g. '5 N*m')")
+        raise ValueError(AMPLITUDE)
 
     @property
     def is_torque(self) -> bool:
@@ -248,9 +259,9 @@ class MathieuScene(Strict):
     """Eq. (11): p'' + gamma p' + (alpha + beta cos tau) p = 0 (k0 + k1 only, homogeneous)."""
 
     kind: Literal["mathieu"]
-    alpha: float = Field(0.25, description="k0 / (m (N w)^2)")
-    beta: float = Field(0.0, description="k1 / (m (N w)^2)")
-    gamma: float = Field(0.0, ge=0, description="c / (m N w)")
+    alpha: Real = Field(0.25, description="k0 / (m (N w)^2)")
+    beta: Real = Field(0.0, description="k1 / (m (N w)^2)")
+    gamma: Real = Field(0.0, ge=0, description="c / (m N w)")
 
 
 Scene = Annotated[WhineScene | RattleScene | FullScene | MathieuScene, Field(discriminator="kind")]
@@ -267,8 +278,8 @@ SCENE_PARAMETERS = {
 class Range(Strict):
     """``{start, stop, num}``: ``num`` values from ``start`` to ``stop`` inclusive."""
 
-    start: float | str
-    stop: float | str
+    start: Real | str
+    stop: Real | str
     num: Count = Field(ge=1, le=10_000_000)
     spacing: Literal["linear", "log"] = "linear"
 
@@ -282,14 +293,14 @@ class Solver(Strict):
         "plain step falls to order 2; no effect without backlash")
     transient_periods: Count = Field(100, ge=0, description="mesh periods discarded")
     record_periods: Count = Field(50, ge=1, description="mesh periods recorded for statistics")
-    divergence_factor: float = Field(1e6, gt=1, description="|p| bound / static scale")
-    settle_tolerance: float = Field(1e-2, gt=0, description="settle_error above it: status 2")
+    divergence_factor: Real = Field(1e6, gt=1, description="|p| bound / static scale")
+    settle_tolerance: Real = Field(1e-2, gt=0, description="settle_error above it: status 2")
     initial_displacement: Literal["static"] | Displacement = Field(
         0.0, description="p at t = 0 (Mathieu: a bare number; default 1); 'static': the static"
         " equilibrium on the drive flank of each case, b + F_m / k0 (b = backlash / 2, k0 the"
         " mean stiffness at the case's load)")
-    initial_velocity: float = Field(0.0, allow_inf_nan=False,
-                                    description="p' at t = 0 in m/s (a bare number)")
+    initial_velocity: Real = Field(0.0, allow_inf_nan=False,
+                                   description="p' at t = 0 in m/s (a bare number)")
     device: Literal["cpu", "cuda", "auto"] = Field(
         "cpu", description="where the kernel runs: cpu, cuda (a CUDA GPU, docs/gpu.md) or auto"
         " (cuda where a GPU is present)")
@@ -326,7 +337,7 @@ class Study(WholeStudy):
     title: str = Field(min_length=1)
     description: str = ""
     scene: Scene
-    sweep: dict[str, list[float | str] | Range] = Field(default_factory=dict)
+    sweep: dict[str, list[Real | str] | Range] = Field(default_factory=dict)
     continuation: list[Literal["up", "down"]] = Field(default_factory=list)
     solver: Solver = Field(default_factory=Solver)
     outputs: list[Annotated[OutputRequest, BeforeValidator(_output_request)]] = Field(
@@ -997,7 +1008,7 @@ class MeshStudy(WholeStudy):
     gear: GearField | None = None
     gears: dict[str, GearField] | None = Field(None, description="labelled variants")
     torque: Torque | None = Field(None, gt=0, description="driving torque T1 [N m]")
-    sweep: dict[Literal["torque"], list[float | str] | Range] = Field(default_factory=dict)
+    sweep: dict[Literal["torque"], list[Real | str] | Range] = Field(default_factory=dict)
     positions: Count = Field(200, ge=8, le=100_000, description="positions per mesh cycle")
     harmonics: Count = Field(10, ge=1, description="Fourier harmonics kept")
 
