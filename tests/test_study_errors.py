@@ -325,8 +325,7 @@ def test_true_or_false_is_not_a_whole_number(old, new, where):
     ("fig01_02_mesh_cycle.yaml", "positions: 200", "positions: true", "positions"),
     ("table1_profile_shift.yaml", "z1: 48", "z1: true", "gear.z1"),
     ("whine_measured_ste.yaml", "harmonics: 10}", "harmonics: true}", "scene.excitation.harmonics"),
-    ("work_precision.yaml", "[8, 16, 32,", "[8, true, 32,",
-     "analysis.work_precision.steps_per_period[1]"),
+    ("work_precision.yaml", "[8, 16, 32,", "[8, true, 32,", "analysis.steps_per_period[1]"),
 ])
 def test_true_or_false_is_not_a_whole_number_in_mesh_gear_and_analysis_studies(study, old, new,
                                                                                 where):
@@ -340,27 +339,37 @@ def test_true_or_false_is_not_a_whole_number_in_mesh_gear_and_analysis_studies(s
     parse_study(text, str(path))
 
 
-def test_every_integer_field_of_a_study_refuses_true_and_false():
+def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
     """Every ``int`` of every model a study file is validated by (the scenes, the gear, the
-    measured excitation, the outputs' options, mesh and analysis studies) is ``Count``: a new
-    integer field that is a plain ``int`` fails here."""
+    measured excitation, the outputs' options, mesh and analysis studies) is ``Count``, and every
+    ``float`` is ``Real`` or a quantity (``Q``: units, which refuse true and false themselves): a
+    new field that is a plain ``int`` or ``float`` (alone, optional, in a list, a tuple or a
+    union with ``str``) fails here."""
     import typing
 
     from pydantic import BaseModel
 
     from gearsweep.study.analysis_specs import AnalysisStudy
     from gearsweep.study.outputs import OUTPUTS
-    from gearsweep.study.quantities import Count
+    from gearsweep.study.quantities import Count, Real
     from gearsweep.study.schema import MeshStudy, Study
+    from gearsweep.units import QuantityKind
 
-    def plain_ints(tp, where: str, seen: set) -> list[str]:
-        if tp is int:
+    def checked(base: type, metadata) -> bool:
+        """Whether an ``int`` or ``float`` with these validators and constraints refuses bool."""
+        if base is int:
+            return any(m in metadata for m in Count.__metadata__)
+        return (any(m in metadata for m in Real.__metadata__)
+                or any(isinstance(m, QuantityKind) for m in metadata))
+
+    def plain(tp, where: str, seen: set) -> list[str]:
+        if tp in (int, float):
             return [where]
         if typing.get_origin(tp) is typing.Annotated:
             args = typing.get_args(tp)
-            if args[0] is int:
-                return [] if tuple(tp.__metadata__) == tuple(Count.__metadata__) else [where]
-            return plain_ints(args[0], where, seen)
+            if args[0] in (int, float):
+                return [] if checked(args[0], tp.__metadata__) else [where]
+            return plain(args[0], where, seen)
         if isinstance(tp, type) and issubclass(tp, BaseModel):
             if tp in seen:
                 return []
@@ -368,21 +377,206 @@ def test_every_integer_field_of_a_study_refuses_true_and_false():
             out = []
             for name, f in tp.model_fields.items():
                 ann = f.annotation
-                if ann is int:  # Annotated[int, ...] with the field's constraints
-                    ok = any(m in f.metadata for m in Count.__metadata__)
-                    out += [] if ok else [f"{tp.__name__}.{name}"]
+                if ann in (int, float):  # Annotated[int, ...] with the field's constraints
+                    out += [] if checked(ann, f.metadata) else [f"{tp.__name__}.{name}"]
                 else:
-                    out += plain_ints(ann, f"{tp.__name__}.{name}", seen)
+                    out += plain(ann, f"{tp.__name__}.{name}", seen)
             return out
-        return [w for a in typing.get_args(tp) for w in plain_ints(a, where, seen)]
+        return [w for a in typing.get_args(tp) for w in plain(a, where, seen)]
 
     seen: set = set()
     roots = [Study, MeshStudy, AnalysisStudy, *(getattr(o, "options_model", None) for o in OUTPUTS.values()
                                                 if getattr(o, "options_model", None))]
-    assert [w for m in roots for w in plain_ints(m, m.__name__, seen)] == []
+    assert [w for m in roots for w in plain(m, m.__name__, seen)] == []
     counted = sum(1 for m in seen for f in m.model_fields.values()
                   if any(x in f.metadata for x in Count.__metadata__))
     assert counted >= 10  # the walk reached the models (teeth, num, steps_per_period, ...)
+    real = sum(1 for m in seen for f in m.model_fields.values()
+               if any(x in f.metadata for x in Real.__metadata__))
+    assert real >= 10  # alpha, beta, gamma, settle_tolerance, zeta_max, max_order, ...
+
+
+NUMBER = "a number (not true or false)"
+"""What a plain (dimensionless) float field of a study says to YAML's true or false."""
+
+MATHIEU = """\
+title: m
+scene:
+  kind: mathieu
+  alpha: 0.25
+  beta: 0.1
+  gamma: 0.01
+sweep:
+  beta: [0.1, 0.2]
+  alpha: {start: 0.2, stop: 0.3, num: 2}
+solver:
+  settle_tolerance: 1.0e9
+  divergence_factor: 1.0e6
+  initial_velocity: 0.0
+outputs: [floquet, {spectrum: {max_order: 2}}]
+"""
+
+
+@pytest.mark.parametrize(("old", "new", "where"), [
+    ("alpha: 0.25", "alpha: true", "4: scene.alpha: True"),
+    ("beta: 0.1\n", "beta: false\n", "5: scene.beta: False"),
+    ("gamma: 0.01", "gamma: true", "6: scene.gamma: True"),
+    ("beta: [0.1, 0.2]", "beta: [0.1, true]", "8: sweep.beta[1]: True"),
+    ("start: 0.2,", "start: false,", "9: sweep.alpha.start: False"),
+    ("settle_tolerance: 1.0e9", "settle_tolerance: true", "11: solver.settle_tolerance: True"),
+    ("divergence_factor: 1.0e6", "divergence_factor: true", "12: solver.divergence_factor: True"),
+    ("initial_velocity: 0.0", "initial_velocity: false", "13: solver.initial_velocity: False"),
+    ("max_order: 2", "max_order: true", "14: outputs[1].spectrum.max_order: True"),
+])
+def test_true_or_false_is_not_a_number(old, new, where):
+    """A plain float field took YAML's true and false as 1.0 and 0.0 (pydantic's lax mode):
+    ``alpha: true`` ran the Mathieu equation at alpha = 1. Now one line, as for an integer."""
+    assert old in MATHIEU
+    assert _lines(MATHIEU.replace(old, new)) == [f"s.yaml:{where} -- {NUMBER}"]
+    parse_study(MATHIEU, "s.yaml")
+
+
+@pytest.mark.parametrize(("bad", "good", "where"), [
+    ("fluctuation: [{amplitude: 300 N, order: true}]", "true:1",
+     "9: scene.fluctuation[0].order: True -- " + NUMBER),
+    ("ste: [{amplitude: 1 um, order: false}]", "false:2", "9: scene.ste[0].order: False -- " + NUMBER),
+    # a quantity (force or torque) keeps saying what it wants: a bare number would not do either
+    ("fluctuation: [{amplitude: true, order: 1}]", "true:300 N",
+     ("9: scene.fluctuation[0].amplitude: True -- expected a force (e.g. '300 N') or a torque"
+     " (e.g. '5 N*m')")),
+])
+def test_true_or_false_is_not_an_order(bad, good, where):
+    text = GOOD.replace("mean_force: 100 N\n", f"mean_force: 100 N\n  {bad}\n")
+    assert _lines(text) == [f"s.yaml:{where}"]
+    parse_study(text.replace(*good.split(":")), "s.yaml")
+
+
+@pytest.mark.parametrize(("old", "new", "message"), [
+    ("alpha: 0.25", "alpha: abc",
+     "4: scene.alpha: 'abc' -- Input should be a valid number, unable to parse string as a number"),
+    ("gamma: 0.01", "gamma: -1", "6: scene.gamma: -1 -- Input should be greater than or equal to 0"),
+    ("gamma: 0.01", "gamma: .inf", "6: scene.gamma: inf -- a finite number (not nan or inf)"),
+    ("settle_tolerance: 1.0e9", "settle_tolerance: 0",
+     "11: solver.settle_tolerance: 0 -- Input should be greater than 0"),
+    ("max_order: 2", "max_order: null", ("14: outputs[1].spectrum.max_order: None -- Input should"
+     " be a valid number")),
+])
+def test_a_number_field_keeps_its_bounds_and_messages(old, new, message):
+    """``Real`` is pydantic's float but for true and false: bounds, strings, nan and inf say what
+    they said."""
+    assert _lines(MATHIEU.replace(old, new)) == [f"s.yaml:{message}"]
+    study = parse_study(MATHIEU.replace("alpha: 0.25", "alpha: '0.5'").replace("gamma: 0.01",
+                                                                            "gamma: 1"), "s.yaml")
+    assert study.scene.alpha == 0.5 and type(study.scene.gamma) is float
+
+
+@pytest.mark.parametrize(("study", "old", "new", "where"), [
+    ("table1_profile_shift.yaml", "x1: 0.48", "x1: true", "21: gear.x1"),
+    ("method_stability.yaml", "zeta: [0.0, 0.02,", "zeta: [0.0, true,", "11: analysis.zeta[1]"),
+    ("method_stability.yaml", "steps: 200000", "steps: 200000\n  zeta_max: true",
+     "13: analysis.zeta_max"),
+    ("work_precision.yaml", "rtol: [1.0e-3,", "rtol: [true,", "14: analysis.rtol[0]"),
+    ("fig08_rattle_balance.yaml", "curve_top: 3.0", "curve_top: true", "21: analysis.curve_top"),
+    ("fig08_rattle_balance.yaml", "[0.7, 0.5, 1.25]", "[0.7, true, 1.25]",
+     "23: analysis.graphical[1]"),
+    ("rattle_map_jumps.yaml", "loss_threshold: 0.01", "loss_threshold: true",
+     "10: analysis.loss_threshold"),
+])
+def test_true_is_not_a_number_in_gear_and_analysis_studies(study, old, new, where):
+    path = ROOT / "studies" / study
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    with pytest.raises(StudyError) as err:
+        parse_study(text.replace(old, new), str(path))
+    assert err.value.lines == [f"{path}:{where}: True -- {NUMBER}"]
+    parse_study(text, str(path))
+
+
+def test_validate_says_true_is_not_a_number_in_one_line(tmp_path, capsys):
+    path = tmp_path / "m.yaml"
+    path.write_text("title: m\nscene: {kind: mathieu, alpha: true}\n", encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == f"gearsweep: error: {path}:2: scene.alpha: True -- {NUMBER}\n"
+
+
+WORK_PRECISION = ROOT / "studies" / "work_precision.yaml"
+METHOD_STABILITY = ROOT / "studies" / "method_stability.yaml"
+
+
+def _analysis_lines(path: Path, old: str, new: str) -> list[str]:
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    with pytest.raises(StudyError) as err:
+        parse_study(text.replace(old, new), "a.yaml")
+    return err.value.lines
+
+
+def test_an_analysis_error_names_the_field_as_written_and_its_own_line():
+    """The analysis' kind is a key pydantic adds to the error's location
+    (``analysis.work_precision.steps_per_period[1]``), not one of the file: the path named it and
+    the line was that of ``analysis:`` (8), where the file has no such key. Now the path is the
+    file's and the line the field's, several lines below ``analysis:``."""
+    text = WORK_PRECISION.read_text(encoding="utf-8")
+    assert text.splitlines()[7] == "analysis:" and "steps_per_period" in text.splitlines()[11]
+    assert _analysis_lines(WORK_PRECISION, "[8, 16, 32,", "[8, true, 32,") == [
+        f"a.yaml:12: analysis.steps_per_period[1]: True -- {WHOLE}"]
+    assert _analysis_lines(
+        WORK_PRECISION, "peers: [RK45, DOP853, LSODA]\n",
+        "peers: [RK45, DOP853, LSODA]\n  copies: 0\n  repeat: many\n") == [
+        "a.yaml:14: analysis.copies: 0 -- Input should be greater than or equal to 1",
+        ("a.yaml:15: analysis.repeat: 'many' -- Input should be a valid integer, unable to parse"
+        " string as an integer")]
+    assert _analysis_lines(METHOD_STABILITY, "steps: 200000", "steps: 20") == [
+        "a.yaml:12: analysis.steps: 20 -- Input should be greater than or equal to 1000"]
+    # a check of the whole analysis stays on the line of analysis:
+    assert _analysis_lines(WORK_PRECISION, "[8, 16, 32, 64,", "[10, 16, 32, 64,") == [
+        ("a.yaml:8: analysis: '{...}' -- steps_per_period must be multiples of 8 (the common"
+        " sampling grid)")]
+
+
+def test_an_unknown_or_missing_analysis_field_is_told_in_the_analysis_words():
+    """An unknown key in an analysis is matched against the fields of its kind (a 'peer' got
+    "did you mean 'speed'?", from the fields of the scenes), a field of another kind says so,
+    and a missing or unknown kind lists the analyses (it said "a scene needs a kind: whine,
+    rattle, full or mathieu", and "not a scene kind")."""
+    assert _analysis_lines(WORK_PRECISION, "  peers:", "  peer:") == [
+        ("a.yaml:13: analysis.peer: 'peer' is not a field of a work_precision analysis -- did you"
+        " mean 'peers'?")]
+    assert _analysis_lines(METHOD_STABILITY, "steps: 200000", "steps: 200000\n  rtol: [0.1]") == [
+        ("a.yaml:13: analysis.rtol: 'rtol' is not a field of a method_stability analysis (it is one"
+        " of a work_precision analysis)")]
+    kinds = "method_stability, work_precision, artifact_map, rattle_balance, rattle_budget"
+    assert _analysis_lines(METHOD_STABILITY, "  kind: method_stability\n", "") == [
+        f"a.yaml:8: analysis.kind: '(missing)' -- an analysis needs a kind: {kinds} or jump_map"]
+    assert _analysis_lines(METHOD_STABILITY, "kind: method_stability", "kind: zzz") == [
+        f"a.yaml:9: analysis.kind: 'zzz' -- not an analysis kind; allowed: {kinds}, jump_map"]
+    # the scene's own words are unchanged
+    assert _lines("title: m\nscene:\n  alpha: 1\n") == [
+        "s.yaml:2: scene.kind: '(missing)' -- a scene needs a kind: whine, rattle, full or mathieu"]
+    assert _lines("title: m\nscene:\n  kind: zzz\n") == [
+        "s.yaml:3: scene.kind: 'zzz' -- not a scene kind; allowed: whine, rattle, full, mathieu"]
+
+
+def test_a_scene_error_names_the_field_as_written_and_its_own_line():
+    """The scene's kind is dropped from the path as the analysis' is (``scene.alpha``, not
+    ``scene.mathieu.alpha``), and a key named like a kind is kept (a ``mathieu:`` key in the scene
+    was "'scene' is not a field of a study -- did you mean 'scene'?")."""
+    text = "title: m\nscene:\n  kind: mathieu\n  alpha: 0.25\n  gamma: 0.01\n"
+    assert _lines(text.replace("gamma: 0.01", "gamma: -1")) == [
+        "s.yaml:5: scene.gamma: -1 -- Input should be greater than or equal to 0"]
+    assert _lines(text + "  mathieu: 1\n") == [
+        ("s.yaml:6: scene.mathieu: 'mathieu' is not a field of a mathieu scene; its fields: alpha,"
+        " beta, gamma")]
+
+
+def test_validate_names_an_analysis_field_and_its_line_in_one_line(tmp_path, capsys):
+    path = tmp_path / "wp.yaml"
+    path.write_text(WORK_PRECISION.read_text(encoding="utf-8").replace("[8, 16, 32,",
+                                                                       "[8, true, 32,"),
+                    encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == (f"gearsweep: error: {path}:12: analysis.steps_per_period[1]:"
+                                       f" True -- {WHOLE}\n")
 
 
 def test_validate_says_true_is_not_a_whole_number_in_one_line(tmp_path, capsys):

@@ -21,7 +21,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from gearsweep.study.quantities import Count, Speed, Strict, WholeStudy
+from gearsweep.study.quantities import Count, Real, Speed, Strict, WholeStudy
 
 Method = Literal["rk4", "rk5"]
 
@@ -34,11 +34,11 @@ class MethodStability(Strict):
 
     kind: Literal["method_stability"]
     methods: list[Method] = Field(default_factory=lambda: ["rk4", "rk5"], min_length=1)
-    zeta: list[float] = Field(
+    zeta: list[Real] = Field(
         default_factory=lambda: [0.0, 0.02, 0.05, 0.1, 0.2, 0.215, 0.3, 0.45, 0.6, 0.8, 0.95,
                                  1.2, 1.6],
         min_length=1, description="damping ratios measured by integration [1]")
-    zeta_max: float = Field(1.6, gt=0, le=10, description="end of the polynomial's curve [1]")
+    zeta_max: Real = Field(1.6, gt=0, le=10, description="end of the polynomial's curve [1]")
     curve_points: Count = Field(321, ge=2, le=100_000)
     steps: Count = Field(4_000_000, ge=1000, le=100_000_000,
                        description="steps integrated per trial step (bisection)")
@@ -88,7 +88,7 @@ class WorkPrecision(Strict):
         default_factory=lambda: [8, 16, 32, 64, 128, 256, 512, 1024], min_length=3)
     peers: list[Literal["RK45", "DOP853", "LSODA"]] = Field(
         default_factory=lambda: ["RK45", "DOP853", "LSODA"])
-    rtol: list[float] = Field(
+    rtol: list[Real] = Field(
         default_factory=lambda: [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10], min_length=1)
     transient_periods: Count = Field(40, ge=1, le=100_000)
     record_periods: Count = Field(20, ge=1, le=100_000)
@@ -121,10 +121,10 @@ class RattleBalance(Strict):
     result: ResultName
     harmonics: Count = Field(25, ge=1, le=200, description="AFT harmonics")
     n_time: Count = Field(1024, ge=16, le=1 << 16, description="AFT time samples per period")
-    curve_top: float = Field(3.0, gt=1, le=100,
-                             description="describing-function curve up to this many b [1]")
+    curve_top: Real = Field(3.0, gt=1, le=100,
+                            description="describing-function curve up to this many b [1]")
     eq15_step: Speed = Field(50.0, gt=0, description="speed step of the Eq. (15) points [rpm]")
-    graphical: tuple[float, float, float] = Field(
+    graphical: tuple[Real, Real, Real] = Field(
         (0.7, 0.5, 1.25), description="the three lines of Fig. 9: A at this x w_t, B at this x"
         " (w_t + w_n), C at this x w_n (w_t: the gap root appears, w_n: the linear resonance)")
 
@@ -164,8 +164,8 @@ class JumpMap(Strict):
 
     kind: Literal["jump_map"]
     result: ResultName
-    loss_threshold: float = Field(0.01, ge=0, lt=1, description="contact loss above this"
-                                  " fraction of the time counts as rattle [1]")
+    loss_threshold: Real = Field(0.01, ge=0, lt=1, description="contact loss above this"
+                                 " fraction of the time counts as rattle [1]")
 
     def inputs(self) -> list[str]:
         return [self.result]

@@ -41,7 +41,7 @@ from pydantic import BeforeValidator, Field, model_validator
 
 from gearsweep.gear import GearPair, TipRelief, table1_as_printed, table1_consistent
 from gearsweep.gear.excitation import DEFAULT_HARMONICS, GearExcitation, gear_excitation
-from gearsweep.study.quantities import Angle, Count, Length, Pressure, Strict
+from gearsweep.study.quantities import Angle, Count, Length, Pressure, Real, Strict
 
 PRESETS = {"table1_consistent": table1_consistent, "table1_as_printed": table1_as_printed}
 """Named gear pairs a study can use as ``gear: NAME`` or ``gear: {preset: NAME, ...}``."""
@@ -80,8 +80,8 @@ class GearSpec(Strict):
     z2: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driven gear 2")
     face_width: Length | None = Field(None, gt=0, description="face width [m]")
     pressure_angle: Angle | None = Field(None, gt=0, description="reference pressure angle [rad]")
-    x1: float | None = Field(None, description="profile shift coefficient of gear 1")
-    x2: float | None = Field(None, description="profile shift coefficient of gear 2")
+    x1: Real | None = Field(None, description="profile shift coefficient of gear 1")
+    x2: Real | None = Field(None, description="profile shift coefficient of gear 2")
     tip_radius1: Length | None = Field(None, gt=0)
     tip_radius2: Length | None = Field(None, gt=0)
     root_radius1: Length | None = Field(None, gt=0)
@@ -92,7 +92,7 @@ class GearSpec(Strict):
     thickness1: Length | None = Field(None, gt=0, description="tooth thickness at r [m]")
     thickness2: Length | None = Field(None, gt=0)
     youngs_modulus: Pressure | None = Field(None, gt=0, description="Young's modulus [Pa]")
-    poisson: float | None = Field(None, ge=0, lt=0.5)
+    poisson: Real | None = Field(None, ge=0, lt=0.5)
     bore_radius1: Length | None = Field(None, gt=0)
     bore_radius2: Length | None = Field(None, gt=0)
     rim_thickness1: Length | None = Field(None, gt=0)

@@ -30,7 +30,7 @@ from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
-from gearsweep.study.quantities import Count
+from gearsweep.study.quantities import Count, Real
 from gearsweep.units import KINDS, to_display
 
 Plan = Any
@@ -108,7 +108,7 @@ class SpectrumOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    max_order: float = Field(4.0, gt=0, description="highest mesh order kept [-]")
+    max_order: Real = Field(4.0, gt=0, description="highest mesh order kept [-]")
     samples_per_period: Count | None = Field(
         None, ge=2, description="samples of p per mesh period (a divisor of steps_per_period;"
         " default: the smallest divisor >= 4 max_order, so orders below 3 max_order cannot alias"

@@ -1,7 +1,8 @@
 """Quantity fields of the study models: a string with units (``gearsweep.units``), parsed once into
 SI. Every pydantic model of a study file (``schema``, ``gearscene``, ``analysis_specs``) takes its
 dimensioned fields from here, so that a quantity is parsed and checked the same way everywhere;
-and its integer fields (``Count``: true and false are not numbers).
+and its integer and plain (dimensionless) float fields (``Count``, ``Real``: true and false are
+not numbers).
 """
 
 from __future__ import annotations
@@ -45,6 +46,18 @@ def _whole(value: Any) -> Any:
 Count = Annotated[int, BeforeValidator(_whole)]
 """An integer field of a study (teeth, steps, periods, harmonics, ...): YAML's ``true`` and
 ``false`` are refused (pydantic's lax mode took them as 1 and 0); otherwise pydantic's ``int``."""
+
+
+def _number(value: Any) -> Any:
+    if isinstance(value, bool):
+        raise ValueError("a number (not true or false)")
+    return value
+
+
+Real = Annotated[float, BeforeValidator(_number)]
+"""A plain float field of a study, one without units (Mathieu's alpha, beta and gamma, a
+tolerance, an order, a damping ratio, ...): YAML's ``true`` and ``false`` are refused (pydantic's
+lax mode took them as 1.0 and 0.0); otherwise pydantic's ``float`` (bounds, messages)."""
 
 
 class Strict(BaseModel):

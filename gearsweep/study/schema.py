@@ -34,6 +34,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import typing
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -55,7 +56,7 @@ from pydantic import (
 from gearsweep.errors import NO_VALUE, GeometryError, StudyError
 from gearsweep.gear.excitation import static_mesh
 from gearsweep.model import SWEEPABLE
-from gearsweep.study.analysis_specs import AnalysisStudy
+from gearsweep.study.analysis_specs import AnalysisSpec, AnalysisStudy
 from gearsweep.study.gearscene import (
     GearField,
     GearSpec,
@@ -75,6 +76,7 @@ from gearsweep.study.quantities import (
     Inertia,
     Length,
     Mass,
+    Real,
     Speed,
     Stiffness,
     Strict,
@@ -97,8 +99,8 @@ class Drive(Strict):
 
 class StiffnessHarmonic(Strict):
     amplitude: Stiffness = Field(ge=0, description="k_n of Eq. (1)")
-    order: float | None = Field(None, gt=0, allow_inf_nan=False,
-                                description="mesh order (default: position + 1)")
+    order: Real | None = Field(None, gt=0, allow_inf_nan=False,
+                               description="mesh order (default: position + 1)")
     phase: Angle | None = Field(None, description="phase a_n (default 0; beside a 'gear': the"
                                 " pair's phase of that order, so that k(t) and the pair's STE"
                                 " keep their relative phase)")
@@ -106,18 +108,28 @@ class StiffnessHarmonic(Strict):
 
 class SteHarmonic(Strict):
     amplitude: Displacement = Field(ge=0, description="STE harmonic e_n")
-    order: float | None = Field(None, gt=0, allow_inf_nan=False,
-                                description="mesh order (default: position + 1)")
+    order: Real | None = Field(None, gt=0, allow_inf_nan=False,
+                               description="mesh order (default: position + 1)")
     phase: Angle = Field(0.0, description="phase")
+
+
+AMPLITUDE = "expected a force (e.g. '300 N') or a torque (e.g. '5 N*m')"
 
 
 class Fluctuation(Strict):
     """A harmonic of the driving-torque fluctuation: a force [N] or a torque [N m] (Eq. 7)."""
 
-    amplitude: float | str = Field(description="force [N] or driving torque [N m] amplitude")
-    order: float = Field(gt=0, allow_inf_nan=False,
-                         description="mesh order (1 = mesh frequency; 1/teeth = shaft)")
+    amplitude: Real | str = Field(description="force [N] or driving torque [N m] amplitude")
+    order: Real = Field(gt=0, allow_inf_nan=False,
+                        description="mesh order (1 = mesh frequency; 1/teeth = shaft)")
     phase: Angle = Field(0.0, description="phase")
+
+    @field_validator("amplitude", mode="before")
+    @classmethod
+    def _not_true_or_false(cls, v: Any) -> Any:
+        if isinstance(v, bool):  # told what an amplitude is (a quantity), not Real's 'a number'
+            raise ValueError(AMPLITUDE)
+        return v
 
     @field_validator("amplitude")
     @classmethod
@@ -129,7 +141,7 @@ class Fluctuation(Strict):
                 return v
             except UnitParseError:
                 pass
-        raise ValueError("expected a force (e.g. '300 N') or a torque (e.g. '5 N*m')")
+        raise ValueError(AMPLITUDE)
 
     @property
     def is_torque(self) -> bool:
@@ -247,9 +259,9 @@ class MathieuScene(Strict):
     """Eq. (11): p'' + gamma p' + (alpha + beta cos tau) p = 0 (k0 + k1 only, homogeneous)."""
 
     kind: Literal["mathieu"]
-    alpha: float = Field(0.25, description="k0 / (m (N w)^2)")
-    beta: float = Field(0.0, description="k1 / (m (N w)^2)")
-    gamma: float = Field(0.0, ge=0, description="c / (m N w)")
+    alpha: Real = Field(0.25, description="k0 / (m (N w)^2)")
+    beta: Real = Field(0.0, description="k1 / (m (N w)^2)")
+    gamma: Real = Field(0.0, ge=0, description="c / (m N w)")
 
 
 Scene = Annotated[WhineScene | RattleScene | FullScene | MathieuScene, Field(discriminator="kind")]
@@ -266,8 +278,8 @@ SCENE_PARAMETERS = {
 class Range(Strict):
     """``{start, stop, num}``: ``num`` values from ``start`` to ``stop`` inclusive."""
 
-    start: float | str
-    stop: float | str
+    start: Real | str
+    stop: Real | str
     num: Count = Field(ge=1, le=10_000_000)
     spacing: Literal["linear", "log"] = "linear"
 
@@ -281,14 +293,14 @@ class Solver(Strict):
         "plain step falls to order 2; no effect without backlash")
     transient_periods: Count = Field(100, ge=0, description="mesh periods discarded")
     record_periods: Count = Field(50, ge=1, description="mesh periods recorded for statistics")
-    divergence_factor: float = Field(1e6, gt=1, description="|p| bound / static scale")
-    settle_tolerance: float = Field(1e-2, gt=0, description="settle_error above it: status 2")
+    divergence_factor: Real = Field(1e6, gt=1, description="|p| bound / static scale")
+    settle_tolerance: Real = Field(1e-2, gt=0, description="settle_error above it: status 2")
     initial_displacement: Literal["static"] | Displacement = Field(
         0.0, description="p at t = 0 (Mathieu: a bare number; default 1); 'static': the static"
         " equilibrium on the drive flank of each case, b + F_m / k0 (b = backlash / 2, k0 the"
         " mean stiffness at the case's load)")
-    initial_velocity: float = Field(0.0, allow_inf_nan=False,
-                                    description="p' at t = 0 in m/s (a bare number)")
+    initial_velocity: Real = Field(0.0, allow_inf_nan=False,
+                                   description="p' at t = 0 in m/s (a bare number)")
     device: Literal["cpu", "cuda", "auto"] = Field(
         "cpu", description="where the kernel runs: cpu, cuda (a CUDA GPU, docs/gpu.md) or auto"
         " (cuda where a GPU is present)")
@@ -325,7 +337,7 @@ class Study(WholeStudy):
     title: str = Field(min_length=1)
     description: str = ""
     scene: Scene
-    sweep: dict[str, list[float | str] | Range] = Field(default_factory=dict)
+    sweep: dict[str, list[Real | str] | Range] = Field(default_factory=dict)
     continuation: list[Literal["up", "down"]] = Field(default_factory=list)
     solver: Solver = Field(default_factory=Solver)
     outputs: list[Annotated[OutputRequest, BeforeValidator(_output_request)]] = Field(
@@ -691,17 +703,32 @@ _BRANCHES = ("list[union[float,str]]", "Range", "float", "str", "int", "list", "
              "literal['up','down']")
 
 
+def _kinds(union: Any) -> dict[str, type]:
+    """Tag -> model of a union discriminated by ``kind`` (``Annotated[A | B, Field(...)]``)."""
+    members = typing.get_args(typing.get_args(union)[0])
+    return {typing.get_args(m.model_fields["kind"].annotation)[0]: m for m in members}
+
+
+_SCENES = _kinds(Scene)
+_ANALYSES = _kinds(AnalysisSpec)
+_TAGGED = {"scene": _SCENES, "analysis": _ANALYSES}
+"""The fields that hold a union tagged by ``kind``, and the models of their kinds."""
+
+
 def _user_path(loc: tuple) -> list[str | int]:
     """The parts of a pydantic error location that are keys and indices of the user's file
-    (without the scene kind's tag and pydantic's names of union branches and validators)."""
+    (without the tag of a scene's or an analysis' kind and pydantic's names of union branches
+    and validators)."""
     parts: list[str | int] = []
-    for p in loc:
+    for i, p in enumerate(loc):
         if isinstance(p, int):
             parts.append(p)
             continue
         p = str(p)
-        if p in ("whine", "rattle", "full", "mathieu") and parts and parts[-1] == "scene":
-            continue  # the discriminator's tag is not part of the user's path
+        if i and p in _TAGGED.get(str(loc[i - 1]), ()):
+            # the tag pydantic puts after a tagged union's field ('analysis', 'work_precision',
+            # 'steps_per_period'): not a key of the file, whose line it would miss
+            continue
         if p.startswith(("function-", "literal[", "union[", "list[", "dict[")) or p in _BRANCHES:
             continue
         parts.append(p)
@@ -738,14 +765,10 @@ def _vocabulary() -> tuple[str, ...]:
     return tuple(sorted(names))
 
 
-_SCENES = {"whine": WhineScene, "rattle": RattleScene, "full": FullScene,
-           "mathieu": MathieuScene}
-
-
 def _unknown_field(key: str, parent: list, raw: Any) -> str:
-    """Why ``key`` is not allowed under ``parent``: a field of another scene kind is named as
-    such, and a misspelling is matched against the fields of where it stands (a range's,
-    the solver's, the scene's), not every field of every model."""
+    """Why ``key`` is not allowed under ``parent``: a field of another scene (or analysis) kind
+    is named as such, and a misspelling is matched against the fields of where it stands (a
+    range's, the solver's, the scene's, the analysis'), not every field of every model."""
     choices: tuple[str, ...] | None = None
     where = ""
     if len(parent) == 2 and parent[0] == "sweep":
@@ -754,16 +777,17 @@ def _unknown_field(key: str, parent: list, raw: Any) -> str:
         choices, where = tuple(Solver.model_fields), "solver"
     elif parent == []:
         choices, where = tuple(Study.model_fields), "a study"
-    elif parent == ["scene"]:
-        scene = raw.get("scene") if isinstance(raw, dict) else None
-        kind = scene.get("kind") if isinstance(scene, dict) else None
-        if kind in _SCENES:
-            choices = tuple(_SCENES[kind].model_fields)
-            where = f"a {kind} scene"
-            others = [k for k, m in _SCENES.items() if key in m.model_fields]
+    elif len(parent) == 1 and parent[0] in _TAGGED:
+        noun, kinds = parent[0], _TAGGED[parent[0]]
+        held = raw.get(noun) if isinstance(raw, dict) else None
+        kind = held.get("kind") if isinstance(held, dict) else None
+        if kind in kinds:
+            choices = tuple(kinds[kind].model_fields)
+            where = f"a {kind} {noun}"
+            others = [k for k, m in kinds.items() if key in m.model_fields]
             if others:
                 return (f"{key!r} is not a field of {where} (it is one of a"
-                        f" {' or '.join(others)} scene)")
+                        f" {' or '.join(others)} {noun})")
     if choices is None:
         return f"{key!r} is an unknown field" + (_did_you_mean(key, _vocabulary())
                                                  or " (see docs/study-reference.md)")
@@ -820,14 +844,18 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
         elif t == "union_tag_invalid":
             ctx = e.get("ctx", {})
             tags = re.findall(r"'([^']*)'", str(ctx.get("expected_tags", "")))
+            noun = _noun(parts)
             parts.append("kind")
             value = ctx.get("tag", value)
             hint = _did_you_mean(value, tags)
             msg = (hint.removeprefix(" -- ") + f" (allowed: {', '.join(tags)})" if hint
-                   else f"not a scene kind; allowed: {', '.join(tags)}")
+                   else f"not {_a(noun)} kind; allowed: {', '.join(tags)}")
         elif t == "union_tag_not_found":
+            noun = _noun(parts)
+            tags = list(_TAGGED[noun])
             parts.append("kind")
-            value, msg = "(missing)", "a scene needs a kind: whine, rattle, full or mathieu"
+            value = "(missing)"
+            msg = f"{_a(noun)} needs a kind: {', '.join(tags[:-1])} or {tags[-1]}"
         elif t == "literal_error":
             allowed = re.findall(r"'([^']*)'", str(e.get("ctx", {}).get("expected", "")))
             hint = _did_you_mean(value, allowed)
@@ -843,6 +871,15 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             msg += f" (or {e['or_literal']})"
         out.append(Problem(_loc(parts), value, msg))
     return out
+
+
+def _noun(parts: list) -> str:
+    """What a tagged union's field holds: a scene or an analysis."""
+    return str(parts[-1]) if parts and parts[-1] in _TAGGED else "scene"
+
+
+def _a(noun: str) -> str:
+    return f"{'an' if noun[0] in 'aeiou' else 'a'} {noun}"
 
 
 def _sweep_problems(raw: Any) -> list[Problem]:
@@ -971,7 +1008,7 @@ class MeshStudy(WholeStudy):
     gear: GearField | None = None
     gears: dict[str, GearField] | None = Field(None, description="labelled variants")
     torque: Torque | None = Field(None, gt=0, description="driving torque T1 [N m]")
-    sweep: dict[Literal["torque"], list[float | str] | Range] = Field(default_factory=dict)
+    sweep: dict[Literal["torque"], list[Real | str] | Range] = Field(default_factory=dict)
     positions: Count = Field(200, ge=8, le=100_000, description="positions per mesh cycle")
     harmonics: Count = Field(10, ge=1, description="Fourier harmonics kept")
 
