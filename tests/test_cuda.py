@@ -79,9 +79,15 @@ def scene(name: str) -> dict:
     raise ValueError(name)
 
 
-def run_kw(name: str, method: str) -> dict:
-    return dict(scene(name), method=method, n_transient=N_TRANSIENT, n_record=N_RECORD,
-                steps_per_period=S, signal_stride=STRIDE)
+def run_kw(name: str, method: str, cases: list[int] | None = None) -> dict:
+    """Keyword arguments of a run of ``scene(name)``; ``cases``: only those of its cases."""
+    kw = dict(scene(name), method=method, n_transient=N_TRANSIENT, n_record=N_RECORD,
+              steps_per_period=S, signal_stride=STRIDE)
+    if cases is not None:  # per-case arrays are 1-D, of the scene's number of cases
+        n = len(kw["h"])
+        kw = {k: v[cases] if isinstance(v, np.ndarray) and v.shape == (n,) else v
+              for k, v in kw.items()}
+    return kw
 
 
 SIM_STUDY = """\
@@ -94,6 +100,42 @@ solver: {{method: rk4, steps_per_period: 16, transient_periods: 3, record_period
          device: {device}}}
 """
 """A study through the runner on each device (continued sweep: each case starts from the last)."""
+
+
+LOW_OCCUPANCY_SEEN = ("\x1b[1mGrid size 1 will likely result in GPU under-utilization due to low"
+                      " occupancy.\x1b[0m")
+"""numba-cuda's warning for a launch of few blocks, as it read on an H200 (numba-cuda 0.30.4)."""
+
+
+def _launch_warns_as_on_a_gpu(cuda_module) -> bool:
+    """In the child: each launch of the kernel warns as numba-cuda does on a GPU for a launch of
+    few blocks (the simulator does not); True when ``simulate_cuda`` runs through that with
+    warnings as errors (pytest's filterwarnings=error failed every real-GPU test on it)."""
+    import warnings
+
+    real = cuda_module._kernel
+
+    def warning_kernel(*args, **kwargs):
+        kern = real(*args, **kwargs)
+
+        class Launch:
+            def __getitem__(self, config):
+                def launch(*a):
+                    warnings.warn(LOW_OCCUPANCY_SEEN, UserWarning, stacklevel=2)
+                    return kern[config](*a)
+                return launch
+        return Launch()
+
+    cuda_module._kernel = warning_kernel
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            cuda_module.simulate_cuda(**run_kw("whine", "rk4"), max_chunk=2)
+        return True
+    except UserWarning:
+        return False
+    finally:
+        cuda_module._kernel = real
 
 
 def _child_main(out: str) -> None:
@@ -119,15 +161,19 @@ def _child_main(out: str) -> None:
     # the buffers kept between calls: the same call twice in a row reuses them, same results
     from gearsweep.kernels import cuda as cuda_module
 
-    first = simulate_cuda(**run_kw("rattle", "rk4"), max_chunk=2)
+    # whine (chunks of 2), then rattle on the same buffers, then one rattle case (k = 1 in
+    # buffers 2 wide: only the used part copied): each against the CPU kernel in the parent
+    simulate_cuda(**run_kw("whine", "rk4"), max_chunk=2)
     kept = [b["h_in"] for b in cuda_module._BUFFERS["sets"]]  # held: no id reused
     again = simulate_cuda(**run_kw("rattle", "rk4"), max_chunk=2)
+    one = simulate_cuda(**run_kw("rattle", "rk4", cases=[2]), max_chunk=2)
     now = [b["h_in"] for b in cuda_module._BUFFERS["sets"]]
-    res["buffers_reused"] = np.array(len(kept) == len(now) == 2
+    res["buffers_reused"] = np.array(len(kept) == len(now) == 2 and now[0].shape[1] == 2
                                      and all(a is b for a, b in zip(kept, now, strict=True)))
-    res["reused_same"] = np.array(all(np.array_equal(first.stats[s], again.stats[s], equal_nan=True)
-                                      for s in first.stats)
-                                  and np.array_equal(first.signal, again.signal, equal_nan=True))
+    for key, r in (("reused", again), ("reused_one", one)):
+        res[f"{key}_p_rms"], res[f"{key}_xf"], res[f"{key}_signal"] = (
+            r.stats["p_rms"], r.x_final, r.signal)
+    res["quiet_few_blocks"] = np.array(_launch_warns_as_on_a_gpu(cuda_module))
     np.savez(out, **res)
     from gearsweep.api import run_study
     from gearsweep.study.dataset import write_netcdf
@@ -267,10 +313,19 @@ def test_device_cuda_resolves_on_simulator(gpu_results):
     assert gpu_results["cuda_resolves"]
 
 
-def test_buffers_are_kept_between_calls(gpu_results):
-    """simulate_cuda keeps its pinned and device buffers for the next call of the same shape
-    (the study runner calls it once per chunk); the repeated call gives the same results."""
-    assert gpu_results["buffers_reused"] and gpu_results["reused_same"]
+def test_buffers_are_kept_between_calls(gpu_results, cpu_results):
+    """simulate_cuda keeps its pinned and device buffers for the next call (the study runner
+    calls it once per chunk): another scene after whine, and one case in buffers two wide, give
+    the CPU kernel's results, nothing left over from the call before."""
+    assert gpu_results["buffers_reused"]
+    cpu = cpu_results[("rattle", "rk4")]
+    one = simulate(**run_kw("rattle", "rk4", cases=[2]))
+    np.testing.assert_array_equal(one.x_final, cpu.x_final[[2]])  # the subset is that case
+    scale = float(np.nanmax(np.abs(cpu.signal)))
+    for key, ref in (("reused", cpu), ("reused_one", one)):
+        assert _rel(gpu_results[f"{key}_p_rms"], ref.stats["p_rms"], scale) <= TOL
+        assert _rel(gpu_results[f"{key}_xf"], ref.x_final, scale) <= TOL
+        assert _rel(gpu_results[f"{key}_signal"], ref.signal, scale) <= TOL
 
 
 class _FakeCuda:
@@ -302,20 +357,20 @@ def test_chunks_fit_memory_and_overlap(n, free, per_case, chunks):
     assert _chunk_cases(_FakeCuda(free), per_case, n, 1000) == min(m, 1000)
 
 
-def test_the_low_occupancy_warning_is_silenced_and_no_other():
+def test_the_low_occupancy_warning_is_silenced_and_no_other(gpu_results):
     """A study of few cases launches few blocks, and numba-cuda warns of low occupancy; under
     pytest's filterwarnings=error that failed every real-GPU test (H200, numba-cuda 0.30.4, 26 Nov
     2026), because the filter did not match the message as numba-cuda writes it: with terminal
-    colour codes in front. The message below is the one seen there."""
+    colour codes in front. simulate_cuda runs through launches that warn so (the child), and the
+    filter lets other warnings through."""
     from gearsweep.kernels.cuda import LOW_OCCUPANCY
 
-    seen = ("\x1b[1mGrid size 1 will likely result in GPU under-utilization due to low"
-            " occupancy.\x1b[0m")
+    assert gpu_results["quiet_few_blocks"]
     other = "Host array used in CUDA kernel will incur copy overhead to/from device."
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         warnings.filterwarnings("ignore", message=LOW_OCCUPANCY)
-        warnings.warn(seen, UserWarning, stacklevel=1)
+        warnings.warn(LOW_OCCUPANCY_SEEN, UserWarning, stacklevel=1)
         warnings.warn(other, UserWarning, stacklevel=1)
     assert [str(w.message) for w in caught] == [other]
 

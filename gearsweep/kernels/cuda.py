@@ -415,6 +415,10 @@ as one chunk needs about 1 GB, which would stay resident while its results are w
 run's peak RSS was 3.8 GB with the buffers kept, 1.7 GB in an earlier call without, H200,
 26 Nov 2026; how much of the difference the buffers make was not measured)."""
 
+REUSE_WIDER = 4
+"""Kept buffers serve a call of ``m`` cases per chunk when they hold at most this many times
+``m`` (only the used part is copied, ``_copy``); a much smaller call gets buffers of its own."""
+
 _BUFFER_LOCK = threading.Lock()
 _BUFFERS: dict = {}
 
@@ -427,7 +431,8 @@ def _buffer_sets(cu, dt, m: int, sig_cols: int, count: int) -> list[dict]:
     runner calls once per chunk."""
     key = (np.dtype(dt).str, sig_cols)
     have = _BUFFERS.get("sets")
-    if have is not None and _BUFFERS["key"] == key and _BUFFERS["m"] >= m and len(have) >= count:
+    if (have is not None and _BUFFERS["key"] == key and m <= _BUFFERS["m"] <= REUSE_WIDER * m
+            and len(have) >= count):
         return have[:count]
     _BUFFERS.clear()  # drop the old ones first: their device memory is needed
     sets = []
@@ -447,6 +452,29 @@ def _buffer_sets(cu, dt, m: int, sig_cols: int, count: int) -> list[dict]:
         ))
     _BUFFERS.update(key=key, m=m, sets=sets)
     return sets
+
+
+def _copy(src, dst, k: int, stream, cases_first: bool = False) -> None:
+    """Copy the first ``k`` cases of a buffer between host and device (``src`` to ``dst``, one of
+    them a device array): the whole buffer where it holds exactly ``k``, else the used part only
+    (each row's first ``k`` columns: a kept buffer can be wider than the chunk). Buffers are
+    (rows, cases) except the signal, (cases, samples): ``cases_first``."""
+    device_to_host = hasattr(src, "copy_to_host")
+    width = src.shape[0] if cases_first or src.ndim == 1 else src.shape[1]
+
+    def one(s, d):
+        if device_to_host:
+            s.copy_to_host(d, stream=stream)
+        else:
+            d.copy_to_device(s, stream=stream)
+
+    if k == width:
+        one(src, dst)
+    elif cases_first or src.ndim == 1:
+        one(src[:k], dst[:k])
+    else:
+        for r in range(src.shape[0]):
+            one(src[r, :k], dst[r, :k])
 
 
 def _run_chunks(cu, kern, sets, cols, d_tabs, n, m, S, n_transient, n_record, steps_per_period,
@@ -474,7 +502,7 @@ def _run_chunks(cu, kern, sets, cols, d_tabs, n, m, S, n_transient, n_record, st
             st = buf["stream"]
             for r, col in cols:
                 buf["h_in"][r, :k] = col[a:a + k]
-            buf["d_in"].copy_to_device(buf["h_in"], stream=st)  # whole buffers: k <= m used
+            _copy(buf["h_in"], buf["d_in"], k, st)
             tpb = min(THREADS_PER_BLOCK, 32 * -(-k // 32))
             with warnings.catch_warnings():  # a small study fills few blocks: not a fault
                 warnings.filterwarnings("ignore", message=LOW_OCCUPANCY)
@@ -482,10 +510,10 @@ def _run_chunks(cu, kern, sets, cols, d_tabs, n, m, S, n_transient, n_record, st
                                             int(n_transient), int(n_record),
                                             int(steps_per_period), stride, buf["d_out"],
                                             buf["d_st"], buf["d_sig"])
-            buf["d_out"].copy_to_host(buf["h_out"], stream=st)
-            buf["d_st"].copy_to_host(buf["h_st"], stream=st)
+            _copy(buf["d_out"], buf["h_out"], k, st)
+            _copy(buf["d_st"], buf["h_st"], k, st)
             if signal is not None:
-                buf["d_sig"].copy_to_host(buf["h_sig"], stream=st)
+                _copy(buf["d_sig"], buf["h_sig"], k, st, cases_first=True)
             buf["pending"] = (a, k)
         for buf in sets:
             drain(buf)
