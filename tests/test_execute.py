@@ -22,7 +22,12 @@ import xarray as xr
 from gearsweep.cli import main
 from gearsweep.errors import LimitError, ResultError
 from gearsweep.study import execute
-from gearsweep.study.checkpoint import ChunkStore, chunk_folder, remove_checkpoints
+from gearsweep.study.checkpoint import (
+    ChunkStore,
+    chunk_folder,
+    remove_checkpoints,
+    saved_layout,
+)
 from gearsweep.study.dataset import _boxes, write_netcdf
 from gearsweep.study.execute import (
     InProcess,
@@ -246,6 +251,33 @@ def test_a_resumed_run_keeps_the_saved_chunk_layout(rattle_reference, tmp_path, 
     log.unlink()
     run_plan(plan, checkpoint=out, chunk_cases=96)
     assert read_log(log) == other
+
+
+@pytest.mark.parametrize("edit", [
+    lambda m: {**m, "chunks": [[0, float("inf")]]},  # written as Infinity
+    lambda m: m | {"chunks": [[a, b] for a, b in m["chunks"]][::-1]},  # not increasing
+    lambda m: m | {"chunks": [[0, 0], *m["chunks"]]},  # an empty range
+    lambda m: m | {"chunks": [[0, m["n_lanes"] // 2], [m["n_lanes"] // 3, m["n_lanes"]]]},
+    lambda m: m | {"n_lanes": m["n_lanes"] + 1},
+    lambda m: m | {"gearsweep_version": "0.0.1"},
+    lambda m: [m],
+    lambda m: "[" * 100_000,  # nested too deep for the JSON reader
+], ids=["infinity", "reversed", "empty-range", "overlap", "lanes", "version", "list", "deep"])
+def test_a_damaged_manifest_starts_afresh(edit, rattle_reference, tmp_path):
+    """A manifest that does not describe this study's chunks (damaged, or another version's) is
+    no layout to resume: the run computes every chunk afresh, and the result is right."""
+    import json
+
+    out = tmp_path / "r.nc"
+    plan = plan_of(RATTLE)
+    with pytest.raises(Crash):
+        run_plan(plan, backend=CrashAfter(2), checkpoint=out, chunk_cases=CHUNK)
+    manifest = chunk_folder(out) / plan.study_key / "manifest.json"
+    edited = edit(json.loads(manifest.read_text(encoding="utf-8")))
+    manifest.write_text(edited if isinstance(edited, str) else json.dumps(edited),
+                        encoding="utf-8")
+    assert saved_layout(out, plan.study_key, plan.n_lanes) is None
+    assert_same(run_plan(plan, checkpoint=out, chunk_cases=96), rattle_reference)
 
 
 def test_resume_after_sigkill(tmp_path):

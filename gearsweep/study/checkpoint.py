@@ -74,16 +74,16 @@ def saved_layout(output: str | Path, study_key: str, n_lanes: int
     folder = chunk_folder(output) / study_key
     try:
         old = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+        if (old["format"], old["study_key"], old["gearsweep_version"], old["n_lanes"]) != (
+                FORMAT, study_key, __version__, n_lanes):
+            return None
         chunks = [(int(a), int(b)) for a, b in old["chunks"]]
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-    if (old.get("format"), old.get("study_key"), old.get("gearsweep_version"),
-            old.get("n_lanes")) != (FORMAT, study_key, __version__, n_lanes):
-        return None
+    except Exception:  # noqa: BLE001 - any manifest not written by this version: no layout
+        return None  # (unreadable, not JSON, not a mapping, Infinity, nested too deep, ...)
     ends = [0] + [b for _, b in chunks]
     if not chunks or ends[-1] != n_lanes or any(
-            a != e for (a, _), e in zip(chunks, ends[:-1], strict=True)):
-        return None  # not a contiguous cover of the lanes: not a layout to trust
+            not 0 <= a == e < b for (a, b), e in zip(chunks, ends[:-1], strict=True)):
+        return None  # not increasing ranges that cover the lanes: not a layout to trust
     if not any(folder.glob(f"chunk_*{SUFFIX}")):
         return None
     return chunks
@@ -131,7 +131,7 @@ class ChunkStore:
         mpath = self.folder / MANIFEST
         try:
             old = json.loads(mpath.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+        except Exception:  # noqa: BLE001 - unreadable or not this version's: emptied below
             old = None
         if old != self.manifest:
             for f in self.folder.iterdir():
