@@ -25,6 +25,7 @@ from gearsweep.errors import NO_VALUE, GearsweepError, ResultError, StudyError
 from gearsweep.files import replace_problem
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
+from gearsweep.study.checkpoint import saved_layout
 from gearsweep.study.estimate import (
     CHUNK_SECONDS,
     before_refusing,
@@ -204,6 +205,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(args.study, "--workers", args.workers, "a positive number of workers")
     # Chunks of at most about 30 s (progress, and a kill loses at most one chunk).
     chunk, capped = chunk_cases(plan, args.chunk_size, workers=args.workers)
+    saved = saved_layout(out, plan.study_key, plan.n_lanes)
+    if saved:  # a resumed run keeps its chunks: estimate with them, say so if asked for others
+        per_lane = plan.chain * max(len(plan.directions), 1)
+        chunk, capped = max(b - a for a, b in saved) * per_lane, False
+        if args.chunk_size is not None and not args.quiet:
+            print(f"gearsweep: note: {out}: resuming in the interrupted run's {len(saved)} chunks;"
+                  " --chunk-size applies to a fresh run", file=sys.stderr)
     if capped and args.chunk_size is not None and not args.quiet:
         print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than about"
               f" {CHUNK_SECONDS:.0f} s; using {chunk} cases per chunk", file=sys.stderr)

@@ -253,6 +253,28 @@ def test_a_resumed_run_keeps_the_saved_chunk_layout(rattle_reference, tmp_path, 
     assert read_log(log) == other
 
 
+def test_the_cli_resumes_in_the_saved_chunks_and_says_so(rattle_reference, tmp_path, monkeypatch,
+                                                          capsys):
+    """`gearsweep run` with another --chunk-size after an interrupted run: a note says the saved
+    chunks are kept, only the others are computed, and the file is the uninterrupted result."""
+    log = tmp_path / "chunks.log"
+    monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
+    study, out = tmp_path / "r.yaml", tmp_path / "r.nc"
+    study.write_text(RATTLE, encoding="utf-8")
+    plan = plan_of(RATTLE)
+    chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
+    with pytest.raises(Crash):
+        execute.run_to_file(plan, out, backend=CrashAfter(2), chunk_cases=CHUNK)
+    log.unlink()
+    assert main(["run", str(study), "-o", str(out), "--chunk-size", "96", "--yes"]) == 0
+    err = capsys.readouterr().err
+    assert f"resuming in the interrupted run's {len(chunks)} chunks" in err
+    assert f"resuming: 2 of {len(chunks)} chunks already saved" in err
+    assert read_log(log) == chunks[2:]
+    with xr.open_dataset(out) as ds:
+        assert_same(ds.load(), rattle_reference)
+
+
 @pytest.mark.parametrize("edit", [
     lambda m: {**m, "chunks": [[0, float("inf")]]},  # written as Infinity
     lambda m: m | {"chunks": [[a, b] for a, b in m["chunks"]][::-1]},  # not increasing
