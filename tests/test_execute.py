@@ -230,7 +230,7 @@ def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path,
 
 
 def test_a_resumed_run_keeps_the_saved_chunk_layout(rattle_reference, tmp_path, monkeypatch):
-    """Resumed with another chunk size (another --chunk-size, --workers count or device), a run
+    """Resumed with another chunk size (another --chunk-size or --workers count), a run
     keeps the interrupted run's layout and computes only the chunks not saved; with nothing saved,
     or once the result is complete, the chunk size asked for applies."""
     log = tmp_path / "chunks.log"

@@ -3,6 +3,7 @@ outputs and another study's chunks refused before computing."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -227,6 +228,12 @@ def test_a_gpu_study_is_chunked_and_estimated_for_the_gpu():
     assert len(gpu.chunks()) >= 5  # the writer overlaps the GPU, memory holds a few chunks
     est, _ = quick_estimate(gpu)
     assert "on the GPU at 8e+04 Msteps/s (stated)" in est.line() and est.device == "cuda"
+    # the peak memory measured on an H200 for this study with the GPU's chunks
+    data = Path(__file__).parents[1] / "docs/data/device-2026-11-26/call2/gpu_study.jsonl"
+    runs = [json.loads(ln) for ln in data.read_text(encoding="utf-8").splitlines()]
+    peak = next(r["peak_rss_mb"] for r in runs if r["chunks"] == "default"
+                and r["codec"] == "default") * 1e6
+    assert peak <= est.memory_bytes <= 1.5 * peak
     cpu, gpu = _scale_plan(1000, transient=6000), _scale_plan(1000, "cuda", transient=6000)
     cpu_est, _ = quick_estimate(cpu, threads=2)
     est, _ = quick_estimate(gpu)

@@ -140,6 +140,12 @@ cases in whole ``simulate_cuda`` calls (packing, transfers, kernel), measured on
 26 Nov 2026: 8.2e10 (B1 9.1e10; at 4e6 cases 1.1e11 and 1.4e11; docs/gpu.md). An H100 has the
 same 132 SMs. Not a promise: RK5 and the other terms cost more per step."""
 
+HOST_MEMORY_BYTES = 0.9e9
+"""Host memory a GPU run holds beyond the CPU run's estimate [bytes]: the CUDA context,
+numba-cuda and its libraries, and the pinned buffers kept between calls. From one measurement:
+the 1e7-case study with the GPU's chunks peaked at 1.52 GB, where the CPU-side estimate is
+0.65 GB (H200, 26 Nov 2026, docs/data/device-2026-11-26)."""
+
 CHUNK_STEPS = 4e9
 """Integration steps per chunk of a study on the GPU (the CPU's ``plan.CHUNK_STEPS`` is 1e9):
 about 0.05 s of an H100/H200, 1.6e6 cases of 2,560 steps (``studies/heavy/scale_1e6.yaml``).

@@ -67,9 +67,10 @@ def saved_layout(output: str | Path, study_key: str, n_lanes: int
     number of lanes) that left chunk files next to ``output``; else ``None``.
 
     A resumed run keeps this layout whatever chunk size it would choose now (another
-    ``--chunk-size``, another ``--workers`` count, another device), so that no saved chunk is
-    computed again. (Until 26 Nov 2026 another layout emptied the folder; since the default
-    chunks depend on ``--workers`` and the device, that would have thrown away finished work.)
+    ``--chunk-size``, another ``--workers`` count), so that no saved chunk is computed again.
+    (Until 26 Nov 2026 another layout emptied the folder; since the default chunks depend on
+    ``--workers``, that would have thrown away finished work. Another device is another study:
+    ``solver.device`` is part of its key.)
     """
     folder = chunk_folder(output) / study_key
     try:

@@ -1,10 +1,10 @@
 """What a study will cost, from arithmetic on its sizes: no grid of cases, no kernel call.
 
-``quick_estimate`` gives the same ``Estimate`` as ``execute.estimate`` (stated kernel rate) for
-any number of cases in microseconds: the chunks are counted, not listed, and nothing is compiled.
-When the kernel this study needs is not yet in Numba's disk cache, its one-time compile time is
-added (``compile_seconds``), so that ``--estimate`` and ``validate`` state the wait a first run
-really has.
+``quick_estimate`` gives the same ``Estimate`` as ``execute.estimate`` (stated kernel rate; on
+the CPU: ``execute.estimate`` knows no GPU) for any number of cases in microseconds: the chunks
+are counted, not listed, and nothing is compiled. When the kernel this study needs is not yet in
+Numba's disk cache, its one-time compile time is added (``compile_seconds``), so that
+``--estimate`` and ``validate`` state the wait a first run really has.
 """
 
 from __future__ import annotations
@@ -89,6 +89,8 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     biggest = min(per, n) * plan.chain * ways
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
     memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
+    if plan.device == "cuda":
+        memory += cuda.HOST_MEMORY_BYTES
     coords = sum(g.nbytes for g in plan.grids.values())
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
                    chunks=full + (1 if rest else 0), threads=threads, rate=rate,

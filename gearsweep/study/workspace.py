@@ -76,8 +76,9 @@ def check_partial(plan, out: str | Path) -> None:
         if folder.is_dir() and folder.name != mine and any(folder.glob(f"*{SUFFIX}")):
             n = sum(1 for _ in folder.glob(f"*{SUFFIX}"))
             raise BusyError(f"{out}: {root} holds {n} saved chunk(s) of another study (an"
-                            " interrupted run of a study with other values); finish it with that"
-                            f" study, or remove {root} to start this one")
+                            " interrupted run of a study with other values, or on another"
+                            " --device); finish it with that study, or remove"
+                            f" {root} to start this one")
 
 
 def saved_chunks(plan, out: str | Path, chunk_cases: int | None = None) -> tuple[int, int]:
