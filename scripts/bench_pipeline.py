@@ -119,8 +119,9 @@ def bare_run(study: Path, threads: int | None, cpus: int | None = None) -> float
 
 
 def bare(study: Path) -> None:
-    """Child mode: print the bare kernel's seconds on the study's chunks (as the CLI cuts them;
-    ``bench_scale.bare_kernel_seconds``, the one timing loop of both scripts)."""
+    """Child mode: print the bare kernel's seconds on the study's chunks (as the CLI cuts them
+    in-process: with ``--workers`` the CLI cuts about 3 per worker, the same cases in more
+    chunks; ``bench_scale.bare_kernel_seconds``, the one timing loop of both scripts)."""
     from bench_scale import bare_kernel_seconds
 
     from gearsweep.study.estimate import chunk_cases

@@ -49,8 +49,8 @@ if [ "$mode" = "prepare" ]; then
     dask==2026.8.0 distributed==2026.8.0 partd==1.4.2 locket==1.0.0 tblib==3.2.2 zict==3.0.0 \
     tornado==6.6.1
   du -sh .whl .bench
-  echo "now: the device tool's run with command 'bash scripts/device_check.sh run'," \
-       "carry ['.whl', '.bench'], timeout_s 600"
+  echo "now: the device tool's run with command 'DEADLINE=470 bash scripts/device_check.sh run'," \
+       "carry ['.whl', '.bench'], timeout_s 500"
   exit 0
 fi
 
