@@ -339,35 +339,63 @@ def test_true_or_false_is_not_a_whole_number_in_mesh_gear_and_analysis_studies(s
     parse_study(text, str(path))
 
 
+FLAG_STUDY = """\
+title: flag test
+scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, damping: 200 N*s/m,
+        backlash: 4 um, mean_force: 100 N}
+sweep: {speed: [12000 rpm]}
+solver:
+  method: rk4
+  kink_aware: VALUE
+"""
+
+
+@pytest.mark.parametrize("value", ["1", "0", "'true'", "2.0"])
+def test_a_yes_no_field_takes_only_true_or_false(value, tmp_path):
+    """kink_aware: 1 was taken as true (pydantic's lax bool); now one line names the field.
+    YAML's yes and no are true and false already, and pass."""
+    path = tmp_path / "f.yaml"
+    with pytest.raises(StudyError) as err:
+        parse_study(FLAG_STUDY.replace("VALUE", value), str(path))
+    [line] = err.value.lines
+    assert line.startswith(f"{path}:7: solver.kink_aware: ") and line.endswith(" -- true or false")
+    for ok, expected in (("true", True), ("no", False)):
+        assert parse_study(FLAG_STUDY.replace("VALUE", ok)).solver.kink_aware is expected
+
+
 def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
     """Every ``int`` of every model a study file is validated by (the scenes, the gear, the
-    measured excitation, the outputs' options, mesh and analysis studies) is ``Count``, and every
-    ``float`` is ``Real`` or a quantity (``Q``: units, which refuse true and false themselves): a
-    new field that is a plain ``int`` or ``float`` (alone, optional, in a list, a tuple or a
-    union with ``str``) fails here."""
+    measured excitation, the outputs' options, mesh and analysis studies) is ``Count``, every
+    ``float`` is ``Real`` or a quantity (``Q``: units, which refuse true and false themselves) and
+    every ``bool`` is ``Flag`` (which refuses 1 and 0): a new field that is a plain ``int``,
+    ``float`` or ``bool`` (alone, optional, in a list, a tuple or a union with ``str``) fails
+    here."""
     import typing
 
     from pydantic import BaseModel
 
     from gearsweep.study.analysis_specs import AnalysisStudy
     from gearsweep.study.outputs import OUTPUTS
-    from gearsweep.study.quantities import Count, Real
+    from gearsweep.study.quantities import Count, Flag, Real
     from gearsweep.study.schema import MeshStudy, Study
     from gearsweep.units import QuantityKind
 
     def checked(base: type, metadata) -> bool:
-        """Whether an ``int`` or ``float`` with these validators and constraints refuses bool."""
+        """Whether an ``int``, ``float`` or ``bool`` with these validators and constraints is
+        strict about true and false."""
         if base is int:
             return any(m in metadata for m in Count.__metadata__)
+        if base is bool:
+            return any(m in metadata for m in Flag.__metadata__)
         return (any(m in metadata for m in Real.__metadata__)
                 or any(isinstance(m, QuantityKind) for m in metadata))
 
     def plain(tp, where: str, seen: set) -> list[str]:
-        if tp in (int, float):
+        if tp in (int, float, bool):
             return [where]
         if typing.get_origin(tp) is typing.Annotated:
             args = typing.get_args(tp)
-            if args[0] in (int, float):
+            if args[0] in (int, float, bool):
                 return [] if checked(args[0], tp.__metadata__) else [where]
             return plain(args[0], where, seen)
         if isinstance(tp, type) and issubclass(tp, BaseModel):
@@ -377,7 +405,7 @@ def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
             out = []
             for name, f in tp.model_fields.items():
                 ann = f.annotation
-                if ann in (int, float):  # Annotated[int, ...] with the field's constraints
+                if ann in (int, float, bool):  # Annotated[int, ...]: the field's constraints
                     out += [] if checked(ann, f.metadata) else [f"{tp.__name__}.{name}"]
                 else:
                     out += plain(ann, f"{tp.__name__}.{name}", seen)

@@ -30,7 +30,7 @@ from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
-from gearsweep.study.quantities import Count, Real
+from gearsweep.study.quantities import Count, Flag, Real
 from gearsweep.units import KINDS, to_display
 
 Plan = Any
@@ -113,9 +113,9 @@ class SpectrumOptions(BaseModel):
         None, ge=2, description="samples of p per mesh period (a divisor of steps_per_period;"
         " default: the smallest divisor >= 4 max_order, so orders below 3 max_order cannot alias"
         " into the kept bins)")
-    force: bool = Field(True, description="also the spectrum of the dynamic mesh force"
+    force: Flag = Field(True, description="also the spectrum of the dynamic mesh force"
                         " k(t) f(p) + c p' (variable force_spectrum) [N]")
-    pinion: bool = Field(False, description="also what the pinion's sensors see: its angular"
+    pinion: Flag = Field(False, description="also what the pinion's sensors see: its angular"
                          " motion at the base circle r2 theta2 per line (pinion_spectrum) and its"
                          " rms (pinion_rms) [um], from the mesh force by Eq. (4)"
                          " (gearsweep.analysis.sensor); needs force and scene.drive")

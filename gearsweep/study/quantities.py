@@ -60,6 +60,18 @@ tolerance, an order, a damping ratio, ...): YAML's ``true`` and ``false`` are re
 lax mode took them as 1.0 and 0.0); otherwise pydantic's ``float`` (bounds, messages)."""
 
 
+def _flag(value: Any) -> Any:
+    if not isinstance(value, bool):
+        raise ValueError("true or false")
+    return value
+
+
+Flag = Annotated[bool, BeforeValidator(_flag)]
+"""A yes/no field of a study (kink_aware, a spectrum's force and pinion): only YAML's ``true``
+and ``false`` (and ``yes``/``no``, which YAML reads as them); pydantic's lax mode took ``1``,
+``0`` and the strings ``'true'``, ``'off'`` as well."""
+
+
 class Strict(BaseModel):
     """A study model: unknown keys and non-finite numbers are errors; frozen once validated."""
 

@@ -72,6 +72,7 @@ from gearsweep.study.quantities import (
     Count,
     Damping,
     Displacement,
+    Flag,
     Force,
     Inertia,
     Length,
@@ -287,7 +288,7 @@ class Range(Strict):
 class Solver(Strict):
     method: Literal["rk4", "rk5"] = "rk4"
     steps_per_period: Count = Field(64, ge=4, le=65536, description="steps per mesh period")
-    kink_aware: bool = Field(
+    kink_aware: Flag = Field(
         False, description="redo steps that cross the backlash boundaries in pieces that end on "
         "them (gearsweep.kernels.kink): keeps the method's order 4/5 with backlash, where the "
         "plain step falls to order 2; no effect without backlash")
