@@ -197,7 +197,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.device:  # --device overrides the study's solver.device
         study = study.model_copy(update={"solver": study.solver.model_copy(
             update={"device": args.device})})
-    kernel_for(study.solver.device, study.solver.precision)  # no GPU: one line, exit 2, now
     plan = _plan(study, text, args.study)
     if args.chunk_size is not None and args.chunk_size < 1:
         raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
@@ -217,10 +216,11 @@ def cmd_run(args: argparse.Namespace) -> int:
               f" {CHUNK_SECONDS:.0f} s; using {chunk} cases per chunk", file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once).
     est, compile_s = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
-    if args.estimate:
+    if args.estimate:  # also for a GPU study on a machine without one: planning a GPU run
         print(f"{args.study}: {line(est, compile_s)}")
         _long_sweep_note(plan, args)
         return 0
+    kernel_for(study.solver.device, study.solver.precision)  # no GPU: one line, exit 2, now
     if not args.yes:
         est, compile_s = before_refusing(plan, est, chunk, None if not args.workers else cores())
         check_limits(est, args.study)

@@ -422,6 +422,17 @@ def test_device_cuda_without_gpu_is_one_line_exit_2(tmp_path, where):
     assert "cuda" in lines[0] and not (tmp_path / "o.nc").exists()
 
 
+def test_a_gpu_run_is_estimated_without_a_gpu(tmp_path):
+    """--estimate of a GPU study answers on a machine without a GPU (planning a GPU run from a
+    laptop): the GPU's estimate, exit 0; only running it needs the GPU."""
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.format(device="cuda"))
+    cmd = [sys.executable, "-m", "gearsweep.cli", "run", str(study), "--estimate"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=_no_gpu_env(), timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "on the GPU at" in proc.stdout and "Msteps/s (stated)" in proc.stdout
+
+
 def test_auto_picks_cpu_without_gpu():
     code = ("from gearsweep.kernels.cuda import kernel_for, resolve_device;"
             " print(resolve_device('auto'), kernel_for('auto').__name__)")
