@@ -84,7 +84,9 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
         kernel_s = lane_steps / (rate * 1e6)
     per_case = _case_bytes(plan)
     results = float(plan.n_cases) * per_case
-    compile_s = compile_seconds(s.method, s.kink_aware)
+    # the CPU kernel's one-time compile; a GPU run compiles its CUDA kernel in every process
+    # instead, for a time not measured yet (Estimate.line says so)
+    compile_s = 0.0 if plan.device == "cuda" else compile_seconds(s.method, s.kink_aware)
     seconds = kernel_s + FIXED_SECONDS + results / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.chain * ways
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8

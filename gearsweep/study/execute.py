@@ -132,11 +132,13 @@ class Estimate:
     def line(self) -> str:
         """The estimate in one line."""
         chunks = f"{self.chunks} chunk" + ("s" if self.chunks != 1 else "")
-        where = (f"on the GPU at {self.rate:.3g} Msteps/s" if self.device == "cuda" else
-                 f"on {self.threads} cores at {self.rate:.0f} Msteps/s per core")
+        where = (f"on the GPU at {self.rate:.3g} Msteps/s ({self.rate_source}) and compiling"
+                 " its kernel (every run)" if self.device == "cuda" else
+                 f"on {self.threads} cores at {self.rate:.0f} Msteps/s per core"
+                 f" ({self.rate_source})")
         return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
-                f" {_duration(self.seconds)} {where} ({self.rate_source}), peak memory"
-                f" {_size(self.memory_bytes)}, output at most {_size(self.output_bytes)}")
+                f" {_duration(self.seconds)} {where}, peak memory {_size(self.memory_bytes)},"
+                f" output at most {_size(self.output_bytes)}")
 
     def over(self, limits: Limits | None = None) -> list[str]:
         """The limits this estimate exceeds, in words (empty if none)."""
