@@ -25,9 +25,11 @@ before a run; ``check_limits`` refuses a study beyond ``LIMITS`` unless confirme
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
+import signal
 import sys
 import threading
 import time
@@ -361,6 +363,24 @@ def _start_method(config) -> str:
     return "fork"
 
 
+@contextlib.contextmanager
+def _workers_ignore_sigint():
+    """SIGINT ignored while a local cluster starts its worker processes, which keep that (forked
+    or spawned, an ignored signal stays ignored): a Ctrl-C in a terminal goes to the whole
+    process group, and workers that died of it left the run waiting for their chunks for good
+    (2 of 4 tries with ``--workers 2``); now only this process hears it and stops cleanly after
+    the chunks in flight (the CLI's handler). Outside the main thread signals cannot be set:
+    nothing is changed there."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 class DaskBackend:
     """Run chunks on a dask.distributed cluster: an existing one or a local one started here.
 
@@ -394,7 +414,7 @@ class DaskBackend:
         try:
             if self.workers is not None:
                 with dask.config.set({"distributed.worker.multiprocessing-method":
-                                      _start_method(dask.config)}):
+                                      _start_method(dask.config)}), _workers_ignore_sigint():
                     # CRITICAL: closing a cluster of 16 workers (16-core machine, 26 Nov 2026)
                     # stops the scheduler before the workers, whose heartbeats then logged a
                     # traceback each at ERROR; a chunk that fails reaches the user as one
