@@ -363,6 +363,20 @@ def test_a_yes_no_field_takes_only_true_or_false(value, tmp_path):
         assert parse_study(FLAG_STUDY.replace("VALUE", ok)).solver.kink_aware is expected
 
 
+def test_step_guard_off_unquoted_is_off(tmp_path):
+    """YAML reads an unquoted ``off`` as false: ``step_guard: off`` (as the reference writes it)
+    was refused with "False -- Input should be 'warn', 'skip' or 'off'". It is off now; ``on``
+    names no mode and says so."""
+    text = FLAG_STUDY.replace("  kink_aware: VALUE\n", "  step_guard: VALUE\n")
+    for word in ("off", "no", "false", "'off'"):
+        assert parse_study(text.replace("VALUE", word)).solver.step_guard == "off"
+    path = tmp_path / "g.yaml"
+    with pytest.raises(StudyError) as err:
+        parse_study(text.replace("VALUE", "on"), str(path))
+    [line] = err.value.lines
+    assert line.startswith(f"{path}:7: solver.step_guard: ") and "names no mode" in line, line
+
+
 def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
     """Every ``int`` of every model a study file is validated by (the scenes, the gear, the
     measured excitation, the outputs' options, mesh and analysis studies) is ``Count``, every

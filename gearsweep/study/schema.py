@@ -307,9 +307,18 @@ class Solver(Strict):
         " (cuda where a GPU is present)")
     precision: Literal["float64", "float32"] = Field(
         "float64", description="float32: the state in single precision (device cuda only)")
-    step_guard: Literal["warn", "skip", "off"] = Field(
+    step_guard: Annotated[Literal["warn", "skip", "off"], BeforeValidator(_guard_word)] = Field(
         "warn", description="cases whose step is beyond the method's stability limit: flag them"
         " (warn), do not integrate them (skip, status 3), or do not check (off)")
+
+
+def _guard_word(v: Any) -> Any:
+    """``step_guard: off`` unquoted: YAML reads ``off`` (and ``no``, ``false``) as false, which is
+    what it means here; ``on``/``yes``/``true`` (true) name no mode."""
+    if v is True:
+        raise ValueError("'warn', 'skip' or 'off' (YAML reads on, yes and true as true, which"
+                         " names no mode)")
+    return "off" if v is False else v
 
 
 def _output_request(v: Any) -> Any:
