@@ -28,6 +28,7 @@ from gearsweep.model import MeshModel
 from gearsweep.study.checkpoint import saved_layout
 from gearsweep.study.estimate import (
     CHUNK_SECONDS,
+    PROGRESS_CHUNKS,
     before_refusing,
     chunk_cases,
     line,
@@ -212,8 +213,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"gearsweep: note: {out}: resuming in the interrupted run's {len(saved)} chunks;"
                   " --chunk-size applies to a fresh run", file=sys.stderr)
     if capped and args.chunk_size is not None and not args.quiet:
-        print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than about"
-              f" {CHUNK_SECONDS:.0f} s; using {chunk} cases per chunk", file=sys.stderr)
+        print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than the"
+              f" runner's (at most {CHUNK_SECONDS:.0f} s, and at least {PROGRESS_CHUNKS} chunks"
+              f" where the study allows, for progress); using {chunk} cases per chunk",
+              file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once).
     est, compile_s = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
     if args.estimate:  # also for a GPU study on a machine without one: planning a GPU run
