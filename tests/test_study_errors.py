@@ -377,6 +377,26 @@ def test_step_guard_off_unquoted_is_off(tmp_path):
     assert line.startswith(f"{path}:7: solver.step_guard: ") and "names no mode" in line, line
 
 
+@pytest.mark.parametrize(("solver", "line", "field", "says"), [
+    ("  precision: float32\n", 7, "solver.precision", "float32 runs on the GPU only"),
+    ("  device: cuda\n  kink_aware: true\n", 8, "solver.kink_aware",
+     "the kink-aware step runs on the CPU only"),
+])
+def test_what_the_device_refuses_is_said_when_the_study_is_read(solver, line, field, says,
+                                                                tmp_path):
+    """float32 on the CPU, and the kink-aware step on the GPU with backlash, passed validate and
+    --estimate and were refused only when run (without a file or line). A study with device
+    auto is not refused: whether it gets a GPU is known only where it runs."""
+    text = FLAG_STUDY.replace("  kink_aware: VALUE\n", solver)
+    path = tmp_path / "d.yaml"
+    with pytest.raises(StudyError) as err:
+        parse_study(text, str(path))
+    [msg] = err.value.lines
+    assert msg.startswith(f"{path}:{line}: {field}: ") and says in msg, msg
+    parse_study(text.replace("  precision: float32\n", "  precision: float32\n  device: auto\n")
+                .replace("device: cuda", "device: auto"))
+
+
 def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
     """Every ``int`` of every model a study file is validated by (the scenes, the gear, the
     measured excitation, the outputs' options, mesh and analysis studies) is ``Count``, every

@@ -445,6 +445,15 @@ def consistency_problems(study: Study) -> list[Problem]:
         if len(set(study.continuation)) != len(study.continuation):
             out.append(Problem("continuation", list(study.continuation),
                                "list each direction at most once"))
+    sv = study.solver  # what the device will refuse, said when the study is read
+    if sv.precision == "float32" and sv.device == "cpu":
+        out.append(Problem("solver.precision", sv.precision, "float32 runs on the GPU only (the"
+                           " CPU kernel is float64): set solver.device: cuda (or auto), or"
+                           " precision: float64"))
+    if sv.kink_aware and sv.device == "cuda" and (getattr(sc, "backlash", 0) or "backlash"
+                                                  in study.sweep):
+        out.append(Problem("solver.kink_aware", True, "the kink-aware step runs on the CPU only:"
+                           " set solver.device: cpu, or kink_aware: false on the GPU"))
     names = [o.name for o in study.outputs]
     for i, name in enumerate(names):
         if name not in OUTPUTS:
