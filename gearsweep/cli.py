@@ -21,7 +21,7 @@ import numpy as np
 
 from gearsweep import __version__
 from gearsweep.analysis.advise import advise
-from gearsweep.errors import NO_VALUE, GearsweepError, ResultError, StudyError
+from gearsweep.errors import NO_VALUE, DeviceError, GearsweepError, ResultError, StudyError
 from gearsweep.files import replace_problem
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
@@ -46,7 +46,9 @@ from gearsweep.study.execute import (
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import (
     is_netcdf,
+    line_of,
     load_study,
+    load_yaml,
     replaced_by_sweep,
     summary,
 )
@@ -171,6 +173,20 @@ def _stoppable(backend):
     return backend
 
 
+def _check_device(study, text: str, args: argparse.Namespace) -> None:
+    """The study's device must be there: else one line naming where the device was asked for,
+    ``--device`` or the study's ``solver.device`` (file:line), with the advice for that place."""
+    try:
+        kernel_for(study.solver.device, study.solver.precision)
+    except DeviceError as exc:
+        reason = str(exc).removeprefix(f"device {study.solver.device}: ")
+        if args.device:
+            raise DeviceError(f"--device {args.device}: "
+                              + reason.replace("use device: ", "use --device ")) from None
+        line = line_of(load_yaml(text, args.study), "solver.device") if text else None
+        raise StudyError(args.study, "solver.device", study.solver.device, reason, line) from None
+
+
 def cmd_run(args: argparse.Namespace) -> int:
 
     study, text = load_study(args.study)
@@ -223,7 +239,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"{args.study}: {line(est, compile_s)}")
         _long_sweep_note(plan, args)
         return 0
-    kernel_for(study.solver.device, study.solver.precision)  # no GPU: one line, exit 2, now
+    _check_device(study, text, args)  # no GPU: one line, exit 2, now
     if not args.yes:
         est, compile_s = before_refusing(plan, est, chunk, None if not args.workers else cores())
         check_limits(est, args.study)

@@ -420,6 +420,11 @@ def test_device_cuda_without_gpu_is_one_line_exit_2(tmp_path, where):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
     assert "cuda" in lines[0] and not (tmp_path / "o.nc").exists()
+    if where == "study":  # the file, line and field where the device was asked for
+        assert f"{study}:" in lines[0] and ": solver.device: 'cuda' -- " in lines[0], lines[0]
+        assert "use device: cpu or auto" in lines[0]
+    else:  # the flag, and the advice for the flag
+        assert "--device cuda: " in lines[0] and "use --device cpu or auto" in lines[0], lines[0]
 
 
 def test_a_gpu_run_is_estimated_without_a_gpu(tmp_path):
