@@ -397,6 +397,19 @@ def test_what_the_device_refuses_is_said_when_the_study_is_read(solver, line, fi
                 .replace("device: cuda", "device: auto"))
 
 
+def test_a_misspelt_top_level_key_is_matched_against_every_kind_of_study(tmp_path):
+    """'analyss:' in an analysis study was matched against a dynamic study's fields only (no
+    suggestion, the wrong list); every kind of study's top-level fields are the choices now."""
+    text = (Path(__file__).parents[1] / "studies/fig08_rattle_budget.yaml").read_text(
+        encoding="utf-8")
+    assert "\nanalysis:" in text
+    path = tmp_path / "a.yaml"
+    with pytest.raises(StudyError) as err:
+        parse_study(text.replace("\nanalysis:", "\nanalyss:"), str(path))
+    assert any(": analyss: 'analyss' is not a field of a study -- did you mean 'analysis'?" in ln
+               for ln in err.value.lines), err.value.lines
+
+
 def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
     """Every ``int`` of every model a study file is validated by (the scenes, the gear, the
     measured excitation, the outputs' options, mesh and analysis studies) is ``Count``, every

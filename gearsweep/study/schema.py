@@ -794,8 +794,10 @@ def _unknown_field(key: str, parent: list, raw: Any) -> str:
         choices, where = tuple(Range.model_fields), "a {start, stop, num} range"
     elif parent == ["solver"]:
         choices, where = tuple(Solver.model_fields), "solver"
-    elif parent == []:
-        choices, where = tuple(Study.model_fields), "a study"
+    elif parent == []:  # any kind of study's: a misspelt 'analysis' or 'mesh' made it dynamic
+        choices = tuple(dict.fromkeys([*Study.model_fields, *MeshStudy.model_fields,
+                                       *AnalysisStudy.model_fields]))
+        where = "a study"
     elif len(parent) == 1 and parent[0] in _TAGGED:
         noun, kinds = parent[0], _TAGGED[parent[0]]
         held = raw.get(noun) if isinstance(raw, dict) else None
