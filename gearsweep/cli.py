@@ -25,7 +25,7 @@ from gearsweep.errors import NO_VALUE, DeviceError, GearsweepError, ResultError,
 from gearsweep.files import replace_problem
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
-from gearsweep.study.checkpoint import saved_layout
+from gearsweep.study.checkpoint import chunk_folder, saved_layout
 from gearsweep.study.estimate import (
     CHUNK_SECONDS,
     PROGRESS_CHUNKS,
@@ -225,9 +225,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     if saved:  # a resumed run keeps its chunks: estimate with them, say so if asked for others
         per_lane = plan.chain * max(len(plan.directions), 1)
         chunk, capped = max(b - a for a, b in saved) * per_lane, False
-        if args.chunk_size is not None and not args.quiet:
+        asked = [f for f, v in (("--chunk-size", args.chunk_size), ("--workers", args.workers))
+                 if v is not None]
+        if asked and not args.quiet:
             print(f"gearsweep: note: {out}: resuming in the interrupted run's {len(saved)} chunks;"
-                  " --chunk-size applies to a fresh run", file=sys.stderr)
+                  f" the chunks of {' and '.join(asked)} apply to a fresh run", file=sys.stderr)
     if capped and args.chunk_size is not None and not args.quiet:
         print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than the"
               f" runner's (at most {CHUNK_SECONDS:.0f} s, and at least {PROGRESS_CHUNKS} chunks"
@@ -237,6 +239,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     est, compile_s = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
     if args.estimate:  # also for a GPU study on a machine without one: planning a GPU run
         print(f"{args.study}: {line(est, compile_s)}")
+        if saved:
+            done, total = saved_chunks(plan, out, chunk)
+            print(f"{args.study}: {done} of {total} chunks already saved in {chunk_folder(out)}:"
+                  " a run computes only the others (the estimate is for them all)")
         _long_sweep_note(plan, args)
         return 0
     _check_device(study, text, args)  # no GPU: one line, exit 2, now

@@ -265,10 +265,13 @@ def test_the_cli_resumes_in_the_saved_chunks_and_says_so(rattle_reference, tmp_p
     chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
     with pytest.raises(Crash):
         execute.run_to_file(plan, out, backend=CrashAfter(2), chunk_cases=CHUNK)
+    assert main(["run", str(study), "-o", str(out), "--estimate"]) == 0
+    assert f"2 of {len(chunks)} chunks already saved in" in capsys.readouterr().out
     log.unlink()
     assert main(["run", str(study), "-o", str(out), "--chunk-size", "96", "--yes"]) == 0
     err = capsys.readouterr().err
     assert f"resuming in the interrupted run's {len(chunks)} chunks" in err
+    assert "the chunks of --chunk-size apply to a fresh run" in err
     assert f"resuming: 2 of {len(chunks)} chunks already saved" in err
     assert read_log(log) == chunks[2:]
     with xr.open_dataset(out) as ds:
