@@ -410,6 +410,19 @@ def test_a_misspelt_top_level_key_is_matched_against_every_kind_of_study(tmp_pat
                for ln in err.value.lines), err.value.lines
 
 
+def test_initial_velocity_with_a_unit_says_it_takes_a_bare_number(tmp_path):
+    """'1 m/s' got pydantic's "unable to parse string as a number"; the line says what the field
+    takes. A bare number (also quoted) still reads."""
+    text = FLAG_STUDY.replace("  kink_aware: VALUE\n", "  initial_velocity: VALUE\n")
+    path = tmp_path / "v.yaml"
+    with pytest.raises(StudyError) as err:
+        parse_study(text.replace("VALUE", "1 m/s"), str(path))
+    [line] = err.value.lines
+    assert line == (f"{path}:7: solver.initial_velocity: '1 m/s' -- a bare number, in m/s"
+                    " (p' at t = 0; this field takes no unit, e.g. 0.001)")
+    assert parse_study(text.replace("VALUE", "'0.5'")).solver.initial_velocity == 0.5
+
+
 def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
     """Every ``int`` of every model a study file is validated by (the scenes, the gear, the
     measured excitation, the outputs' options, mesh and analysis studies) is ``Count``, every

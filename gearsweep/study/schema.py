@@ -300,8 +300,8 @@ class Solver(Strict):
         0.0, description="p at t = 0 (Mathieu: a bare number; default 1); 'static': the static"
         " equilibrium on the drive flank of each case, b + F_m / k0 (b = backlash / 2, k0 the"
         " mean stiffness at the case's load)")
-    initial_velocity: Real = Field(0.0, allow_inf_nan=False,
-                                   description="p' at t = 0 in m/s (a bare number)")
+    initial_velocity: Annotated[Real, BeforeValidator(_bare_velocity)] = Field(
+        0.0, allow_inf_nan=False, description="p' at t = 0 in m/s (a bare number)")
     device: Literal["cpu", "cuda", "auto"] = Field(
         "cpu", description="where the kernel runs: cpu, cuda (a CUDA GPU, docs/gpu.md) or auto"
         " (cuda where a GPU is present)")
@@ -310,6 +310,18 @@ class Solver(Strict):
     step_guard: Annotated[Literal["warn", "skip", "off"], BeforeValidator(_guard_word)] = Field(
         "warn", description="cases whose step is beyond the method's stability limit: flag them"
         " (warn), do not integrate them (skip, status 3), or do not check (off)")
+
+
+def _bare_velocity(v: Any) -> Any:
+    """``initial_velocity`` is a bare number in m/s (dimensionless in a Mathieu scene): a value
+    written with a unit got pydantic's "unable to parse string as a number"."""
+    if isinstance(v, str):
+        try:
+            float(v)
+        except ValueError:
+            raise ValueError("a bare number, in m/s (p' at t = 0; this field takes no unit,"
+                             " e.g. 0.001)") from None
+    return v
 
 
 def _guard_word(v: Any) -> Any:
