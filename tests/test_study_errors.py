@@ -423,6 +423,25 @@ def test_initial_velocity_with_a_unit_says_it_takes_a_bare_number(tmp_path):
     assert parse_study(text.replace("VALUE", "'0.5'")).solver.initial_velocity == 0.5
 
 
+def test_a_scene_missing_fields_of_both_kinds_says_all_in_one_run(tmp_path):
+    """A rattle scene with only a mass: the backlash (a field pydantic requires), the speed and
+    teeth and stiffness (which the scene's own check requires, as a gear could give them) came in
+    two runs, the second only after the first were fixed; now in one, each once."""
+    path = tmp_path / "s.yaml"
+    with pytest.raises(StudyError) as err:
+        parse_study("title: t\nscene: {kind: rattle, mass: 1 kg}\n", str(path))
+    speed = "the speed must be swept (sweep.speed) or given (scene.speed)"
+    teeth = ("'teeth' and 'stiffness' required (or a 'gear' that gives teeth, stiffness and"
+             " their harmonics)")
+    assert err.value.lines == [f"{path}:2: scene.backlash: '(missing)' -- this field is required",
+                               f"{path}:2: scene.speed: '(missing)' -- {speed}",
+                               f"{path}:2: scene: '{{...}}' -- {teeth}"], err.value.lines
+    with pytest.raises(StudyError) as err:  # only the scene's own check: said once
+        parse_study("title: t\nscene: {kind: rattle, mass: 1 kg, backlash: 1 mm,"
+                    " speed: 1000 rpm}\n", str(path))
+    assert len(err.value.lines) == 1 and "'teeth' and 'stiffness' required" in err.value.lines[0]
+
+
 def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
     """Every ``int`` of every model a study file is validated by (the scenes, the gear, the
     measured excitation, the outputs' options, mesh and analysis studies) is ``Count``, every

@@ -154,6 +154,32 @@ class Fluctuation(Strict):
         return False
 
 
+def scene_presence(has, drive_has) -> str:
+    """The problems of which fields a whine, rattle or full scene gives, in one message ("" when
+    none): ``has(name)`` says whether the scene gives field ``name``, ``drive_has(name)`` the
+    same of its ``drive``. Asked by the scene's validator, and, when other errors stop that
+    validator, on the file's own keys (``_sweep_problems``), so that a bare scene's problems
+    come in one run."""
+    problems = []
+    if has("mass") == has("drive"):
+        problems.append("give exactly one of 'mass' (m_eq) and 'drive' (inertias, radii)")
+    if has("mean_force") and has("torque"):
+        problems.append("give at most one of 'mean_force' and 'torque'")
+    if has("drive") and has("base_radius"):
+        problems.append("'base_radius' is already given by 'drive.base_radius_1'")
+    if has("drive") and not has("gear"):
+        missing = [f"'drive.{f}'" for f in ("base_radius_1", "base_radius_2") if not drive_has(f)]
+        if missing:
+            problems.append(f"{' and '.join(missing)} required (or a 'gear', which gives"
+                            " the base radii)")
+    if not has("gear") and not has("excitation"):
+        missing = [f"'{f}'" for f in ("teeth", "stiffness") if not has(f)]
+        if missing:
+            problems.append(f"{' and '.join(missing)} required (or a 'gear' that gives"
+                            " teeth, stiffness and their harmonics)")
+    return "; ".join(problems)
+
+
 class _Driven(Strict):
     """Fields shared by the scenes of the gear drive (not the dimensionless Mathieu scene)."""
 
@@ -179,26 +205,10 @@ class _Driven(Strict):
     def _mass_and_force(self) -> _Driven:
         # The independent problems of the scene at once, in one message (the file's line of
         # the scene): a user fixing one at a time met them over several runs.
-        problems = []
-        if (self.mass is None) == (self.drive is None):
-            problems.append("give exactly one of 'mass' (m_eq) and 'drive' (inertias, radii)")
-        if self.mean_force is not None and self.torque is not None:
-            problems.append("give at most one of 'mean_force' and 'torque'")
-        if self.drive is not None and self.base_radius is not None:
-            problems.append("'base_radius' is already given by 'drive.base_radius_1'")
-        if self.drive is not None and self.gear is None:
-            missing = [f"'drive.{f}'" for f in ("base_radius_1", "base_radius_2")
-                       if getattr(self.drive, f) is None]
-            if missing:
-                problems.append(f"{' and '.join(missing)} required (or a 'gear', which gives"
-                                " the base radii)")
-        if self.gear is None and self.excitation is None:
-            missing = [f"'{f}'" for f in ("teeth", "stiffness") if getattr(self, f) is None]
-            if missing:
-                problems.append(f"{' and '.join(missing)} required (or a 'gear' that gives"
-                                " teeth, stiffness and their harmonics)")
+        problems = scene_presence(lambda f: getattr(self, f, None) is not None,
+                                  lambda f: getattr(self.drive, f, None) is not None)
         if problems:
-            raise ValueError("; ".join(problems))
+            raise ValueError(problems)
         if self.excitation is not None:  # checked with the sweep (consistency_problems)
             return self
         if self.gear is None:
@@ -921,9 +931,14 @@ def _sweep_problems(raw: Any) -> list[Problem]:
     sweep = raw.get("sweep") if isinstance(raw, dict) else None
     scene = raw.get("scene") if isinstance(raw, dict) else None
     out = []
-    if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full") \
-            and "speed" not in scene and not (isinstance(sweep, dict) and "speed" in sweep):
-        out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
+    if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full"):
+        if "speed" not in scene and not (isinstance(sweep, dict) and "speed" in sweep):
+            out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
+        drive = scene.get("drive")
+        given = scene_presence(lambda f: scene.get(f) is not None,
+                               lambda f: isinstance(drive, dict) and drive.get(f) is not None)
+        if given:  # the same line as the scene's validator gives, where it ran
+            out.append(Problem("scene", "{...}", given))
     if isinstance(sweep, dict):
         try:
             parsed = TypeAdapter(Study.model_fields["sweep"].annotation).validate_python(sweep)
