@@ -24,7 +24,7 @@ from pathlib import Path
 import xarray as xr
 import yaml
 
-from gearsweep.errors import ResultError, StudyError
+from gearsweep.errors import DICT_STUDY, ResultError, StudyError
 from gearsweep.model import MathieuModel, MeshModel, model_from_record
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_specs import AnalysisStudy
@@ -59,7 +59,7 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
                                      sort_keys=False), "<study>"
     if isinstance(study, dict):
         text = yaml.safe_dump(_plain(study, "(study)"), sort_keys=False)
-        return parse_study(text, "<dict>"), text, "<dict>"
+        return parse_study(text, DICT_STUDY), text, DICT_STUDY
     if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study
                                    and study.strip().endswith((".yaml", ".yml"))):
         return (*load_study(study), str(study))
@@ -96,7 +96,7 @@ def _plain(value, where: str):
                 for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
-    raise StudyError("<dict>", where, repr(value)[:60],
+    raise StudyError(DICT_STUDY, where, repr(value)[:60],
                      "a number, a string with units (e.g. '5 N m'), a list or a mapping")
 
 

@@ -15,9 +15,14 @@ NO_VALUE = object()
 """A problem whose message already shows the value (``3 has no unit; write e.g. '3 mm'``)."""
 
 
+DICT_STUDY = "<dict>"
+"""The name a study given as a Python dict is reported under: without line numbers, which would
+be those of the YAML made from it, text the user never saw."""
+
+
 def problem_line(file: str, line: int | None, field: str, value: object, allowed: str) -> str:
     """``file.yaml:LINE: field.path: value -- what is allowed``, on one line."""
-    where = f"{file}:{line}" if line else file
+    where = f"{file}:{line}" if line and file != DICT_STUDY else file
     if value is NO_VALUE:
         text = f"{where}: {field}: {allowed}"
     else:

@@ -133,6 +133,14 @@ def test_open_result_refuses_a_study_and_a_missing_file(write_study, small_whine
         gearsweep.open_result(tmp_path / "nope.nc")
 
 
+def test_a_dict_study_is_reported_without_line_numbers(small_whine):
+    """A dict has no lines: its errors named lines of the YAML made from it (`<dict>:23:`)."""
+    bad = {**small_whine, "solver": {**small_whine.get("solver", {}), "kink_aware": 1}}
+    with pytest.raises(StudyError) as err:
+        gearsweep.run(bad)
+    assert err.value.lines == ["<dict>: solver.kink_aware: 1 -- true or false"], err.value.lines
+
+
 def test_bad_output_and_chunk_cases_from_python_are_one_line(small_whine):
     """From Python as from the CLI: an output that cannot be written, or not a path, and a chunk
     size that is not a positive whole number are one line (an OS error from deep inside, or a
