@@ -177,14 +177,17 @@ def test_a_response_that_has_died_away_is_settled():
 def test_a_problem_found_when_planning_names_the_file_and_line_from_python_too(small_whine,
                                                                              write_study):
     """Steps per period against the outputs' sampling is checked when the study is planned; from
-    Python the message said '<study>' with no line, the CLI 'file:line'. Both give both now."""
+    Python the message said '<study>' with no line, the CLI 'file:line'. Both give both now (a
+    dict has no lines: it is named alone)."""
     small_whine["solver"] = {**small_whine.get("solver", {}), "steps_per_period": 24}
     small_whine["outputs"] = [{"spectrum": {"samples_per_period": 16}}]
     path = write_study(small_whine)
-    for given, name in ((small_whine, "<dict>"), (path, str(path))):
+    for given, where in ((small_whine, "<dict>: "), (path, f"{path}:")):
         with pytest.raises(StudyError) as err:
             gearsweep.run(given)
-        assert str(err.value).startswith(f"{name}:") and str(err.value).split(":")[1].isdigit()
+        assert str(err.value).startswith(where), str(err.value)
+        if given is path:
+            assert str(err.value).split(":")[1].isdigit()
         assert "solver.steps_per_period: 24 -- a multiple of 16" in str(err.value)
 
 
