@@ -223,8 +223,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     chunk, capped = chunk_cases(plan, args.chunk_size, workers=args.workers)
     saved = saved_layout(out, plan.study_key, plan.n_lanes)
     if saved:  # a resumed run keeps its chunks: estimate with them, say so if asked for others
-        per_lane = plan.chain * max(len(plan.directions), 1)
-        chunk, capped = max(b - a for a, b in saved) * per_lane, False
+        chunk, capped = max(b - a for a, b in saved) * plan.cases_per_lane, False
         asked = [f for f, v in (("--chunk-size", args.chunk_size), ("--workers", args.workers))
                  if v is not None]
         if asked and not args.quiet:

@@ -88,7 +88,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     # instead, for a time not measured yet (Estimate.line says so)
     compile_s = 0.0 if plan.device == "cuda" else compile_seconds(s.method, s.kink_aware)
     seconds = kernel_s + FIXED_SECONDS + results / WRITE_RATE + compile_s
-    biggest = min(per, n) * plan.chain * ways
+    biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
     memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
     if plan.device == "cuda":
@@ -179,7 +179,7 @@ def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
     """
     threads = threads or cores()
     ways = max(len(plan.directions), 1)
-    per_lane = plan.chain * ways
+    per_lane = plan.cases_per_lane
     if requested is None and workers and workers > 1 and plan.device == "cpu":
         default = plan.default_lanes_per_chunk()
         floor = math.ceil(WORKER_CHUNK_STEPS / (per_lane * plan.steps_per_case))

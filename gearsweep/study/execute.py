@@ -104,8 +104,7 @@ def lanes_per_chunk(plan: Plan, chunk_cases: int | None) -> int | None:
     """Lanes per chunk for about ``chunk_cases`` cases per chunk (``None``: the runner's default)."""
     if chunk_cases is None:
         return None
-    per_lane = plan.chain * max(len(plan.directions), 1)
-    return max(1, int(chunk_cases) // per_lane)
+    return max(1, int(chunk_cases) // plan.cases_per_lane)
 
 
 # ------------------------------------------------------------------------------------ estimate
@@ -248,7 +247,7 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     per_case = _case_bytes(plan)
     results = plan.n_cases * per_case
     seconds = _lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS + results / WRITE_RATE
-    biggest = max((b - a for a, b in chunks), default=0) * plan.chain * max(len(plan.directions), 1)
+    biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
     memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
@@ -557,7 +556,7 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     """
     from tqdm import tqdm
 
-    per_lane = plan.chain * max(len(plan.directions), 1)
+    per_lane = plan.cases_per_lane
     bar = tqdm(total=plan.n_cases, initial=done_cases, unit="case", unit_scale=True,
                desc=plan.study.title[:30], file=sys.stderr, disable=not progress, leave=False,
                smoothing=0.1, mininterval=0, miniters=1)  # a refresh per finished chunk
@@ -648,7 +647,7 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     for a, b in done:
         store_chunk(results, plan, a, b, store.load(a, b))
     todo = [c for c in chunks if c not in done]
-    per_lane = plan.chain * max(len(plan.directions), 1)
+    per_lane = plan.cases_per_lane
     elapsed, kernel, _ = _compute(
         plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
         sink=lambda a, b, arrays: store_chunk(results, plan, a, b, arrays))
@@ -682,7 +681,7 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
         raise ResultError(f"{output}: cannot write the result here"
                           f" ({exc.strerror or type(exc).__name__})") from None
     todo = [c for c in chunks if c not in done]
-    per_lane = plan.chain * max(len(plan.directions), 1)
+    per_lane = plan.cases_per_lane
     elapsed, kernel, file = _compute(
         plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
         open_file=lambda: _result_file(plan, output, store.folder / "writing.nc", codec),

@@ -199,8 +199,13 @@ class Plan:
         return len(self.grids["speed"]) if self.continued else 1
 
     @property
+    def cases_per_lane(self) -> int:
+        """Cases per lane: the chain's speeds in each sweep direction (1 for independent cases)."""
+        return self.chain * max(len(self.directions), 1)
+
+    @property
     def n_cases(self) -> int:
-        return self.n_lanes * self.chain * max(len(self.directions), 1)
+        return self.n_lanes * self.cases_per_lane
 
     @property
     def steps_per_case(self) -> int:
@@ -219,7 +224,7 @@ class Plan:
     def default_lanes_per_chunk(self) -> int:
         """Lanes per chunk for about ``CHUNK_STEPS`` steps on the CPU, ``cuda.CHUNK_STEPS`` on
         the GPU (and at most ``CHUNK_SIGNAL_BYTES`` of recorded signal)."""
-        per_lane = self.steps_per_case * self.chain * max(len(self.directions), 1)
+        per_lane = self.steps_per_case * self.cases_per_lane
         steps = CHUNK_STEPS if self.device == "cpu" else GPU_CHUNK_STEPS
         lanes_per_chunk = max(4 * LANES, int(steps // max(per_lane, 1)))
         # Up and down sweeps of a lane run side by side: one signal per direction.
