@@ -158,7 +158,7 @@ def scene_presence(has, drive_has) -> str:
     """The problems of which fields a whine, rattle or full scene gives, in one message ("" when
     none): ``has(name)`` says whether the scene gives field ``name``, ``drive_has(name)`` the
     same of its ``drive``. Asked by the scene's validator, and, when other errors stop that
-    validator, on the file's own keys (``_sweep_problems``), so that a bare scene's problems
+    validator, on the file's own keys (``_problems_beside_errors``), so that a bare scene's problems
     come in one run."""
     problems = []
     if has("mass") == has("drive"):
@@ -925,9 +925,10 @@ def _a(noun: str) -> str:
     return f"{'an' if noun[0] in 'aeiou' else 'a'} {noun}"
 
 
-def _sweep_problems(raw: Any) -> list[Problem]:
-    """``grid_problems`` of the file's ``sweep:`` alone, and a speed given nowhere, when the
-    study as a whole does not validate (an error in the scene would otherwise hide those)."""
+def _problems_beside_errors(raw: Any) -> list[Problem]:
+    """What pydantic's own errors stop the study's validators from saying, checked on the file
+    itself when the study does not validate: ``grid_problems`` of its ``sweep:``, a speed given
+    nowhere, and which fields the scene gives (``scene_presence``)."""
     sweep = raw.get("sweep") if isinstance(raw, dict) else None
     scene = raw.get("scene") if isinstance(raw, dict) else None
     out = []
@@ -997,7 +998,7 @@ def _parse_raw(raw: Any, file: str) -> Study | MeshStudy | AnalysisStudy:
         study = Study.model_validate(raw, context={"problems": problems, "file": file})
     except ValidationError as exc:
         err = _first_error(exc, file, raw)
-        more = _sweep_problems(raw)  # the sweep checked apart: every problem of the file at once
+        more = _problems_beside_errors(raw)  # every problem of the file at once
         raise (err.joined(_error(file, more, raw)) if more else err) from None
     except RecursionError:
         raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
