@@ -21,7 +21,15 @@ import numpy as np
 
 from gearsweep import __version__
 from gearsweep.analysis.advise import advise
-from gearsweep.errors import NO_VALUE, DeviceError, GearsweepError, ResultError, StudyError
+from gearsweep.errors import (
+    EXIT_INTERRUPTED,
+    EXIT_USAGE,
+    NO_VALUE,
+    DeviceError,
+    GearsweepError,
+    ResultError,
+    StudyError,
+)
 from gearsweep.files import replace_problem
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
@@ -53,9 +61,6 @@ from gearsweep.study.schema import (
     summary,
 )
 from gearsweep.study.workspace import OutputLock, check_partial, saved_chunks
-
-EXIT_USAGE = 2
-EXIT_INTERRUPTED = 130
 
 
 def _default_output(study_path: str) -> Path:

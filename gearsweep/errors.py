@@ -6,6 +6,12 @@ from __future__ import annotations
 import math
 import re
 
+EXIT_USAGE = 2
+"""Exit code of the CLI for input it refuses (a ``GearsweepError``): one line on stderr."""
+
+EXIT_INTERRUPTED = 130
+"""Exit code of the CLI stopped by Ctrl-C (128 + SIGINT, as a shell reports it)."""
+
 
 class GearsweepError(Exception):
     """Base class of every error that is the user's input, not a bug: one clear line, exit 2."""

@@ -323,3 +323,43 @@ def test_a_study_over_the_time_limit_at_the_stated_rate_is_measured_before_refus
     huge = make_plan(parse_study(text, "s.yaml"), text)
     stated, _ = est_mod.quick_estimate(huge, threads=2)
     assert est_mod.before_refusing(huge, stated, threads=2)[0] is stated and calls == [2]
+
+
+_INTERRUPT_AT_IMPORT = """\
+import sys
+
+class Interrupt:  # Ctrl-C while the CLI's modules are being imported
+    def find_spec(self, name, path=None, target=None):
+        if name == "gearsweep.cli":
+            raise KeyboardInterrupt
+
+sys.meta_path.insert(0, Interrupt())
+from gearsweep.__main__ import entry
+sys.argv = ["gearsweep", "run", "s.yaml"]
+entry()
+"""
+
+
+def test_ctrl_c_while_the_cli_imports_is_one_line_and_exit_130(tmp_path):
+    # Before, the interrupt met no handler yet: a traceback of the module being imported.
+    r = subprocess.run([sys.executable, "-c", _INTERRUPT_AT_IMPORT], cwd=tmp_path, env=_env(),
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 130, r.stderr
+    assert r.stderr == "gearsweep: interrupted\n", r.stderr
+
+
+def test_ctrl_c_at_any_moment_of_the_start_leaves_no_traceback(tmp_path):
+    # A real SIGINT at several moments of the start: while Python starts, while the CLI imports,
+    # while it reads the study. Whatever it hits, no traceback (before Python's own handler is
+    # installed, the signal ends the process: -SIGINT).
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "10000"), encoding="utf-8")
+    for delay in (0.05, 0.15, 0.3, 0.6):
+        proc = subprocess.Popen([sys.executable, "-m", "gearsweep", "run", str(study), "-o",
+                                 str(tmp_path / "o.nc"), "-q"], cwd=tmp_path, env=_env(),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+        assert proc.returncode in (130, -signal.SIGINT), (delay, err)
+        assert "Traceback" not in err and len(err.strip().splitlines()) <= 3, (delay, err)
