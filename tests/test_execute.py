@@ -205,6 +205,27 @@ def test_an_edit_that_changes_no_value_keeps_the_saved_chunks(tmp_path, monkeypa
     assert_same(ds, run_plan(plan2))  # bitwise the uninterrupted run of the edited study
 
 
+def test_device_auto_without_a_gpu_resumes_a_cpu_run_and_the_other_way(tmp_path, monkeypatch):
+    """The key is of the device the chunks run on: ``auto`` on a machine without a GPU is the
+    study with ``cpu`` (``--device cpu`` resumes a run of ``device: auto`` and the other way);
+    with a GPU, ``auto`` runs there, and the ``cpu`` study is another."""
+    from gearsweep.kernels import cuda
+
+    log, out, plan, chunks = _interrupted(tmp_path, monkeypatch, 3)  # device: cpu (default)
+    auto = RATTLE + "  device: auto\n"
+    auto = auto.replace("record_periods: 20}\n  device: auto\n",
+                        "record_periods: 20, device: auto}\n")
+    monkeypatch.setattr(cuda, "gpu_present", lambda: False)
+    plan2 = plan_of(auto)
+    assert plan2.study.solver.device == "auto" and plan2.study_key == plan.study_key
+    log.unlink()
+    ds = execute.run_to_file(plan2, out, chunk_cases=CHUNK)
+    assert read_log(log) == chunks[3:]  # the cpu run's three saved chunks were used
+    assert_same(ds, run_plan(plan2))  # bitwise the uninterrupted run of the auto study
+    monkeypatch.setattr(cuda, "gpu_present", lambda: True)
+    assert plan_of(auto).study_key != plan.study_key
+
+
 def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path, monkeypatch):
     """Chunk files cut short (in a header, in the last array: a process killed mid-write never
     leaves one, a machine that lost power can, as chunk files are not fsync'ed), left empty, or of

@@ -151,10 +151,14 @@ class Plan:
         """sha256 of the study as validated (its fields as JSON, keys sorted): the name of its
         checkpoint folder. An edit of the file that leaves every value as it was (a comment, the
         spacing, the order of keys) keeps the chunks saved by an interrupted run; a changed value,
-        the title included, makes another study. (``study_sha256`` in a result is of the text.)"""
+        the title included, makes another study. (``study_sha256`` in a result is of the text.)
+        The device is the one the chunks run on (``device``): ``auto`` on a machine without a
+        GPU is the study with ``cpu``, so either resumes the other's chunks."""
         import json
 
-        dump = json.dumps(self.study.model_dump(mode="json"), sort_keys=True)
+        study = self.study.model_dump(mode="json")
+        study["solver"]["device"] = self.device
+        dump = json.dumps(study, sort_keys=True)
         return hashlib.sha256(dump.encode()).hexdigest()
 
     @property
