@@ -49,9 +49,10 @@ from gearsweep.study.execute import (
     check_limits,
     cores,
     run_to_file,
+    step_limit_text,
     step_limit_warning,
 )
-from gearsweep.study.plan import make_plan
+from gearsweep.study.plan import cases_beyond_step_limit, make_plan
 from gearsweep.study.schema import (
     is_netcdf,
     line_of,
@@ -138,6 +139,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
         est, compile_s = before_refusing(plan, est)
         check_limits(est, name)
     print(f"{name}: ok -- {_summary(study, plan, line(est, compile_s))}")
+    if study.solver.step_guard != "off":  # what run will warn of, said before it runs
+        beyond = step_limit_text(plan, cases_beyond_step_limit(plan) or 0, name, before=True)
+        if beyond is not None:
+            print(f"gearsweep: warning: {beyond}", file=sys.stderr)
     return 0
 
 

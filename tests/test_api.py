@@ -219,3 +219,47 @@ def test_cases_beyond_the_step_limit_warn_from_python_with_the_clis_line(small_w
     for guard in ("skip", "off"):  # no warning (an error here: filterwarnings = error)
         small_whine["solver"]["step_guard"] = guard
         assert "beyond_step_limit" not in gearsweep.run(small_whine)
+
+
+def test_validate_warns_of_the_cases_beyond_the_step_limit_that_run_finds(write_study, tmp_path,
+                                                                          capsys):
+    """``validate`` says before running what ``run`` warns of after: the same count, from the
+    same guard (here a rattle sweep continued both ways, with a dim the guard does not read);
+    with ``step_guard: skip`` it says they will be left uncomputed; ``off``: nothing."""
+    text = """\
+title: coarse step
+scene:
+  kind: rattle
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  damping: 100 N*s/m
+  backlash: 0.2 mm
+  mean_force: 200 N
+  fluctuation: [{amplitude: 300 N, order: 1}]
+sweep:
+  speed: [300 rpm, 400 rpm, 3000 rpm, 6000 rpm]
+  damping: [50 N*s/m, 100 N*s/m, 150 N*s/m]
+  backlash: [0.1 mm, 0.2 mm]
+continuation: [up, down]
+solver: {method: rk4, steps_per_period: 32, transient_periods: 10, record_periods: 4}
+"""
+    path = write_study(text)
+    assert cli(["run", str(path), "-o", str(tmp_path / "r.nc"), "-q"]) == 0
+    ran = capsys.readouterr().err
+    with xr.open_dataset(tmp_path / "r.nc") as ds:
+        n = int(ds.beyond_step_limit.sum())
+    assert n == 2 * 3 * 2 * 2  # 300 and 400 rpm, every damping, backlash and direction
+    assert f": {n} case(s) use a step beyond" in ran
+    assert cli(["validate", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert err == ran.replace(str(tmp_path / "r.nc"), str(path)).replace(" use a", " will use a")
+    write_study(text.replace("record_periods: 4}", "record_periods: 4, step_guard: skip}"))
+    assert cli(["validate", str(path)]) == 0
+    assert capsys.readouterr().err == (
+        f"gearsweep: warning: {path}: {n} case(s) will use a step beyond the stability limit of"
+        " rk4 at 32 steps/period; step_guard: skip leaves them uncomputed (status 3, skipped;"
+        " raise solver.steps_per_period to compute them)\n")
+    write_study(text.replace("record_periods: 4}", "record_periods: 4, step_guard: off}"))
+    assert cli(["validate", str(path)]) == 0
+    assert capsys.readouterr().err == ""

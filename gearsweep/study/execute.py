@@ -700,13 +700,24 @@ def step_limit_warning(plan: Plan, ds: xr.Dataset, where: str | Path) -> StepLim
     ``gearsweep.run`` warns it and the CLI prints it (``gearsweep: warning: ...``): one text."""
     if "beyond_step_limit" not in ds:  # step_guard skip or off
         return None
-    n = int(ds["beyond_step_limit"].sum())
+    return step_limit_text(plan, int(ds["beyond_step_limit"].sum()), where)
+
+
+def step_limit_text(plan: Plan, n: int, where: str | Path, *, before: bool = False
+                    ) -> StepLimitWarning | None:
+    """The line about ``n`` cases beyond the step limit (``None`` when ``n`` is 0): of a result,
+    or with ``before``, of a study not yet run (``gearsweep validate``), as its step guard
+    will treat them."""
     if not n:
         return None
     s = plan.study.solver
+    head = (f"{where}: {n} case(s) {'will use' if before else 'use'} a step beyond the stability"
+            f" limit of {s.method} at {s.steps_per_period} steps/period")
+    if s.step_guard == "skip":
+        return StepLimitWarning(f"{head}; step_guard: skip leaves them uncomputed (status 3,"
+                                " skipped; raise solver.steps_per_period to compute them)")
     return StepLimitWarning(
-        f"{where}: {n} case(s) use a step beyond the stability limit of {s.method} at"
-        f" {s.steps_per_period} steps/period; their results may be spoiled by the integrator"
+        f"{head}; their results may be spoiled by the integrator"
         " (variable 'beyond_step_limit'; raise solver.steps_per_period or set"
         " solver.step_guard: skip)")
 

@@ -390,6 +390,21 @@ _GUARD_TABLE_MAX = 1 << 20
 """Largest grid over the guard's dims that is solved once per study (else: per chunk)."""
 
 
+def cases_beyond_step_limit(plan: Plan) -> int | None:
+    """How many cases of ``plan`` the step guard will find beyond the method's stability limit
+    (``_step_ok``, solved on the grid of the swept dims it depends on, speed included, before
+    anything runs: ``gearsweep validate`` says so); ``None`` when that grid is larger than
+    ``_GUARD_TABLE_MAX``."""
+    dims = [d for d in plan.dims if d in GUARD_PARAMS]
+    m = math.prod(len(plan.grids[d]) for d in dims)
+    if m > _GUARD_TABLE_MAX:
+        return None
+    values, _ = lane_values([plan.grids[d] for d in dims], 0, m)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        ok = np.asarray(_step_ok(plan, dict(zip(dims, values, strict=True)), m))
+    return int((~ok).sum()) * (plan.n_cases // m)  # each grid point: the other dims' cases
+
+
 def _guard_table(plan: Plan) -> tuple[list[int], tuple[int, ...], np.ndarray] | None:
     """The step guard solved once on the grid of the swept dims it depends on.
 
