@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import sys
 
-from gearsweep.errors import EXIT_INTERRUPTED
-
 
 def entry() -> None:
     try:
@@ -19,6 +17,8 @@ def entry() -> None:
 
         cli_entry()
     except KeyboardInterrupt:  # before cli.main's own handler, or a second Ctrl-C after it
+        from gearsweep.errors import EXIT_INTERRUPTED
+
         print("gearsweep: interrupted", file=sys.stderr)
         sys.exit(EXIT_INTERRUPTED)
 
