@@ -18,7 +18,7 @@ class GearsweepError(Exception):
 
 
 NO_VALUE = object()
-"""A problem whose message already shows the value (``3 has no unit; write e.g. '3 mm'``)."""
+"""A problem whose message already shows the value (``3 has no unit; write e.g. '3 mm', ...``)."""
 
 
 DICT_STUDY = "<dict>"

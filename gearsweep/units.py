@@ -8,7 +8,7 @@ study's value (pint underneath) into an SI float; ``to_display`` converts SI val
 Rules (docs/study-reference.md, "Units"):
 
 * A bare number in a dimensioned field is refused (``module: 3`` -> ``3 has no unit; write e.g.
-  '3 mm'``), except 0 (zero in any unit) and a shaft speed, which is read in rpm.
+  '3 mm', or '3 m' if SI was meant``), except 0 (zero in any unit) and a shaft speed, which is read in rpm.
 * A frequency given for a shaft speed (``50 Hz``, ``3 kHz``) is read as revolutions per second:
   50 Hz = 3000 rpm (pint alone would read it as 50 rad/s, 2 pi off). An angular rate in rad/s or
   deg/s is converted as such.
@@ -94,6 +94,11 @@ _SPELLINGS = (
     (re.compile(r"(?<=[A-Za-z])\^"), "**"),
 )
 _WORD = re.compile(r"[A-Za-z_]+")
+_UDUNITS_POWER = re.compile(r"(?<=[A-Za-z])(-?\d+)(?![\w.])")
+"""A power written straight after a unit, as UDUNITS and the netCDF ``units`` attributes do
+(``kN mm-1``, ``kg m2``): pint's ``**``. Only after the number (``1e9``'s ``e9`` is not one)."""
+_SI_SHOWN = {"N*s/m": "N s/m"}
+"""The SI units of ``KINDS`` as a study would write them, where pint's spelling differs."""
 _ANGLE_UNITS = ("radian", "degree", "revolution", "turn", "arcminute", "arcsecond", "grade",
                 "revolutions_per_minute", "cycle")
 
@@ -115,11 +120,15 @@ class UnitParseError(ValueError):
 
 def normalise(text: str) -> str:
     """A quantity's text with the engineers' spellings turned into pint's (``30 Nm`` ->
-    ``30 N*m``, ``1000 RPM`` -> ``1000 rpm``, ``5 µm`` -> ``5 um``)."""
+    ``30 N*m``, ``1000 RPM`` -> ``1000 rpm``, ``5 µm`` -> ``5 um``, ``1073 kN mm-1`` ->
+    ``1073 kN mm**-1``: the result files' own ``units`` spelling is read back)."""
     out = text.strip()
     for pattern, repl in _SPELLINGS:
         out = pattern.sub(repl, out)
-    return _WORD.sub(lambda m: _WORD_ALIASES.get(m.group(0), m.group(0)), out)
+    out = _WORD.sub(lambda m: _WORD_ALIASES.get(m.group(0), m.group(0)), out)
+    m = _NUMBER.match(out)
+    number, unit = (out[:m.end()], out[m.end():]) if m else ("", out)
+    return number + _UDUNITS_POWER.sub(r"**\1", unit)
 
 
 def _shown(value: object) -> str:
@@ -132,8 +141,11 @@ def _bare(value: object, kind: Kind, number: float) -> float:
         raise UnitParseError("expected a finite number (not nan or inf)")
     if kind.bare or number == 0.0:
         return number
-    raise UnitParseError(f"{_shown(value)} has no unit; write e.g. '{_shown(value)} "
-                         f"{kind.examples[0]}'")
+    shown = _shown(value)
+    hint = f"'{shown} {kind.examples[0]}'"
+    if to_si(f"1 {kind.examples[0]}", kind.name) != 1.0:  # the study's unit is not SI:
+        hint += f", or '{shown} {_SI_SHOWN.get(kind.si, kind.si)}' if SI was meant"  # say both
+    raise UnitParseError(f"{shown} has no unit; write e.g. {hint}")
 
 
 _UNIT_ONLY = re.compile(r"^[A-Za-z_]+(?:(?:\*\*|\^)-?\d+)?"

@@ -44,7 +44,8 @@ def test_three_errors_give_three_lines_with_line_numbers():
     lines = _lines(text)
     assert lines == [
         "s.yaml:4: scene.mass: '-1 kg' -- Input should be greater than 0",
-        "s.yaml:7: scene.backlash: 0.1 has no unit; write e.g. '0.1 mm'",
+        ("s.yaml:7: scene.backlash: 0.1 has no unit; write e.g. '0.1 mm', or '0.1 m' if SI was"
+        " meant"),
         "s.yaml:11: solver.method: 'rk3' -- did you mean 'rk5'? (allowed: rk4, rk5)",
     ], lines
 
@@ -124,7 +125,7 @@ def test_a_quantity_or_a_word_field_says_what_was_wrong_with_the_quantity():
     "Input should be 'static'" (the word's branch); now the quantity's message, and the word."""
     text = GOOD.replace("method: rk4,", "method: rk4, initial_displacement: 2.0,")
     assert _lines(text) == [("s.yaml:11: solver.initial_displacement: 2 has no unit; write e.g."
-                            " '2 um' (or 'static')")]
+                            " '2 um', or '2 m' if SI was meant (or 'static')")]
     assert _lines(text.replace("2.0", "2 kg")) == [
         ("s.yaml:11: solver.initial_displacement: '2 kg' -- has units of [mass], expected"
         " displacement (e.g. '1 um') (or 'static')")]

@@ -47,11 +47,15 @@ def test_a_shaft_speed_in_hz_is_revolutions_per_second(text, rpm):
 
 
 @pytest.mark.parametrize(("value", "kind", "message"), [
-    (3, "length", "3 has no unit; write e.g. '3 mm'"),
-    ("0.1", "length", "0.1 has no unit; write e.g. '0.1 mm'"),
+    (3, "length", "3 has no unit; write e.g. '3 mm', or '3 m' if SI was meant"),
+    ("0.1", "length", "0.1 has no unit; write e.g. '0.1 mm', or '0.1 m' if SI was meant"),
     (0.1527, "mass", "0.1527 has no unit; write e.g. '0.1527 kg'"),
-    (1e8, "stiffness", "1e+08 has no unit; write e.g. '1e+08 kN/mm'"),
-    (0.5, "angle", "0.5 has no unit; write e.g. '0.5 deg'"),
+    # A user who meant N/m is shown N/m: the study's unit alone led to 1e9 kN/mm (1e15 N/m),
+    # which validated.
+    (1e9, "stiffness", ("1e+09 has no unit; write e.g. '1e+09 kN/mm', or '1e+09 N/m' if SI was"
+                       " meant")),
+    (2, "damping", "2 has no unit; write e.g. '2 N s/mm', or '2 N s/m' if SI was meant"),
+    (0.5, "angle", "0.5 has no unit; write e.g. '0.5 deg', or '0.5 rad' if SI was meant"),
     (5, "torque", "5 has no unit; write e.g. '5 N m'"),
 ])
 def test_a_bare_number_in_a_dimensioned_field_is_refused(value, kind, message):
@@ -227,3 +231,21 @@ def test_si_helpers_refuse_the_wrong_kind_of_object():
         si_values(np.array([1.0]))
     with pytest.raises(TypeError, match=r"si_values\(ds\.p_rms\)"):
         si_data_vars(ds.p_rms)
+
+
+@pytest.mark.parametrize("kind", [k for k in KINDS if k != "dimensionless"])
+def test_the_units_a_result_file_writes_are_read_back(kind):
+    """Every kind's netCDF ``units`` spelling (UDUNITS: ``kN mm-1``, ``N s mm-1``, ``kg m2``),
+    copied from a result or the reference into a study, is its display unit. ``kN mm-1`` was
+    refused (pint reads ``mm-1`` as mm minus 1)."""
+    k = KINDS[kind]
+    assert to_si(f"2.5 {k.cf}", kind) == to_si(f"2.5 {k.display}", kind)
+
+
+@pytest.mark.parametrize(("text", "kind", "si"), [
+    ("1073 kN mm-1", "stiffness", 1.073e9), ("5.5 N s mm-1", "damping", 5500.0),
+    ("2 kg m2", "inertia", 2.0), ("1e3 N m-2", "pressure", 1e3), ("1e-3 m", "length", 1e-3),
+    ("4 mm**1", "length", 4e-3),
+])
+def test_udunits_powers_after_a_unit(text, kind, si):
+    assert to_si(text, kind) == pytest.approx(si, rel=1e-15)
