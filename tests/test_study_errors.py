@@ -456,7 +456,7 @@ def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
 
     from gearsweep.study.analysis_specs import AnalysisStudy
     from gearsweep.study.outputs import OUTPUTS
-    from gearsweep.study.quantities import Count, Flag, Real
+    from gearsweep.study.quantities import Count, Flag, Order, Real
     from gearsweep.study.schema import MeshStudy, Study
     from gearsweep.units import QuantityKind
 
@@ -467,7 +467,7 @@ def test_every_integer_and_float_field_of_a_study_refuses_true_and_false():
             return any(m in metadata for m in Count.__metadata__)
         if base is bool:
             return any(m in metadata for m in Flag.__metadata__)
-        return (any(m in metadata for m in Real.__metadata__)
+        return (any(m in metadata for m in (*Real.__metadata__, *Order.__metadata__))
                 or any(isinstance(m, QuantityKind) for m in metadata))
 
     def plain(tp, where: str, seen: set) -> list[str]:
@@ -692,3 +692,44 @@ def test_validate_says_true_is_not_a_whole_number_in_one_line(tmp_path, capsys):
     path.write_text(GOOD.replace("teeth: 48", "teeth: true"), encoding="utf-8")
     assert main(["validate", str(path)]) == 2
     assert capsys.readouterr().err == f"gearsweep: error: {path}:5: scene.teeth: True -- {WHOLE}\n"
+
+
+SHAFT_ORDER = """\
+title: shaft-order fluctuation
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  stiffness_harmonics: [{amplitude: 100 kN/mm}]
+  damping: 5.5 N s/mm
+  mean_force: 1000 N
+  fluctuation: [{amplitude: 200 N, order: 1/48}]
+sweep:
+  speed: {start: 3000 rpm, stop: 12000 rpm, num: 4}
+solver: {method: rk4, steps_per_period: 64, transient_periods: 100RECORD}
+"""
+
+
+def test_a_shaft_order_excitation_needs_two_whole_cycles_recorded(tmp_path, capsys):
+    """``order: 1/48`` (once per revolution of the 48-tooth gear) is read as the ratio (it was
+    refused: 'unable to parse string as a number'). Its response repeats every 48 mesh periods;
+    the settle test compares the extremes of the record's two halves, so with the default 50
+    recorded periods every case could be flagged 'not settled' (a new user's study: 24 of 50).
+    Fewer than two cycles are refused at the study's line; 96 periods settle."""
+    from gearsweep.api import run_study
+
+    study = tmp_path / "s.yaml"
+    study.write_text(SHAFT_ORDER.replace("RECORD", ""), encoding="utf-8")
+    assert main(["validate", str(study)]) == 2
+    assert capsys.readouterr().err == (
+        f"gearsweep: error: {study}:13: solver.record_periods: 50 -- at least 96 for this"
+        " excitation (two of its cycles of 48 mesh periods: the settle test compares the"
+        " extremes of the record's two halves, each must hold a whole cycle)\n")
+    good = parse_study(SHAFT_ORDER.replace("RECORD", ", record_periods: 96"))
+    assert good.scene.fluctuation[0].order == 1 / 48
+    ds = run_study(good)
+    assert (ds.status == 0).all() and (ds.settle_error < 1e-6).all()
+    for bad, why in (("1/0", "not over 0"), ("1/48 N", "valid number"), ("true", "not true")):
+        with pytest.raises(StudyError, match=why):
+            parse_study(SHAFT_ORDER.replace("order: 1/48", f"order: {bad}"))

@@ -178,7 +178,8 @@ def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) 
     scale = np.asarray(kin["bound"], float) / s.divergence_factor
     quiet = res.stats["p_max"] - res.stats["p_min"] <= 1e-9 * scale
     unsettled = (status == 0) & ~(res.stats["settle_error"] <= s.settle_tolerance) & ~quiet
-    status[unsettled] = STATUS_NOT_SETTLED
+    if plan.driven:  # an undriven scene decays or grows: nothing to settle into (Plan.driven)
+        status[unsettled] = STATUS_NOT_SETTLED
     return res, out, status
 
 

@@ -134,7 +134,8 @@ STATUS_CODES = {
     0: "ok",
     1: "diverged: p became non-finite or exceeded divergence_factor x its static scale",
     2: "not settled: settle_error above solver.settle_tolerance (results kept; a response that"
-       " has died away, p_pp below 1e-9 of its static scale, is settled)",
+       " has died away, p_pp below 1e-9 of its static scale, is settled; driven scenes only: an"
+       " undriven one, a Mathieu chart say, decays or grows, see the floquet output)",
     3: "skipped: the step is beyond the method's stability limit for this case",
 }
 

@@ -162,6 +162,18 @@ class Plan:
         return hashlib.sha256(dump.encode()).hexdigest()
 
     @property
+    def driven(self) -> bool:
+        """Does anything drive the response (a mean force, or a swept one, a force harmonic, an
+        STE)? An undriven scene (a Mathieu chart; a whine scene with neither load nor STE, the
+        stability studies) is the homogeneous Eq. (11)-(12): its response dies away or grows,
+        it has no steady state to settle into, so the settle test (status 2) does not apply."""
+        m = self.model
+        if not isinstance(m, MeshModel):
+            return False
+        return bool(m.mean_force or m.ste_harmonics or m.force_harmonics
+                    or "mean_force" in self.grids or "torque" in self.grids)
+
+    @property
     def has_backlash(self) -> bool:
         return isinstance(self.model, MeshModel) and (self.model.backlash > 0
                                                        or "backlash" in self.grids)
@@ -276,6 +288,12 @@ def _make_plan(study: Study, text: str) -> Plan:
         plan.specs["beyond_step_limit"] = VarSpec(dtype="bool", attrs={
             "units": "1", "long_name": "step beyond the method's stability limit (results may be"
             " spoiled by the integrator)"})
+    rec, cycle = study.solver.record_periods, getattr(plan.model, "cycle_periods", 1)
+    if plan.driven and cycle > 1 and rec < 2 * cycle:
+        raise StudyError("<study>", "solver.record_periods", rec,
+                         f"at least {2 * cycle} for this excitation (two of its cycles of {cycle}"
+                         " mesh periods: the settle test compares the extremes of the record's"
+                         " two halves, each must hold a whole cycle)")
     spp, sps = study.solver.steps_per_period, plan.samples_per_period()
     if sps and spp % sps:
         raise StudyError("<study>", "solver.steps_per_period", spp,

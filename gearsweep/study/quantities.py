@@ -8,6 +8,7 @@ not numbers).
 from __future__ import annotations
 
 import math
+import re
 from functools import partial
 from typing import Annotated, Any
 
@@ -58,6 +59,24 @@ Real = Annotated[float, BeforeValidator(_number)]
 """A plain float field of a study, one without units (Mathieu's alpha, beta and gamma, a
 tolerance, an order, a damping ratio, ...): YAML's ``true`` and ``false`` are refused (pydantic's
 lax mode took them as 1.0 and 0.0); otherwise pydantic's ``float`` (bounds, messages)."""
+
+
+_RATIO = re.compile(r"^\s*(\d+)\s*/\s*(\d+)\s*$")
+
+
+def _ratio(value: Any) -> Any:
+    value = _number(value)
+    m = _RATIO.match(value) if isinstance(value, str) else None
+    if m is None:
+        return value
+    if int(m.group(2)) == 0:
+        raise ValueError("a number or a ratio such as 1/48 (not over 0)")
+    return int(m.group(1)) / int(m.group(2))
+
+
+Order = Annotated[float, BeforeValidator(_ratio)]
+"""A harmonic's order in mesh orders: a number, or a ratio of whole numbers (``1/48``: once per
+revolution of a 48-tooth driving gear), as ``Real`` otherwise."""
 
 
 def _flag(value: Any) -> Any:

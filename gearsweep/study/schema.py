@@ -77,6 +77,7 @@ from gearsweep.study.quantities import (
     Inertia,
     Length,
     Mass,
+    Order,
     Real,
     Speed,
     Stiffness,
@@ -100,7 +101,7 @@ class Drive(Strict):
 
 class StiffnessHarmonic(Strict):
     amplitude: Stiffness = Field(ge=0, description="k_n of Eq. (1)")
-    order: Real | None = Field(None, gt=0, allow_inf_nan=False,
+    order: Order | None = Field(None, gt=0, allow_inf_nan=False,
                                description="mesh order (default: position + 1)")
     phase: Angle | None = Field(None, description="phase a_n (default 0; beside a 'gear': the"
                                 " pair's phase of that order, so that k(t) and the pair's STE"
@@ -109,7 +110,7 @@ class StiffnessHarmonic(Strict):
 
 class SteHarmonic(Strict):
     amplitude: Displacement = Field(ge=0, description="STE harmonic e_n")
-    order: Real | None = Field(None, gt=0, allow_inf_nan=False,
+    order: Order | None = Field(None, gt=0, allow_inf_nan=False,
                                description="mesh order (default: position + 1)")
     phase: Angle = Field(0.0, description="phase")
 
@@ -121,8 +122,8 @@ class Fluctuation(Strict):
     """A harmonic of the driving-torque fluctuation: a force [N] or a torque [N m] (Eq. 7)."""
 
     amplitude: Real | str = Field(description="force [N] or driving torque [N m] amplitude")
-    order: Real = Field(gt=0, allow_inf_nan=False,
-                        description="mesh order (1 = mesh frequency; 1/teeth = shaft)")
+    order: Order = Field(gt=0, allow_inf_nan=False,
+                        description="mesh order (1 = mesh frequency; 1/teeth, e.g. 1/48, = shaft)")
     phase: Angle = Field(0.0, description="phase")
 
     @field_validator("amplitude", mode="before")
