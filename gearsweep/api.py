@@ -5,6 +5,7 @@
     ds = gearsweep.run({"title": "...", "scene": {...}, ...}, output="out.nc")
     ds = gearsweep.open_result("results/fig08_rattle.nc")
     gearsweep.result_model(ds)                                  # the MeshModel the kernel ran
+    gearsweep.result_model(ds, mean_force=833)                  # ... at a swept value (N)
 
 Every problem with the input raises a :class:`gearsweep.errors.GearsweepError` whose message is the
 one line the command line prints; cases beyond the integrator's step limit (``solver.step_guard:
@@ -17,6 +18,7 @@ study can be run again from its result alone.
 from __future__ import annotations
 
 import json
+import math
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -197,15 +199,63 @@ def open_result(path: str | Path) -> xr.Dataset:
     return ds
 
 
-def result_model(ds: xr.Dataset | str | Path) -> MeshModel | MathieuModel:
+def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | MathieuModel:
     """The resolved model a dynamic result (a Dataset, or a result file's path) was computed
-    with (every number in SI)."""
+    with (every number in SI).
+
+    A field of the model the result sweeps (``mean_force``, ``damping``, ``backlash``, ...,
+    ``torque`` as the mean force; Mathieu's ``alpha``, ``beta``, ``gamma``) has one value per
+    case: select it with ``case``, a coordinate value in the result's own unit as for
+    ``ds.sel`` (``result_model(ds, mean_force=833, backlash=0.1)``: 833 N, 0.1 mm). A swept
+    field not selected is NaN, never the scene's own value, which the kernel did not run. A gear
+    scene sweeping its load has k(t) and e(t) of each load: selected, they are computed again
+    from the study the result carries (as the run did); else their amplitudes and phases are NaN.
+    ``speed`` is not a field of the model (each case's mesh frequency)."""
+    import dataclasses
+
+    from gearsweep.model import SWEEPABLE, Harmonic
+    from gearsweep.units import si_values
+
     if isinstance(ds, str | Path):
         ds = open_result(ds)
     if not isinstance(ds, xr.Dataset) or "model" not in ds.attrs:
         raise ResultError("this result carries no resolved model (a mesh study, or written by an"
                           " older gearsweep)")
-    return model_from_record(json.loads(ds.attrs["model"]))
+    model = model_from_record(json.loads(ds.attrs["model"]))
+    swept = [d for d in ds.dims if d in SWEEPABLE and d != "speed"]
+    unknown = sorted(set(case) - set(swept))
+    if unknown:
+        raise ResultError(f"{', '.join(unknown)}: not a swept field of this result's model"
+                          f" (swept: {', '.join(swept) or 'none'})")
+    si = {}
+    for name, value in case.items():
+        try:
+            si[name] = float(si_values(ds[name].sel({name: value})))
+        except KeyError:
+            raise ResultError(f"{name}={value!r} is not one of the result's values (in"
+                              f" {ds[name].attrs.get('units', '1')}: {ds[name].values.tolist()})"
+                              ) from None
+    load = {"torque", "mean_force"} & set(swept)
+    if load and getattr(result_study(ds).scene, "gear", None) is not None:  # k(t), e(t) per load
+        name = next(iter(load))
+        if name in si:
+            torque = si[name] if name == "torque" else si[name] * model.base_radius
+            at_load = make_plan(result_study(ds), ds.attrs["study"]).model_for_load(torque)
+            model = dataclasses.replace(at_load, mean_force=torque / model.base_radius)
+        else:
+            def unknown_load(hs: tuple[Harmonic, ...]) -> tuple[Harmonic, ...]:
+                return tuple(Harmonic(math.nan, h.order, math.nan) for h in hs)
+
+            model = dataclasses.replace(
+                model, mean_force=math.nan, stiffness=math.nan,
+                stiffness_harmonics=unknown_load(model.stiffness_harmonics),
+                ste_harmonics=unknown_load(model.ste_harmonics))
+        si.pop(name, None)
+        swept.remove(name)
+    changes = {("mean_force" if d == "torque" else d): si.get(d, math.nan) for d in swept}
+    if "torque" in swept and "torque" in si:
+        changes["mean_force"] = si["torque"] / model.base_radius
+    return dataclasses.replace(model, **changes)
 
 
 def result_study(ds: xr.Dataset | str | Path) -> Study | MeshStudy:

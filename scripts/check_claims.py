@@ -132,7 +132,11 @@ def _namespace(results: Path, cache: dict):
         scene = None
         if model is not None:
             scene = getattr(result_study(ds), "scene", None)
-        return {"ds": ds, "js": js, "model": model, "scene": scene, "load": load}
+        def model_at(**case):  # a swept field of the model, selected (result_model's NaN else)
+            return result_model(ds, **case)
+
+        return {"ds": ds, "js": js, "model": model, "model_at": model_at, "scene": scene,
+                "load": load}
 
     return load, names
 

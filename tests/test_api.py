@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,6 +21,8 @@ from gearsweep.model import MeshModel, model_from_record, model_record
 VOLATILE = ("history", "elapsed_seconds", "kernel_seconds")
 """Attributes that differ between two runs of the same study (time stamps and timings)."""
 
+
+ROOT = Path(__file__).resolve().parents[1]
 
 def _same(a: xr.Dataset, b: xr.Dataset) -> None:
     a = a.copy()
@@ -263,3 +266,45 @@ solver: {method: rk4, steps_per_period: 32, transient_periods: 10, record_period
     write_study(text.replace("record_periods: 4}", "record_periods: 4, step_guard: off}"))
     assert cli(["validate", str(path)]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_result_model_gives_a_swept_field_only_where_it_is_selected(small_whine):
+    """``result_model`` gave the scene's unswept values for swept fields (mean_force 0.0 for
+    a sweep of 400, 833 and 1600 N): a model the kernel never ran. A swept field is now NaN unless
+    selected, in the result's units as for ``sel``; a gear scene's load selects k(t) and e(t) of
+    that load, the ones the result's gear variables hold."""
+    import dataclasses
+    import math
+
+    small_whine["sweep"]["mean_force"] = ["400 N", "833 N"]
+    small_whine["sweep"]["damping"] = ["2 N s/mm", "5.5 N s/mm"]
+    ds = gearsweep.run(small_whine)
+    m = gearsweep.result_model(ds)
+    assert math.isnan(m.mean_force) and math.isnan(m.damping) and m.mass == 0.1527
+    picked = gearsweep.result_model(ds, mean_force=833, damping=5.5)
+    assert (picked.mean_force, picked.damping) == (833.0, 5500.0)
+    assert dataclasses.replace(picked, mean_force=0, damping=0) == dataclasses.replace(
+        m, mean_force=0, damping=0)  # the rest as the record has it
+    with pytest.raises(ResultError, match=r"mean_force=834 is not one of the result's values"):
+        gearsweep.result_model(ds, mean_force=834)
+    with pytest.raises(ResultError, match=r"speed: not a swept field .* \(swept: "):
+        gearsweep.result_model(ds, speed=3000)
+
+
+def test_result_model_of_a_gear_scene_at_a_swept_load():
+    import re
+
+    text = (ROOT / "studies/fig06_mean_torque.yaml").read_text(encoding="utf-8")
+    text, n = re.subn(r"speed: \{start: 1000 rpm, stop: 20000 rpm, num: 1000\}",
+                      "speed: [5000 rpm]", text)
+    assert n == 1
+    ds = gearsweep.run(text)
+    at = gearsweep.result_model(ds, torque=25)
+    stiffness = float(ds.gear_stiffness.sel(torque=25)) * 1e6  # kN mm-1 in the file
+    assert at.stiffness == pytest.approx(stiffness, rel=1e-12)
+    assert at.stiffness_harmonics[0].amplitude == pytest.approx(
+        float(ds.gear_stiffness_harmonic.sel(torque=25, harmonic=1)) * 1e6, rel=1e-12)
+    assert at.mean_force == pytest.approx(25 / float(ds.gear_base_radius_1) * 1e3, rel=1e-12)
+    unselected = gearsweep.result_model(ds)
+    assert all(np.isnan(x) for x in (unselected.mean_force, unselected.stiffness,
+                                     unselected.stiffness_harmonics[0].amplitude))
