@@ -132,6 +132,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
         return 0
     if getattr(study, "type", None) == "analysis":
         print(f"{name}: ok -- analysis study {study.analysis.kind!r}")
+        folder = _default_output(args.study).parent  # where `run` without -o reads them
+        for needed in getattr(study.analysis, "inputs", lambda: [])():
+            if not (folder / f"{needed}.nc").exists():  # valid, but run would stop: say so now
+                print(f"gearsweep: note: {name}: it reads {folder / needed}.nc, not there yet:"
+                      f" run studies/{needed}.yaml first (or run it with -o in the folder that"
+                      " holds that result)", file=sys.stderr)
         return 0
     plan = _plan(study, text, args.study)
     est, compile_s = quick_estimate(plan)

@@ -155,3 +155,25 @@ def test_pinion_output_is_eq4_per_line_of_the_mesh_force():
     study["scene"].update({"mass": "0.1547 kg", "base_radius": "56.3816 mm"})
     with pytest.raises(StudyError, match=r"outputs.spectrum.pinion"):
         gearsweep.run(study)
+
+
+def test_validate_notes_a_result_the_analysis_reads_that_is_not_there(tmp_path, monkeypatch,
+                                                                      capsys):
+    """``validate`` said ok, then ``run`` stopped: 'results/fig08_rattle.nc: no such result'. The
+    study is valid; validate now also says what run will need first."""
+    from pathlib import Path
+
+    from gearsweep.cli import main
+
+    study = Path(__file__).resolve().parents[1] / "studies" / "fig08_rattle_balance.yaml"
+    monkeypatch.chdir(tmp_path)
+    assert main(["validate", str(study)]) == 0
+    out = capsys.readouterr()
+    assert out.out.startswith(f"{study}: ok -- analysis study 'rattle_balance'")
+    assert out.err == (f"gearsweep: note: {study}: it reads results/fig08_rattle.nc, not there"
+                       " yet: run studies/fig08_rattle.yaml first (or run it with -o in the"
+                       " folder that holds that result)\n")
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "fig08_rattle.nc").write_bytes(b"")
+    assert main(["validate", str(study)]) == 0
+    assert capsys.readouterr().err == ""
