@@ -17,6 +17,7 @@ study can be run again from its result alone.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import warnings
@@ -27,7 +28,7 @@ import xarray as xr
 import yaml
 
 from gearsweep.errors import DICT_STUDY, ResultError, StudyError
-from gearsweep.model import MathieuModel, MeshModel, model_from_record
+from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, model_from_record
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_specs import AnalysisStudy
 from gearsweep.study.dataset import write_netcdf
@@ -35,6 +36,7 @@ from gearsweep.study.execute import InProcess, run_plan, run_to_file, step_limit
 from gearsweep.study.mesh import run_mesh_study
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study
+from gearsweep.units import si_values
 
 StudyLike = str | Path | dict | Study | MeshStudy | AnalysisStudy
 """What ``run`` takes: a study file's path, its YAML text, its mapping, or a validated study."""
@@ -211,11 +213,6 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
     scene sweeping its load has k(t) and e(t) of each load: selected, they are computed again
     from the study the result carries (as the run did); else their amplitudes and phases are NaN.
     ``speed`` is not a field of the model (each case's mesh frequency)."""
-    import dataclasses
-
-    from gearsweep.model import SWEEPABLE, Harmonic
-    from gearsweep.units import si_values
-
     if isinstance(ds, str | Path):
         ds = open_result(ds)
     if not isinstance(ds, xr.Dataset) or "model" not in ds.attrs:
