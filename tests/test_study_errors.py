@@ -691,3 +691,47 @@ def test_validate_says_true_is_not_a_whole_number_in_one_line(tmp_path, capsys):
     path.write_text(GOOD.replace("teeth: 48", "teeth: true"), encoding="utf-8")
     assert main(["validate", str(path)]) == 2
     assert capsys.readouterr().err == f"gearsweep: error: {path}:5: scene.teeth: True -- {WHOLE}\n"
+
+
+def _validate(tmp_path: Path, capsys, text: str) -> tuple[int, list[str]]:
+    """``gearsweep validate`` of ``text``: its exit code and its lines, the file named s.yaml."""
+    path = tmp_path / "s.yaml"
+    path.write_text(text, encoding="utf-8")
+    code = main(["validate", str(path)])
+    out = capsys.readouterr()
+    lines = (out.err or out.out).strip().splitlines()
+    return code, [ln.removeprefix("gearsweep: error: ").replace(str(path), "s.yaml")
+                  for ln in lines]
+
+
+MESH = ("type: mesh\ntitle: t\ngear:\n  preset: table1_consistent\n"
+        "  tip_relief: {amount: 6 um, start_at: single_contact}\ntorque: 50 N*m\n")
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    (GOOD.replace("mean_force: 100 N", "mean_force: 100 N\n  fluctuation: [{amplitude: 60 N,"
+                  " ordr: 1}]"),
+     "s.yaml:9: scene.fluctuation[0].ordr: 'ordr' is an unknown field -- did you mean 'order'?"),
+    (GOOD.replace("kind: rattle", "kind: full").replace(
+        "mean_force: 100 N", "mean_force: 100 N\n  stiffness_harmonics: [{amplitude: 60 kN/mm,"
+        " ordr: 1}]"),
+     ("s.yaml:9: scene.stiffness_harmonics[0].ordr: 'ordr' is an unknown field -- did you mean"
+      " 'order'?")),
+    (GOOD.replace("num: 3}", "nun: 3}"),
+     ("s.yaml:10: sweep.speed.nun: 'nun' is not a field of a {start, stop, num} range -- did you"
+      " mean 'num'?")),
+    (MESH.replace("amount:", "amout:"),
+     "s.yaml:5: gear.tip_relief.amout: 'amout' is an unknown field -- did you mean 'amount'?"),
+])
+def test_a_misspelt_required_key_is_one_line(text, line, tmp_path, capsys):
+    """'ordr: 1' where 'order' is required also gave "order: '(missing)' -- this field is
+    required" on the same line: one mistake, two lines. The did-you-mean line explains both."""
+    assert _validate(tmp_path, capsys, text) == (2, [line])
+
+
+def test_a_missing_field_is_still_said_beside_an_unrelated_unknown_key(tmp_path, capsys):
+    text = GOOD.replace("mean_force: 100 N", "mean_force: 100 N\n  fluctuation: [{amplitude:"
+                        " 60 N, phse: 1}]")
+    assert _validate(tmp_path, capsys, text) == (2, [
+        "s.yaml:9: scene.fluctuation[0].order: '(missing)' -- this field is required",
+        "s.yaml:9: scene.fluctuation[0].phse: 'phse' is an unknown field -- did you mean 'phase'?"])

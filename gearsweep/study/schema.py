@@ -806,10 +806,12 @@ def _vocabulary() -> tuple[str, ...]:
     return tuple(sorted(names))
 
 
-def _unknown_field(key: str, parent: list, raw: Any) -> str:
-    """Why ``key`` is not allowed under ``parent``: a field of another scene (or analysis) kind
-    is named as such, and a misspelling is matched against the fields of where it stands (a
-    range's, the solver's, the scene's, the analysis'), not every field of every model."""
+def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, str | None]:
+    """Why ``key`` is not allowed under ``parent``, and the field it suggests (or ``None``): a
+    field of another scene (or analysis) kind is named as such, and a misspelling is matched
+    first against the required fields ``missing`` beside it (``ordr`` beside a missing ``order``:
+    the one line of that mistake), then against the fields of where it stands (a range's, the
+    solver's, the scene's, the analysis'), not every field of every model."""
     choices: tuple[str, ...] | None = None
     where = ""
     if len(parent) == 2 and parent[0] == "sweep":
@@ -830,18 +832,23 @@ def _unknown_field(key: str, parent: list, raw: Any) -> str:
             others = [k for k, m in kinds.items() if key in m.model_fields]
             if others:
                 return (f"{key!r} is not a field of {where} (it is one of a"
-                        f" {' or '.join(others)} {noun})")
+                        f" {' or '.join(others)} {noun})"), None
+    meant = _closest(key, missing) or _closest(key, _vocabulary() if choices is None else choices)
+    hint = f" -- did you mean {meant!r}?" if meant else ""
     if choices is None:
-        return f"{key!r} is an unknown field" + (_did_you_mean(key, _vocabulary())
-                                                 or " (see docs/study-reference.md)")
-    hint = _did_you_mean(key, choices)
+        return f"{key!r} is an unknown field" + (hint or " (see docs/study-reference.md)"), meant
     return f"{key!r} is not a field of {where}" + (
-        hint or f"; its fields: {', '.join(c for c in choices if c != 'kind')}")
+        hint or f"; its fields: {', '.join(c for c in choices if c != 'kind')}"), meant
+
+
+def _closest(word: Any, choices) -> str | None:
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+    return close[0] if close else None
 
 
 def _did_you_mean(word: Any, choices) -> str:
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
-    return f" -- did you mean {close[0]!r}?" if close else ""
+    close = _closest(word, choices)
+    return f" -- did you mean {close!r}?" if close else ""
 
 
 def _is_branch_mismatch(err: dict) -> bool:
@@ -867,7 +874,12 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             by_path[path] = {**e, "or_literal": kept.get("ctx", {}).get("expected", "")}
             continue
         by_path.setdefault(path, e)
-    out = []
+    missing: dict[tuple, list[str]] = {}  # the required fields not given, by where they belong
+    for path, e in by_path.items():
+        if e["type"] == "missing" and path and isinstance(path[-1], str):
+            missing.setdefault(path[:-1], []).append(path[-1])
+    explained: set[tuple] = set()  # of those, the ones a misspelt key beside them stands for
+    out: list[tuple[tuple, Problem]] = []
     for path, e in by_path.items():
         parts = list(path)
         msg = e["msg"].removeprefix("Value error, ")
@@ -881,7 +893,9 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
         if t == "extra_forbidden":
             key = parts[-1] if parts else value
             value = NO_VALUE
-            msg = _unknown_field(str(key), parts[:-1], raw)
+            msg, meant = _unknown_field(str(key), parts[:-1], raw, missing.get(path[:-1], ()))
+            if meant in missing.get(path[:-1], ()):
+                explained.add((*path[:-1], meant))
         elif t == "missing":
             value, msg = "(missing)", "this field is required"
         elif t == "union_tag_invalid":
@@ -912,8 +926,10 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             value = NO_VALUE
         if e.get("or_literal"):
             msg += f" (or {e['or_literal']})"
-        out.append(Problem(_loc(parts), value, msg))
-    return out
+        out.append((path, Problem(_loc(parts), value, msg)))
+    # 'ordr: 1' where 'order' is required is one mistake: its line says 'did you mean', and the
+    # missing field's own line would only repeat it
+    return [p for path, p in out if not (path in explained and by_path[path]["type"] == "missing")]
 
 
 def _noun(parts: list) -> str:
