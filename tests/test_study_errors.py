@@ -735,3 +735,37 @@ def test_a_missing_field_is_still_said_beside_an_unrelated_unknown_key(tmp_path,
     assert _validate(tmp_path, capsys, text) == (2, [
         "s.yaml:9: scene.fluctuation[0].order: '(missing)' -- this field is required",
         "s.yaml:9: scene.fluctuation[0].phse: 'phse' is an unknown field -- did you mean 'phase'?"])
+
+
+def test_a_sweep_written_as_a_list_is_one_line(tmp_path, capsys):
+    """A list under 'sweep:' also gave "scene.speed: '(missing)'", though the speed is in it."""
+    text = GOOD.replace("  speed: {start", "  - speed: {start")
+    assert _validate(tmp_path, capsys, text) == (2, [
+        "s.yaml:9: sweep: '[...]' -- Input should be a valid dictionary"])
+
+
+@pytest.mark.parametrize("other_error", [False, True])
+def test_a_continuation_without_any_speed_is_one_line(other_error, tmp_path, capsys):
+    """'continuation: [up]' with the speed neither swept nor given also gave "scene.speed:
+    '(missing)'": the continuation's line says to sweep the speed, which mends both. The same
+    line when another error stops the study's own checks."""
+    text = GOOD.replace("  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                        "  backlash: [0.1 mm, 0.2 mm]") + "continuation: [up]\n"
+    lines = [("s.yaml:12: continuation: ['up'] -- continuation carries the state along"
+              " sweep.speed: sweep the speed")]
+    if other_error:
+        text = text.replace("teeth: 48", "teeth: -48")
+        lines.insert(0, "s.yaml:5: scene.teeth: -48 -- Input should be greater than 0")
+    assert _validate(tmp_path, capsys, text) == (2, lines)
+    # no continuation: the speed's own line, as before
+    assert _validate(tmp_path, capsys, text.replace("continuation: [up]\n", "")) == (2, [
+        ("s.yaml:2: scene.speed: '(missing)' -- the speed must be swept (sweep.speed) or given"
+         " (scene.speed)"), *lines[:-1]])
+
+
+def test_a_continuation_of_a_mathieu_scene_says_it_has_no_speed(tmp_path, capsys):
+    """It said "sweep the speed", which a Mathieu scene cannot."""
+    text = "title: t\nscene: {kind: mathieu}\nsweep:\n  alpha: [0.1, 0.2]\ncontinuation: [up]\n"
+    assert _validate(tmp_path, capsys, text) == (2, [
+        ("s.yaml:5: continuation: ['up'] -- continuation carries the state along sweep.speed,"
+         " which a mathieu scene does not have: leave continuation out")])

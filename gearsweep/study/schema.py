@@ -423,6 +423,21 @@ class Problem:
 SPEED_MISSING = "the speed must be swept (sweep.speed) or given (scene.speed)"
 
 
+def speed_problems(kind: str, swept: bool, given: bool, continuation: list) -> list[Problem]:
+    """A speed given nowhere, and a continuation without a speed sweep, of a scene of ``kind``
+    (``swept``: sweep.speed is given, ``given``: scene.speed is). A continuation without a speed
+    at all is one mistake, one line: that of the continuation, which says to sweep the speed."""
+    out = []
+    if continuation and not swept:
+        allowed = ("continuation carries the state along sweep.speed: sweep the speed"
+                   if kind != "mathieu" else "continuation carries the state along sweep.speed,"
+                   " which a mathieu scene does not have: leave continuation out")
+        out.append(Problem("continuation", list(continuation), allowed))
+    elif kind != "mathieu" and not swept and not given:
+        out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
+    return out
+
+
 def consistency_problems(study: Study) -> list[Problem]:
     """What the fields' own checks cannot see: sweep vs scene, outputs, continuation."""
     out: list[Problem] = []
@@ -434,9 +449,9 @@ def consistency_problems(study: Study) -> list[Problem]:
             hint = f"did you mean {close[0]!r}? " if close else ""
             out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a sweepable parameter of the"
                                f" {sc.kind!r} scene; {hint}allowed: {', '.join(sorted(allowed))}"))
+    out += speed_problems(sc.kind, "speed" in study.sweep, getattr(sc, "speed", None) is not None,
+                          study.continuation)
     if sc.kind != "mathieu":
-        if "speed" not in study.sweep and sc.speed is None:
-            out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
         if sc.gear is not None:
             if "stiffness" in study.sweep:
                 out.append(Problem("sweep.stiffness", NO_VALUE, "a gear scene computes its"
@@ -461,9 +476,6 @@ def consistency_problems(study: Study) -> list[Problem]:
         if "torque" in study.sweep and "mean_force" in study.sweep:
             out.append(Problem("sweep.mean_force", NO_VALUE, "sweep torque or mean_force, not both"))
     if study.continuation:
-        if "speed" not in study.sweep:
-            out.append(Problem("continuation", list(study.continuation), "continuation carries"
-                               " the state along sweep.speed: sweep the speed"))
         if len(set(study.continuation)) != len(study.continuation):
             out.append(Problem("continuation", list(study.continuation),
                                "list each direction at most once"))
@@ -947,10 +959,15 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
     nowhere, and which fields the scene gives (``scene_presence``)."""
     sweep = raw.get("sweep") if isinstance(raw, dict) else None
     scene = raw.get("scene") if isinstance(raw, dict) else None
+    cont = raw.get("continuation") if isinstance(raw, dict) else None
     out = []
+    if (isinstance(scene, dict) and scene.get("kind") in tuple(SCENE_PARAMETERS)
+            and (isinstance(sweep, dict) or "sweep" not in raw)):  # else: sweep's own error
+        if not (isinstance(cont, list) and all(c in ("up", "down") for c in cont)):
+            cont = []  # continuation's own error, or none
+        out += speed_problems(scene["kind"], isinstance(sweep, dict) and "speed" in sweep,
+                              "speed" in scene, cont)
     if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full"):
-        if "speed" not in scene and not (isinstance(sweep, dict) and "speed" in sweep):
-            out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
         drive = scene.get("drive")
         given = scene_presence(lambda f: scene.get(f) is not None,
                                lambda f: isinstance(drive, dict) and drive.get(f) is not None)
