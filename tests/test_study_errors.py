@@ -741,7 +741,8 @@ def test_a_sweep_written_as_a_list_is_one_line(tmp_path, capsys):
     """A list under 'sweep:' also gave "scene.speed: '(missing)'", though the speed is in it."""
     text = GOOD.replace("  speed: {start", "  - speed: {start")
     assert _validate(tmp_path, capsys, text) == (2, [
-        "s.yaml:9: sweep: '[...]' -- Input should be a valid dictionary"])
+        ("s.yaml:9: sweep: '[...]' -- a mapping of the swept parameters to their values (speed:"
+         " {start: ..., stop: ..., num: ...}, ...), not a list")])
 
 
 @pytest.mark.parametrize("other_error", [False, True])
@@ -769,3 +770,56 @@ def test_a_continuation_of_a_mathieu_scene_says_it_has_no_speed(tmp_path, capsys
     assert _validate(tmp_path, capsys, text) == (2, [
         ("s.yaml:5: continuation: ['up'] -- continuation carries the state along sweep.speed,"
          " which a mathieu scene does not have: leave continuation out")])
+
+
+SOLVER = "solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}"
+
+
+@pytest.mark.parametrize(("old", "new", "line"), [
+    (("  kind: rattle\n  mass: 0.1527 kg\n  teeth: 48\n  stiffness: 1073 kN/mm\n  backlash: 0.1"
+     " mm\n  mean_force: 100 N\n"),
+     ("  - kind: rattle\n    mass: 0.1527 kg\n    teeth: 48\n    stiffness: 1073 kN/mm\n"
+     "    backlash: 0.1 mm\n    mean_force: 100 N\n"),
+     ("s.yaml:2: scene: '[...]' -- a mapping of scene fields (kind: rattle, mass: ..., ...), not a"
+     " list")),
+    (SOLVER, "solver: [rk4]",
+     ("s.yaml:11: solver: '[...]' -- a mapping of solver fields (method: rk4, steps_per_period: 64,"
+     " ...), not a list")),
+    (SOLVER, "solver: rk4",
+     ("s.yaml:11: solver: 'rk4' -- a mapping of solver fields (method: rk4, steps_per_period: 64,"
+     " ...)")),
+    (SOLVER, SOLVER + "\noutputs: [[stats]]",
+     ("s.yaml:12: outputs[0]: '[...]' -- an output name, or a mapping of one output name to its"
+     " options (stats, or {spectrum: {max_order: 4}}), not a list")),
+    (SOLVER, SOLVER + "\noutputs: [{spectrum: [4]}]",
+     ("s.yaml:12: outputs[0].spectrum: '[...]' -- a mapping of spectrum options (max_order: 4,"
+     " samples_per_period: ..., ...), not a list")),
+    ("  mean_force: 100 N", "  mean_force: 100 N\n  fluctuation: [[300 N, 1]]",
+     ("s.yaml:9: scene.fluctuation[0]: '[...]' -- a mapping of fluctuation fields (amplitude: ...,"
+     " order: ..., ...), not a list")),
+    ("  mass: 0.1527 kg", "  drive: [1 kg*m^2]",
+     ("s.yaml:4: scene.drive: '[...]' -- a mapping of drive fields (inertia_1: ..., inertia_2: ...,"
+     " ...), not a list")),
+])
+def test_a_section_that_is_no_mapping_says_what_it_should_be(old, new, line, tmp_path, capsys):
+    """A scene written as a list said "scene.kind: '(missing)' -- a scene needs a kind"; a solver
+    (or a drive, an item of the fluctuation or the outputs) got pydantic's "Input should be a
+    valid dictionary or instance of Solver". Each says it is a mapping of which fields; a drive
+    that is no mapping is not also said to lack its base radii."""
+    assert old in GOOD + SOLVER
+    assert _validate(tmp_path, capsys, GOOD.replace(old, new)) == (2, [line])
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    ("type: analysis\ntitle: t\nanalysis: [method_stability]\n",
+     ("s.yaml:3: analysis: '[...]' -- a mapping of analysis fields (kind: method_stability,"
+     " methods: ..., ...), not a list")),
+    (MESH.replace("  tip_relief: {amount: 6 um, start_at: single_contact}", "  tip_relief: [6 um]"),
+     ("s.yaml:5: gear.tip_relief: '[...]' -- a mapping of tip_relief fields (amount: ..., shape:"
+     " linear, ...), not a list")),
+    ("type: mesh\ntitle: t\ngear: [table1_consistent]\ntorque: 50 N*m\n",
+     ("s.yaml:3: gear: '[...]' -- a preset name (table1_consistent, table1_as_printed) or a mapping"
+     " of gear fields (preset: ..., module: ..., ...), not a list")),
+])
+def test_a_section_of_a_mesh_or_analysis_study_that_is_no_mapping(text, line, tmp_path, capsys):
+    assert _validate(tmp_path, capsys, text) == (2, [line])

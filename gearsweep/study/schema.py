@@ -58,6 +58,7 @@ from gearsweep.gear.excitation import static_mesh
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.analysis_specs import AnalysisSpec, AnalysisStudy
 from gearsweep.study.gearscene import (
+    PRESETS,
     GearField,
     GearSpec,
     TipReliefSpec,
@@ -919,6 +920,9 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             hint = _did_you_mean(value, tags)
             msg = (hint.removeprefix(" -- ") + f" (allowed: {', '.join(tags)})" if hint
                    else f"not {_a(noun)} kind; allowed: {', '.join(tags)}")
+        elif t in ("model_type", "model_attributes_type", "dict_type") or (
+                t == "union_tag_not_found" and not isinstance(_as_written(raw, parts), dict)):
+            msg = _mapping_wanted(parts, e, raw)
         elif t == "union_tag_not_found":
             noun = _noun(parts)
             tags = list(_TAGGED[noun])
@@ -942,6 +946,75 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
     # 'ordr: 1' where 'order' is required is one mistake: its line says 'did you mean', and the
     # missing field's own line would only repeat it
     return [p for path, p in out if not (path in explained and by_path[path]["type"] == "missing")]
+
+
+@cache
+def _models() -> dict[str, type]:
+    """The models of a study's sections by class name (as pydantic's ``model_type`` names them)."""
+    found, todo = {}, [Strict]
+    while todo:
+        m = todo.pop()
+        found[m.__name__] = m
+        todo += m.__subclasses__()
+    return found
+
+
+def _example(model: type, first: tuple[str, ...] = ()) -> str:
+    """``kind: rattle, mass: ..., ...``: the first fields of ``model`` (after ``first``), each
+    with its default where that is a plain word or number."""
+    shown = list(first)
+    for name, f in model.model_fields.items():
+        if len(shown) == 2:
+            break
+        if name in ("kind", "type"):
+            continue
+        d = f.default
+        plain = isinstance(d, str | int | float) and not isinstance(d, bool) and not f.is_required()
+        if isinstance(d, float) and d.is_integer():
+            d = int(d)  # max_order: 4, as a study writes it
+        shown.append(f"{name}: {d if plain else '...'}")
+    return ", ".join([*shown, "..."])
+
+
+def _mapping_wanted(parts: list, err: dict, raw: Any) -> str:
+    """What a section written as a list or a single value should be: a mapping of its fields
+    (pydantic said "Input should be a valid dictionary or instance of Solver"). An output's
+    options are named as the file writes them (``parts`` ``outputs[0].options`` becomes
+    ``outputs[0].spectrum``)."""
+    noun = next((str(p) for p in reversed(parts) if isinstance(p, str)), "")
+    written = _as_written(raw, parts)
+    if len(parts) == 3 and parts[0] == "outputs" and parts[2] == "options":
+        item = _as_written(raw, parts[:2])
+        name = next(iter(item)) if isinstance(item, dict) and len(item) == 1 else None
+        if isinstance(name, str) and getattr(OUTPUTS.get(name), "options_model", None):
+            parts[2] = noun = name  # as the file writes it: outputs[0].spectrum
+            written = item[name]
+            model = OUTPUTS[name].options_model
+            return (f"a mapping of {noun} options ({_example(model)})"
+                    + (", not a list" if isinstance(written, list) else ""))
+    model = _models().get(str(err.get("ctx", {}).get("class_name", "")))
+    if parts and parts[-1] in _TAGGED:
+        kinds = _TAGGED[noun]
+        items = written if isinstance(written, list) else [written]
+        said = [i.get("kind") if isinstance(i, dict) else i for i in items]
+        kind = next((k for k in said if isinstance(k, str) and k in kinds), next(iter(kinds)))
+        text = f"a mapping of {noun} fields ({_example(kinds[kind], (f'kind: {kind}',))})"
+    elif model is OutputRequest:
+        text = ("an output name, or a mapping of one output name to its options (stats, or"
+                " {spectrum: {max_order: 4}})")
+    elif model is GearSpec:
+        text = (f"a preset name ({', '.join(PRESETS)}) or a mapping of gear fields"
+                f" ({_example(model)})")
+    elif model is not None:
+        text = f"a mapping of {noun} fields ({_example(model)})"
+    elif parts[-1:] == ["sweep"]:
+        text = ("a mapping of the swept parameters to their values (speed: {start: ..., stop:"
+                " ..., num: ...}, ...)")
+    elif parts == ["gears"]:
+        text = "a mapping of labels to gear pairs (no relief: table1_consistent, ...)"
+    else:
+        text = "a mapping (name: value, ...)"
+    return text + (", not a list" if isinstance(written, list) else "")
 
 
 def _noun(parts: list) -> str:
@@ -969,8 +1042,9 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
                               "speed" in scene, cont)
     if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full"):
         drive = scene.get("drive")
-        given = scene_presence(lambda f: scene.get(f) is not None,
-                               lambda f: isinstance(drive, dict) and drive.get(f) is not None)
+        given = scene_presence(lambda f: scene.get(f) is not None,  # a drive that is no mapping:
+                               lambda f: not isinstance(drive, dict) or drive.get(f) is not None)
+        # its own error says so, not that its fields are missing
         if given:  # the same line as the scene's validator gives, where it ran
             out.append(Problem("scene", "{...}", given))
     if isinstance(sweep, dict):
