@@ -823,3 +823,30 @@ def test_a_section_that_is_no_mapping_says_what_it_should_be(old, new, line, tmp
 ])
 def test_a_section_of_a_mesh_or_analysis_study_that_is_no_mapping(text, line, tmp_path, capsys):
     assert _validate(tmp_path, capsys, text) == (2, [line])
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    (GOOD + "foo: 1\n",
+     ("s.yaml:12: foo: 'foo' is not a field of a dynamic study; its fields: title, description,"
+      " scene, sweep, continuation, solver, outputs")),
+    (MESH + "foo: 1\n",
+     ("s.yaml:7: foo: 'foo' is not a field of a mesh study; its fields: type, title, description,"
+      " gear, gears, torque, sweep, positions, harmonics")),
+    ("type: analysis\ntitle: t\nanalysis: {kind: method_stability}\nfoo: 1\n",
+     ("s.yaml:4: foo: 'foo' is not a field of an analysis study; its fields: type, title,"
+      " description, analysis")),
+    (GOOD + "positions: 200\n",
+     "s.yaml:12: positions: 'positions' is not a field of a dynamic study (it is one of a mesh study)"),
+    (GOOD.replace("  mean_force: 100 N\n", "") + "mean_force: 100 N\n",
+     ("s.yaml:11: mean_force: 'mean_force' is not a field of a dynamic study (it is a field of the"
+      " scene: scene.mean_force)")),
+    (MESH + "scene: {kind: whine}\n",
+     "s.yaml:7: scene: 'scene' is not a field of a mesh study (it is one of a dynamic study)"),
+])
+def test_an_unknown_top_level_key_lists_the_fields_of_its_own_kind_of_study(text, line, tmp_path,
+                                                                           capsys):
+    """It listed 'type, gear, gears, torque, positions, harmonics, analysis' among the fields of
+    a dynamic study (those of every kind); a field of another kind of study (or of the scene)
+    was 'did you mean' itself. A misspelling is still matched against every kind
+    (test_a_misspelt_top_level_key_is_matched_against_every_kind_of_study)."""
+    assert _validate(tmp_path, capsys, text) == (2, [line])

@@ -827,14 +827,26 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
     solver's, the scene's, the analysis'), not every field of every model."""
     choices: tuple[str, ...] | None = None
     where = ""
+    listed = None  # where and which fields to list when nothing is close: those of the choices
     if len(parent) == 2 and parent[0] == "sweep":
         choices, where = tuple(Range.model_fields), "a {start, stop, num} range"
     elif parent == ["solver"]:
         choices, where = tuple(Solver.model_fields), "solver"
     elif parent == []:  # any kind of study's: a misspelt 'analysis' or 'mesh' made it dynamic
+        studies = {"dynamic": Study, "mesh": MeshStudy, "analysis": AnalysisStudy}
+        typed = raw.get("type") if isinstance(raw, dict) else None
+        own = typed if isinstance(typed, str) and typed in studies else "dynamic"
+        elsewhere = [f"one of {_a(k)} study" for k, m in studies.items()
+                     if k != own and key in m.model_fields]
+        if own == "dynamic" and any(key in m.model_fields for m in _SCENES.values()):
+            elsewhere.append(f"a field of the scene: scene.{key}")
+        if elsewhere:  # 'positions' in a dynamic study, 'scene' in a mesh study
+            return (f"{key!r} is not a field of {_a(own)} study (it is"
+                    f" {', and '.join(elsewhere)})"), None
         choices = tuple(dict.fromkeys([*Study.model_fields, *MeshStudy.model_fields,
                                        *AnalysisStudy.model_fields]))
         where = "a study"
+        listed = (f"{_a(own)} study", tuple(studies[own].model_fields))
     elif len(parent) == 1 and parent[0] in _TAGGED:
         noun, kinds = parent[0], _TAGGED[parent[0]]
         held = raw.get(noun) if isinstance(raw, dict) else None
@@ -850,6 +862,8 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
     hint = f" -- did you mean {meant!r}?" if meant else ""
     if choices is None:
         return f"{key!r} is an unknown field" + (hint or " (see docs/study-reference.md)"), meant
+    if not hint and listed:  # matched against every kind of study, listed those of its own
+        where, choices = listed
     return f"{key!r} is not a field of {where}" + (
         hint or f"; its fields: {', '.join(c for c in choices if c != 'kind')}"), meant
 
