@@ -162,8 +162,17 @@ def test_duplicate_keys_are_refused():
 
 
 def test_a_range_from_high_to_low_is_refused():
+    """It said "sweep.speed.start: '6000 rpm' -- at most stop ('5000 rpm')", which reads oddly;
+    a range of one value may start at its stop (the only equal start and stop allowed)."""
     lines = _lines(GOOD.replace("start: 5000 rpm, stop: 6000 rpm", "start: 6000 rpm, stop: 5000 rpm"))
-    assert lines[0].startswith("s.yaml:10: sweep.speed.start: '6000 rpm' -- at most stop")
+    assert lines == [("s.yaml:10: sweep.speed.start: '6000 rpm' -- start must be below stop"
+                     " ('5000 rpm'): give a range in increasing order (a down sweep is"
+                     " 'continuation: [down]')")]
+    one = GOOD.replace("start: 5000 rpm, stop: 6000 rpm, num: 3", "start: 6000 rpm, stop: 5000 rpm,"
+                       " num: 1")
+    assert _lines(one) == [("s.yaml:10: sweep.speed.start: '6000 rpm' -- start must be at most stop"
+                           " ('5000 rpm'); one value is [value]")]
+    parse_study(one.replace("start: 6000 rpm", "start: 5000 rpm"), "s.yaml")
 
 
 def test_swept_and_fixed_is_stated_in_validates_summary(tmp_path, capsys):
@@ -298,7 +307,7 @@ def test_a_duplicate_key_a_scene_error_and_a_sweep_error_are_three_lines(tmp_pat
     lines = capsys.readouterr().err.strip().splitlines()
     assert [re.search(r"three\.yaml:(\d+): (\S+):", ln).groups() for ln in lines] == [
         ("6", "scene.stiffness"), ("8", "scene.damping"), ("10", "sweep.speed.start")], lines
-    assert "has no unit" in lines[0] and "duplicate key" in lines[1] and "at most stop" in lines[2]
+    assert "has no unit" in lines[0] and "duplicate key" in lines[1] and "below stop" in lines[2]
 
 
 WHOLE = "a whole number (not true or false)"

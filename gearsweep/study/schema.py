@@ -565,10 +565,11 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
             elif spec.spacing == "log" and (a <= 0 or b <= 0):
                 out.append(Problem(f"sweep.{name}", NO_VALUE,
                                    "log spacing needs positive start and stop"))
-            elif with_order and a > b:
-                out.append(Problem(f"sweep.{name}.start", spec.start, f"at most stop"
-                                   f" ({spec.stop!r}): give a range in increasing order (a down"
-                                   " sweep is 'continuation: [down]')"))
+            elif with_order and a > b:  # equal only for num: 1 (above)
+                out.append(Problem(f"sweep.{name}.start", spec.start, (
+                    f"start must be below stop ({spec.stop!r}): give a range in increasing order"
+                    " (a down sweep is 'continuation: [down]')") if spec.num > 1 else (
+                    f"start must be at most stop ({spec.stop!r}); one value is [value]")))
     return out
 
 
