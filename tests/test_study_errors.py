@@ -859,3 +859,24 @@ def test_an_unknown_top_level_key_lists_the_fields_of_its_own_kind_of_study(text
     was 'did you mean' itself. A misspelling is still matched against every kind
     (test_a_misspelt_top_level_key_is_matched_against_every_kind_of_study)."""
     assert _validate(tmp_path, capsys, text) == (2, [line])
+
+
+@pytest.mark.parametrize(("entry", "lines"), [
+    ("{start: 0.1, stop: 0.5 mm, num: 5, spacing: logg}",
+     ["s.yaml:11: sweep.backlash.spacing: 'logg' -- did you mean 'log'? (allowed: linear, log)",
+      "s.yaml:11: sweep.backlash.start: 0.1 has no unit; write e.g. '0.1 mm'"]),
+    ("{start: 0.1, stop: 0.5 mm, nun: 5}",
+     [("s.yaml:11: sweep.backlash.nun: 'nun' is not a field of a {start, stop, num} range -- did"
+      " you mean 'num'?"),
+      "s.yaml:11: sweep.backlash.start: 0.1 has no unit; write e.g. '0.1 mm'"]),
+    ("[0.1, [0.2 mm]]",
+     ["s.yaml:11: sweep.backlash[1]: '[...]' -- a list of values or {start, stop, num}",
+      "s.yaml:11: sweep.backlash[0]: 0.1 has no unit; write e.g. '0.1 mm'"]),
+])
+def test_a_broken_sweep_entry_still_has_its_units_checked(entry, lines, tmp_path, capsys):
+    """A range with a misspelt spacing hid the missing unit of its start (and every other sweep
+    problem) until the spacing was mended: the sweep's values were checked only when the whole
+    sweep validated. Each entry is checked on its own now, and the values of a broken one that
+    are fine in themselves too."""
+    text = GOOD.replace("num: 3}", f"num: 3}}\n  backlash: {entry}")
+    assert _validate(tmp_path, capsys, text) == (2, lines)

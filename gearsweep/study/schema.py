@@ -513,9 +513,36 @@ def replaced_by_sweep(study) -> list[str]:
             if name in sc.model_fields_set and getattr(sc, name, None) is not None]
 
 
+def value_problems(name: str, items: list[tuple[str | int, Any]],
+                   is_range: bool) -> tuple[list[Problem], list[float]]:
+    """Unit and physical bounds of the values ``items`` (``(key, value)``: ``start`` and ``stop``
+    of a range, or the indices of a list) of swept parameter ``name``: the problems, and the SI
+    values of those that have none."""
+    kind = SWEEPABLE[name]
+    out: list[Problem] = []
+    values = []
+    for key, v in items:
+        where = f"sweep.{name}.{key}" if is_range else f"sweep.{name}[{key}]"
+        try:
+            val = to_si(v, kind)
+        except UnitParseError as exc:
+            msg = str(exc)
+            out.append(Problem(where, NO_VALUE, msg) if "has no unit" in msg
+                       else Problem(where, v, f"a {kind}: {msg}"))
+            continue
+        if not math.isfinite(val):
+            out.append(Problem(where, v, "a finite number"))
+        elif name in ("speed", "mass", "stiffness", "backlash") and val <= 0:
+            out.append(Problem(where, v, f"{name} must be > 0"))
+        elif name in ("damping", "gamma") and val < 0:
+            out.append(Problem(where, v, f"{name} must be >= 0"))
+        else:
+            values.append(val)
+    return out, values
+
+
 def grid_problems(study, with_order: bool = True) -> list[Problem]:
     """Units and physical bounds of every sweep value; ranges in increasing order."""
-    positive = {"speed", "mass", "stiffness", "backlash"}
     out: list[Problem] = []
     for name, spec in study.sweep.items():
         if name not in SWEEPABLE:
@@ -526,24 +553,8 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
         if not raw:
             out.append(Problem(f"sweep.{name}", spec, "a non-empty list or {start, stop, num}"))
             continue
-        values = []
-        for key, v in raw:
-            where = f"sweep.{name}.{key}" if is_range else f"sweep.{name}[{key}]"
-            try:
-                val = to_si(v, kind)
-            except UnitParseError as exc:
-                msg = str(exc)
-                out.append(Problem(where, NO_VALUE, msg) if "has no unit" in msg
-                           else Problem(where, v, f"a {kind}: {msg}"))
-                continue
-            if not math.isfinite(val):
-                out.append(Problem(where, v, "a finite number"))
-            elif name in positive and val <= 0:
-                out.append(Problem(where, v, f"{name} must be > 0"))
-            elif name in ("damping", "gamma") and val < 0:
-                out.append(Problem(where, v, f"{name} must be >= 0"))
-            else:
-                values.append(val)
+        problems, values = value_problems(name, raw, is_range)
+        out += problems
         shown = [float(v) for v in decimal_coordinates(to_display(np.asarray(values), kind))] \
             if kind != "dimensionless" else values  # as the file's coordinate will hold them
         if not is_range and len(values) == len(raw) and len(set(shown)) < len(shown):
@@ -1062,13 +1073,41 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
         # its own error says so, not that its fields are missing
         if given:  # the same line as the scene's validator gives, where it ran
             out.append(Problem("scene", "{...}", given))
-    if isinstance(sweep, dict):
-        try:
-            parsed = TypeAdapter(Study.model_fields["sweep"].annotation).validate_python(sweep)
-        except (ValidationError, RecursionError):
-            return out  # structural problems of the sweep are in the study's own errors
+    if isinstance(sweep, dict):  # each entry on its own: a 'spacing: logg' in one range hides
+        parsed = {}  # neither a missing unit of its start nor the problems of the other entries
+        for name, spec in sweep.items():
+            if not isinstance(name, str) or name not in SWEEPABLE:
+                continue  # the study's own errors, or consistency_problems once they are mended
+            try:
+                parsed[name] = _sweep_entry().validate_python(spec)
+            except ValidationError as exc:  # structural problems are in the study's own errors;
+                out += _loose_value_problems(name, spec, exc)  # the values fine in themselves
+            except RecursionError:
+                continue
         out += grid_problems(SimpleNamespace(sweep=parsed))
     return out
+
+
+@cache
+def _sweep_entry() -> TypeAdapter:
+    """The validator of one entry of ``sweep:`` (a list of values or a range)."""
+    return TypeAdapter(typing.get_args(Study.model_fields["sweep"].annotation)[1])
+
+
+def _loose_value_problems(name: str, spec: Any, exc: ValidationError) -> list[Problem]:
+    """``value_problems`` of the values of a sweep entry that does not validate (a range with a
+    misspelt spacing or a missing num, a list with a nested item) that are themselves numbers or
+    strings without an error of their own."""
+    bad = {p[0] for p in (_user_path(e["loc"]) for e in exc.errors()) if p}
+    if isinstance(spec, dict):
+        items = [(k, spec[k]) for k in ("start", "stop") if k in spec]
+    elif isinstance(spec, list):
+        items = list(enumerate(spec))
+    else:
+        return []
+    items = [(k, v) for k, v in items if k not in bad and isinstance(v, str | int | float)
+             and not isinstance(v, bool)]
+    return value_problems(name, items, isinstance(spec, dict))[0]
 
 
 def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
