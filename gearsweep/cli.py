@@ -29,6 +29,7 @@ from gearsweep.errors import (
     GearsweepError,
     ResultError,
     StudyError,
+    article,
 )
 from gearsweep.files import replace_problem
 from gearsweep.kernels.cuda import kernel_for
@@ -210,7 +211,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
 
         if args.estimate:
-            print(f"{args.study}: a {study.type} study, computed in one piece: no estimate")
+            print(f"{args.study}: {article(study.type)} study, computed in one piece: no estimate")
             return 0
         from gearsweep.api import run_unchunked
         from gearsweep.study.dataset import write_netcdf

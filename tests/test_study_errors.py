@@ -880,3 +880,26 @@ def test_a_broken_sweep_entry_still_has_its_units_checked(entry, lines, tmp_path
     are fine in themselves too."""
     text = GOOD.replace("num: 3}", f"num: 3}}\n  backlash: {entry}")
     assert _validate(tmp_path, capsys, text) == (2, lines)
+
+
+@pytest.mark.parametrize(("study", "kind"), [("method_stability.yaml", "an analysis"),
+                                             ("mesh_tip_relief.yaml", "a mesh")])
+def test_the_estimate_of_a_study_computed_in_one_piece_names_its_kind(study, kind, capsys):
+    """It said "a analysis study"."""
+    path = ROOT / "studies" / study
+    assert main(["run", "--estimate", str(path)]) == 0
+    assert capsys.readouterr().out == f"{path}: {kind} study, computed in one piece: no estimate\n"
+
+
+def test_a_kind_that_starts_with_a_vowel_takes_an(tmp_path, capsys):
+    """'expected a inertia quantity'; 'not a field of a artifact_map analysis'."""
+    text = GOOD.replace("  mass: 0.1527 kg\n", "  drive: {inertia_1: true, inertia_2: 1 kg*m^2,"
+                        " base_radius_1: 30 mm, base_radius_2: 30 mm}\n")
+    assert _validate(tmp_path, capsys, text) == (2, [
+        ("s.yaml:4: scene.drive.inertia_1: True -- expected an inertia quantity such as"
+         " '1 kg m^2'")])
+    analysis = (ROOT / "studies/method_stability.yaml").read_text(encoding="utf-8")
+    assert _validate(tmp_path, capsys, analysis.replace("  steps: 200000", "  steps: 200000\n"
+                                                        "  rig: x")) == (2, [
+        ("s.yaml:13: analysis.rig: 'rig' is not a field of a method_stability analysis (it is one"
+         " of an artifact_map analysis)")])

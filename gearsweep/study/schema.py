@@ -53,7 +53,7 @@ from pydantic import (
     model_validator,
 )
 
-from gearsweep.errors import NO_VALUE, GeometryError, StudyError
+from gearsweep.errors import NO_VALUE, GeometryError, StudyError, article
 from gearsweep.gear.excitation import static_mesh
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.analysis_specs import AnalysisSpec, AnalysisStudy
@@ -528,7 +528,7 @@ def value_problems(name: str, items: list[tuple[str | int, Any]],
         except UnitParseError as exc:
             msg = str(exc)
             out.append(Problem(where, NO_VALUE, msg) if "has no unit" in msg
-                       else Problem(where, v, f"a {kind}: {msg}"))
+                       else Problem(where, v, f"{article(kind)}: {msg}"))
             continue
         if not math.isfinite(val):
             out.append(Problem(where, v, "a finite number"))
@@ -848,28 +848,28 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
         studies = {"dynamic": Study, "mesh": MeshStudy, "analysis": AnalysisStudy}
         typed = raw.get("type") if isinstance(raw, dict) else None
         own = typed if isinstance(typed, str) and typed in studies else "dynamic"
-        elsewhere = [f"one of {_a(k)} study" for k, m in studies.items()
+        elsewhere = [f"one of {article(k)} study" for k, m in studies.items()
                      if k != own and key in m.model_fields]
         if own == "dynamic" and any(key in m.model_fields for m in _SCENES.values()):
             elsewhere.append(f"a field of the scene: scene.{key}")
         if elsewhere:  # 'positions' in a dynamic study, 'scene' in a mesh study
-            return (f"{key!r} is not a field of {_a(own)} study (it is"
+            return (f"{key!r} is not a field of {article(own)} study (it is"
                     f" {', and '.join(elsewhere)})"), None
         choices = tuple(dict.fromkeys([*Study.model_fields, *MeshStudy.model_fields,
                                        *AnalysisStudy.model_fields]))
         where = "a study"
-        listed = (f"{_a(own)} study", tuple(studies[own].model_fields))
+        listed = (f"{article(own)} study", tuple(studies[own].model_fields))
     elif len(parent) == 1 and parent[0] in _TAGGED:
         noun, kinds = parent[0], _TAGGED[parent[0]]
         held = raw.get(noun) if isinstance(raw, dict) else None
         kind = held.get("kind") if isinstance(held, dict) else None
         if kind in kinds:
             choices = tuple(kinds[kind].model_fields)
-            where = f"a {kind} {noun}"
+            where = f"{article(kind)} {noun}"
             others = [k for k, m in kinds.items() if key in m.model_fields]
             if others:
-                return (f"{key!r} is not a field of {where} (it is one of a"
-                        f" {' or '.join(others)} {noun})"), None
+                return (f"{key!r} is not a field of {where} (it is one of"
+                        f" {article(' or '.join(others))} {noun})"), None
     meant = _closest(key, missing) or _closest(key, _vocabulary() if choices is None else choices)
     hint = f" -- did you mean {meant!r}?" if meant else ""
     if choices is None:
@@ -945,7 +945,7 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             value = ctx.get("tag", value)
             hint = _did_you_mean(value, tags)
             msg = (hint.removeprefix(" -- ") + f" (allowed: {', '.join(tags)})" if hint
-                   else f"not {_a(noun)} kind; allowed: {', '.join(tags)}")
+                   else f"not {article(noun)} kind; allowed: {', '.join(tags)}")
         elif t in ("model_type", "model_attributes_type", "dict_type") or (
                 t == "union_tag_not_found" and not isinstance(_as_written(raw, parts), dict)):
             msg = _mapping_wanted(parts, e, raw)
@@ -954,7 +954,7 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             tags = list(_TAGGED[noun])
             parts.append("kind")
             value = "(missing)"
-            msg = f"{_a(noun)} needs a kind: {', '.join(tags[:-1])} or {tags[-1]}"
+            msg = f"{article(noun)} needs a kind: {', '.join(tags[:-1])} or {tags[-1]}"
         elif t == "literal_error":
             allowed = re.findall(r"'([^']*)'", str(e.get("ctx", {}).get("expected", "")))
             hint = _did_you_mean(value, allowed)
@@ -1046,10 +1046,6 @@ def _mapping_wanted(parts: list, err: dict, raw: Any) -> str:
 def _noun(parts: list) -> str:
     """What a tagged union's field holds: a scene or an analysis."""
     return str(parts[-1]) if parts and parts[-1] in _TAGGED else "scene"
-
-
-def _a(noun: str) -> str:
-    return f"{'an' if noun[0] in 'aeiou' else 'a'} {noun}"
 
 
 def _problems_beside_errors(raw: Any) -> list[Problem]:
