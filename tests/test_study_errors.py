@@ -903,3 +903,15 @@ def test_a_kind_that_starts_with_a_vowel_takes_an(tmp_path, capsys):
                                                         "  rig: x")) == (2, [
         ("s.yaml:13: analysis.rig: 'rig' is not a field of a method_stability analysis (it is one"
          " of an artifact_map analysis)")])
+
+
+@pytest.mark.parametrize(("written", "where"), [
+    ("outputs: [{spectrum: {max_order: 40}}]", "12: outputs[0].spectrum.max_order: 40"),
+    ("outputs:\n  - stats\n  - spectrum:\n      max_order: 4e1",
+     "15: outputs[1].spectrum.max_order: '4e1'"),
+])
+def test_a_planning_error_names_the_field_and_value_as_written(written, where, tmp_path, capsys):
+    """The Nyquist check of the planner said "outputs.spectrum.max_order: 40.0" where the file
+    says 'max_order: 40' in its outputs[0], on the line of 'outputs:'."""
+    assert _validate(tmp_path, capsys, GOOD + written + "\n") == (2, [
+        f"s.yaml:{where} -- at most samples_per_period / 2 = 16 (the Nyquist order)"])

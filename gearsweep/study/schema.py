@@ -694,6 +694,12 @@ def line_of(raw: Any, path: str | list) -> int | None:
     return line
 
 
+def written_at(raw: Any, path: str) -> Any:
+    """The value at ``path`` (``outputs[0].spectrum.max_order``) as the file writes it (``40``,
+    not the ``40.0`` a model holds), or ``None`` if the file has nothing there."""
+    return _as_written(raw, _path_parts(path))
+
+
 def _error(file: str, problems: list[Problem], raw: Any = None) -> StudyError:
     return StudyError.many(file, [(line_of(raw, p.path), p.path, p.value, p.message)
                                   for p in problems])
