@@ -350,8 +350,10 @@ def describe(path: str | Path) -> str:
         for d in ds.dims:
             c = ds[d] if d in ds.coords else None
             if c is not None and c.size and c.dtype.kind in "fi":
+                units = c.attrs.get("units", "")  # '1': dimensionless, no unit to print
                 lines.append(f"    {d:<14} {c.size:>6} values from {float(c.min()):.6g} to "
-                             f"{float(c.max()):.6g} {c.attrs.get('units', '')}")
+                             f"{float(c.max()):.6g}" + (f" {units}" if units not in ("", "1")
+                                                        else ""))
             elif c is not None:
                 lines.append(f"    {d:<14} {c.size:>6} values: {', '.join(map(str, c.values[:6]))}")
             else:

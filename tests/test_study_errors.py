@@ -915,3 +915,18 @@ def test_a_planning_error_names_the_field_and_value_as_written(written, where, t
     says 'max_order: 40' in its outputs[0], on the line of 'outputs:'."""
     assert _validate(tmp_path, capsys, GOOD + written + "\n") == (2, [
         f"s.yaml:{where} -- at most samples_per_period / 2 = 16 (the Nyquist order)"])
+
+
+def test_inspect_prints_no_unit_for_a_dimensionless_coordinate(tmp_path, capsys):
+    """'alpha  60 values from 0.05 to 1.5 1': the unit '1' (dimensionless) ran into the number."""
+    import numpy as np
+    import xarray as xr
+
+    path = tmp_path / "m.nc"
+    xr.Dataset({"p_rms": (("alpha", "speed"), np.zeros((60, 2)))},
+               coords={"alpha": ("alpha", np.linspace(0.05, 1.5, 60), {"units": "1"}),
+                       "speed": ("speed", [1000.0, 2000.0], {"units": "rpm"})}).to_netcdf(path)
+    assert main(["inspect", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "    alpha              60 values from 0.05 to 1.5" in lines, lines
+    assert "    speed               2 values from 1000 to 2000 rpm" in lines, lines
