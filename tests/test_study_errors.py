@@ -930,3 +930,20 @@ def test_inspect_prints_no_unit_for_a_dimensionless_coordinate(tmp_path, capsys)
     lines = capsys.readouterr().out.splitlines()
     assert "    alpha              60 values from 0.05 to 1.5" in lines, lines
     assert "    speed               2 values from 1000 to 2000 rpm" in lines, lines
+
+
+def test_advise_says_it_reads_stdin_and_names_it_as_validate_does(monkeypatch, capsys):
+    """'advise --help' had no help for its study and did not say that '-' reads stdin; a study
+    read from stdin was labelled '-:' where validate says '<stdin>:'."""
+    monkeypatch.setenv("COLUMNS", "100")  # argparse wraps its help to the terminal's width
+    with pytest.raises(SystemExit) as end:
+        main(["advise", "--help"])
+    assert end.value.code == 0
+    assert re.search(r"\n  study +study file \(- reads stdin\)\n", capsys.readouterr().out)
+    monkeypatch.setattr(sys, "stdin", io.StringIO(GOOD))
+    assert main(["advise", "-"]) == 0
+    assert capsys.readouterr().out.startswith("<stdin>:\n  rattle scene with backlash")
+    monkeypatch.setattr(sys, "stdin", io.StringIO(GOOD))
+    assert main(["advise", "-", "--target", "2"]) == 2
+    assert capsys.readouterr().err == ("gearsweep: error: <stdin>: --target: 2.0 -- a relative"
+                                       " error between 0 and 1 (e.g. 1e-4)\n")
