@@ -29,6 +29,7 @@ from gearsweep.errors import (
     GearsweepError,
     ResultError,
     StudyError,
+    article,
 )
 from gearsweep.files import replace_problem
 from gearsweep.kernels.cuda import kernel_for
@@ -101,9 +102,14 @@ def _check_writable(path: Path, study: str | None = None) -> None:
         raise StudyError(str(path), "--output", str(path), "a writable path (permission denied)")
 
 
+def _shown(path: str) -> str:
+    """The name a study is reported under: its path, or ``<stdin>`` for ``-``."""
+    return "<stdin>" if path == "-" else path
+
+
 def _plan(study, text: str, path: str):
     """``make_plan`` with its problems reported under the study file's name and line."""
-    return make_plan(study, text, "<stdin>" if path == "-" else path)
+    return make_plan(study, text, _shown(path))
 
 
 def _summary(study, plan, est_line: str) -> str:
@@ -125,7 +131,7 @@ def _summary(study, plan, est_line: str) -> str:
 def cmd_validate(args: argparse.Namespace) -> int:
 
     study, text = load_study(args.study)
-    name = "<stdin>" if args.study == "-" else args.study
+    name = _shown(args.study)
     if getattr(study, "type", None) == "mesh":
 
         print(f"{name}: ok -- {summary(study)}")
@@ -199,24 +205,26 @@ def _check_device(study, text: str, args: argparse.Namespace) -> None:
         if args.device:
             raise DeviceError(f"--device {args.device}: "
                               + reason.replace("use device: ", "use --device ")) from None
-        line = line_of(load_yaml(text, args.study), "solver.device") if text else None
-        raise StudyError(args.study, "solver.device", study.solver.device, reason, line) from None
+        name = _shown(args.study)
+        line = line_of(load_yaml(text, name), "solver.device") if text else None
+        raise StudyError(name, "solver.device", study.solver.device, reason, line) from None
 
 
 def cmd_run(args: argparse.Namespace) -> int:
 
     study, text = load_study(args.study)
+    name = _shown(args.study)
     if args.study == "-" and not args.output:
-        raise StudyError("<stdin>", "--output", NO_VALUE, "a study read from stdin needs -o OUT.nc")
+        raise StudyError(name, "--output", NO_VALUE, "a study read from stdin needs -o OUT.nc")
     if args.output is not None and not args.output.strip():
-        raise StudyError(args.study, "--output", args.output, "a file path (it is empty)")
+        raise StudyError(name, "--output", args.output, "a file path (it is empty)")
     out = Path(args.output) if args.output else _default_output(args.study)
     if not args.estimate:
         _check_writable(out, args.study)
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
 
         if args.estimate:
-            print(f"{args.study}: a {study.type} study, computed in one piece: no estimate")
+            print(f"{name}: {article(study.type)} study, computed in one piece: no estimate")
             return 0
         from gearsweep.api import run_unchunked
         from gearsweep.study.dataset import write_netcdf
@@ -232,9 +240,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             update={"device": args.device})})
     plan = _plan(study, text, args.study)
     if args.chunk_size is not None and args.chunk_size < 1:
-        raise StudyError(args.study, "--chunk-size", args.chunk_size, "a positive number of cases")
+        raise StudyError(name, "--chunk-size", args.chunk_size, "a positive number of cases")
     if args.workers is not None and args.workers < 1:
-        raise StudyError(args.study, "--workers", args.workers, "a positive number of workers")
+        raise StudyError(name, "--workers", args.workers, "a positive number of workers")
     # Chunks of at most about 30 s (progress, and a kill loses at most one chunk).
     chunk, capped = chunk_cases(plan, args.chunk_size, workers=args.workers)
     saved = saved_layout(out, plan.study_key, plan.n_lanes)
@@ -253,23 +261,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     # From arithmetic: no grid of cases, no compilation (any size answers at once).
     est, compile_s = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
     if args.estimate:  # also for a GPU study on a machine without one: planning a GPU run
-        print(f"{args.study}: {line(est, compile_s)}")
+        print(f"{name}: {line(est, compile_s)}")
         if saved:
             done, total = saved_chunks(plan, out, chunk)
-            print(f"{args.study}: {done} of {total} chunks already saved in {chunk_folder(out)}:"
+            print(f"{name}: {done} of {total} chunks already saved in {chunk_folder(out)}:"
                   " a run computes only the others (the estimate is for them all)")
         _long_sweep_note(plan, args)
         return 0
     _check_device(study, text, args)  # no GPU: one line, exit 2, now
     if not args.yes:
         est, compile_s = before_refusing(plan, est, chunk, None if not args.workers else cores())
-        check_limits(est, args.study)
+        check_limits(est, name)
     _long_sweep_note(plan, args)
     progress = not args.quiet and sys.stderr.isatty()
     with OutputLock(out), _backend(args) as backend:
         check_partial(plan, out)
         if not args.quiet and est.seconds > 30:
-            print(f"{args.study}: {line(est, compile_s)}", file=sys.stderr)
+            print(f"{name}: {line(est, compile_s)}", file=sys.stderr)
         saved, total = saved_chunks(plan, out, chunk)
         if saved and not args.quiet:
             print(f"{out}: resuming: {saved} of {total} chunks already saved in {out}.chunks,"
@@ -355,8 +363,10 @@ def describe(path: str | Path) -> str:
         for d in ds.dims:
             c = ds[d] if d in ds.coords else None
             if c is not None and c.size and c.dtype.kind in "fi":
+                units = c.attrs.get("units", "")  # '1': dimensionless, no unit to print
                 lines.append(f"    {d:<14} {c.size:>6} values from {float(c.min()):.6g} to "
-                             f"{float(c.max()):.6g} {c.attrs.get('units', '')}")
+                             f"{float(c.max()):.6g}" + (f" {units}" if units not in ("", "1")
+                                                        else ""))
             elif c is not None:
                 lines.append(f"    {d:<14} {c.size:>6} values: {', '.join(map(str, c.values[:6]))}")
             else:
@@ -395,17 +405,18 @@ def _looks_like_study(path: Path) -> bool:
 def cmd_advise(args: argparse.Namespace) -> int:
     """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
 
+    name = _shown(args.study)
     if not (math.isfinite(args.target) and 0.0 < args.target < 1.0):
-        raise StudyError(args.study, "--target", args.target,
+        raise StudyError(name, "--target", args.target,
                          "a relative error between 0 and 1 (e.g. 1e-4)")
     study, text = load_study(args.study)
     if getattr(study, "type", None) in ("mesh", "analysis"):
-        raise StudyError(args.study, "type", study.type,
+        raise StudyError(name, "type", study.type,
                          "a dynamic study (whine, rattle, full): nothing is integrated here")
     plan = _plan(study, text, args.study)
     model = plan.model
     if not isinstance(model, MeshModel):
-        raise StudyError(args.study, "scene.kind", study.scene.kind,
+        raise StudyError(name, "scene.kind", study.scene.kind,
                          "a gear scene (whine, rattle, full): the Mathieu scene has no accuracy model")
     s = study.solver
     grids = plan.grids
@@ -421,7 +432,7 @@ def cmd_advise(args: argparse.Namespace) -> int:
                steps_per_period=s.steps_per_period,
                periods=s.transient_periods + s.record_periods)
     scene = f"{study.scene.kind} scene" + (" with backlash" if plan.has_backlash else "")
-    print(f"{args.study}:")
+    print(f"{name}:")
     print(textwrap.indent(a.report(scene), "  "))
     return 0
 
@@ -474,7 +485,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="accept a study beyond the limits (as run --yes would run it)")
     v.set_defaults(func=cmd_validate)
     a = sub.add_parser("advise", help="steps per period for a target accuracy, cost, warnings")
-    a.add_argument("study")
+    a.add_argument("study", help="study file (- reads stdin)")
     a.add_argument("--target", type=float, default=1e-4,
                    help="trajectory error relative to the amplitude (default 1e-4; the report"
                    " also gives the error the study's own steps per period reach)")

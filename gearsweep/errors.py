@@ -13,6 +13,14 @@ EXIT_INTERRUPTED = 130
 """Exit code of the CLI stopped by Ctrl-C (128 + SIGINT, as a shell reports it)."""
 
 
+def article(word: str) -> str:
+    """``word`` after its indefinite article, for messages that name a kind: 'an inertia', 'an
+    analysis study', 'a mesh study', 'an artifact_map analysis'."""
+    vowel = word[:1].lower() in "aeio" or (word[:1].lower() == "u"
+                                          and not word.lower().startswith(("uni", "use", "usu")))
+    return f"{'an' if vowel else 'a'} {word}"
+
+
 class GearsweepError(Exception):
     """Base class of every error that is the user's input, not a bug: one clear line, exit 2."""
 

@@ -25,6 +25,7 @@ from functools import cache
 
 import numpy as np
 
+from gearsweep.errors import article
 from gearsweep.files import atomic_write
 
 
@@ -244,7 +245,7 @@ def _to_si_pint(value: object, kind: str) -> float:
     k = KINDS[kind]
     unit_hint = k.examples[0]
     if isinstance(value, bool):
-        raise UnitParseError(f"expected a {kind} quantity such as '1 {unit_hint}'")
+        raise UnitParseError(f"expected {article(kind)} quantity such as '1 {unit_hint}'")
     if isinstance(value, int | float):
         try:
             number = float(value)
@@ -270,7 +271,7 @@ def _to_si_pint(value: object, kind: str) -> float:
         names = getattr(exc, "unit_names", None)
         if names:  # pint's UndefinedUnitError
             unknown = ", ".join(repr(n) for n in names)
-            raise UnitParseError(f"unknown unit {unknown}; a {kind} is written e.g."
+            raise UnitParseError(f"unknown unit {unknown}; {article(kind)} is written e.g."
                                  f" '1 {unit_hint}' ({', '.join(k.examples)})") from None
         raise UnitParseError(f"cannot read {value!r} as a quantity ({type(exc).__name__})") from None
     if not isinstance(q, pint.Quantity):
@@ -371,7 +372,7 @@ def si_values(da) -> np.ndarray:
     is converted, anything else (an SI or dimensionless unit) is returned as it is."""
     if not hasattr(da, "attrs") or not hasattr(da, "dims") or hasattr(da, "data_vars"):
         raise TypeError(f"si_values takes one variable or coordinate of a result (ds.p_rms,"
-                        f" ds.backlash), not a {type(da).__name__}; a whole Dataset:"
+                        f" ds.backlash), not {article(type(da).__name__)}; a whole Dataset:"
                         " si_data_vars(ds)")
     units = da.attrs.get("units")
     values = np.asarray(da.values)
@@ -391,7 +392,7 @@ def si_data_vars(ds):
     stiffness in kN/mm, ...) converted to SI, its ``units`` attribute saying so; coordinates
     are left in their display units. For code that computes in SI; idempotent."""
     if not hasattr(ds, "data_vars"):
-        raise TypeError(f"si_data_vars takes a result Dataset, not a {type(ds).__name__}; one"
+        raise TypeError(f"si_data_vars takes a result Dataset, not {article(type(ds).__name__)}; one"
                         " variable: si_values(ds.p_rms)")
     out = ds.copy()
     for name in ds.data_vars:

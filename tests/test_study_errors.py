@@ -163,8 +163,17 @@ def test_duplicate_keys_are_refused():
 
 
 def test_a_range_from_high_to_low_is_refused():
+    """It said "sweep.speed.start: '6000 rpm' -- at most stop ('5000 rpm')", which reads oddly;
+    a range of one value may start at its stop (the only equal start and stop allowed)."""
     lines = _lines(GOOD.replace("start: 5000 rpm, stop: 6000 rpm", "start: 6000 rpm, stop: 5000 rpm"))
-    assert lines[0].startswith("s.yaml:10: sweep.speed.start: '6000 rpm' -- at most stop")
+    assert lines == [("s.yaml:10: sweep.speed.start: '6000 rpm' -- start must be below stop"
+                     " ('5000 rpm'): give a range in increasing order (a down sweep is"
+                     " 'continuation: [down]')")]
+    one = GOOD.replace("start: 5000 rpm, stop: 6000 rpm, num: 3", "start: 6000 rpm, stop: 5000 rpm,"
+                       " num: 1")
+    assert _lines(one) == [("s.yaml:10: sweep.speed.start: '6000 rpm' -- start must be at most stop"
+                           " ('5000 rpm'); one value is [value]")]
+    parse_study(one.replace("start: 6000 rpm", "start: 5000 rpm"), "s.yaml")
 
 
 def test_swept_and_fixed_is_stated_in_validates_summary(tmp_path, capsys):
@@ -299,7 +308,7 @@ def test_a_duplicate_key_a_scene_error_and_a_sweep_error_are_three_lines(tmp_pat
     lines = capsys.readouterr().err.strip().splitlines()
     assert [re.search(r"three\.yaml:(\d+): (\S+):", ln).groups() for ln in lines] == [
         ("6", "scene.stiffness"), ("8", "scene.damping"), ("10", "sweep.speed.start")], lines
-    assert "has no unit" in lines[0] and "duplicate key" in lines[1] and "at most stop" in lines[2]
+    assert "has no unit" in lines[0] and "duplicate key" in lines[1] and "below stop" in lines[2]
 
 
 WHOLE = "a whole number (not true or false)"
@@ -733,3 +742,250 @@ def test_a_shaft_order_excitation_needs_two_whole_cycles_recorded(tmp_path, caps
     for bad, why in (("1/0", "not over 0"), ("1/48 N", "valid number"), ("true", "not true")):
         with pytest.raises(StudyError, match=why):
             parse_study(SHAFT_ORDER.replace("order: 1/48", f"order: {bad}"))
+
+
+def _validate(tmp_path: Path, capsys, text: str) -> tuple[int, list[str]]:
+    """``gearsweep validate`` of ``text``: its exit code and its lines, the file named s.yaml."""
+    path = tmp_path / "s.yaml"
+    path.write_text(text, encoding="utf-8")
+    code = main(["validate", str(path)])
+    out = capsys.readouterr()
+    lines = (out.err or out.out).strip().splitlines()
+    return code, [ln.removeprefix("gearsweep: error: ").replace(str(path), "s.yaml")
+                  for ln in lines]
+
+
+MESH = ("type: mesh\ntitle: t\ngear:\n  preset: table1_consistent\n"
+        "  tip_relief: {amount: 6 um, start_at: single_contact}\ntorque: 50 N*m\n")
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    (GOOD.replace("mean_force: 100 N", "mean_force: 100 N\n  fluctuation: [{amplitude: 60 N,"
+                  " ordr: 1}]"),
+     "s.yaml:9: scene.fluctuation[0].ordr: 'ordr' is an unknown field -- did you mean 'order'?"),
+    (GOOD.replace("kind: rattle", "kind: full").replace(
+        "mean_force: 100 N", "mean_force: 100 N\n  stiffness_harmonics: [{amplitude: 60 kN/mm,"
+        " ordr: 1}]"),
+     ("s.yaml:9: scene.stiffness_harmonics[0].ordr: 'ordr' is an unknown field -- did you mean"
+      " 'order'?")),
+    (GOOD.replace("num: 3}", "nun: 3}"),
+     ("s.yaml:10: sweep.speed.nun: 'nun' is not a field of a {start, stop, num} range -- did you"
+      " mean 'num'?")),
+    (MESH.replace("amount:", "amout:"),
+     "s.yaml:5: gear.tip_relief.amout: 'amout' is an unknown field -- did you mean 'amount'?"),
+])
+def test_a_misspelt_required_key_is_one_line(text, line, tmp_path, capsys):
+    """'ordr: 1' where 'order' is required also gave "order: '(missing)' -- this field is
+    required" on the same line: one mistake, two lines. The did-you-mean line explains both."""
+    assert _validate(tmp_path, capsys, text) == (2, [line])
+
+
+def test_a_missing_field_is_still_said_beside_an_unrelated_unknown_key(tmp_path, capsys):
+    text = GOOD.replace("mean_force: 100 N", "mean_force: 100 N\n  fluctuation: [{amplitude:"
+                        " 60 N, phse: 1}]")
+    assert _validate(tmp_path, capsys, text) == (2, [
+        "s.yaml:9: scene.fluctuation[0].order: '(missing)' -- this field is required",
+        "s.yaml:9: scene.fluctuation[0].phse: 'phse' is an unknown field -- did you mean 'phase'?"])
+
+
+def test_a_sweep_written_as_a_list_is_one_line(tmp_path, capsys):
+    """A list under 'sweep:' also gave "scene.speed: '(missing)'", though the speed is in it."""
+    text = GOOD.replace("  speed: {start", "  - speed: {start")
+    assert _validate(tmp_path, capsys, text) == (2, [
+        ("s.yaml:9: sweep: '[...]' -- a mapping of the swept parameters to their values (speed:"
+         " {start: ..., stop: ..., num: ...}, ...), not a list")])
+
+
+@pytest.mark.parametrize("other_error", [False, True])
+def test_a_continuation_without_any_speed_is_one_line(other_error, tmp_path, capsys):
+    """'continuation: [up]' with the speed neither swept nor given also gave "scene.speed:
+    '(missing)'": the continuation's line says to sweep the speed, which mends both. The same
+    line when another error stops the study's own checks."""
+    text = GOOD.replace("  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                        "  backlash: [0.1 mm, 0.2 mm]") + "continuation: [up]\n"
+    lines = [("s.yaml:12: continuation: ['up'] -- continuation carries the state along"
+              " sweep.speed: sweep the speed")]
+    if other_error:
+        text = text.replace("teeth: 48", "teeth: -48")
+        lines.insert(0, "s.yaml:5: scene.teeth: -48 -- Input should be greater than 0")
+    assert _validate(tmp_path, capsys, text) == (2, lines)
+    # no continuation: the speed's own line, as before
+    assert _validate(tmp_path, capsys, text.replace("continuation: [up]\n", "")) == (2, [
+        ("s.yaml:2: scene.speed: '(missing)' -- the speed must be swept (sweep.speed) or given"
+         " (scene.speed)"), *lines[:-1]])
+
+
+def test_a_continuation_of_a_mathieu_scene_says_it_has_no_speed(tmp_path, capsys):
+    """It said "sweep the speed", which a Mathieu scene cannot."""
+    text = "title: t\nscene: {kind: mathieu}\nsweep:\n  alpha: [0.1, 0.2]\ncontinuation: [up]\n"
+    assert _validate(tmp_path, capsys, text) == (2, [
+        ("s.yaml:5: continuation: ['up'] -- continuation carries the state along sweep.speed,"
+         " which a mathieu scene does not have: leave continuation out")])
+
+
+SOLVER = "solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}"
+
+
+@pytest.mark.parametrize(("old", "new", "line"), [
+    (("  kind: rattle\n  mass: 0.1527 kg\n  teeth: 48\n  stiffness: 1073 kN/mm\n  backlash: 0.1"
+     " mm\n  mean_force: 100 N\n"),
+     ("  - kind: rattle\n    mass: 0.1527 kg\n    teeth: 48\n    stiffness: 1073 kN/mm\n"
+     "    backlash: 0.1 mm\n    mean_force: 100 N\n"),
+     ("s.yaml:2: scene: '[...]' -- a mapping of scene fields (kind: rattle, mass: ..., ...), not a"
+     " list")),
+    (SOLVER, "solver: [rk4]",
+     ("s.yaml:11: solver: '[...]' -- a mapping of solver fields (method: rk4, steps_per_period: 64,"
+     " ...), not a list")),
+    (SOLVER, "solver: rk4",
+     ("s.yaml:11: solver: 'rk4' -- a mapping of solver fields (method: rk4, steps_per_period: 64,"
+     " ...)")),
+    (SOLVER, SOLVER + "\noutputs: [[stats]]",
+     ("s.yaml:12: outputs[0]: '[...]' -- an output name, or a mapping of one output name to its"
+     " options (stats, or {spectrum: {max_order: 4}}), not a list")),
+    (SOLVER, SOLVER + "\noutputs: [{spectrum: [4]}]",
+     ("s.yaml:12: outputs[0].spectrum: '[...]' -- a mapping of spectrum options (max_order: 4,"
+     " samples_per_period: ..., ...), not a list")),
+    ("  mean_force: 100 N", "  mean_force: 100 N\n  fluctuation: [[300 N, 1]]",
+     ("s.yaml:9: scene.fluctuation[0]: '[...]' -- a mapping of fluctuation fields (amplitude: ...,"
+     " order: ..., ...), not a list")),
+    ("  mass: 0.1527 kg", "  drive: [1 kg*m^2]",
+     ("s.yaml:4: scene.drive: '[...]' -- a mapping of drive fields (inertia_1: ..., inertia_2: ...,"
+     " ...), not a list")),
+])
+def test_a_section_that_is_no_mapping_says_what_it_should_be(old, new, line, tmp_path, capsys):
+    """A scene written as a list said "scene.kind: '(missing)' -- a scene needs a kind"; a solver
+    (or a drive, an item of the fluctuation or the outputs) got pydantic's "Input should be a
+    valid dictionary or instance of Solver". Each says it is a mapping of which fields; a drive
+    that is no mapping is not also said to lack its base radii."""
+    assert old in GOOD + SOLVER
+    assert _validate(tmp_path, capsys, GOOD.replace(old, new)) == (2, [line])
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    ("type: analysis\ntitle: t\nanalysis: [method_stability]\n",
+     ("s.yaml:3: analysis: '[...]' -- a mapping of analysis fields (kind: method_stability,"
+     " methods: ..., ...), not a list")),
+    (MESH.replace("  tip_relief: {amount: 6 um, start_at: single_contact}", "  tip_relief: [6 um]"),
+     ("s.yaml:5: gear.tip_relief: '[...]' -- a mapping of tip_relief fields (amount: ..., shape:"
+     " linear, ...), not a list")),
+    ("type: mesh\ntitle: t\ngear: [table1_consistent]\ntorque: 50 N*m\n",
+     ("s.yaml:3: gear: '[...]' -- a preset name (table1_consistent, table1_as_printed) or a mapping"
+     " of gear fields (preset: ..., module: ..., ...), not a list")),
+])
+def test_a_section_of_a_mesh_or_analysis_study_that_is_no_mapping(text, line, tmp_path, capsys):
+    assert _validate(tmp_path, capsys, text) == (2, [line])
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    (GOOD + "foo: 1\n",
+     ("s.yaml:12: foo: 'foo' is not a field of a dynamic study; its fields: title, description,"
+      " scene, sweep, continuation, solver, outputs")),
+    (MESH + "foo: 1\n",
+     ("s.yaml:7: foo: 'foo' is not a field of a mesh study; its fields: type, title, description,"
+      " gear, gears, torque, sweep, positions, harmonics")),
+    ("type: analysis\ntitle: t\nanalysis: {kind: method_stability}\nfoo: 1\n",
+     ("s.yaml:4: foo: 'foo' is not a field of an analysis study; its fields: type, title,"
+      " description, analysis")),
+    (GOOD + "positions: 200\n",
+     "s.yaml:12: positions: 'positions' is not a field of a dynamic study (it is one of a mesh study)"),
+    (GOOD.replace("  mean_force: 100 N\n", "") + "mean_force: 100 N\n",
+     ("s.yaml:11: mean_force: 'mean_force' is not a field of a dynamic study (it is a field of the"
+      " scene: scene.mean_force)")),
+    (MESH + "scene: {kind: whine}\n",
+     "s.yaml:7: scene: 'scene' is not a field of a mesh study (it is one of a dynamic study)"),
+])
+def test_an_unknown_top_level_key_lists_the_fields_of_its_own_kind_of_study(text, line, tmp_path,
+                                                                           capsys):
+    """It listed 'type, gear, gears, torque, positions, harmonics, analysis' among the fields of
+    a dynamic study (those of every kind); a field of another kind of study (or of the scene)
+    was 'did you mean' itself. A misspelling is still matched against every kind
+    (test_a_misspelt_top_level_key_is_matched_against_every_kind_of_study)."""
+    assert _validate(tmp_path, capsys, text) == (2, [line])
+
+
+@pytest.mark.parametrize(("entry", "lines"), [
+    ("{start: 0.1, stop: 0.5 mm, num: 5, spacing: logg}",
+     ["s.yaml:11: sweep.backlash.spacing: 'logg' -- did you mean 'log'? (allowed: linear, log)",
+      "s.yaml:11: sweep.backlash.start: 0.1 has no unit; write e.g. '0.1 mm', or '0.1 m' if SI was meant"]),
+    ("{start: 0.1, stop: 0.5 mm, nun: 5}",
+     [("s.yaml:11: sweep.backlash.nun: 'nun' is not a field of a {start, stop, num} range -- did"
+      " you mean 'num'?"),
+      "s.yaml:11: sweep.backlash.start: 0.1 has no unit; write e.g. '0.1 mm', or '0.1 m' if SI was meant"]),
+    ("[0.1, [0.2 mm]]",
+     ["s.yaml:11: sweep.backlash[1]: '[...]' -- a list of values or {start, stop, num}",
+      "s.yaml:11: sweep.backlash[0]: 0.1 has no unit; write e.g. '0.1 mm', or '0.1 m' if SI was meant"]),
+])
+def test_a_broken_sweep_entry_still_has_its_units_checked(entry, lines, tmp_path, capsys):
+    """A range with a misspelt spacing hid the missing unit of its start (and every other sweep
+    problem) until the spacing was mended: the sweep's values were checked only when the whole
+    sweep validated. Each entry is checked on its own now, and the values of a broken one that
+    are fine in themselves too."""
+    text = GOOD.replace("num: 3}", f"num: 3}}\n  backlash: {entry}")
+    assert _validate(tmp_path, capsys, text) == (2, lines)
+
+
+@pytest.mark.parametrize(("study", "kind"), [("method_stability.yaml", "an analysis"),
+                                             ("mesh_tip_relief.yaml", "a mesh")])
+def test_the_estimate_of_a_study_computed_in_one_piece_names_its_kind(study, kind, capsys):
+    """It said "a analysis study"."""
+    path = ROOT / "studies" / study
+    assert main(["run", "--estimate", str(path)]) == 0
+    assert capsys.readouterr().out == f"{path}: {kind} study, computed in one piece: no estimate\n"
+
+
+def test_a_kind_that_starts_with_a_vowel_takes_an(tmp_path, capsys):
+    """'expected a inertia quantity'; 'not a field of a artifact_map analysis'."""
+    text = GOOD.replace("  mass: 0.1527 kg\n", "  drive: {inertia_1: true, inertia_2: 1 kg*m^2,"
+                        " base_radius_1: 30 mm, base_radius_2: 30 mm}\n")
+    assert _validate(tmp_path, capsys, text) == (2, [
+        ("s.yaml:4: scene.drive.inertia_1: True -- expected an inertia quantity such as"
+         " '1 kg m^2'")])
+    analysis = (ROOT / "studies/method_stability.yaml").read_text(encoding="utf-8")
+    assert _validate(tmp_path, capsys, analysis.replace("  steps: 200000", "  steps: 200000\n"
+                                                        "  rig: x")) == (2, [
+        ("s.yaml:13: analysis.rig: 'rig' is not a field of a method_stability analysis (it is one"
+         " of an artifact_map analysis)")])
+
+
+@pytest.mark.parametrize(("written", "where"), [
+    ("outputs: [{spectrum: {max_order: 40}}]", "12: outputs[0].spectrum.max_order: 40"),
+    ("outputs:\n  - stats\n  - spectrum:\n      max_order: 4e1",
+     "15: outputs[1].spectrum.max_order: '4e1'"),
+])
+def test_a_planning_error_names_the_field_and_value_as_written(written, where, tmp_path, capsys):
+    """The Nyquist check of the planner said "outputs.spectrum.max_order: 40.0" where the file
+    says 'max_order: 40' in its outputs[0], on the line of 'outputs:'."""
+    assert _validate(tmp_path, capsys, GOOD + written + "\n") == (2, [
+        f"s.yaml:{where} -- at most samples_per_period / 2 = 16 (the Nyquist order)"])
+
+
+def test_inspect_prints_no_unit_for_a_dimensionless_coordinate(tmp_path, capsys):
+    """'alpha  60 values from 0.05 to 1.5 1': the unit '1' (dimensionless) ran into the number."""
+    import numpy as np
+    import xarray as xr
+
+    path = tmp_path / "m.nc"
+    xr.Dataset({"p_rms": (("alpha", "speed"), np.zeros((60, 2)))},
+               coords={"alpha": ("alpha", np.linspace(0.05, 1.5, 60), {"units": "1"}),
+                       "speed": ("speed", [1000.0, 2000.0], {"units": "rpm"})}).to_netcdf(path)
+    assert main(["inspect", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "    alpha              60 values from 0.05 to 1.5" in lines, lines
+    assert "    speed               2 values from 1000 to 2000 rpm" in lines, lines
+
+
+def test_advise_says_it_reads_stdin_and_names_it_as_validate_does(monkeypatch, capsys):
+    """'advise --help' had no help for its study and did not say that '-' reads stdin; a study
+    read from stdin was labelled '-:' where validate says '<stdin>:'."""
+    monkeypatch.setenv("COLUMNS", "100")  # argparse wraps its help to the terminal's width
+    with pytest.raises(SystemExit) as end:
+        main(["advise", "--help"])
+    assert end.value.code == 0
+    assert re.search(r"\n  study +study file \(- reads stdin\)\n", capsys.readouterr().out)
+    monkeypatch.setattr(sys, "stdin", io.StringIO(GOOD))
+    assert main(["advise", "-"]) == 0
+    assert capsys.readouterr().out.startswith("<stdin>:\n  rattle scene with backlash")
+    monkeypatch.setattr(sys, "stdin", io.StringIO(GOOD))
+    assert main(["advise", "-", "--target", "2"]) == 2
+    assert capsys.readouterr().err == ("gearsweep: error: <stdin>: --target: 2.0 -- a relative"
+                                       " error between 0 and 1 (e.g. 1e-4)\n")

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import inspect
 import math
+import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -21,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from gearsweep.analysis.stability import ray_limit, stability_polynomial, step_limit_hw
-from gearsweep.errors import StudyError
+from gearsweep.errors import NO_VALUE, StudyError
 from gearsweep.files import atomic_write
 from gearsweep.kernels import LANES
 from gearsweep.kernels.cuda import CHUNK_STEPS as GPU_CHUNK_STEPS
@@ -32,7 +33,7 @@ from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
 from gearsweep.study.measured import scene_measured, typed_harmonics
 from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
-from gearsweep.study.schema import Study, first_load, line_of, load_yaml
+from gearsweep.study.schema import Study, first_load, line_of, load_yaml, written_at
 from gearsweep.units import to_si
 
 STATUS_NOT_SETTLED = 2
@@ -263,14 +264,33 @@ def make_plan(study: Study, text: str = "", file: str | None = None) -> Plan:
     """Grids, dims and output specs of a study (nothing is integrated yet).
 
     A problem found here (steps per period against the outputs' sampling, an output's options)
-    is reported under ``file`` and the line of its field in ``text``, like the schema's own."""
+    is reported under ``file`` and the line of its field in ``text``, like the schema's own: the
+    field as the file writes it (``outputs[0].spectrum.max_order``) and its value as written
+    (``40``, not ``40.0``)."""
     try:
         return _make_plan(study, text)
     except StudyError as exc:
         if exc.file != "<study>" or file is None or not text:
             raise
-        raise StudyError(file, exc.field, exc.value, exc.allowed,
-                         line_of(load_yaml(text, file), exc.field)) from None
+        raw = load_yaml(text, file)
+        where = _field_in_file(study, raw, exc.field)
+        written = written_at(raw, where)
+        value = written if isinstance(written, str | int | float) and exc.value is not NO_VALUE \
+            else exc.value
+        raise StudyError(file, where, value, exc.allowed, line_of(raw, where)) from None
+
+
+def _field_in_file(study: Study, raw: Any, field: str) -> str:
+    """An output's field named as an output names it (``outputs.spectrum.max_order``), as the
+    study file writes it: ``outputs[0].spectrum.max_order`` (or ``outputs[0].options.max_order``
+    for an entry written ``{name: spectrum, options: {...}}``)."""
+    m = re.fullmatch(r"outputs\.(\w+)((?:\.\w+)*)", field)
+    names = [o.name for o in study.outputs]
+    if m is None or m[1] not in names:
+        return field
+    i = names.index(m[1])
+    item = written_at(raw, f"outputs[{i}]")
+    return f"outputs[{i}].{'options' if isinstance(item, dict) and 'name' in item else m[1]}{m[2]}"
 
 
 def _make_plan(study: Study, text: str) -> Plan:

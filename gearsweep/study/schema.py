@@ -53,11 +53,12 @@ from pydantic import (
     model_validator,
 )
 
-from gearsweep.errors import NO_VALUE, GeometryError, StudyError
+from gearsweep.errors import NO_VALUE, GeometryError, StudyError, article
 from gearsweep.gear.excitation import static_mesh
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.analysis_specs import AnalysisSpec, AnalysisStudy
 from gearsweep.study.gearscene import (
+    PRESETS,
     GearField,
     GearSpec,
     TipReliefSpec,
@@ -424,6 +425,21 @@ class Problem:
 SPEED_MISSING = "the speed must be swept (sweep.speed) or given (scene.speed)"
 
 
+def speed_problems(kind: str, swept: bool, given: bool, continuation: list) -> list[Problem]:
+    """A speed given nowhere, and a continuation without a speed sweep, of a scene of ``kind``
+    (``swept``: sweep.speed is given, ``given``: scene.speed is). A continuation without a speed
+    at all is one mistake, one line: that of the continuation, which says to sweep the speed."""
+    out = []
+    if continuation and not swept:
+        allowed = ("continuation carries the state along sweep.speed: sweep the speed"
+                   if kind != "mathieu" else "continuation carries the state along sweep.speed,"
+                   " which a mathieu scene does not have: leave continuation out")
+        out.append(Problem("continuation", list(continuation), allowed))
+    elif kind != "mathieu" and not swept and not given:
+        out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
+    return out
+
+
 def consistency_problems(study: Study) -> list[Problem]:
     """What the fields' own checks cannot see: sweep vs scene, outputs, continuation."""
     out: list[Problem] = []
@@ -435,9 +451,9 @@ def consistency_problems(study: Study) -> list[Problem]:
             hint = f"did you mean {close[0]!r}? " if close else ""
             out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a sweepable parameter of the"
                                f" {sc.kind!r} scene; {hint}allowed: {', '.join(sorted(allowed))}"))
+    out += speed_problems(sc.kind, "speed" in study.sweep, getattr(sc, "speed", None) is not None,
+                          study.continuation)
     if sc.kind != "mathieu":
-        if "speed" not in study.sweep and sc.speed is None:
-            out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
         if sc.gear is not None:
             if "stiffness" in study.sweep:
                 out.append(Problem("sweep.stiffness", NO_VALUE, "a gear scene computes its"
@@ -462,9 +478,6 @@ def consistency_problems(study: Study) -> list[Problem]:
         if "torque" in study.sweep and "mean_force" in study.sweep:
             out.append(Problem("sweep.mean_force", NO_VALUE, "sweep torque or mean_force, not both"))
     if study.continuation:
-        if "speed" not in study.sweep:
-            out.append(Problem("continuation", list(study.continuation), "continuation carries"
-                               " the state along sweep.speed: sweep the speed"))
         if len(set(study.continuation)) != len(study.continuation):
             out.append(Problem("continuation", list(study.continuation),
                                "list each direction at most once"))
@@ -501,9 +514,36 @@ def replaced_by_sweep(study) -> list[str]:
             if name in sc.model_fields_set and getattr(sc, name, None) is not None]
 
 
+def value_problems(name: str, items: list[tuple[str | int, Any]],
+                   is_range: bool) -> tuple[list[Problem], list[float]]:
+    """Unit and physical bounds of the values ``items`` (``(key, value)``: ``start`` and ``stop``
+    of a range, or the indices of a list) of swept parameter ``name``: the problems, and the SI
+    values of those that have none."""
+    kind = SWEEPABLE[name]
+    out: list[Problem] = []
+    values = []
+    for key, v in items:
+        where = f"sweep.{name}.{key}" if is_range else f"sweep.{name}[{key}]"
+        try:
+            val = to_si(v, kind)
+        except UnitParseError as exc:
+            msg = str(exc)
+            out.append(Problem(where, NO_VALUE, msg) if "has no unit" in msg
+                       else Problem(where, v, f"{article(kind)}: {msg}"))
+            continue
+        if not math.isfinite(val):
+            out.append(Problem(where, v, "a finite number"))
+        elif name in ("speed", "mass", "stiffness", "backlash") and val <= 0:
+            out.append(Problem(where, v, f"{name} must be > 0"))
+        elif name in ("damping", "gamma") and val < 0:
+            out.append(Problem(where, v, f"{name} must be >= 0"))
+        else:
+            values.append(val)
+    return out, values
+
+
 def grid_problems(study, with_order: bool = True) -> list[Problem]:
     """Units and physical bounds of every sweep value; ranges in increasing order."""
-    positive = {"speed", "mass", "stiffness", "backlash"}
     out: list[Problem] = []
     for name, spec in study.sweep.items():
         if name not in SWEEPABLE:
@@ -514,24 +554,8 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
         if not raw:
             out.append(Problem(f"sweep.{name}", spec, "a non-empty list or {start, stop, num}"))
             continue
-        values = []
-        for key, v in raw:
-            where = f"sweep.{name}.{key}" if is_range else f"sweep.{name}[{key}]"
-            try:
-                val = to_si(v, kind)
-            except UnitParseError as exc:
-                msg = str(exc)
-                out.append(Problem(where, NO_VALUE, msg) if "has no unit" in msg
-                           else Problem(where, v, f"a {kind}: {msg}"))
-                continue
-            if not math.isfinite(val):
-                out.append(Problem(where, v, "a finite number"))
-            elif name in positive and val <= 0:
-                out.append(Problem(where, v, f"{name} must be > 0"))
-            elif name in ("damping", "gamma") and val < 0:
-                out.append(Problem(where, v, f"{name} must be >= 0"))
-            else:
-                values.append(val)
+        problems, values = value_problems(name, raw, is_range)
+        out += problems
         shown = [float(v) for v in decimal_coordinates(to_display(np.asarray(values), kind))] \
             if kind != "dimensionless" else values  # as the file's coordinate will hold them
         if not is_range and len(values) == len(raw) and len(set(shown)) < len(shown):
@@ -553,10 +577,11 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
             elif spec.spacing == "log" and (a <= 0 or b <= 0):
                 out.append(Problem(f"sweep.{name}", NO_VALUE,
                                    "log spacing needs positive start and stop"))
-            elif with_order and a > b:
-                out.append(Problem(f"sweep.{name}.start", spec.start, f"at most stop"
-                                   f" ({spec.stop!r}): give a range in increasing order (a down"
-                                   " sweep is 'continuation: [down]')"))
+            elif with_order and a > b:  # equal only for num: 1 (above)
+                out.append(Problem(f"sweep.{name}.start", spec.start, (
+                    f"start must be below stop ({spec.stop!r}): give a range in increasing order"
+                    " (a down sweep is 'continuation: [down]')") if spec.num > 1 else (
+                    f"start must be at most stop ({spec.stop!r}); one value is [value]")))
     return out
 
 
@@ -668,6 +693,12 @@ def line_of(raw: Any, path: str | list) -> int | None:
         else:
             break
     return line
+
+
+def written_at(raw: Any, path: str) -> Any:
+    """The value at ``path`` (``outputs[0].spectrum.max_order``) as the file writes it (``40``,
+    not the ``40.0`` a model holds), or ``None`` if the file has nothing there."""
+    return _as_written(raw, _path_parts(path))
 
 
 def _error(file: str, problems: list[Problem], raw: Any = None) -> StudyError:
@@ -807,42 +838,63 @@ def _vocabulary() -> tuple[str, ...]:
     return tuple(sorted(names))
 
 
-def _unknown_field(key: str, parent: list, raw: Any) -> str:
-    """Why ``key`` is not allowed under ``parent``: a field of another scene (or analysis) kind
-    is named as such, and a misspelling is matched against the fields of where it stands (a
-    range's, the solver's, the scene's, the analysis'), not every field of every model."""
+def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, str | None]:
+    """Why ``key`` is not allowed under ``parent``, and the field it suggests (or ``None``): a
+    field of another scene (or analysis) kind is named as such, and a misspelling is matched
+    first against the required fields ``missing`` beside it (``ordr`` beside a missing ``order``:
+    the one line of that mistake), then against the fields of where it stands (a range's, the
+    solver's, the scene's, the analysis'), not every field of every model."""
     choices: tuple[str, ...] | None = None
     where = ""
+    listed = None  # where and which fields to list when nothing is close: those of the choices
     if len(parent) == 2 and parent[0] == "sweep":
         choices, where = tuple(Range.model_fields), "a {start, stop, num} range"
     elif parent == ["solver"]:
         choices, where = tuple(Solver.model_fields), "solver"
     elif parent == []:  # any kind of study's: a misspelt 'analysis' or 'mesh' made it dynamic
+        studies = {"dynamic": Study, "mesh": MeshStudy, "analysis": AnalysisStudy}
+        typed = raw.get("type") if isinstance(raw, dict) else None
+        own = typed if isinstance(typed, str) and typed in studies else "dynamic"
+        elsewhere = [f"one of {article(k)} study" for k, m in studies.items()
+                     if k != own and key in m.model_fields]
+        if own == "dynamic" and any(key in m.model_fields for m in _SCENES.values()):
+            elsewhere.append(f"a field of the scene: scene.{key}")
+        if elsewhere:  # 'positions' in a dynamic study, 'scene' in a mesh study
+            return (f"{key!r} is not a field of {article(own)} study (it is"
+                    f" {', and '.join(elsewhere)})"), None
         choices = tuple(dict.fromkeys([*Study.model_fields, *MeshStudy.model_fields,
                                        *AnalysisStudy.model_fields]))
         where = "a study"
+        listed = (f"{article(own)} study", tuple(studies[own].model_fields))
     elif len(parent) == 1 and parent[0] in _TAGGED:
         noun, kinds = parent[0], _TAGGED[parent[0]]
         held = raw.get(noun) if isinstance(raw, dict) else None
         kind = held.get("kind") if isinstance(held, dict) else None
         if kind in kinds:
             choices = tuple(kinds[kind].model_fields)
-            where = f"a {kind} {noun}"
+            where = f"{article(kind)} {noun}"
             others = [k for k, m in kinds.items() if key in m.model_fields]
             if others:
-                return (f"{key!r} is not a field of {where} (it is one of a"
-                        f" {' or '.join(others)} {noun})")
+                return (f"{key!r} is not a field of {where} (it is one of"
+                        f" {article(' or '.join(others))} {noun})"), None
+    meant = _closest(key, missing) or _closest(key, _vocabulary() if choices is None else choices)
+    hint = f" -- did you mean {meant!r}?" if meant else ""
     if choices is None:
-        return f"{key!r} is an unknown field" + (_did_you_mean(key, _vocabulary())
-                                                 or " (see docs/study-reference.md)")
-    hint = _did_you_mean(key, choices)
+        return f"{key!r} is an unknown field" + (hint or " (see docs/study-reference.md)"), meant
+    if not hint and listed:  # matched against every kind of study, listed those of its own
+        where, choices = listed
     return f"{key!r} is not a field of {where}" + (
-        hint or f"; its fields: {', '.join(c for c in choices if c != 'kind')}")
+        hint or f"; its fields: {', '.join(c for c in choices if c != 'kind')}"), meant
+
+
+def _closest(word: Any, choices) -> str | None:
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+    return close[0] if close else None
 
 
 def _did_you_mean(word: Any, choices) -> str:
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
-    return f" -- did you mean {close[0]!r}?" if close else ""
+    close = _closest(word, choices)
+    return f" -- did you mean {close!r}?" if close else ""
 
 
 def _is_branch_mismatch(err: dict) -> bool:
@@ -868,7 +920,12 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             by_path[path] = {**e, "or_literal": kept.get("ctx", {}).get("expected", "")}
             continue
         by_path.setdefault(path, e)
-    out = []
+    missing: dict[tuple, list[str]] = {}  # the required fields not given, by where they belong
+    for path, e in by_path.items():
+        if e["type"] == "missing" and path and isinstance(path[-1], str):
+            missing.setdefault(path[:-1], []).append(path[-1])
+    explained: set[tuple] = set()  # of those, the ones a misspelt key beside them stands for
+    out: list[tuple[tuple, Problem]] = []
     for path, e in by_path.items():
         parts = list(path)
         msg = e["msg"].removeprefix("Value error, ")
@@ -882,7 +939,9 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
         if t == "extra_forbidden":
             key = parts[-1] if parts else value
             value = NO_VALUE
-            msg = _unknown_field(str(key), parts[:-1], raw)
+            msg, meant = _unknown_field(str(key), parts[:-1], raw, missing.get(path[:-1], ()))
+            if meant in missing.get(path[:-1], ()):
+                explained.add((*path[:-1], meant))
         elif t == "missing":
             value, msg = "(missing)", "this field is required"
         elif t == "union_tag_invalid":
@@ -893,13 +952,16 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             value = ctx.get("tag", value)
             hint = _did_you_mean(value, tags)
             msg = (hint.removeprefix(" -- ") + f" (allowed: {', '.join(tags)})" if hint
-                   else f"not {_a(noun)} kind; allowed: {', '.join(tags)}")
+                   else f"not {article(noun)} kind; allowed: {', '.join(tags)}")
+        elif t in ("model_type", "model_attributes_type", "dict_type") or (
+                t == "union_tag_not_found" and not isinstance(_as_written(raw, parts), dict)):
+            msg = _mapping_wanted(parts, e, raw)
         elif t == "union_tag_not_found":
             noun = _noun(parts)
             tags = list(_TAGGED[noun])
             parts.append("kind")
             value = "(missing)"
-            msg = f"{_a(noun)} needs a kind: {', '.join(tags[:-1])} or {tags[-1]}"
+            msg = f"{article(noun)} needs a kind: {', '.join(tags[:-1])} or {tags[-1]}"
         elif t == "literal_error":
             allowed = re.findall(r"'([^']*)'", str(e.get("ctx", {}).get("expected", "")))
             hint = _did_you_mean(value, allowed)
@@ -913,17 +975,84 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             value = NO_VALUE
         if e.get("or_literal"):
             msg += f" (or {e['or_literal']})"
-        out.append(Problem(_loc(parts), value, msg))
-    return out
+        out.append((path, Problem(_loc(parts), value, msg)))
+    # 'ordr: 1' where 'order' is required is one mistake: its line says 'did you mean', and the
+    # missing field's own line would only repeat it
+    return [p for path, p in out if not (path in explained and by_path[path]["type"] == "missing")]
+
+
+@cache
+def _models() -> dict[str, type]:
+    """The models of a study's sections by class name (as pydantic's ``model_type`` names them)."""
+    found, todo = {}, [Strict]
+    while todo:
+        m = todo.pop()
+        found[m.__name__] = m
+        todo += m.__subclasses__()
+    return found
+
+
+def _example(model: type, first: tuple[str, ...] = ()) -> str:
+    """``kind: rattle, mass: ..., ...``: the first fields of ``model`` (after ``first``), each
+    with its default where that is a plain word or number."""
+    shown = list(first)
+    for name, f in model.model_fields.items():
+        if len(shown) == 2:
+            break
+        if name in ("kind", "type"):
+            continue
+        d = f.default
+        plain = isinstance(d, str | int | float) and not isinstance(d, bool) and not f.is_required()
+        if isinstance(d, float) and d.is_integer():
+            d = int(d)  # max_order: 4, as a study writes it
+        shown.append(f"{name}: {d if plain else '...'}")
+    return ", ".join([*shown, "..."])
+
+
+def _mapping_wanted(parts: list, err: dict, raw: Any) -> str:
+    """What a section written as a list or a single value should be: a mapping of its fields
+    (pydantic said "Input should be a valid dictionary or instance of Solver"). An output's
+    options are named as the file writes them (``parts`` ``outputs[0].options`` becomes
+    ``outputs[0].spectrum``)."""
+    noun = next((str(p) for p in reversed(parts) if isinstance(p, str)), "")
+    written = _as_written(raw, parts)
+    if len(parts) == 3 and parts[0] == "outputs" and parts[2] == "options":
+        item = _as_written(raw, parts[:2])
+        name = next(iter(item)) if isinstance(item, dict) and len(item) == 1 else None
+        if isinstance(name, str) and getattr(OUTPUTS.get(name), "options_model", None):
+            parts[2] = noun = name  # as the file writes it: outputs[0].spectrum
+            written = item[name]
+            model = OUTPUTS[name].options_model
+            return (f"a mapping of {noun} options ({_example(model)})"
+                    + (", not a list" if isinstance(written, list) else ""))
+    model = _models().get(str(err.get("ctx", {}).get("class_name", "")))
+    if parts and parts[-1] in _TAGGED:
+        kinds = _TAGGED[noun]
+        items = written if isinstance(written, list) else [written]
+        said = [i.get("kind") if isinstance(i, dict) else i for i in items]
+        kind = next((k for k in said if isinstance(k, str) and k in kinds), next(iter(kinds)))
+        text = f"a mapping of {noun} fields ({_example(kinds[kind], (f'kind: {kind}',))})"
+    elif model is OutputRequest:
+        text = ("an output name, or a mapping of one output name to its options (stats, or"
+                " {spectrum: {max_order: 4}})")
+    elif model is GearSpec:
+        text = (f"a preset name ({', '.join(PRESETS)}) or a mapping of gear fields"
+                f" ({_example(model)})")
+    elif model is not None:
+        text = f"a mapping of {noun} fields ({_example(model)})"
+    elif parts[-1:] == ["sweep"]:
+        text = ("a mapping of the swept parameters to their values (speed: {start: ..., stop:"
+                " ..., num: ...}, ...)")
+    elif parts == ["gears"]:
+        text = "a mapping of labels to gear pairs (no relief: table1_consistent, ...)"
+    else:
+        text = "a mapping (name: value, ...)"
+    return text + (", not a list" if isinstance(written, list) else "")
 
 
 def _noun(parts: list) -> str:
     """What a tagged union's field holds: a scene or an analysis."""
     return str(parts[-1]) if parts and parts[-1] in _TAGGED else "scene"
-
-
-def _a(noun: str) -> str:
-    return f"{'an' if noun[0] in 'aeiou' else 'a'} {noun}"
 
 
 def _problems_beside_errors(raw: Any) -> list[Problem]:
@@ -932,22 +1061,56 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
     nowhere, and which fields the scene gives (``scene_presence``)."""
     sweep = raw.get("sweep") if isinstance(raw, dict) else None
     scene = raw.get("scene") if isinstance(raw, dict) else None
+    cont = raw.get("continuation") if isinstance(raw, dict) else None
     out = []
+    if (isinstance(scene, dict) and scene.get("kind") in tuple(SCENE_PARAMETERS)
+            and (isinstance(sweep, dict) or "sweep" not in raw)):  # else: sweep's own error
+        if not (isinstance(cont, list) and all(c in ("up", "down") for c in cont)):
+            cont = []  # continuation's own error, or none
+        out += speed_problems(scene["kind"], isinstance(sweep, dict) and "speed" in sweep,
+                              "speed" in scene, cont)
     if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full"):
-        if "speed" not in scene and not (isinstance(sweep, dict) and "speed" in sweep):
-            out.append(Problem("scene.speed", "(missing)", SPEED_MISSING))
         drive = scene.get("drive")
-        given = scene_presence(lambda f: scene.get(f) is not None,
-                               lambda f: isinstance(drive, dict) and drive.get(f) is not None)
+        given = scene_presence(lambda f: scene.get(f) is not None,  # a drive that is no mapping:
+                               lambda f: not isinstance(drive, dict) or drive.get(f) is not None)
+        # its own error says so, not that its fields are missing
         if given:  # the same line as the scene's validator gives, where it ran
             out.append(Problem("scene", "{...}", given))
-    if isinstance(sweep, dict):
-        try:
-            parsed = TypeAdapter(Study.model_fields["sweep"].annotation).validate_python(sweep)
-        except (ValidationError, RecursionError):
-            return out  # structural problems of the sweep are in the study's own errors
+    if isinstance(sweep, dict):  # each entry on its own: a 'spacing: logg' in one range hides
+        parsed = {}  # neither a missing unit of its start nor the problems of the other entries
+        for name, spec in sweep.items():
+            if not isinstance(name, str) or name not in SWEEPABLE:
+                continue  # the study's own errors, or consistency_problems once they are mended
+            try:
+                parsed[name] = _sweep_entry().validate_python(spec)
+            except ValidationError as exc:  # structural problems are in the study's own errors;
+                out += _loose_value_problems(name, spec, exc)  # the values fine in themselves
+            except RecursionError:
+                continue
         out += grid_problems(SimpleNamespace(sweep=parsed))
     return out
+
+
+@cache
+def _sweep_entry() -> TypeAdapter:
+    """The validator of one entry of ``sweep:`` (a list of values or a range)."""
+    return TypeAdapter(typing.get_args(Study.model_fields["sweep"].annotation)[1])
+
+
+def _loose_value_problems(name: str, spec: Any, exc: ValidationError) -> list[Problem]:
+    """``value_problems`` of the values of a sweep entry that does not validate (a range with a
+    misspelt spacing or a missing num, a list with a nested item) that are themselves numbers or
+    strings without an error of their own."""
+    bad = {p[0] for p in (_user_path(e["loc"]) for e in exc.errors()) if p}
+    if isinstance(spec, dict):
+        items = [(k, spec[k]) for k in ("start", "stop") if k in spec]
+    elif isinstance(spec, list):
+        items = list(enumerate(spec))
+    else:
+        return []
+    items = [(k, v) for k, v in items if k not in bad and isinstance(v, str | int | float)
+             and not isinstance(v, bool)]
+    return value_problems(name, items, isinstance(spec, dict))[0]
 
 
 def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
