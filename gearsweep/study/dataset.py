@@ -19,6 +19,7 @@ import xarray as xr
 from gearsweep.files import check_replaceable
 from gearsweep.model import MeshModel, mesh_frequency, model_record
 from gearsweep.study.display import display_coordinates
+from gearsweep.study.filelayout import file_chunks
 from gearsweep.study.gearscene import gear_pair
 from gearsweep.study.measured import scene_measured
 from gearsweep.study.outputs import VarSpec
@@ -212,29 +213,8 @@ SHUFFLE = False
 """HDF5's byte-shuffle filter before the codec: used with zlib (42 instead of 46 MB, and faster);
 netCDF4-python applies it with zlib only (with zstd it is ignored)."""
 
-FILE_CHUNK_BYTES = 1 << 20
-"""Uncompressed size of one chunk of a result variable in the file (at most) [bytes]."""
-
 CHUNK_CACHE_BYTES = 1 << 20
 """HDF5 chunk cache per variable while a dask-backed Dataset is written [bytes]."""
-
-
-def file_chunks(shape: tuple[int, ...], itemsize: int, target: int | None = None
-                ) -> tuple[int, ...]:
-    """Chunk shape of a variable in the file: whole trailing dims, then as many rows of the
-    next dim as fit in ``target`` bytes, one along the dims before (C order, so a run of
-    consecutive lanes fills whole file chunks)."""
-    target = target or FILE_CHUNK_BYTES
-    chunks = [max(1, n) for n in shape]
-    size = itemsize
-    for i in range(len(shape) - 1, -1, -1):
-        if size * chunks[i] <= target:
-            size *= chunks[i]
-            continue
-        chunks[i] = max(1, target // size)
-        chunks[:i] = [1] * i
-        break
-    return tuple(chunks)
 
 
 def variable_encoding(var: xr.Variable | xr.DataArray, codec: str | None = None,

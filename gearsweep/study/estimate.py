@@ -27,6 +27,7 @@ from gearsweep.study.execute import (
     lanes_per_chunk,
     measure_rate,
 )
+from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan
 
 COLD_COMPILE_SECONDS = {("rk4", False): 6.0, ("rk5", False): 7.0, ("rk4", True): 18.0,
@@ -83,21 +84,20 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
         rate = rate or STATED_RATE[s.method]
         kernel_s = lane_steps / (rate * 1e6)
     per_case = _case_bytes(plan)
-    results = float(plan.n_cases) * per_case
+    output = float(output_bound(plan))
     # the CPU kernel's one-time compile; a GPU run compiles its CUDA kernel in every process
     # instead, for a time not measured yet (Estimate.line says so)
     compile_s = 0.0 if plan.device == "cuda" else compile_seconds(s.method, s.kink_aware)
-    seconds = kernel_s + FIXED_SECONDS + results / WRITE_RATE + compile_s
+    seconds = kernel_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
     memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
     if plan.device == "cuda":
         memory += cuda.HOST_MEMORY_BYTES
-    coords = sum(g.nbytes for g in plan.grids.values())
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
                    chunks=full + (1 if rest else 0), threads=threads, rate=rate,
                    rate_source=source, seconds=seconds, memory_bytes=memory,
-                   output_bytes=results + coords, device=plan.device)
+                   output_bytes=output, device=plan.device)
     return est, compile_s
 
 

@@ -48,6 +48,7 @@ from gearsweep.files import check_replaceable
 from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints, saved_layout
 from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, run_chunk
+from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
 
 if TYPE_CHECKING:
@@ -234,27 +235,27 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     -----
     Time: every kernel call advances ``ceil(blocks / threads)`` rounds of ``LANES`` lanes (a
     partly filled block costs a full one), at ``rate`` per core; plus ``FIXED_SECONDS`` and the
-    writing of the results at ``WRITE_RATE``. Memory (of ``gearsweep run``, which streams the
+    writing of the file at ``WRITE_RATE``. Memory (of ``gearsweep run``, which streams the
     results to disk, ``run_to_file``): three chunks' worth (one being computed, one arriving, one
     being saved) and the interpreter's baseline, whatever the number of chunks; ``run_plan``,
-    which returns the results in memory, needs the full result arrays on top. Output: the result
-    arrays uncompressed (zlib makes the file smaller).
+    which returns the results in memory, needs the full result arrays on top. Output: an upper
+    bound of the file's size (``filelayout.output_bound``: the variables uncompressed, their
+    attributes and HDF5's own structures; a codec makes the file smaller).
     """
     threads = threads or cores()
     source = "stated" if rate is None else "measured"
     rate = rate or STATED_RATE[plan.study.solver.method]
     steps_case = plan.steps_per_case
     per_case = _case_bytes(plan)
-    results = plan.n_cases * per_case
-    seconds = _lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS + results / WRITE_RATE
+    output = float(output_bound(plan))
+    seconds = _lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS + output / WRITE_RATE
     biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
     memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
-    coords = sum(g.nbytes for g in plan.grids.values())
     return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
-                    memory_bytes=memory, output_bytes=results + coords)
+                    memory_bytes=memory, output_bytes=output)
 
 
 def check_limits(est: Estimate, where: str, limits: Limits | None = None) -> None:
