@@ -292,6 +292,27 @@ def test_the_estimate_sees_a_compiled_driver_in_the_cache(tmp_path, monkeypatch)
     assert compile_seconds("rk4", False) == 0.0
 
 
+def test_validate_says_the_compile_time_as_run_estimate_does(monkeypatch, capsys, write_study,
+                                                            small_whine):
+    """On a cold cache ``validate`` and ``run --estimate`` print the same estimate, both with
+    the compile note; and so does a refusal. (``before_refusing`` returned 0 compile seconds for
+    a study within the limits, and validate printed "about 9.0 s" without saying why.)"""
+    from gearsweep.study import estimate as est_mod
+
+    monkeypatch.setattr(est_mod, "compile_seconds", lambda *args: 6.0)
+    study = write_study(small_whine)
+    assert main(["validate", str(study)]) == 0
+    validated = capsys.readouterr().out.split("estimate: ", 1)[1].strip()
+    assert main(["run", str(study), "--estimate"]) == 0
+    estimated = capsys.readouterr().out.split(": ", 1)[1].strip()
+    assert validated == estimated
+    assert estimated.endswith("; includes about 6 s to compile the kernel once (cold cache)")
+    small_whine["sweep"]["speed"]["num"] = 10**6
+    small_whine["solver"]["record_periods"] = 10**5  # 3e12 steps: refused without measuring
+    assert main(["validate", str(write_study(small_whine, "huge.yaml"))]) == 2
+    assert "includes about 6 s to compile" in capsys.readouterr().err
+
+
 def test_a_study_over_the_time_limit_at_the_stated_rate_is_measured_before_refusing(monkeypatch):
     """The stated rate (350 Msteps/s per core for RK4) is a floor: a study it puts over the
     10-minute limit is estimated again at the rate measured on the machine (here: made 3x the

@@ -97,7 +97,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
                    chunks=full + (1 if rest else 0), threads=threads, rate=rate,
                    rate_source=source, seconds=seconds, memory_bytes=memory,
-                   output_bytes=output, device=plan.device)
+                   output_bytes=output, device=plan.device, compile_seconds=compile_s)
     return est, compile_s
 
 
@@ -110,7 +110,9 @@ without measuring (and, on a cold cache, without compiling)."""
 def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
                     threads: int | None = None) -> tuple[Estimate, float]:
     """``est`` again at the rate measured on this machine, where the stated rate puts it over
-    the time limit; else ``est`` as it is (with its compile seconds).
+    the time limit; else ``est`` as it is; with the seconds of it that are compiling (after
+    measuring, none: the measurement compiled the kernel). (``validate`` printed the estimate
+    of a study within the limits without its compile note: this returned 0 for them.)
 
     The stated rate is a floor for any AVX2 machine: on this 2-core AVX-512 one the kernel runs
     about twice as fast, so a study of 3-5 minutes was refused as over 10. Measuring costs about
@@ -119,22 +121,14 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
     alone, and that a faster rate could bring under the limit (``MAX_SPEEDUP``), pays it."""
     over = est.over()
     if over != [o for o in over if o.startswith("time")] or not over or est.device == "cuda":
-        return est, 0.0  # within the limits, refused for memory or output whatever the rate,
-        # or on the GPU (the CPU kernel's rate says nothing of it)
-    s = plan.study.solver
-    kernel = est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE \
-        - compile_seconds(s.method, s.kink_aware)
+        return est, est.compile_seconds  # within the limits, refused for memory or output
+        # whatever the rate, or on the GPU (the CPU kernel's rate says nothing of it)
+    kernel = est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE - est.compile_seconds
     if kernel / MAX_SPEEDUP > execute.LIMITS.seconds:
-        return est, 0.0  # no machine is that much faster: refused at once, nothing compiled
+        return est, est.compile_seconds  # no machine is that much faster: refused at once,
+        # nothing compiled
     rate = measure_rate(plan, threads or cores())
     return quick_estimate(plan, chunk_cases, threads, rate=rate)
-
-
-def line(est: Estimate, compile_s: float) -> str:
-    """The estimate in one line, saying when it includes compiling the kernel."""
-    extra = f"; includes about {compile_s:.0f} s to compile the kernel once (cold cache)" \
-        if compile_s else ""
-    return est.line() + extra
 
 
 CHUNK_SECONDS = 30.0

@@ -130,17 +130,22 @@ class Estimate:
     output_bytes: float
     device: str = "cpu"
     """``"cpu"`` or ``"cuda"``; on ``cuda``, ``rate`` is the whole GPU's and ``threads`` unused."""
+    compile_seconds: float = 0.0
+    """Of ``seconds``, the one-time compile of kernel specialisations not yet compiled
+    (``estimate.compile_seconds``)."""
 
     def line(self) -> str:
-        """The estimate in one line."""
+        """The estimate in one line, saying when it includes compiling the kernel."""
         chunks = f"{self.chunks} chunk" + ("s" if self.chunks != 1 else "")
         where = (f"on the GPU at {self.rate:.3g} Msteps/s ({self.rate_source}) and compiling"
                  " its kernel (every run)" if self.device == "cuda" else
                  f"on {self.threads} cores at {self.rate:.0f} Msteps/s per core"
                  f" ({self.rate_source})")
+        cold = (f"; includes about {self.compile_seconds:.0f} s to compile the kernel once"
+                " (cold cache)" if self.compile_seconds else "")
         return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
                 f" {_duration(self.seconds)} {where}, peak memory {_size(self.memory_bytes)},"
-                f" output at most {_size(self.output_bytes)}")
+                f" output at most {_size(self.output_bytes)}{cold}")
 
     def over(self, limits: Limits | None = None) -> list[str]:
         """The limits this estimate exceeds, in words (empty if none)."""
