@@ -10,12 +10,11 @@ Numba's disk cache, its one-time compile time is added (``compile_seconds``), so
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 
-from gearsweep import kernels
 from gearsweep.kernels import LANES, cuda
+from gearsweep.kernels.batch import compiled, specialisation
 from gearsweep.study import execute
+from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
     BASELINE_MEMORY,
     FIXED_SECONDS,
@@ -38,25 +37,27 @@ kink-aware RK4 13.8-17.8 s, RK5 about 20 s; ``batch._COST``, docs/benchmark.md).
 15/25/68/97 s predate the memoized inlining and the per-combination drivers."""
 
 
-def _cache_dirs() -> list[Path]:
-    """Where Numba keeps this package's compiled kernels: ``NUMBA_CACHE_DIR`` when set (then
-    only there), else the kernels' ``__pycache__``."""
-    env = os.environ.get("NUMBA_CACHE_DIR")
-    return [Path(env)] if env else [Path(kernels.__file__).parent / "__pycache__"]
+def compile_seconds(plan: Plan) -> float:
+    """The one-time compile time of the kernel specialisations a CPU run of ``plan`` calls
+    (``chunk.kernel_calls``) that are neither in Numba's disk cache nor compiled in this process
+    (``batch.compiled``); 0 when all are.
 
-
-def compile_seconds(method: str, kink_aware: bool) -> float:
-    """0 when a specialisation of the batch driver of ``method`` is in Numba's disk cache, else
-    its compile time. Each combination of terms is a function of its own
-    (``integrate_rk4_a0k0e0f1h1s1``, ``rk.Specialised``); whether it is this study's is not
-    asked (that needs the kernel's arguments), so a study with other terms than the ones cached
-    can still compile for about this long. (The pattern without the combination's suffix never
-    matched, and every estimate said "cold cache".)"""
-    name = f"integrate_kink_{method}" if kink_aware else f"integrate_{method}"
-    for d in _cache_dirs():
-        if d.is_dir() and any(d.rglob(f"*.{name}_*.nbi")):
-            return 0.0
-    return COLD_COMPILE_SECONDS[(method, kink_aware)]
+    Each driver is compiled per combination of the terms a call gives (``rk.Specialised``:
+    ``integrate_rk4_a0k1e1f0h0s0`` is RK4 with a shared stiffness table and an STE table, no
+    force table, no backlash, no signal) and per argument types, so it is this study's
+    combination that is looked up, with the types of its own call, and only in the cache files
+    of the source as it is (Numba's index stamp). (Asking whether any specialisation of the
+    method was cached said "no compile" for a study of other terms, which then compiled for
+    seconds.) A GPU run compiles its CUDA kernel in every process instead, for a time not
+    measured yet (``Estimate.line`` says so): 0 here."""
+    if plan.device == "cuda":
+        return 0.0
+    seconds: dict[tuple, float] = {}
+    for call in kernel_calls(plan):
+        key = specialisation(call)
+        if key not in seconds:
+            seconds[key] = 0.0 if compiled(call) else COLD_COMPILE_SECONDS[key[:2]]
+    return sum(seconds.values())
 
 
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,
@@ -85,9 +86,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
         kernel_s = lane_steps / (rate * 1e6)
     per_case = _case_bytes(plan)
     output = float(output_bound(plan))
-    # the CPU kernel's one-time compile; a GPU run compiles its CUDA kernel in every process
-    # instead, for a time not measured yet (Estimate.line says so)
-    compile_s = 0.0 if plan.device == "cuda" else compile_seconds(s.method, s.kink_aware)
+    compile_s = compile_seconds(plan)
     seconds = kernel_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8

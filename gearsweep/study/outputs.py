@@ -28,7 +28,7 @@ from gearsweep.analysis.spectrum import kept_bins, line_spectrum
 from gearsweep.analysis.stability import check_step
 from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
-from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy
+from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy, monodromy_call
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
 from gearsweep.study.quantities import Count, Flag, Real
 from gearsweep.units import KINDS, to_display
@@ -68,6 +68,9 @@ class Output(Protocol):
     """Pydantic model of the output's options (``None`` or absent: it takes none)."""
 
     def signal_samples_per_period(self, plan: Plan) -> int: ...
+
+    # optional: ``kernel_calls(plan) -> list[dict]``, the ``simulate`` calls of ``compute`` of its
+    # own (keyword arguments), so that the estimate knows their compiled specialisations
 
     def variables(self, plan: Plan) -> dict[str, VarSpec]: ...
 
@@ -295,6 +298,14 @@ class Floquet:
 
     def signal_samples_per_period(self, plan: Plan) -> int:
         return 0
+
+    def kernel_calls(self, plan: Plan) -> list[dict]:
+        """The kernel calls of ``compute`` besides the study's (one case each): its monodromy
+        maps, converged with RK5 and at the study's method and step (their specialisation
+        depends on which terms are given, not on the values)."""
+        s = plan.study.solver
+        return [monodromy_call(1.0, 0.0, 0.0, s.steps_per_period, method=m)
+                for m in dict.fromkeys(("rk5", s.method))]
 
     def variables(self, plan: Plan) -> dict[str, VarSpec]:
         return {
