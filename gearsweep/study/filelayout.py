@@ -7,8 +7,8 @@ to data it cannot compress), the coordinates (``frequency(speed, order)`` of a s
 variables a gear scene or an excitation file adds, the attributes (the study text, the model
 JSON) and HDF5's own structures: a fixed part per file (``FILE_BYTES``), a part per variable
 (``VARIABLE_BYTES``) and the B-tree that indexes a chunked variable's chunks
-(``btree_node_bytes``). It needs no grid of cases and no xarray: a study of 1e15 cases is bounded
-in microseconds. The constants were measured by ``scripts/measure_file_overhead.py``
+(``btree_node_bytes``). It needs no grid of cases and no xarray: any study, 1e15 cases too, is
+bounded in about a millisecond. The constants were measured by ``scripts/measure_file_overhead.py``
 (docs/scale.md, "Estimate and limits"), and ``tests/test_output_bound.py`` checks the bound
 against files the runner wrote.
 """
