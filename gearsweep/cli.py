@@ -40,7 +40,6 @@ from gearsweep.study.estimate import (
     PROGRESS_CHUNKS,
     before_refusing,
     chunk_cases,
-    line,
     quick_estimate,
     shortest_chunk_seconds,
 )
@@ -146,11 +145,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
                       " holds that result)", file=sys.stderr)
         return 0
     plan = _plan(study, text, args.study)
-    est, compile_s = quick_estimate(plan)
+    est, _ = quick_estimate(plan)
     if not args.yes:  # validate refuses what run refuses (without --yes)
-        est, compile_s = before_refusing(plan, est)
+        est, _ = before_refusing(plan, est)
         check_limits(est, name)
-    print(f"{name}: ok -- {_summary(study, plan, line(est, compile_s))}")
+    print(f"{name}: ok -- {_summary(study, plan, est.line())}")
     if study.solver.step_guard != "off":  # what run will warn of, said before it runs
         beyond = step_limit_text(plan, cases_beyond_step_limit(plan) or 0, name, before=True)
         if beyond is not None:
@@ -259,9 +258,9 @@ def cmd_run(args: argparse.Namespace) -> int:
               f" where the study allows, for progress); using {chunk} cases per chunk",
               file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once).
-    est, compile_s = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
+    est, _ = quick_estimate(plan, chunk, threads=None if not args.workers else cores())
     if args.estimate:  # also for a GPU study on a machine without one: planning a GPU run
-        print(f"{name}: {line(est, compile_s)}")
+        print(f"{name}: {est.line()}")
         if saved:
             done, total = saved_chunks(plan, out, chunk)
             print(f"{name}: {done} of {total} chunks already saved in {chunk_folder(out)}:"
@@ -270,14 +269,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         return 0
     _check_device(study, text, args)  # no GPU: one line, exit 2, now
     if not args.yes:
-        est, compile_s = before_refusing(plan, est, chunk, None if not args.workers else cores())
+        est, _ = before_refusing(plan, est, chunk, None if not args.workers else cores())
         check_limits(est, name)
     _long_sweep_note(plan, args)
     progress = not args.quiet and sys.stderr.isatty()
     with OutputLock(out), _backend(args) as backend:
         check_partial(plan, out)
         if not args.quiet and est.seconds > 30:
-            print(f"{name}: {line(est, compile_s)}", file=sys.stderr)
+            print(f"{name}: {est.line()}", file=sys.stderr)
         saved, total = saved_chunks(plan, out, chunk)
         if saved and not args.quiet:
             print(f"{out}: resuming: {saved} of {total} chunks already saved in {out}.chunks,"

@@ -192,7 +192,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
     import numpy as np
     import xarray as xr
 
-    from gearsweep.study import dataset
+    from gearsweep.study import filelayout
     from gearsweep.study.dataset import ResultFile
     from gearsweep.study.estimate import chunk_cases
     from gearsweep.study.execute import lanes_per_chunk
@@ -211,13 +211,13 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
                  "beyond_step_limit", "status")}
         flat["beyond_step_limit"] = flat["beyond_step_limit"].astype(bool)
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None)[0]))
-    trials = [(c, s, dataset.FILE_CHUNK_BYTES) for c, s in (
+    trials = [(c, s, filelayout.FILE_CHUNK_BYTES) for c, s in (
         ("none", False), ("zlib", False), ("zlib", True), ("zstd", False), ("blosc_lz4", True))]
     trials += [("zstd", False, 1 << 20), ("zstd", False, 16 << 20)]
-    default = dataset.FILE_CHUNK_BYTES
+    default = filelayout.FILE_CHUNK_BYTES
     for codec, shuffle, chunk_bytes in trials:
         walls, cpus = [], []
-        dataset.FILE_CHUNK_BYTES = chunk_bytes
+        filelayout.FILE_CHUNK_BYTES = chunk_bytes
         try:
             for _ in range(repeats):
                 out = tmp / f"{codec}_{int(shuffle)}.nc"
@@ -232,7 +232,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
             print(json.dumps({"codec": codec, "shuffle": shuffle, "error": str(exc)[:80]}))
             continue
         finally:
-            dataset.FILE_CHUNK_BYTES = default
+            filelayout.FILE_CHUNK_BYTES = default
         with xr.open_dataset(out) as back, xr.open_dataset(ref) as want:
             same = all(np.array_equal(back[k].values, want[k].values, equal_nan=True)
                        for k in flat)

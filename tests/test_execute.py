@@ -37,6 +37,7 @@ from gearsweep.study.execute import (
     run_plan,
     run_to_file,
 )
+from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import parse_study
 from gearsweep.study.workspace import saved_chunks
@@ -367,9 +368,10 @@ def test_resume_after_sigkill(tmp_path):
 
 
 def test_estimate_matches_the_run(tmp_path):
-    """Output size from the Dataset itself; time within a factor 4 of a measured run (this is a
-    shared 2-core machine: a tighter bound would fail on load, a looser one would not catch an
-    estimate that is off by an order of magnitude)."""
+    """Output size at least the Dataset's arrays (an upper bound of the file: checked against
+    written files in tests/test_output_bound.py); time within a factor 4 of a measured run (this
+    is a shared 2-core machine: a tighter bound would fail on load, a looser one would not catch
+    an estimate that is off by an order of magnitude)."""
     plan = plan_of(LONG.replace("num: 50", "num: 10"))
     chunks = plan.chunks()
     threads = execute.cores()
@@ -378,7 +380,7 @@ def test_estimate_matches_the_run(tmp_path):
     assert est.steps == 400 * 64 * 4000
     ds = run_plan(plan)
     data_bytes = sum(v.nbytes for v in ds.data_vars.values())
-    assert est.output_bytes == pytest.approx(data_bytes, rel=0.05)
+    assert est.output_bytes == output_bound(plan) >= data_bytes
     kernel = est.seconds - execute.FIXED_SECONDS - est.output_bytes / execute.WRITE_RATE
     assert kernel / 4 < ds.attrs["elapsed_seconds"] < 4 * kernel
     assert 0 < ds.attrs["kernel_seconds"] <= ds.attrs["elapsed_seconds"]

@@ -273,23 +273,25 @@ def test_a_continued_sweep_too_long_for_one_chunk_is_said_before_running(tmp_pat
     assert time.perf_counter() - t0 < 5
 
 
-def test_the_estimate_sees_a_compiled_driver_in_the_cache(tmp_path, monkeypatch):
-    """``compile_seconds`` is 0 where a specialisation of the method's driver is in the cache
-    (Numba names its files after the driver and the terms it has: ``rk.integrate_rk4_a0k0e0f1h1s1
-    -NNN.py311.nbi``) and the cold compile time where none is, nor one of another method; the
-    pattern without the terms' suffix matched no file, and every estimate said "cold cache"."""
-    from gearsweep.study.estimate import COLD_COMPILE_SECONDS, compile_seconds
+def test_validate_says_the_compile_time_as_run_estimate_does(monkeypatch, capsys, write_study,
+                                                            small_whine):
+    """On a cold cache ``validate`` and ``run --estimate`` print the same estimate, both with
+    the compile note; and so does a refusal. (``before_refusing`` returned 0 compile seconds for
+    a study within the limits, and validate printed "about 9.0 s" without saying why.)"""
+    from gearsweep.study import estimate as est_mod
 
-    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
-    assert compile_seconds("rk4", False) == COLD_COMPILE_SECONDS[("rk4", False)] > 0
-    folder = tmp_path / "gearsweep" / "kernels"
-    folder.mkdir(parents=True)
-    (folder / "kink.integrate_kink_rk4_a0k0e0f1h1s0-937.py311.nbi").write_bytes(b"")
-    (folder / "rk.integrate_rk5_a0k0e0f1h1s1-12.py311.nbi").write_bytes(b"")
-    assert compile_seconds("rk4", False) > 0  # neither the kink-aware nor the RK5 driver counts
-    assert compile_seconds("rk4", True) == 0.0 and compile_seconds("rk5", False) == 0.0
-    (folder / "rk.integrate_rk4_a0k0e0f1h1s1-456.py311.nbi").write_bytes(b"")
-    assert compile_seconds("rk4", False) == 0.0
+    monkeypatch.setattr(est_mod, "compile_seconds", lambda *args: 6.0)
+    study = write_study(small_whine)
+    assert main(["validate", str(study)]) == 0
+    validated = capsys.readouterr().out.split("estimate: ", 1)[1].strip()
+    assert main(["run", str(study), "--estimate"]) == 0
+    estimated = capsys.readouterr().out.split(": ", 1)[1].strip()
+    assert validated == estimated
+    assert estimated.endswith("; includes about 6 s to compile the kernel once (cold cache)")
+    small_whine["sweep"]["speed"]["num"] = 10**6
+    small_whine["solver"]["record_periods"] = 10**5  # 3e12 steps: refused without measuring
+    assert main(["validate", str(write_study(small_whine, "huge.yaml"))]) == 2
+    assert "includes about 6 s to compile" in capsys.readouterr().err
 
 
 def test_a_study_over_the_time_limit_at_the_stated_rate_is_measured_before_refusing(monkeypatch):

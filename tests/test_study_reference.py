@@ -24,8 +24,7 @@ def test_study_reference_is_current():
 
 
 def test_study_reference_names_every_field_output_and_status():
-    from gearsweep.study.dataset import STATUS_CODES
-    from gearsweep.study.outputs import OUTPUTS
+    from gearsweep.study.outputs import OUTPUTS, STATUS_CODES
     from gearsweep.study.schema import RattleScene, Solver
 
     text = _generator().render()

@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import os
+import pickle
 import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -162,11 +163,24 @@ def simulate(
 def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluct_scale,
           half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride,
           kink_aware=False):
+    driver, args = _driver_call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale,
+                                fluct_scale, half_gap, bound, x0, v0, n_transient, n_record,
+                                steps_per_period, signal, stride, kink_aware)
+    out = driver(*args)
+    if len(out) == 4:  # plain kernel: no substeps
+        out = (*out, np.zeros(n))
+    return out
+
+
+def _driver_call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluct_scale,
+                 half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal,
+                 stride, kink_aware=False):
+    """The batch driver (``rk.Specialised``) a call uses and its positional arguments."""
     # Without backlash there are no kinks: the kink-aware kernel would be the plain one.
     kinks = kink_aware and half_gap is not None
     drivers = kink.INTEGRATE if kinks else rk.INTEGRATE
     extra = (kink.sub_blocks(n, numba.get_num_threads()),) if kinks else ()
-    out = drivers[rk.METHODS[method]](
+    return drivers[rk.METHODS[method]], (
         h,
         _vec(damping, n),
         _vec(k_mean, n),
@@ -188,9 +202,51 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
         stride,
         *extra,
     )
-    if len(out) == 4:  # plain kernel: no substeps
-        out = (*out, np.zeros(n))
-    return out
+
+
+def dispatcher(call: dict) -> tuple[numba.core.dispatcher.Dispatcher, tuple]:
+    """The compiled function (Numba dispatcher: its driver and combination of terms,
+    ``specialisation``) that a ``simulate`` call of these keyword arguments uses, and the
+    arguments it passes it, for one case of the call; nothing is compiled."""
+    kw = {k: (v if k in _NOT_PER_CASE or v is None else np.ravel(v)[:1]) for k, v in call.items()
+          if k not in ("n_transient", "n_record")}
+    kw.setdefault("steps_per_period", 1)
+    get = kw.get
+    h, n, tables, stride = checked_inputs(
+        kw["h"], get("method", "rk4"), 0, 1, kw["steps_per_period"],
+        (get("k_table"), get("ste_table"), get("fluct_table")), get("signal_stride", 0))
+    signal = np.full((n, 1), np.nan) if int(get("signal_stride") or 0) > 0 else None
+    specialised, args = _driver_call(
+        get("method", "rk4"), h, n, get("damping", 0.0), get("k_mean", 0.0), get("k_scale"),
+        tables, get("force", 0.0), get("ste_scale", 0.0), get("fluct_scale", 0.0),
+        get("half_gap"), get("bound", np.inf), get("x0", 0.0), get("v0", 0.0), 0, 1,
+        kw["steps_per_period"], signal, stride, bool(get("kink_aware")))
+    return specialised.driver(args), args
+
+
+def compiled(call: dict) -> bool:
+    """Whether the compiled function that a ``simulate`` call of these keyword arguments uses
+    (``dispatcher``) is ready without compiling: in this process already, or in Numba's disk
+    cache for this machine and this source.
+
+    Asks Numba's cache what its dispatcher asks before compiling (``Cache.load_overload``: the
+    index entry of the call's type signature and this machine's code generator, valid while the
+    source file's stamp is the index's) without loading or compiling anything: about 10 ms, most
+    of it typing the arguments. ``False`` where the cache cannot be read the way this Numba
+    version keeps it (the estimate then counts the compile).
+    """
+    d, args = dispatcher(call)
+    sig = tuple(d.typeof_pyval(a) for a in args)
+    if sig in d.overloads:
+        return True
+    try:
+        cache = d._cache
+        key = cache._index_key(sig, d.targetctx.codegen())
+        name = cache._cache_file._load_index().get(key)
+        folder = cache.cache_path
+    except (AttributeError, TypeError, ValueError, EOFError, OSError, pickle.UnpicklingError):
+        return False  # another Numba's cache
+    return name is not None and os.path.isfile(os.path.join(folder, name))
 
 
 _COST = {("rk4", False): 1.0, ("rk5", False): 1.1, ("rk4", True): 2.7, ("rk5", True): 3.6}

@@ -97,28 +97,28 @@ def monodromy(alpha, beta, gamma, steps_per_period: int, *, method: str = "rk5",
         ``M[:, :, 0]`` = (p, p') at 2 pi from (1, 0), ``M[:, :, 1]`` from (0, 1); NaN where the
         map overflowed.
     """
+    call = monodromy_call(alpha, beta, gamma, steps_per_period, method=method,
+                          harmonics=harmonics)
+    n = call["x0"].size // 2
+    res = simulate(**call)
+    M = np.empty((n, 2, 2))
+    M[:, 0, :] = res.x_final.reshape(n, 2)
+    M[:, 1, :] = res.v_final.reshape(n, 2)
+    return M
+
+
+def monodromy_call(alpha, beta, gamma, steps_per_period: int, *, method: str = "rk5",
+                   harmonics=None) -> dict:
+    """The keyword arguments of ``monodromy``'s kernel call (``simulate``): two lanes per case,
+    started from (1, 0) and (0, 1), integrated over one period."""
     a, b, g = (np.ravel(x) for x in np.broadcast_arrays(
         np.asarray(alpha, float), np.asarray(beta, float), np.asarray(gamma, float)))
     n = a.size
     S = int(steps_per_period)
     two = lambda x: np.repeat(x, 2)  # noqa: E731  lanes 2i, 2i+1 belong to case i
-    res = simulate(
-        np.full(2 * n, 2.0 * np.pi / S),
-        method=method,
-        damping=two(g),
-        k_mean=two(a),
-        k_scale=two(b),
-        k_table=_shape_table(harmonics, S),
-        x0=np.tile([1.0, 0.0], n),
-        v0=np.tile([0.0, 1.0], n),
-        n_transient=S,
-        n_record=0,
-        steps_per_period=S,
-    )
-    M = np.empty((n, 2, 2))
-    M[:, 0, :] = res.x_final.reshape(n, 2)
-    M[:, 1, :] = res.v_final.reshape(n, 2)
-    return M
+    return dict(h=np.full(2 * n, 2.0 * np.pi / S), method=method, damping=two(g), k_mean=two(a),
+                k_scale=two(b), k_table=_shape_table(harmonics, S), x0=np.tile([1.0, 0.0], n),
+                v0=np.tile([0.0, 1.0], n), n_transient=S, n_record=0, steps_per_period=S)
 
 
 def largest_multiplier(M: np.ndarray) -> np.ndarray:

@@ -152,7 +152,8 @@ def _start(plan: Plan, params: dict[str, np.ndarray], n: int) -> float | np.ndar
     return case("backlash", model.backlash) / 2.0 + fm / k0
 
 
-def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
+def _kernel_call(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> dict:
+    """The keyword arguments of the kernel call (``simulate``) for the cases ``params``."""
     s = plan.study.solver
     spp = s.steps_per_period
     x_init = _start(plan, params, n)
@@ -161,10 +162,39 @@ def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) 
     if x0 is not None:
         kin["x0"], kin["v0"] = x0, v0
     sps = plan.samples_per_period()
+    return dict(method=s.method, n_transient=s.transient_periods * spp,
+                n_record=s.record_periods * spp, steps_per_period=spp,
+                signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
+
+
+def first_kernel_call(plan: Plan) -> dict:
+    """The keyword arguments of the kernel call of the plan's first case: which compiled
+    specialisation a run calls (``kernels.batch.specialisation``; every call of a plan uses the
+    same one, its terms being the study's), without building the grid of cases or compiling
+    anything (not even ``lane_values``: the first case is every grid's first value, and a gear
+    scene's model, ``plan.model``, is the one at the first swept load)."""
+    params = {d: plan.grids[d][:1] for d in plan.dims}
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return _kernel_call(plan, params, 1, None, None)
+
+
+def kernel_calls(plan: Plan) -> list[dict]:
+    """A ``simulate`` call (keyword arguments) of every compiled specialisation a run of the
+    plan uses: the first case's (``first_kernel_call``) and those its outputs make of their own
+    (the ``floquet`` output's monodromy maps)."""
+    calls = [first_kernel_call(plan)]
+    for name in plan.outputs:
+        extra = getattr(OUTPUTS[name], "kernel_calls", None)
+        if extra is not None:
+            calls += extra(plan)
+    return calls
+
+
+def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
+    s = plan.study.solver
+    call = _kernel_call(plan, params, n, x0, v0)
     t0 = time.perf_counter()
-    res = kernel_for(s.device, s.precision)(method=s.method, n_transient=s.transient_periods * spp,
-                   n_record=s.record_periods * spp, steps_per_period=spp,
-                   signal_stride=spp // sps if sps else 0, kink_aware=s.kink_aware, **kin)
+    res = kernel_for(s.device, s.precision)(**call)
     KERNEL_CLOCK.add(time.perf_counter() - t0)
     out: dict[str, np.ndarray] = {}
     for o in plan.outputs:
@@ -175,7 +205,7 @@ def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) 
     # A response that has died away (a free vibration with nothing driving it) has nothing left
     # to settle: its settle_error is round-off over round-off (0.48 with p_pp 1e-16 m). Below
     # 1e-9 of the static scale (the divergence bound's, kernel_inputs) it counts as settled.
-    scale = np.asarray(kin["bound"], float) / s.divergence_factor
+    scale = np.asarray(call["bound"], float) / s.divergence_factor
     quiet = res.stats["p_max"] - res.stats["p_min"] <= 1e-9 * scale
     unsettled = (status == 0) & ~(res.stats["settle_error"] <= s.settle_tolerance) & ~quiet
     if plan.driven:  # an undriven scene decays or grows: nothing to settle into (Plan.driven)

@@ -19,9 +19,10 @@ import xarray as xr
 from gearsweep.files import check_replaceable
 from gearsweep.model import MeshModel, mesh_frequency, model_record
 from gearsweep.study.display import display_coordinates
+from gearsweep.study.filelayout import file_chunks
 from gearsweep.study.gearscene import gear_pair
 from gearsweep.study.measured import scene_measured
-from gearsweep.study.outputs import VarSpec
+from gearsweep.study.outputs import VarSpec, status_attrs
 from gearsweep.study.provenance import coordinate_encoding, provenance
 from gearsweep.units import KINDS, to_display
 
@@ -130,14 +131,6 @@ VARIABLES = {
     "status": ("1", "0 ok; nonzero flags a diverged, unsettled or skipped case"),
 }
 
-STATUS_CODES = {
-    0: "ok",
-    1: "diverged: p became non-finite or exceeded divergence_factor x its static scale",
-    2: "not settled: settle_error above solver.settle_tolerance (results kept; a response that"
-       " has died away, p_pp below 1e-9 of its static scale, is settled; driven scenes only: an"
-       " undriven one, a Mathieu chart say, decays or grows, see the floquet output)",
-    3: "skipped: the step is beyond the method's stability limit for this case",
-}
 
 
 def build_dataset(
@@ -183,10 +176,7 @@ def build_dataset(
         coords={k: variable(k, d, v, COORDS) for k, (d, v) in coords.items()},
     )
     if "status" in ds:
-        ds["status"].attrs["flag_values"] = np.array(sorted(STATUS_CODES), dtype=np.int8)
-        ds["status"].attrs["flag_meanings"] = " ".join(
-            STATUS_CODES[k].split(":")[0].replace(" ", "_") for k in sorted(STATUS_CODES))
-        ds["status"].attrs["codes"] = "; ".join(f"{k} {v}" for k, v in STATUS_CODES.items())
+        ds["status"].attrs.update(status_attrs())
     now = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     ds.attrs.update(
         Conventions="CF-1.10",
@@ -213,29 +203,8 @@ SHUFFLE = False
 """HDF5's byte-shuffle filter before the codec: used with zlib (42 instead of 46 MB, and faster);
 netCDF4-python applies it with zlib only (with zstd it is ignored)."""
 
-FILE_CHUNK_BYTES = 1 << 20
-"""Uncompressed size of one chunk of a result variable in the file (at most) [bytes]."""
-
 CHUNK_CACHE_BYTES = 1 << 20
 """HDF5 chunk cache per variable while a dask-backed Dataset is written [bytes]."""
-
-
-def file_chunks(shape: tuple[int, ...], itemsize: int, target: int | None = None
-                ) -> tuple[int, ...]:
-    """Chunk shape of a variable in the file: whole trailing dims, then as many rows of the
-    next dim as fit in ``target`` bytes, one along the dims before (C order, so a run of
-    consecutive lanes fills whole file chunks)."""
-    target = target or FILE_CHUNK_BYTES
-    chunks = [max(1, n) for n in shape]
-    size = itemsize
-    for i in range(len(shape) - 1, -1, -1):
-        if size * chunks[i] <= target:
-            size *= chunks[i]
-            continue
-        chunks[i] = max(1, target // size)
-        chunks[:i] = [1] * i
-        break
-    return tuple(chunks)
 
 
 def variable_encoding(var: xr.Variable | xr.DataArray, codec: str | None = None,

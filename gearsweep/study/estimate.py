@@ -10,12 +10,11 @@ Numba's disk cache, its one-time compile time is added (``compile_seconds``), so
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 
-from gearsweep import kernels
 from gearsweep.kernels import LANES, cuda
+from gearsweep.kernels.batch import compiled, specialisation
 from gearsweep.study import execute
+from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
     BASELINE_MEMORY,
     FIXED_SECONDS,
@@ -27,6 +26,7 @@ from gearsweep.study.execute import (
     lanes_per_chunk,
     measure_rate,
 )
+from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan
 
 COLD_COMPILE_SECONDS = {("rk4", False): 6.0, ("rk5", False): 7.0, ("rk4", True): 18.0,
@@ -37,25 +37,27 @@ kink-aware RK4 13.8-17.8 s, RK5 about 20 s; ``batch._COST``, docs/benchmark.md).
 15/25/68/97 s predate the memoized inlining and the per-combination drivers."""
 
 
-def _cache_dirs() -> list[Path]:
-    """Where Numba keeps this package's compiled kernels: ``NUMBA_CACHE_DIR`` when set (then
-    only there), else the kernels' ``__pycache__``."""
-    env = os.environ.get("NUMBA_CACHE_DIR")
-    return [Path(env)] if env else [Path(kernels.__file__).parent / "__pycache__"]
+def compile_seconds(plan: Plan) -> float:
+    """The one-time compile time of the kernel specialisations a CPU run of ``plan`` calls
+    (``chunk.kernel_calls``) that are neither in Numba's disk cache nor compiled in this process
+    (``batch.compiled``); 0 when all are.
 
-
-def compile_seconds(method: str, kink_aware: bool) -> float:
-    """0 when a specialisation of the batch driver of ``method`` is in Numba's disk cache, else
-    its compile time. Each combination of terms is a function of its own
-    (``integrate_rk4_a0k0e0f1h1s1``, ``rk.Specialised``); whether it is this study's is not
-    asked (that needs the kernel's arguments), so a study with other terms than the ones cached
-    can still compile for about this long. (The pattern without the combination's suffix never
-    matched, and every estimate said "cold cache".)"""
-    name = f"integrate_kink_{method}" if kink_aware else f"integrate_{method}"
-    for d in _cache_dirs():
-        if d.is_dir() and any(d.rglob(f"*.{name}_*.nbi")):
-            return 0.0
-    return COLD_COMPILE_SECONDS[(method, kink_aware)]
+    Each driver is compiled per combination of the terms a call gives (``rk.Specialised``:
+    ``integrate_rk4_a0k1e1f0h0s0`` is RK4 with a shared stiffness table and an STE table, no
+    force table, no backlash, no signal) and per argument types, so it is this study's
+    combination that is looked up, with the types of its own call, and only in the cache files
+    of the source as it is (Numba's index stamp). (Asking whether any specialisation of the
+    method was cached said "no compile" for a study of other terms, which then compiled for
+    seconds.) A GPU run compiles its CUDA kernel in every process instead, for a time not
+    measured yet (``Estimate.line`` says so): 0 here."""
+    if plan.device == "cuda":
+        return 0.0
+    seconds: dict[tuple, float] = {}
+    for call in kernel_calls(plan):
+        key = specialisation(call)
+        if key not in seconds:
+            seconds[key] = 0.0 if compiled(call) else COLD_COMPILE_SECONDS[key[:2]]
+    return sum(seconds.values())
 
 
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,
@@ -83,21 +85,18 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
         rate = rate or STATED_RATE[s.method]
         kernel_s = lane_steps / (rate * 1e6)
     per_case = _case_bytes(plan)
-    results = float(plan.n_cases) * per_case
-    # the CPU kernel's one-time compile; a GPU run compiles its CUDA kernel in every process
-    # instead, for a time not measured yet (Estimate.line says so)
-    compile_s = 0.0 if plan.device == "cuda" else compile_seconds(s.method, s.kink_aware)
-    seconds = kernel_s + FIXED_SECONDS + results / WRITE_RATE + compile_s
+    output = float(output_bound(plan))
+    compile_s = compile_seconds(plan)
+    seconds = kernel_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
     memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
     if plan.device == "cuda":
         memory += cuda.HOST_MEMORY_BYTES
-    coords = sum(g.nbytes for g in plan.grids.values())
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
                    chunks=full + (1 if rest else 0), threads=threads, rate=rate,
                    rate_source=source, seconds=seconds, memory_bytes=memory,
-                   output_bytes=results + coords, device=plan.device)
+                   output_bytes=output, device=plan.device, compile_seconds=compile_s)
     return est, compile_s
 
 
@@ -110,7 +109,9 @@ without measuring (and, on a cold cache, without compiling)."""
 def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
                     threads: int | None = None) -> tuple[Estimate, float]:
     """``est`` again at the rate measured on this machine, where the stated rate puts it over
-    the time limit; else ``est`` as it is (with its compile seconds).
+    the time limit; else ``est`` as it is; with the seconds of it that are compiling (after
+    measuring, none: the measurement compiled the kernel). (``validate`` printed the estimate
+    of a study within the limits without its compile note: this returned 0 for them.)
 
     The stated rate is a floor for any AVX2 machine: on this 2-core AVX-512 one the kernel runs
     about twice as fast, so a study of 3-5 minutes was refused as over 10. Measuring costs about
@@ -119,22 +120,14 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
     alone, and that a faster rate could bring under the limit (``MAX_SPEEDUP``), pays it."""
     over = est.over()
     if over != [o for o in over if o.startswith("time")] or not over or est.device == "cuda":
-        return est, 0.0  # within the limits, refused for memory or output whatever the rate,
-        # or on the GPU (the CPU kernel's rate says nothing of it)
-    s = plan.study.solver
-    kernel = est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE \
-        - compile_seconds(s.method, s.kink_aware)
+        return est, est.compile_seconds  # within the limits, refused for memory or output
+        # whatever the rate, or on the GPU (the CPU kernel's rate says nothing of it)
+    kernel = est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE - est.compile_seconds
     if kernel / MAX_SPEEDUP > execute.LIMITS.seconds:
-        return est, 0.0  # no machine is that much faster: refused at once, nothing compiled
+        return est, est.compile_seconds  # no machine is that much faster: refused at once,
+        # nothing compiled
     rate = measure_rate(plan, threads or cores())
     return quick_estimate(plan, chunk_cases, threads, rate=rate)
-
-
-def line(est: Estimate, compile_s: float) -> str:
-    """The estimate in one line, saying when it includes compiling the kernel."""
-    extra = f"; includes about {compile_s:.0f} s to compile the kernel once (cold cache)" \
-        if compile_s else ""
-    return est.line() + extra
 
 
 CHUNK_SECONDS = 30.0

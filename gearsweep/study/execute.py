@@ -48,6 +48,7 @@ from gearsweep.files import check_replaceable
 from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints, saved_layout
 from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, run_chunk
+from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
 
 if TYPE_CHECKING:
@@ -129,17 +130,22 @@ class Estimate:
     output_bytes: float
     device: str = "cpu"
     """``"cpu"`` or ``"cuda"``; on ``cuda``, ``rate`` is the whole GPU's and ``threads`` unused."""
+    compile_seconds: float = 0.0
+    """Of ``seconds``, the one-time compile of kernel specialisations not yet compiled
+    (``estimate.compile_seconds``)."""
 
     def line(self) -> str:
-        """The estimate in one line."""
+        """The estimate in one line, saying when it includes compiling the kernel."""
         chunks = f"{self.chunks} chunk" + ("s" if self.chunks != 1 else "")
         where = (f"on the GPU at {self.rate:.3g} Msteps/s ({self.rate_source}) and compiling"
                  " its kernel (every run)" if self.device == "cuda" else
                  f"on {self.threads} cores at {self.rate:.0f} Msteps/s per core"
                  f" ({self.rate_source})")
+        cold = (f"; includes about {self.compile_seconds:.0f} s to compile the kernel once"
+                " (cold cache)" if self.compile_seconds else "")
         return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
                 f" {_duration(self.seconds)} {where}, peak memory {_size(self.memory_bytes)},"
-                f" output at most {_size(self.output_bytes)}")
+                f" output at most {_size(self.output_bytes)}{cold}")
 
     def over(self, limits: Limits | None = None) -> list[str]:
         """The limits this estimate exceeds, in words (empty if none)."""
@@ -234,27 +240,27 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     -----
     Time: every kernel call advances ``ceil(blocks / threads)`` rounds of ``LANES`` lanes (a
     partly filled block costs a full one), at ``rate`` per core; plus ``FIXED_SECONDS`` and the
-    writing of the results at ``WRITE_RATE``. Memory (of ``gearsweep run``, which streams the
+    writing of the file at ``WRITE_RATE``. Memory (of ``gearsweep run``, which streams the
     results to disk, ``run_to_file``): three chunks' worth (one being computed, one arriving, one
     being saved) and the interpreter's baseline, whatever the number of chunks; ``run_plan``,
-    which returns the results in memory, needs the full result arrays on top. Output: the result
-    arrays uncompressed (zlib makes the file smaller).
+    which returns the results in memory, needs the full result arrays on top. Output: an upper
+    bound of the file's size (``filelayout.output_bound``: the variables uncompressed, their
+    attributes and HDF5's own structures; a codec makes the file smaller).
     """
     threads = threads or cores()
     source = "stated" if rate is None else "measured"
     rate = rate or STATED_RATE[plan.study.solver.method]
     steps_case = plan.steps_per_case
     per_case = _case_bytes(plan)
-    results = plan.n_cases * per_case
-    seconds = _lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS + results / WRITE_RATE
+    output = float(output_bound(plan))
+    seconds = _lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS + output / WRITE_RATE
     biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
     memory = BASELINE_MEMORY + 3 * biggest * per_case + signal
-    coords = sum(g.nbytes for g in plan.grids.values())
     return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
-                    memory_bytes=memory, output_bytes=results + coords)
+                    memory_bytes=memory, output_bytes=output)
 
 
 def check_limits(est: Estimate, where: str, limits: Limits | None = None) -> None:

@@ -28,10 +28,29 @@ from gearsweep.analysis.spectrum import kept_bins, line_spectrum
 from gearsweep.analysis.stability import check_step
 from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
-from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy
+from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy, monodromy_call
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
 from gearsweep.study.quantities import Count, Flag, Real
 from gearsweep.units import KINDS, to_display
+
+STATUS_CODES = {
+    0: "ok",
+    1: "diverged: p became non-finite or exceeded divergence_factor x its static scale",
+    2: "not settled: settle_error above solver.settle_tolerance (results kept; a response that"
+       " has died away, p_pp below 1e-9 of its static scale, is settled; driven scenes only: an"
+       " undriven one, a Mathieu chart say, decays or grows, see the floquet output)",
+    3: "skipped: the step is beyond the method's stability limit for this case",
+}
+"""The result's ``status`` codes: the one table (the file's ``flag_values``, ``flag_meanings`` and
+``codes`` attributes, the reference's table, the estimate's attribute text)."""
+
+
+def status_attrs() -> dict[str, Any]:
+    """The ``status`` variable's CF flag attributes, from ``STATUS_CODES``."""
+    return {"flag_values": np.array(sorted(STATUS_CODES), dtype=np.int8),
+            "flag_meanings": " ".join(STATUS_CODES[k].split(":")[0].replace(" ", "_")
+                                      for k in sorted(STATUS_CODES)),
+            "codes": "; ".join(f"{k} {v}" for k, v in STATUS_CODES.items())}
 
 Plan = Any
 """What an output is given: a ``gearsweep.study.plan.Plan`` (its ``model``, ``study``, ``grids``,
@@ -68,6 +87,9 @@ class Output(Protocol):
     """Pydantic model of the output's options (``None`` or absent: it takes none)."""
 
     def signal_samples_per_period(self, plan: Plan) -> int: ...
+
+    # optional: ``kernel_calls(plan) -> list[dict]``, the ``simulate`` calls of ``compute`` of its
+    # own (keyword arguments), so that the estimate knows their compiled specialisations
 
     def variables(self, plan: Plan) -> dict[str, VarSpec]: ...
 
@@ -295,6 +317,14 @@ class Floquet:
 
     def signal_samples_per_period(self, plan: Plan) -> int:
         return 0
+
+    def kernel_calls(self, plan: Plan) -> list[dict]:
+        """The kernel calls of ``compute`` besides the study's (one case each): its monodromy
+        maps, converged with RK5 and at the study's method and step (their specialisation
+        depends on which terms are given, not on the values)."""
+        s = plan.study.solver
+        return [monodromy_call(1.0, 0.0, 0.0, s.steps_per_period, method=m)
+                for m in dict.fromkeys(("rk5", s.method))]
 
     def variables(self, plan: Plan) -> dict[str, VarSpec]:
         return {

@@ -13,10 +13,12 @@ import shlex
 import sys
 from importlib import metadata
 from pathlib import Path
-
-import xarray as xr
+from typing import TYPE_CHECKING
 
 from gearsweep._version import __version__
+
+if TYPE_CHECKING:  # not imported to run: the estimate counts ``provenance()`` without xarray
+    import xarray as xr
 
 
 def _version(dist: str) -> str:
