@@ -98,6 +98,7 @@ def test_the_compile_note_follows_the_cache_of_the_studys_own_specialisation(
 
     cold = _estimates(cache, whine, rattle)
     assert all(NOTE in text for text in cold.values()), cold
+    assert _files(cache) == {}  # validate and --estimate compile nothing (the step guard too)
     assert cold[f"validate {whine}"].split("estimate: ")[1].strip() \
         == cold[f"run {whine}"].split(": ", 1)[1].strip()  # one estimate, said alike
 

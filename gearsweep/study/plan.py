@@ -437,9 +437,9 @@ def cases_beyond_step_limit(plan: Plan) -> int | None:
     m = math.prod(len(plan.grids[d]) for d in dims)
     if m > _GUARD_TABLE_MAX:
         return None
-    values, _ = lane_values([plan.grids[d] for d in dims], 0, m)
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        ok = np.asarray(_step_ok(plan, dict(zip(dims, values, strict=True)), m))
+    grid = np.meshgrid(*[plan.grids[d] for d in dims], indexing="ij")  # NumPy: validate compiles
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # nothing
+        ok = np.asarray(_step_ok(plan, {d: g.ravel() for d, g in zip(dims, grid, strict=True)}, m))
     return int((~ok).sum()) * (plan.n_cases // m)  # each grid point: the other dims' cases
 
 
