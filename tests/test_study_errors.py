@@ -989,3 +989,15 @@ def test_advise_says_it_reads_stdin_and_names_it_as_validate_does(monkeypatch, c
     assert main(["advise", "-", "--target", "2"]) == 2
     assert capsys.readouterr().err == ("gearsweep: error: <stdin>: --target: 2.0 -- a relative"
                                        " error between 0 and 1 (e.g. 1e-4)\n")
+
+
+@pytest.mark.parametrize(("line", "said"), [
+    ("outputs: stats", "outputs: 'stats' -- a list; for one item write [stats]"),
+    ("continuation: up", "continuation: 'up' -- a list; for one item write [up]"),
+    ("outputs: {stats: {}}", ("outputs: '{...}' -- a list; a mapping here is one item of it:"
+                             " write it as [{...}]")),
+])
+def test_one_item_where_a_list_is_wanted_says_how_to_write_it(line, said):
+    """pydantic's 'Input should be a valid list' told a new user nothing about the brackets."""
+    text = GOOD.replace("solver:", f"{line}\nsolver:")
+    assert _lines(text) == [f"s.yaml:11: {said}"]

@@ -969,6 +969,11 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
                 msg = hint.removeprefix(" -- ") + f" (allowed: {', '.join(allowed)})"
         elif t.endswith("_type") and len(path) >= 2 and path[0] == "sweep":
             msg = "a list of values or {start, stop, num}"
+        elif t == "list_type":  # 'outputs: stats', 'continuation: up': one item, no brackets
+            one = _as_written(raw, parts)
+            msg = (f"a list; for one item write [{one}]" if isinstance(one, str | int | float)
+                   else "a list; a mapping here is one item of it: write it as [{...}]"
+                   if isinstance(one, dict) else "a list, e.g. [a, b]")
         elif t == "finite_number":
             msg = "a finite number (not nan or inf)"
         elif "has no unit" in msg:
