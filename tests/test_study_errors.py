@@ -1001,3 +1001,14 @@ def test_one_item_where_a_list_is_wanted_says_how_to_write_it(line, said):
     """pydantic's 'Input should be a valid list' told a new user nothing about the brackets."""
     text = GOOD.replace("solver:", f"{line}\nsolver:")
     assert _lines(text) == [f"s.yaml:11: {said}"]
+
+
+def test_a_drive_beside_a_base_radius_says_which_to_leave_out():
+    """It said "'base_radius' is already given by 'drive.base_radius_1'", also to a drive that
+    did not give it."""
+    text = GOOD.replace("  mass: 0.1527 kg\n", "  drive: {inertia_1: 1e-3 kg m^2, inertia_2:"
+                        " 2e-3 kg m^2, base_radius_1: 30 mm, base_radius_2: 40 mm}\n"
+                        "  base_radius: 30 mm\n")
+    lines = _lines(text)
+    assert len(lines) == 1 and lines[0].endswith(
+        "with a 'drive', its 'base_radius_1' is the base radius: leave out 'base_radius'"), lines

@@ -168,7 +168,8 @@ def scene_presence(has, drive_has) -> str:
     if has("mean_force") and has("torque"):
         problems.append("give at most one of 'mean_force' and 'torque'")
     if has("drive") and has("base_radius"):
-        problems.append("'base_radius' is already given by 'drive.base_radius_1'")
+        problems.append("with a 'drive', its 'base_radius_1' is the base radius: leave out"
+                        " 'base_radius'")
     if has("drive") and not has("gear"):
         missing = [f"'drive.{f}'" for f in ("base_radius_1", "base_radius_2") if not drive_has(f)]
         if missing:
