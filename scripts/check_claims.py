@@ -27,6 +27,8 @@ import yaml
 ROOT = Path(__file__).resolve().parent.parent
 NOT_RESULTS = "not_results.yaml"  # docs/claims/: numbers no result produces (coverage test only)
 KEYS = {"id", "doc", "quote", "value", "result", "expr", "abs", "rel", "note"}
+RANGE_DASH = re.compile(r"(?<=\d)[-–](?=\d)")
+"""The dash of a range between two numbers ("91-94"), not a minus sign."""
 NUMBER = re.compile(r"[-+−]?\d[\d,]*(?:\.\d+)?(?:e[-+−]?\d+)?", re.IGNORECASE)
 SAFE_BUILTINS = {name: getattr(builtins, name)
                  for name in ("abs", "bool", "float", "int", "len", "max", "min", "round", "slice",
@@ -34,9 +36,10 @@ SAFE_BUILTINS = {name: getattr(builtins, name)
 
 
 def numbers_in(text: str) -> list[float]:
-    """The numbers written in ``text`` ("1,265" -> 1265, "−3.2e-9" -> -3.2e-9)."""
+    """The numbers written in ``text`` ("1,265" -> 1265, "−3.2e-9" -> -3.2e-9; a range "91-94" or
+    "1,000–4,214" -> both ends)."""
     out = []
-    for tok in NUMBER.findall(text):
+    for tok in NUMBER.findall(RANGE_DASH.sub(" ", text)):
         try:
             out.append(float(tok.replace(",", "").replace("−", "-")))
         except ValueError:
@@ -163,7 +166,13 @@ def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, l
             if quote not in docs[doc]:
                 out.append(f"{cid}: quote not in {doc.name}: {quote!r}")
                 continue
-            # (a quote may state its number in words, "never separate", or as a range "91-94")
+            # The quote shows the value (a range "91-94" shows both ends), or says it in words
+            # ("never separate": 0), which the claim's `worded` states
+            if "worded" not in c and not any(math.isclose(x, value, rel_tol=1e-12, abs_tol=0.0)
+                                             for x in numbers_in(quote)):
+                out.append(f"{cid}: the quote {quote!r} does not contain the value {value:g}"
+                           " (a number said in words: give `worded`)")
+                continue
             try:
                 env = {"np": np, "math": math, "hb": hb, "rattle": rattle, "sensor": sensor,
                        **names(load(str(c["result"])))}

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 _spec = importlib.util.spec_from_file_location("check_claims", ROOT / "scripts" / "check_claims.py")
@@ -81,3 +82,25 @@ def test_claims_file_is_well_formed():
         stem = Path(c["result"]).stem
         assert stem in studies or f'"{stem}.nc"' in scripts or f"{stem}.nc" in scripts, c["id"]
         assert "abs" in c or "rel" in c, f"{c['id']}: give a tolerance"
+
+
+def test_a_per_figure_claim_whose_quote_lacks_its_value_fails_unless_worded(tmp_path):
+    """The per-figure files dropped the check that the quote shows the value, so a claim could
+    check a number its quote does not contain (an outside review). Ranges show both ends."""
+    assert cc.numbers_in("apart 91-94 % of the time") == [91.0, 94.0]
+    assert cc.numbers_in("1,000–4,214 rpm at −3.2e-9") == [1000.0, 4214.0, -3.2e-9]
+    (tmp_path / "docs" / "claims").mkdir(parents=True)
+    (tmp_path / "docs" / "page.md").write_text("the teeth never separate at 8,030 rpm\n")
+    (tmp_path / "results").mkdir()
+    xr.Dataset({"x": ("speed", [1.0, 2.0])}).to_netcdf(tmp_path / "results" / "r.nc")
+
+    def run(**claim) -> list[str]:
+        base = {"doc": "docs/page.md", "result": "r", "tol": 0}
+        path = tmp_path / "docs" / "claims" / "c.yaml"
+        path.write_text(yaml.safe_dump([{**base, **claim}]), encoding="utf-8")
+        return cc.check_folder(tmp_path / "docs" / "claims", tmp_path / "results", tmp_path)[1]
+
+    assert run(quote="8,030 rpm", expr="8030", value=8030) == []
+    assert "does not contain the value 0" in run(quote="never separate", expr="0", value=0)[0]
+    assert run(quote="never separate", expr="0", value=0, worded="'never': 0") == []
+    assert "gives 1" in run(quote="never separate", expr="1", value=0, worded="'never': 0")[0]
