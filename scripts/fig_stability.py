@@ -113,7 +113,7 @@ def fig72() -> None:
     for ax, (ds, flag, color, title, why, label) in zip(axs.ravel(), panels, strict=True):
         plot_operating_map(speed, damping, flag, ax=ax, color=color, title=title, label=label,
                            limit_speed=limit if ds is coarse and "(a)" not in title else None,
-                           zeta_per_damping=zeta_per_damping)
+                           zeta_per_damping=zeta_per_damping, teeth=rig.teeth)
         if why:
             _blank(ax, flag, why)
         ax.axhline(5.5, color="0.3", lw=0.8, ls=":")
@@ -131,6 +131,7 @@ def fig72() -> None:
 def fig72_methods() -> None:
     """Fig. 7.2 with four fifth-order tableaux, from results/stability_artifact_map.nc."""
     out = _open("stability_artifact_map")
+    teeth = result_model(_open("stability_rig")).teeth  # the map is on that study's grid
     methods = [str(m) for m in out.method.values]
     spps, damping, speed = out.steps_per_period.values, si_values(out.damping), out.speed.values
     nz = damping > 0
@@ -164,7 +165,7 @@ def fig72_methods() -> None:
                            title=f"{m}, {spps[j200]} steps per mesh period:\n"
                                  + ("the paper's shape" if bool(out.reproduces_paper.loc[m][j200])
                                     else "NOT the paper's shape"),
-                           zeta_per_damping=zeta_per_damping)
+                           zeta_per_damping=zeta_per_damping, teeth=teeth)
         ax.axhline(5.5, color="0.3", lw=0.8, ls=":")
     fig.suptitle("Fig. 7.2 with four fifth-order Runge-Kutta methods: the paper's criterion at a "
                  "fixed step flags instability that the equation does not have (Floquet: stable "

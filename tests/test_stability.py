@@ -344,3 +344,29 @@ def test_floquet_output_flags_the_integrator_on_the_rig():
     a, b, g = mathieu_parameters(1073e6, 179e6, 0.1527, damping, fmesh)
     assert_allclose(slow["floquet_multiplier"], floquet(a, b, g, rtol=1e-11).multiplier,
                     rtol=5e-8)
+
+
+def test_a_stability_map_of_a_users_own_result_has_its_units_teeth_and_ticks():
+    """plot_operating_map, given a 30-tooth result's arrays, said '48 teeth', had no speed tick
+    labels outside the paper's 100-2000 rpm, and drew the file's N s/mm as N s/m (1000 times
+    too small). plot_stability_map takes the Dataset and reads its units and teeth."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from gearsweep.api import run_study
+    from gearsweep.plot.stability import plot_stability_map
+    from gearsweep.study.schema import parse_study
+
+    text = RIG_STUDY.replace("teeth: 48", "teeth: 30").replace(
+        "speed: [150 rpm, 1500 rpm]", "speed: {start: 3000 rpm, stop: 30000 rpm, num: 4,"
+        " spacing: log}").replace("damping: [0 N*s/m, 5.5 N*s/mm]",
+                                  "damping: [0 N*s/m, 1 N*s/mm, 5 N*s/mm]")
+    ds = run_study(parse_study(text.replace("steps_per_period: 200", "steps_per_period: 400")))
+    fig = plot_stability_map(ds, "unstable", title="mine")
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "speed of the driving gear (30 teeth) [rpm]"
+    assert ax.get_ylim() == pytest.approx((0.0, 5.0))  # N s/mm, as the file and the label
+    ticks = [t for t in ax.get_xticks() if 3000 <= t <= 30000]
+    assert ticks == [3000, 5000, 10000, 20000, 30000]
+    with pytest.raises(ValueError, match="select the other dims first"):
+        plot_stability_map(ds.expand_dims(torque=[1.0, 2.0]), "unstable")

@@ -139,20 +139,55 @@ def plot_rig_strutt(alpha: np.ndarray, ratio: np.ndarray, unstable: np.ndarray,
     return fig
 
 
+def _log_ticks(lo: float, hi: float) -> list[float]:
+    """1-2-3-5 ticks of each decade between ``lo`` and ``hi`` (at least the two ends)."""
+    ticks = [m * 10.0**e for e in range(int(np.floor(np.log10(lo))), int(np.ceil(np.log10(hi))) + 1)
+             for m in (1, 2, 3, 5)]
+    inside = [t for t in ticks if lo * (1 - 1e-9) <= t <= hi * (1 + 1e-9)]
+    return inside if len(inside) >= 2 else [lo, hi]
+
+
+def plot_stability_map(ds, var: str = "unstable", ax: Axes | None = None, title: str = "",
+                       **kwargs) -> Figure:
+    """``var`` of a result over its ``speed`` and ``damping`` (a study sweeping both, such as
+    ``studies/stability_rig.yaml``; ``var``: ``unstable``, ``integrator_unstable`` of the
+    ``floquet`` output, or a condition such as ``ds.status == 1`` given as a DataArray), drawn by
+    ``plot_operating_map`` with the units and teeth the result carries. Other swept dims must be
+    selected first (``ds.sel(...)``)."""
+    import json
+
+    from gearsweep.units import si_values
+
+    flag = ds[var] if isinstance(var, str) else var
+    extra = [d for d in flag.dims if d not in ("speed", "damping")]
+    if extra or set(flag.dims) != {"speed", "damping"}:
+        raise ValueError(f"a map over speed and damping: select the other dims first"
+                         f" (ds.sel({', '.join(f'{d}=...' for d in extra) or 'speed=..., damping=...'}))")
+    teeth = json.loads(ds.attrs["model"]).get("teeth") if "model" in ds.attrs else None
+    kwargs.setdefault("label", var if isinstance(var, str) else "flagged")
+    return plot_operating_map(ds["speed"].values, si_values(ds["damping"]),
+                              flag.transpose("damping", "speed").values.astype(bool), ax=ax,
+                              title=title, teeth=teeth, **kwargs)
+
+
 def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
                        ax: Axes | None = None, title: str = "", color: str = UNSTABLE_COLOR,
                        limit_speed: np.ndarray | None = None, label: str = "unstable",
-                       log: bool = True, zeta_per_damping: float | None = None) -> Figure:
+                       log: bool = True, zeta_per_damping: float | None = None,
+                       teeth: int | None = None) -> Figure:
     """A yes/no map over driving-gear speed [rpm] and mesh damping c [N s/m]; with
     ``zeta_per_damping`` (damping ratio per N s/m) a right-hand axis gives the damping ratio.
+    From a result Dataset: ``plot_stability_map(ds)``, which converts the file's units.
 
     Parameters
     ----------
     speed : ndarray (ns,)
         Driving-gear speed [rpm].
     damping : ndarray (nc,)
-        Mesh viscous damping [N s/m].
+        Mesh viscous damping [N s/m], SI (a result stores N s/mm: ``units.si_values``).
     flag : ndarray of bool (nc, ns)
+    teeth : int, optional
+        Teeth of the driving gear, named in the speed axis' label.
     limit_speed : ndarray (nc,), optional
         Speed below which the guard rail refuses the step, drawn as a line.
     log : bool
@@ -166,13 +201,15 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
         ax.plot(limit_speed, damping / 1e3, color="k", lw=1.2, ls="--")
         handles.append(Line2D([], [], color="k", ls="--",
                               label="step limit of the stability polynomial"))
-    ax.set_xlabel("speed of the driving gear (48 teeth) [rpm]")
+    ax.set_xlabel("speed of the driving gear" + (f" ({teeth} teeth)" if teeth else "")
+                  + " [rpm]")
     ax.set_ylabel("mesh damping c [N s/mm]")
     if log:
         from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
 
         ax.set_xscale("log")
-        ax.xaxis.set_major_locator(FixedLocator([100, 200, 300, 500, 1000, 2000]))
+        ax.xaxis.set_major_locator(FixedLocator(_log_ticks(float(speed.min()),
+                                                           float(speed.max()))))
         ax.xaxis.set_minor_locator(NullLocator())
         ax.xaxis.set_major_formatter(ScalarFormatter())
         ax.set_yscale("symlog", linthresh=0.01, linscale=0.5)
