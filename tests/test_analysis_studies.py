@@ -177,3 +177,21 @@ def test_validate_notes_a_result_the_analysis_reads_that_is_not_there(tmp_path, 
     (tmp_path / "results" / "fig08_rattle.nc").write_bytes(b"")
     assert main(["validate", str(study)]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_jump_analyses_of_a_run_up_only_result_are_one_line(tmp_path, capsys):
+    """A rattle result swept up only made jump_map and rattle_balance crash with a traceback
+    (exit 1); they now say what they need, in one line, exit 2."""
+    from gearsweep.cli import main
+
+    up = {**RATTLE, "continuation": ["up"],
+          "sweep": {"speed": {"start": "7000 rpm", "stop": "8600 rpm", "num": 5}},
+          "solver": {**RATTLE["solver"], "transient_periods": 5}}
+    gearsweep.run(up, output=tmp_path / "up.nc")
+    for kind in ("jump_map", "rattle_balance"):
+        study = tmp_path / f"{kind}.yaml"
+        study.write_text(f"type: analysis\ntitle: t\nanalysis: {{kind: {kind}, result: up}}\n",
+                         encoding="utf-8")
+        assert main(["run", str(study), "-o", str(tmp_path / f"{kind}.nc")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "continued up and down over speed" in err, err

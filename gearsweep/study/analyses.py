@@ -269,6 +269,11 @@ def _stat(f, values) -> float:
     return float(f(a)) if a.size else math.nan
 
 
+def _both_ways(ds) -> bool:
+    """Is ``ds`` a sweep continued up and down over speed (what a jump needs)?"""
+    return "direction" in ds.dims and {"up", "down"} <= {str(d) for d in ds["direction"].values}
+
+
 def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, dict]:
     """Describing function, AFT branch, turning points and Eq. (15) of a rattle result's scene,
     beside the result's own integration (see ``RattleBalance``)."""
@@ -277,9 +282,9 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     if len(model.force_harmonics) != 1 or model.backlash is None or model.stiffness_harmonics:
         raise ResultError(f"{o.result}: rattle_balance needs a constant-stiffness scene with"
                           " backlash and one force harmonic")
-    if "direction" not in ds.dims or ds.sizes.get("speed", 0) < 2 or ds["p_pp"].ndim != 2:
+    if not _both_ways(ds) or ds.sizes.get("speed", 0) < 2 or ds["p_pp"].ndim != 2:
         raise ResultError(f"{o.result}: rattle_balance needs one case continued up and down over"
-                          " speed")
+                          " speed (continuation: [up, down])")
     b = model.backlash / 2
     (fh,) = model.force_harmonics
     f0, m, k, c, fm = fh.amplitude, model.mass, model.stiffness, model.damping, model.mean_force
@@ -543,6 +548,9 @@ def jump_map(o: JumpMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
     ds = inputs[o.result]
     if "contact_loss_fraction" not in ds:
         raise ResultError(f"{o.result}: jump_map needs a result with backlash (contact loss)")
+    if not _both_ways(ds):
+        raise ResultError(f"{o.result}: jump_map needs a sweep continued up and down over speed"
+                          " (continuation: [up, down]): a jump is where the two differ")
     js = jump_summary(ds)
     dims = list(js["hysteresis_width"].dims)
     loss = ds["contact_loss_fraction"].max("direction")
