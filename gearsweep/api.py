@@ -24,6 +24,7 @@ import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
 import xarray as xr
 import yaml
 
@@ -226,12 +227,14 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
                           f" (swept: {', '.join(swept) or 'none'})")
     si = {}
     for name, value in case.items():
-        try:
-            si[name] = float(si_values(ds[name].sel({name: value})))
-        except KeyError:
-            raise ResultError(f"{name}={value!r} is not one of the result's values (in"
-                              f" {ds[name].attrs.get('units', '1')}: {ds[name].values.tolist()})"
-                              ) from None
+        coord = ds[name]
+        at = np.flatnonzero(np.isclose(coord.values, float(value), rtol=1e-9, atol=0.0))
+        if at.size != 1:  # the file's value to 9 digits (5.0 finds 4.99999999999 of a range)
+            near = coord.values[int(np.argmin(np.abs(coord.values - float(value))))]
+            raise ResultError(f"{name}={value!r} is not one of the result's {coord.size} values"
+                              f" ({coord.values.min():g} to {coord.values.max():g}"
+                              f" {coord.attrs.get('units', '')}; the nearest is {near:.10g})")
+        si[name] = float(si_values(coord.isel({name: int(at[0])})))
     load = {"torque", "mean_force"} & set(swept)
     if load and getattr(result_study(ds).scene, "gear", None) is not None:  # k(t), e(t) per load
         name = next(iter(load))

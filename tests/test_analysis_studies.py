@@ -195,3 +195,14 @@ def test_jump_analyses_of_a_run_up_only_result_are_one_line(tmp_path, capsys):
         assert main(["run", str(study), "-o", str(tmp_path / f"{kind}.nc")]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "continued up and down over speed" in err, err
+
+
+def test_an_analysis_names_its_input_with_or_without_nc_and_refuses_a_path():
+    from gearsweep.study.schema import parse_study
+
+    text = "type: analysis\ntitle: t\nanalysis: {kind: jump_map, result: RESULT}\n"
+    assert parse_study(text.replace("RESULT", "small.nc")).analysis.result == "small"
+    assert parse_study(text.replace("RESULT", "small")).analysis.result == "small"
+    with pytest.raises(StudyError, match=r"analysis.result: 'results/small.nc' -- the name of a"
+                                         r" result in the folder the analysis writes to"):
+        parse_study(text.replace("RESULT", "results/small.nc"), "s.yaml")

@@ -285,7 +285,8 @@ def test_result_model_gives_a_swept_field_only_where_it_is_selected(small_whine)
     assert (picked.mean_force, picked.damping) == (833.0, 5500.0)
     assert dataclasses.replace(picked, mean_force=0, damping=0) == dataclasses.replace(
         m, mean_force=0, damping=0)  # the rest as the record has it
-    with pytest.raises(ResultError, match=r"mean_force=834 is not one of the result's values"):
+    with pytest.raises(ResultError, match=r"mean_force=834 is not one of the result's 2 values"
+                                          r" \(400 to 833 N; the nearest is 833\)"):
         gearsweep.result_model(ds, mean_force=834)
     with pytest.raises(ResultError, match=r"speed: not a swept field .* \(swept: "):
         gearsweep.result_model(ds, speed=3000)

@@ -17,9 +17,10 @@ result's attributes.
 
 from __future__ import annotations
 
+import re
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import BeforeValidator, Field, model_validator
 
 from gearsweep.study.quantities import Count, Real, Speed, Strict, WholeStudy
 
@@ -105,7 +106,20 @@ class WorkPrecision(Strict):
         return self
 
 
-ResultName = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$", description=(
+def _result_name(value: object) -> object:
+    """``fig08_rattle`` as written; ``fig08_rattle.nc`` is the same name (it looked for
+    ``fig08_rattle.nc.nc``); a path is refused with what to write instead."""
+    if not isinstance(value, str):
+        return value
+    name = value.removesuffix(".nc")
+    if not re.fullmatch(r"[A-Za-z0-9_.-]+", name):
+        raise ValueError("the name of a result in the folder the analysis writes to (e.g."
+                         " fig08_rattle for results/fig08_rattle.nc), not a path: run the"
+                         " analysis with -o in the folder that holds it")
+    return name
+
+
+ResultName = Annotated[str, BeforeValidator(_result_name), Field(description=(
     "the name of another study's result: results/<name>.nc from studies/<name>.yaml"))]
 
 
