@@ -110,6 +110,10 @@ class Advice:
             f" (h omega_n = {self.h_omega_n:.3f} at the lowest speed, expected error"
             f" {self.expected_error:.1e} from err <= {self.constant:.3g} (h omega_n)^"
             f"{self.order:g}), {self.msteps:.3g} Msteps.")
+        sampled = (math.pi / self.steps_per_period) ** 2 / 2
+        lines.append(f"The target is the trajectory's (and p_rms's) error; p_pp, p_max and p_min"
+                     f" are taken on the step grid and can be off by up to (pi/N)^2/2 of the amplitude ="
+                     f" {sampled:.1e} at N = {self.steps_per_period} steps per mesh period.")
         lines += [f"WARNING: {w}" for w in self.warnings]
         return "\n".join(textwrap.fill(line, width, subsequent_indent="  ") for line in lines)
 
