@@ -115,3 +115,29 @@ def test_unsettled_cases_are_masked_and_counted(ds):
     plot_order_lines(ax, bad.sel(torque=50.0))
     assert np.isnan(ax.get_lines()[0].get_ydata()[2])
     assert ax.get_legend().get_title().get_text().startswith("1 of ")
+
+
+def test_response_vs_speed_names_the_swept_values_it_holds_fixed(tmp_path):
+    """A result over speed x damping x backlash drew one backlash silently (the first): the
+    title now names it; legend units are written as a study writes them (N s/mm, kN/mm)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import gearsweep
+    from gearsweep.plot.sweep import plot_response_vs_speed
+
+    ds = gearsweep.run("""
+title: t
+scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, damping: 5 N s/mm,
+        backlash: 0.2 mm, mean_force: 200 N, fluctuation: [{amplitude: 300 N, order: 1}]}
+sweep:
+  speed: [5000 rpm, 6000 rpm]
+  stiffness: [1000 kN/mm, 1073 kN/mm]
+  backlash: [0.2 mm, 0.3 mm]
+solver: {steps_per_period: 32, transient_periods: 10, record_periods: 4}
+""")
+    fig = plot_response_vs_speed(ds, "p_pp")
+    ax = fig.axes[0]
+    assert ax.get_title().endswith("at backlash = 0.2 mm (select others with ds.sel)")
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "stiffness = 1000 kN/mm", "stiffness = 1073 kN/mm"]

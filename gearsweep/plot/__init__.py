@@ -1,0 +1,19 @@
+"""Figures drawn from results (a Dataset of ``gearsweep.run`` or ``gearsweep.open_result``).
+
+Functions that take a result Dataset and read its units (the figure scripts use them too):
+
+* ``plot.sweep.plot_response_vs_speed(ds, var="p_pp", ax=None, hue=None)``: any dynamic result
+  over speed, one line per value of another swept dim, up and down sweeps, unsettled cases masked.
+* ``plot.whine.plot_waterfall``, ``plot_campbell``, ``plot_order_lines``: a result with the
+  ``spectrum`` output; ``plot.whine.plot_response_vs_speed(ax, ds, by=...)`` per swept load.
+* ``plot.stability.plot_stability_map(ds, var="unstable")``: a result over speed and damping with
+  the ``floquet`` output.
+* ``plot.rattle.plot_rattle_balance``, ``plot_rattle_contact``, ``plot_rattle_graphical``,
+  ``plot_rattle_budget``: the results of the rattle analysis studies.
+* ``plot.precision.plot_work_precision``, ``plot_method_stability``: the analysis results of the
+  same names.
+* ``plot.mesh``: a mesh study's result (STE, load sharing, stiffness over the mesh cycle and load).
+
+The others take arrays in SI units (``units.si_values`` converts a result's variable).
+``plot.common.save(fig, path)`` writes a PNG.
+"""

@@ -8,7 +8,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from gearsweep.plot.common import UM, axes
-from gearsweep.units import si_data_vars
+from gearsweep.units import KINDS, si_data_vars
 
 
 def _label(ds: xr.Dataset, dim: str, value) -> str:
@@ -17,6 +17,7 @@ def _label(ds: xr.Dataset, dim: str, value) -> str:
         return f"c = {value / 1e3:g} N s/mm"
     if dim == "damping" and units == "N s mm-1":
         return f"c = {value:g} N s/mm"
+    units = {k.cf: k.examples[0] for k in KINDS.values()}.get(units, units)  # N s mm-1: N s/mm
     if isinstance(value, float | np.floating):
         return f"{dim.replace('_', ' ')} = {value:g} {units}".strip()
     return f"{dim} = {value}"
@@ -54,7 +55,8 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     var : str
         ``p_pp``, ``p_rms``, ``p_max``, ...
     hue : str, optional
-        The other swept dim to draw one line per value of (default: the first one).
+        The other swept dim to draw one line per value of (default: the first one). Any further
+        swept dim is drawn at its first value, named in the title (``ds.sel`` another first).
     hue_labels : list of str, optional
         Legend labels of the ``hue`` values (default: name = value unit).
     """
@@ -64,9 +66,11 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     others = [d for d in da.dims if d not in ("speed", "direction")]
     if hue is None and others:
         hue = others[0]
+    fixed = []
     for d in others:
-        if d != hue:
+        if d != hue:  # drawn at its first value, and said so in the title
             da = da.isel({d: 0})
+            fixed.append(_label(ds, d, ds[d].values[0]))
     dirs = list(ds["direction"].values) if "direction" in da.dims else [None]
     hues = list(ds[hue].values) if hue else [None]
     colors = matplotlib_colors(len(hues))
@@ -87,7 +91,8 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     name = ds[var].attrs.get("long_name", var)
     ax.set_xlabel(speed_label(ds["speed"]))
     ax.set_ylabel(f"{name} [µm]")
-    ax.set_title(name, fontsize=10)
+    ax.set_title(name + (f" at {', '.join(fixed)} (select others with ds.sel)" if fixed else ""),
+                 fontsize=10)
     ax.grid(True, alpha=0.3)
     if hue or dirs != [None] or n_masked:
         ax.legend(fontsize=8, title=f"{n_masked} of {n_all} cases not settled (masked)"
