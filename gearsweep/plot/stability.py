@@ -6,6 +6,8 @@ Every function takes arrays (or a Dataset) and an ``ax`` and returns the figure.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.colors import ListedColormap
@@ -14,6 +16,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from gearsweep.plot.common import axes
+from gearsweep.units import si_values
 
 UNSTABLE_COLOR = "#c0392b"
 INTEGRATOR_COLOR = "#e67e22"
@@ -154,10 +157,6 @@ def plot_stability_map(ds, var: str = "unstable", ax: Axes | None = None, title:
     ``floquet`` output, or a condition such as ``ds.status == 1`` given as a DataArray), drawn by
     ``plot_operating_map`` with the units and teeth the result carries. Other swept dims must be
     selected first (``ds.sel(...)``)."""
-    import json
-
-    from gearsweep.units import si_values
-
     flag = ds[var] if isinstance(var, str) else var
     extra = [d for d in flag.dims if d not in ("speed", "damping")]
     if extra or set(flag.dims) != {"speed", "damping"}:
