@@ -348,9 +348,15 @@ def describe(path: str | Path) -> str:
         raise ResultError(f"{path}: cannot open as a netCDF result ({why})") from None
     with ds:
         lines = [f"{path}: {ds.attrs.get('title', '(no title)')}"]
-        if ds.attrs.get("scene") == "mesh":
+        scene = str(ds.attrs.get("scene", "?"))
+        if scene == "mesh":
             lines.append(f"  static mesh study, {ds.attrs.get('positions', '?')} positions per"
                          " mesh cycle")
+        elif scene.startswith("analysis"):  # no solver of its own: its inputs say which
+            inputs = [k.removeprefix("input_") for k in ds.attrs if k.startswith("input_")
+                      and k not in ("input_cases", "input_elapsed_seconds")]
+            lines.append(f"  {scene.replace(': ', ' study ')}"
+                         + (f", reading {', '.join(inputs)}" if inputs else ""))
         else:
             lines.append(f"  scene {ds.attrs.get('scene', '?')}, {ds.attrs.get('method', '?')} at "
                          f"{ds.attrs.get('steps_per_period', '?')} steps per mesh period, "
@@ -377,7 +383,7 @@ def describe(path: str | Path) -> str:
                 vals = v.values
                 finite = vals[vals == vals]
                 if finite.size:
-                    rng = f"  [{finite.min():.4g} .. {finite.max():.4g}]"
+                    rng = f"  [{finite.min() + 0.0:.4g} .. {finite.max() + 0.0:.4g}]"  # no -0
             lines.append(f"    {name:<26} {v.attrs.get('units', ''):<6} ({', '.join(v.dims)})"
                          f" {v.attrs.get('long_name', '')}{rng}")
         if "status" in ds:

@@ -1012,3 +1012,20 @@ def test_a_drive_beside_a_base_radius_says_which_to_leave_out():
     lines = _lines(text)
     assert len(lines) == 1 and lines[0].endswith(
         "with a 'drive', its 'base_radius_1' is the base radius: leave out 'base_radius'"), lines
+
+
+def test_inspect_of_an_analysis_result_names_its_input_not_a_solver(tmp_path, capsys):
+    """An analysis result printed 'scene analysis: jump_map, ? at ? steps per mesh period, ?
+    transient + ? recorded periods'; a range whose minimum was -0.0 printed '[-0 .. 0.8]'."""
+    import numpy as np
+    import xarray as xr
+
+    path = tmp_path / "j.nc"
+    xr.Dataset({"rattle_share": ("damping", np.array([-0.0, 0.8074]), {"units": "1"})},
+               coords={"damping": ("damping", [1.0, 2.0], {"units": "N s mm-1"})},
+               attrs={"scene": "analysis: jump_map", "input_small": "ab12",
+                      "input_cases": 4}).to_netcdf(path)
+    assert main(["inspect", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "  analysis study jump_map, reading small\n" in out and "?" not in out, out
+    assert "[0 .. 0.8074]" in out, out

@@ -273,7 +273,8 @@ def excitation_problems(scene: Any, swept) -> list[tuple[str, Any, str]]:
                 else f"{math.degrees(width * 2 * math.pi / scene.teeth):.4g} deg")
         hint = "" if ex.span == "revolution" else "; samples over a revolution: span: revolution"
         return [("scene.excitation.span", ex.span, (f"the samples of excitation.file span {what},"
-                 f" more than one {span} ({period} mesh cycles of {scene.teeth} teeth){hint}"))]
+                 f" more than one {span} ({period} mesh cycle{'s' if period != 1 else ''} of {scene.teeth}"
+                 f" teeth){hint}"))]
     need = min_samples(ex.harmonics, scene.teeth, ex.span == "revolution")
     n = np.unique(np.round(_one_period(phi, period), 12)).size
     if n < need:
