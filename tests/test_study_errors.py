@@ -1027,5 +1027,5 @@ def test_inspect_of_an_analysis_result_names_its_input_not_a_solver(tmp_path, ca
                       "input_cases": 4}).to_netcdf(path)
     assert main(["inspect", str(path)]) == 0
     out = capsys.readouterr().out
-    assert "  analysis study jump_map, reading small\n" in out and "?" not in out, out
+    assert "  analysis study jump_map, reading small\n" in out and "steps per mesh" not in out, out
     assert "[0 .. 0.8074]" in out, out
