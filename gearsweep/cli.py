@@ -222,6 +222,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         _check_writable(out, args.study)
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
 
+        unused = [o for o, v in (("--workers", args.workers), ("--chunk-size", args.chunk_size),
+                                 ("--scheduler", args.scheduler), ("--device", args.device)) if v]
+        if unused and not args.quiet:
+            print(f"gearsweep: note: {name}: {article(study.type)} study is computed in one piece,"
+                  f" in this process: {', '.join(unused)} do{'es' if len(unused) == 1 else ''}"
+                  " not apply", file=sys.stderr)
         if args.estimate:
             print(f"{name}: {article(study.type)} study, computed in one piece: no estimate")
             return 0

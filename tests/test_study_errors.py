@@ -1029,3 +1029,23 @@ def test_inspect_of_an_analysis_result_names_its_input_not_a_solver(tmp_path, ca
     out = capsys.readouterr().out
     assert "  analysis study jump_map, reading small\n" in out and "steps per mesh" not in out, out
     assert "[0 .. 0.8074]" in out, out
+
+
+def test_validate_says_a_swept_mean_force_replaces_the_scenes_torque(tmp_path, capsys):
+    """Sweeping torque over a scene's torque was said ('the sweep replaces scene.torque');
+    sweeping mean_force over a scene's torque, the same load, was not."""
+    text = GOOD.replace("  mean_force: 100 N\n", "  torque: 5 N m\n  base_radius: 50 mm\n").replace(
+        "sweep:\n", "sweep:\n  mean_force: [100 N, 200 N]\n")
+    path = tmp_path / "s.yaml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["validate", str(path)]) == 0
+    assert "the sweep replaces scene.torque" in capsys.readouterr().out
+
+
+def test_options_that_do_not_apply_to_a_study_in_one_piece_are_noted(tmp_path, capsys):
+    study = ROOT / "studies" / "mesh_tip_relief.yaml"
+    assert main(["run", str(study), "-o", str(tmp_path / "m.nc"), "--workers", "2",
+                 "--chunk-size", "10"]) == 0
+    assert capsys.readouterr().err == (
+        f"gearsweep: note: {study}: a mesh study is computed in one piece, in this process:"
+        " --workers, --chunk-size do not apply\n")

@@ -511,8 +511,10 @@ def replaced_by_sweep(study) -> list[str]:
     the scene is not used (a required one, such as a rattle scene's backlash, must still be
     given)."""
     sc = study.scene
-    return [f"scene.{name}" for name in study.sweep
-            if name in sc.model_fields_set and getattr(sc, name, None) is not None]
+    load = {"torque": "mean_force", "mean_force": "torque"}  # either one gives the mean load
+    return [f"scene.{given}" for name in study.sweep
+            for given in (name, load.get(name)) if given
+            if given in sc.model_fields_set and getattr(sc, given, None) is not None]
 
 
 def value_problems(name: str, items: list[tuple[str | int, Any]],
