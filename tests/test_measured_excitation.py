@@ -354,3 +354,22 @@ def test_a_mesh_study_result_is_an_excitation_file(tmp_path):
     assert_allclose([h.phase for h in m.stiffness_harmonics],
                     [h.phase for h in g.stiffness_harmonics], atol=1e-11)
     assert max(h.amplitude for h in m.ste_harmonics) < 1e-15  # of a 4.3 um STE
+
+
+def test_a_files_stated_load_must_be_the_scenes(tmp_path, capsys):
+    """A mesh study's result names its load (a scalar 'torque'); a scene that ran its STE at
+    another load was accepted silently (p_rms 0.28-1.14 um where the file's load gives 2.3-2.6).
+    It is refused at the scene's load field; the file's load runs."""
+    phi = np.arange(64) / 64
+    xr.Dataset({"ste": ("mesh_phase", series(5e-6, U_H, phi) * 1e6, {"units": "um"})},
+               coords={"mesh_phase": ("mesh_phase", phi, {"units": "1"}),
+                       "torque": ((), 100.0, {"units": "N m"})}).to_netcdf(tmp_path / "m.nc")
+    scene = ("  kind: whine\n  teeth: 48\n  mass: 0.1527 kg\n  damping: 5 N s/mm\n"
+             "  stiffness: 2e8 N/m\n  base_radius: 50 mm\n  excitation: {file: m.nc}\n")
+    (tmp_path / "s.yaml").write_text(study(scene + "  torque: 20 N m\n"), encoding="utf-8")
+    assert main(["validate", str(tmp_path / "s.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "scene.torque: excitation.file's STE is at 100 N m (its"\
+        " 'torque'), the scene at 20 N m" in err, err
+    (tmp_path / "s.yaml").write_text(study(scene + "  mean_force: 2 kN\n"), encoding="utf-8")
+    assert main(["validate", str(tmp_path / "s.yaml")]) == 0  # 2 kN x 50 mm = 100 N m

@@ -67,12 +67,12 @@ class Samples:
     at: np.ndarray
     ste: np.ndarray | None
     stiffness: np.ndarray | None
+    torque: float | None = None
+    """The mean driving torque [N m] the file says its samples are at (a netCDF file's scalar
+    ``torque``, as a mesh study writes it); ``None`` when it does not say."""
 
     def mesh_phase(self, teeth: int) -> np.ndarray:
         return self.at if self.position == "mesh_phase" else self.at * teeth / (2.0 * math.pi)
-
-
-_UDUNITS_POWER = re.compile(r"(?<![\w.])([A-Za-z]+)(-?\d+)\b")
 
 
 def _factor(name: str, unit: str, kind: str) -> float:
@@ -85,8 +85,8 @@ def _factor(name: str, unit: str, kind: str) -> float:
     if not unit.strip():
         raise ValueError(f"column {name!r} needs its unit in the header, e.g."
                          f" '{name} [{ {'angle': 'deg', 'displacement': 'um'}.get(kind, 'N/mm')}]'")
-    try:  # UDUNITS exponents of netCDF files (``N m-1``, ``kg m2``) as pint writes them
-        f = to_si("1 " + _UDUNITS_POWER.sub(r"\1**\2", unit), kind)
+    try:  # UDUNITS exponents of netCDF files (``N m-1``, ``kg m2``): units.normalise reads them
+        f = to_si("1 " + unit, kind)
     except UnitParseError as exc:
         raise ValueError(f"column {name!r}: unit {unit!r}: {exc}") from None
     return f
@@ -143,10 +143,14 @@ def _read_csv(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
     return names, data
 
 
-def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
+def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, float | None]:
     import xarray as xr
 
     with xr.open_dataset(path) as ds:
+        torque = None
+        if "torque" in ds.variables and ds["torque"].size == 1:  # the load of a mesh study
+            torque = float(ds["torque"].values) * _factor("torque", ds["torque"].attrs.get(
+                "units", ""), "torque")
         wanted = [v for v in ds.variables if str(v).lower() in VALUES]
         if not wanted:
             raise ValueError("no variable ste or mesh_stiffness (1-D over mesh_phase or angle)")
@@ -159,15 +163,15 @@ def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
             (str(v), str(ds[v].attrs.get("units", ""))) for v in wanted]
         data = np.stack([np.asarray(ds[dim].values, float)]
                         + [np.asarray(ds[v].values, float) for v in wanted], axis=1)
-    return names, data
+    return names, data, torque
 
 
 @lru_cache(maxsize=32)
 def _read(path: str, stamp: tuple[int, int]) -> Samples:
     p = Path(path)
     try:
-        names, data = _read_netcdf(p) if p.suffix.lower() in (".nc", ".nc4", ".cdf") \
-            else _read_csv(p)
+        names, data, torque = _read_netcdf(p) if p.suffix.lower() in (".nc", ".nc4", ".cdf") \
+            else (*_read_csv(p), None)
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"cannot read the file ({type(exc).__name__})") from None
     index, factor, position = _columns(names)
@@ -177,7 +181,7 @@ def _read(path: str, stamp: tuple[int, int]) -> Samples:
     def col(which: str) -> np.ndarray | None:
         return data[:, index[which]] * factor[which] if which in index else None
 
-    return Samples(position, col("position"), col("ste"), col("stiffness"))
+    return Samples(position, col("position"), col("ste"), col("stiffness"), torque)
 
 
 def read_samples(path: str | Path) -> Samples:
@@ -257,6 +261,15 @@ def excitation_problems(scene: Any, swept) -> list[tuple[str, Any, str]]:
     if s.ste is not None:
         if getattr(scene, "ste", None):
             out.append(("scene.ste", NO_VALUE, "excitation.file gives the STE: remove it"))
+        runs_at = scene.torque if scene.torque is not None else (
+            scene.mean_force * scene.r1 if scene.mean_force is not None and scene.r1 else None)
+        if (s.torque is not None and runs_at is not None
+                and not math.isclose(runs_at, s.torque, rel_tol=1e-3)):
+            given = "torque" if scene.torque is not None else "mean_force"
+            out.append((f"scene.{given}", NO_VALUE, (f"excitation.file's STE is at"
+                        f" {s.torque:g} N m (its 'torque'), the scene at {runs_at:g} N m: an"
+                        " STE holds for the load it was computed at; run the scene at the"
+                        " file's load, or compute the mesh at this one")))
         if scene.kind != "rattle":
             for name in ("torque", "mean_force", "stiffness"):
                 if name in swept and not (name == "stiffness" and s.stiffness is not None):
