@@ -369,7 +369,7 @@ def test_a_files_stated_load_must_be_the_scenes(tmp_path, capsys):
     (tmp_path / "s.yaml").write_text(study(scene + "  torque: 20 N m\n"), encoding="utf-8")
     assert main(["validate", str(tmp_path / "s.yaml")]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "scene.torque: excitation.file's STE is at 100 N m (its"\
-        " 'torque'), the scene at 20 N m" in err, err
+    said = "scene.torque: excitation.file's STE is at 100 N m (its 'torque'), the scene at 20 N m"
+    assert err.count("\n") == 1 and said in err, err
     (tmp_path / "s.yaml").write_text(study(scene + "  mean_force: 2 kN\n"), encoding="utf-8")
     assert main(["validate", str(tmp_path / "s.yaml")]) == 0  # 2 kN x 50 mm = 100 N m
