@@ -212,7 +212,8 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
     ``ds.sel`` (``result_model(ds, mean_force=833, backlash=0.1)``: 833 N, 0.1 mm). A swept
     field not selected is NaN, never the scene's own value, which the kernel did not run. A gear
     scene sweeping its load has k(t) and e(t) of each load: selected, they are computed again
-    from the study the result carries (as the run did); else their amplitudes and phases are NaN.
+    from the study the result carries (as the run did); else their amplitudes and phases are NaN
+    (a stiffness typed beside the gear is the same at every load, and kept).
     ``speed`` is not a field of the model (each case's mesh frequency)."""
     if isinstance(ds, str | Path):
         ds = open_result(ds)
@@ -236,7 +237,8 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
                               f" {coord.attrs.get('units', '')}; the nearest is {near:.10g})")
         si[name] = float(si_values(coord.isel({name: int(at[0])})))
     load = {"torque", "mean_force"} & set(swept)
-    if load and getattr(result_study(ds).scene, "gear", None) is not None:  # k(t), e(t) per load
+    scene = result_study(ds).scene
+    if load and getattr(scene, "gear", None) is not None:  # k(t), e(t) per load
         name = next(iter(load))
         if name in si:
             torque = si[name] if name == "torque" else si[name] * model.base_radius
@@ -246,9 +248,12 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
             def unknown_load(hs: tuple[Harmonic, ...]) -> tuple[Harmonic, ...]:
                 return tuple(Harmonic(math.nan, h.order, math.nan) for h in hs)
 
-            model = dataclasses.replace(
-                model, mean_force=math.nan, stiffness=math.nan,
-                stiffness_harmonics=unknown_load(model.stiffness_harmonics),
+            typed_k = scene.stiffness is not None  # k(t) typed beside the gear replaces the
+            model = dataclasses.replace(  # pair's: the same at every load, kept
+                model, mean_force=math.nan,
+                stiffness=model.stiffness if typed_k else math.nan,
+                stiffness_harmonics=model.stiffness_harmonics if typed_k
+                else unknown_load(model.stiffness_harmonics),
                 ste_harmonics=unknown_load(model.ste_harmonics))
         si.pop(name, None)
         swept.remove(name)

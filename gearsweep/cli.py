@@ -151,9 +151,14 @@ def cmd_validate(args: argparse.Namespace) -> int:
         check_limits(est, name)
     print(f"{name}: ok -- {_summary(study, plan, est.line())}")
     if study.solver.step_guard != "off":  # what run will warn of, said before it runs
-        beyond = step_limit_text(plan, cases_beyond_step_limit(plan) or 0, name, before=True)
+        n = cases_beyond_step_limit(plan)
+        beyond = step_limit_text(plan, n or 0, name, before=True)
         if beyond is not None:
             print(f"gearsweep: warning: {beyond}", file=sys.stderr)
+        elif n is None:
+            print(f"gearsweep: note: {name}: the step guard's grid is too large to check here;"
+                  " run checks every case and says how many are beyond the step limit",
+                  file=sys.stderr)
     return 0
 
 

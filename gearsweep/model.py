@@ -86,7 +86,11 @@ class MeshModel:
         """Mesh periods in one cycle of every excitation (1 unless some order is fractional)."""
         p = 1
         for hm in (*self.stiffness_harmonics, *self.ste_harmonics, *self.force_harmonics):
-            den = Fraction(hm.order).limit_denominator(max(10 * self.teeth, 64)).denominator
+            exact = Fraction(hm.order)
+            near = exact.limit_denominator(max(10 * self.teeth, 64))  # 0.0208333 is 1/48
+            if abs(float(near) - hm.order) > 1e-4 * hm.order:  # a decimal of 5 digits is its
+                near = exact.limit_denominator(10**6)  # fraction; 1/97 of 8 teeth is not 1/80
+            den = near.denominator
             p = p * den // math.gcd(p, den)
         return p
 

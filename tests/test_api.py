@@ -309,3 +309,39 @@ def test_result_model_of_a_gear_scene_at_a_swept_load():
     unselected = gearsweep.result_model(ds)
     assert all(np.isnan(x) for x in (unselected.mean_force, unselected.stiffness,
                                      unselected.stiffness_harmonics[0].amplitude))
+
+
+def test_result_model_keeps_a_stiffness_typed_beside_a_gear_when_the_load_is_swept():
+    """k(t) typed beside the gear (studies/fig05_waterfall.yaml) is the same at every load: an
+    unselected load left it NaN (a review); only the pair's load-dependent parts are."""
+    import re
+
+    text = (ROOT / "studies/fig05_waterfall.yaml").read_text(encoding="utf-8")
+    text, n = re.subn(r"speed: \{start: 1000 rpm, stop: 20000 rpm, num: 2000\}",
+                      "speed: [5000 rpm]\n  torque: [25 N*m, 50 N*m]", text)
+    assert n == 1 and "  torque: 50 N*m\n" in text
+    ds = gearsweep.run(text.replace("  torque: 50 N*m\n", ""))
+    m = gearsweep.result_model(ds)
+    assert m.stiffness == 1073e6 and [h.amplitude for h in m.stiffness_harmonics] == [
+        179e6, 40e6, 10e6]
+    assert np.isnan(m.mean_force) and np.isnan(m.ste_harmonics[0].amplitude)
+    at = gearsweep.result_model(ds, torque=50)
+    assert at.stiffness == 1073e6 and not np.isnan(at.ste_harmonics[0].amplitude)
+
+
+def test_validate_says_when_the_step_guard_grid_is_too_large_to_count(write_study, capsys):
+    """Over 2^20 points of the guard's swept values, validate cannot count in advance: it said
+    nothing (as if no case were beyond the limit); now it says run will count them."""
+    path = write_study("""\
+title: big chart
+scene: {kind: mathieu}
+sweep:
+  alpha: {start: 0.1, stop: 2, num: 1100}
+  beta: {start: 0, stop: 1, num: 1000}
+solver: {transient_periods: 1, record_periods: 1}
+outputs: [floquet]
+""")
+    assert cli(["validate", str(path), "--yes"]) == 0
+    assert capsys.readouterr().err == (
+        f"gearsweep: note: {path}: the step guard's grid is too large to check here; run checks"
+        " every case and says how many are beyond the step limit\n")

@@ -405,7 +405,7 @@ title: tiny whine
 scene: {{kind: whine, mass: 0.2 kg, teeth: 10, stiffness: 2.0e8 N/m, damping: 400 N*s/m,
         mean_force: 50 N}}
 sweep: {{speed: [6000 rpm, 12000 rpm]}}
-solver: {{device: {device}, transient_periods: 1, record_periods: 1}}
+solver: {{device: {device}, transient_periods: 1, record_periods: 2}}
 """
 
 

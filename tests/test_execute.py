@@ -546,7 +546,7 @@ def test_run_to_file_streams_results_without_full_arrays(rattle_reference, tmp_p
     assert not ds["p_pp"].variable._in_memory  # the file opened lazily
     assert_same(ds.load(), rattle_reference)
     ds.close()
-    with netCDF4.Dataset(out) as nc:  # chunked (dataset.file_chunks), compressed
+    with netCDF4.Dataset(out) as nc:  # chunked (filelayout.file_chunks), compressed
         assert nc["p_pp"].chunking() != "contiguous"
 
 

@@ -373,3 +373,37 @@ def test_a_files_stated_load_must_be_the_scenes(tmp_path, capsys):
     assert err.count("\n") == 1 and said in err, err
     (tmp_path / "s.yaml").write_text(study(scene + "  mean_force: 2 kN\n"), encoding="utf-8")
     assert main(["validate", str(tmp_path / "s.yaml")]) == 0  # 2 kN x 50 mm = 100 N m
+
+
+def test_a_files_stated_load_against_swept_loads_and_unstated_ones(tmp_path, capsys):
+    """A review found the check skipped a swept load (a rattle scene may sweep it beside an STE
+    file) and a mean_force without base radius, and crashed (TypeError) on a torque axis of size
+    1; a torque without a unit refused the whole file. Now: swept loads are compared, a force
+    without a radius is asked for one, and a load the file does not state plainly is none."""
+    phi = np.arange(64) / 64
+    ste = ("mesh_phase", series(5e-6, U_H, phi) * 1e6, {"units": "um"})
+    pos = ("mesh_phase", phi, {"units": "1"})
+    for name, torque in (("scalar.nc", ((), 100.0, {"units": "N m"})),
+                         ("axis.nc", (("torque",), [100.0], {"units": "N m"})),
+                         ("nounit.nc", ((), 100.0))):
+        xr.Dataset({"ste": ste}, coords={"mesh_phase": pos, "torque": torque}).to_netcdf(
+            tmp_path / name)
+    rattle = ("  kind: rattle\n  teeth: 48\n  mass: 0.1527 kg\n  damping: 5 N s/mm\n"
+              "  backlash: 0.1 mm\n  stiffness: 2e8 N/m\n  base_radius: 50 mm\n")
+
+    def validate(scene: str, sweep: str = "sweep:\n  speed: [3000 rpm]\n") -> tuple[int, str]:
+        (tmp_path / "s.yaml").write_text(study(scene, sweep), encoding="utf-8")
+        rc = main(["validate", str(tmp_path / "s.yaml")])
+        return rc, capsys.readouterr().err
+
+    rc, err = validate(rattle + "  excitation: {file: scalar.nc}\n",
+                       "sweep:\n  speed: [3000 rpm]\n  torque: [100 N m, 50 N m]\n")
+    said = "sweep.torque: excitation.file's STE is at 100 N m (its 'torque'), the scene at 50 N m"
+    assert rc == 2 and said in err, err
+    rc, err = validate(rattle.replace("  base_radius: 50 mm\n", "") + "  mean_force: 2 kN\n"
+                       "  excitation: {file: scalar.nc}\n")
+    said = ("scene.mean_force: excitation.file's STE is at 100 N m (its 'torque'): give"
+            " base_radius beside mean_force, or torque")
+    assert rc == 2 and said in err, err
+    for unstated in ("axis.nc", "nounit.nc"):  # no load stated plainly: none compared
+        assert validate(rattle + f"  torque: 20 N m\n  excitation: {{file: {unstated}}}\n")[0] == 0

@@ -733,8 +733,8 @@ def test_a_shaft_order_excitation_needs_two_whole_cycles_recorded(tmp_path, caps
     assert main(["validate", str(study)]) == 2
     assert capsys.readouterr().err == (
         f"gearsweep: error: {study}:13: solver.record_periods: 50 -- at least 96 for this"
-        " excitation (two of its cycles of 48 mesh periods: the settle test compares the"
-        " extremes of the record's two halves, each must hold a whole cycle)\n")
+        " excitation (its cycle is 48 mesh periods: the settle test compares the extremes of"
+        " the record's two halves, each must hold a whole cycle)\n")
     good = parse_study(SHAFT_ORDER.replace("RECORD", ", record_periods: 96"))
     assert good.scene.fluctuation[0].order == 1 / 48
     ds = run_study(good)
@@ -1049,3 +1049,29 @@ def test_options_that_do_not_apply_to_a_study_in_one_piece_are_noted(tmp_path, c
     assert capsys.readouterr().err == (
         f"gearsweep: note: {study}: a mesh study is computed in one piece, in this process:"
         " --workers, --chunk-size do not apply\n")
+
+
+def test_record_periods_rules_for_one_period_a_spectrum_and_a_ratio_beyond_the_teeth(tmp_path,
+                                                                                   capsys):
+    """A review found: one recorded period of a driven scene flagged settled cases 'not settled'
+    (the rule held for cycles > 1 only); a spectrum's 'a multiple of 48' was then refused again
+    with 'at least 96' (now one line says both); and order 1/97 of an 8-tooth gear got a cycle
+    of 80 (the ratio is kept when the nearest small fraction is not it)."""
+    from gearsweep.model import Harmonic, MeshModel
+
+    assert MeshModel(mass=1.0, teeth=8, stiffness=1e8,
+                     force_harmonics=(Harmonic(1.0, 1 / 97),)).cycle_periods == 97
+    assert MeshModel(mass=1.0, teeth=48, stiffness=1e8,
+                     force_harmonics=(Harmonic(1.0, 0.0208333),)).cycle_periods == 48
+    study = tmp_path / "s.yaml"
+    study.write_text(SHAFT_ORDER.replace("order: 1/48", "order: 1").replace(
+        "RECORD", ", record_periods: 1"), encoding="utf-8")
+    assert main(["validate", str(study)]) == 2
+    said = "solver.record_periods: 1 -- at least 2 for this excitation (its cycle is 1 mesh period:"
+    assert said in capsys.readouterr().err
+    study.write_text(SHAFT_ORDER.replace("RECORD", ", record_periods: 48").replace(
+        "speed: {start: 3000 rpm, stop: 12000 rpm, num: 4}",
+        "speed: {start: 3000 rpm, stop: 12000 rpm, num: 4}\noutputs: [spectrum]"), encoding="utf-8")
+    assert main(["validate", str(study)]) == 2
+    assert "solver.record_periods: 48 -- a multiple of 48, at least 96 for this excitation" \
+        in capsys.readouterr().err

@@ -164,7 +164,7 @@ def plot_stability_map(ds, var: str = "unstable", ax: Axes | None = None, title:
                          f" (ds.sel({', '.join(f'{d}=...' for d in extra) or 'speed=..., damping=...'}))")
     teeth = json.loads(ds.attrs["model"]).get("teeth") if "model" in ds.attrs else None
     kwargs.setdefault("label", var if isinstance(var, str) else "flagged")
-    return plot_operating_map(ds["speed"].values, si_values(ds["damping"]),
+    return plot_operating_map(flag["speed"].values, si_values(flag["damping"]),
                               flag.transpose("damping", "speed").values.astype(bool), ax=ax,
                               title=title, teeth=teeth, **kwargs)
 

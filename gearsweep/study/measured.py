@@ -147,10 +147,13 @@ def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, float |
     import xarray as xr
 
     with xr.open_dataset(path) as ds:
-        torque = None
-        if "torque" in ds.variables and ds["torque"].size == 1:  # the load of a mesh study
-            torque = float(ds["torque"].values) * _factor("torque", ds["torque"].attrs.get(
-                "units", ""), "torque")
+        torque = None  # the load of a mesh study: a scalar torque with its unit; else unstated
+        if "torque" in ds.variables and ds["torque"].ndim == 0:
+            try:
+                torque = float(ds["torque"].values) * to_si(
+                    "1 " + str(ds["torque"].attrs["units"]), "torque")
+            except (KeyError, UnitParseError):
+                torque = None
         wanted = [v for v in ds.variables if str(v).lower() in VALUES]
         if not wanted:
             raise ValueError("no variable ste or mesh_stiffness (1-D over mesh_phase or angle)")
@@ -232,9 +235,12 @@ class ExcitationSpec(Strict):
         return read_samples(self.file)
 
 
-def excitation_problems(scene: Any, swept) -> list[tuple[str, Any, str]]:
-    """What a scene with ``excitation`` may not also give or sweep, and samples that cannot give
-    the harmonics asked for: (field path, value or ``NO_VALUE``, message) for each."""
+def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
+                        ) -> list[tuple[str, Any, str]]:
+    """What a scene with ``excitation`` may not also give or sweep, samples that cannot give
+    the harmonics asked for, and a load the file states that the scene does not run at
+    (``swept_loads``: the swept torque or mean_force in SI): (field path, value or ``NO_VALUE``,
+    message) for each."""
     ex: ExcitationSpec | None = getattr(scene, "excitation", None)
     if ex is None:
         return []
@@ -261,15 +267,7 @@ def excitation_problems(scene: Any, swept) -> list[tuple[str, Any, str]]:
     if s.ste is not None:
         if getattr(scene, "ste", None):
             out.append(("scene.ste", NO_VALUE, "excitation.file gives the STE: remove it"))
-        runs_at = scene.torque if scene.torque is not None else (
-            scene.mean_force * scene.r1 if scene.mean_force is not None and scene.r1 else None)
-        if (s.torque is not None and runs_at is not None
-                and not math.isclose(runs_at, s.torque, rel_tol=1e-3)):
-            given = "torque" if scene.torque is not None else "mean_force"
-            out.append((f"scene.{given}", NO_VALUE, (f"excitation.file's STE is at"
-                        f" {s.torque:g} N m (its 'torque'), the scene at {runs_at:g} N m: an"
-                        " STE holds for the load it was computed at; run the scene at the"
-                        " file's load, or compute the mesh at this one")))
+        out += _stated_load_problems(scene, swept_loads or {}, s.torque)
         if scene.kind != "rattle":
             for name in ("torque", "mean_force", "stiffness"):
                 if name in swept and not (name == "stiffness" and s.stiffness is not None):
@@ -299,6 +297,36 @@ def excitation_problems(scene: Any, swept) -> list[tuple[str, Any, str]]:
     except FitError as exc:
         return [("scene.excitation.file", Path(ex.file).name, str(exc))]
     return []
+
+
+def _stated_load_problems(scene: Any, swept: dict, file_torque: float | None
+                          ) -> list[tuple[str, Any, str]]:
+    """The scene's loads (given or swept) against the load an excitation file states: an STE
+    holds for the load it was computed at."""
+    if file_torque is None:
+        return []
+    r1 = scene.r1
+    loads: list[tuple[str, float | None]] = []
+    for name in ("torque", "mean_force"):
+        values = [float(v) for v in swept[name]] if name in swept else (
+            [float(getattr(scene, name))] if getattr(scene, name, None) is not None else [])
+        where = f"sweep.{name}" if name in swept else f"scene.{name}"
+        for v in values:
+            loads.append((where, v if name == "torque" else (v * r1 if r1 else None)))
+    out = []
+    for where, at in loads:
+        if at is None:
+            out.append((where, NO_VALUE, (f"excitation.file's STE is at {file_torque:g} N m (its"
+                        " 'torque'): give base_radius beside mean_force, or torque, so that the"
+                        " scene's load can be compared with it")))
+        elif not math.isclose(at, file_torque, rel_tol=1e-3):
+            out.append((where, NO_VALUE, (f"excitation.file's STE is at {file_torque:g} N m"
+                        f" (its 'torque'), the scene at {at:g} N m: an STE holds for the load it"
+                        " was computed at; run the scene at the file's load, or compute the mesh"
+                        " at this one")))
+        if out:
+            break  # one line says it
+    return out
 
 
 def scene_mean_force(scene: Any) -> float:

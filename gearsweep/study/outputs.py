@@ -45,6 +45,18 @@ STATUS_CODES = {
 ``codes`` attributes, the reference's table, the estimate's attribute text)."""
 
 
+def record_periods_needed(cycle: int, multiple: bool = False) -> str:
+    """What a driven scene's ``record_periods`` must be for an excitation cycle of ``cycle`` mesh
+    periods: two cycles at least (the settle test compares the extremes of the record's two
+    halves, each must hold a whole cycle); with ``multiple`` (a spectrum) also whole cycles."""
+    what = f"a multiple of {cycle}, at least {2 * cycle}" if multiple and cycle > 1 \
+        else f"at least {2 * cycle}"
+    return (f"{what} for this excitation (its cycle is {cycle} mesh period"
+            f"{'s' if cycle != 1 else ''}: the settle test compares the extremes of the record's"
+            " two halves, each must hold a whole cycle" + ("; a spectrum needs whole cycles)"
+                                                          if multiple else ")"))
+
+
 def status_attrs() -> dict[str, Any]:
     """The ``status`` variable's CF flag attributes, from ``STATUS_CODES``."""
     return {"flag_values": np.array(sorted(STATUS_CODES), dtype=np.int8),
@@ -205,10 +217,12 @@ class Spectrum:
         if o.max_order > sps / 2:
             raise StudyError("<study>", f"{where}.max_order", o.max_order,
                              f"at most samples_per_period / 2 = {sps / 2:g} (the Nyquist order)")
-        if isinstance(plan.model, MeshModel) and rec % plan.model.cycle_periods:
+        cycle = plan.model.cycle_periods if isinstance(plan.model, MeshModel) else 1
+        if rec % cycle or (plan.driven and rec < 2 * cycle):  # both rules in one line
             raise StudyError("<study>", "solver.record_periods", rec,
-                             f"a multiple of {plan.model.cycle_periods} mesh periods (the cycle of"
-                             " the excitation) for a spectrum without leakage")
+                             record_periods_needed(cycle, multiple=True) if plan.driven else
+                             f"a multiple of {cycle} mesh periods (the cycle of the excitation)"
+                             " for a spectrum without leakage")
         order = np.arange(kept_bins(rec * sps, rec, o.max_order)) / rec
         aux = {}
         if isinstance(plan.model, MeshModel):

@@ -32,7 +32,7 @@ from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
 from gearsweep.study.measured import scene_measured, typed_harmonics
-from gearsweep.study.outputs import OUTPUTS, VarSpec, configure
+from gearsweep.study.outputs import OUTPUTS, VarSpec, configure, record_periods_needed
 from gearsweep.study.schema import Study, first_load, line_of, load_yaml, written_at
 from gearsweep.units import to_si
 
@@ -309,11 +309,8 @@ def _make_plan(study: Study, text: str) -> Plan:
             "units": "1", "long_name": "step beyond the method's stability limit (results may be"
             " spoiled by the integrator)"})
     rec, cycle = study.solver.record_periods, getattr(plan.model, "cycle_periods", 1)
-    if plan.driven and cycle > 1 and rec < 2 * cycle:
-        raise StudyError("<study>", "solver.record_periods", rec,
-                         f"at least {2 * cycle} for this excitation (two of its cycles of {cycle}"
-                         " mesh periods: the settle test compares the extremes of the record's"
-                         " two halves, each must hold a whole cycle)")
+    if plan.driven and rec < 2 * cycle:
+        raise StudyError("<study>", "solver.record_periods", rec, record_periods_needed(cycle))
     spp, sps = study.solver.steps_per_period, plan.samples_per_period()
     if sps and spp % sps:
         raise StudyError("<study>", "solver.steps_per_period", spp,
