@@ -249,11 +249,13 @@ def compiled(call: dict) -> bool:
     return name is not None and os.path.isfile(os.path.join(folder, name))
 
 
-_COST = {("rk4", False): 1.0, ("rk5", False): 1.1, ("rk4", True): 2.7, ("rk5", True): 3.6}
-"""Rough cold compile time of one specialisation of each driver, relative to plain RK4 (B2's
-specialisations, one process each, 25 Nov 2026, night: plain RK4 5.6 s and RK5 6.1 s,
-kink-aware RK4 15 s and RK5 20 s, docs/benchmark.md). Only the order of the calls depends on
-it."""
+COLD_COMPILE_SECONDS = {("rk4", False): 6.0, ("rk5", False): 7.0, ("rk4", True): 18.0,
+                        ("rk5", True): 22.0}
+"""One-time compile time of one specialisation of a batch driver on a cold cache [s], rounded up
+from the measured (this 2-core machine, 25-26 Nov 2026: plain RK4 4.7-5.6 s, RK5 6.1 s,
+kink-aware RK4 13.8-17.8 s, RK5 about 20 s; docs/benchmark.md). The estimate adds it where the
+cache lacks the study's specialisation; ``compile_cost`` orders the main job's compiles by it.
+The earlier 15/25/68/97 s predate the memoized inlining and the per-combination drivers."""
 
 
 def specialisation(call: dict) -> tuple:
@@ -270,7 +272,7 @@ def specialisation(call: dict) -> tuple:
 
 def compile_cost(key: tuple) -> float:
     """Rough relative cold compile time of the function of ``specialisation`` key ``key``."""
-    return _COST.get(key[:2], 1.0)
+    return COLD_COMPILE_SECONDS.get(key[:2], 6.0) / COLD_COMPILE_SECONDS[("rk4", False)]
 
 
 def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
@@ -297,7 +299,7 @@ def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
         workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
             os.cpu_count() or 1)
     # the most expensive drivers first: the pool hands the cheap ones to whichever is free
-    order = sorted(groups, key=lambda k: -_COST.get(k[:2], 1.0) * len(groups[k]))
+    order = sorted(groups, key=lambda k: -compile_cost(k) * len(groups[k]))
     workers = max(1, min(int(workers), len(order)))
     if workers == 1:
         for key in order:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from gearsweep.kernels import LANES, cuda
-from gearsweep.kernels.batch import compiled, specialisation
+from gearsweep.kernels.batch import COLD_COMPILE_SECONDS, compiled, specialisation
 from gearsweep.study import execute
 from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
@@ -28,13 +28,6 @@ from gearsweep.study.execute import (
 )
 from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan
-
-COLD_COMPILE_SECONDS = {("rk4", False): 6.0, ("rk5", False): 7.0, ("rk4", True): 18.0,
-                        ("rk5", True): 22.0}
-"""One-time compile time of one specialisation of a batch driver on a cold cache [s], rounded up
-from the measured (this 2-core machine, 25-26 Nov 2026: plain RK4 4.7-5.6 s, RK5 6.1 s,
-kink-aware RK4 13.8-17.8 s, RK5 about 20 s; ``batch._COST``, docs/benchmark.md). The earlier
-15/25/68/97 s predate the memoized inlining and the per-combination drivers."""
 
 
 def compile_seconds(plan: Plan) -> float:
