@@ -237,7 +237,7 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
                               f" {coord.attrs.get('units', '')}; the nearest is {near:.10g})")
         si[name] = float(si_values(coord.isel({name: int(at[0])})))
     load = {"torque", "mean_force"} & set(swept)
-    scene = result_study(ds).scene
+    scene = result_study(ds).scene if load else None  # the study is parsed only then
     if load and getattr(scene, "gear", None) is not None:  # k(t), e(t) per load
         name = next(iter(load))
         if name in si:
