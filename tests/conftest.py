@@ -37,6 +37,34 @@ def table1_pair():
     return table1_consistent()
 
 
+RATTLE_SCENE = """\
+scene:
+  kind: rattle
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  damping: 100 N*s/m
+  backlash: 0.2 mm
+  mean_force: 200 N
+  fluctuation: [{amplitude: 300 N, order: 1}]
+"""
+"""The ``scene:`` block of the tests' small rattle studies (YAML): the rig's m_eq, k0 and N1, a
+0.2 mm backlash, light damping and a mesh-order force. Importable: ``from conftest import ...``."""
+
+WHINE_SCENE = """\
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  stiffness_harmonics: [{amplitude: 100 kN/mm}]
+  damping: 5.5 N s/mm
+  mean_force: 1000 N
+"""
+"""The ``scene:`` block of the tests' small whine studies (YAML): the rig's m_eq, k0 and N1, one
+stiffness harmonic, the paper's damping, 1000 N."""
+
+
 SMALL_WHINE = {
     "title": "small whine study (tests)",
     "scene": {"kind": "whine", "mass": f"{RIG.mass} kg", "teeth": RIG.teeth,

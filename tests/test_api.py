@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import RIG
+from conftest import RATTLE_SCENE, RIG
 
 import gearsweep
 from gearsweep.cli import main as cli
@@ -229,18 +229,7 @@ def test_validate_warns_of_the_cases_beyond_the_step_limit_that_run_finds(write_
     """``validate`` says before running what ``run`` warns of after: the same count, from the
     same guard (here a rattle sweep continued both ways, with a dim the guard does not read);
     with ``step_guard: skip`` it says they will be left uncomputed; ``off``: nothing."""
-    text = """\
-title: coarse step
-scene:
-  kind: rattle
-  mass: 0.1527 kg
-  teeth: 48
-  stiffness: 1073 kN/mm
-  damping: 100 N*s/m
-  backlash: 0.2 mm
-  mean_force: 200 N
-  fluctuation: [{amplitude: 300 N, order: 1}]
-sweep:
+    text = "title: coarse step\n" + RATTLE_SCENE + """sweep:
   speed: [300 rpm, 400 rpm, 3000 rpm, 6000 rpm]
   damping: [50 N*s/m, 100 N*s/m, 150 N*s/m]
   backlash: [0.1 mm, 0.2 mm]

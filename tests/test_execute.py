@@ -18,6 +18,7 @@ import netCDF4
 import numpy as np
 import pytest
 import xarray as xr
+from conftest import RATTLE_SCENE
 
 from gearsweep.cli import main
 from gearsweep.errors import LimitError, ResultError
@@ -44,18 +45,7 @@ from gearsweep.study.workspace import saved_chunks
 
 ROOT = Path(__file__).resolve().parents[1]
 
-RATTLE = """\
-title: rattle, continued both ways
-scene:
-  kind: rattle
-  mass: 0.1527 kg
-  teeth: 48
-  stiffness: 1073 kN/mm
-  damping: 100 N*s/m
-  backlash: 0.2 mm
-  mean_force: 200 N
-  fluctuation: [{amplitude: 300 N, order: 1}]
-sweep:
+RATTLE = "title: rattle, continued both ways\n" + RATTLE_SCENE + """sweep:
   speed: {start: 3000 rpm, stop: 12000 rpm, num: 12}
   damping: {start: 50 N*s/m, stop: 400 N*s/m, num: 12}
 continuation: [up, down]

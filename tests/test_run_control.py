@@ -13,23 +13,14 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from conftest import WHINE_SCENE
 
 from gearsweep.cli import main
 from gearsweep.study.checkpoint import chunk_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 
-STUDY = """\
-title: interruptible
-scene:
-  kind: whine
-  mass: 0.1527 kg
-  teeth: 48
-  stiffness: 1073 kN/mm
-  stiffness_harmonics: [{amplitude: 100 kN/mm}]
-  damping: 5.5 N s/mm
-  mean_force: 1000 N
-sweep:
+STUDY = "title: interruptible\n" + WHINE_SCENE + """sweep:
   speed: {start: 1000 rpm, stop: 20000 rpm, num: NUM}
 solver: {method: rk4, steps_per_period: 128, transient_periods: 200, record_periods: 50}
 """

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import WHINE_SCENE
 
 from gearsweep.cli import main
 from gearsweep.errors import StudyError
@@ -703,16 +704,7 @@ def test_validate_says_true_is_not_a_whole_number_in_one_line(tmp_path, capsys):
     assert capsys.readouterr().err == f"gearsweep: error: {path}:5: scene.teeth: True -- {WHOLE}\n"
 
 
-SHAFT_ORDER = """\
-title: shaft-order fluctuation
-scene:
-  kind: whine
-  mass: 0.1527 kg
-  teeth: 48
-  stiffness: 1073 kN/mm
-  stiffness_harmonics: [{amplitude: 100 kN/mm}]
-  damping: 5.5 N s/mm
-  mean_force: 1000 N
+SHAFT_ORDER = "title: shaft-order fluctuation\n" + WHINE_SCENE + """\
   fluctuation: [{amplitude: 200 N, order: 1/48}]
 sweep:
   speed: {start: 3000 rpm, stop: 12000 rpm, num: 4}
