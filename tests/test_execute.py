@@ -56,18 +56,7 @@ solver: {method: rk4, steps_per_period: 32, transient_periods: 40, record_period
 
 CHUNK = 48
 
-LONG = """\
-title: rattle, long transients
-scene:
-  kind: rattle
-  mass: 0.1527 kg
-  teeth: 48
-  stiffness: 1073 kN/mm
-  damping: 100 N*s/m
-  backlash: 0.2 mm
-  mean_force: 200 N
-  fluctuation: [{amplitude: 300 N, order: 1}]
-sweep:
+LONG = "title: rattle, long transients\n" + RATTLE_SCENE + """sweep:
   speed: {start: 3000 rpm, stop: 12000 rpm, num: 50}
   damping: {start: 50 N*s/m, stop: 400 N*s/m, num: 40}
 solver: {method: rk4, steps_per_period: 64, transient_periods: 3000, record_periods: 1000}
