@@ -285,12 +285,20 @@ def _untyped_pipeline(state):
 
 class _InlinedCompiler(CompilerBase):
     """Numba's nopython pipeline with memoized inlining (``_MemoInlineInlinables``) and
-    ``_CopyPropagation`` where the parallel pipeline has its passes: after type inference, the
-    phi nodes stripped and the rewrites."""
+    ``_CopyPropagation`` where the parallel pipeline has its passes: after type inference and the
+    phi nodes stripped; without Numba's post-inference rewrites (``NopythonRewrites``).
+
+    Those rewrites fuse array expressions and fold constant arrays and string literals, none of
+    which the kink-aware functions have; the pass itself computes the variables' lifetimes over
+    the whole inlined body: 0.6 s of the 10.9 s a cold cache spent on the kink-aware RK4
+    specialisation of ``studies/rattle_kink_aware.yaml`` (medians of 3 alternating runs of
+    ``scripts/bench_compile.py``, 26 Nov 2026), the same code (``scripts/bench_kink.py``: the
+    same time, the same amplitudes)."""
 
     def define_pipelines(self):
         pm = DefaultPassBuilder.define_nopython_pipeline(self.state)
         pm.add_pass_after(_CopyPropagation, NopythonRewrites)
+        pm.passes = [(p, d) for p, d in pm.passes if p is not NopythonRewrites]
         return [_memo_inlining(pm)]
 
 
@@ -303,6 +311,11 @@ slower). Copy propagation removes those copies, as Numba's parallel pipeline doe
 ``prange`` body, without that pipeline's passes over the whole body (compiled inside the
 ``prange`` loop, the kink-aware RK4 driver took 73 s to compile, of which 28 s in parfor
 fusion; as a function of its own compiled with this pipeline, see docs/benchmark.md)."""
+
+
+jit_block_cached = numba.njit(pipeline_class=_InlinedCompiler, **OPTIONS)
+"""``jit_block`` for a function called from Python (the kink-aware drivers' block ranges): its
+own entry in Numba's disk cache."""
 
 
 def _blas_check_without_import() -> None:

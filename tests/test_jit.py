@@ -148,7 +148,7 @@ def d2(x):
 
 
 def test_copies_of_one_function_compiled_in_two_processes_stay_apart(tmp_path):
-    """Two copies of one function (the kink block of each method), each called by a cached
+    """Two copies of one function (the kink-aware driver of each method), each called by a cached
     driver compiled in a process of its own: a third process that loads both drivers must run
     each one's own copy. With the copies' names the same, Numba gave them the same symbol (its
     counter starts alike in every process) and the second driver ran the first one's copy."""
@@ -158,7 +158,7 @@ def test_copies_of_one_function_compiled_in_two_processes_stay_apart(tmp_path):
 
     from gearsweep.kernels import kink
 
-    assert kink._BLOCK_RK4.py_func.__qualname__ != kink._BLOCK_RK5.py_func.__qualname__
+    assert kink.INTEGRATE[kink.RK4].name != kink.INTEGRATE[kink.RK5].name
     assert (kink._FIXUPS[kink.RK4]["_fixup"].py_func.__qualname__
             != kink._FIXUPS[kink.RK5]["_fixup"].py_func.__qualname__)
     got = {}

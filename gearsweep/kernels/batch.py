@@ -221,7 +221,7 @@ def dispatcher(call: dict) -> tuple[numba.core.dispatcher.Dispatcher, tuple]:
         tables, get("force", 0.0), get("ste_scale", 0.0), get("fluct_scale", 0.0),
         get("half_gap"), get("bound", np.inf), get("x0", 0.0), get("v0", 0.0), 0, 1,
         kw["steps_per_period"], signal, stride, bool(get("kink_aware")))
-    return specialised.driver(args), args
+    return specialised.driver(args), specialised.arguments(args)
 
 
 def compiled(call: dict) -> bool:
@@ -249,13 +249,15 @@ def compiled(call: dict) -> bool:
     return name is not None and os.path.isfile(os.path.join(folder, name))
 
 
-COLD_COMPILE_SECONDS = {("rk4", False): 6.0, ("rk5", False): 7.0, ("rk4", True): 18.0,
-                        ("rk5", True): 22.0}
+COLD_COMPILE_SECONDS = {("rk4", False): 6.0, ("rk5", False): 7.0, ("rk4", True): 11.0,
+                        ("rk5", True): 16.0}
 """One-time compile time of one specialisation of a batch driver on a cold cache [s], rounded up
-from the measured (this 2-core machine, 25-26 Nov 2026: plain RK4 4.7-5.6 s, RK5 6.1 s,
-kink-aware RK4 13.8-17.8 s, RK5 about 20 s; docs/benchmark.md). The estimate adds it where the
-cache lacks the study's specialisation; ``compile_cost`` orders the main job's compiles by it.
-The earlier 15/25/68/97 s predate the memoized inlining and the per-combination drivers."""
+from the measured (this 2-core machine: plain RK4 4.7-5.6 s, RK5 6.1 s, 25-26 Nov 2026;
+kink-aware RK4 9.1-9.3 s and RK5 13.2-13.8 s, 26 Nov 2026, with the threaded kink driver,
+``scripts/bench_compile.py``; docs/benchmark.md). The estimate adds it where the cache lacks
+the study's specialisation; ``compile_cost`` orders the main job's compiles by it. The earlier
+15/25/68/97 s predate the memoized inlining and the per-combination drivers, and 18/22 s for
+the kink-aware ones the threaded kink driver (``kink.Threaded``)."""
 
 
 def specialisation(call: dict) -> tuple:

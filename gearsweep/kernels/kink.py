@@ -93,11 +93,16 @@ cases in random order (every crossing lane gathered) it is about 2.0. Without ba
 detection is compiled out and the cost is the plain kernel's.
 """
 
+import os
+import threading
+import types
+from concurrent.futures import ThreadPoolExecutor
+
+import numba
 import numpy as np
-from numba import prange
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
-from gearsweep.jit import inlined_copies, jit_block, jit_helper, jit_inline, unique_name
+from gearsweep.jit import inlined_copies, jit_block_cached, jit_helper, jit_inline
 from gearsweep.kernels import rk
 from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 from gearsweep.kernels.rk import (
@@ -792,23 +797,25 @@ _FIXUPS = {m: inlined_copies({name: globals()[name] for name in (
 
 
 def _driver(method):
-    """The kink-aware batch driver of one method (see ``rk._driver``)."""
-    return Specialised(lambda: _integrate_function(method), f"integrate_kink_rk{method}")
+    """The kink-aware batch driver of one method (see ``Threaded``)."""
+    return Threaded(Specialised(lambda: _ranges_function(method), f"integrate_kink_rk{method}",
+                                jit_block_cached))
 
 
-def _block_function(method):
-    """A new Python function of the work of one kink block of one method (``jit_block``
-    compiles it; the drivers of every combination of terms call the same one)."""
-    rk4 = method == RK4
-    fix_jobs = _FIXUPS[method]["_fix_jobs"]
+_KINK_RK4 = True
+"""The method of a copy of ``_integrate_blocks`` (set per copy by ``_ranges_function``)."""
+_KINK_FIX_JOBS = None
+"""The method's ``_fix_jobs`` (``_FIXUPS``), set per copy of ``_integrate_blocks``."""
 
-    def block(blk, nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale,
-              ftab, half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal,
-              stride, stats, xf, vf, status, substeps):
-        """The work of kink block ``blk`` (see ``integrate``): a function of its own
-        (``jit_block``), called once per block from the ``prange`` loop. Written inside the
-        loop, Numba's parallel passes went over all of the inlined helpers (73 s to compile the
-        RK4 driver, 28 s of it parfor fusion; now about 15 s, docs/benchmark.md)."""
+
+def _integrate_blocks(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap,
+                      bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride, sub,
+                      nblocks, lo, hi, stats, xf, vf, status, substeps):
+    """Step the kink blocks ``lo`` ... ``hi - 1`` of a batch of ``nblocks`` (see ``Threaded``)."""
+    n = h.shape[0]
+    S = _cycle(ktab, etab, ftab)
+    PT = _monomial_table(ktab, etab, ftab, S)
+    for blk in range(lo, hi):
         csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
         w = _scratch(2 * sub)  # the kink block's plain blocks, then the group's blocks
         g0 = sub * _BLOCK
@@ -854,7 +861,7 @@ def _block_function(method):
             # loops depends on a mask, so the next sub-block's loop does not wait for one.
             for q in range(sub):
                 o = q * _BLOCK
-                if rk4:
+                if _KINK_RK4:
                     if rec:
                         masks[q] = _rk4_lanes(w, o, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
                     else:
@@ -900,7 +907,8 @@ def _block_function(method):
                 for r in range(3):
                     for k in range(5):
                         P[r, k] = PT[j, r, k]
-                fix_jobs(w, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab, ftab)
+                _KINK_FIX_JOBS(w, jo, jlo, jhi, jbits, nj, P, K, E, F, ktab, kamp, etab,
+                               ftab)
                 for m in range(nc):
                     _scatter(w, g0, m, slot[m])
             j = j + 1 if j + 1 < S else 0
@@ -920,55 +928,37 @@ def _block_function(method):
                     substeps[i0 + l] = w[q * _BLOCK + _NSUB * LANES + l]
         ftz_restore(csr)
 
-    return block
+
+def _ranges_function(method):
+    """A new Python function of ``_integrate_blocks`` for one method (``Specialised`` compiles
+    it per combination of terms; ``Threaded`` calls it from its threads). The method is a global
+    of the copy (Numba freezes it: the other method's branch is pruned before its helpers are
+    inlined), and so is its ``_fix_jobs``: a closure variable would be hashed into Numba's cache
+    key, and a dispatcher pickles differently in every process (the driver was compiled again by
+    every run)."""
+    g = dict(globals())
+    g["_KINK_RK4"] = method == RK4
+    g["_KINK_FIX_JOBS"] = _FIXUPS[method]["_fix_jobs"]
+    f = _integrate_blocks
+    return types.FunctionType(f.__code__, g, f.__name__, f.__defaults__, f.__closure__)
 
 
-_BLOCK_RK4 = jit_block(unique_name(_block_function(RK4), "kink_block_rk4"))
-_BLOCK_RK5 = jit_block(unique_name(_block_function(RK5), "kink_block_rk5"))
-"""The work of one kink block, per method. Module globals, not closure variables of the
-driver: Numba's cache key hashes a closure's variables, and a dispatcher pickles differently in
-every process (the driver was compiled again by every run)."""
+class Threaded:
+    """The kink-aware batch driver of one method: the batch's kink blocks stepped by Numba's
+    number of threads (``numba.get_num_threads()`` of the calling thread), each a Python thread
+    that calls the compiled ``_ranges_function`` (``nogil``) on ranges of kink blocks handed out
+    in turn (``RANGES_PER_THREAD`` per thread), the calling thread among them.
 
+    Called with the arguments of ``gearsweep.kernels.rk.INTEGRATE``'s drivers and ``sub``, plain
+    blocks of ``LANES`` per kink block (``sub_blocks``). Kink block ``blk`` steps the plain blocks
+    blk, blk + nblocks, blk + 2 nblocks, ...: interleaved, so that each range spans the whole
+    batch. Crossings cluster in parts of a sweep (B2: none below about 3000 rpm), and contiguous
+    kink blocks would leave one thread with most of the fix-ups. Each lane's arithmetic does not
+    depend on its block or thread, so the results do not change with either.
 
-def _integrate_function(method):
-    """A new Python function of the kink-aware driver of one method (``_driver`` compiles it)."""
-    rk4 = method == RK4
-
-    def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
-                  v0, n_transient, n_record, steps_per_period, signal, stride, sub):
-        n = h.shape[0]
-        S = _cycle(ktab, etab, ftab)
-        stats = np.empty((n, N_STATS))
-        xf = np.empty(n)
-        vf = np.empty(n)
-        status = np.zeros(n, np.int8)
-        substeps = np.zeros(n)
-        # Kink block ``blk`` steps the plain blocks blk, blk + nblocks, blk + 2 nblocks, ...:
-        # interleaved, so that each thread's share of kink blocks spans the whole batch. Crossings
-        # cluster in parts of a sweep (B2: none below about 3000 rpm), and contiguous kink blocks
-        # would leave one thread with most of the fix-ups. Each lane's arithmetic does not depend
-        # on its block, so the results do not change.
-        sub = max(1, min(sub, SUB_MAX))  # the scratch and the job arrays are sized by it
-        nplain = (n + LANES - 1) // LANES
-        nblocks = (nplain + sub - 1) // sub
-        PT = _monomial_table(ktab, etab, ftab, S)
-        for blk in prange(nblocks):  # np.int64: the prange index is unsigned in the gufunc
-            if rk4:
-                _BLOCK_RK4(np.int64(blk), nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean,
-                           escale, etab, fscale, ftab, half_gap, bound, x0, v0, n_transient,
-                           n_record, steps_per_period, signal, stride, stats, xf, vf, status,
-                           substeps)
-            else:
-                _BLOCK_RK5(np.int64(blk), nblocks, sub, n, S, PT, h, cm, kmean, kamp, ktab, gmean,
-                           escale, etab, fscale, ftab, half_gap, bound, x0, v0, n_transient,
-                           n_record, steps_per_period, signal, stride, stats, xf, vf, status,
-                           substeps)
-        return stats, xf, vf, status, substeps
-
-    integrate.__doc__ = """Integrate a batch of cases with kink-aware steps.
-
-    Arguments as ``gearsweep.kernels.rk.INTEGRATE``'s drivers, and ``sub``: plain blocks of
-    ``LANES`` per kink block (``sub_blocks``).
+    Not a ``prange`` loop: Numba's parallel lowering of that loop compiled the whole block into
+    its gufunc and then into the driver again, each time through LLVM (2.3 of the 13 s a cold
+    cache spent on the RK4 specialisation of ``studies/rattle_kink_aware.yaml``).
 
     Returns
     -------
@@ -979,7 +969,97 @@ def _integrate_function(method):
     substeps : ndarray (n,)
         Extra work at crossings in step-equivalents (right-hand-side evaluations / stages).
     """
-    return integrate
+
+    RANGES_PER_THREAD = 4
+    """Ranges of kink blocks per thread, handed out in turn: a thread whose kink blocks had
+    fewer crossings takes the next range instead of waiting for the others."""
+
+    _pool = None
+    _pool_lock = threading.Lock()
+
+    def __init__(self, ranges: Specialised) -> None:
+        self._ranges = ranges
+
+    def arguments(self, args: tuple) -> tuple:
+        """The compiled function's arguments for the driver's ``args``: all kink blocks, and
+        new output arrays."""
+        head, nblocks, outputs = self._layout(args)
+        return (*head, 0, nblocks, *outputs)
+
+    @staticmethod
+    def _layout(args: tuple) -> tuple:
+        """The compiled function's arguments before the range (``sub`` clamped, the number of
+        kink blocks), that number, and the new output arrays."""
+        n = args[0].shape[0]
+        sub = max(1, min(int(args[-1]), SUB_MAX))  # the scratch and the job arrays are sized by it
+        nplain = -(-n // LANES)
+        nblocks = -(-nplain // sub)
+        outputs = (np.empty((n, N_STATS)), np.empty(n), np.empty(n), np.zeros(n, np.int8),
+                   np.zeros(n))
+        return (*args[:-1], sub, nblocks), nblocks, outputs
+
+    def driver(self, args: tuple):
+        """The compiled function (Numba dispatcher) for the driver's ``args``."""
+        return self._ranges.driver(args)
+
+    @property
+    def stats(self):
+        return self._ranges.stats
+
+    @property
+    def name(self) -> str:
+        """The compiled functions' name (before the combination of terms)."""
+        return self._ranges.name
+
+    def __call__(self, *args):
+        head, nblocks, outputs = self._layout(args)
+        f = self.driver(args)
+        threads = max(1, min(numba.get_num_threads(), nblocks))
+        if threads == 1:
+            f(*head, 0, nblocks, *outputs)
+            return outputs
+        k = min(nblocks, threads * self.RANGES_PER_THREAD)
+        todo = iter([(nblocks * i // k, nblocks * (i + 1) // k) for i in range(k)])
+        lock = threading.Lock()
+
+        def work():
+            while True:
+                with lock:
+                    r = next(todo, None)
+                if r is None:
+                    return
+                f(*head, r[0], r[1], *outputs)
+
+        others = [self._executor().submit(work) for _ in range(threads - 1)]
+        try:
+            work()
+        finally:  # also on an exception here (Ctrl-C): no further ranges, the started ones end
+            with lock:
+                for _ in todo:
+                    pass
+            for fut in others:
+                fut.result()
+        return outputs
+
+    @classmethod
+    def _executor(cls):
+        """The worker threads of every ``Threaded`` driver (at most Numba's thread count of
+        this process less one: the calling thread works too)."""
+        with cls._pool_lock:
+            if cls._pool is None:
+                cls._pool = ThreadPoolExecutor(max(1, numba.config.NUMBA_NUM_THREADS - 1),
+                                               thread_name_prefix="gearsweep-kink")
+            return cls._pool
+
+    @classmethod
+    def _forget_pool(cls) -> None:
+        """In a forked child (a local dask cluster's worker): the parent's threads are not
+        there, so a new pool is made on first use."""
+        cls._pool = None
+        cls._pool_lock = threading.Lock()
+
+
+os.register_at_fork(after_in_child=Threaded._forget_pool)
 
 
 def sub_blocks(n, threads):

@@ -410,9 +410,10 @@ class Specialised:
     combinations used in this process.
     """
 
-    def __init__(self, make, name: str) -> None:
+    def __init__(self, make, name: str, decorator=jit_parallel) -> None:
         self._make = make
         self._name = name
+        self._decorator = decorator
         self._drivers: dict[tuple[bool, ...], object] = {}
         self._lock = threading.Lock()
 
@@ -427,8 +428,17 @@ class Specialised:
                     f = self._make()
                     tag = "".join(f"{k[0] if k != 'kamp' else 'a'}{int(on)}"
                                   for k, on in zip(OPTIONAL, key, strict=True))
-                    d = self._drivers[key] = jit_parallel(unique_name(f, f"{self._name}_{tag}"))
+                    d = self._drivers[key] = self._decorator(unique_name(f, f"{self._name}_{tag}"))
         return d
+
+    @property
+    def name(self) -> str:
+        """The compiled functions' name (before the combination of terms)."""
+        return self._name
+
+    def arguments(self, args: tuple) -> tuple:
+        """The compiled function's arguments for the driver's ``args``: the same."""
+        return args
 
     def __call__(self, *args):
         return self.driver(args)(*args)
