@@ -140,10 +140,6 @@ def unique_name(func: types.FunctionType, name: str) -> types.FunctionType:
     return func
 
 
-jit_parallel = numba.njit(parallel=True, **OPTIONS)
-"""Decorator for the batch drivers that spread blocks of cases over all cores with ``prange``."""
-
-
 @register_pass(mutates_CFG=False, analysis_only=False)
 class _CopyPropagation(FunctionPass):
     """Replace every variable that is only ever a copy of another variable (one definition each,

@@ -91,7 +91,7 @@ def _worker_threads(threads: int) -> None:
 
 KINK_STUDY_COST = 15.0
 """Relative cold compile cost of a study with kink-aware steps (against ``batch.compile_cost``'s
-1.8 and 2.7 for the kink-aware RK4 and RK5 drivers): such a study is started first, beside the
+2.75 and 4.0 for the kink-aware RK4 and RK5 drivers): such a study is started first, beside the
 costliest compile tasks, so that the kink-aware compilations (9-14 s each on a cold cache) run
 side by side from the start."""
 

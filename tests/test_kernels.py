@@ -566,7 +566,7 @@ def test_one_compiled_driver_per_combination_of_terms():
     tab = fourier_table(1.0, 1.0, 0.0, 8)
     simulate(np.full(2, 1e-2), **base)
     simulate(np.full(2, 1e-2), k_table=tab, half_gap=1e-3, **base)
-    names = {d.py_func.__qualname__ for d in rk.INTEGRATE[rk.RK4]._drivers.values()}
+    names = {d.py_func.__qualname__ for d in rk.INTEGRATE[rk.RK4]._ranges._drivers.values()}
     assert {"integrate_rk4_a0k0e0f0h0s0", "integrate_rk4_a0k1e0f0h1s0"} <= names
 
 

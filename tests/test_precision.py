@@ -161,16 +161,18 @@ def test_kink_aware_results_independent_of_case_order():
         np.testing.assert_array_equal(y, x[perm])
 
 
-def test_kink_aware_threads_step_every_block_once_and_agree_bit_for_bit(monkeypatch):
-    """The kink-aware driver (``kink.Threaded``) hands ranges of kink blocks to its threads: with
-    two Numba threads the ranges tile the batch's kink blocks exactly once, at least two threads
-    step them, and the results equal one thread's bit for bit."""
+@pytest.mark.parametrize("kink_aware", [False, True])
+def test_threads_step_every_block_once_and_agree_bit_for_bit(monkeypatch, kink_aware):
+    """The drivers (``rk.Threaded``) hand ranges of blocks to their threads: with two Numba
+    threads the ranges tile the batch's blocks (kink blocks of ``sub`` plain blocks for the
+    kink-aware driver) exactly once, at least two threads step them, and the results equal one
+    thread's bit for bit."""
     import threading
     import time
 
     import numba
 
-    from gearsweep.kernels import kink
+    from gearsweep.kernels import kink, rk
 
     if numba.config.NUMBA_NUM_THREADS < 2:
         pytest.skip("Numba has one thread here")
@@ -178,7 +180,7 @@ def test_kink_aware_threads_step_every_block_once_and_agree_bit_for_bit(monkeypa
     kw = sc.kernel_kwargs(64)
     n = 600
     kw["h"] = kw["h"][0] * np.linspace(0.8, 1.25, n)
-    args = dict(method="rk4", n_transient=0, n_record=640, kink_aware=True, **kw)
+    args = dict(method="rk4", n_transient=0, n_record=640, kink_aware=kink_aware, **kw)
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
     try:
@@ -186,33 +188,39 @@ def test_kink_aware_threads_step_every_block_once_and_agree_bit_for_bit(monkeypa
     finally:
         numba.set_num_threads(threads)
     calls = []
-    real = kink.Threaded.driver
+    real = rk.Threaded.driver
+    n_out = 5 if kink_aware else 4  # the outputs after (lo, hi)
 
     def recording(self, a):
         f = real(self, a)
 
         def call(*full):
-            calls.append((threading.get_ident(), int(full[-7]), int(full[-6]), int(full[-8])))
+            calls.append((threading.get_ident(), int(full[-n_out - 2]), int(full[-n_out - 1])))
             time.sleep(0.02)  # each range takes long enough for the other thread to take one
             return f(*full)
         return call
 
-    monkeypatch.setattr(kink.Threaded, "driver", recording)
+    monkeypatch.setattr(rk.Threaded, "driver", recording)
     numba.set_num_threads(2)
     try:
         two = simulate(**args)
     finally:
         numba.set_num_threads(threads)
-    nblocks = calls[0][3]
-    ranges = sorted((lo, hi) for _, lo, hi, _ in calls)
-    assert ranges[0][0] == 0 and ranges[-1][1] == nblocks and nblocks > 2
+    blocks = -(-n // rk.LANES)
+    if kink_aware:
+        sub = kink.sub_blocks(n, 2)
+        blocks = -(-blocks // sub)
+    ranges = sorted((lo, hi) for _, lo, hi in calls)
+    assert ranges[0][0] == 0 and ranges[-1][1] == blocks and len(ranges) > 2
     assert all(a[1] == b[0] and a[0] < a[1] for a, b in zip(ranges[:-1], ranges[1:], strict=True))
     assert len({t for t, *_ in calls}) == 2
-    assert one.substeps.min() > 0  # every case crosses
+    if kink_aware:
+        assert one.substeps.min() > 0  # every case crosses
+        np.testing.assert_array_equal(two.substeps, one.substeps)
     for name in one.stats:
         np.testing.assert_array_equal(two.stats[name], one.stats[name])
     for x, y in [(one.x_final, two.x_final), (one.v_final, two.v_final),
-                 (one.substeps, two.substeps), (one.status, two.status)]:
+                 (one.status, two.status)]:
         np.testing.assert_array_equal(y, x)
 
 

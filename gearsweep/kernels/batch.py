@@ -249,15 +249,15 @@ def compiled(call: dict) -> bool:
     return name is not None and os.path.isfile(os.path.join(folder, name))
 
 
-COLD_COMPILE_SECONDS = {("rk4", False): 6.0, ("rk5", False): 7.0, ("rk4", True): 11.0,
+COLD_COMPILE_SECONDS = {("rk4", False): 4.0, ("rk5", False): 4.5, ("rk4", True): 11.0,
                         ("rk5", True): 16.0}
 """One-time compile time of one specialisation of a batch driver on a cold cache [s], rounded up
-from the measured (this 2-core machine: plain RK4 4.7-5.6 s, RK5 6.1 s, 25-26 Nov 2026;
-kink-aware RK4 9.1-9.3 s and RK5 13.2-13.8 s, 26 Nov 2026, with the threaded kink driver,
-``scripts/bench_compile.py``; docs/benchmark.md). The estimate adds it where the cache lacks
-the study's specialisation; ``compile_cost`` orders the main job's compiles by it. The earlier
-15/25/68/97 s predate the memoized inlining and the per-combination drivers, and 18/22 s for
-the kink-aware ones the threaded kink driver (``kink.Threaded``)."""
+from the measured (this 2-core machine, 26 Nov 2026, with the threaded drivers, ``rk.Threaded``;
+``scripts/bench_compile.py``: plain RK4 3.2 s, RK5 3.4 s, kink-aware RK4 9.1-9.3 s, RK5
+13.2-13.8 s; docs/benchmark.md). The estimate adds it where the cache lacks the study's
+specialisation; ``compile_cost`` orders the main job's compiles by it. The earlier
+15/25/68/97 s predate the memoized inlining and the per-combination drivers, and 6/7/18/22 s
+the threaded drivers."""
 
 
 def specialisation(call: dict) -> tuple:

@@ -10,9 +10,9 @@ normal number (2.2e-308) to 0 and reads subnormal inputs as 0 (MXCSR FTZ and DAZ
 result that stays a normal number is unchanged, bit for bit.
 
 ``ftz_on()`` returns the thread's previous MXCSR, which ``ftz_restore`` puts back: the drivers
-call both around the work of each block, inside the parallel loop, because each thread
-(Numba's workers or the kink-aware driver's pool threads, and the calling Python thread, which
-takes part) has its own register, and the Python threads' NumPy must keep IEEE subnormals. Elsewhere than x86-64 both are no-ops.
+call both around the work of each block, because each thread that steps blocks (the drivers'
+pool threads and the calling Python thread, ``rk.Threaded``) has its own register, and the
+Python threads' NumPy must keep IEEE subnormals. Elsewhere than x86-64 both are no-ops.
 """
 
 import platform

@@ -93,12 +93,8 @@ cases in random order (every crossing lane gathered) it is about 2.0. Without ba
 detection is compiled out and the cost is the plain kernel's.
 """
 
-import os
-import threading
 import types
-from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
@@ -151,6 +147,7 @@ from gearsweep.kernels.rk import (
     RK4,
     RK5,
     Specialised,
+    Threaded,
 )
 
 # The rk helpers this driver calls, as copies inlined at Numba IR level, like this module's own
@@ -797,9 +794,21 @@ _FIXUPS = {m: inlined_copies({name: globals()[name] for name in (
 
 
 def _driver(method):
-    """The kink-aware batch driver of one method (see ``Threaded``)."""
+    """The kink-aware batch driver of one method: ``_integrate_blocks`` compiled per combination
+    of terms, its kink blocks spread over threads (``rk.Threaded``).
+
+    Called with the arguments of ``gearsweep.kernels.rk.INTEGRATE``'s drivers and ``sub``, plain
+    blocks of ``LANES`` per kink block (``sub_blocks``); returns stats (n, N_STATS), the state at
+    the end xf, vf [m], [m/s], status (int8) and substeps: extra work at crossings in
+    step-equivalents (right-hand-side evaluations / stages).
+
+    Kink block ``blk`` steps the plain blocks blk, blk + nblocks, blk + 2 nblocks, ...:
+    interleaved, so that each range of kink blocks spans the whole batch. Crossings cluster in
+    parts of a sweep (B2: none below about 3000 rpm), and contiguous kink blocks would leave one
+    thread with most of the fix-ups. Each lane's arithmetic does not depend on its block or
+    thread, so the results do not change with either."""
     return Threaded(Specialised(lambda: _ranges_function(method), f"integrate_kink_rk{method}",
-                                jit_block_cached))
+                                jit_block_cached), _kink_layout)
 
 
 _KINK_RK4 = True
@@ -811,7 +820,7 @@ _KINK_FIX_JOBS = None
 def _integrate_blocks(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap,
                       bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride, sub,
                       nblocks, lo, hi, stats, xf, vf, status, substeps):
-    """Step the kink blocks ``lo`` ... ``hi - 1`` of a batch of ``nblocks`` (see ``Threaded``)."""
+    """Step the kink blocks ``lo`` ... ``hi - 1`` of a batch of ``nblocks`` (see ``_driver``)."""
     n = h.shape[0]
     S = _cycle(ktab, etab, ftab)
     PT = _monomial_table(ktab, etab, ftab, S)
@@ -931,7 +940,7 @@ def _integrate_blocks(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, fta
 
 def _ranges_function(method):
     """A new Python function of ``_integrate_blocks`` for one method (``Specialised`` compiles
-    it per combination of terms; ``Threaded`` calls it from its threads). The method is a global
+    it per combination of terms; ``rk.Threaded`` calls it from its threads). The method is a global
     of the copy (Numba freezes it: the other method's branch is pruned before its helpers are
     inlined), and so is its ``_fix_jobs``: a closure variable would be hashed into Numba's cache
     key, and a dispatcher pickles differently in every process (the driver was compiled again by
@@ -943,123 +952,17 @@ def _ranges_function(method):
     return types.FunctionType(f.__code__, g, f.__name__, f.__defaults__, f.__closure__)
 
 
-class Threaded:
-    """The kink-aware batch driver of one method: the batch's kink blocks stepped by Numba's
-    number of threads (``numba.get_num_threads()`` of the calling thread), each a Python thread
-    that calls the compiled ``_ranges_function`` (``nogil``) on ranges of kink blocks handed out
-    in turn (``RANGES_PER_THREAD`` per thread), the calling thread among them.
-
-    Called with the arguments of ``gearsweep.kernels.rk.INTEGRATE``'s drivers and ``sub``, plain
-    blocks of ``LANES`` per kink block (``sub_blocks``). Kink block ``blk`` steps the plain blocks
-    blk, blk + nblocks, blk + 2 nblocks, ...: interleaved, so that each range spans the whole
-    batch. Crossings cluster in parts of a sweep (B2: none below about 3000 rpm), and contiguous
-    kink blocks would leave one thread with most of the fix-ups. Each lane's arithmetic does not
-    depend on its block or thread, so the results do not change with either.
-
-    Not a ``prange`` loop: Numba's parallel lowering of that loop compiled the whole block into
-    its gufunc and then into the driver again, each time through LLVM (2.3 of the 13 s a cold
-    cache spent on the RK4 specialisation of ``studies/rattle_kink_aware.yaml``).
-
-    Returns
-    -------
-    stats : ndarray (n, N_STATS)
-    xf, vf : ndarray (n,)
-        State at the end [m], [m/s].
-    status : ndarray (n,) int8
-    substeps : ndarray (n,)
-        Extra work at crossings in step-equivalents (right-hand-side evaluations / stages).
-    """
-
-    RANGES_PER_THREAD = 4
-    """Ranges of kink blocks per thread, handed out in turn: a thread whose kink blocks had
-    fewer crossings takes the next range instead of waiting for the others."""
-
-    _pool = None
-    _pool_lock = threading.Lock()
-
-    def __init__(self, ranges: Specialised) -> None:
-        self._ranges = ranges
-
-    def arguments(self, args: tuple) -> tuple:
-        """The compiled function's arguments for the driver's ``args``: all kink blocks, and
-        new output arrays."""
-        head, nblocks, outputs = self._layout(args)
-        return (*head, 0, nblocks, *outputs)
-
-    @staticmethod
-    def _layout(args: tuple) -> tuple:
-        """The compiled function's arguments before the range (``sub`` clamped, the number of
-        kink blocks), that number, and the new output arrays."""
-        n = args[0].shape[0]
-        sub = max(1, min(int(args[-1]), SUB_MAX))  # the scratch and the job arrays are sized by it
-        nplain = -(-n // LANES)
-        nblocks = -(-nplain // sub)
-        outputs = (np.empty((n, N_STATS)), np.empty(n), np.empty(n), np.zeros(n, np.int8),
-                   np.zeros(n))
-        return (*args[:-1], sub, nblocks), nblocks, outputs
-
-    def driver(self, args: tuple):
-        """The compiled function (Numba dispatcher) for the driver's ``args``."""
-        return self._ranges.driver(args)
-
-    @property
-    def stats(self):
-        return self._ranges.stats
-
-    @property
-    def name(self) -> str:
-        """The compiled functions' name (before the combination of terms)."""
-        return self._ranges.name
-
-    def __call__(self, *args):
-        head, nblocks, outputs = self._layout(args)
-        f = self.driver(args)
-        threads = max(1, min(numba.get_num_threads(), nblocks))
-        if threads == 1:
-            f(*head, 0, nblocks, *outputs)
-            return outputs
-        k = min(nblocks, threads * self.RANGES_PER_THREAD)
-        todo = iter([(nblocks * i // k, nblocks * (i + 1) // k) for i in range(k)])
-        lock = threading.Lock()
-
-        def work():
-            while True:
-                with lock:
-                    r = next(todo, None)
-                if r is None:
-                    return
-                f(*head, r[0], r[1], *outputs)
-
-        others = [self._executor().submit(work) for _ in range(threads - 1)]
-        try:
-            work()
-        finally:  # also on an exception here (Ctrl-C): no further ranges, the started ones end
-            with lock:
-                for _ in todo:
-                    pass
-            for fut in others:
-                fut.result()
-        return outputs
-
-    @classmethod
-    def _executor(cls):
-        """The worker threads of every ``Threaded`` driver (at most Numba's thread count of
-        this process less one: the calling thread works too)."""
-        with cls._pool_lock:
-            if cls._pool is None:
-                cls._pool = ThreadPoolExecutor(max(1, numba.config.NUMBA_NUM_THREADS - 1),
-                                               thread_name_prefix="gearsweep-kink")
-            return cls._pool
-
-    @classmethod
-    def _forget_pool(cls) -> None:
-        """In a forked child (a local dask cluster's worker): the parent's threads are not
-        there, so a new pool is made on first use."""
-        cls._pool = None
-        cls._pool_lock = threading.Lock()
-
-
-os.register_at_fork(after_in_child=Threaded._forget_pool)
+def _kink_layout(args: tuple) -> tuple:
+    """The kink-aware drivers' ``rk.Threaded`` layout: the arguments before the range (``sub``
+    clamped, the number of kink blocks), that number, and new output arrays (stats, xf, vf,
+    status, substeps)."""
+    n = args[0].shape[0]
+    sub = max(1, min(int(args[-1]), SUB_MAX))  # the scratch and the job arrays are sized by it
+    nplain = -(-n // LANES)
+    nblocks = -(-nplain // sub)
+    outputs = (np.empty((n, N_STATS)), np.empty(n), np.empty(n), np.zeros(n, np.int8),
+               np.zeros(n))
+    return (*args[:-1], sub, nblocks), nblocks, outputs
 
 
 def sub_blocks(n, threads):

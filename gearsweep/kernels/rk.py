@@ -18,9 +18,9 @@ excitation), ``ftab`` (no torque fluctuation), ``half_gap`` (no backlash, f(p) =
 prunes the branches of the terms that are off, so a scene does not pay for them.
 
 Cases are advanced in blocks of ``LANES``: all lanes of a block take the same step index, so the
-inner loop over lanes is branch-free and LLVM vectorises it across cases (AVX2/AVX-512); blocks are
-spread over all cores with ``prange``. Each case's arithmetic does not depend on which block or
-thread runs it, so results are identical for any thread count.
+inner loop over lanes is branch-free and LLVM vectorises it across cases (AVX2/AVX-512); ranges of
+blocks are spread over Numba's number of threads (``Threaded``). Each case's arithmetic does not
+depend on which block or thread runs it, so results are identical for any thread count.
 
 Methods
 -------
@@ -33,14 +33,16 @@ six with FSAL, and nodes at 1/5, 3/10, 4/5, 8/9, which would need a table per no
 """
 
 import math
+import os
 import threading
 from collections import Counter
+from concurrent.futures import ThreadPoolExecutor
 from types import SimpleNamespace
 
+import numba
 import numpy as np
-from numba import prange
 
-from gearsweep.jit import jit_helper, jit_parallel, unique_name
+from gearsweep.jit import jit, jit_helper, unique_name
 from gearsweep.kernels import tableaux
 from gearsweep.kernels.fpenv import ftz_on, ftz_restore
 
@@ -410,7 +412,7 @@ class Specialised:
     combinations used in this process.
     """
 
-    def __init__(self, make, name: str, decorator=jit_parallel) -> None:
+    def __init__(self, make, name: str, decorator=jit) -> None:
         self._make = make
         self._name = name
         self._decorator = decorator
@@ -452,11 +454,119 @@ class Specialised:
         return SimpleNamespace(cache_hits=hits, cache_misses=misses)
 
 
+class Threaded:
+    """A batch driver whose blocks are stepped by Numba's number of threads
+    (``numba.get_num_threads()`` of the calling thread): each a Python thread that calls the
+    compiled function (``nogil``, ``Specialised``) on ranges of blocks handed out in turn
+    (``RANGES_PER_THREAD`` per thread), the calling thread among them; with one thread, or one
+    block, the calling thread alone, with no hand-over at all.
+
+    ``layout(args)`` gives, for the driver's arguments, the compiled function's arguments before
+    the range of blocks (``lo``, ``hi``), the number of blocks and the new output arrays that
+    follow the range (and are returned). Each case's arithmetic does not depend on its block or
+    thread, so the results do not change with either (tested bit for bit).
+
+    Not a ``prange`` loop: Numba's parallel lowering of that loop built a gufunc around its body
+    and ran the body's code through LLVM there and once more in the driver: 1.0 of the 3.7 s of a
+    plain RK4 specialisation's compile, 2.3 of the kink-aware RK4's 13 s (docs/benchmark.md).
+    """
+
+    RANGES_PER_THREAD = 4
+    """Ranges of blocks per thread, handed out in turn: a thread whose blocks took less time
+    (fewer crossings, a core less shared) takes the next range instead of waiting."""
+
+    _pool = None
+    _pool_lock = threading.Lock()
+
+    def __init__(self, ranges: Specialised, layout) -> None:
+        self._ranges = ranges
+        self._layout = layout
+
+    def arguments(self, args: tuple) -> tuple:
+        """The compiled function's arguments for the driver's ``args``: every block, and new
+        output arrays."""
+        head, nblocks, outputs = self._layout(args)
+        return (*head, 0, nblocks, *outputs)
+
+    def driver(self, args: tuple):
+        """The compiled function (Numba dispatcher) for the driver's ``args``."""
+        return self._ranges.driver(args)
+
+    @property
+    def stats(self):
+        return self._ranges.stats
+
+    @property
+    def name(self) -> str:
+        """The compiled functions' name (before the combination of terms)."""
+        return self._ranges.name
+
+    def __call__(self, *args):
+        head, nblocks, outputs = self._layout(args)
+        f = self.driver(args)
+        threads = max(1, min(numba.get_num_threads(), nblocks))
+        if threads == 1:
+            f(*head, 0, nblocks, *outputs)
+            return outputs
+        k = min(nblocks, threads * self.RANGES_PER_THREAD)
+        todo = iter([(nblocks * i // k, nblocks * (i + 1) // k) for i in range(k)])
+        lock = threading.Lock()
+
+        def work():
+            while True:
+                with lock:
+                    r = next(todo, None)
+                if r is None:
+                    return
+                f(*head, r[0], r[1], *outputs)
+
+        others = [self._executor().submit(work) for _ in range(threads - 1)]
+        try:
+            work()
+        finally:  # also on an exception here (Ctrl-C): no further ranges, the started ones end
+            with lock:
+                for _ in todo:
+                    pass
+            for fut in others:
+                fut.result()
+        return outputs
+
+    @classmethod
+    def _executor(cls):
+        """The worker threads of every ``Threaded`` driver (at most Numba's thread count of
+        this process less one: the calling thread works too)."""
+        with cls._pool_lock:
+            if cls._pool is None:
+                cls._pool = ThreadPoolExecutor(max(1, numba.config.NUMBA_NUM_THREADS - 1),
+                                               thread_name_prefix="gearsweep-kernel")
+            return cls._pool
+
+    @classmethod
+    def _forget_pool(cls) -> None:
+        """In a forked child (a local dask cluster's worker): the parent's threads are not
+        there, so a new pool is made on first use."""
+        cls._pool = None
+        cls._pool_lock = threading.Lock()
+
+
+os.register_at_fork(after_in_child=Threaded._forget_pool)
+
+
 def _driver(method):
     """The batch driver of one method (a separate compiled function per method, so that a scene
     compiles only the method it uses: Butcher's RK5 loop takes twice as long to compile as RK4's;
-    and per combination of terms switched off, ``Specialised``)."""
-    return Specialised(lambda: _integrate_function(method), f"integrate_rk{method}")
+    and per combination of terms switched off, ``Specialised``), its blocks spread over threads
+    (``Threaded``)."""
+    return Threaded(Specialised(lambda: _integrate_function(method), f"integrate_rk{method}"),
+                    _plain_layout)
+
+
+def _plain_layout(args: tuple) -> tuple:
+    """The plain drivers' ``Threaded`` layout: the arguments before the range (the driver's own),
+    the number of blocks of ``LANES``, and new output arrays (stats, xf, vf, status)."""
+    n = args[0].shape[0]
+    return args, -(-n // LANES), (np.empty((n, N_STATS)), np.empty(n), np.empty(n),
+                                  np.zeros(n, np.int8))
 
 
 def _integrate_function(method):
@@ -464,15 +574,11 @@ def _integrate_function(method):
     rk4 = method == RK4
 
     def integrate(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, ftab, half_gap, bound, x0,
-                  v0, n_transient, n_record, steps_per_period, signal, stride):
+                  v0, n_transient, n_record, steps_per_period, signal, stride, lo, hi, stats, xf,
+                  vf, status):
         n = h.shape[0]
         S = _cycle(ktab, etab, ftab)
-        stats = np.empty((n, N_STATS))
-        xf = np.empty(n)
-        vf = np.empty(n)
-        status = np.zeros(n, np.int8)
-        nblocks = (n + LANES - 1) // LANES
-        for blk in prange(nblocks):
+        for blk in range(lo, hi):
             csr = ftz_on()  # subnormals flushed to 0 in this block's work (``fpenv``)
             i0 = blk * LANES
             w = _scratch(1)
@@ -514,7 +620,6 @@ def _integrate_function(method):
                     _check(w, 0)
             _finish(w, 0, i0, n, n_record, steps_per_period, stats, xf, vf, status)
             ftz_restore(csr)
-        return stats, xf, vf, status
 
     integrate.__doc__ = _INTEGRATE_DOC
     return integrate
@@ -540,13 +645,14 @@ _INTEGRATE_DOC = """Integrate a batch of cases; see the module docstring for the
         every mesh period.
     signal : ndarray (n, n_record // stride) or None
         Filled with p at every ``stride``-th recorded step.
-
-    Returns
-    -------
+    lo, hi : int
+        The blocks of ``LANES`` cases this call steps: ``lo`` ... ``hi - 1`` (``Threaded``).
     stats : ndarray (n, N_STATS)
     xf, vf : ndarray (n,)
         State at the end [m], [m/s] (for continuation and monodromy matrices).
     status : ndarray (n,) int8
+        Filled for the cases of those blocks. The driver (``INTEGRATE``, ``Threaded``) is called
+        without ``lo`` ... ``status`` and returns (stats, xf, vf, status) for the whole batch.
     """
 
 
@@ -723,4 +829,4 @@ def _final_stats(n_record, spp, max1, min1, max2, min2, s1, s2, shift, gaps, bac
 
 
 INTEGRATE = {RK4: _driver(RK4), RK5: _driver(RK5)}
-"""The compiled batch driver of each method (``METHODS`` value -> function)."""
+"""The batch driver of each method (``METHODS`` value -> ``Threaded``)."""

@@ -6,7 +6,7 @@ computes the chunks that are not yet on disk with one of three backends and puts
 together:
 
 * ``InProcess`` (the default): chunk after chunk in this process, each kernel call spread over all
-  cores (Numba's ``prange``; the kink-aware driver's Python threads, ``kink.Threaded``).
+  cores (the drivers' threads, ``gearsweep.kernels.rk.Threaded``).
 * ``DaskBackend(scheduler="tcp://HOST:PORT")``: an existing ``dask.distributed`` cluster.
 * ``DaskBackend(workers=N)``: a ``LocalCluster`` of N single-threaded worker processes started on
   the spot and closed afterwards.
