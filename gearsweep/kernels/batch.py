@@ -139,16 +139,11 @@ def simulate(
     signal = None
     if signal_stride > 0:
         signal = np.full((n, (n_record + stride - 1) // stride), np.nan)
-    # No more threads than blocks of lanes: waking an idle thread costs milliseconds, which
-    # dominates the many small calls of a continued sweep with few lanes.
-    threads = numba.get_num_threads()
-    numba.set_num_threads(max(1, min(threads, -(-n // rk.LANES))))
-    try:
-        out = _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale,
-                    fluct_scale, half_gap, bound, x0, v0, n_transient, n_record,
-                    steps_per_period, signal, stride, kink_aware)
-    finally:
-        numba.set_num_threads(threads)
+    # The driver (``rk.Threaded``) uses no more threads than blocks: the many small calls of a
+    # continued sweep with few lanes run in the calling thread alone.
+    out = _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluct_scale,
+                half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal, stride,
+                kink_aware)
     stats, xf, vf, status = out[:4]
     return BatchResult(
         stats={name: stats[:, q] for q, name in enumerate(rk.STAT_NAMES)},
