@@ -153,7 +153,7 @@ def test_pinion_output_is_eq4_per_line_of_the_mesh_force():
     study = _full(["8.9 N*m"], "static", pinion=True)
     study["scene"].pop("drive")
     study["scene"].update({"mass": "0.1547 kg", "base_radius": "56.3816 mm"})
-    with pytest.raises(StudyError, match=r"outputs.spectrum.pinion"):
+    with pytest.raises(StudyError, match=r"outputs\[1\]\.spectrum\.pinion: True -- a scene with a drive"):
         gearsweep.run(study)
 
 
