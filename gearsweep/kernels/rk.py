@@ -408,8 +408,10 @@ class Specialised:
     combinations at once (``batch.precompile``, the main job's workers, dask workers on a cold
     cache) never update the same index (Numba updates an index by read-modify-write, and an
     entry lost that way could point at another specialisation's data file). ``make()`` returns
-    a new Python function of the driver; ``stats`` sums Numba's cache counters over the
-    combinations used in this process.
+    a new Python function of the driver's compiled part (the range of blocks that ``Threaded``
+    calls), which ``decorator`` compiles (``jit``; the kink-aware drivers'
+    ``jit_block_cached``); ``stats`` sums Numba's cache counters over the combinations used in
+    this process.
     """
 
     def __init__(self, make, name: str, decorator=jit) -> None:
