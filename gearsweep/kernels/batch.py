@@ -170,7 +170,7 @@ def _call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluc
 def _driver_call(method, h, n, damping, k_mean, k_scale, tables, force, ste_scale, fluct_scale,
                  half_gap, bound, x0, v0, n_transient, n_record, steps_per_period, signal,
                  stride, kink_aware=False):
-    """The batch driver (``rk.Specialised``) a call uses and its positional arguments."""
+    """The batch driver (``rk.Threaded``) a call uses and its positional arguments."""
     # Without backlash there are no kinks: the kink-aware kernel would be the plain one.
     kinks = kink_aware and half_gap is not None
     drivers = kink.INTEGRATE if kinks else rk.INTEGRATE
@@ -211,12 +211,12 @@ def dispatcher(call: dict) -> tuple[numba.core.dispatcher.Dispatcher, tuple]:
         kw["h"], get("method", "rk4"), 0, 1, kw["steps_per_period"],
         (get("k_table"), get("ste_table"), get("fluct_table")), get("signal_stride", 0))
     signal = np.full((n, 1), np.nan) if int(get("signal_stride") or 0) > 0 else None
-    specialised, args = _driver_call(
+    threaded, args = _driver_call(
         get("method", "rk4"), h, n, get("damping", 0.0), get("k_mean", 0.0), get("k_scale"),
         tables, get("force", 0.0), get("ste_scale", 0.0), get("fluct_scale", 0.0),
         get("half_gap"), get("bound", np.inf), get("x0", 0.0), get("v0", 0.0), 0, 1,
         kw["steps_per_period"], signal, stride, bool(get("kink_aware")))
-    return specialised.driver(args), specialised.arguments(args)
+    return threaded.driver(args), threaded.arguments(args)
 
 
 def compiled(call: dict) -> bool:
@@ -269,7 +269,7 @@ def specialisation(call: dict) -> tuple:
 
 def compile_cost(key: tuple) -> float:
     """Rough relative cold compile time of the function of ``specialisation`` key ``key``."""
-    return COLD_COMPILE_SECONDS.get(key[:2], 6.0) / COLD_COMPILE_SECONDS[("rk4", False)]
+    return COLD_COMPILE_SECONDS[key[:2]] / COLD_COMPILE_SECONDS[("rk4", False)]
 
 
 def precompile(calls: Sequence[dict], workers: int | None = None) -> float:

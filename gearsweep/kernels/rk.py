@@ -400,10 +400,11 @@ OPTIONAL = {"kamp": 3, "ktab": 4, "etab": 7, "ftab": 9, "half_gap": 10, "signal"
 
 
 class Specialised:
-    """A batch driver as one compiled function per combination of the terms switched off
-    (``OPTIONAL`` arguments that are ``None``), each with a Numba cache index of its own.
+    """The compiled part of a batch driver (``Threaded``), as one function per combination of the
+    terms switched off (``OPTIONAL`` arguments that are ``None``), each with a Numba cache index
+    of its own.
 
-    Calling it picks (and on first use creates) the function of the arguments' combination: a run
+    ``driver(args)`` picks (and on first use creates) the function of the arguments' combination: a run
     loads from the disk cache only what it calls, and two processes that compile different
     combinations at once (``batch.precompile``, the main job's workers, dask workers on a cold
     cache) never update the same index (Numba updates an index by read-modify-write, and an
@@ -439,13 +440,6 @@ class Specialised:
     def name(self) -> str:
         """The compiled functions' name (before the combination of terms)."""
         return self._name
-
-    def arguments(self, args: tuple) -> tuple:
-        """The compiled function's arguments for the driver's ``args``: the same."""
-        return args
-
-    def __call__(self, *args):
-        return self.driver(args)(*args)
 
     @property
     def stats(self):
