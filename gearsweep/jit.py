@@ -299,8 +299,9 @@ class _InlinedCompiler(CompilerBase):
 
 
 jit_block = numba.njit(pipeline_class=_InlinedCompiler, **{**OPTIONS, "cache": False})
-"""Decorator for the work of one block of a driver whose helpers are inlined at Numba IR level
-(the kink-aware drivers, ``inlined_copies``). Every inlined call binds its arguments to new
+"""Decorator for functions whose helpers are inlined at Numba IR level and which other compiled
+functions call (the kink-aware fix-ups' scalar path, ``inlined_copies``; ``jit_block_cached``
+for the kink-aware drivers' block ranges). Every inlined call binds its arguments to new
 variables, and a new variable that holds an array is reference-counted: in the lane loops, calls
 into Numba's runtime that stop LLVM from vectorising (B2's kink-aware kernel ran 6.4 times
 slower). Copy propagation removes those copies, as Numba's parallel pipeline does for a
