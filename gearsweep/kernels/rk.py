@@ -453,9 +453,15 @@ class Specialised:
 class Threaded:
     """A batch driver whose blocks are stepped by Numba's number of threads
     (``numba.get_num_threads()`` of the calling thread): each a Python thread that calls the
-    compiled function (``nogil``, ``Specialised``) on ranges of blocks handed out in turn
-    (``RANGES_PER_THREAD`` per thread), the calling thread among them; with one thread, or one
-    block, the calling thread alone, with no hand-over at all.
+    compiled function (``nogil``, ``Specialised``) on ranges of blocks it takes in turn, the
+    calling thread among them; with one thread, or one block, the calling thread alone, with no
+    hand-over at all.
+
+    The ranges shrink as the blocks run out (``ranges``: "guided" scheduling): a thread that
+    took the last range while the other was held up (by a core shared with the result writer, by
+    more crossings) leaves the other waiting for a short range only. With equal ranges (four
+    per thread) the calling thread of a 1e7-case study waited 1.0 s in all for the last range
+    of the other; the kernel alone (no writer beside it), 0.5 s (docs/benchmark.md).
 
     ``layout(args)`` gives, for the driver's arguments, the compiled function's arguments before
     the range of blocks (``lo``, ``hi``), the number of blocks and the new output arrays that
@@ -467,9 +473,10 @@ class Threaded:
     plain RK4 specialisation's compile, 2.3 of the kink-aware RK4's 13 s (docs/benchmark.md).
     """
 
-    RANGES_PER_THREAD = 4
-    """Ranges of blocks per thread, handed out in turn: a thread whose blocks took less time
-    (fewer crossings, a core less shared) takes the next range instead of waiting."""
+    SHORTEST = 64
+    """The shortest range is ``1 / (SHORTEST x threads)`` of the blocks (at least one block):
+    the time the other threads may wait at the end, against one call of the compiled function
+    (tens of microseconds) per range."""
 
     _pool = None
     _pool_lock = threading.Lock()
@@ -504,8 +511,7 @@ class Threaded:
         if threads == 1:
             f(*head, 0, nblocks, *outputs)
             return outputs
-        k = min(nblocks, threads * self.RANGES_PER_THREAD)
-        todo = iter([(nblocks * i // k, nblocks * (i + 1) // k) for i in range(k)])
+        todo = iter(self.ranges(nblocks, threads))
         lock = threading.Lock()
 
         def work():
@@ -526,6 +532,18 @@ class Threaded:
             for fut in others:
                 fut.result()
         return outputs
+
+    @classmethod
+    def ranges(cls, nblocks: int, threads: int) -> list[tuple[int, int]]:
+        """The ranges of blocks ``[lo, hi)``, in the order they are taken: each ``1 / (2
+        threads)`` of the blocks not yet taken, down to the shortest (``SHORTEST``)."""
+        shortest = max(1, nblocks // (cls.SHORTEST * threads))
+        out, lo = [], 0
+        while lo < nblocks:
+            hi = min(nblocks, lo + max(shortest, (nblocks - lo) // (2 * threads)))
+            out.append((lo, hi))
+            lo = hi
+        return out
 
     @classmethod
     def _executor(cls):
