@@ -48,9 +48,8 @@ from gearsweep.study.execute import (
     InProcess,
     check_limits,
     cores,
-    run_to_file,
     step_limit_text,
-    step_limit_warning,
+    stream_to_file,
 )
 from gearsweep.study.plan import cases_beyond_step_limit, make_plan
 from gearsweep.study.schema import (
@@ -296,8 +295,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         previous = signal.signal(signal.SIGINT, _on_sigint) \
             if threading.current_thread() is threading.main_thread() else None
         try:
-            ds = run_to_file(plan, out, backend=_stoppable(backend), chunk_cases=chunk,
-                             progress=progress, codec=args.codec)
+            written = stream_to_file(plan, out, backend=_stoppable(backend), chunk_cases=chunk,
+                                     progress=progress, codec=args.codec)
         except (KeyboardInterrupt, SystemError) as exc:
             if not (_STOP.is_set() or isinstance(exc, KeyboardInterrupt)):
                 raise
@@ -308,20 +307,17 @@ def cmd_run(args: argparse.Namespace) -> int:
             if previous is not None:
                 signal.signal(signal.SIGINT, previous)
             _STOP.clear()
-        beyond = step_limit_warning(plan, ds, out)
+        # Counted as the chunks were written: the file is not opened again to report them.
+        beyond = step_limit_text(plan, written.beyond, out)
         if beyond is not None:  # the text gearsweep.run warns, as one line
             print(f"gearsweep: warning: {beyond}", file=sys.stderr)
-        flagged = _flagged(ds)
     if not args.quiet:
         # The file's elapsed_seconds is the chunk phase; the wall time adds the one-time
         # loading (or compiling) of the kernel and the writing of the file: say both.
-        phase = ds.attrs.get("elapsed_seconds")
-        print(f"{out}: {int(ds.attrs['cases'])} cases in {time.perf_counter() - t0:.2f} s"
-              + (f" (computing the chunks: {phase:.2f} s, the file's elapsed_seconds)"
-                 if phase is not None else "")
-              + (f"; {flagged} flagged in 'status' (see its 'codes' attribute)" if flagged
-                 else ""))
-    ds.close()
+        print(f"{out}: {written.cases} cases in {time.perf_counter() - t0:.2f} s"
+              f" (computing the chunks: {written.elapsed:.2f} s, the file's elapsed_seconds)"
+              + (f"; {written.flagged} flagged in 'status' (see its 'codes' attribute)"
+                 if written.flagged else ""))
     return 0
 
 
@@ -337,12 +333,6 @@ def _long_sweep_note(plan, args: argparse.Namespace) -> None:
               f" {floor_s:.0f} s and is never split (its state carries from speed to speed): a"
               " chunk lasts at least that long and a kill loses up to that much; split the speed"
               " range into several studies for shorter chunks", file=sys.stderr)
-
-
-def _flagged(ds) -> int:
-    """Cases with a nonzero status of a written result (read lazily from the file: only
-    ``status`` is read here)."""
-    return int((ds["status"] != 0).sum()) if "status" in ds else 0
 
 
 def describe(path: str | Path) -> str:

@@ -279,6 +279,28 @@ def test_the_cli_resumes_in_the_saved_chunks_and_says_so(rattle_reference, tmp_p
         assert_same(ds.load(), rattle_reference)
 
 
+def test_streamed_counts_equal_the_file_s_after_a_resumed_run(tmp_path):
+    """``stream_to_file`` counts the flagged cases and those beyond the step limit as it writes
+    (the CLI reports them without opening the file again): after a run interrupted with two
+    chunks saved and resumed, the counts include the saved chunks and equal the file's."""
+    text = RATTLE.replace("continuation: [up, down]\n", "").replace(
+        "damping: {start: 50 N*s/m, stop: 400 N*s/m, num: 12}",
+        "mean_force: [200 N, 1e308 N, 400 N]").replace(
+        "speed: {start: 3000 rpm", "speed: {start: 200 rpm")
+    plan = plan_of(text)
+    out = tmp_path / "r.nc"
+    with pytest.raises(Crash):
+        execute.stream_to_file(plan, out, backend=CrashAfter(2), chunk_cases=12)
+    written = execute.stream_to_file(plan, out, chunk_cases=12)
+    with xr.open_dataset(out) as ds:
+        flagged = int((ds["status"] != 0).sum())
+        beyond = int(ds["beyond_step_limit"].sum())
+        assert written.cases == ds.attrs["cases"] == ds["status"].size
+        assert written.elapsed == ds.attrs["elapsed_seconds"]
+    assert flagged >= 12 and beyond > 0  # 1e308 N diverges at every speed; 200 rpm is coarse
+    assert (written.flagged, written.beyond) == (flagged, beyond)
+
+
 @pytest.mark.parametrize("edit", [
     lambda m: {**m, "chunks": [[0, float("inf")]]},  # written as Infinity
     lambda m: m | {"chunks": [[a, b] for a, b in m["chunks"]][::-1]},  # not increasing

@@ -191,11 +191,22 @@ def kernel_calls(plan: Plan) -> list[dict]:
 
 
 def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
-    s = plan.study.solver
     call = _kernel_call(plan, params, n, x0, v0)
+    return _outputs(plan, params, call, _run_kernel(plan, call))
+
+
+def _run_kernel(plan: Plan, call: dict) -> BatchResult:
+    """The kernel call, its seconds added to ``KERNEL_CLOCK``."""
+    s = plan.study.solver
     t0 = time.perf_counter()
     res = kernel_for(s.device, s.precision)(**call)
     KERNEL_CLOCK.add(time.perf_counter() - t0)
+    return res
+
+
+def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchResult) -> tuple:
+    """(BatchResult, per-output arrays, status) of a kernel call's result."""
+    s = plan.study.solver
     out: dict[str, np.ndarray] = {}
     for o in plan.outputs:
         out.update(OUTPUTS[o].compute(plan, params, res))
@@ -211,6 +222,57 @@ def _integrate_model(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) 
     if plan.driven:  # an undriven scene decays or grows: nothing to settle into (Plan.driven)
         status[unsettled] = STATUS_NOT_SETTLED
     return res, out, status
+
+
+@dataclasses.dataclass(frozen=True)
+class Prepared:
+    """A chunk's swept values, step-guard verdicts and kernel call, made before its turn
+    (``prepare``)."""
+
+    params: dict[str, np.ndarray]
+    ok: np.ndarray
+    call: dict
+
+
+def prepare(plan: Plan, lane0: int, lane1: int) -> Prepared | None:
+    """The kernel call of lanes ``[lane0, lane1)``, made ahead of the kernel (in another thread
+    while the chunk before computes: ``execute.InProcess``); ``None`` where the chunk is not one
+    call of all its cases (a continued sweep, a gear scene that sweeps its load, cases the step
+    guard skips), which ``run_chunk`` computes whole."""
+    if plan.continued or plan.gear_load_swept:
+        return None
+    guard = plan.study.solver.step_guard
+    n = lane1 - lane0
+    params, ok = _lanes(plan, lane0, lane1, guard != "off")
+    if guard == "off":
+        ok = np.ones(n, bool)
+    elif ok is None:
+        ok = _step_ok(plan, params, n)
+    if guard == "skip" and not ok.all():
+        return None
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # as run_chunk's caller
+        return Prepared(params, ok, _kernel_call(plan, params, n, None, None))
+
+
+def run_prepared(plan: Plan, prep: Prepared):
+    """Run a prepared chunk's kernel; return the function that makes its arrays (those of
+    ``run_chunk``) from the kernel's result, to be called later, in another thread (the
+    writer's, while the next chunk computes). A result with a recorded signal (a spectrum's)
+    is made into arrays here: the signal is many times their size, and is not held on."""
+    res = _run_kernel(plan, prep.call)
+
+    def arrays() -> dict[str, np.ndarray]:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            _, out, status = _outputs(plan, prep.params, prep.call, res)
+        if plan.study.solver.step_guard == "warn":
+            out["beyond_step_limit"] = ~prep.ok
+        out["status"] = status
+        return out
+
+    if res.signal is not None:
+        done = arrays()
+        return lambda: done
+    return arrays
 
 
 def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:

@@ -338,6 +338,11 @@ class ResultFile:
         for k, enc in encoding.items():
             variables[k].encoding = enc
         self.dims = {name: template[name].dims for name in self.layout}
+        self._sync_fd: int | None = None
+        self.flagged = 0
+        """Cases written so far whose ``status`` is not 0."""
+        self.beyond = 0
+        """Cases written so far that are beyond the step limit (``beyond_step_limit``)."""
         # The library's lock only: xarray's default adds a per-file write lock for dask, whose
         # look-up imports dask.distributed (0.6 s); this file has one writer.
         self.store = NetCDF4DataStore.open(str(self.tmp), mode="w", format="NETCDF4",
@@ -356,8 +361,12 @@ class ResultFile:
             raise
 
     def write(self, lane0: int, lane1: int, arrays: dict[str, np.ndarray]) -> None:
-        """Write the arrays of lanes ``[lane0, lane1)`` into the file."""
+        """Write the arrays of lanes ``[lane0, lane1)`` into the file (and count its flagged
+        cases and those beyond the step limit)."""
         plan = self.plan
+        self.flagged += int(np.count_nonzero(arrays["status"]))
+        if "beyond_step_limit" in arrays:
+            self.beyond += int(np.count_nonzero(arrays["beyond_step_limit"]))
         lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
         for lo, hi, box in _boxes(lane0, lane1, lane_shape):
             for name, arr in arrays.items():
@@ -378,6 +387,25 @@ class ResultFile:
                 where = dict(zip(plan.lane_dims, box, strict=True))
                 index = tuple(slice(*where[d]) if d in where else slice(None) for d in dims)
                 var[index] = np.ascontiguousarray(piece, dtype=var.dtype)
+        self._sync()
+
+    def _sync(self) -> None:
+        """Send the bytes written so far to the disk (``fdatasync``), in the writer thread while
+        the next chunk computes: the fsync of ``close`` then waits for the last chunk's only.
+        Without it, that fsync waited 0.2-0.3 s for a 460 MB file (1e7 cases) after the last
+        chunk, with nothing left to overlap it. Data HDF5 still holds (its chunk cache, its
+        metadata) goes at ``close``."""
+        if os.name != "posix":  # Windows: no fsync through a read-only descriptor
+            return
+        sync = getattr(os, "fdatasync", os.fsync)  # no fdatasync on macOS
+        if self._sync_fd is None:
+            self._sync_fd = os.open(self.tmp, os.O_RDONLY)
+        sync(self._sync_fd)
+
+    def _release(self) -> None:
+        if self._sync_fd is not None:
+            os.close(self._sync_fd)
+            self._sync_fd = None
 
     def close(self, elapsed: float | None = None, kernel: float | None = None) -> Path:
         """Write the global attributes with the run's timings, close, fsync and rename."""
@@ -391,6 +419,7 @@ class ResultFile:
             self.store.set_attributes({k: self.store.encode_attribute(v)
                                        for k, v in attrs.items()})
             self.store.close()
+            self._release()
             _finish(self.tmp, self.path)
         except BaseException:
             self.abort()
@@ -403,6 +432,7 @@ class ResultFile:
             self.store.close()
         except Exception:  # noqa: BLE001 -- already failing; the file goes anyway
             pass
+        self._release()
         self.tmp.unlink(missing_ok=True)
 
 

@@ -34,7 +34,7 @@ import sys
 import threading
 import time
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -47,7 +47,7 @@ from gearsweep.errors import ClusterError, LimitError, ResultError, StepLimitWar
 from gearsweep.files import check_replaceable
 from gearsweep.kernels import LANES
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints, saved_layout
-from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, run_chunk
+from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, prepare, run_chunk, run_prepared
 from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
 
@@ -305,7 +305,14 @@ def _run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
 
 
 class InProcess:
-    """Run chunks one after another in this process (each kernel call uses all cores)."""
+    """Run chunks one after another in this process (each kernel call uses all cores).
+
+    The kernel calls follow one another with no Python work between them where a chunk is one
+    call of all its cases (``chunk.prepare``): a helper thread makes the next chunk's kernel
+    inputs while a chunk computes, and a chunk is yielded as the function that makes its arrays
+    (``chunk.run_prepared``), which the caller's writer thread calls while the next chunk
+    computes. Before, the calling thread did both between two calls while the other cores
+    waited: 0.75 s of a 1e7-case run's 14 s."""
 
     def __enter__(self) -> InProcess:
         return self
@@ -320,9 +327,17 @@ class InProcess:
         return numba.get_num_threads()
 
     def run(self, plan: Plan, todo: list[tuple[int, int]]
-            ) -> Iterator[tuple[int, int, dict[str, np.ndarray]]]:
-        for a, b in todo:
-            yield a, b, _run_chunk(plan, a, b)
+            ) -> Iterator[tuple[int, int, dict[str, np.ndarray] | Callable[[], dict]]]:
+        helper = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-prepare")
+        try:
+            ahead = [helper.submit(prepare, plan, *c) for c in todo[:1]]
+            for i, (a, b) in enumerate(todo):
+                prep = ahead.pop(0).result()
+                if i + 1 < len(todo):
+                    ahead.append(helper.submit(prepare, plan, *todo[i + 1]))
+                yield a, b, (_run_chunk(plan, a, b) if prep is None else run_prepared(plan, prep))
+        finally:
+            helper.shutdown(cancel_futures=True)
 
 
 _KERNEL_LOCK = threading.Lock()
@@ -549,9 +564,10 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
              backend: InProcess | DaskBackend | None, store: ChunkStore | None, progress: bool,
              sink=None, open_file=None, done: list[tuple[int, int]] = ()
              ) -> tuple[float, float | None, ResultFile | None]:
-    """Compute the chunks ``todo``; pass each to ``sink(lane0, lane1, arrays)`` (if given), and
-    save it to ``store`` and write it into the result file (if ``open_file`` is given) in a
-    background thread while the next one computes.
+    """Compute the chunks ``todo``; in a background thread while the next one computes, make
+    each chunk's arrays (where the backend yields the function that makes them: ``InProcess``),
+    pass them to ``sink(lane0, lane1, arrays)`` (if given), save them to ``store`` and write
+    them into the result file (if ``open_file`` is given).
 
     The background thread first creates the result file (``open_file()``, a ``ResultFile``:
     its set-up overlaps the first chunk's kernel) and writes into it the chunks ``done`` (already in
@@ -574,7 +590,11 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
 
     files: list[ResultFile] = []
 
-    def keep(a: int, b: int, arrays: dict[str, np.ndarray]) -> None:
+    def keep(a: int, b: int, arrays) -> None:
+        if callable(arrays):  # InProcess: the chunk's arrays are made here (beside the next chunk)
+            arrays = arrays()
+        if sink is not None:
+            sink(a, b, arrays)
         if store is not None:
             store.save(a, b, arrays)
         if files:
@@ -594,8 +614,6 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
         t0 = time.perf_counter()  # the chunk phase starts after the one-time warm-up
         k0 = KERNEL_CLOCK.seconds
         for a, b, arrays in be.run(plan, todo):
-            if sink is not None:
-                sink(a, b, arrays)
             saves.append(writer.submit(keep, a, b, arrays))
             while len(saves) > 2:
                 saves.pop(0).result()
@@ -660,10 +678,26 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     return assemble(plan, results, elapsed, kernel)
 
 
+@dataclass(frozen=True)
+class Written:
+    """What ``stream_to_file`` wrote: counted as the chunks were written, so that a caller that
+    only reports them (the CLI) does not open the file again."""
+
+    path: Path
+    cases: int
+    elapsed: float
+    """The chunk phase [s] (the file's ``elapsed_seconds``)."""
+    flagged: int
+    """Cases whose ``status`` is not 0."""
+    beyond: int
+    """Cases beyond the step limit (``beyond_step_limit``; 0 where it is not stored)."""
+
+
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
                 chunk_cases: int | None = None, progress: bool = False,
                 codec: str | None = None) -> xr.Dataset:
-    """Run ``plan`` with checkpoints next to ``output``, writing the netCDF as the chunks finish.
+    """Run ``plan`` with checkpoints next to ``output``, writing the netCDF as the chunks finish
+    (``stream_to_file``), and return the file opened lazily.
 
     The results stream to disk: every finished chunk goes, in a background thread that overlaps
     the next chunk's kernel, to its checkpoint file and into the result file (``ResultFile``,
@@ -679,6 +713,18 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     Returns the written file opened lazily (``xr.open_dataset(output)``: each variable read
     when used; not dask arrays, whose first computation imports dask.distributed, 0.2-0.6 s).
     """
+    stream_to_file(plan, output, backend=backend, chunk_cases=chunk_cases, progress=progress,
+                   codec=codec)
+    import xarray as xr
+
+    return xr.open_dataset(output)
+
+
+def stream_to_file(plan: Plan, output: str | Path, *,
+                   backend: InProcess | DaskBackend | None = None, chunk_cases: int | None = None,
+                   progress: bool = False, codec: str | None = None) -> Written:
+    """``run_to_file`` without opening the written file: what was written, counted on the
+    way."""
     check_replaceable(output)  # before any computing
     chunks = chunks_to_run(plan, output, chunk_cases)
     try:
@@ -694,9 +740,8 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
         done=done)
     file.close(elapsed, kernel)
     remove_checkpoints(output)
-    import xarray as xr
-
-    return xr.open_dataset(output)
+    return Written(path=Path(output), cases=plan.n_cases, elapsed=round(elapsed, 3),
+                   flagged=file.flagged, beyond=file.beyond)
 
 
 def step_limit_warning(plan: Plan, ds: xr.Dataset, where: str | Path) -> StepLimitWarning | None:
