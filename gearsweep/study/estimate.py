@@ -17,12 +17,12 @@ from gearsweep.study import execute
 from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
     BASELINE_MEMORY,
-    CHUNKS_HELD,
     FIXED_SECONDS,
     STATED_RATE,
     WRITE_RATE,
     Estimate,
     _case_bytes,
+    chunks_held,
     cores,
     lanes_per_chunk,
     measure_rate,
@@ -84,7 +84,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     seconds = kernel_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
-    memory = BASELINE_MEMORY + CHUNKS_HELD * biggest * per_case + signal
+    memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal
     if plan.device == "cuda":
         memory += cuda.HOST_MEMORY_BYTES
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,

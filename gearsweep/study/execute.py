@@ -70,12 +70,21 @@ BASELINE_MEMORY = 300e6
 """Resident memory of the interpreter with numpy, numba, xarray and the compiled kernels [bytes]."""
 
 CHUNKS_HELD = 8
-"""A run's memory beyond ``BASELINE_MEMORY``, in chunks' worth of result bytes: the next
-chunk's kernel inputs (made while a chunk computes), the computing chunk's outputs, two chunks'
-kernel results waiting for the writer thread and the one it is making into arrays and writing
-(``InProcess``, ``_compute``); inputs and kernel results take about twice a chunk's result
-bytes. Measured (26 Nov 2026, scale study, 2 cores): peak RSS 417 MB at 1e6 cases (estimate
-454 MB), 514 MB at 1e7 (537 MB)."""
+"""A run's memory beyond ``BASELINE_MEMORY``, in chunks' worth of result bytes, where a chunk is
+one kernel call (``chunk.prepare``): the next chunk's kernel inputs (made while a chunk
+computes), the computing chunk's outputs, two chunks' kernel results waiting for the writer
+thread and the one it is making into arrays and writing (``InProcess``, ``_compute``); inputs
+and kernel results take about twice a chunk's result bytes. Measured (26 Nov 2026, scale study,
+2 cores): peak RSS 417 MB at 1e6 cases (estimate 454 MB), 514 MB at 1e7 (537 MB)."""
+
+CHUNKS_HELD_WHOLE = 3
+"""The same where ``run_chunk`` computes a chunk whole (a continued sweep, a gear scene that
+sweeps its load): the computing chunk's arrays and two waiting for the writer thread."""
+
+
+def chunks_held(plan: Plan) -> int:
+    """Chunks' worth of result bytes a run of ``plan`` holds at once (memory estimate)."""
+    return CHUNKS_HELD_WHOLE if plan.continued or plan.gear_load_swept else CHUNKS_HELD
 
 FIXED_SECONDS = 3.0
 """Time of a run that does not depend on its size: loading the compiled kernel, netCDF setup [s]."""
@@ -249,7 +258,7 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     Time: every kernel call advances ``ceil(blocks / threads)`` rounds of ``LANES`` lanes (a
     partly filled block costs a full one), at ``rate`` per core; plus ``FIXED_SECONDS`` and the
     writing of the file at ``WRITE_RATE``. Memory (of ``gearsweep run``, which streams the
-    results to disk, ``run_to_file``): ``CHUNKS_HELD`` chunks' worth and the interpreter's
+    results to disk, ``run_to_file``): ``chunks_held`` chunks' worth and the interpreter's
     baseline, whatever the number of chunks; ``run_plan``,
     which returns the results in memory, needs the full result arrays on top. Output: an upper
     bound of the file's size (``filelayout.output_bound``: the variables uncompressed, their
@@ -265,7 +274,7 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
-    memory = BASELINE_MEMORY + CHUNKS_HELD * biggest * per_case + signal
+    memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal
     return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
                     memory_bytes=memory, output_bytes=output)
