@@ -40,7 +40,11 @@ def _cmd(study: Path, out: Path) -> list[str]:
 
 def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_path):
     study = tmp_path / "s.yaml"
-    study.write_text(STUDY.replace("NUM", "10000"), encoding="utf-8")
+    # 20 chunks of about 40 ms each (transient 1000 periods): the SIGINT after the second lands
+    # well before the last, whose kernel calls now follow one another with nothing between
+    study.write_text(STUDY.replace("NUM", "10000").replace("transient_periods: 200",
+                                                           "transient_periods: 1000"),
+                     encoding="utf-8")
     out, ref = tmp_path / "out.nc", tmp_path / "ref.nc"
     log = tmp_path / "chunks.log"
     proc = subprocess.Popen(_cmd(study, out), cwd=tmp_path, env=_env(log),
@@ -354,7 +358,8 @@ def test_ctrl_c_at_any_moment_of_the_start_leaves_no_traceback(tmp_path):
     # itself starts is Python's: "Fatal Python error: init_import_site"): while the CLI imports,
     # while it reads the study, in the first chunk. Whatever it hits, one line, exit 130.
     study = tmp_path / "s.yaml"
-    study.write_text(STUDY.replace("NUM", "10000"), encoding="utf-8")
+    study.write_text(STUDY.replace("NUM", "40000"), encoding="utf-8")  # about 2 s: the last
+    # SIGINT (0.5 s) still lands before the end on a fast machine
     for delay in (0.03, 0.1, 0.25, 0.5):
         proc = subprocess.Popen([sys.executable, "-c", _UP_THEN_GEARSWEEP, "run", str(study),
                                  "-o", str(tmp_path / "o.nc"), "-q"], cwd=tmp_path, env=_env(),
