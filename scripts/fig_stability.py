@@ -120,6 +120,8 @@ def fig72() -> None:
         ax.annotate(f"paper's c = 5.5 N s/mm (ζ = {5500 * zeta_per_damping:.3f})", (speed.max(), 5.5),
                     xytext=(-4, 3),
                     textcoords="offset points", ha="right", fontsize=7, color="0.3")
+    for ax in axs.ravel():  # shared axes, but every labelled axis shows its values
+        ax.tick_params(labelleft=True, labelbottom=True)
     sc = _scene(coarse)["scene"]
     fig.suptitle(f"Fig. 7.2  Stability of the rig versus speed and damping: k0 = "
                  f"{sc['stiffness']}, k1 = {sc['stiffness_harmonics'][0]['amplitude']}, "
