@@ -192,7 +192,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
     import numpy as np
     import xarray as xr
 
-    from gearsweep.study import filelayout
+    from gearsweep.study import dataset, filelayout
     from gearsweep.study.dataset import ResultFile
     from gearsweep.study.estimate import chunk_cases
     from gearsweep.study.execute import lanes_per_chunk
@@ -211,13 +211,16 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
                  "beyond_step_limit", "status")}
         flat["beyond_step_limit"] = flat["beyond_step_limit"].astype(bool)
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None)[0]))
-    trials = [(c, s, filelayout.FILE_CHUNK_BYTES) for c, s in (
+    level = dataset.ZSTD_LEVEL
+    trials = [(c, s, filelayout.FILE_CHUNK_BYTES, level) for c, s in (
         ("none", False), ("zlib", False), ("zlib", True), ("zstd", False), ("blosc_lz4", True))]
-    trials += [("zstd", False, 1 << 20), ("zstd", False, 16 << 20)]
+    trials += [("zstd", False, filelayout.FILE_CHUNK_BYTES, 1),
+               ("zstd", False, 1 << 20, level), ("zstd", False, 16 << 20, level)]
     default = filelayout.FILE_CHUNK_BYTES
-    for codec, shuffle, chunk_bytes in trials:
+    for codec, shuffle, chunk_bytes, zstd_level in trials:
         walls, cpus = [], []
         filelayout.FILE_CHUNK_BYTES = chunk_bytes
+        dataset.ZSTD_LEVEL = zstd_level
         try:
             for _ in range(repeats):
                 out = tmp / f"{codec}_{int(shuffle)}.nc"
@@ -233,10 +236,12 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
             continue
         finally:
             filelayout.FILE_CHUNK_BYTES = default
+            dataset.ZSTD_LEVEL = level
         with xr.open_dataset(out) as back, xr.open_dataset(ref) as want:
             same = all(np.array_equal(back[k].values, want[k].values, equal_nan=True)
                        for k in flat)
         print(json.dumps({"codec": codec, "shuffle": shuffle, "file_chunk_mb": chunk_bytes / 2**20,
+                          "zstd_level": zstd_level if codec == "zstd" else None,
                           "cases": plan.n_cases,
                           "chunks": len(chunks), "write_s": round(statistics.median(walls), 3),
                           "write_cpu_s": round(statistics.median(cpus), 3),

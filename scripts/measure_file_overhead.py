@@ -26,6 +26,7 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
+from gearsweep.study.dataset import ZSTD_LEVEL
 from gearsweep.study.filelayout import (
     BTREE_FILL,
     FILE_BYTES,
@@ -112,7 +113,7 @@ def result_like(rng, path: Path) -> dict:
             itemsize = np.dtype(dtype).itemsize
             chunks = file_chunks(tuple(shape), itemsize)
             fill = {"fill_value": np.int8(-1) if dtype == "i1" else np.nan}
-            v = ds.createVariable(f"v{i}", dtype, vd, compression="zstd", complevel=1,
+            v = ds.createVariable(f"v{i}", dtype, vd, compression="zstd", complevel=ZSTD_LEVEL,
                                   chunksizes=chunks, **fill)
             attrs = _attrs(rng, int(rng.integers(1, 7)))
             v.setncatts(attrs)
@@ -147,7 +148,7 @@ def btree(rng, path: Path, m: int, rank: int, shuffled: bool) -> float:
             names = [f"x{i}" for i in range(rank)]
             for d, k in zip(names, shape, strict=True):
                 ds.createDimension(d, k)
-            v = ds.createVariable("v", "f8", names, compression="zstd", complevel=1,
+            v = ds.createVariable("v", "f8", names, compression="zstd", complevel=ZSTD_LEVEL,
                                   chunksizes=(1,) * rank)
             data = _noise(rng, (n,), "f8")
             for i in (rng.permutation(n) if shuffled else range(n)):
@@ -161,7 +162,7 @@ def btree(rng, path: Path, m: int, rank: int, shuffled: bool) -> float:
 def codec(rng, path: Path, name: str) -> int:
     """Size of a file of one 1 MiB chunk of random bytes written with codec ``name``."""
     n = 1 << 17
-    kw = {"zstd": {"compression": "zstd", "complevel": 1},
+    kw = {"zstd": {"compression": "zstd", "complevel": ZSTD_LEVEL},
           "zlib": {"zlib": True, "complevel": 1, "shuffle": True}, "none": {}}[name]
 
     def b(ds):

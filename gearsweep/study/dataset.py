@@ -192,12 +192,18 @@ def build_dataset(
 
 
 CODEC = "zstd"
-"""Compression of the result variables: ``"zstd"`` (level 1), ``"zlib"`` (level 1),
+"""Compression of the result variables: ``"zstd"`` (level ``ZSTD_LEVEL``), ``"zlib"`` (level 1),
 ``"blosc_lz4"`` or ``"none"``. Chosen by measurement (docs/scale.md, "Writing the result file"):
 on the 1e6-case rattle result zstd writes 46 MB for 0.18 s of CPU, zlib with shuffle 42 MB for
 0.93 s; the writer shares the cores with the kernel, so its CPU time is what a run pays. Readers
 need HDF5's zstd filter: the netCDF4 wheels ship it (and point HDF5_PLUGIN_PATH at it on import),
 as does netCDF-C >= 4.9 built with plugins."""
+
+ZSTD_LEVEL = -1
+"""zstd's level: -1, its fast mode. Against level 1, on the 1e6-case rattle result 0.116 s of CPU
+to write instead of 0.147 s for 48.9 MB instead of 46.0 (+6 %; ``bench_pipeline.py --codecs``);
+a 1e7-case run 13.38 s instead of 13.58 s (medians of 5 alternating runs, 26 Nov 2026: the
+writer's CPU is taken from the kernel's cores). A reader decodes any level alike."""
 
 SHUFFLE = False
 """HDF5's byte-shuffle filter before the codec: used with zlib (42 instead of 46 MB, and faster);
@@ -216,7 +222,7 @@ def variable_encoding(var: xr.Variable | xr.DataArray, codec: str | None = None,
     if codec == "zlib":
         enc.update(zlib=True, complevel=1, shuffle=shuffle)
     elif codec == "zstd":
-        enc.update(compression="zstd", complevel=1, shuffle=shuffle)
+        enc.update(compression="zstd", complevel=ZSTD_LEVEL, shuffle=shuffle)
     elif codec == "blosc_lz4":
         enc.update(compression="blosc_lz4", blosc_shuffle=1 if shuffle else 0)
     elif codec != "none":

@@ -91,7 +91,7 @@ FIXED_SECONDS = 3.0
 
 WRITE_RATE = 100e6
 """Bytes of results written per second [bytes/s], counted as if the writing were not overlapped
-with the kernel (conservative: with zstd level 1 the writer thread writes about 250 MB/s here,
+with the kernel (conservative: with zstd the writer thread writes about 250 MB/s here,
 beside the kernel; docs/scale.md)."""
 
 

@@ -100,7 +100,7 @@ CODEC_BYTES = 16
 
 CODEC_RATIO = 2048
 """... on top, one byte per this many of the chunk (512 per 1 MiB chunk): zlib (level 1,
-shuffle) stored 1 MiB of random bytes in 1 MiB + 326 bytes, zstd (level 1) in 1 MiB + 34
+shuffle) stored 1 MiB of random bytes in 1 MiB + 326 bytes, zstd (levels 1 and -1) in 1 MiB + 34
 (``scripts/measure_file_overhead.py``). (blosc_lz4 refuses such a chunk: ``--codec
 blosc_lz4`` fails on incompressible data, docs/scale.md.)"""
 
