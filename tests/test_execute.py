@@ -279,6 +279,31 @@ def test_the_cli_resumes_in_the_saved_chunks_and_says_so(rattle_reference, tmp_p
         assert_same(ds.load(), rattle_reference)
 
 
+@pytest.mark.parametrize("guard", ["warn", "off"])
+def test_a_prepared_chunk_gives_run_chunk_s_arrays_bit_for_bit(guard):
+    """``InProcess`` runs a chunk that is one kernel call as ``prepare`` (in a helper thread) and
+    ``run_prepared`` (its arrays made later, in the writer thread): the arrays equal
+    ``run_chunk``'s bit for bit, in the same order; a continued sweep is not prepared (``None``:
+    ``run_chunk`` computes it whole)."""
+    from gearsweep.study.chunk import prepare, run_chunk, run_prepared
+
+    text = RATTLE.replace("continuation: [up, down]\n", "").replace(
+        "speed: {start: 3000 rpm", "speed: {start: 200 rpm").replace(
+        "record_periods: 20}", f"record_periods: 20, step_guard: '{guard}'}}")
+    plan = plan_of(text)
+    a, b = plan.chunks(execute.lanes_per_chunk(plan, 40))[0]  # 200 rpm and up
+    want = run_chunk(plan, a, b)
+    got = run_prepared(plan, prepare(plan, a, b))()
+    assert list(got) == list(want)
+    assert ("beyond_step_limit" in got) == (guard == "warn")
+    if guard == "warn":
+        assert got["beyond_step_limit"].any()  # 200 rpm: a step beyond the limit
+    for name in want:
+        assert got[name].dtype == want[name].dtype, name
+        np.testing.assert_array_equal(got[name], want[name], err_msg=name)
+    assert prepare(plan_of(RATTLE), 0, 1) is None
+
+
 def test_streamed_counts_equal_the_file_s_after_a_resumed_run(tmp_path):
     """``stream_to_file`` counts the flagged cases and those beyond the step limit as it writes
     (the CLI reports them without opening the file again): after a run interrupted with two
