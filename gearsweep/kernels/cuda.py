@@ -143,8 +143,10 @@ same 132 SMs. Not a promise: RK5 and the other terms cost more per step."""
 HOST_MEMORY_BYTES = 0.9e9
 """Host memory a GPU run holds beyond the CPU run's estimate [bytes]: the CUDA context,
 numba-cuda and its libraries, and the pinned buffers kept between calls. From one measurement:
-the 1e7-case study with the GPU's chunks peaked at 1.52 GB, where the CPU-side estimate is
-0.65 GB (H200, 26 Nov 2026, docs/data/device-2026-11-26)."""
+the 1e7-case study with the GPU's chunks peaked at 1.52 GB, where the CPU-side estimate was
+0.65 GB (H200, 26 Nov 2026, docs/data/device-2026-11-26). Since the next chunk's inputs and the
+kernel results waiting for the writer are counted (``execute.CHUNKS_HELD``, later that day) the
+CPU-side estimate of that study is 1.23 GB, the whole 2.13 GB: not measured on a GPU since."""
 
 CHUNK_STEPS = 4e9
 """Integration steps per chunk of a study on the GPU (the CPU's ``plan.CHUNK_STEPS`` is 1e9):
