@@ -259,7 +259,8 @@ def run_prepared(plan: Plan, prep: Prepared):
     ``run_chunk``) from the kernel's result, to be called later, in another thread (the
     writer's, while the next chunk computes). A result with a recorded signal (a spectrum's)
     is made into arrays here: the signal is many times their size, and is not held on."""
-    res = _run_kernel(plan, prep.call)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # as run_chunk's caller
+        res = _run_kernel(plan, prep.call)
 
     def arrays() -> dict[str, np.ndarray]:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
