@@ -192,8 +192,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
     import numpy as np
     import xarray as xr
 
-    from gearsweep.study import dataset, filelayout
-    from gearsweep.study.dataset import ResultFile
+    from gearsweep.study import filelayout, resultfile
     from gearsweep.study.estimate import chunk_cases
     from gearsweep.study.execute import lanes_per_chunk
     from gearsweep.study.plan import make_plan
@@ -211,7 +210,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
                  "beyond_step_limit", "status")}
         flat["beyond_step_limit"] = flat["beyond_step_limit"].astype(bool)
     chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None)[0]))
-    level = dataset.ZSTD_LEVEL
+    level = resultfile.ZSTD_LEVEL
     trials = [(c, s, filelayout.FILE_CHUNK_BYTES, level) for c, s in (
         ("none", False), ("zlib", False), ("zlib", True), ("zstd", False), ("blosc_lz4", True))]
     trials += [("zstd", False, filelayout.FILE_CHUNK_BYTES, 1),
@@ -220,12 +219,12 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
     for codec, shuffle, chunk_bytes, zstd_level in trials:
         walls, cpus = [], []
         filelayout.FILE_CHUNK_BYTES = chunk_bytes
-        dataset.ZSTD_LEVEL = zstd_level
+        resultfile.ZSTD_LEVEL = zstd_level
         try:
             for _ in range(repeats):
                 out = tmp / f"{codec}_{int(shuffle)}.nc"
                 t0, c0 = time.perf_counter(), time.thread_time()
-                f = ResultFile(plan, out, codec=codec, shuffle=shuffle)
+                f = resultfile.ResultFile(plan, out, codec=codec, shuffle=shuffle)
                 for a, b in chunks:
                     f.write(a, b, {k: v[a:b] for k, v in flat.items()})
                 f.close(1.0, 1.0)
@@ -236,7 +235,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
             continue
         finally:
             filelayout.FILE_CHUNK_BYTES = default
-            dataset.ZSTD_LEVEL = level
+            resultfile.ZSTD_LEVEL = level
         with xr.open_dataset(out) as back, xr.open_dataset(ref) as want:
             same = all(np.array_equal(back[k].values, want[k].values, equal_nan=True)
                        for k in flat)

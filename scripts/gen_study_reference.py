@@ -31,12 +31,12 @@ from gearsweep.study.analysis_specs import (
     RattleBudget,
     WorkPrecision,
 )
-from gearsweep.study.dataset import COORDS, VARIABLES
 from gearsweep.study.gearscene import PRESETS, GearSpec, TipReliefSpec
 from gearsweep.study.measured import ExcitationSpec
 from gearsweep.study.mesh import _ATTRS as MESH_VARIABLES
 from gearsweep.study.outputs import OUTPUTS, STATUS_CODES
 from gearsweep.study.plan import make_plan
+from gearsweep.study.resultfile import COORDS, VARIABLES
 from gearsweep.study.schema import (
     SCENE_PARAMETERS,
     Drive,

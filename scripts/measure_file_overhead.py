@@ -26,7 +26,6 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
-from gearsweep.study.dataset import ZSTD_LEVEL
 from gearsweep.study.filelayout import (
     BTREE_FILL,
     FILE_BYTES,
@@ -35,6 +34,7 @@ from gearsweep.study.filelayout import (
     btree_node_bytes,
     file_chunks,
 )
+from gearsweep.study.resultfile import ZSTD_LEVEL
 
 
 def _size(path: Path, build) -> int:

@@ -29,7 +29,7 @@ from gearsweep.study.checkpoint import (
     remove_checkpoints,
     saved_layout,
 )
-from gearsweep.study.dataset import _boxes, write_netcdf
+from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.execute import (
     InProcess,
     Limits,
@@ -40,6 +40,7 @@ from gearsweep.study.execute import (
 )
 from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import make_plan
+from gearsweep.study.resultfile import boxes
 from gearsweep.study.schema import parse_study
 from gearsweep.study.workspace import saved_chunks
 
@@ -606,17 +607,17 @@ def test_streamed_file_is_the_in_process_file(text, chunk, tmp_path):
 
 
 def test_boxes_cover_a_lane_range_in_order():
-    """``_boxes``: any lane range of a C-order grid as consecutive boxes, whole rows in one."""
+    """``resultfile.boxes``: any lane range of a C-order grid as consecutive boxes, whole rows in one."""
     shape = [4, 3, 5]
     grid = np.arange(60).reshape(shape)
     for a in range(0, 61, 7):
         for b in range(a, 61, 11):
-            boxes = _boxes(a, b, shape)
+            got_boxes = boxes(a, b, shape)
             got = np.concatenate([grid[tuple(slice(*s) for s in box)].ravel()
-                                  for _, _, box in boxes] or [np.array([], int)])
+                                  for _, _, box in got_boxes] or [np.array([], int)])
             assert got.tolist() == list(range(a, b))
-            assert [x for x, _, _ in boxes] == sorted(x for x, _, _ in boxes)
-    assert len(_boxes(15, 45, shape)) == 1  # rows 1 and 2 whole: one box
+            assert [x for x, _, _ in got_boxes] == sorted(x for x, _, _ in got_boxes)
+    assert len(boxes(15, 45, shape)) == 1  # rows 1 and 2 whole: one box
 
 
 def test_xarray_still_sees_dask_arrays_and_pint_quantities_after_the_lazy_probes():

@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 
 from gearsweep.cli import main
-from gearsweep.study.dataset import ResultFile, result_layout
 from gearsweep.study.estimate import quick_estimate
 from gearsweep.study.execute import _size
 from gearsweep.study.filelayout import ATTRIBUTE_TEXT_BYTES, FILE_BYTES, file_variables
 from gearsweep.study.plan import make_plan
+from gearsweep.study.resultfile import ResultFile, result_layout
 from gearsweep.study.schema import load_study, parse_study
 
 ROOT = Path(__file__).resolve().parents[1]

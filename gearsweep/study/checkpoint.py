@@ -21,7 +21,7 @@ sha256 of the study as validated, so a comment or spacing edited in its file kee
   computed again. Plain records, not ``np.savez``: the zip container's CRC pass and copy cost
   2.5x the write itself, and the last chunk's write is not hidden behind a computing chunk.
 
-The result file itself is written as the chunks finish (``dataset.ResultFile``, in
+The result file itself is written as the chunks finish (``resultfile.ResultFile``, in
 ``OUT.nc.chunks/<study_key>/writing.nc`` until it is complete), by the same background thread
 that saves the chunk files. An HDF5 file cut off mid-write is not trusted: a re-run of the same
 study to the same output checks the chunk files that are there (``ChunkStore.records``: shapes

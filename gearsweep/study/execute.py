@@ -50,15 +50,15 @@ from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints, saved_lay
 from gearsweep.study.chunk import KERNEL_CLOCK, _integrate, prepare, run_chunk, run_prepared
 from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
+from gearsweep.study.resultfile import ResultFile, result_layout
 
 if TYPE_CHECKING:
     import xarray as xr
 
-    from gearsweep.study.dataset import ResultFile
-
-# ``gearsweep.study.dataset`` (and with it xarray, pandas and netCDF4: 0.35 s) is imported where
-# a result is built, not here: in ``run_to_file`` the first place is the writer thread's
-# ``ResultFile``, so that import runs beside the first chunk's kernel, not before it.
+# ``gearsweep.study.dataset`` (and with it xarray and pandas: 0.3 s) is imported where an
+# in-memory Dataset is built (``run_plan``), not here: a run that streams its file
+# (``run_to_file``, ``gearsweep run``) never imports xarray (``resultfile.ResultFile``), and
+# netCDF4 is imported by the writer thread, beside the first chunk's kernel.
 
 STATED_RATE = {"rk4": 350.0, "rk5": 220.0}
 """Bare-kernel throughput per core [Msteps/s] assumed when none is measured: the estimate's
@@ -540,8 +540,6 @@ class DaskBackend:
 
 def _fits(plan: Plan, a: int, b: int, arrays: dict[str, np.ndarray]) -> bool:
     """Whether a saved chunk has exactly the variables, shapes and dtypes the study expects."""
-    from gearsweep.study.dataset import result_layout
-
     want = result_layout(plan, b - a)
     return set(arrays) == set(want) and all(
         arr.shape == want[name][0] and arr.dtype == want[name][1] for name, arr in arrays.items())
@@ -806,8 +804,6 @@ def step_limit_text(plan: Plan, n: int, where: str | Path, *, before: bool = Fal
 
 
 def _result_file(plan: Plan, output: str | Path, tmp: Path, codec: str | None) -> ResultFile:
-    """The streamed result file (run in the writer thread: its imports overlap the first
-    chunk's kernel)."""
-    from gearsweep.study.dataset import ResultFile
-
+    """The streamed result file (made in the writer thread: its netCDF4 import and set-up
+    overlap the first chunk's kernel)."""
     return ResultFile(plan, output, tmp=tmp, codec=codec)

@@ -164,7 +164,7 @@ def _grid(name: str, values: np.ndarray) -> FileVariable:
 
 
 def file_variables(plan: Any) -> list[FileVariable]:
-    """Every variable of ``plan``'s result file (``dataset.assemble``) with its size and
+    """Every variable of ``plan``'s result file (``resultfile.describe``) with its size and
     layout, from the plan's sizes alone."""
     continued = bool(plan.directions)
     lead = ([len(plan.directions)] if continued else []) + [len(plan.grids[d]) for d in plan.dims]
@@ -196,7 +196,7 @@ def file_variables(plan: Any) -> list[FileVariable]:
 
 
 def _gear_variables(plan: Any) -> list[FileVariable]:
-    """``dataset.gear_variables``: three scalars, k0 per load and k_n, e_n per load and
+    """``resultfile.gear_variables``: three scalars, k0 per load and k_n, e_n per load and
     harmonic (at most the scene's harmonics, or the model's)."""
     scene, model = plan.study.scene, plan.model
     harmonics = max(1, scene.harmonics or DEFAULT_HARMONICS, len(model.stiffness_harmonics),
@@ -212,7 +212,7 @@ def _gear_variables(plan: Any) -> list[FileVariable]:
 
 
 def _excitation_variables(plan: Any) -> list[FileVariable]:
-    """``dataset.excitation_variables``: the fit residuals (attributes name the file) and the
+    """``resultfile.excitation_variables``: the fit residuals (attributes name the file) and the
     fitted orders' amplitudes and phases."""
     scene = plan.study.scene
     ex = scene.excitation

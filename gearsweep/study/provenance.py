@@ -1,9 +1,8 @@
-"""What a result file says about how it was made, and CF details of writing it.
+"""What a result file says about how it was made.
 
 ``provenance()`` is the text after the time stamp in the ``history`` attribute: the command line
 and the versions of gearsweep, numba, numpy, xarray and Python, so that a result can be traced
-to the software that made it. ``coordinate_encoding`` keeps netCDF's ``_FillValue`` off the
-coordinate variables (CF 1.10, section 2.5.1: a coordinate has no missing values).
+to the software that made it.
 """
 
 from __future__ import annotations
@@ -13,12 +12,8 @@ import shlex
 import sys
 from importlib import metadata
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from gearsweep._version import __version__
-
-if TYPE_CHECKING:  # not imported to run: the estimate counts ``provenance()`` without xarray
-    import xarray as xr
 
 
 def _version(dist: str) -> str:
@@ -45,7 +40,3 @@ def provenance() -> str:
     return (f"{command_line()} (gearsweep {__version__}, {versions},"
             f" Python {platform.python_version()})")
 
-
-def coordinate_encoding(ds: xr.Dataset) -> dict[str, dict]:
-    """netCDF encoding without ``_FillValue`` for every coordinate of ``ds`` (CF 2.5.1)."""
-    return {name: {"_FillValue": None} for name in ds.coords}
