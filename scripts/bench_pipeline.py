@@ -125,13 +125,13 @@ def bare(study: Path) -> None:
     from bench_scale import bare_kernel_seconds
 
     from gearsweep.study.estimate import chunk_cases
-    from gearsweep.study.execute import lanes_per_chunk, warm_up
+    from gearsweep.study.execute import chunks_to_run, warm_up
     from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
     st, text = load_study(str(study))
     plan = make_plan(st, text)
-    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None)[0]))
+    chunks = chunks_to_run(plan, None, chunk_cases(plan, None)[0])
     warm_up(plan, chunks[0])
     print(bare_kernel_seconds(plan, chunks))
 
@@ -194,7 +194,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
 
     from gearsweep.study import filelayout, resultfile
     from gearsweep.study.estimate import chunk_cases
-    from gearsweep.study.execute import lanes_per_chunk
+    from gearsweep.study.execute import chunks_to_run
     from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
@@ -209,7 +209,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
                  "contact_loss_fraction", "backside_contact_fraction", "impacts_per_period",
                  "beyond_step_limit", "status")}
         flat["beyond_step_limit"] = flat["beyond_step_limit"].astype(bool)
-    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None)[0]))
+    chunks = chunks_to_run(plan, None, chunk_cases(plan, None)[0])
     level = resultfile.ZSTD_LEVEL
     trials = [(c, s, filelayout.FILE_CHUNK_BYTES, level) for c, s in (
         ("none", False), ("zlib", False), ("zlib", True), ("zstd", False), ("blosc_lz4", True))]

@@ -36,7 +36,7 @@ import xarray as xr
 from gearsweep.kernels import simulate
 from gearsweep.model import kernel_inputs
 from gearsweep.study.estimate import chunk_cases
-from gearsweep.study.execute import lanes_per_chunk, warm_up
+from gearsweep.study.execute import chunks_to_run, warm_up
 from gearsweep.study.plan import _lane_params, make_plan
 from gearsweep.study.schema import load_study
 
@@ -95,7 +95,7 @@ def main() -> None:
     args = p.parse_args()
     study, text = load_study(args.study)
     plan = make_plan(study, text)
-    chunks = plan.chunks(lanes_per_chunk(plan, chunk_cases(plan, None)[0]))  # the CLI's chunks
+    chunks = chunks_to_run(plan, None, chunk_cases(plan, None)[0])  # the CLI's chunks
     if args.bare:
         warm_up(plan, chunks[0])
         print(bare_kernel_seconds(plan, chunks))

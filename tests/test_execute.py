@@ -647,3 +647,29 @@ print("ok")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+SHORT_ENDS = {
+    # lanes, lanes per chunk: the chunks after with_short_ends on 2 cores (rounds of 64 lanes)
+    (1_000_000, 273_408): [(0, 68352), (68352, 273408), (273408, 546816), (546816, 820224),
+                           (820224, 955072), (955072, 1_000_000)],  # the 1e6-case study
+    (10_000, 10_000): [(0, 2496), (2496, 8144), (8144, 10_000)],  # one chunk: both its ends
+    (5000, 1024): [(0, 256), (256, 1024), (1024, 2048), (2048, 3072), (3072, 4096),
+                   (4096, 4808), (4808, 5000)],
+    (600, 100): [(a, a + 100) for a in range(0, 600, 100)],  # a quarter is under two rounds
+    (100, 100): [(0, 100)],
+}
+
+
+@pytest.mark.parametrize("lanes, per_chunk", list(SHORT_ENDS))
+def test_short_ends_cut_only_the_first_and_last_chunk(lanes, per_chunk):
+    """``with_short_ends``: the first and the last chunk cut at a quarter, rounded down to whole
+    rounds of kernel blocks (``LANES x threads`` = 64 lanes on 2 cores), never into a part under
+    two rounds; the chunks between untouched; a GPU study's chunks left alone."""
+    plan = plan_of(LONG)
+    chunks = [(a, min(a + per_chunk, lanes)) for a in range(0, lanes, per_chunk)]
+    assert execute.with_short_ends(plan, chunks, threads=2) == SHORT_ENDS[lanes, per_chunk]
+    gpu = dataclasses.replace(plan, study=plan.study.model_copy(update={
+        "solver": plan.study.solver.model_copy(update={"device": "cuda"})}))
+    assert gpu.device == "cuda"
+    assert execute.with_short_ends(gpu, chunks, threads=2) == chunks
