@@ -3,10 +3,12 @@
 For each size (1e4 ... 1e7 cases: ``studies/heavy/scale_1e6.yaml`` with 1, 10, 100 or 1000 speeds)
 and each repeat, in turn, two fresh processes:
 
-* **whole run**: ``python -m gearsweep.cli run STUDY -o OUT.nc -q --yes`` (with ``--workers N`` for
-  the worker counts), timed from before the process starts to after it exits; its peak resident
-  memory is the child's ``ru_maxrss`` (``os.wait4``); the file's ``kernel_seconds`` and
-  ``elapsed_seconds`` are read back;
+* **whole run**: ``python -m gearsweep run STUDY -o OUT.nc -q --yes``, the ``gearsweep``
+  command (with ``--workers N`` for the worker counts), timed from before the process starts to
+  after it exits; its peak resident memory is the child's ``ru_maxrss`` (``os.wait4``); the
+  file's ``kernel_seconds`` and ``elapsed_seconds`` are read back (until 26 Nov 2026, 11:00 UTC,
+  the whole run was ``python -m gearsweep.cli``, which imports the CLI as ``__main__`` outside
+  ``gearsweep.__main__.entry``'s Ctrl-C guard and collector pause);
 * **kernel only**: ``gearsweep.kernels.simulate`` on exactly the chunks the CLI cuts (same cases,
   same kernel inputs, ``--threads`` Numba threads), after the same one-time warm-up, timed around
   ``simulate`` only.
@@ -83,7 +85,7 @@ def whole_run(study: Path, out: Path, threads: int | None, workers: int | None,
     starts) pinned to the first ``cpus`` cores."""
     import xarray as xr
 
-    cmd = [sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o", str(out), "-q", "--yes",
+    cmd = [sys.executable, "-m", "gearsweep", "run", str(study), "-o", str(out), "-q", "--yes",
            *extra]
     if workers:
         cmd += ["--workers", str(workers)]
@@ -201,7 +203,7 @@ def codecs(study: Path, tmp: Path, repeats: int) -> None:
     st, text = load_study(str(study))
     plan = make_plan(st, text)
     ref = tmp / "ref.nc"
-    subprocess.run([sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o", str(ref),
+    subprocess.run([sys.executable, "-m", "gearsweep", "run", str(study), "-o", str(ref),
                     "-q", "--yes"], check=True, cwd=ROOT, env=_env(None))
     with xr.open_dataset(ref) as ds:
         flat = {k: np.asarray(ds[k].values).reshape(plan.n_lanes) for k in
@@ -268,6 +270,9 @@ def main() -> None:
     if args.bare:
         bare(Path(args.bare))
         return
+    from bench_scale import byte_compile
+
+    byte_compile()  # byte code as an install has it (bench_scale.byte_compile)
     if args.gpu_study:
         with tempfile.TemporaryDirectory() as tmp:
             gpu_study(args.gpu_study, Path(tmp), args.repeats, args.codec)

@@ -43,6 +43,16 @@ from gearsweep.study.schema import load_study
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def byte_compile() -> None:
+    """Byte-compile gearsweep's modules (``__pycache__``), as an install does, before timing
+    fresh processes: where ``PYTHONDONTWRITEBYTECODE`` is set (this development machine), a
+    checkout without them compiled every module's source in every process, 0.1 s of each run
+    (a fresh checkout against one with its byte code: 1.94 against 1.84 s for 1e6 cases)."""
+    import compileall
+
+    compileall.compile_dir(str(ROOT / "gearsweep"), quiet=1)
+
+
 def bare_kernel_seconds(plan, chunks: list[tuple[int, int]]) -> float:
     """Seconds spent in ``simulate`` over these chunks of a (non-continued) study."""
     s = plan.study.solver
@@ -73,7 +83,7 @@ def study_run(study: Path, out: Path) -> tuple[float, float, float, int, float]:
     timer = ["/usr/bin/time", "-f", "%M", "-o", str(rss_file)] if Path("/usr/bin/time").exists() \
         else []
     t0 = time.perf_counter()
-    subprocess.run([*timer, sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o",
+    subprocess.run([*timer, sys.executable, "-m", "gearsweep", "run", str(study), "-o",
                     str(out), "-q"], check=True, cwd=ROOT,
                    env=dict(os.environ, PYTHONPATH=str(ROOT)))
     wall = time.perf_counter() - t0
@@ -93,6 +103,8 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--bare", action="store_true", help="child mode: print the bare kernel's seconds")
     args = p.parse_args()
+    if not args.bare:
+        byte_compile()
     study, text = load_study(args.study)
     plan = make_plan(study, text)
     chunks = chunks_to_run(plan, None, chunk_cases(plan, None)[0])  # the CLI's chunks

@@ -1,11 +1,12 @@
 """Where a process's start goes: the tiny-study target of issue 23 on any machine.
 
 Medians of 3 fresh processes each, warm Numba cache (one run first): bare Python, the libraries
-a run needs (``import numpy, xarray, numba, netCDF4, pydantic, pint``), ``import gearsweep.cli``
-and the whole run of a tiny study (``studies/heavy/scale_1e6.yaml`` cut to 8 speeds, nothing else
-swept), then the ratio tiny run / libraries (target <= 1.5) and the 20 largest cumulative import
-times of ``gearsweep.cli`` (``python -X importtime``). ``scripts/device_check.sh`` runs it on the
-device machine, whose image holds some 200 packages.
+a run of a chunked study imports (``LIBRARIES``; until 26 Nov 2026 it imported xarray and pint
+as well, and this script timed those too), ``import gearsweep.cli`` and the whole run of a tiny
+study (``python -m gearsweep run``, the ``gearsweep`` command, of ``studies/heavy/scale_1e6.yaml``
+cut to 8 speeds, nothing else swept), then the ratio tiny run / libraries (target <= 1.5) and the
+20 largest cumulative import times of ``gearsweep.cli`` (``python -X importtime``).
+``scripts/device_check.sh`` runs it on the device machine, whose image holds some 200 packages.
 
     PYTHONPATH=. python scripts/bench_startup.py
 """
@@ -20,7 +21,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-LIBRARIES = "import numpy, xarray, numba, netCDF4, pydantic, pint"
+LIBRARIES = "import numpy, numba, netCDF4, pydantic, yaml, filelock"
+"""What ``gearsweep run`` of a chunked study imports beside gearsweep (and the standard library)."""
 
 
 def tiny_study(folder: Path) -> Path:
@@ -45,10 +47,13 @@ def median_seconds(cmd: list[str], repeats: int = 3) -> float:
 
 
 def main() -> None:
+    from bench_scale import byte_compile
+
+    byte_compile()
     py = sys.executable
     with tempfile.TemporaryDirectory() as tmp:
         study = tiny_study(Path(tmp))
-        run = [py, "-m", "gearsweep.cli", "run", str(study), "-o", str(Path(tmp) / "t.nc"), "-q",
+        run = [py, "-m", "gearsweep", "run", str(study), "-o", str(Path(tmp) / "t.nc"), "-q",
                "--yes"]
         subprocess.run(run, check=True, cwd=ROOT)  # warms the cache
         rows = {"python -c pass": median_seconds([py, "-c", "pass"]),

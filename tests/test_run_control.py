@@ -370,3 +370,64 @@ def test_ctrl_c_at_any_moment_of_the_start_leaves_no_traceback(tmp_path):
         _, err = proc.communicate(timeout=120)
         assert proc.returncode == 130, (delay, err)
         assert "Traceback" not in err and len(err.strip().splitlines()) <= 2, (delay, err)
+
+
+_COLLECTOR_AFTER_ENTRY = """\
+import atexit, gc, sys
+from gearsweep.study import execute
+
+seen = []
+real = execute._warm_up
+def warm_up(plan, first=None):  # the collector as the warm-up finds it
+    seen.append(gc.isenabled())
+    return real(plan, first)
+execute._warm_up = warm_up
+atexit.register(lambda: print(gc.isenabled(), gc.get_freeze_count() > 10000, seen, flush=True))
+from gearsweep.__main__ import entry
+sys.argv = ["gearsweep", *sys.argv[1:]]
+entry()
+"""
+
+
+def test_the_cli_pauses_the_collector_for_its_set_up_only(tmp_path):
+    """``gearsweep`` imports with Python's cyclic collector paused and freezes what the imports
+    made (``gc.freeze``); the warm-up of a cached kernel runs paused too; the chunks and the
+    exit run with the collector on. (Together 66 ms of a 1e6-case run, docs/scale.md.) A cold
+    kernel compiles with the collector on: a compile makes garbage cycles by the million."""
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "200"), encoding="utf-8")
+    args = ["run", str(study), "-o", str(tmp_path / "o.nc"), "-q"]
+    main(args)  # the kernels in Numba's cache
+    r = subprocess.run([sys.executable, "-c", _COLLECTOR_AFTER_ENTRY, *args], cwd=tmp_path,
+                       env=_env(), capture_output=True, text=True, timeout=120, check=True)
+    assert r.stdout.split("\n")[-2] == "True True [False]", r.stdout + r.stderr
+
+
+def test_warm_up_leaves_the_collector_as_it_found_it(monkeypatch):
+    """``execute.warm_up`` in a library call: the collector is as before, on or off, and on
+    during the warm-up when a kernel is to be compiled."""
+    import gc
+
+    from gearsweep.study import execute
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import parse_study
+
+    text = STUDY.replace("NUM", "50")
+    plan = make_plan(parse_study(text, "s.yaml"), text)
+    seen = []
+    real = execute._warm_up
+    monkeypatch.setattr(execute, "_warm_up", lambda p, f=None: (seen.append(gc.isenabled()),
+                                                                 real(p, f)))
+    was = gc.isenabled()
+    try:
+        for state in (True, False):
+            (gc.enable if state else gc.disable)()
+            execute.warm_up(plan)
+            assert gc.isenabled() is state
+        monkeypatch.setattr(execute, "_cached", lambda p: False)  # as if it had to compile
+        gc.enable()
+        execute.warm_up(plan)
+        assert gc.isenabled()
+    finally:
+        (gc.enable if was else gc.disable)()
+    assert seen == [False, False, True]
