@@ -426,14 +426,12 @@ def encoded(desc: Description, codec: str | None = None, shuffle: bool | None = 
         fill = None
         encoding: dict[str, Any] = {}
         values = var.values
-        if var.coord:  # no _FillValue on a coordinate (CF 2.5.1: dataset.coordinate_encoding)
-            pass
-        elif dtype.kind in "fiub":
+        if not var.coord:  # a coordinate: no codec, no _FillValue (CF 2.5.1)
+            if dtype.kind not in "fiub":
+                raise TypeError(f"{name}: no netCDF encoding here for a data variable of {dtype}")
             encoding = variable_encoding(var.shape, dtype, codec, shuffle)
             if dtype.kind == "f":
                 fill = dtype.type(np.nan)
-        else:
-            raise TypeError(f"{name}: no netCDF encoding here for a data variable of {dtype}")
         if dtype.kind == "b":
             attrs["dtype"] = "bool"
             dtype = np.dtype(np.int8)
