@@ -18,8 +18,9 @@ of the run's own ``kernel_seconds``, the median of the per-repeat ratios whole /
 whole / own kernel time (the latter is free of the machine's drift between the two processes), the
 peak memory, the output size, the throughput (cases per second of whole run) and, for workers,
 the efficiency = throughput / (N x one worker's throughput) (``efficiency_run``: the same of the
-run's own elapsed time, without the interpreter's start and exit) and the ratio to the in-process
-run. Each worker is one process, and a chunk uses the cores of its host shared among the workers
+run's own elapsed time, without the interpreter's start and exit; where the list does not start
+at one worker, against the first count's throughput per worker, ``efficiency_vs_workers``) and
+the ratio to the in-process run. Each worker is one process, and a chunk uses the cores of its host shared among the workers
 there: on one machine, N workers together use all its cores, whatever N. ``--pin`` pins each run
 with N workers (and its kernel-only run) to N cores, one per worker, which measures how the
 workers scale. The load average is printed with every line: this machine is shared.
@@ -305,12 +306,15 @@ def main() -> None:
                               args.codec, cpus)
                 if cpus:
                     row["cpus"] = cpus
-                one = one or (row if w == 1 else None)
-                if one is not None:
-                    row["efficiency"] = round(row["cases_per_s"] / (w * one["cases_per_s"]), 3)
-                    # the same of the run's own elapsed time (no interpreter start or exit)
-                    row["efficiency_run"] = round(one["run_elapsed_s"] / (w * row["run_elapsed_s"]),
-                                                  3)
+                # against the first count measured (one worker, or the fewest where a study
+                # is too large for one): throughput per worker over that count's per worker
+                one = one or (row, w)
+                (first, w0) = one
+                row["efficiency_vs_workers"] = w0
+                row["efficiency"] = round(row["cases_per_s"] * w0 / (w * first["cases_per_s"]), 3)
+                # the same of the run's own elapsed time (no interpreter start or exit)
+                row["efficiency_run"] = round(first["run_elapsed_s"] * w0
+                                              / (w * row["run_elapsed_s"]), 3)
                 if base is not None:
                     row["vs_in_process"] = round(row["whole_s"] / base["whole_s"], 3)
                 print(json.dumps(row), flush=True)

@@ -24,7 +24,8 @@
 #   kernel_gpu.jsonl   B1/B2 on the GPU in float64 (then float32, last), against the CPU kernel and C
 #   gpu_study.txt      the 1e7-case study on the GPU: whole run against its kernel seconds
 #   gpu_tests.txt      the real-GPU tests of tests/test_cuda.py (PTX, every scene against the CPU)
-#   workers.jsonl      --workers 1,2,4,8,16 at 1e6 cases against in-process (bench_pipeline.py)
+#   workers.jsonl      --workers 1,2,4,8,16 at 1e6 cases against in-process (bench_pipeline.py);
+#                      workers_1e7: 2,4,8,16 pinned at 1e7 cases (efficiency against 2 workers)
 #   summary.txt        one line per step: exit status and seconds
 set -u
 
@@ -186,6 +187,8 @@ step workers 80 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_s
   --workers "$workers" --threads "$threads" --repeats 1
 step workers_pinned 100 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
   --workers "$workers" --pin --threads "$threads" --repeats 1
+step workers_1e7 150 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
+  --workers "${WORKERS_1E7:-2,4,8,16}" --pin --threads "$threads" --repeats 1
 step scaling 50 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${scaling_cases[@]}" \
   --rounds 2
 step kernel_gpu32 40 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda \
