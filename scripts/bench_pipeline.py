@@ -20,8 +20,9 @@ peak memory, the output size, the throughput (cases per second of whole run) and
 the efficiency = throughput / (N x one worker's throughput) (``efficiency_run``: the same of the
 run's own elapsed time, without the interpreter's start and exit; where the list does not start
 at one worker, against the first count's throughput per worker, ``efficiency_vs_workers``) and
-the ratio to the in-process run. Each worker is one process, and a chunk uses the cores of its host shared among the workers
-there: on one machine, N workers together use all its cores, whatever N. ``--pin`` pins each run
+the ratio to the in-process run. Each worker is one process, and a chunk uses the cores of its
+host shared among the workers there: on one machine, N workers together use all its cores,
+whatever N. ``--pin`` pins each run
 with N workers (and its kernel-only run) to N cores, one per worker, which measures how the
 workers scale. The load average is printed with every line: this machine is shared.
 
