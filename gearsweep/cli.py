@@ -186,8 +186,8 @@ def _stoppable(backend):
     base = type(backend)
 
     class Stoppable(base):
-        def run(self, plan, todo):
-            for item in base.run(self, plan, todo):
+        def run(self, plan, todo, *args):
+            for item in base.run(self, plan, todo, *args):
                 if _STOP.is_set():
                     raise KeyboardInterrupt
                 yield item

@@ -131,6 +131,30 @@ def test_local_cluster_identical_to_in_process(tmp_path, rattle_reference):
         assert 0 < ds.attrs["kernel_seconds"] <= 2 * ds.attrs["elapsed_seconds"]
 
 
+def test_local_workers_save_their_chunks_and_the_file_is_the_in_process_file(
+        tmp_path, rattle_reference, monkeypatch):
+    """With a local cluster, the workers save their chunks' arrays to the checkpoint store
+    themselves; the arrays do not pass through the client, which reads the saved files in lane
+    order into the result file (here: this process cannot save a chunk, yet the run completes,
+    identical to the in-process run, its file written in lane order)."""
+    from gearsweep.study import execute
+    from gearsweep.study.checkpoint import ChunkStore
+
+    plan = plan_of(RATTLE)
+    with execute.DaskBackend(workers=2) as backend:  # the workers start with ChunkStore intact
+
+        def refuse(self, *args):
+            raise AssertionError("a chunk was saved by the client, not by its worker")
+
+        monkeypatch.setattr(ChunkStore, "save", refuse)
+        out = tmp_path / "local.nc"
+        written = execute.stream_to_file(plan, out, backend=backend, chunk_cases=48)
+    assert written.cases == 288
+    with xr.open_dataset(out) as ds:
+        assert_same(ds.load(), rattle_reference)
+    assert not chunk_folder(out).exists()  # the checkpoints go once the file is complete
+
+
 def test_ctrl_c_on_a_local_cluster_stops_cleanly(tmp_path):
     """Ctrl-C in a terminal signals the whole process group, the local cluster's workers too:
     they died with a traceback each and the run could wait for their chunks for good (2 of 4

@@ -455,10 +455,12 @@ _KERNEL_LOCK = threading.Lock()
 """One chunk at a time per worker process: its Numba threads already fill its share of cores."""
 
 
-def _chunk_task(plan: Plan, lane0: int, lane1: int, procs_per_host: dict[str, int]
-                ) -> tuple[dict[str, np.ndarray], float]:
+def _chunk_task(plan: Plan, lane0: int, lane1: int, procs_per_host: dict[str, int],
+                store: ChunkStore | None = None
+                ) -> tuple[dict[str, np.ndarray] | None, float]:
     """A chunk on a dask worker, with Numba's threads set to this worker's share of the cores:
-    its arrays and the seconds the worker spent in the kernel for it."""
+    its arrays (``None`` where the worker saved them to ``store`` itself) and the seconds the
+    worker spent in the kernel for it."""
     import numba
     from distributed import get_worker
 
@@ -469,7 +471,26 @@ def _chunk_task(plan: Plan, lane0: int, lane1: int, procs_per_host: dict[str, in
         numba.set_num_threads(threads)
         k0 = KERNEL_CLOCK.seconds
         arrays = _run_chunk(plan, lane0, lane1)
-        return arrays, KERNEL_CLOCK.seconds - k0
+        seconds = KERNEL_CLOCK.seconds - k0
+    if store is None:
+        return arrays, seconds
+    store.save(lane0, lane1, arrays)
+    return None, seconds
+
+
+class SavedChunk:
+    """A chunk that a worker saved to the checkpoint store itself (``DaskBackend`` with a local
+    cluster): its arrays are read from there when needed."""
+
+    def __init__(self, store: ChunkStore, lane0: int, lane1: int) -> None:
+        self.store, self.lane0, self.lane1 = store, lane0, lane1
+
+    def load(self) -> dict[str, np.ndarray]:
+        arrays = self.store.load(self.lane0, self.lane1)
+        if arrays is None:
+            raise ResultError(f"{self.store.path(self.lane0, self.lane1)}: the chunk a worker"
+                              " saved cannot be read back")
+        return arrays
 
 
 def _start_method(config) -> str:
@@ -588,12 +609,22 @@ class DaskBackend:
         info = self.client.scheduler_info(n_workers=-1)["workers"]
         return max(1, sum(int(w.get("nthreads", 1)) for w in info.values()))
 
-    def run(self, plan: Plan, todo: list[tuple[int, int]]
-            ) -> Iterator[tuple[int, int, dict[str, np.ndarray]]]:
+    def run(self, plan: Plan, todo: list[tuple[int, int]], store: ChunkStore | None = None
+            ) -> Iterator[tuple[int, int, dict[str, np.ndarray] | SavedChunk]]:
+        """Compute the chunks ``todo`` on the cluster; yield each chunk's arrays as it finishes.
+
+        With a local cluster and a checkpoint ``store``, each worker saves its chunks' arrays
+        there itself and a ``SavedChunk`` is yielded instead: the results do not pass through
+        this process's sockets and its one thread of unpickling, and the checkpoint files are
+        written by the workers side by side, not one after another here. (The 1e6-case study
+        with two workers on two cores: this process's CPU in the chunk phase was 0.31 s for its
+        49 MB.) A cluster of ``--scheduler`` may have workers on other machines: they send
+        their arrays."""
         from distributed import as_completed
 
         if self.client is None:
             raise RuntimeError("enter the backend first: with DaskBackend(...) as backend: ...")
+        local = store if self.cluster is not None else None
         procs = self._procs_per_host()
         self.kernel_seconds = 0.0
         window = 2 * sum(procs.values()) + 2  # keeps every worker busy, bounds memory in flight
@@ -606,8 +637,9 @@ class DaskBackend:
             chunk = next(pending, None)
             if chunk is None:
                 return False
-            fut = self.client.submit(_chunk_task, plan, chunk[0], chunk[1], procs, retries=2,
-                                     key=f"gearsweep-{sha}-{chunk[0]}-{chunk[1]}", pure=False)
+            fut = self.client.submit(_chunk_task, plan, chunk[0], chunk[1], procs, local,
+                                     retries=2, key=f"gearsweep-{sha}-{chunk[0]}-{chunk[1]}",
+                                     pure=False)
             where[fut.key] = chunk
             queue.add(fut)
             return True
@@ -625,7 +657,7 @@ class DaskBackend:
                                    f" failed: {type(exc).__name__}: {msg}") from exc
             fut.release()
             self.kernel_seconds += seconds
-            yield a, b, arrays
+            yield a, b, arrays if arrays is not None else SavedChunk(local, a, b)
             submit()
 
 
@@ -698,6 +730,12 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     order = InLaneOrder([*done, *todo], store) if open_file is not None else None
 
     def keep(a: int, b: int, arrays) -> None:
+        if isinstance(arrays, SavedChunk):  # a local dask worker saved it: read when needed
+            if sink is not None:
+                sink(a, b, arrays.load())
+            if files:
+                order.add(files[0], a, b)
+            return
         if callable(arrays):  # InProcess: the chunk's arrays are made here (beside the next chunk)
             arrays = arrays()
         if sink is not None:
@@ -722,7 +760,8 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
             be.prepare_first(plan, todo[0])
         if open_file is not None:  # after the warm-up: Python beside Python gains nothing (the
             saves.append(writer.submit(start))  # GIL), beside the kernel it does
-        for a, b, arrays in be.run(plan, todo):
+        chunks = be.run(plan, todo, store) if isinstance(be, DaskBackend) else be.run(plan, todo)
+        for a, b, arrays in chunks:
             saves.append(writer.submit(keep, a, b, arrays))
             while len(saves) > 2:
                 saves.pop(0).result()
