@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, Field, ValidationError, model_validator
 
 from gearsweep.analysis.sensor import pinion_displacement, spectrum_rms
 from gearsweep.analysis.spectrum import kept_bins, line_spectrum
@@ -30,7 +30,7 @@ from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import floquet, largest_multiplier, monodromy, monodromy_call
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
-from gearsweep.study.quantities import Count, Flag, Real
+from gearsweep.study.quantities import Count, Flag, Real, Strict
 from gearsweep.units import KINDS, to_display
 
 STATUS_CODES = {
@@ -137,10 +137,10 @@ class Stats:
         return out
 
 
-class SpectrumOptions(BaseModel):
-    """Options of the ``spectrum`` output."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+class SpectrumOptions(Strict):
+    """Options of the ``spectrum`` output (a study model like the others: its validator is
+    built when a study first asks for a spectrum; built with the class, it was 4 ms of every
+    run's start)."""
 
     max_order: Real = Field(4.0, gt=0, description="highest mesh order kept [-]")
     samples_per_period: Count | None = Field(
