@@ -155,6 +155,28 @@ def test_local_workers_save_their_chunks_and_the_file_is_the_in_process_file(
     assert not chunk_folder(out).exists()  # the checkpoints go once the file is complete
 
 
+def test_a_local_cluster_needs_no_fixed_port_and_listens_on_localhost_only():
+    """With port 8787 taken (another run's cluster, a dask dashboard) a local cluster starts
+    without a warning: its scheduler's HTTP routes listen on a free port of 127.0.0.1. (They
+    took 8787 on every interface; where it was taken, the scheduler retried elsewhere with a
+    warning and left a socket open: a parallel test failed on it under filterwarnings=error.)"""
+    from gearsweep.study.execute import DaskBackend
+
+    taken = socket.socket()
+    try:
+        try:
+            taken.bind(("0.0.0.0", 8787))
+            taken.listen()
+        except OSError:
+            pass  # taken already: the case itself
+        with DaskBackend(workers=1) as backend:
+            http = backend.cluster.scheduler.http_server
+            bound = [s.getsockname() for s in http._sockets.values()]
+    finally:
+        taken.close()
+    assert bound and all(host == "127.0.0.1" and port != 8787 for host, port in bound)
+
+
 def test_ctrl_c_on_a_local_cluster_stops_cleanly(tmp_path):
     """Ctrl-C in a terminal signals the whole process group, the local cluster's workers too:
     they died with a traceback each and the run could wait for their chunks for good (2 of 4

@@ -571,8 +571,15 @@ class DaskBackend:
                     # stops the scheduler before the workers, whose heartbeats then logged a
                     # traceback each at ERROR; a chunk that fails reaches the user as one
                     # ClusterError line (``run``) whatever the workers log
+                    # No dashboard; the scheduler's own HTTP routes (health, metrics) on a free
+                    # port of 127.0.0.1: with dashboard_address None they took port 8787 on every
+                    # interface, and where that was taken (a second run, a dask dashboard) the
+                    # scheduler retried on another port with a warning and a socket left open
                     self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
                                                 processes=True, dashboard_address=None,
+                                                scheduler_kwargs={"dashboard": False,
+                                                                  "dashboard_address":
+                                                                      "127.0.0.1:0"},
                                                 silence_logs=logging.CRITICAL)
                 self.client = Client(self.cluster)
             else:
