@@ -727,3 +727,22 @@ def test_a_chunk_that_never_arrives_is_an_error_not_a_hole(tmp_path):
             lanes.check()
     finally:
         f.abort()
+
+
+def test_a_result_file_that_cannot_be_made_stops_the_run_early(tmp_path, monkeypatch):
+    """The result file is made in the writer thread beside the first chunks; if that fails (a
+    full disk, say), the run stops with that error after a chunk or two, not after computing
+    every chunk (the chunks computed are kept as checkpoints)."""
+    plan = plan_of(LONG.replace("transient_periods: 3000, record_periods: 1000",
+                                "transient_periods: 30, record_periods: 10"))
+    log = tmp_path / "chunks.log"
+    monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
+
+    def full_disk(*args, **kwargs):
+        time.sleep(0.05)  # fails while the first chunks compute
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(execute, "_result_file", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        execute.stream_to_file(plan, tmp_path / "r.nc", chunk_cases=100)
+    assert 0 < len(read_log(log)) < len(plan.chunks(100)) // 2
