@@ -82,14 +82,15 @@ BASELINE_MEMORY = 300e6
 CHUNKS_HELD = 8
 """A run's memory beyond ``BASELINE_MEMORY``, in chunks' worth of result bytes, where a chunk is
 one kernel call (``chunk.prepare``): the next chunk's kernel inputs (made while a chunk
-computes), the computing chunk's outputs, two chunks' kernel results waiting for the writer
-thread and the one it is making into arrays and writing (``InProcess``, ``_compute``); inputs
+computes), the computing chunk's outputs and three chunks' kernel results or arrays waiting
+for, or in, the saver and writer threads (``InProcess``, ``_compute``); inputs
 and kernel results take about twice a chunk's result bytes. Measured (26 Nov 2026, scale study,
 2 cores): peak RSS 417 MB at 1e6 cases (estimate 454 MB), 514 MB at 1e7 (537 MB)."""
 
 CHUNKS_HELD_WHOLE = 3
 """The same where ``run_chunk`` computes a chunk whole (a continued sweep, a gear scene that
-sweeps its load): the computing chunk's arrays and two waiting for the writer thread."""
+sweeps its load): the computing chunk's arrays and two waiting for the saver and writer
+threads."""
 
 
 def chunks_held(plan: Plan) -> int:
