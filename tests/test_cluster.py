@@ -134,9 +134,9 @@ def test_local_cluster_identical_to_in_process(tmp_path, rattle_reference):
 def test_local_workers_save_their_chunks_and_the_file_is_the_in_process_file(
         tmp_path, rattle_reference, monkeypatch):
     """With a local cluster, the workers save their chunks' arrays to the checkpoint store
-    themselves; the arrays do not pass through the client, which reads the saved files in lane
-    order into the result file (here: this process cannot save a chunk, yet the run completes,
-    identical to the in-process run, its file written in lane order)."""
+    themselves (they see its folder); the arrays do not pass through the client, which reads
+    the saved files in lane order into the result file (here: this process cannot save a
+    chunk, yet the run completes, identical to the in-process run)."""
     from gearsweep.study import execute
     from gearsweep.study.checkpoint import ChunkStore
 
@@ -153,6 +153,39 @@ def test_local_workers_save_their_chunks_and_the_file_is_the_in_process_file(
     with xr.open_dataset(out) as ds:
         assert_same(ds.load(), rattle_reference)
     assert not chunk_folder(out).exists()  # the checkpoints go once the file is complete
+
+
+def test_workers_of_a_scheduler_save_their_chunks_where_they_see_the_folder(
+        tmp_path, rattle_reference, monkeypatch):
+    """Workers of an existing cluster (``--scheduler``) that see the run's checkpoint folder (a
+    shared file system; here the same machine) save their chunks there themselves; workers
+    that do not see it (the run's mark file absent from where they look) send their arrays,
+    which the client saves. The file is the in-process result either way."""
+    from gearsweep.study import execute
+    from gearsweep.study.checkpoint import ChunkStore
+
+    plan = plan_of(RATTLE)
+    saved_here = []
+    save = ChunkStore.save
+
+    def count(self, a, b, arrays):
+        saved_here.append((a, b))
+        save(self, a, b, arrays)
+
+    monkeypatch.setattr(ChunkStore, "save", count)  # this process only: the workers are others
+    with dask_cluster(tmp_path, n_workers=2, nthreads=1) as (address, _):
+        with execute.DaskBackend(scheduler=address) as backend:
+            shared = tmp_path / "shared.nc"
+            execute.stream_to_file(plan, shared, backend=backend, chunk_cases=48)
+            assert saved_here == []  # every chunk saved by its worker
+            monkeypatch.setattr(execute, "_mark_folder", lambda store: "shared-not-there")
+            apart = tmp_path / "apart.nc"
+            execute.stream_to_file(plan, apart, backend=backend, chunk_cases=48)
+            assert len(saved_here) == 6  # every chunk sent here and saved here
+    for out in (shared, apart):
+        with xr.open_dataset(out) as ds:
+            assert_same(ds.load(), rattle_reference)
+        assert not chunk_folder(out).exists()
 
 
 def test_a_local_cluster_needs_no_fixed_port_and_listens_on_localhost_only():

@@ -36,6 +36,7 @@ tests use it to check that a resumed run computes no chunk twice.
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import shutil
@@ -117,6 +118,13 @@ class ChunkStore:
             "chunks": [[int(a), int(b)] for a, b in chunks],
         }
         self.chunks = [(int(a), int(b)) for a, b in chunks]
+
+    def absolute(self) -> ChunkStore:
+        """The same store with absolute paths (for a worker process whose working directory is
+        another)."""
+        out = copy.copy(self)
+        out.root, out.folder = self.root.absolute(), self.folder.absolute()
+        return out
 
     def path(self, lane0: int, lane1: int) -> Path:
         """File of the chunk of lanes ``[lane0, lane1)``."""
