@@ -25,7 +25,8 @@
 #   gpu_study.txt      the 1e7-case study on the GPU: whole run against its kernel seconds
 #   gpu_tests.txt      the real-GPU tests of tests/test_cuda.py (PTX, every scene against the CPU)
 #   workers.jsonl      --workers 1,2,4,8,16 at 1e6 cases against in-process (bench_pipeline.py);
-#                      workers_1e7: 2,4,8,16 pinned at 1e7 cases (efficiency against 2 workers)
+#                      workers_1e7: 4,8,16 pinned at 1e7 cases (efficiency against 4 workers;
+#                      2 workers take 40 s of the step's 150)
 #   summary.txt        one line per step: exit status and seconds
 set -u
 
@@ -163,10 +164,11 @@ threads=$(nproc)
 # The steps, most wanted first. STEPS picks some. The first call of 26 Nov 2026 ran
 # kernel_cpu,pipeline,kernel_gpu,gpu_study,gpu_tests,workers,kernel_gpu32; the second
 # gpu_tests,kernel_gpu,gpu_study,gpu_study_none,startup,pipeline_1e7,pipeline_none,workers_pinned,
-# scaling. The default is what is still to be measured after them (docs/scale.md): the real-GPU
-# tests (they failed on a warning filter), B2/B1 with the buffers fixed, the workers' scaling with
-# 3 chunks per worker, the start with byte-compiled packages, the 1e7 runs again.
-STEPS=${STEPS:-gpu_tests,kernel_gpu,workers_pinned,startup,pipeline_1e7,gpu_study,kernel_gpu32}
+# scaling. Calls 3 to 6 (later that day; docs/data/device-2026-11-26/README.md) measured the
+# rest. The default is what is still to be measured after them (docs/scale.md): the 1e7 runs on
+# all cores since the saver and writer threads (d8c7046), the workers at 1e7 cases since they
+# save their own chunks (3296a69, 8d40ad6) and 1e6 pinned, the start, and the GPU study.
+STEPS=${STEPS:-pipeline_1e7,workers_1e7,startup,workers_pinned,gpu_study}
 step kernel_cpu 75 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${cases[@]}" --rounds 3
 step gpu_tests 120 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -p no:benchmark -n 4 \
   -k real_gpu tests/test_cuda.py
@@ -188,7 +190,7 @@ step workers 80 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_s
 step workers_pinned 100 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \
   --workers "$workers" --pin --threads "$threads" --repeats 1
 step workers_1e7 150 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
-  --workers "${WORKERS_1E7:-2,4,8,16}" --pin --threads "$threads" --repeats 1
+  --workers "${WORKERS_1E7:-4,8,16}" --pin --threads "$threads" --repeats 1
 step scaling 50 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${scaling_cases[@]}" \
   --rounds 2
 step kernel_gpu32 40 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda \
