@@ -775,8 +775,8 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     # saves its checkpoint file, the other writes the result file, so that the two overlap on a
     # machine with cores to spare (the kernel releases the GIL, and so do the file writes and
     # netCDF4's compression: ``ResultFile``). In one thread they followed each other: on 16
-    # cores, 2.5 s of a 1e7-case run's 3 s kernel, and with compression the chunk phase was
-    # 0.2 s longer than without (docs/scale.md). At most two chunks wait for them, as before.
+    # cores about 1.9 s beside a 1e7-case run's 3 s kernel, and with compression the chunk
+    # phase was 0.2 s longer than without (docs/scale.md). At most two chunks wait for them.
     saver = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-saver")
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-writer")
 
@@ -790,7 +790,7 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     def keep(a: int, b: int, arrays) -> Future | None:
         """In the saver thread: the chunk's arrays, its checkpoint; the file's write handed to
         the writer thread (returned: its future)."""
-        if isinstance(arrays, SavedChunk):  # a local dask worker saved it: read when needed
+        if isinstance(arrays, SavedChunk):  # its dask worker saved it: read when needed
             if sink is not None:
                 sink(a, b, arrays.load())
             return writer.submit(write, a, b) if order is not None else None
