@@ -9,6 +9,7 @@ LLVM vectorise divisions.
 diverged cases and results agree with plain IEEE arithmetic to a few ulp.
 """
 
+import contextlib
 import copy
 import importlib.util
 import os
@@ -346,3 +347,40 @@ def _scipy_blas_installed() -> bool:
 
 
 _blas_check_without_import()
+
+
+@contextlib.contextmanager
+def cache_loads_without_set_up():
+    """Within: a specialisation Numba finds in its disk cache is loaded without first setting up
+    its compiler (only its runtime, NRT, which the cached code calls).
+
+    Numba's ``Cache.load_overload`` refreshes the target context before every load: on the
+    first, that imports and installs every typing and lowering registry Numba has (random
+    generators, typed containers, polynomials, datetimes, ...), 60-90 ms of every run's start
+    on the 2-core machine, 70 % of the warm-up of a tiny study (26 Nov 2026). Loading and
+    calling compiled code needs none of it: the code is linked against NRT and the C math
+    functions (set up with the context) and dispatched on the argument types. Anything that
+    compiles (a cache miss, another function) still sets up everything first: Numba's compiler
+    refreshes both contexts itself (``CompilerBase.__init__``). Where Numba's internals are not
+    as expected (another version), this does nothing."""
+    from numba.core import caching
+    from numba.core.runtime import nrt
+
+    cls = getattr(caching, "Cache", None)
+    real = vars(cls).get("load_overload") if cls is not None else None
+    if real is None or not all(hasattr(cls, n) for n in (
+            "_load_overload", "_guard_against_spurious_io_errors")) or not hasattr(nrt, "rtsys"):
+        yield  # pragma: no cover - another Numba layout: Numba's own loads
+        return
+
+    def load_overload(self, sig, target_context):
+        nrt.rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+        return None  # the guard swallowed an I/O error: not in the cache, as in Numba's own
+
+    cls.load_overload = load_overload
+    try:
+        yield
+    finally:
+        cls.load_overload = real

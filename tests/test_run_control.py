@@ -431,3 +431,41 @@ def test_warm_up_leaves_the_collector_as_it_found_it(monkeypatch):
     finally:
         (gc.enable if was else gc.disable)()
     assert seen == [False, False, True]
+
+
+_LIGHT_LOADS = """\
+import sys
+import numpy as np
+from gearsweep.cli import main
+code = main(sys.argv[1:])
+# the kernels came from the cache without Numba's compiler set-up: its registries not imported
+light = "numba.np.random.generator_core" not in sys.modules
+# and a compile afterwards still sets everything up and works (sort, median, random: registries)
+import numba
+
+@numba.njit
+def f(a):
+    np.random.seed(0)
+    return np.sort(a)[0] + np.random.random() * 0 + np.median(a)
+
+print(code, light, f(np.array([3.0, 1.0, 2.0])), flush=True)
+"""
+
+
+def test_a_run_loads_cached_kernels_without_numba_s_compiler_set_up(tmp_path):
+    """With the kernels in Numba's cache, a run loads them without Numba's compiler set-up
+    (``jit.cache_loads_without_set_up``: its typing and lowering registries, 60-90 ms of every
+    start): none of those modules is imported by the run, whose results are those of a run in
+    this process; a function compiled afterwards in the same process still gets everything."""
+    import xarray as xr
+
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "50"), encoding="utf-8")
+    main(["run", str(study), "-o", str(tmp_path / "here.nc"), "-q"])  # the kernels cached
+    r = subprocess.run([sys.executable, "-c", _LIGHT_LOADS, "run", str(study), "-o",
+                        str(tmp_path / "there.nc"), "-q"], cwd=tmp_path, env=_env(),
+                       capture_output=True, text=True, timeout=120, check=True)
+    assert r.stdout.split("\n")[-2] == "0 True 3.0", r.stdout + r.stderr
+    with xr.open_dataset(tmp_path / "here.nc") as a, xr.open_dataset(tmp_path / "there.nc") as b:
+        for name in a.data_vars:
+            assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
