@@ -361,8 +361,9 @@ def cache_loads_without_set_up():
     calling compiled code needs none of it: the code is linked against NRT and the C math
     functions (set up with the context) and dispatched on the argument types. Anything that
     compiles (a cache miss, another function) still sets up everything first: Numba's compiler
-    refreshes both contexts itself (``CompilerBase.__init__``). Where Numba's internals are not
-    as expected (another version), this does nothing."""
+    refreshes both contexts itself (``CompilerBase.__init__``), so this is safe around code
+    that may compile too. Where Numba's internals are not as expected (another version), this
+    does nothing."""
     from numba.core import caching
     from numba.core.runtime import nrt
 

@@ -348,12 +348,10 @@ def warm_up(plan: Plan, first: tuple[int, int] | None = None) -> None:
     collector walked everything the process holds once during it, and its younger generations a
     dozen times, freeing nothing (about 35 ms of a 1e6-case run's 0.12 s warm-up, before the
     first chunk). With the kernels in the cache, the collector is paused meanwhile; a compile
-    (which makes garbage cycles by the million) runs with it, as ever. And they are loaded
-    without Numba's compiler set-up (``jit.cache_loads_without_set_up``: 60-90 ms of every
-    run's start; what compiles still sets it up)."""
-    cached = _cached(plan)
-    with _collector_paused(cached), (cache_loads_without_set_up() if cached
-                                     else contextlib.nullcontext()):
+    (which makes garbage cycles by the million) runs with it, as ever. Cached kernels are
+    loaded without Numba's compiler set-up (``jit.cache_loads_without_set_up``: 60-90 ms of
+    every run's start); a kernel that is not cached compiles, and its compile sets it up."""
+    with _collector_paused(_cached(plan)), cache_loads_without_set_up():
         _warm_up(plan, first)
 
 
@@ -477,8 +475,7 @@ def _chunk_task(plan: Plan, lane0: int, lane1: int, procs_per_host: dict[str, in
     with _KERNEL_LOCK:  # one chunk at a time per process: the clock's difference is this chunk's
         numba.set_num_threads(threads)
         k0 = KERNEL_CLOCK.seconds
-        # a worker's first chunk loads the kernel: without Numba's compiler set-up if cached
-        with cache_loads_without_set_up() if _cached(plan) else contextlib.nullcontext():
+        with cache_loads_without_set_up():  # a worker's first chunk loads the kernel
             arrays = _run_chunk(plan, lane0, lane1)
         seconds = KERNEL_CLOCK.seconds - k0
     if store is None or mark is None or not (store.folder / mark).is_file():
