@@ -12,10 +12,14 @@ sha256 of the study as validated, so a comment or spacing edited in its file kee
   one ``.npy`` record (NumPy's format, ``numpy.lib.format``) of their names, then one per array in
   that order. Written to a temporary file, then renamed (``os.replace``), so a chunk file is
   either complete or absent, whatever kills the process (Ctrl-C, SIGKILL, out of memory): the
-  bytes are in the system's page cache the moment the write returns. They are not fsync'ed: the
-  system writes them to disk on its own (Linux: within ``vm.dirty_expire_centisecs``, 30 s), and
-  a run that finishes first removes them before they ever reach the disk; fsync'ing every chunk
-  cost a 1e7-case run 0.58 s of its 15 s (medians of 4 alternating runs, docs/scale.md). So a
+  bytes are on the device, or in the system's page cache, the moment the write returns.
+  Written past the page cache where the file system allows it and is fast (Linux ``O_DIRECT``,
+  ``files.DirectFile``): copying a 1e7-case run's 740 MB of chunks into fresh page-cache pages
+  took about 0.5 s of CPU from the kernel beside it on 2 cores (whole run / kernel 1.25 -> 1.18,
+  docs/scale.md); elsewhere through the page cache. Not fsync'ed: fsync'ing every chunk cost
+  a 1e7-case run 0.58 s of its 15 s (medians of 4 alternating runs, docs/scale.md), and the
+  directory entries and sizes (and, where the page cache is used, the bytes) reach the disk on
+  the system's schedule (Linux: within seconds to ``vm.dirty_expire_centisecs``, 30 s). So a
   machine that loses power can lose the chunks of the last half minute or so; a chunk file left
   empty or cut short is not read (``records`` checks every header and size) and its chunk is
   computed again. Plain records, not ``np.savez``: the zip container's CRC pass and copy cost
@@ -151,14 +155,24 @@ class ChunkStore:
             return []
         return [c for c in self.chunks if self.path(*c).is_file()]
 
-    def save(self, lane0: int, lane1: int, arrays: dict[str, np.ndarray]) -> None:
-        """Write one chunk's arrays atomically (and log it when ``GEARSWEEP_CHUNK_LOG`` is set)."""
-        def write(fh) -> None:
+    def save(self, lane0: int, lane1: int, arrays: dict[str, np.ndarray], *,
+             direct: bool = True) -> None:
+        """Write one chunk's arrays atomically (and log it when ``GEARSWEEP_CHUNK_LOG`` is set);
+        ``direct``: past the page cache where that is cheaper (``files.DirectFile``: for a file
+        read again only by a resumed run; not for one read back at once)."""
+        def write(fh) -> None:  # the bytes of ``fmt.write_array`` per array, without its copies
             fmt.write_array(fh, np.array(list(arrays), dtype=str), allow_pickle=False)
             for arr in arrays.values():
-                fmt.write_array(fh, np.ascontiguousarray(arr), allow_pickle=False)
+                arr = np.ascontiguousarray(arr)
+                header = fmt.header_data_from_array_1_0(arr)
+                try:
+                    fmt.write_array_header_1_0(fh, header)
+                except ValueError:  # a header over 64 KiB: NumPy's own choice, version 2.0
+                    fmt.write_array_header_2_0(fh, header)
+                fh.write(arr)
 
-        atomic_write(self.path(lane0, lane1), write, durable=False)  # module docstring: no fsync
+        atomic_write(self.path(lane0, lane1), write, durable=False, direct=direct)  # no fsync:
+        # module docstring
         log = os.environ.get("GEARSWEEP_CHUNK_LOG")
         if log:
             with open(log, "a", encoding="utf-8") as fh:
