@@ -743,6 +743,7 @@ def test_a_result_file_that_cannot_be_made_stops_the_run_early(tmp_path, monkeyp
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(execute, "_result_file", full_disk)
-    with pytest.raises(OSError, match="No space left"):
+    with pytest.raises(ResultError, match="cannot write: No space left on device; ") as err:
         execute.stream_to_file(plan, tmp_path / "r.nc", chunk_cases=100)
     assert 0 < len(read_log(log)) < len(plan.chunks(100)) // 2
+    assert f" {len(read_log(log))} of " in str(err.value)  # the chunks saved, said

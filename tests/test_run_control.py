@@ -3,8 +3,10 @@ outputs and another study's chunks refused before computing."""
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -469,3 +471,70 @@ def test_a_run_loads_cached_kernels_without_numba_s_compiler_set_up(tmp_path):
     with xr.open_dataset(tmp_path / "here.nc") as a, xr.open_dataset(tmp_path / "there.nc") as b:
         for name in a.data_vars:
             assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+
+
+def _full_after(real, n: int):
+    """``real`` (a method) that raises ENOSPC from its ``n + 1``-th call on."""
+    calls = []
+
+    def fake(self, *args, **kwargs):
+        calls.append(args[:2])
+        if len(calls) > n:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real(self, *args, **kwargs)
+
+    return fake
+
+
+def test_a_full_disk_is_one_line_keeps_the_saved_chunks_and_the_same_command_completes(
+        tmp_path, capsys, monkeypatch):
+    """A disk that fills up under a run (the chunk files, then the result file): one line naming
+    what could not be written and how many chunks are saved, exit 2, no traceback; the saved
+    chunks stay, and the same command, once there is room, computes only the others and
+    writes the file an uninterrupted run writes."""
+    from gearsweep.study.checkpoint import ChunkStore
+    from gearsweep.study.resultfile import ResultFile
+
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "4000"), encoding="utf-8")
+    out = tmp_path / "out.nc"
+    args = ["run", str(study), "-o", str(out), "-q", "--chunk-size", "500"]
+    monkeypatch.setattr(ChunkStore, "save", _full_after(ChunkStore.save, 3))
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"gearsweep: error: {out}: cannot write: No space left on device;"
+                          f" 3 of 8 chunks saved in {out}.chunks: make room and run the same"
+                          " command to continue"), err
+    assert err.count("\n") == 1 and not out.exists()
+
+    # the result file's writes fail (netCDF4 says only "NetCDF: HDF error")
+    monkeypatch.undo()
+    real_set = ResultFile.write
+
+    def failing(self, a, b, arrays):
+        if a > 0:
+            raise self._write_error(RuntimeError("NetCDF: HDF error"))
+        return real_set(self, a, b, arrays)
+
+    monkeypatch.setattr(ResultFile, "write", failing)
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "writing.nc: the netCDF library failed (NetCDF: HDF error;" in err
+    # the run stops at the failed write (not after every chunk): those computed by then are kept
+    found = re.search(r"MB free on its disk\); (\d) of 8 chunks saved in .*: (make room|fix"
+                      r" that) and run the same command to continue\n$", err)
+    assert found and err.count("\n") == 1, err
+    saved = int(found[1])
+    assert 3 < saved <= 8
+    assert sum(1 for _ in chunk_folder(out).rglob("chunk_*.npys")) == saved
+
+    monkeypatch.undo()
+    log = tmp_path / "log"
+    monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
+    assert main(args) == 0
+    computed = log.read_text().splitlines() if log.exists() else []
+    assert len(computed) == 8 - saved  # only the chunks not saved are computed
+    again = tmp_path / "again.nc"
+    assert main(["run", str(study), "-o", str(again), "-q", "--chunk-size", "500"]) == 0
+    with xr.open_dataset(out) as a, xr.open_dataset(again) as b:
+        xr.testing.assert_identical(a.drop_attrs(), b.drop_attrs())

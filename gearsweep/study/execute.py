@@ -26,6 +26,7 @@ before a run; ``check_limits`` refuses a study beyond ``LIMITS`` unless confirme
 from __future__ import annotations
 
 import contextlib
+import errno
 import gc
 import logging
 import math
@@ -1031,11 +1032,20 @@ def stream_to_file(plan: Plan, output: str | Path, *,
                           f" ({exc.strerror or type(exc).__name__})") from None
     todo = [c for c in chunks if c not in done]
     per_lane = plan.cases_per_lane
-    elapsed, kernel, file = _compute(
-        plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
-        open_file=lambda: _result_file(plan, output, store.folder / "writing.nc", codec),
-        done=done)
-    file.close(elapsed, kernel)
+    try:
+        elapsed, kernel, file = _compute(
+            plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
+            open_file=lambda: _result_file(plan, output, store.folder / "writing.nc", codec),
+            done=done)
+        file.close(elapsed, kernel)
+    except OSError as exc:  # a full disk, a folder gone or made read-only under the run
+        saved = sum(1 for c in chunks if store.path(*c).is_file())
+        where = f" {exc.filename}" if exc.filename else ""
+        raise ResultError(
+            f"{output}: cannot write{where}: {exc.strerror or exc}; {saved} of"
+            f" {len(chunks)} chunks saved in {store.root}:"
+            f" {'make room' if exc.errno in (errno.ENOSPC, errno.EDQUOT) else 'fix that'}"
+            " and run the same command to continue") from exc
     remove_checkpoints(output)
     return Written(path=Path(output), cases=plan.n_cases, elapsed=round(elapsed, 3),
                    flagged=file.flagged, beyond=file.beyond)

@@ -18,10 +18,12 @@ Why not xarray here: the writer runs beside the kernel, on the same cores, and i
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import math
 import os
+import shutil
 import tempfile
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -598,8 +600,22 @@ class ResultFile:
                 piece = np.transpose(piece, [now.index(d) for d in dims])
                 where = dict(zip(plan.lane_dims, box, strict=True))
                 index = tuple(slice(*where[d]) if d in where else slice(None) for d in dims)
-                var[index] = np.ascontiguousarray(piece, dtype=var.dtype)
+                try:
+                    var[index] = np.ascontiguousarray(piece, dtype=var.dtype)
+                except RuntimeError as exc:  # netCDF4's every failure; HDF5's cause is not kept
+                    raise self._write_error(exc) from exc
         self._sync()
+
+    def _write_error(self, exc: RuntimeError) -> OSError:
+        """The ``OSError`` of a failed netCDF write (``NetCDF: HDF error`` alone, a full disk
+        being the usual cause), with the room left on the file's disk."""
+        try:
+            free = shutil.disk_usage(self.tmp.parent).free
+        except OSError:
+            return OSError(errno.EIO, f"the netCDF library failed ({exc})", str(self.tmp))
+        code = errno.ENOSPC if free < (64 << 20) else errno.EIO
+        return OSError(code, f"the netCDF library failed ({exc}; {free / 1e6:.1f} MB free on"
+                       " its disk)", str(self.tmp))
 
     def _sync(self) -> None:
         """Send the bytes written so far to the disk (``fdatasync``), in the writer thread while
@@ -628,9 +644,12 @@ class ResultFile:
             else:
                 attrs[key] = round(value, 3)
         try:
-            for key, value in attrs.items():
-                _set_attribute(self.nc, key, value)
-            self.nc.close()
+            try:
+                for key, value in attrs.items():
+                    _set_attribute(self.nc, key, value)
+                self.nc.close()  # HDF5 writes what it holds: the last file chunks, metadata
+            except RuntimeError as exc:
+                raise self._write_error(exc) from exc
             self._release()
             finish(self.tmp, self.path)
         except BaseException:
