@@ -6,6 +6,7 @@ The dask backends are tested in ``test_cluster.py`` (real scheduler and worker p
 from __future__ import annotations
 
 import dataclasses
+import errno
 import os
 import signal
 import stat
@@ -21,7 +22,7 @@ import xarray as xr
 from conftest import RATTLE_SCENE
 
 from gearsweep.cli import main
-from gearsweep.errors import LimitError, ResultError
+from gearsweep.errors import ClusterError, LimitError, ResultError
 from gearsweep.study import execute
 from gearsweep.study.checkpoint import (
     ChunkStore,
@@ -747,3 +748,28 @@ def test_a_result_file_that_cannot_be_made_stops_the_run_early(tmp_path, monkeyp
         execute.stream_to_file(plan, tmp_path / "r.nc", chunk_cases=100)
     assert 0 < len(read_log(log)) < len(plan.chunks(100)) // 2
     assert f" {len(read_log(log))} of " in str(err.value)  # the chunks saved, said
+
+
+def test_a_dask_worker_s_full_disk_is_said_with_the_chunks_saved(tmp_path, monkeypatch):
+    """A chunk that fails on a dask worker with an OSError (its own save to a full disk) gives
+    the line of a full disk in-process, with the chunks saved; another failure stays the
+    cluster's error."""
+    plan = plan_of(LONG.replace("transient_periods: 3000, record_periods: 1000",
+                                "transient_periods: 30, record_periods: 10"))
+
+    def failing(cause):
+        def compute(*args, **kwargs):
+            try:
+                raise cause
+            except Exception as exc:
+                raise ClusterError("local cluster: chunk of lanes 0-10 failed: ...") from exc
+        return compute
+
+    monkeypatch.setattr(execute, "_compute",
+                        failing(OSError(errno.ENOSPC, "No space left on device")))
+    with pytest.raises(ResultError, match=r"r.nc: a dask worker failed: No space left on"
+                       r" device; 0 of \d+ chunks saved in .*: make room and run the same"):
+        execute.stream_to_file(plan, tmp_path / "r.nc", chunk_cases=100)
+    monkeypatch.setattr(execute, "_compute", failing(ValueError("a bug")))
+    with pytest.raises(ClusterError, match="chunk of lanes 0-10 failed"):
+        execute.stream_to_file(plan, tmp_path / "r.nc", chunk_cases=100)

@@ -1038,14 +1038,19 @@ def stream_to_file(plan: Plan, output: str | Path, *,
             open_file=lambda: _result_file(plan, output, store.folder / "writing.nc", codec),
             done=done)
         file.close(elapsed, kernel)
-    except OSError as exc:  # a full disk, a folder gone or made read-only under the run
+    except (OSError, ClusterError) as failed:  # a full disk, a folder gone or made read-only
+        exc = failed if isinstance(failed, OSError) else failed.__cause__  # (on a dask worker)
+        if not isinstance(exc, OSError):
+            raise
         saved = sum(1 for c in chunks if store.path(*c).is_file())
         where = f" {exc.filename}" if exc.filename else ""
+        what = f"cannot write{where}" if exc is failed else \
+            f"a dask worker failed{' on' if where else ''}{where}"
         raise ResultError(
-            f"{output}: cannot write{where}: {exc.strerror or exc}; {saved} of"
+            f"{output}: {what}: {exc.strerror or exc}; {saved} of"
             f" {len(chunks)} chunks saved in {store.root}:"
             f" {'make room' if exc.errno in (errno.ENOSPC, errno.EDQUOT) else 'fix that'}"
-            " and run the same command to continue") from exc
+            " and run the same command to continue") from failed
     remove_checkpoints(output)
     return Written(path=Path(output), cases=plan.n_cases, elapsed=round(elapsed, 3),
                    flagged=file.flagged, beyond=file.beyond)
