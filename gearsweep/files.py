@@ -62,7 +62,8 @@ class DirectFile:
     (docs/scale.md). The last block is padded to ``ALIGN`` and the file cut to its length.
 
     Where it cannot help, files are written the ordinary way (``usable``): no ``O_DIRECT``
-    (macOS, Windows), a file system that refuses it (tmpfs), or one where direct writes are
+    (macOS, Windows), a file system that refuses it (``EINVAL``: tmpfs before Linux 6.6, some
+    FUSE file systems), or one where direct writes are
     slower than ``MIN_RATE`` (a network file system, a spinning disk: a direct write waits for
     the device, where a buffered one returns once copied), judged from the first ``JUDGE_BYTES``
     written there in whole blocks; the verdict holds per device for the life of the process.

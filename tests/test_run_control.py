@@ -538,3 +538,26 @@ def test_a_full_disk_is_one_line_keeps_the_saved_chunks_and_the_same_command_com
     assert main(["run", str(study), "-o", str(again), "-q", "--chunk-size", "500"]) == 0
     with xr.open_dataset(out) as a, xr.open_dataset(again) as b:
         xr.testing.assert_identical(a.drop_attrs(), b.drop_attrs())
+
+
+def test_a_disk_full_before_the_result_file_is_made_is_one_line(tmp_path, capsys, monkeypatch):
+    """netCDF4 fails while the result file's coordinates are written (``RuntimeError``, 'HDF
+    error'): one line, exit 2, no half-made file left."""
+    import netCDF4
+
+    real = netCDF4.Variable.__setitem__
+
+    def full(self, key, value):
+        if self.name == "speed":
+            raise RuntimeError("NetCDF: HDF error")
+        return real(self, key, value)
+
+    monkeypatch.setattr(netCDF4.Variable, "__setitem__", full)
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "400"), encoding="utf-8")
+    out = tmp_path / "out.nc"
+    assert main(["run", str(study), "-o", str(out), "-q", "--chunk-size", "100"]) == 2
+    err = capsys.readouterr().err
+    assert "writing.nc: the netCDF library failed (NetCDF: HDF error; " in err, err
+    assert err.count("\n") == 1 and not out.exists()
+    assert not list(chunk_folder(out).rglob("writing.nc"))

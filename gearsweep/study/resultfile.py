@@ -570,6 +570,10 @@ class ResultFile:
                         # chunks: the last write and the close took 41 ms, now 25 ms).
                         size = int(np.prod(chunking)) * var.dtype.itemsize
                         var.set_var_chunk_cache(size=max(size, 1 << 20))
+        except RuntimeError as exc:  # writing the coordinates failed (a full disk, say)
+            error = self._write_error(exc)
+            self.abort()
+            raise error from exc
         except BaseException:
             self.abort()
             raise
