@@ -23,6 +23,7 @@ from gearsweep import __version__
 from gearsweep.analysis.advise import advise
 from gearsweep.errors import (
     EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
     EXIT_USAGE,
     NO_VALUE,
     DeviceError,
@@ -180,6 +181,21 @@ def _on_sigint(signum, frame) -> None:
     _STOP.set()
 
 
+_TERMINATED = threading.Event()
+"""Set by SIGTERM during ``gearsweep run``."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    """SIGTERM (``kill``, ``docker stop``, a batch system's time limit, each followed by SIGKILL
+    after a grace period): stop now, as a second Ctrl-C does, once the main thread is back from
+    its current range of the kernel. The chunks already computed are saved first: under the
+    default action they died with the process while waiting for the saver thread (up to two
+    chunks, each up to ``CHUNK_SECONDS`` of computing)."""
+    _TERMINATED.set()
+    _STOP.set()
+    raise KeyboardInterrupt
+
+
 def _stoppable(backend):
     """``backend`` whose ``run`` stops cleanly between chunks once ``_STOP`` is set: every chunk
     computed so far is saved by the caller before the stop (raised as ``KeyboardInterrupt``)."""
@@ -292,7 +308,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"{out}: resuming: {saved} of {total} chunks already saved in {out}.chunks,"
                   " computing the others", file=sys.stderr)
         t0 = time.perf_counter()
-        previous = signal.signal(signal.SIGINT, _on_sigint) \
+        previous = (signal.signal(signal.SIGINT, _on_sigint),
+                    signal.signal(signal.SIGTERM, _on_sigterm)) \
             if threading.current_thread() is threading.main_thread() else None
         try:
             written = stream_to_file(plan, out, backend=_stoppable(backend), chunk_cases=chunk,
@@ -301,11 +318,13 @@ def cmd_run(args: argparse.Namespace) -> int:
             if not (_STOP.is_set() or isinstance(exc, KeyboardInterrupt)):
                 raise
             done, total = saved_chunks(plan, out, chunk)
-            raise Interrupted(f"interrupted: {done} of {total} chunks saved in"
+            how = "terminated (SIGTERM)" if _TERMINATED.is_set() else "interrupted"
+            raise Interrupted(f"{how}: {done} of {total} chunks saved in"
                               f" {out}.chunks; run the same command to continue") from None
         finally:
             if previous is not None:
-                signal.signal(signal.SIGINT, previous)
+                signal.signal(signal.SIGINT, previous[0])
+                signal.signal(signal.SIGTERM, previous[1])
             _STOP.clear()
         # Counted as the chunks were written: the file is not opened again to report them.
         beyond = step_limit_text(plan, written.beyond, out)
@@ -322,7 +341,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 class Interrupted(Exception):
-    """A run stopped by Ctrl-C (SIGINT): one line, exit 130."""
+    """A run stopped by Ctrl-C (SIGINT): one line, exit 130; by SIGTERM: exit 143."""
 
 
 def _long_sweep_note(plan, args: argparse.Namespace) -> None:
@@ -519,6 +538,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USAGE
     except Interrupted as exc:
         print(f"gearsweep: {exc}", file=sys.stderr)
+        if _TERMINATED.is_set():
+            _TERMINATED.clear()
+            return EXIT_TERMINATED
         return EXIT_INTERRUPTED
     except KeyboardInterrupt:
         if debug:

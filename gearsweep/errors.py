@@ -12,6 +12,10 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 """Exit code of the CLI stopped by Ctrl-C (128 + SIGINT, as a shell reports it)."""
 
+EXIT_TERMINATED = 143
+"""Exit code of ``gearsweep run`` stopped by SIGTERM (128 + SIGTERM: ``kill``, ``docker stop``,
+a batch system's time limit), the chunks it had computed saved first."""
+
 
 def article(word: str) -> str:
     """``word`` after its indefinite article, for messages that name a kind: 'an inertia', 'an

@@ -81,6 +81,42 @@ def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_pat
             np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
 
 
+def test_sigterm_saves_the_chunks_computed_and_exits_143(tmp_path):
+    """SIGTERM (``kill``, ``docker stop``, a batch system's time limit) stops the run at once,
+    as a second Ctrl-C does, after saving every chunk already computed; one line, exit 143; the
+    same command completes the file."""
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "10000").replace("transient_periods: 200",
+                                                           "transient_periods: 1000"),
+                     encoding="utf-8")
+    out = tmp_path / "out.nc"
+    log = tmp_path / "chunks.log"
+    proc = subprocess.Popen(_cmd(study, out), cwd=tmp_path, env=_env(log),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.time()
+    while not (log.exists() and len(log.read_text().splitlines()) >= 2):
+        assert proc.poll() is None, proc.communicate()
+        assert time.time() - t0 < 300
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err and err.count("\n") == 1, err
+    found = re.fullmatch(r"gearsweep: terminated \(SIGTERM\): (\d+) of 20 chunks saved in"
+                         r" .*out.nc.chunks; run the same command to continue\n", err)
+    assert found, err
+    done = int(found[1])
+    assert 2 <= done < 20 and len(log.read_text().splitlines()) == done
+    assert sum(1 for _ in chunk_folder(out).rglob("chunk_*.npys")) == done
+    assert not out.exists() and not list(chunk_folder(out).rglob("writing.nc"))
+    rc = subprocess.run(_cmd(study, out), cwd=tmp_path, env=_env(log), capture_output=True,
+                        text=True, timeout=600)
+    assert rc.returncode == 0, rc.stderr
+    assert len(log.read_text().splitlines()) == 20  # only the missing chunks computed
+    with xr.open_dataset(out) as ds:
+        assert int(ds.sizes["speed"]) == 10000
+
+
 def test_a_second_run_on_the_same_output_is_refused_naming_the_first(tmp_path, capsys):
     study = tmp_path / "s.yaml"
     study.write_text(STUDY.replace("NUM", "20000"), encoding="utf-8")
