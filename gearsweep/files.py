@@ -93,8 +93,10 @@ class DirectFile:
 
     @classmethod
     def usable(cls, path: str | Path) -> bool:
-        """Whether a file at ``path`` is written directly (see the class)."""
-        if not hasattr(os, "O_DIRECT"):
+        """Whether a file at ``path`` is written directly (see the class; never with the
+        environment variable ``GEARSWEEP_DIRECT_IO=0``, read at each call: a file system that
+        misbehaves, or a comparison of the two ways)."""
+        if not hasattr(os, "O_DIRECT") or os.environ.get("GEARSWEEP_DIRECT_IO") == "0":
             return False
         try:
             dev = os.stat(Path(path).parent).st_dev

@@ -275,6 +275,13 @@ def main() -> None:
     from bench_scale import byte_compile
 
     byte_compile()  # byte code as an install has it (bench_scale.byte_compile)
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, text=True,
+                            capture_output=True).stdout.strip()
+    # GEARSWEEP_DIRECT_IO=0: chunk checkpoints through the page cache (files.DirectFile)
+    print(json.dumps({"commit": commit, "date": time.strftime("%Y-%m-%d %H:%M UTC",
+                                                             time.gmtime()),
+                      "cores": len(os.sched_getaffinity(0)), "load": load(),
+                      "direct_io": os.environ.get("GEARSWEEP_DIRECT_IO", "auto")}), flush=True)
     if args.gpu_study:
         with tempfile.TemporaryDirectory() as tmp:
             gpu_study(args.gpu_study, Path(tmp), args.repeats, args.codec)
@@ -282,11 +289,6 @@ def main() -> None:
     sizes = [float(s) for s in args.sizes.split(",") if s]
     threads = [int(t) for t in args.threads.split(",") if t]
     workers = [int(w) for w in args.workers.split(",") if w]
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, text=True,
-                            capture_output=True).stdout.strip()
-    print(json.dumps({"commit": commit, "date": time.strftime("%Y-%m-%d %H:%M UTC",
-                                                             time.gmtime()),
-                      "cores": len(os.sched_getaffinity(0)), "load": load()}), flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         if args.codecs:

@@ -167,8 +167,12 @@ threads=$(nproc)
 # scaling. Calls 3 to 6 (later that day; docs/data/device-2026-11-26/README.md) measured the
 # rest. The default is what is still to be measured after them (docs/scale.md): the 1e7 runs on
 # all cores since the saver and writer threads (d8c7046), the workers at 1e7 cases since they
-# save their own chunks (3296a69, 8d40ad6) and 1e6 pinned, the start, and the GPU study.
-STEPS=${STEPS:-pipeline_1e7,workers_1e7,startup,workers_pinned,gpu_study}
+# save their own chunks (3296a69, 8d40ad6) and 1e6 pinned, the start, and the GPU study. No device
+# was lent to the sessions after those calls: the default is now the 1e7 runs on all cores and the
+# GPU study, each with the chunk checkpoints written past the page cache (5e5767d) and, the same
+# code, with GEARSWEEP_DIRECT_IO=0 (buffered, as before it), the start since the light cache loads
+# (ac1544c), and the workers at 1e7 cases.
+STEPS=${STEPS:-pipeline_1e7,pipeline_1e7_buffered,startup,gpu_study,gpu_study_buffered,workers_1e7}
 step kernel_cpu 75 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${cases[@]}" --rounds 3
 step gpu_tests 120 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -p no:benchmark -n 4 \
   -k real_gpu tests/test_cuda.py
@@ -183,6 +187,10 @@ step gpu_study_none 45 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study
 step startup 40 env.txt "$PY" scripts/bench_startup.py  # the start of a process, on this image
 step pipeline_1e7 65 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
   --threads "$threads" --repeats 2
+step pipeline_1e7_buffered 65 pipeline.jsonl env GEARSWEEP_DIRECT_IO=0 "$PY" \
+  scripts/bench_pipeline.py --sizes "$study_size" --threads "$threads" --repeats 2
+step gpu_study_buffered 70 gpu_study.txt env GEARSWEEP_DIRECT_IO=0 "$PY" scripts/bench_pipeline.py \
+  --gpu-study "$study_size" --repeats 2
 step pipeline_none 65 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
   --threads "$threads" --repeats 2 --codec none
 step workers 80 workers.jsonl "$PY" scripts/bench_pipeline.py --sizes "$worker_size" \

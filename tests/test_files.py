@@ -93,6 +93,15 @@ def test_no_o_direct_is_the_buffered_file(tmp_path, monkeypatch):
     assert store.path(0, 10).read_bytes() == _numpy_bytes(arrays)
 
 
+def test_direct_writes_can_be_switched_off(tmp_path, monkeypatch):
+    monkeypatch.setenv("GEARSWEEP_DIRECT_IO", "0")
+    monkeypatch.setattr(DirectFile, "__init__", lambda *a, **k: pytest.fail("written directly"))
+    arrays = _arrays()
+    store = _store(tmp_path)
+    store.save(0, 10, arrays)
+    assert store.path(0, 10).read_bytes() == _numpy_bytes(arrays)
+
+
 def _refusing_open(monkeypatch, calls):
     real = os.open
 
