@@ -118,7 +118,6 @@ class DirectFile:
             # page-aligned; private, so that a forked process (a dask worker) writes its own
             buf = self._local.buf = mmap.mmap(-1, self.BLOCK,
                                               flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
-        self.buf = buf
         self.view = memoryview(buf)
         self.fill = 0
         self.size = 0

@@ -40,14 +40,16 @@ def _cmd(study: Path, out: Path) -> list[str]:
             "--chunk-size", "500"]
 
 
-def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_path):
+def _signalled_after_two_chunks(tmp_path, sig) -> tuple[Path, Path, Path, int, str]:
+    """A 20-chunk run of ``gearsweep run`` sent ``sig`` once it has saved two chunks: (study,
+    output, chunk log, return code, stderr). Its chunks take about 40 ms each (transient 1000
+    periods): the signal after the second lands well before the last, whose kernel calls follow
+    one another with nothing between."""
     study = tmp_path / "s.yaml"
-    # 20 chunks of about 40 ms each (transient 1000 periods): the SIGINT after the second lands
-    # well before the last, whose kernel calls now follow one another with nothing between
     study.write_text(STUDY.replace("NUM", "10000").replace("transient_periods: 200",
                                                            "transient_periods: 1000"),
                      encoding="utf-8")
-    out, ref = tmp_path / "out.nc", tmp_path / "ref.nc"
+    out = tmp_path / "out.nc"
     log = tmp_path / "chunks.log"
     proc = subprocess.Popen(_cmd(study, out), cwd=tmp_path, env=_env(log),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -56,9 +58,15 @@ def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_pat
         assert proc.poll() is None, proc.communicate()
         assert time.time() - t0 < 300
         time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
+    return study, out, log, proc.returncode, err
+
+
+def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_path):
+    study, out, log, returncode, err = _signalled_after_two_chunks(tmp_path, signal.SIGINT)
+    ref = tmp_path / "ref.nc"
+    assert returncode == 130, err
     lines = err.strip().splitlines()
     assert len(lines) <= 3 and "Traceback" not in err, err
     assert lines[-1].startswith("gearsweep: interrupted: ") and "of 20 chunks saved in" in err
@@ -85,22 +93,8 @@ def test_sigterm_saves_the_chunks_computed_and_exits_143(tmp_path):
     """SIGTERM (``kill``, ``docker stop``, a batch system's time limit) stops the run at once,
     as a second Ctrl-C does, after saving every chunk already computed; one line, exit 143; the
     same command completes the file."""
-    study = tmp_path / "s.yaml"
-    study.write_text(STUDY.replace("NUM", "10000").replace("transient_periods: 200",
-                                                           "transient_periods: 1000"),
-                     encoding="utf-8")
-    out = tmp_path / "out.nc"
-    log = tmp_path / "chunks.log"
-    proc = subprocess.Popen(_cmd(study, out), cwd=tmp_path, env=_env(log),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    t0 = time.time()
-    while not (log.exists() and len(log.read_text().splitlines()) >= 2):
-        assert proc.poll() is None, proc.communicate()
-        assert time.time() - t0 < 300
-        time.sleep(0.05)
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 143, err
+    study, out, log, returncode, err = _signalled_after_two_chunks(tmp_path, signal.SIGTERM)
+    assert returncode == 143, err
     assert "Traceback" not in err and err.count("\n") == 1, err
     found = re.fullmatch(r"gearsweep: terminated \(SIGTERM\): (\d+) of 20 chunks saved in"
                          r" .*out.nc.chunks; run the same command to continue\n", err)
