@@ -76,6 +76,10 @@ def _check_writable(path: Path, study: str | None = None) -> None:
     file being run."""
 
     folder = path.parent if str(path.parent) else Path(".")
+    if study not in (None, "-") and path.exists() and Path(study).exists() \
+            and os.path.samefile(path, study):
+        raise StudyError(str(path), "--output", str(path),
+                         "another path than the study file's (the result would replace it)")
     problem = replace_problem(path)
     if problem is not None:
         raise StudyError(str(path), "--output", str(path), problem)
@@ -83,10 +87,6 @@ def _check_writable(path: Path, study: str | None = None) -> None:
         if above.exists() and not above.is_dir():
             raise StudyError(str(path), "--output", str(path),
                              f"a path in a folder ({above} is a file)")
-    if study not in (None, "-") and path.exists() and Path(study).exists() \
-            and os.path.samefile(path, study):
-        raise StudyError(str(path), "--output", str(path),
-                         "another path than the study file's (the result would replace it)")
     existing = folder  # folders still to be made are made by the run, not by this check (a
     while not existing.exists() and existing != existing.parent:  # refused run left them)
         existing = existing.parent

@@ -196,7 +196,34 @@ def replace_problem(path: str | Path) -> str | None:
     if path.exists() and not path.is_file():
         return ("a regular file or a new path (this is a device, a pipe or a socket, which the"
                 " result would replace)")
+    if path.is_file() and not _netcdf_or_empty(path):
+        return ("a new path or a netCDF file (this file holds something else, which the result"
+                " would replace: a study, say; remove it first if that is meant)")
     return None
+
+
+_SIGNATURES = (b"\x89HDF\r\n\x1a\n", b"CDF\x01", b"CDF\x02", b"CDF\x05")
+"""The first bytes of an HDF5 file (netCDF-4) and of the classic netCDF formats."""
+
+
+def _netcdf_or_empty(path: Path) -> bool:
+    """Whether the file at ``path`` is empty or starts as a netCDF file does (HDF5's signature
+    may also follow a user block of 512, 1024, 2048, ... bytes): a file a result may replace.
+    ``gearsweep.run(study, output=study)`` wrote the result over the study file."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+            if not head or head.startswith(_SIGNATURES):
+                return True
+            offset = 512
+            while offset <= 1 << 20:
+                fh.seek(offset)
+                if fh.read(8) == _SIGNATURES[0]:
+                    return True
+                offset *= 2
+    except OSError:
+        return True  # unreadable: the writer's own error says why
+    return False
 
 
 def check_replaceable(path: str | Path) -> None:

@@ -492,6 +492,37 @@ def test_an_output_that_is_not_a_regular_file_or_is_the_study_is_refused(tmp_pat
     assert not chunk_folder(fifo).exists()
 
 
+def test_an_output_that_holds_something_else_than_netcdf_is_refused(tmp_path, capsys):
+    """A result may replace a netCDF file (an earlier result) or an empty one, not a file that
+    holds something else: ``gearsweep.run(study, output=study)`` wrote the netCDF over the study
+    file, and ``-o other.yaml`` over another study, without a word. Refused in one line before
+    any computing, from Python and from the CLI, and the file is left as it was."""
+    import gearsweep
+
+    study = tmp_path / "rattle.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+    other = tmp_path / "other.yaml"
+    other.write_text("title: mine\n", encoding="utf-8")
+    with pytest.raises(ResultError, match="a new path or a netCDF file"):
+        gearsweep.run(str(study), output=study)
+    assert main(["run", str(study), "-o", str(other)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a new path or a netCDF file" in err, err
+    assert study.read_text(encoding="utf-8") == RATTLE
+    assert other.read_text(encoding="utf-8") == "title: mine\n"
+    assert not chunk_folder(study).exists() and not chunk_folder(other).exists()
+    # what a result may replace: an earlier result, an empty file, a netCDF after a user block
+    result = tmp_path / "r.nc"
+    write_netcdf(xr.Dataset({"x": ("i", np.arange(3.0))}), result)
+    empty = tmp_path / "empty.nc"
+    empty.touch()
+    blocked = tmp_path / "ub.nc"
+    blocked.write_bytes(bytes(512) + result.read_bytes())
+    for path in (result, empty, blocked):
+        write_netcdf(xr.Dataset({"y": ("i", np.arange(2.0))}), path)
+        assert list(xr.load_dataset(path).data_vars) == ["y"]
+
+
 def test_a_result_given_as_a_study_and_a_text_given_as_a_result_are_one_line(tmp_path, capsys):
     """``advise``/``validate``/``run`` on a netCDF result say it is one (was "a readable UTF-8
     file (not UTF-8 text)"); ``inspect`` on a text file says it is not netCDF in one line (was
