@@ -11,9 +11,7 @@ import os
 import pickle
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from multiprocessing import get_context
 
 import numba
 import numpy as np
@@ -303,7 +301,11 @@ def precompile(calls: Sequence[dict], workers: int | None = None) -> float:
             _compile_group(groups[key])
     else:
         # spawn, not fork: Numba's workqueue and GNU OpenMP thread pools are not fork-safe once a
-        # parallel kernel has run in this process
+        # parallel kernel has run in this process. Imported here: multiprocessing (and the socket
+        # module it brings) is 4-5 ms of every run's start that only a precompile needs.
+        from concurrent.futures import ProcessPoolExecutor
+        from multiprocessing import get_context
+
         with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
             for f in [pool.submit(_compile_group, groups[key]) for key in order]:
                 f.result()
