@@ -177,6 +177,20 @@ def test_a_range_from_high_to_low_is_refused():
     parse_study(one.replace("start: 6000 rpm", "start: 5000 rpm"), "s.yaml")
 
 
+def test_a_continued_sweep_over_speeds_out_of_order_is_refused():
+    """A continued sweep runs up the list of speeds and back down it: with [8000, 6000, 7000]
+    "up" stepped 8000 -> 6000 -> 7000, silently (found by a new-user test). Refused at the first
+    speed out of order; the same list without continuation is fine (each case on its own)."""
+    text = GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "[8000 rpm, 6000 rpm, 7000 rpm]")
+    parse_study(text, "s.yaml")
+    assert _lines(text + "continuation: [up, down]\n") == [
+        "s.yaml:10: sweep.speed[1]: '6000 rpm' -- a speed above the one before ('8000 rpm'): a"
+        " continued sweep runs up the list and back down it, so list the speeds in increasing"
+        " order"]
+    parse_study(text.replace("8000 rpm, 6000 rpm, 7000 rpm", "6000 rpm, 7000 rpm, 8000 rpm")
+                + "continuation: [down]\n", "s.yaml")
+
+
 def test_swept_and_fixed_is_stated_in_validates_summary(tmp_path, capsys):
     path = tmp_path / "s.yaml"
     path.write_text(GOOD.replace("  speed: {", "  backlash: [0.1 mm, 0.2 mm]\n  speed: {"),

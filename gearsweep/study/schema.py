@@ -581,6 +581,15 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
                                        " each value once, or ds.sel() cannot tell them apart"))
                     break
                 seen[val] = key
+        if (with_order and name == "speed" and not is_range and getattr(study, "continuation", None)
+                and len(values) == len(raw)):
+            for i in range(1, len(values)):
+                if values[i] <= values[i - 1]:
+                    out.append(Problem(f"sweep.speed[{i}]", raw[i][1], (
+                        f"a speed above the one before ({raw[i - 1][1]!r}): a continued sweep"
+                        " runs up the list and back down it, so list the speeds in increasing"
+                        " order")))
+                    break
         if is_range and len(values) == 2:
             a, b = values
             if a == b and spec.num > 1:
