@@ -146,8 +146,10 @@ def test_an_unknown_field_says_did_you_mean():
 
 def test_errors_in_sweep_and_outputs_point_at_their_lines():
     text = GOOD.replace("num: 3}", "num: 0}") + "outputs: [stats, spectrun]\n"
-    assert _lines(text) == [
-        "s.yaml:10: sweep.speed.num: 0 -- Input should be greater than or equal to 1"]
+    assert _lines(text) == [  # both at once (the output's name was said after num was mended)
+        "s.yaml:10: sweep.speed.num: 0 -- Input should be greater than or equal to 1",
+        ("s.yaml:12: outputs[1]: 'spectrun' -- not an output; did you mean 'spectrum'? allowed:"
+         " floquet, spectrum, stats")]
     text = GOOD + "outputs: [stats, spectrun]\n"
     assert _lines(text) == [
         ("s.yaml:12: outputs[1]: 'spectrun' -- not an output; did you mean 'spectrum'? allowed:"
@@ -175,6 +177,48 @@ def test_a_range_from_high_to_low_is_refused():
     assert _lines(one) == [("s.yaml:10: sweep.speed.start: '6000 rpm' -- start must be at most stop"
                            " ('5000 rpm'); one value is [value]")]
     parse_study(one.replace("start: 6000 rpm", "start: 5000 rpm"), "s.yaml")
+
+
+def test_misspelt_names_beside_other_errors_are_all_said_at_once():
+    """Every problem of the file at once: a misspelt sweep entry (``sped``: only "the speed must
+    be swept" was said), a misspelt output and the scene's and solver's misspelt fields, in one
+    run (the sweep and the output names came one run later each; found by a new-user test)."""
+    text = (GOOD.replace("mass:", "mas:").replace("  speed: {", "  sped: {")
+            .replace("steps_per_period", "step_per_period") + "outputs: [stat]\n")
+    lines = _lines(text)
+    for says in ("s.yaml:4: scene.mas: 'mas' is not a field of a rattle scene -- did you mean"
+                 " 'mass'?",
+                 "s.yaml:10: sweep.sped: not a sweepable parameter of the 'rattle' scene; did you"
+                 " mean 'speed'?",
+                 "s.yaml:11: solver.step_per_period: 'step_per_period' is not a field of solver --"
+                 " did you mean 'steps_per_period'?",
+                 "s.yaml:12: outputs[0]: 'stat' -- not an output; did you mean 'stats'?"):
+        assert sum(ln.startswith(says) for ln in lines) == 1, (says, lines)
+    # a misspelt direction of continuation hid a misspelt sweep entry
+    lines = _lines(GOOD.replace("  speed: {", "  speed: {start: 1 rpm, stop: 2 rpm, num: 2}\n"
+                                "  backlsh: [0.1 mm]\n  x: {") + "continuation: [up, dwn]\n")
+    assert any(ln.startswith("s.yaml:14: continuation[1]") for ln in lines), lines
+    assert any(ln.startswith("s.yaml:11: sweep.backlsh: not a sweepable parameter of the"
+                             " 'rattle' scene; did you mean 'backlash'?") for ln in lines), lines
+
+
+def test_a_mathieu_start_with_a_unit_or_static_is_refused():
+    """A mathieu scene is dimensionless: ``initial_displacement: 1 um`` ran as p0 = 1e-6 (the
+    unit read as SI), and ``static`` gave a traceback when the run built its kernel call; both
+    one line, beside the study's other problems."""
+    mathieu = "title: m\nscene: {kind: mathieu, alpha: 1.0, beta: 0.1, gamma: 0.01}\n"
+    assert _lines(mathieu + "solver: {initial_displacement: 1 um}\n") == [
+        "s.yaml:3: solver.initial_displacement: '1 um' -- a bare number in a mathieu scene (p in"
+        " units of its own scale, e.g. 1): no unit there"]
+    assert _lines(mathieu + "solver: {initial_displacement: static}\n") == [
+        "s.yaml:3: solver.initial_displacement: 'static' -- a bare number in a mathieu scene"
+        " (default 1): 'static' is the equilibrium of a gear scene's load, which a mathieu scene"
+        " has not"]
+    lines = _lines(mathieu + "solver: {initial_displacement: 1 um, steps_per_period: 2}\n")
+    assert len(lines) == 2 and "no unit there" in lines[1], lines
+    for ok in ("2", "'2'", "0.5"):
+        study = parse_study(mathieu + f"solver: {{initial_displacement: {ok}}}\n", "s.yaml")
+        assert study.solver.initial_displacement == pytest.approx(float(ok.strip("'")))
 
 
 def test_a_continued_sweep_over_speeds_out_of_order_is_refused():

@@ -382,14 +382,26 @@ class Study(WholeStudy):
 
     @model_validator(mode="before")
     @classmethod
-    def _dimensionless_start(cls, data: Any) -> Any:
+    def _dimensionless_start(cls, data: Any, info: ValidationInfo) -> Any:
         """The Mathieu scene is dimensionless: its ``solver.initial_displacement`` is a bare
-        number (p in units of its own scale), taken as is."""
+        number (p in units of its own scale), taken as is. One written with a unit is refused
+        (``1 um`` ran as p0 = 1e-6, silently: found by a new-user test)."""
         if not (isinstance(data, dict) and isinstance(data.get("scene"), dict)
                 and data["scene"].get("kind") == "mathieu" and isinstance(data.get("solver"), dict)):
             return data
         v = data["solver"].get("initial_displacement")
-        if isinstance(v, int | float) and not isinstance(v, bool):
+        if isinstance(v, str) and v.strip() != "static":
+            try:
+                float(v)
+            except ValueError:
+                problem = Problem("solver.initial_displacement", v, "a bare number in a mathieu"
+                                  " scene (p in units of its own scale, e.g. 1): no unit there")
+                sink = (info.context or {}).get("problems") if info is not None else None
+                if sink is None:
+                    raise ValueError(f"{problem.path}: {problem.message}") from None
+                sink.append(problem)
+                v = 1.0  # reported: validate the rest as if the default were given
+        if isinstance(v, int | float | str) and not isinstance(v, bool) and v != "static":
             solver = dict(data["solver"], initial_displacement=f"{float(v)!r} m")
             data = dict(data, solver=solver)
         return data
@@ -447,13 +459,7 @@ def consistency_problems(study: Study) -> list[Problem]:
     """What the fields' own checks cannot see: sweep vs scene, outputs, continuation."""
     out: list[Problem] = []
     sc = study.scene
-    allowed = SCENE_PARAMETERS[sc.kind]
-    for name in study.sweep:
-        if name not in allowed:
-            close = difflib.get_close_matches(name, sorted(allowed), n=1)
-            hint = f"did you mean {close[0]!r}? " if close else ""
-            out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a sweepable parameter of the"
-                               f" {sc.kind!r} scene; {hint}allowed: {', '.join(sorted(allowed))}"))
+    out += sweep_name_problems(sc.kind, list(study.sweep))
     out += speed_problems(sc.kind, "speed" in study.sweep, getattr(sc, "speed", None) is not None,
                           study.continuation)
     if sc.kind != "mathieu":
@@ -493,6 +499,10 @@ def consistency_problems(study: Study) -> list[Problem]:
             out.append(Problem("continuation", list(study.continuation),
                                "list each direction at most once"))
     sv = study.solver  # what the device will refuse, said when the study is read
+    if sc.kind == "mathieu" and sv.initial_displacement == "static":
+        out.append(Problem("solver.initial_displacement", "static", "a bare number in a mathieu"
+                           " scene (default 1): 'static' is the equilibrium of a gear scene's"
+                           " load, which a mathieu scene has not"))
     if sv.precision == "float32" and sv.device == "cpu":
         out.append(Problem("solver.precision", sv.precision, "float32 runs on the GPU only (the"
                            " CPU kernel is float64): set solver.device: cuda (or auto), or"
@@ -501,10 +511,29 @@ def consistency_problems(study: Study) -> list[Problem]:
                                                   in study.sweep):
         out.append(Problem("solver.kink_aware", True, "the kink-aware step runs on the CPU only:"
                            " set solver.device: cpu, or kink_aware: false on the GPU"))
-    names = [o.name for o in study.outputs]
+    out += output_name_problems([o.name for o in study.outputs])
+    return out
+
+
+def sweep_name_problems(kind: str, names: list) -> list[Problem]:
+    """Entries of ``sweep:`` that the scene of ``kind`` cannot sweep (a misspelt ``sped``)."""
+    allowed = SCENE_PARAMETERS[kind]
+    out = []
+    for name in names:
+        if name not in allowed:
+            close = difflib.get_close_matches(str(name), sorted(allowed), n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a sweepable parameter of the"
+                               f" {kind!r} scene; {hint}allowed: {', '.join(sorted(allowed))}"))
+    return out
+
+
+def output_name_problems(names: list) -> list[Problem]:
+    """Names in ``outputs:`` that are no output, listed twice, or none at all."""
+    out = []
     for i, name in enumerate(names):
         if name not in OUTPUTS:
-            close = difflib.get_close_matches(name, sorted(OUTPUTS), n=1)
+            close = difflib.get_close_matches(str(name), sorted(OUTPUTS), n=1)
             hint = f"did you mean {close[0]!r}? " if close else ""
             out.append(Problem(f"outputs[{i}]", name, f"not an output; {hint}allowed:"
                                f" {', '.join(sorted(OUTPUTS))}"))
@@ -1096,6 +1125,15 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
             cont = []  # continuation's own error, or none
         out += speed_problems(scene["kind"], isinstance(sweep, dict) and "speed" in sweep,
                               "speed" in scene, cont)
+        if isinstance(sweep, dict):
+            out += sweep_name_problems(scene["kind"], [n for n in sweep if isinstance(n, str)])
+    outputs = raw.get("outputs") if isinstance(raw, dict) else None
+    if isinstance(outputs, list):  # the names (an entry's own structure: the study's errors)
+        names = [o if isinstance(o, str) else next(iter(o)) if isinstance(o, dict) and len(o) == 1
+                 and "name" not in o else o.get("name") if isinstance(o, dict) else None
+                 for o in outputs]
+        if all(isinstance(n, str) for n in names):
+            out += output_name_problems(names)
     if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full"):
         drive = scene.get("drive")
         given = scene_presence(lambda f: scene.get(f) is not None,  # a drive that is no mapping:
@@ -1189,7 +1227,7 @@ def _parse_raw(raw: Any, file: str) -> Study | MeshStudy | AnalysisStudy:
         study = Study.model_validate(raw, context={"problems": problems, "file": file})
     except ValidationError as exc:
         err = _first_error(exc, file, raw)
-        more = _problems_beside_errors(raw)  # every problem of the file at once
+        more = problems + _problems_beside_errors(raw)  # every problem of the file at once
         raise (err.joined(_error(file, more, raw)) if more else err) from None
     except RecursionError:
         raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
