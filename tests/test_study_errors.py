@@ -186,12 +186,12 @@ def test_misspelt_names_beside_other_errors_are_all_said_at_once():
     text = (GOOD.replace("mass:", "mas:").replace("  speed: {", "  sped: {")
             .replace("steps_per_period", "step_per_period") + "outputs: [stat]\n")
     lines = _lines(text)
-    for says in ("s.yaml:4: scene.mas: 'mas' is not a field of a rattle scene -- did you mean"
-                 " 'mass'?",
-                 "s.yaml:10: sweep.sped: not a sweepable parameter of the 'rattle' scene; did you"
-                 " mean 'speed'?",
-                 "s.yaml:11: solver.step_per_period: 'step_per_period' is not a field of solver --"
-                 " did you mean 'steps_per_period'?",
+    for says in (("s.yaml:4: scene.mas: 'mas' is not a field of a rattle scene -- did you mean"
+                 " 'mass'?"),
+                 ("s.yaml:10: sweep.sped: not a sweepable parameter of the 'rattle' scene; did you"
+                 " mean 'speed'?"),
+                 ("s.yaml:11: solver.step_per_period: 'step_per_period' is not a field of solver --"
+                 " did you mean 'steps_per_period'?"),
                  "s.yaml:12: outputs[0]: 'stat' -- not an output; did you mean 'stats'?"):
         assert sum(ln.startswith(says) for ln in lines) == 1, (says, lines)
     # a misspelt direction of continuation hid a misspelt sweep entry
@@ -208,12 +208,12 @@ def test_a_mathieu_start_with_a_unit_or_static_is_refused():
     one line, beside the study's other problems."""
     mathieu = "title: m\nscene: {kind: mathieu, alpha: 1.0, beta: 0.1, gamma: 0.01}\n"
     assert _lines(mathieu + "solver: {initial_displacement: 1 um}\n") == [
-        "s.yaml:3: solver.initial_displacement: '1 um' -- a bare number in a mathieu scene (p in"
-        " units of its own scale, e.g. 1): no unit there"]
+        ("s.yaml:3: solver.initial_displacement: '1 um' -- a bare number in a mathieu scene (p in"
+        " units of its own scale, e.g. 1): no unit there")]
     assert _lines(mathieu + "solver: {initial_displacement: static}\n") == [
-        "s.yaml:3: solver.initial_displacement: 'static' -- a bare number in a mathieu scene"
+        ("s.yaml:3: solver.initial_displacement: 'static' -- a bare number in a mathieu scene"
         " (default 1): 'static' is the equilibrium of a gear scene's load, which a mathieu scene"
-        " has not"]
+        " has not")]
     lines = _lines(mathieu + "solver: {initial_displacement: 1 um, steps_per_period: 2}\n")
     assert len(lines) == 2 and "no unit there" in lines[1], lines
     for ok in ("2", "'2'", "0.5"):
@@ -228,9 +228,9 @@ def test_a_continued_sweep_over_speeds_out_of_order_is_refused():
     text = GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "[8000 rpm, 6000 rpm, 7000 rpm]")
     parse_study(text, "s.yaml")
     assert _lines(text + "continuation: [up, down]\n") == [
-        "s.yaml:10: sweep.speed[1]: '6000 rpm' -- a speed above the one before ('8000 rpm'): a"
+        ("s.yaml:10: sweep.speed[1]: '6000 rpm' -- a speed above the one before ('8000 rpm'): a"
         " continued sweep runs up the list and back down it, so list the speeds in increasing"
-        " order"]
+        " order")]
     parse_study(text.replace("8000 rpm, 6000 rpm, 7000 rpm", "6000 rpm, 7000 rpm, 8000 rpm")
                 + "continuation: [down]\n", "s.yaml")
 
