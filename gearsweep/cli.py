@@ -68,18 +68,27 @@ def _default_output(study_path: str) -> Path:
     return Path("results") / (Path(study_path).stem + ".nc")
 
 
-def _check_writable(path: Path, study: str | None = None) -> None:
+def _check_writable(path: Path, study: str | None = None, inputs: tuple = ()) -> None:
     """Fail before the run, not after it, when the output cannot be written: a file is created
     and removed in its folder (what the atomic writer will do). The result replaces the file at
     ``path`` by renaming a new one over it, so ``path`` must be a regular file or nothing: not a
-    folder, not a device (``-o /dev/null`` replaced the device with a file), and not the study
-    file being run."""
+    folder, not a device (``-o /dev/null`` replaced the device with a file), and neither the
+    study file being run nor a file it reads (``inputs``: a measured excitation). A path through
+    folders the run will make is compared as it will be then (``new/../s.yaml`` is ``s.yaml``)."""
 
     folder = path.parent if str(path.parent) else Path(".")
-    if study not in (None, "-") and path.exists() and Path(study).exists() \
-            and os.path.samefile(path, study):
-        raise StudyError(str(path), "--output", str(path),
-                         "another path than the study file's (the result would replace it)")
+    if not folder.exists():  # made by the run: no link among the new folders
+        path = Path(os.path.normpath(path))
+        folder = path.parent if str(path.parent) else Path(".")
+    for used, what in ([(study, "the study file's")] if study not in (None, "-") else []) + [
+            (f, "a file the study reads") for f in inputs]:
+        try:
+            same = path.exists() and Path(used).exists() and os.path.samefile(path, used)
+        except OSError:
+            same = False
+        if same:
+            raise StudyError(str(path), "--output", str(path),
+                             f"another path than {what} (the result would replace it)")
     problem = replace_problem(path)
     if problem is not None:
         raise StudyError(str(path), "--output", str(path), problem)
@@ -99,6 +108,12 @@ def _check_writable(path: Path, study: str | None = None) -> None:
                          f"a writable path ({exc.strerror or type(exc).__name__})") from None
     if path.exists() and not os.access(path, os.W_OK):
         raise StudyError(str(path), "--output", str(path), "a writable path (permission denied)")
+
+
+def _input_files(study) -> tuple[str, ...]:
+    """The files a study reads beside its own: a scene's measured excitation."""
+    ex = getattr(getattr(study, "scene", None), "excitation", None)
+    return (ex.file,) if ex is not None else ()
 
 
 def _shown(path: str) -> str:
@@ -239,7 +254,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(name, "--output", args.output, "a file path (it is empty)")
     out = Path(args.output) if args.output else _default_output(args.study)
     if not args.estimate:
-        _check_writable(out, args.study)
+        _check_writable(out, args.study, _input_files(study))
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
 
         unused = [o for o, v in (("--workers", args.workers), ("--chunk-size", args.chunk_size),

@@ -191,6 +191,10 @@ def replace_problem(path: str | Path) -> str | None:
     A result is written beside its path and renamed over it, which would replace a device, a
     pipe or a socket with a file (``-o /dev/null`` did, as root) and fails on a folder."""
     path = Path(path)
+    try:
+        path.exists()
+    except OSError as exc:  # a name too long, say
+        return f"a path the file system takes ({exc.strerror or type(exc).__name__})"
     if path.is_dir():
         return "a file path, not a folder"
     if path.exists() and not path.is_file():

@@ -523,6 +523,40 @@ def test_an_output_that_holds_something_else_than_netcdf_is_refused(tmp_path, ca
         assert list(xr.load_dataset(path).data_vars) == ["y"]
 
 
+def test_outputs_that_would_replace_inputs_or_cannot_be_named_are_one_line(tmp_path, capsys,
+                                                                           monkeypatch):
+    """Found by an adversarial test, each wrote over a file or ended in a traceback:
+    ``-o new/../s.yaml`` (``new/`` made by the run) replaced the study file, ``-o data.csv`` the
+    measured excitation the study reads, a 300-character name and a scheduler address without a
+    port were tracebacks (exit 1), and ``transient_periods: 2e17`` an OverflowError with --yes.
+    Each is one line and exit code 2 now, and the files are left as they were."""
+    root = Path(__file__).resolve().parents[1]
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "data").mkdir()
+    csv = (root / "studies/data/ste_table1.csv").read_bytes()
+    (tmp_path / "data/ste_table1.csv").write_bytes(csv)
+    text = (root / "studies/whine_measured_ste.yaml").read_text(encoding="utf-8")
+    Path("s.yaml").write_text(text, encoding="utf-8")
+    for out, says in (("new/../s.yaml", "the study file's"),
+                      ("data/ste_table1.csv", "a file the study reads"),
+                      ("new/../data/ste_table1.csv", "a file the study reads"),
+                      ("x" * 300 + ".nc", "File name too long")):
+        assert main(["run", "s.yaml", "-o", out]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "--output" in err and says in err, err
+    assert Path("s.yaml").read_text(encoding="utf-8") == text and not Path("new").exists()
+    assert (tmp_path / "data/ste_table1.csv").read_bytes() == csv
+    for address in ("notaurl", "tcp://localhost"):
+        assert main(["run", "s.yaml", "-o", "r.nc", "--scheduler", address]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "cannot use the dask cluster" in err, err
+    Path("m.yaml").write_text("title: m\nscene: {kind: mathieu, alpha: 1.0, beta: 0.1, gamma:"
+                              " 0.01}\nsolver: {transient_periods: 200000000000000000}\n")
+    assert main(["run", "m.yaml", "-o", "m.nc", "--yes"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "solver.transient_periods" in err, err
+
+
 def test_a_result_given_as_a_study_and_a_text_given_as_a_result_are_one_line(tmp_path, capsys):
     """``advise``/``validate``/``run`` on a netCDF result say it is one (was "a readable UTF-8
     file (not UTF-8 text)"); ``inspect`` on a text file says it is not netCDF in one line (was

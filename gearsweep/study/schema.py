@@ -305,8 +305,8 @@ class Solver(Strict):
         False, description="redo steps that cross the backlash boundaries in pieces that end on "
         "them (gearsweep.kernels.kink): keeps the method's order 4/5 with backlash, where the "
         "plain step falls to order 2; no effect without backlash")
-    transient_periods: Count = Field(100, ge=0, description="mesh periods discarded")
-    record_periods: Count = Field(50, ge=1, description="mesh periods recorded for statistics"
+    transient_periods: Count = Field(100, ge=0, le=10**9, description="mesh periods discarded")
+    record_periods: Count = Field(50, ge=1, le=10**9, description="mesh periods recorded for statistics"
                                   " (a driven scene: two cycles of its excitation at least, 2"
                                   " for mesh orders, 96 for a shaft order of 48 teeth)")
     divergence_factor: Real = Field(1e6, gt=1, description="|p| bound / static scale")
