@@ -22,7 +22,7 @@ from gearsweep.errors import StudyError
 from gearsweep.gear import fourier, mesh_cycle, table1_consistent
 from gearsweep.gear.measured import FitError, fit_fourier, fit_orders, measured_excitation
 from gearsweep.model import Harmonic
-from gearsweep.study.plan import build_model
+from gearsweep.study.plan import build_model, make_plan
 from gearsweep.study.schema import load_study, parse_study
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -122,8 +122,46 @@ def test_revolution_fit_finds_shaft_orders():
 def test_fit_refuses_too_few_or_bunched_samples():
     with pytest.raises(FitError, match="at least 21 distinct samples"):
         fit_fourier(np.arange(20) / 20, np.ones(20), fit_orders(10, 48, False))
-    with pytest.raises(FitError, match="do not determine"):  # all in a tenth of the cycle
+    with pytest.raises(FitError, match="leave 0.9 mesh cycles empty after phase 0.1"):
         fit_fourier(np.linspace(0, 0.1, 50), np.ones(50), fit_orders(10, 48, False))
+    # Three harmonics from samples over 0.3 of the cycle: the least-squares problem has full
+    # rank, and the fit extrapolates over the rest: from the Table 1 samples squeezed so (found
+    # by an adversarial test) the mean stiffness came out -2.4e9 N/m, every case diverged, and
+    # nothing said why. A gap longer than a wave of the highest order is refused.
+    phi = np.linspace(0, 0.3, 40)
+    with pytest.raises(FitError, match="leave 0.7 mesh cycles empty after phase 0.3, more than"
+                                       " one wave of the highest order fitted \\(0.333\\)"):
+        fit_fourier(phi, np.ones(40), fit_orders(3, 48, False))
+    with pytest.raises(FitError, match="leave 0.35 mesh cycles empty after phase 0.3,"):
+        fit_fourier(np.append(phi, 0.65), np.ones(41), fit_orders(3, 48, False))
+    fit = fit_fourier(np.append(phi, [0.5, 0.75]), 2 + np.cos(2 * np.pi * np.append(phi, [0.5, 0.75])),
+                      fit_orders(3, 48, False))  # gaps 0.2, 0.25, 0.25: each under a wave
+    assert fit.mean == pytest.approx(2.0) and fit.harmonics[0].amplitude == pytest.approx(1.0)
+
+
+def test_a_fitted_or_typed_mesh_stiffness_that_is_not_positive_is_refused(tmp_path):
+    """k(t) <= 0 somewhere on the cycle is no mesh: from samples it was fitted without a word
+    (every case then diverged), and typed in (k0 100 kN/mm with a 500 kN/mm harmonic) it ran
+    too. Both are refused in one line, naming the least value and where it is."""
+    phi = np.arange(64) / 64
+    k = series(1e8, ((5e8, 1.0, 0.0),), phi)
+    with pytest.raises(FitError, match="the fitted mesh stiffness is not positive \\(-4e\\+08 N/m"
+                                       " at mesh phase 0.5\\)"):
+        measured_excitation(phi, None, k, fit_orders(2, 48, False), time_varying=True,
+                            mean_force=F_M)
+    text = """title: k
+scene: {kind: whine, mass: 0.1527 kg, teeth: 48, stiffness: 100 kN/mm, damping: 5 N*s/mm,
+        mean_force: 800 N, stiffness_harmonics: [{amplitude: 500 kN/mm, order: 1}]}
+sweep: {speed: [5000 rpm]}
+"""
+    path = tmp_path / "k.yaml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(StudyError, match="k.yaml:3: scene.stiffness_harmonics: harmonics that keep"
+                                         " k\\(t\\) positive: with k0 = 100 kN/mm they take it"
+                                         " to -400 kN/mm at mesh phase 0.5"):
+        make_plan(*load_study(path), str(path))
+    path.write_text(text.replace("500 kN/mm", "50 kN/mm"), encoding="utf-8")
+    make_plan(*load_study(path), str(path))
 
 
 def test_excitation_with_k_of_t_is_ste_less_f_over_k():

@@ -78,6 +78,25 @@ def min_samples(harmonics: int, teeth: int, revolution: bool) -> int:
     return 2 * len(fit_orders(harmonics, teeth, revolution)) + 1
 
 
+def largest_gap(phi, period: float) -> tuple[float, float]:
+    """The longest stretch of the ``period`` (mesh cycles) without a sample, round the end of the
+    period too, and the phase it starts after."""
+    p = np.sort(np.mod(np.asarray(phi, dtype=float), period))
+    gaps = np.diff(np.append(p, p[0] + period))
+    i = int(np.argmax(gaps))
+    return float(gaps[i]), float(p[i])
+
+
+def positive_minimum(mean: float, harmonics, period: float = 1.0) -> tuple[float, float]:
+    """The least value of ``series(mean, harmonics)`` over a ``period`` (mesh cycles), sampled
+    64 times per wave of its highest order, and the phase where it is."""
+    top = max((h.order for h in harmonics), default=1.0)
+    phi = np.linspace(0.0, period, int(64 * max(top, 1.0) * period) + 1)
+    k = series(mean, harmonics, phi)
+    i = int(np.argmin(k))
+    return float(k[i]), float(phi[i])
+
+
 def fit_fourier(phi, values, orders) -> FourierFit:
     """Least-squares fit of ``values`` sampled at mesh phases ``phi`` with Eq. (1) at ``orders``.
 
@@ -109,6 +128,12 @@ def fit_fourier(phi, values, orders) -> FourierFit:
     if distinct < need:
         raise FitError(f"{orders.size} harmonics need at least {need} distinct samples,"
                        f" there are {distinct}")
+    gap, after = largest_gap(phi, 1.0 / orders.min())
+    if gap > 1.0 / orders.max():  # no sample within a whole wave of the highest order: the fit
+        raise FitError(  # there is an extrapolation (mean stiffness fitted negative, found so)
+            f"the samples leave {gap:.3g} mesh cycles empty after phase {after:.3g}, more than"
+            f" one wave of the highest order fitted ({1.0 / orders.max():.3g}): spread them over"
+            " the whole period, or fit fewer harmonics")
     arg = 2.0 * math.pi * phi[:, None] * orders[None, :]
     a = np.concatenate([np.ones((phi.size, 1)), np.cos(arg), np.sin(arg)], axis=1)
     # Columns scaled to unit norm: the rank test is then about the samples' spread, not units.
@@ -177,6 +202,12 @@ def measured_excitation(phi, ste, stiffness, orders, *, time_varying: bool, mean
     """
     phi = np.asarray(phi, dtype=float)
     k_fit = fit_fourier(phi, stiffness, orders) if stiffness is not None else None
+    if k_fit is not None:
+        low, where = positive_minimum(k_fit.mean, k_fit.harmonics if time_varying else (),
+                                      1.0 / np.min(orders))
+        if not low > 0:
+            raise FitError(f"the fitted mesh stiffness is not positive ({low:.4g} N/m at mesh"
+                           f" phase {where:.3g}): check the samples and their unit")
     k0 = k_fit.mean if k_fit is not None else None
     k_h = k_fit.harmonics if (k_fit is not None and time_varying) else ()
     e_fit, rms, mx = None, math.nan, math.nan

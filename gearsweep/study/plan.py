@@ -24,6 +24,7 @@ import numpy as np
 from gearsweep.analysis.stability import ray_limit, stability_polynomial, step_limit_hw
 from gearsweep.errors import NO_VALUE, StudyError
 from gearsweep.files import atomic_write
+from gearsweep.gear.measured import positive_minimum
 from gearsweep.kernels import LANES
 from gearsweep.kernels.cuda import CHUNK_STEPS as GPU_CHUNK_STEPS
 from gearsweep.kernels.cuda import planned_device
@@ -308,6 +309,16 @@ def _make_plan(study: Study, text: str) -> Plan:
         plan.specs["beyond_step_limit"] = VarSpec(dtype="bool", attrs={
             "units": "1", "long_name": "step beyond the method's stability limit (results may be"
             " spoiled by the integrator)"})
+    typed = getattr(study.scene, "stiffness_harmonics", None)
+    if typed:  # (a gear's own k(t) is positive: the pair's teeth in contact)
+        k0 = grids["stiffness"].min() if "stiffness" in grids else plan.model.stiffness
+        low, where = positive_minimum(k0, plan.model.stiffness_harmonics,
+                                      getattr(plan.model, "cycle_periods", 1))
+        if not low > 0:
+            raise StudyError("<study>", "scene.stiffness_harmonics", NO_VALUE, (
+                f"harmonics that keep k(t) positive: with k0 = {k0 / 1e6:.6g} kN/mm"
+                f"{' (the least swept)' if 'stiffness' in grids else ''} they take it to"
+                f" {low / 1e6:.4g} kN/mm at mesh phase {where:.3g}"))
     rec, cycle = study.solver.record_periods, getattr(plan.model, "cycle_periods", 1)
     if plan.driven and rec < 2 * cycle:
         raise StudyError("<study>", "solver.record_periods", rec, record_periods_needed(cycle))
