@@ -280,6 +280,29 @@ def test_bad_files_give_one_line(tmp_path, header, rows, message):
     assert line.startswith(f"{f}:") and "scene.excitation.file: 'x.csv'" in line and message in line
 
 
+@pytest.mark.parametrize(("text", "message"), [
+    ("mesh_phase [1], ste [um]\n0.0, 1.0\n0.5, abc\n", "line 4: 'abc' is not a number"),
+    ("mesh_phase [1], ste [um]\n0.0, 1.0\n# a comment\n0.5\n", "line 5 has 1 value, the header 2"),
+    ("mesh_phase [1], ste [um]\n", "no samples under the header line"),
+    ("mesh_phase [1], ste [um], ste [mm]\n0.0, 1.0, 0.001\n",
+     "two ste columns ('ste' and 'ste'): keep one"),
+    ("mesh_phase [1], mesh_stiffness [N/mm], mesh_stiffness [N/mm], ste [um]\n0.0, 1, 1, 1\n",
+     "two stiffness columns"),
+    ("angle [deg], mesh_phase [1], ste [um]\n0.0, 0.0, 1.0\n", "two position columns"),
+])
+def test_bad_csv_lines_and_twin_columns_are_named(tmp_path, text, message):
+    """A CSV problem names its line in the file (comments counted; a ragged row said "setting
+    an array element with a sequence"), and a column given twice is refused (the second was
+    ignored, whatever its unit); found by an adversarial test."""
+    (tmp_path / "x.csv").write_text("# a test file\n" + text, encoding="utf-8")
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  stiffness: 2e8 N/m\n  excitation: {file: x.csv}\n")))
+    with pytest.raises(StudyError) as e:
+        load_study(f)
+    (line,) = str(e.value).splitlines()
+    assert "scene.excitation.file: 'x.csv'" in line and message in line, line
+
+
 @pytest.mark.parametrize(("extra", "sweep", "message"), [
     ("  excitation: {file: ltca.csv, harmonics: 40}\n", None,
      "scene.excitation.harmonics: 40 -- needs at least 81 samples"),
@@ -443,5 +466,12 @@ def test_a_files_stated_load_against_swept_loads_and_unstated_ones(tmp_path, cap
     said = ("scene.mean_force: excitation.file's STE is at 100 N m (its 'torque'): give"
             " base_radius beside mean_force, or torque")
     assert rc == 2 and said in err, err
-    for unstated in ("axis.nc", "nounit.nc"):  # no load stated plainly: none compared
-        assert validate(rattle + f"  torque: 20 N m\n  excitation: {{file: {unstated}}}\n")[0] == 0
+    assert validate(rattle + "  torque: 20 N m\n  excitation: {file: nounit.nc}\n")[0] == 0
+    # a torque axis of length 1 states the load (a mesh study swept over one torque writes its
+    # values over it: was refused as "not 1-D", found by a new-user test)
+    rc, err = validate(rattle + "  torque: 20 N m\n  excitation: {file: axis.nc}\n")
+    assert rc == 2 and "excitation.file's STE is at 100 N m (its 'torque'), the scene at 20" in err
+    xr.Dataset({"ste": (("torque", "mesh_phase"), [ste[1]], {"units": "um"})},
+               coords={"mesh_phase": pos, "torque": (("torque",), [20.0], {"units": "N m"})}
+               ).to_netcdf(tmp_path / "over.nc")
+    assert validate(rattle + "  torque: 20 N m\n  excitation: {file: over.nc}\n")[0] == 0

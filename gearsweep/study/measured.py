@@ -99,6 +99,10 @@ def _columns(names: list[tuple[str, str]]) -> tuple[dict[str, int], dict[str, fl
     position = ""
     for i, (name, unit) in enumerate(names):
         key = name.strip().lower()
+        twin = "position" if key in POSITION else VALUES[key][0] if key in VALUES else None
+        if twin is not None and twin in index:  # the first was taken, the second ignored
+            raise ValueError(f"two {twin} columns ({names[index[twin]][0]!r} and {name!r}): keep"
+                             " one")
         if key in POSITION and "position" not in index:
             position = POSITION[key]
             index["position"] = i
@@ -122,9 +126,11 @@ _HEADER = re.compile(r"^\s*([^\[\]()]*?)\s*(?:[\[(]\s*([^\[\]()]*?)\s*[\])])?\s*
 
 def _read_csv(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
     text = path.read_text(encoding="utf-8-sig")
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
+    numbered = [(i, ln) for i, ln in enumerate(text.splitlines(), 1)
+                if ln.strip() and not ln.lstrip().startswith("#")]
+    if not numbered:
         raise ValueError("an empty CSV file (a header line with units, then samples)")
+    lines = [ln for _, ln in numbered]
     try:
         dialect = csv.Sniffer().sniff(lines[0], delimiters=",;\t")
     except csv.Error:
@@ -134,19 +140,35 @@ def _read_csv(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
     for cell in rows[0]:
         m = _HEADER.match(cell)
         names.append((m.group(1), m.group(2) or "") if m else (cell, ""))
+    values = []
+    for (line, _), r in zip(numbered[1:], rows[1:], strict=True):  # each problem at its line
+        if len(r) != len(names):
+            raise ValueError(f"line {line} has {len(r)} value{'s' if len(r) != 1 else ''}, the"
+                             f" header {len(names)} columns")
+        try:
+            values.append([float(c) for c in r])
+        except ValueError:
+            bad = next(c for c in r if not _number(c))
+            raise ValueError(f"line {line}: {bad.strip()!r} is not a number") from None
+    if not values:
+        raise ValueError("no samples under the header line")
+    return names, np.array(values, dtype=float)
+
+
+def _number(cell: str) -> bool:
     try:
-        data = np.array([[float(c) for c in r] for r in rows[1:]], dtype=float)
-    except ValueError as exc:
-        raise ValueError(f"a sample that is not a number ({exc})") from None
-    if data.ndim != 2 or data.shape[0] == 0 or any(len(r) != len(names) for r in rows[1:]):
-        raise ValueError(f"every line needs {len(names)} numbers, as the header has columns")
-    return names, data
+        float(cell)
+    except ValueError:
+        return False
+    return True
 
 
 def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, float | None]:
     import xarray as xr
 
     with xr.open_dataset(path) as ds:
+        # a mesh study swept over one torque holds it as a dimension of length 1: its load
+        ds = ds.squeeze([d for d, n in ds.sizes.items() if n == 1 and d in ds.coords])
         torque = None  # the load of a mesh study: a scalar torque with its unit; else unstated
         if "torque" in ds.variables and ds["torque"].ndim == 0:
             try:
