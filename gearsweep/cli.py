@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import signal
 import sys
 import tempfile
@@ -177,10 +178,17 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+_ADDRESS = re.compile(r"(?:[a-z][a-z0-9+.-]*://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]]+):\d{1,5}")
+"""A dask scheduler's address: ``[PROTOCOL://]HOST:PORT``."""
+
+
 def _backend(args: argparse.Namespace):
 
     if args.scheduler:
-        return DaskBackend(scheduler=args.scheduler)
+        if not _ADDRESS.fullmatch(args.scheduler.strip()):  # before dask, whose client raised
+            raise StudyError(_shown(args.study), "--scheduler", args.scheduler,  # in a thread
+                             "a scheduler's address, tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)")
+        return DaskBackend(scheduler=args.scheduler.strip())
     if args.workers:
         return DaskBackend(workers=args.workers)
     return InProcess()
@@ -382,6 +390,9 @@ def describe(path: str | Path) -> str:
             why = "not a netCDF file"
         raise ResultError(f"{path}: cannot open as a netCDF result ({why})") from None
     with ds:
+        if "study" not in ds.attrs:  # as open_result: said "(no title) scene ?", exit 0
+            raise ResultError(f"{path}: a netCDF file, not a gearsweep result (no 'study'"
+                              " attribute); xarray.open_dataset or ncdump -h shows what it holds")
         lines = [f"{path}: {ds.attrs.get('title', '(no title)')}"]
         scene = str(ds.attrs.get("scene", "?"))
         if scene == "mesh":

@@ -85,7 +85,13 @@ class StudyError(GearsweepError):
             m = re.match(re.escape(self.file) + r":(\d+):", text)
             return int(m.group(1)) if m else math.inf
 
-        lines = sorted(dict.fromkeys(self.lines + other.lines), key=line_no)
+        def field(text: str) -> str | None:
+            m = re.match(re.escape(self.file) + r"(?::\d+)?: (\S+?):? ", text)
+            return m.group(1) if m else None
+
+        said = {field(t) for t in self.lines} - {None}  # one line per field: 'speed: [.inf]'
+        more = [t for t in other.lines if field(t) not in said]  # was said twice, in two wordings
+        lines = sorted(dict.fromkeys(self.lines + more), key=line_no)
         self.lines = lines
         self.args = ("\n".join(lines),)
         return self

@@ -546,10 +546,10 @@ def test_outputs_that_would_replace_inputs_or_cannot_be_named_are_one_line(tmp_p
         assert err.count("\n") == 1 and "--output" in err and says in err, err
     assert Path("s.yaml").read_text(encoding="utf-8") == text and not Path("new").exists()
     assert (tmp_path / "data/ste_table1.csv").read_bytes() == csv
-    for address in ("notaurl", "tcp://localhost"):
+    for address in ("notaurl", "tcp://localhost", "tcp://host:port"):
         assert main(["run", "s.yaml", "-o", "r.nc", "--scheduler", address]) == 2
         err = capsys.readouterr().err
-        assert err.count("\n") == 1 and "cannot use the dask cluster" in err, err
+        assert err.count("\n") == 1 and "--scheduler" in err and "tcp://HOST:PORT" in err, err
     Path("m.yaml").write_text("title: m\nscene: {kind: mathieu, alpha: 1.0, beta: 0.1, gamma:"
                               " 0.01}\nsolver: {transient_periods: 200000000000000000}\n")
     assert main(["run", "m.yaml", "-o", "m.nc", "--yes"]) == 2
@@ -572,6 +572,10 @@ def test_a_result_given_as_a_study_and_a_text_given_as_a_result_are_one_line(tmp
     assert main(["inspect", str(text)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "not a netCDF file" in err, err
+    # a netCDF file of someone else's: said "(no title) scene ?" and exit 0 (adversarial test)
+    assert main(["inspect", str(result)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not a gearsweep result (no 'study' attribute)" in err, err
 
 
 def test_pathological_cases_are_flagged_not_fatal():

@@ -221,6 +221,24 @@ def test_a_mathieu_start_with_a_unit_or_static_is_refused():
         assert study.solver.initial_displacement == pytest.approx(float(ok.strip("'")))
 
 
+def test_a_range_of_one_value_with_another_stop_a_negative_log_start_and_inf_are_one_line(
+        capfd):
+    """Found by an adversarial test: ``{start: 5000 rpm, stop: 6000 rpm, num: 1}`` ran at 5000
+    alone (the stop silently unused); a log range from -10 N m printed NumPy's RuntimeWarning
+    beside its line, which did not quote the value; ``speed: [.inf]`` gave two lines, in two
+    wordings, for one problem."""
+    lines = _lines(GOOD.replace("num: 3}", "num: 1}"))
+    assert lines == ["s.yaml:10: sweep.speed.num: 1 -- 2 or more from '5000 rpm' to '6000 rpm'"
+                     " (one value is its start alone, the stop unused: write [5000 rpm] for that)"]
+    text = GOOD.replace("mean_force: 100 N", "torque: 10 N m\n  base_radius: 50 mm").replace(
+        "  speed: {", "  torque: {start: -10 N m, stop: 20 N m, num: 3, spacing: log}\n  speed: {")
+    assert _lines(text) == ["s.yaml:11: sweep.torque.start: '-10 N m' -- above zero: log spacing"
+                            " needs positive start and stop"]
+    assert capfd.readouterr().err == ""
+    lines = _lines(GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "[.inf]"))
+    assert lines == ["s.yaml:10: sweep.speed[0]: inf -- a finite number (not nan or inf)"]
+
+
 def test_a_continued_sweep_over_speeds_out_of_order_is_refused():
     """A continued sweep runs up the list of speeds and back down it: with [8000, 6000, 7000]
     "up" stepped 8000 -> 6000 -> 7000, silently (found by a new-user test). Refused at the first
@@ -1017,7 +1035,8 @@ def test_inspect_prints_no_unit_for_a_dimensionless_coordinate(tmp_path, capsys)
     path = tmp_path / "m.nc"
     xr.Dataset({"p_rms": (("alpha", "speed"), np.zeros((60, 2)))},
                coords={"alpha": ("alpha", np.linspace(0.05, 1.5, 60), {"units": "1"}),
-                       "speed": ("speed", [1000.0, 2000.0], {"units": "rpm"})}).to_netcdf(path)
+                       "speed": ("speed", [1000.0, 2000.0], {"units": "rpm"})},
+               attrs={"study": "title: m"}).to_netcdf(path)  # a result's (inspect's check)
     assert main(["inspect", str(path)]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert "    alpha              60 values from 0.05 to 1.5" in lines, lines
@@ -1074,7 +1093,7 @@ def test_inspect_of_an_analysis_result_names_its_input_not_a_solver(tmp_path, ca
     xr.Dataset({"rattle_share": ("damping", np.array([-0.0, 0.8074]), {"units": "1"})},
                coords={"damping": ("damping", [1.0, 2.0], {"units": "N s mm-1"})},
                attrs={"scene": "analysis: jump_map", "input_small": "ab12",
-                      "input_cases": 4}).to_netcdf(path)
+                      "input_cases": 4, "study": "title: j"}).to_netcdf(path)
     assert main(["inspect", str(path)]) == 0
     out = capsys.readouterr().out
     assert "  analysis study jump_map, reading small\n" in out and "steps per mesh" not in out, out

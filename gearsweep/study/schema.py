@@ -486,7 +486,8 @@ def consistency_problems(study: Study) -> list[Problem]:
         loads = {}
         for name in ("torque", "mean_force"):  # the swept loads in SI, for a file's own load
             try:
-                loads[name] = study.grid(name) if name in study.sweep else None
+                with np.errstate(all="ignore"):  # a log range from -10 N m: its own line says so
+                    loads[name] = study.grid(name) if name in study.sweep else None
             except Exception:  # noqa: BLE001 -- a unit problem of the sweep, reported beside
                 loads[name] = None
         out += [Problem(*p) for p in excitation_problems(sc, study.sweep,
@@ -625,9 +626,14 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
                 out.append(Problem(f"sweep.{name}.stop", spec.stop, f"a stop above start"
                                    f" ({spec.start!r}): {spec.num} equal values could not be told"
                                    " apart by ds.sel(); one value is [value]"))
+            elif spec.num == 1 and a < b:  # linspace(a, b, 1) is [a]: the stop was dropped
+                out.append(Problem(f"sweep.{name}.num", 1, (
+                    f"2 or more from {spec.start!r} to {spec.stop!r} (one value is its start"
+                    f" alone, the stop unused: write [{spec.start}] for that)")))
             elif spec.spacing == "log" and (a <= 0 or b <= 0):
-                out.append(Problem(f"sweep.{name}", NO_VALUE,
-                                   "log spacing needs positive start and stop"))
+                end = "start" if a <= 0 else "stop"
+                out.append(Problem(f"sweep.{name}.{end}", getattr(spec, end),
+                                   "above zero: log spacing needs positive start and stop"))
             elif with_order and a > b:  # equal only for num: 1 (above)
                 out.append(Problem(f"sweep.{name}.start", spec.start, (
                     f"start must be below stop ({spec.stop!r}): give a range in increasing order"
