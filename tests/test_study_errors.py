@@ -228,12 +228,12 @@ def test_a_range_of_one_value_with_another_stop_a_negative_log_start_and_inf_are
     beside its line, which did not quote the value; ``speed: [.inf]`` gave two lines, in two
     wordings, for one problem."""
     lines = _lines(GOOD.replace("num: 3}", "num: 1}"))
-    assert lines == ["s.yaml:10: sweep.speed.num: 1 -- 2 or more from '5000 rpm' to '6000 rpm'"
-                     " (one value is its start alone, the stop unused: write [5000 rpm] for that)"]
+    assert lines == [("s.yaml:10: sweep.speed.num: 1 -- 2 or more from '5000 rpm' to '6000 rpm'"
+                     " (one value is its start alone, the stop unused: write [5000 rpm] for that)")]
     text = GOOD.replace("mean_force: 100 N", "torque: 10 N m\n  base_radius: 50 mm").replace(
         "  speed: {", "  torque: {start: -10 N m, stop: 20 N m, num: 3, spacing: log}\n  speed: {")
-    assert _lines(text) == ["s.yaml:11: sweep.torque.start: '-10 N m' -- above zero: log spacing"
-                            " needs positive start and stop"]
+    assert _lines(text) == [("s.yaml:11: sweep.torque.start: '-10 N m' -- above zero: log spacing"
+                            " needs positive start and stop")]
     assert capfd.readouterr().err == ""
     lines = _lines(GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "[.inf]"))
     assert lines == ["s.yaml:10: sweep.speed[0]: inf -- a finite number (not nan or inf)"]
