@@ -51,7 +51,8 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     Parameters
     ----------
     ds : Dataset
-        A result with a ``speed`` dim and ``var`` in metres.
+        A result with a ``speed`` dim and ``var`` (in the unit its ``units`` attribute says: µm
+        in a result file; drawn in µm).
     var : str
         ``p_pp``, ``p_rms``, ``p_max``, ...
     hue : str, optional

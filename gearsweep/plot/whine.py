@@ -103,7 +103,8 @@ def plot_waterfall(
     x : {"frequency", "order"}
         Horizontal axis: frequency [kHz or Hz] or mesh order [-].
     variable : str
-        ``spectrum`` [m] (drawn in um) or ``force_spectrum`` [N].
+        ``spectrum`` (µm in a result file, any length unit its ``units`` says; drawn in µm)
+        or ``force_spectrum`` [N].
     driven_teeth : int, optional
         Label the speed axis with the driven gear's speed (mesh frequency x 60 / teeth).
     skip_mean : bool
@@ -163,7 +164,8 @@ def plot_campbell(
     ds : Dataset
         A result with ``variable`` on ``(speed, order)``.
     variable : str
-        ``spectrum`` [m] (shown in um) or ``force_spectrum`` [N].
+        ``spectrum`` (µm in a result file, any length unit its ``units`` says; shown in µm)
+        or ``force_spectrum`` [N].
     orders : sequence of int
         Mesh orders labelled at the right edge [-] (no line over the data: the lines of the
         spectrum are one bin, 1 / record_periods, tall).
@@ -234,7 +236,8 @@ def plot_response_vs_speed(
     by : str
         The other swept dim (``torque`` [N m], ``mean_force`` [N], ``damping`` ...).
     variable : str
-        A statistic (docs/data-format.md) of p [m] (drawn in um), e.g. ``p_rms`` or ``p_pp``.
+        A statistic (docs/data-format.md) of p (µm in a result file; drawn in µm), e.g.
+        ``p_rms`` or ``p_pp``.
     natural_frequency_hz : float, optional
         Mark the speeds 60 f_n / (n N1) where mesh order n meets f_n [Hz].
     orders : sequence of int
