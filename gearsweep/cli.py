@@ -55,6 +55,7 @@ from gearsweep.study.execute import (
 )
 from gearsweep.study.plan import cases_beyond_step_limit, make_plan
 from gearsweep.study.schema import (
+    MAX_STEPS_PER_PERIOD,
     is_netcdf,
     line_of,
     load_study,
@@ -482,6 +483,11 @@ def cmd_advise(args: argparse.Namespace) -> int:
                backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=args.target,
                steps_per_period=s.steps_per_period,
                periods=s.transient_periods + s.record_periods)
+    for n, how in ((a.steps_per_period, ""), (a.kink_steps_per_period, " kink-aware")):
+        if n is not None and n > MAX_STEPS_PER_PERIOD:  # advice a study cannot take
+            a.warnings.append(f"the{how} target needs {n} steps per mesh period, beyond the"
+                              f" {MAX_STEPS_PER_PERIOD} a study takes (solver.steps_per_period):"
+                              " out of reach here; ask for a larger target")
     scene = f"{study.scene.kind} scene" + (" with backlash" if plan.has_backlash else "")
     print(f"{name}:")
     print(textwrap.indent(a.report(scene), "  "))

@@ -1060,6 +1060,18 @@ def test_advise_says_it_reads_stdin_and_names_it_as_validate_does(monkeypatch, c
                                        " error between 0 and 1 (e.g. 1e-4)\n")
 
 
+def test_advise_says_when_its_steps_are_more_than_a_study_takes(monkeypatch, capsys):
+    """``--target 1e-20`` advised 53185478400 steps per period with 'h omega_n = 0.000', with no
+    word that a study takes at most 65536 (found by new-user and adversarial tests)."""
+    for target, says in (("1e-20", True), ("1e-4", False)):
+        monkeypatch.setattr(sys, "stdin", io.StringIO(GOOD))
+        assert main(["advise", "-", "--target", target]) == 0
+        out = " ".join(capsys.readouterr().out.split())
+        assert ("beyond the 65536 a study takes (solver.steps_per_period): out of reach here"
+                in out) is says, out
+        assert "h omega_n = 0.000" not in out, out
+
+
 @pytest.mark.parametrize(("line", "said"), [
     ("outputs: stats", "outputs: 'stats' -- a list; for one item write [stats]"),
     ("continuation: up", "continuation: 'up' -- a list; for one item write [up]"),

@@ -107,7 +107,7 @@ class Advice:
                          f" error {self.chosen_error:.1e} of the amplitude.")
         lines.append(
             f"For a target of {self.target:.1e}: {self.steps_per_period} steps per mesh period"
-            f" (h omega_n = {self.h_omega_n:.3f} at the lowest speed, expected error"
+            f" (h omega_n = {self.h_omega_n:.3g} at the lowest speed, expected error"
             f" {self.expected_error:.1e} from err <= {self.constant:.3g} (h omega_n)^"
             f"{self.order:g}), {self.msteps:.3g} Msteps.")
         sampled = (math.pi / self.steps_per_period) ** 2 / 2

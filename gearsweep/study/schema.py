@@ -298,9 +298,14 @@ class Range(Strict):
     spacing: Literal["linear", "log"] = "linear"
 
 
+MAX_STEPS_PER_PERIOD = 65536
+"""The most steps per mesh period a study takes (``solver.steps_per_period``)."""
+
+
 class Solver(Strict):
     method: Literal["rk4", "rk5"] = "rk4"
-    steps_per_period: Count = Field(64, ge=4, le=65536, description="steps per mesh period")
+    steps_per_period: Count = Field(64, ge=4, le=MAX_STEPS_PER_PERIOD,
+                                    description="steps per mesh period")
     kink_aware: Flag = Field(
         False, description="redo steps that cross the backlash boundaries in pieces that end on "
         "them (gearsweep.kernels.kink): keeps the method's order 4/5 with backlash, where the "
