@@ -415,6 +415,19 @@ def test_a_mesh_study_result_is_an_excitation_file(tmp_path):
     assert_allclose([h.phase for h in m.stiffness_harmonics],
                     [h.phase for h in g.stiffness_harmonics], atol=1e-11)
     assert max(h.amplitude for h in m.ste_harmonics) < 1e-15  # of a 4.3 um STE
+    # the file states its pair: a scene of other teeth or another base radius is refused (a
+    # new-user test ran 30 teeth, and a torque through 40 mm, on the 48-tooth pair's samples)
+    for old, new, said in (
+            ("teeth: 48", "teeth: 30", ("s.yaml:7: scene.teeth: 30 -- the driving gear's teeth of"
+             " excitation.file's pair (48, from its base_radius_1 and base_pitch)")),
+            (f"base_radius: {r1!r} m", "base_radius: 40 mm", ("s.yaml:8: scene.base_radius: the"
+             " driving gear's base radius of excitation.file's pair (56.3816 mm, its"
+             " base_radius_1), the scene's 40 mm"))):
+        f.write_text(study(scene + f"  excitation: {{file: mesh.nc}}\n  teeth: 48\n"
+                           f"  base_radius: {r1!r} m\n").replace(old, new))
+        with pytest.raises(StudyError) as err:
+            load_study(f)
+        assert str(err.value).splitlines() == [f"{f.parent}/{said}"]
 
 
 def test_a_files_stated_load_must_be_the_scenes(tmp_path, capsys):

@@ -70,6 +70,11 @@ class Samples:
     torque: float | None = None
     """The mean driving torque [N m] the file says its samples are at (a netCDF file's scalar
     ``torque``, as a mesh study writes it); ``None`` when it does not say."""
+    base_radius: float | None = None
+    """The driving gear's base radius [m] the file states (a mesh study's ``base_radius_1``)."""
+    teeth: int | None = None
+    """The driving gear's teeth the file states (a mesh study's 2 pi ``base_radius_1`` /
+    ``base_pitch``)."""
 
     def mesh_phase(self, teeth: int) -> np.ndarray:
         return self.at if self.position == "mesh_phase" else self.at * teeth / (2.0 * math.pi)
@@ -163,19 +168,29 @@ def _number(cell: str) -> bool:
     return True
 
 
-def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, float | None]:
+def _stated(ds: Any, name: str, kind: str) -> float | None:
+    """A scalar variable of ``ds`` in SI (its ``units`` read as ``kind``); ``None`` where the
+    file does not state it plainly (absent, not scalar, no unit)."""
+    if name not in ds.variables or ds[name].ndim != 0:
+        return None
+    try:
+        return float(ds[name].values) * to_si("1 " + str(ds[name].attrs["units"]), kind)
+    except (KeyError, UnitParseError, TypeError, ValueError):
+        return None
+
+
+def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, dict]:
     import xarray as xr
 
     with xr.open_dataset(path) as ds:
         # a mesh study swept over one torque holds it as a dimension of length 1: its load
         ds = ds.squeeze([d for d, n in ds.sizes.items() if n == 1 and d in ds.coords])
-        torque = None  # the load of a mesh study: a scalar torque with its unit; else unstated
-        if "torque" in ds.variables and ds["torque"].ndim == 0:
-            try:
-                torque = float(ds["torque"].values) * to_si(
-                    "1 " + str(ds["torque"].attrs["units"]), "torque")
-            except (KeyError, UnitParseError):
-                torque = None
+        # the load and the pair of a mesh study, stated by scalars with units; else unstated
+        stated = {"torque": _stated(ds, "torque", "torque"),
+                  "base_radius": _stated(ds, "base_radius_1", "length")}
+        pitch = _stated(ds, "base_pitch", "length")
+        if stated["base_radius"] and pitch:
+            stated["teeth"] = round(2.0 * math.pi * stated["base_radius"] / pitch)
         wanted = [v for v in ds.variables if str(v).lower() in VALUES]
         if not wanted:
             raise ValueError("no variable ste or mesh_stiffness (1-D over mesh_phase or angle)")
@@ -188,15 +203,15 @@ def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, float |
             (str(v), str(ds[v].attrs.get("units", ""))) for v in wanted]
         data = np.stack([np.asarray(ds[dim].values, float)]
                         + [np.asarray(ds[v].values, float) for v in wanted], axis=1)
-    return names, data, torque
+    return names, data, stated
 
 
 @lru_cache(maxsize=32)
 def _read(path: str, stamp: tuple[int, int]) -> Samples:
     p = Path(path)
     try:
-        names, data, torque = _read_netcdf(p) if p.suffix.lower() in (".nc", ".nc4", ".cdf") \
-            else (*_read_csv(p), None)
+        names, data, stated = _read_netcdf(p) if p.suffix.lower() in (".nc", ".nc4", ".cdf") \
+            else (*_read_csv(p), {})
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"cannot read the file ({type(exc).__name__})") from None
     index, factor, position = _columns(names)
@@ -206,7 +221,7 @@ def _read(path: str, stamp: tuple[int, int]) -> Samples:
     def col(which: str) -> np.ndarray | None:
         return data[:, index[which]] * factor[which] if which in index else None
 
-    return Samples(position, col("position"), col("ste"), col("stiffness"), torque)
+    return Samples(position, col("position"), col("ste"), col("stiffness"), **stated)
 
 
 def read_samples(path: str | Path) -> Samples:
@@ -296,6 +311,7 @@ def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
                     out.append((f"sweep.{name}", NO_VALUE, ("with k(t) the excitation e = STE -"
                                 " F_m / k is fitted for one load and stiffness, and a measured"
                                 " STE holds for its load: one study per load")))
+    out += _stated_pair_problems(scene, s)
     if out:
         return out
     phi = s.mesh_phase(scene.teeth)
@@ -348,6 +364,25 @@ def _stated_load_problems(scene: Any, swept: dict, file_torque: float | None
                         " at this one")))
         if out:
             break  # one line says it
+    return out
+
+
+def _stated_pair_problems(scene: Any, s: Samples) -> list[tuple[str, Any, str]]:
+    """The scene's driving gear (teeth, base radius) against the one an excitation file states:
+    its samples are that pair's, and a torque is a mesh force through its radius (found by a
+    new-user test: a scene of 30 teeth, or of base radius 40 mm, ran the 48-tooth pair's file)."""
+    out = []
+    if s.teeth is not None and scene.teeth is not None and scene.teeth != s.teeth:
+        out.append(("scene.teeth", scene.teeth, (f"the driving gear's teeth of excitation.file's"
+                    f" pair ({s.teeth}, from its base_radius_1 and base_pitch)")))
+    r1 = getattr(scene, "r1", None)
+    if s.base_radius is not None and r1 is not None \
+            and not math.isclose(r1, s.base_radius, rel_tol=1e-3):
+        where = "scene.base_radius" if getattr(scene, "base_radius", None) is not None \
+            else "scene.drive"
+        out.append((where, NO_VALUE, (f"the driving gear's base radius of excitation.file's pair"
+                    f" ({s.base_radius * 1e3:.6g} mm, its base_radius_1), the scene's"
+                    f" {r1 * 1e3:.6g} mm")))
     return out
 
 
