@@ -842,3 +842,19 @@ def test_a_dask_worker_s_full_disk_is_said_with_the_chunks_saved(tmp_path, monke
     monkeypatch.setattr(execute, "_compute", failing(ValueError("a bug")))
     with pytest.raises(ClusterError, match="chunk of lanes 0-10 failed"):
         execute.stream_to_file(plan, tmp_path / "r.nc", chunk_cases=100)
+
+
+@pytest.mark.parametrize("chunk_cases", [None, 1, 5, 48, 100, 1000])
+def test_the_estimate_counts_the_chunks_the_run_cuts(chunk_cases):
+    """``--estimate`` said 16 chunks for a run that cut 18 (the short first and last chunks,
+    ``with_short_ends``, were not counted; found by a new-user test): it counts them now, for
+    the continued sweep and for plain cases, whatever the chunk size."""
+    from gearsweep.study.estimate import quick_estimate
+    from gearsweep.study.execute import chunks_to_run
+
+    plain = RATTLE.replace("continuation: [up, down]\n", "").replace("num: 12}", "num: 3000}")
+    for text in (RATTLE, plain):
+        plan = plan_of(text)
+        assert quick_estimate(plan, chunk_cases)[0].chunks == len(
+            chunks_to_run(plan, None, chunk_cases)), text
+

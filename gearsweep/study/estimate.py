@@ -26,6 +26,7 @@ from gearsweep.study.execute import (
     cores,
     lanes_per_chunk,
     measure_rate,
+    with_short_ends,
 )
 from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan
@@ -87,8 +88,11 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal
     if plan.device == "cuda":
         memory += cuda.HOST_MEMORY_BYTES
+    count = full + (1 if rest else 0)
+    ends = [(0, min(per, n))] + ([(n - (rest or per), n)] if count > 1 else [])
+    count += len(with_short_ends(plan, ends, threads)) - len(ends)  # as chunks_to_run cuts them
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
-                   chunks=full + (1 if rest else 0), threads=threads, rate=rate,
+                   chunks=count, threads=threads, rate=rate,
                    rate_source=source, seconds=seconds, memory_bytes=memory,
                    output_bytes=output, device=plan.device, compile_seconds=compile_s)
     return est, compile_s

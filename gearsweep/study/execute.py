@@ -99,8 +99,12 @@ def chunks_held(plan: Plan) -> int:
     """Chunks' worth of result bytes a run of ``plan`` holds at once (memory estimate)."""
     return CHUNKS_HELD_WHOLE if plan.continued or plan.gear_load_swept else CHUNKS_HELD
 
-FIXED_SECONDS = 3.0
-"""Time of a run that does not depend on its size: loading the compiled kernel, netCDF setup [s]."""
+FIXED_SECONDS = 1.0
+"""Time of a run that does not depend on its size: starting Python, importing the libraries,
+loading the compiled kernel, the file's set-up [s]. An 8-case study took 0.38 s from process start
+to exit on the 2-core VM (``scripts/bench_startup.py``, 26 Nov 2026); 1 s allows for a slower
+disk or CPU. (It was 3 s, from before the start was made fast: a 3-case study was estimated at
+3.0 s and ran in 0.4 s.)"""
 
 WRITE_RATE = 100e6
 """Bytes of results written per second [bytes/s], counted as if the writing were not overlapped
