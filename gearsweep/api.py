@@ -37,7 +37,7 @@ from gearsweep.study.execute import InProcess, run_plan, run_to_file, step_limit
 from gearsweep.study.mesh import run_mesh_study
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study
-from gearsweep.units import si_values
+from gearsweep.units import UnitParseError, si_values, to_display, to_si
 
 StudyLike = str | Path | dict | Study | MeshStudy | AnalysisStudy
 """What ``run`` takes: a study file's path, its YAML text, its mapping, or a validated study."""
@@ -222,6 +222,9 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
                           " older gearsweep)")
     model = model_from_record(json.loads(ds.attrs["model"]))
     swept = [d for d in ds.dims if d in SWEEPABLE and d != "speed"]
+    if "speed" in case:  # swept, but no field of the model (it said "not a swept field")
+        raise ResultError("speed is not a field of the model: a case's speed sets only its mesh"
+                          f" frequency; select among {', '.join(swept) or 'none'}")
     unknown = sorted(set(case) - set(swept))
     if unknown:
         raise ResultError(f"{', '.join(unknown)}: not a swept field of this result's model"
@@ -229,6 +232,15 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
     si = {}
     for name, value in case.items():
         coord = ds[name]
+        if isinstance(value, str):  # '100 um': in the coordinate's own unit, as sel() takes it
+            try:
+                value = float(to_display(np.array([to_si(value, SWEEPABLE[name])]),
+                                         SWEEPABLE[name])[0])
+            except UnitParseError as exc:
+                raise ResultError(f"{name}={value!r}: {exc}") from None
+        elif isinstance(value, bool) or not isinstance(value, int | float | np.number):
+            raise ResultError(f"{name}={value!r}: a number in the result's unit"
+                              f" ({coord.attrs.get('units', '?')}) or a string with a unit")
         at = np.flatnonzero(np.isclose(coord.values, float(value), rtol=1e-9, atol=0.0))
         if at.size != 1:  # the file's value to 9 digits (5.0 finds 4.99999999999 of a range)
             near = coord.values[int(np.argmin(np.abs(coord.values - float(value))))]

@@ -277,8 +277,17 @@ def test_result_model_gives_a_swept_field_only_where_it_is_selected(small_whine)
     with pytest.raises(ResultError, match=r"mean_force=834 is not one of the result's 2 values"
                                           r" \(400 to 833 N; the nearest is 833\)"):
         gearsweep.result_model(ds, mean_force=834)
-    with pytest.raises(ResultError, match=r"speed: not a swept field .* \(swept: "):
+    # speed is swept but no field of the model (said "not a swept field"; a new-user test)
+    with pytest.raises(ResultError, match=r"speed is not a field of the model: a case's speed"
+                                          r" sets only its mesh frequency; select among"
+                                          r" mean_force, damping"):
         gearsweep.result_model(ds, speed=3000)
+    # a value with a unit, as the study writes it (was a bare ValueError)
+    assert gearsweep.result_model(ds, mean_force="0.833 kN", damping="5500 N s/m") == picked
+    with pytest.raises(ResultError, match=r"damping='5.5 kg': has units of \[mass\]"):
+        gearsweep.result_model(ds, damping="5.5 kg")
+    with pytest.raises(ResultError, match=r"damping=\[5.5\]: a number in the result's unit"):
+        gearsweep.result_model(ds, damping=[5.5])
 
 
 def test_result_model_of_a_gear_scene_at_a_swept_load():
