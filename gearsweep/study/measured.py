@@ -38,7 +38,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
-from gearsweep.errors import NO_VALUE
+from gearsweep.errors import NO_VALUE, article
 from gearsweep.gear.measured import (
     FitError,
     MeasuredExcitation,
@@ -90,6 +90,10 @@ def _factor(name: str, unit: str, kind: str) -> float:
     if not unit.strip():
         raise ValueError(f"column {name!r} needs its unit in the header, e.g."
                          f" '{name} [{ {'angle': 'deg', 'displacement': 'um'}.get(kind, 'N/mm')}]'")
+    example = {"angle": "deg or rad", "displacement": "um or m"}.get(kind, "N/mm or N/m")
+    if unit.strip().lower() in DIMENSIONLESS:  # 'angle [1]' read "1 1": "a space inside a number"
+        raise ValueError(f"column {name!r}: unit {unit!r} is no unit of {article(kind)}; write"
+                         f" e.g. {example}")
     try:  # UDUNITS exponents of netCDF files (``N m-1``, ``kg m2``): units.normalise reads them
         f = to_si("1 " + unit, kind)
     except UnitParseError as exc:
