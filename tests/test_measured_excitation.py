@@ -269,8 +269,8 @@ def test_example_study_matches_the_gear_scene():
     ("mesh_phase [1], ste [N]", [[0.1, 1.0]], "column 'ste': unit 'N'"),
     ("mesh_phase [deg], ste [um]", [[0.1, 1.0]], "unit 'deg' of a mesh phase"),
     # said "unit '1': a space inside a number" (it read '1 1'; an adversarial test)
-    ("angle [1], ste [um]", [[0.1, 1.0]], "column 'angle': unit '1' is no unit of an angle;"
-     " write e.g. deg or rad"),
+    ("angle [1], ste [um]", [[0.1, 1.0]], ("column 'angle': unit '1' is no unit of an angle;"
+     " write e.g. deg or rad")),
     ("mesh_phase [1], ste [um]", [[0.1, float("nan")]], "finite"),
 ])
 def test_bad_files_give_one_line(tmp_path, header, rows, message):
