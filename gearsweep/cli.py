@@ -384,6 +384,11 @@ def describe(path: str | Path) -> str:
 
     path = Path(path)
     try:
+        path.stat()  # xarray's engines each warned they "fail while guessing" a name too long
+    except OSError as exc:
+        raise ResultError(f"{path}: no result file there ({exc.strerror or type(exc).__name__})"
+                          ) from None
+    try:
         ds = xr.open_dataset(path)
     except (OSError, ValueError) as exc:
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__

@@ -572,6 +572,11 @@ def test_a_result_given_as_a_study_and_a_text_given_as_a_result_are_one_line(tmp
     assert main(["inspect", str(text)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "not a netCDF file" in err, err
+    for missing, why in ((tmp_path / "none.nc", "No such file or directory"),
+                         (tmp_path / ("x" * 300 + ".nc"), "File name too long")):
+        assert main(["inspect", str(missing)]) == 2  # a long name: three warnings of xarray's
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"no result file there ({why})" in err, err
     # a netCDF file of someone else's: said "(no title) scene ?" and exit 0 (adversarial test)
     assert main(["inspect", str(result)]) == 2
     err = capsys.readouterr().err
