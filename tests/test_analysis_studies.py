@@ -44,7 +44,8 @@ def test_work_precision_study_gives_errors_costs_and_orders():
 
 
 def test_bad_analysis_options_are_one_line():
-    with pytest.raises(StudyError, match=r"steps_per_period must be multiples of 8"):
+    with pytest.raises(StudyError, match=r"steps_per_period\[0\]: 10 -- Input should be a multiple"
+                                         r" of 8"):
         gearsweep.run({"type": "analysis", "title": "wp", "analysis": {
             "kind": "work_precision", "steps_per_period": [10, 20, 40]}})
     with pytest.raises(StudyError, match=r"analysis"):

@@ -722,10 +722,13 @@ def test_an_analysis_error_names_the_field_as_written_and_its_own_line():
         " string as an integer")]
     assert _analysis_lines(METHOD_STABILITY, "steps: 200000", "steps: 20") == [
         "a.yaml:12: analysis.steps: 20 -- Input should be greater than or equal to 1000"]
-    # a check of the whole analysis stays on the line of analysis:
+    # a check of each item is on the item's line (was one line on 'analysis:', and a NaN in
+    # zeta hid a negative damping ratio beside it: an adversarial test)
     assert _analysis_lines(WORK_PRECISION, "[8, 16, 32, 64,", "[10, 16, 32, 64,") == [
-        ("a.yaml:8: analysis: '{...}' -- steps_per_period must be multiples of 8 (the common"
-        " sampling grid)")]
+        "a.yaml:12: analysis.steps_per_period[0]: 10 -- Input should be a multiple of 8"]
+    assert _analysis_lines(METHOD_STABILITY, "zeta: [0.0, 0.02,", "zeta: [-1, .nan,") == [
+        "a.yaml:11: analysis.zeta[0]: -1 -- Input should be greater than or equal to 0",
+        "a.yaml:11: analysis.zeta[1]: nan -- a finite number (not nan or inf)"]
 
 
 def test_an_unknown_or_missing_analysis_field_is_told_in_the_analysis_words():

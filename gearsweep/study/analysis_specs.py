@@ -35,7 +35,7 @@ class MethodStability(Strict):
 
     kind: Literal["method_stability"]
     methods: list[Method] = Field(default_factory=lambda: ["rk4", "rk5"], min_length=1)
-    zeta: list[Real] = Field(
+    zeta: list[Annotated[Real, Field(ge=0, le=10)]] = Field(
         default_factory=lambda: [0.0, 0.02, 0.05, 0.1, 0.2, 0.215, 0.3, 0.45, 0.6, 0.8, 0.95,
                                  1.2, 1.6],
         min_length=1, description="damping ratios measured by integration [1]")
@@ -44,11 +44,6 @@ class MethodStability(Strict):
     steps: Count = Field(4_000_000, ge=1000, le=100_000_000,
                        description="steps integrated per trial step (bisection)")
 
-    @model_validator(mode="after")
-    def _ranges(self) -> MethodStability:
-        if any(not (0 <= z <= 10) for z in self.zeta):
-            raise ValueError("damping ratios must lie in [0, 10]")
-        return self
 
 
 class ArtifactMap(Strict):
@@ -61,14 +56,8 @@ class ArtifactMap(Strict):
                             " resolved model and its speed and damping grids")
     methods: list[Literal["rk5", "fehlberg5", "cashkarp5", "dopri5"]] = Field(
         default_factory=lambda: ["rk5", "fehlberg5", "cashkarp5", "dopri5"], min_length=1)
-    steps_per_period: list[Count] = Field(
+    steps_per_period: list[Annotated[Count, Field(ge=4)]] = Field(
         default_factory=lambda: list(range(100, 421, 20)), min_length=1)
-
-    @model_validator(mode="after")
-    def _steps(self) -> ArtifactMap:
-        if any(s < 4 for s in self.steps_per_period):
-            raise ValueError("steps_per_period must be >= 4")
-        return self
 
     def inputs(self) -> list[str]:
         return [self.rig]
@@ -85,25 +74,18 @@ class WorkPrecision(Strict):
     rattle_speed: Speed = Field(9000.0, gt=0, description="speed of the rattle scene [rpm]")
     methods: list[Literal["rk4", "rk5", "rk4-kink", "rk5-kink"]] = Field(
         default_factory=lambda: ["rk4", "rk5", "rk4-kink", "rk5-kink"], min_length=1)
-    steps_per_period: list[Count] = Field(
-        default_factory=lambda: [8, 16, 32, 64, 128, 256, 512, 1024], min_length=3)
+    steps_per_period: list[Annotated[Count, Field(ge=8, multiple_of=8)]] = Field(
+        default_factory=lambda: [8, 16, 32, 64, 128, 256, 512, 1024], min_length=3,
+        description="multiples of 8 (the common sampling grid)")
     peers: list[Literal["RK45", "DOP853", "LSODA"]] = Field(
         default_factory=lambda: ["RK45", "DOP853", "LSODA"])
-    rtol: list[Real] = Field(
+    rtol: list[Annotated[Real, Field(gt=0, lt=1)]] = Field(
         default_factory=lambda: [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10], min_length=1)
     transient_periods: Count = Field(40, ge=1, le=100_000)
     record_periods: Count = Field(20, ge=1, le=100_000)
     copies: Count = Field(64, ge=1, le=1_000_000,
                         description="identical cases per kernel call (cost = time / copies)")
     repeat: Count = Field(3, ge=1, le=100, description="timings per point; the best is kept")
-
-    @model_validator(mode="after")
-    def _steps(self) -> WorkPrecision:
-        if any(s % 8 or s < 8 for s in self.steps_per_period):
-            raise ValueError("steps_per_period must be multiples of 8 (the common sampling grid)")
-        if any(not (0 < r < 1) for r in self.rtol):
-            raise ValueError("rtol values must lie in (0, 1)")
-        return self
 
 
 def _result_name(value: object) -> object:
