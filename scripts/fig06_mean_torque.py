@@ -17,7 +17,7 @@ from _common import open_result, parse
 
 from gearsweep import result_model
 from gearsweep.plot.common import save
-from gearsweep.plot.whine import damping_text, natural_frequency, plot_response_vs_speed
+from gearsweep.plot.whine import damping_text, natural_frequency, plot_response_by_load
 
 args = parse(__doc__.splitlines()[0])
 studies = ("fig06_mean_torque", "fig06_mean_torque_relief", "fig06_mean_torque_paper_k")
@@ -27,14 +27,14 @@ for col, study in enumerate(studies):
     ds = open_result(args.results, study)
     f_n = natural_frequency(ds)
     ax, ax2 = axes[0, col], axes[1, col]
-    plot_response_vs_speed(ax, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n)
+    plot_response_by_load(ax, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n)
     ax.get_legend().set_loc("lower right")
     title = ds.attrs["title"].split(": ", 1)[-1]
     ax.set_title(textwrap.fill(f"({'abc'[col]}) {title}; f_n = {f_n / 1e3:.2f} kHz,"
                                f" {damping_text(ds).split(', ')[1]} (at the first load)", 62),
                  fontsize=9)
     ax.set_xlabel("")
-    plot_response_vs_speed(ax2, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n,
+    plot_response_by_load(ax2, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n,
                            relative=True, log=True)
     ax2.get_legend().remove()
     ax2.set_title("relative to the lowest torque", fontsize=9)

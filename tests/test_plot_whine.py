@@ -19,7 +19,7 @@ from gearsweep.plot.whine import (  # noqa: E402
     natural_frequency,
     plot_campbell,
     plot_order_lines,
-    plot_response_vs_speed,
+    plot_response_by_load,
     plot_waterfall,
 )
 from gearsweep.study.schema import parse_study  # noqa: E402
@@ -68,6 +68,10 @@ def test_waterfall_draws_the_spectrum(ds):
     assert_allclose(x, one.frequency.values[-1, 1:] * 1e-3)  # kHz above 5 kHz
     assert np.all(y == 18000.0)
     assert "[µm]" in ax.get_zlabel() and "[rpm]" in ax.get_ylabel()
+    flat = plt.figure().add_subplot()  # drew, then failed on 'set_zlabel' (a new-user test)
+    with pytest.raises(TypeError, match="plot_waterfall draws on a 3-D axes"):
+        plot_waterfall(flat, one, traces=5)
+    assert not flat.get_lines()
 
 
 def test_campbell_map_and_natural_frequency_curve(ds):
@@ -89,7 +93,7 @@ def test_campbell_map_and_natural_frequency_curve(ds):
 
 def test_response_and_order_lines(ds):
     fig, ax = plt.subplots()
-    plot_response_vs_speed(ax, ds, by="torque", variable="p_rms")
+    plot_response_by_load(ax, ds, by="torque", variable="p_rms")
     assert_allclose(ax.get_lines()[1].get_ydata(), ds.p_rms.sel(torque=50.0).values)  # um
     fig, ax = plt.subplots()
     plot_order_lines(ax, ds.sel(torque=50.0), derivative=1, driven_teeth=32)
@@ -107,7 +111,7 @@ def test_unsettled_cases_are_masked_and_counted(ds):
     bad = ds.copy(deep=True)
     bad["status"][{"speed": 2, "torque": 1}] = 2  # not settled
     fig, ax = plt.subplots()
-    plot_response_vs_speed(ax, bad, by="torque", variable="p_rms")
+    plot_response_by_load(ax, bad, by="torque", variable="p_rms")
     y = ax.get_lines()[1].get_ydata()  # torque 50 N m
     assert np.isnan(y[2]) and np.isfinite(np.delete(y, 2)).all()
     assert ax.get_legend().get_title().get_text().startswith("1 of ")

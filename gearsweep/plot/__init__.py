@@ -5,7 +5,8 @@ Functions that take a result Dataset and read its units (the figure scripts use 
 * ``plot.sweep.plot_response_vs_speed(ds, var="p_pp", ax=None, hue=None)``: any dynamic result
   over speed, one line per value of another swept dim, up and down sweeps, unsettled cases masked.
 * ``plot.whine.plot_waterfall``, ``plot_campbell``, ``plot_order_lines``: a result with the
-  ``spectrum`` output; ``plot.whine.plot_response_vs_speed(ax, ds, by=...)`` per swept load.
+  ``spectrum`` output; ``plot.whine.plot_response_by_load(ax, ds, by=...)``: over speed per
+  swept load (Fig. 6; named plot_response_vs_speed until 26 Nov 2026, as the one above).
 * ``plot.stability.plot_stability_map(ds, var="unstable")``: a result over speed and damping with
   the ``floquet`` output.
 * ``plot.rattle.plot_rattle_balance``, ``plot_rattle_contact``, ``plot_rattle_graphical``,

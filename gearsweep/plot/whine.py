@@ -31,7 +31,7 @@ __all__ = [
     "natural_frequency",
     "plot_campbell",
     "plot_order_lines",
-    "plot_response_vs_speed",
+    "plot_response_by_load",
     "plot_waterfall",
 ]
 
@@ -114,6 +114,8 @@ def plot_waterfall(
     zlabel : str, optional
         Label of the amplitude axis (default: from the variable: p in µm or a force in N).
     """
+    if not hasattr(ax, "set_zlabel"):  # else it drew, then failed on the z label
+        raise TypeError("plot_waterfall draws on a 3-D axes: fig.add_subplot(projection='3d')")
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da = ds[variable]
     if "speed" not in da.dims or "order" not in da.dims or da.ndim != 2:
@@ -215,7 +217,7 @@ def _edges(c: np.ndarray) -> np.ndarray:
     return np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])
 
 
-def plot_response_vs_speed(
+def plot_response_by_load(
     ax: Axes,
     ds: xr.Dataset,
     *,
