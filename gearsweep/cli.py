@@ -292,6 +292,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(name, "--chunk-size", args.chunk_size, "a positive number of cases")
     if args.workers is not None and args.workers < 1:
         raise StudyError(name, "--workers", args.workers, "a positive number of workers")
+    if args.workers is not None and args.workers > cores():  # each a process of the machine
+        raise StudyError(name, "--workers", args.workers, (  # (10000 would start them all)
+            f"at most this machine's {cores()} cores (a local worker is a process with its share"
+            " of them; several machines: --scheduler)"))
     # Chunks of at most about 30 s (progress, and a kill loses at most one chunk).
     chunk, capped = chunk_cases(plan, args.chunk_size, workers=args.workers)
     saved = saved_layout(out, plan.study_key, plan.n_lanes)

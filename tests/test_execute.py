@@ -863,3 +863,17 @@ def test_the_estimate_counts_the_chunks_the_run_cuts(chunk_cases):
         assert quick_estimate(plan, chunk_cases)[0].chunks == len(
             chunks_to_run(plan, None, chunk_cases)), text
 
+
+def test_workers_beyond_the_machine_s_cores_are_refused(tmp_path, capsys, monkeypatch):
+    """``--workers`` had no upper bound: ``--workers 10000`` would fork ten thousand processes
+    (an adversarial test). More than the machine's cores is one line, exit 2, before any
+    process starts; zero or fewer as before."""
+    monkeypatch.setattr("gearsweep.cli.cores", lambda: 4)
+    study = tmp_path / "r.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+    for n, says in (("5", "at most this machine's 4 cores"), ("0", "a positive number")):
+        assert main(["run", str(study), "-o", str(tmp_path / "r.nc"), "--workers", n]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"--workers: {n} -- {says}" in err, err
+    assert not (tmp_path / "r.nc").exists()
+
