@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 import xarray as xr
 from conftest import WHINE_SCENE
 
@@ -468,6 +469,7 @@ def test_warm_up_leaves_the_collector_as_it_found_it(monkeypatch):
 _LIGHT_LOADS = """\
 import sys
 import numpy as np
+import pytest
 from gearsweep.cli import main
 code = main(sys.argv[1:])
 # the kernels came from the cache without Numba's compiler set-up: its registries not imported
@@ -591,3 +593,29 @@ def test_a_disk_full_before_the_result_file_is_made_is_one_line(tmp_path, capsys
     assert "writing.nc: the netCDF library failed (NetCDF: HDF error; " in err, err
     assert err.count("\n") == 1 and not out.exists()
     assert not list(chunk_folder(out).rglob("writing.nc"))
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts threads in /proc")
+def test_the_command_holds_openblas_to_one_thread_unless_told(tmp_path):
+    """OpenBLAS started a thread per core at NumPy's import, spinning beside the import (0.1 s
+    of CPU of a 0.35 s tiny run): the command sets ``OPENBLAS_NUM_THREADS=1`` before it, and
+    keeps a value the environment gives. Counted at the command's exit: the only thread left."""
+    code = """
+import atexit, os, sys
+sys.argv = ["gearsweep", "validate", sys.argv[1]]
+atexit.register(lambda: print(len(os.listdir("/proc/self/task")),
+                              os.environ.get("OPENBLAS_NUM_THREADS"), file=sys.stderr))
+from gearsweep.__main__ import entry
+entry()
+"""
+    study = ROOT / "studies" / "fig08_rattle.yaml"
+    for given, said in ((None, "1 1"), ("2", "2")):
+        env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+        if given:
+            env["OPENBLAS_NUM_THREADS"] = given
+        proc = subprocess.run([sys.executable, "-c", code, str(study)], env=env, cwd=ROOT,
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        threads, value = proc.stderr.strip().splitlines()[-1].split()
+        assert (value if given else f"{threads} {value}") == said, proc.stderr
+
