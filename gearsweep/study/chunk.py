@@ -133,9 +133,17 @@ def _start(plan: Plan, params: dict[str, np.ndarray], n: int) -> float | np.ndar
     s = plan.study.solver
     if s.initial_displacement != "static":
         return s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
-    model = plan.model
     if plan.dimensionless:
         raise ValueError("initial_displacement 'static' needs a gear scene, not Mathieu")
+
+    half_gap, fm, k0 = _static_terms(plan, params, n)
+    return half_gap + fm / k0
+
+
+def _static_terms(plan: Plan, params: dict[str, np.ndarray], n: int) -> tuple:
+    """(b / 2, F_m, k0) of each case of a gear scene: its half backlash, mean force and mean
+    stiffness (at its own load)."""
+    model = plan.model
 
     def case(name: str, default: float) -> np.ndarray:
         return np.asarray(params[name], float) if name in params else np.full(n, default)
@@ -149,7 +157,18 @@ def _start(plan: Plan, params: dict[str, np.ndarray], n: int) -> float | np.ndar
         fm = np.asarray(params["torque"], float) / model.base_radius
     else:
         fm = case("mean_force", model.mean_force)
-    return case("backlash", model.backlash) / 2.0 + fm / k0
+    return case("backlash", model.backlash) / 2.0, fm, k0
+
+
+def _away_from_rest(plan: Plan, params: dict[str, np.ndarray], n: int,
+                    p_mean: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """Cases of a gear scene whose mean p is not where a response that has died away rests:
+    F_m / k0 past the flank it is pressed on (b / 2 + F_m / k0 for F_m > 0), or anywhere in the
+    backlash without a mean force; to 1e-6 of the static scale."""
+    half_gap, fm, k0 = _static_terms(plan, params, n)
+    rest = fm / k0 + np.sign(fm) * half_gap
+    tol = 1e-6 * scale
+    return np.where(fm == 0, np.abs(p_mean) > half_gap + tol, np.abs(p_mean - rest) > tol)
 
 
 def _kernel_call(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> dict:
@@ -218,6 +237,11 @@ def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchRe
     # 1e-9 of the static scale (the divergence bound's, kernel_inputs) it counts as settled.
     scale = np.asarray(call["bound"], float) / s.divergence_factor
     quiet = res.stats["p_max"] - res.stats["p_min"] <= 1e-9 * scale
+    if quiet.any() and not plan.dimensionless:  # quiet where it rests, not frozen on its way:
+        # at 1e10 rpm the whole run is 5 ns, p moved 1e-13 m towards an equilibrium at 235 um,
+        # and was taken as settled (status 0; found by an adversarial test)
+        n = len(quiet)
+        quiet &= ~_away_from_rest(plan, params, n, res.stats["p_mean"], scale)
     unsettled = (status == 0) & ~(res.stats["settle_error"] <= s.settle_tolerance) & ~quiet
     if plan.driven:  # an undriven scene decays or grows: nothing to settle into (Plan.driven)
         status[unsettled] = STATUS_NOT_SETTLED
