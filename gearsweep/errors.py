@@ -61,6 +61,7 @@ class StudyError(GearsweepError):
                  line: int | None = None) -> None:
         self.file, self.field, self.value, self.allowed, self.line = file, field, value, allowed, line
         self.lines = [problem_line(file, line, field, value, allowed)]
+        self.problems = [(line, field, value, allowed)]
         super().__init__(self.lines[0])
 
     @classmethod
@@ -75,6 +76,7 @@ class StudyError(GearsweepError):
             if text not in seen:
                 seen.append(text)
         err.lines = seen
+        err.problems = problems
         err.args = ("\n".join(seen),)
         return err
 

@@ -14,6 +14,7 @@ from conftest import WHINE_SCENE
 
 from gearsweep.cli import main
 from gearsweep.errors import StudyError
+from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,6 +31,21 @@ scene:
 sweep:
   speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}
 solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}
+"""
+
+
+WHINE_GOOD = """\
+title: t
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  stiffness_harmonics: [{amplitude: 100 kN/mm}]
+  damping: 5 N*s/mm
+  mean_force: 800 N
+sweep:
+  speed: [3000 rpm, 4000 rpm]
 """
 
 
@@ -200,6 +216,22 @@ def test_misspelt_names_beside_other_errors_are_all_said_at_once():
     assert any(ln.startswith("s.yaml:14: continuation[1]") for ln in lines), lines
     assert any(ln.startswith("s.yaml:11: sweep.backlsh: not a sweepable parameter of the"
                              " 'rattle' scene; did you mean 'backlash'?") for ln in lines), lines
+
+
+def test_the_problems_found_when_planning_are_said_at_once():
+    """A spectrum study took a run per problem (a new-user test: record_periods, then the
+    pinion's drive, then samples_per_period against steps_per_period); the problems found when
+    the study is planned are said together, one line per field (record_periods was said twice,
+    by the spectrum and by the plan, in two wordings)."""
+    text = (WHINE_GOOD + "solver: {steps_per_period: 60, record_periods: 1}\n"
+            "outputs: [stats, {spectrum: {max_order: 3, samples_per_period: 7, pinion: true}}]\n")
+    study = parse_study(text, "s.yaml")
+    with pytest.raises(StudyError) as err:
+        make_plan(study, text, "s.yaml")
+    lines = str(err.value).splitlines()
+    assert [ln.split(" -- ")[0] for ln in lines] == [
+        "s.yaml:12: solver.record_periods: 1", "s.yaml:12: solver.steps_per_period: 60",
+        "s.yaml:13: outputs[1].spectrum.pinion: True"], lines
 
 
 def test_a_mathieu_start_with_a_unit_or_static_is_refused():

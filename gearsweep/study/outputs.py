@@ -214,15 +214,22 @@ class Spectrum:
         sps = self.signal_samples_per_period(plan)
         rec = plan.study.solver.record_periods
         where = "outputs.spectrum"
+        problems = []  # each said at once
         if o.max_order > sps / 2:
-            raise StudyError("<study>", f"{where}.max_order", o.max_order,
-                             f"at most samples_per_period / 2 = {sps / 2:g} (the Nyquist order)")
+            problems.append((None, f"{where}.max_order", o.max_order, (f"at most samples_per_period"
+                             f" / 2 = {sps / 2:g} (the Nyquist order)")))
         cycle = plan.model.cycle_periods if isinstance(plan.model, MeshModel) else 1
         if rec % cycle or (plan.driven and rec < 2 * cycle):  # both rules in one line
-            raise StudyError("<study>", "solver.record_periods", rec,
+            problems.append((None, "solver.record_periods", rec,
                              record_periods_needed(cycle, multiple=True) if plan.driven else
                              f"a multiple of {cycle} mesh periods (the cycle of the excitation)"
-                             " for a spectrum without leakage")
+                             " for a spectrum without leakage"))
+        try:
+            pinion = self._pinion(plan)
+        except StudyError as exc:
+            problems += exc.problems
+        if problems:
+            raise StudyError.many("<study>", problems)
         order = np.arange(kept_bins(rec * sps, rec, o.max_order)) / rec
         aux = {}
         if isinstance(plan.model, MeshModel):
@@ -238,7 +245,7 @@ class Spectrum:
                 "units": "N", "samples_per_period": sps,
                 "long_name": "single-sided amplitude spectrum of the dynamic mesh force"
                              " k(t) f(p) + c p' over whole mesh periods"})
-        if self._pinion(plan):
+        if pinion:
             specs["pinion_spectrum"] = VarSpec(**common, kind="displacement", attrs={
                 "long_name": "pinion motion r2 theta2 per line: (r2^2 / I2)"
                 " |W_k| / (2 pi f_k)^2 of the mesh force W (Eq. 4); 0 at order 0"})

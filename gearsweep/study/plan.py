@@ -274,11 +274,14 @@ def make_plan(study: Study, text: str = "", file: str | None = None) -> Plan:
         if exc.file != "<study>" or file is None or not text:
             raise
         raw = load_yaml(text, file)
-        where = _field_in_file(study, raw, exc.field)
-        written = written_at(raw, where)
-        value = written if isinstance(written, str | int | float) and exc.value is not NO_VALUE \
-            else exc.value
-        raise StudyError(file, where, value, exc.allowed, line_of(raw, where)) from None
+        found = []
+        for _, field_, value, allowed in exc.problems:  # every problem planning found
+            where = _field_in_file(study, raw, field_)
+            written = written_at(raw, where)
+            if isinstance(written, str | int | float) and value is not NO_VALUE:
+                value = written
+            found.append((line_of(raw, where), where, value, allowed))
+        raise StudyError.many(file, found) from None
 
 
 def _field_in_file(study: Study, raw: Any, field: str) -> str:
@@ -300,11 +303,21 @@ def _make_plan(study: Study, text: str) -> Plan:
     if study.scene.kind != "mathieu" and "speed" not in grids:
         grids["speed"] = np.array([study.scene.speed])
         dims.append("speed")
+    problems: list[StudyError] = []  # every one of them at once (they came one run each)
+    options, refused = {}, False
+    for o in study.outputs:
+        try:
+            options[o.name] = configure(o.name, o.options)
+        except StudyError as exc:
+            problems.append(exc)
+            options[o.name], refused = None, True  # its defaults, to check the rest
     plan = Plan(study, text, build_model(study), dims, grids, list(study.continuation),
-                [o.name for o in study.outputs],
-                options={o.name: configure(o.name, o.options) for o in study.outputs})
+                [o.name for o in study.outputs], options=options)
     for o in plan.outputs:
-        plan.specs.update(OUTPUTS[o].variables(plan))
+        try:
+            plan.specs.update(OUTPUTS[o].variables(plan))
+        except StudyError as exc:
+            problems.append(exc)
     if study.solver.step_guard == "warn":
         plan.specs["beyond_step_limit"] = VarSpec(dtype="bool", attrs={
             "units": "1", "long_name": "step beyond the method's stability limit (results may be"
@@ -315,17 +328,25 @@ def _make_plan(study: Study, text: str) -> Plan:
         low, where = positive_minimum(k0, plan.model.stiffness_harmonics,
                                       getattr(plan.model, "cycle_periods", 1))
         if not low > 0:
-            raise StudyError("<study>", "scene.stiffness_harmonics", NO_VALUE, (
+            problems.append(StudyError("<study>", "scene.stiffness_harmonics", NO_VALUE, (
                 f"harmonics that keep k(t) positive: with k0 = {k0 / 1e6:.6g} kN/mm"
                 f"{' (the least swept)' if 'stiffness' in grids else ''} they take it to"
-                f" {low / 1e6:.4g} kN/mm at mesh phase {where:.3g}"))
+                f" {low / 1e6:.4g} kN/mm at mesh phase {where:.3g}")))
     rec, cycle = study.solver.record_periods, getattr(plan.model, "cycle_periods", 1)
     if plan.driven and rec < 2 * cycle:
-        raise StudyError("<study>", "solver.record_periods", rec, record_periods_needed(cycle))
-    spp, sps = study.solver.steps_per_period, plan.samples_per_period()
-    if sps and spp % sps:
-        raise StudyError("<study>", "solver.steps_per_period", spp,
-                         f"a multiple of {sps} (the samples per period the outputs need)")
+        problems.append(StudyError("<study>", "solver.record_periods", rec,
+                                   record_periods_needed(cycle)))
+    spp = study.solver.steps_per_period
+    sps = None if refused else plan.samples_per_period()  # (options refused: their defaults
+    if sps and spp % sps:  # are no guide to the samples the study asks for)
+        problems.append(StudyError("<study>", "solver.steps_per_period", spp,
+                                   f"a multiple of {sps} (the samples per period the outputs"
+                                   " need)"))
+    if problems:  # one line per field (record_periods was said by the spectrum and the plan)
+        said = {}
+        for p in (p for e in problems for p in e.problems):
+            said.setdefault(p[1], p)
+        raise StudyError.many("<study>", list(said.values()))
     return plan
 
 
