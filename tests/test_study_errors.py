@@ -234,6 +234,17 @@ def test_the_problems_found_when_planning_are_said_at_once():
         "s.yaml:13: outputs[1].spectrum.pinion: True"], lines
 
 
+def test_a_gear_s_own_error_does_not_hide_its_load_or_a_swept_stiffness():
+    """``gear: {module, z1, z2}`` without face_width hid that the load was missing and that a
+    gear scene cannot sweep its stiffness (each said a run later; a new-user test)."""
+    text = ("title: g\nscene:\n  kind: whine\n  gear: {module: 2 mm, z1: 20, z2: 40}\n"
+            "  mass: 0.1527 kg\nsweep:\n  speed: [3000 rpm]\n  stiffness: [1 kN/mm]\n")
+    assert [ln.split(" -- ")[0].split(": '")[0] for ln in _lines(text)] == [
+        "s.yaml:2: scene.torque", "s.yaml:4: scene.gear",
+        "s.yaml:8: sweep.stiffness: a gear scene computes its stiffness from the gear pair; sweep"
+        " torque, or type in the coefficients"]
+
+
 def test_a_mathieu_start_with_a_unit_or_static_is_refused():
     """A mathieu scene is dimensionless: ``initial_displacement: 1 um`` ran as p0 = 1e-6 (the
     unit read as SI), and ``static`` gave a traceback when the run built its kernel call; both

@@ -469,15 +469,8 @@ def consistency_problems(study: Study) -> list[Problem]:
                           study.continuation)
     if sc.kind != "mathieu":
         if sc.gear is not None:
-            if "stiffness" in study.sweep:
-                out.append(Problem("sweep.stiffness", NO_VALUE, "a gear scene computes its"
-                                   " stiffness from the gear pair; sweep torque, or type in the"
-                                   " coefficients"))
-            if not any(getattr(sc, n) is not None or n in study.sweep
-                       for n in ("torque", "mean_force")):
-                out.append(Problem("scene.torque", "(missing)", "a 'gear' needs the mean load"
-                                   " (scene.torque, scene.mean_force or sweep.torque): its"
-                                   " stiffness and STE are computed at that load"))
+            out += gear_load_problems(list(study.sweep), any(
+                getattr(sc, n) is not None for n in ("torque", "mean_force")))
         elif ("torque" in study.sweep or sc.torque is not None) and sc.r1 is None:
             out.append(Problem("scene.base_radius", "(missing)", "a torque needs the driving"
                                " gear's base radius: scene.base_radius or scene.drive"))
@@ -518,6 +511,19 @@ def consistency_problems(study: Study) -> list[Problem]:
         out.append(Problem("solver.kink_aware", True, "the kink-aware step runs on the CPU only:"
                            " set solver.device: cpu, or kink_aware: false on the GPU"))
     out += output_name_problems([o.name for o in study.outputs])
+    return out
+
+
+def gear_load_problems(swept: list, load_given: bool) -> list[Problem]:
+    """A gear scene's sweep and load: its stiffness comes from the pair at the mean load."""
+    out = []
+    if "stiffness" in swept:
+        out.append(Problem("sweep.stiffness", NO_VALUE, "a gear scene computes its stiffness from"
+                           " the gear pair; sweep torque, or type in the coefficients"))
+    if not load_given and not {"torque", "mean_force"} & set(swept):
+        out.append(Problem("scene.torque", "(missing)", "a 'gear' needs the mean load"
+                           " (scene.torque, scene.mean_force or sweep.torque): its stiffness and"
+                           " STE are computed at that load"))
     return out
 
 
@@ -1138,6 +1144,9 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
                               "speed" in scene, cont)
         if isinstance(sweep, dict):
             out += sweep_name_problems(scene["kind"], [n for n in sweep if isinstance(n, str)])
+        if scene["kind"] != "mathieu" and scene.get("gear") is not None:  # a gear's own error
+            out += gear_load_problems(list(sweep) if isinstance(sweep, dict) else [],  # hid these
+                                      any(scene.get(n) is not None for n in ("torque", "mean_force")))
     outputs = raw.get("outputs") if isinstance(raw, dict) else None
     if isinstance(outputs, list):  # the names (an entry's own structure: the study's errors)
         names = [o if isinstance(o, str) else next(iter(o)) if isinstance(o, dict) and len(o) == 1
