@@ -241,8 +241,8 @@ def test_a_gear_s_own_error_does_not_hide_its_load_or_a_swept_stiffness():
             "  mass: 0.1527 kg\nsweep:\n  speed: [3000 rpm]\n  stiffness: [1 kN/mm]\n")
     assert [ln.split(" -- ")[0].split(": '")[0] for ln in _lines(text)] == [
         "s.yaml:2: scene.torque", "s.yaml:4: scene.gear",
-        "s.yaml:8: sweep.stiffness: a gear scene computes its stiffness from the gear pair; sweep"
-        " torque, or type in the coefficients"]
+        ("s.yaml:8: sweep.stiffness: a gear scene computes its stiffness from the gear pair; sweep"
+        " torque, or type in the coefficients")]
 
 
 def test_a_mathieu_start_with_a_unit_or_static_is_refused():
