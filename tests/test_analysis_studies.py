@@ -9,6 +9,7 @@ from numpy.testing import assert_allclose
 import gearsweep
 from gearsweep.analysis.advise import stability_limit
 from gearsweep.errors import StudyError
+from gearsweep.study.schema import replaced_by_sweep
 
 
 def test_method_stability_study_measures_the_polynomials_limit():
@@ -156,6 +157,20 @@ def test_pinion_output_is_eq4_per_line_of_the_mesh_force():
     study["scene"].update({"mass": "0.1547 kg", "base_radius": "56.3816 mm"})
     with pytest.raises(StudyError, match=r"outputs\[1\]\.spectrum\.pinion: True -- a scene with a drive"):
         gearsweep.run(study)
+
+
+def test_pinion_output_with_a_swept_mass_is_refused():
+    """A swept mass replaces the drive's m_eq, and would contradict the inertias the pinion's
+    motion is formed with (accepted without a word; an adversarial test); without the pinion,
+    validate says the sweep replaces the drive's m_eq. Refused when planned: nothing runs."""
+    study = _full(["8.9 N*m"], "static", pinion=True)
+    study["sweep"]["mass"] = ["0.15 kg", "0.2 kg"]
+    with pytest.raises(StudyError, match=r"spectrum\.pinion: True -- a scene whose m_eq is its"
+                                         r" drive's"):
+        gearsweep.run(study)
+    study["outputs"][1]["spectrum"]["pinion"] = False
+    st, _ = gearsweep.api.load(study)
+    assert "scene.drive's m_eq" in replaced_by_sweep(st)
 
 
 def test_validate_notes_a_result_the_analysis_reads_that_is_not_there(tmp_path, monkeypatch,

@@ -207,6 +207,10 @@ class Spectrum:
         if not self._force(plan) or getattr(plan.study.scene, "drive", None) is None:
             raise StudyError("<study>", "outputs.spectrum.pinion", True,
                              "a scene with a drive (inertias and base radii) and force: true")
+        if "mass" in plan.grids:  # m_eq swept away from the inertias the pinion's motion uses
+            raise StudyError("<study>", "outputs.spectrum.pinion", True,
+                             "a scene whose m_eq is its drive's: the pinion's motion comes from"
+                             " the drive's inertias, which a swept mass contradicts")
         return True
 
     def variables(self, plan: Plan) -> dict[str, VarSpec]:

@@ -563,9 +563,12 @@ def replaced_by_sweep(study) -> list[str]:
     given)."""
     sc = study.scene
     load = {"torque": "mean_force", "mean_force": "torque"}  # either one gives the mean load
-    return [f"scene.{given}" for name in study.sweep
-            for given in (name, load.get(name)) if given
-            if given in sc.model_fields_set and getattr(sc, given, None) is not None]
+    out = [f"scene.{given}" for name in study.sweep
+           for given in (name, load.get(name)) if given
+           if given in sc.model_fields_set and getattr(sc, given, None) is not None]
+    if "mass" in study.sweep and getattr(sc, "drive", None) is not None:
+        out.append("scene.drive's m_eq")  # its inertias give m_eq, which the sweep replaces
+    return out
 
 
 def value_problems(name: str, items: list[tuple[str | int, Any]],
