@@ -37,6 +37,7 @@ from gearsweep.study.execute import InProcess, run_plan, run_to_file, step_limit
 from gearsweep.study.mesh import run_mesh_study
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study
+from gearsweep.study.workspace import reads_output
 from gearsweep.units import UnitParseError, si_values, to_display, to_si
 
 StudyLike = str | Path | dict | Study | MeshStudy | AnalysisStudy
@@ -170,6 +171,9 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         raise StudyError("<study>", "chunk_cases", repr(chunk_cases)[:60],
                          "a positive whole number of cases")
     st, text, name = _load(study)
+    if output is not None and (read := reads_output(st, output)) is not None:
+        raise ResultError(f"{output}: not a place for the result: it is {read.name}, which the"
+                          " study reads (the result would replace it)")
     if isinstance(st, MeshStudy | AnalysisStudy):
         ds = run_unchunked(st, text, Path(output).parent if output is not None else "results")
         if output is not None:

@@ -63,59 +63,63 @@ from gearsweep.study.schema import (
     replaced_by_sweep,
     summary,
 )
-from gearsweep.study.workspace import OutputLock, check_partial, saved_chunks
+from gearsweep.study.workspace import OutputLock, check_partial, input_files, saved_chunks
 
 
 def _default_output(study_path: str) -> Path:
     return Path("results") / (Path(study_path).stem + ".nc")
 
 
-def _check_writable(path: Path, study: str | None = None, inputs: tuple = ()) -> None:
+NAME_MAX = 237
+"""The longest file name of a result [bytes]: 255, the common file systems' limit, less what the
+longest name written beside it adds (``.NAME.XXXXXXXX.partial`` of the atomic writer)."""
+
+
+def _check_writable(path: Path, study: str | None = None, inputs: list | tuple = ()) -> None:
     """Fail before the run, not after it, when the output cannot be written: a file is created
     and removed in its folder (what the atomic writer will do). The result replaces the file at
     ``path`` by renaming a new one over it, so ``path`` must be a regular file or nothing: not a
     folder, not a device (``-o /dev/null`` replaced the device with a file), and neither the
-    study file being run nor a file it reads (``inputs``: a measured excitation). A path through
-    folders the run will make is compared as it will be then (``new/../s.yaml`` is ``s.yaml``)."""
+    study file being run nor a file it reads (``inputs``: a measured excitation, an analysis
+    study's input results). A path through folders the run will make is compared as it will be
+    then (``new/../s.yaml`` is ``s.yaml``, through links too)."""
 
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.exists():  # made by the run: no link among the new folders
-        path = Path(os.path.normpath(path))
-        folder = path.parent if str(path.parent) else Path(".")
+    def refuse(allowed: str) -> None:
+        raise StudyError(str(path), "--output", str(path), allowed)
+
+    long = [part for part in path.parts if len(part.encode()) > 255]
+    if long:  # the OS's own error came as a traceback from the checks below
+        refuse(f"a path of names of at most 255 bytes ({long[0][:12]}... has"
+               f" {len(long[0].encode())})")
+    if len(path.name.encode()) > NAME_MAX:
+        refuse(f"a file name of at most {NAME_MAX} bytes ({len(path.name.encode())}: the result"
+               " is written beside it under a longer temporary name)")
+    for above in [*path.parents][::-1]:  # as written: '-o study.yaml/../x.nc' cannot be made
+        if above.exists() and not above.is_dir() or above.is_symlink() and not above.exists():
+            refuse(f"a path in a folder ({above} is a file)")
+    real = Path(os.path.realpath(path))  # as the run will reach it: links, '..', new folders
     for used, what in ([(study, "the study file's")] if study not in (None, "-") else []) + [
-            (f, "a file the study reads") for f in inputs]:
+            (Path(f), f"{Path(f).name}, which the study reads") for f in inputs]:
         try:
-            same = path.exists() and Path(used).exists() and os.path.samefile(path, used)
+            same = real.exists() and Path(used).exists() and os.path.samefile(real, used)
         except OSError:
             same = False
         if same:
-            raise StudyError(str(path), "--output", str(path),
-                             f"another path than {what} (the result would replace it)")
-    problem = replace_problem(path)
+            refuse(f"another path than {what} (the result would replace it)")
+    problem = replace_problem(real)
     if problem is not None:
-        raise StudyError(str(path), "--output", str(path), problem)
-    for above in path.parents:
-        if above.exists() and not above.is_dir():
-            raise StudyError(str(path), "--output", str(path),
-                             f"a path in a folder ({above} is a file)")
-    existing = folder  # folders still to be made are made by the run, not by this check (a
+        refuse(problem)
+    existing = real.parent  # folders still to be made are made by the run, not by this check (a
     while not existing.exists() and existing != existing.parent:  # refused run left them)
         existing = existing.parent
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=existing)
+        fd, tmp = tempfile.mkstemp(prefix=".gearsweep-", suffix=".probe", dir=existing)
         os.close(fd)
         os.unlink(tmp)
     except OSError as exc:
-        raise StudyError(str(path), "--output", str(path),
-                         f"a writable path ({exc.strerror or type(exc).__name__})") from None
-    if path.exists() and not os.access(path, os.W_OK):
-        raise StudyError(str(path), "--output", str(path), "a writable path (permission denied)")
-
-
-def _input_files(study) -> tuple[str, ...]:
-    """The files a study reads beside its own: a scene's measured excitation."""
-    ex = getattr(getattr(study, "scene", None), "excitation", None)
-    return (ex.file,) if ex is not None else ()
+        refuse(f"a writable path ({exc.strerror or type(exc).__name__})")
+    if real.exists() and not os.access(real, os.W_OK):
+        refuse("a writable path (permission denied)")
 
 
 def _shown(path: str) -> str:
@@ -261,9 +265,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(name, "--output", NO_VALUE, "a study read from stdin needs -o OUT.nc")
     if args.output is not None and not args.output.strip():
         raise StudyError(name, "--output", args.output, "a file path (it is empty)")
+    if args.output is not None and args.output.endswith(("/", os.sep)):  # Path() drops the '/'
+        raise StudyError(name, "--output", args.output, "a file path, not a folder")
     out = Path(args.output) if args.output else _default_output(args.study)
     if not args.estimate:
-        _check_writable(out, args.study, _input_files(study))
+        _check_writable(out, args.study, input_files(study, out.parent))
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
 
         unused = [o for o, v in (("--workers", args.workers), ("--chunk-size", args.chunk_size),

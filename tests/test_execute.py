@@ -537,15 +537,37 @@ def test_outputs_that_would_replace_inputs_or_cannot_be_named_are_one_line(tmp_p
     (tmp_path / "data/ste_table1.csv").write_bytes(csv)
     text = (root / "studies/whine_measured_ste.yaml").read_text(encoding="utf-8")
     Path("s.yaml").write_text(text, encoding="utf-8")
+    Path("lnk").symlink_to(tmp_path / "data")  # lnk/new/../../s.yaml is data/../s.yaml
     for out, says in (("new/../s.yaml", "the study file's"),
-                      ("data/ste_table1.csv", "a file the study reads"),
-                      ("new/../data/ste_table1.csv", "a file the study reads"),
-                      ("x" * 300 + ".nc", "File name too long")):
+                      ("lnk/new/../../s.yaml", "the study file's"),
+                      ("data/ste_table1.csv", "ste_table1.csv, which the study reads"),
+                      ("new/../data/ste_table1.csv", "ste_table1.csv, which the study reads"),
+                      ("x" * 300 + ".nc", "names of at most 255 bytes"),
+                      ("x" * 300 + "/r.nc", "names of at most 255 bytes"),
+                      ("new/" + "x" * 300 + "/../r.nc", "names of at most 255 bytes"),
+                      ("x" * 240 + ".nc", "a file name of at most 237 bytes"),
+                      ("s.yaml/../r.nc", "a path in a folder (s.yaml is a file)"),
+                      ("newdir/", "a file path, not a folder")):
         assert main(["run", "s.yaml", "-o", out]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "--output" in err and says in err, err
     assert Path("s.yaml").read_text(encoding="utf-8") == text and not Path("new").exists()
     assert (tmp_path / "data/ste_table1.csv").read_bytes() == csv
+    assert not Path("newdir").exists() and not (tmp_path / "data/new").exists()
+    # an analysis study's input result, from the CLI and from Python (both wrote over it)
+    (tmp_path / "res").mkdir()
+    rattle = tmp_path / "res" / "fig08_rattle.nc"
+    write_netcdf(xr.Dataset({"x": ("i", np.arange(3.0))}), rattle)
+    before = rattle.read_bytes()
+    balance = str(root / "studies/fig08_rattle_balance.yaml")
+    assert main(["run", balance, "-o", str(rattle)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "fig08_rattle.nc, which the study reads" in err, err
+    import gearsweep
+
+    with pytest.raises(ResultError, match="it is fig08_rattle.nc, which the study reads"):
+        gearsweep.run(balance, output=rattle)
+    assert rattle.read_bytes() == before
     for address in ("notaurl", "tcp://localhost", "tcp://host:port"):
         assert main(["run", "s.yaml", "-o", "r.nc", "--scheduler", address]) == 2
         err = capsys.readouterr().err

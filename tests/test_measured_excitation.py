@@ -18,9 +18,15 @@ from numpy.testing import assert_allclose
 
 import gearsweep
 from gearsweep.cli import main
-from gearsweep.errors import StudyError
+from gearsweep.errors import ResultError, StudyError
 from gearsweep.gear import fourier, mesh_cycle, table1_consistent
-from gearsweep.gear.measured import FitError, fit_fourier, fit_orders, measured_excitation
+from gearsweep.gear.measured import (
+    FitError,
+    fit_fourier,
+    fit_orders,
+    measured_excitation,
+    positive_minimum,
+)
 from gearsweep.model import Harmonic
 from gearsweep.study.plan import build_model, make_plan
 from gearsweep.study.schema import load_study, parse_study
@@ -162,6 +168,14 @@ sweep: {speed: [5000 rpm]}
         make_plan(*load_study(path), str(path))
     path.write_text(text.replace("500 kN/mm", "50 kN/mm"), encoding="utf-8")
     make_plan(*load_study(path), str(path))
+    # a dip between the points of a grid (1/128 of the cycle off them) is found (an
+    # adversarial test), and a cycle of 1e5 mesh periods is checked without gigabytes
+    path.write_text(text.replace("100 kN/mm", "1000 kN/mm").replace(
+        "{amplitude: 500 kN/mm, order: 1}", "{amplitude: 1001 kN/mm, order: 1, phase: -2.8125 deg}"))
+    with pytest.raises(StudyError, match=r"take it to -1 kN/mm at mesh phase 0.508"):
+        make_plan(*load_study(path), str(path))
+    low, where = positive_minimum(1000.0, [Harmonic(600.0, 1e-5), Harmonic(600.0, 100.0)], 1e5)
+    assert -200.0 < low < -199.0 and 0 <= where < 1e5
 
 
 def test_excitation_with_k_of_t_is_ste_less_f_over_k():
@@ -431,6 +445,13 @@ def test_a_mesh_study_result_is_an_excitation_file(tmp_path):
         with pytest.raises(StudyError) as err:
             load_study(f)
         assert str(err.value).splitlines() == [f"{f.parent}/{said}"]
+    # the study's own excitation file is no place for its result (gearsweep.run wrote over it)
+    f.write_text(study(scene + f"  excitation: {{file: mesh.nc}}\n  teeth: 48\n"
+                       f"  base_radius: {r1!r} m\n"))
+    before = (tmp_path / "mesh.nc").read_bytes()
+    with pytest.raises(ResultError, match="it is mesh.nc, which the study reads"):
+        gearsweep.run(f, output=tmp_path / "mesh.nc")
+    assert (tmp_path / "mesh.nc").read_bytes() == before
 
 
 def test_a_files_stated_load_must_be_the_scenes(tmp_path, capsys):

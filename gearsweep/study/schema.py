@@ -44,6 +44,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 import yaml
 from pydantic import (
+    AfterValidator,
     BeforeValidator,
     Field,
     TypeAdapter,
@@ -183,6 +184,21 @@ def scene_presence(has, drive_has) -> str:
     return "; ".join(problems)
 
 
+MAX_SPEED = 1e6
+"""The highest driving-gear speed a study takes [rpm]: ten times the fastest gears' 1e5 rpm. At
+1e10 rpm and beyond the whole run lasts nanoseconds and p cannot move in it (at 1e160 rpm not a
+bit of it: every statistic 0, taken as settled)."""
+
+SPEED_BEYOND = (f"a speed of at most {MAX_SPEED:.0e} rpm (ten times the fastest gears'; beyond it"
+                " the whole run lasts nanoseconds and p cannot move in it)")
+
+
+def _speed_bound(v: float) -> float:
+    if v > MAX_SPEED:
+        raise ValueError(SPEED_BEYOND)
+    return v
+
+
 class _Driven(Strict):
     """Fields shared by the scenes of the gear drive (not the dimensionless Mathieu scene)."""
 
@@ -198,7 +214,8 @@ class _Driven(Strict):
     excitation: ExcitationSpec | None = Field(None, description="STE and/or stiffness samples"
                                               " from a file, fitted (study/measured.py)")
     damping: Damping = Field(0.0, ge=0, description="mesh viscous damping c")
-    speed: Speed | None = Field(None, gt=0, description="driving-gear speed if not swept")
+    speed: Annotated[Speed, AfterValidator(_speed_bound)] | None = Field(
+        None, gt=0, description="driving-gear speed if not swept")
     mean_force: Force | None = Field(None, description="mean mesh force F_m")
     torque: Torque | None = Field(None, description="mean driving torque T1m")
     base_radius: Length | None = Field(None, gt=0, description="driving base radius r1")
@@ -592,6 +609,8 @@ def value_problems(name: str, items: list[tuple[str | int, Any]],
             out.append(Problem(where, v, "a finite number"))
         elif name in ("speed", "mass", "stiffness", "backlash") and val <= 0:
             out.append(Problem(where, v, f"{name} must be > 0"))
+        elif name == "speed" and val > MAX_SPEED:
+            out.append(Problem(where, v, SPEED_BEYOND))
         elif name in ("damping", "gamma") and val < 0:
             out.append(Problem(where, v, f"{name} must be >= 0"))
         else:

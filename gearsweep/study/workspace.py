@@ -24,6 +24,32 @@ class BusyError(GearsweepError):
     """Another process is writing the same output."""
 
 
+def input_files(study, results: str | Path) -> list[Path]:
+    """The files a study reads beside its own text: a scene's measured excitation, and an
+    analysis study's input results (``results/<name>.nc``, read from ``results``: the output's
+    folder)."""
+    ex = getattr(getattr(study, "scene", None), "excitation", None)
+    files = [Path(ex.file)] if ex is not None else []
+    analysis = getattr(study, "analysis", None)
+    if analysis is not None and hasattr(analysis, "inputs"):
+        files += [Path(results) / f"{name}.nc" for name in analysis.inputs()]
+    return files
+
+
+def reads_output(study, out: str | Path) -> Path | None:
+    """The input of ``study`` (``input_files``) that the result ``out`` would replace, if any:
+    an analysis run with ``-o`` its own input result replaced it, and ``gearsweep.run`` with
+    ``output=`` a study's netCDF excitation wrote over it, with no word."""
+    out = Path(os.path.realpath(out))  # through links, and folders still to be made
+    for f in input_files(study, out.parent):
+        try:
+            if out.exists() and f.exists() and os.path.samefile(out, f):
+                return f
+        except OSError:
+            continue
+    return None
+
+
 def lock_path(out: str | Path) -> Path:
     out = Path(out)
     return out.with_name(out.name + ".lock")
