@@ -183,14 +183,16 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
-_ADDRESS = re.compile(r"(?:[a-z][a-z0-9+.-]*://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]]+):\d{1,5}")
-"""A dask scheduler's address: ``[PROTOCOL://]HOST:PORT``."""
+_ADDRESS = re.compile(r"(?:tcp://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]]+):(\d{1,5})")
+"""A dask scheduler's address: ``[tcp://]HOST:PORT`` (TLS needs a security context the command
+line does not take: ``tls://`` ended in a TypeError traceback)."""
 
 
 def _backend(args: argparse.Namespace):
 
     if args.scheduler:
-        if not _ADDRESS.fullmatch(args.scheduler.strip()):  # before dask, whose client raised
+        m = _ADDRESS.fullmatch(args.scheduler.strip())
+        if not m or not 0 < int(m.group(1)) < 65536:  # before dask, whose client raised
             raise StudyError(_shown(args.study), "--scheduler", args.scheduler,  # in a thread
                              "a scheduler's address, tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)")
         return DaskBackend(scheduler=args.scheduler.strip())

@@ -568,7 +568,8 @@ def test_outputs_that_would_replace_inputs_or_cannot_be_named_are_one_line(tmp_p
     with pytest.raises(ResultError, match="it is fig08_rattle.nc, which the study reads"):
         gearsweep.run(balance, output=rattle)
     assert rattle.read_bytes() == before
-    for address in ("notaurl", "tcp://localhost", "tcp://host:port"):
+    for address in ("notaurl", "tcp://localhost", "tcp://host:port", "tcp://localhost:99999",
+                    "tcp://localhost:0", "tls://localhost:8786"):  # tls: a TypeError traceback
         assert main(["run", "s.yaml", "-o", "r.nc", "--scheduler", address]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "--scheduler" in err and "tcp://HOST:PORT" in err, err

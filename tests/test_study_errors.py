@@ -234,6 +234,20 @@ def test_the_problems_found_when_planning_are_said_at_once():
         "s.yaml:13: outputs[1].spectrum.pinion: True"], lines
 
 
+def test_an_output_s_options_are_said_beside_the_study_s_other_problems():
+    """An output's options were checked once everything else was right, and their first problem
+    alone (a misspelt option hid a bad value; an adversarial test): now each beside the rest."""
+    text = (WHINE_GOOD.replace("mean_force: 800 N", "mean_force: -800 N x")
+            + "outputs: [stats, {spectrum: {max_order: -40, samples_per_perod: 32}}]\n")
+    assert [ln.split(" -- ")[0] for ln in _lines(text)] == [
+        "s.yaml:9: scene.mean_force: '-800 N x'",
+        "s.yaml:12: outputs[1].spectrum.max_order: -40",
+        "s.yaml:12: outputs[1].spectrum.samples_per_perod: 32"]
+    text = WHINE_GOOD + "outputs: [stats, {spectrum: {max_order: -40, samples_per_perod: 32}}]\n"
+    assert len(_lines(text)) == 2  # the study otherwise valid: the same two
+    assert len(_lines(text.replace("outputs: [stats, {", "outputs: [stats, {spectrum: 1}, {"))) >= 2
+
+
 def test_a_gear_s_own_error_does_not_hide_its_load_or_a_swept_stiffness():
     """``gear: {module, z1, z2}`` without face_width hid that the load was missing and that a
     gear scene cannot sweep its stiffness (each said a run later; a new-user test)."""
@@ -259,6 +273,9 @@ def test_a_mathieu_start_with_a_unit_or_static_is_refused():
         " has not")]
     lines = _lines(mathieu + "solver: {initial_displacement: 1 um, steps_per_period: 2}\n")
     assert len(lines) == 2 and "no unit there" in lines[1], lines
+    # 'static ' with a space: one line on its field (was the top level, 'could not convert')
+    assert _lines(mathieu + "solver: {initial_displacement: 'static '}\n")[0].startswith(
+        "s.yaml:3: solver.initial_displacement: 'static' -- a bare number in a mathieu scene")
     for ok in ("2", "'2'", "0.5"):
         study = parse_study(mathieu + f"solver: {{initial_displacement: {ok}}}\n", "s.yaml")
         assert study.solver.initial_displacement == pytest.approx(float(ok.strip("'")))
@@ -290,8 +307,8 @@ def test_a_continued_sweep_over_speeds_out_of_order_is_refused():
     parse_study(text, "s.yaml")
     assert _lines(text + "continuation: [up, down]\n") == [
         ("s.yaml:10: sweep.speed[1]: '6000 rpm' -- a speed above the one before ('8000 rpm'): a"
-        " continued sweep runs up the list and back down it, so list the speeds in increasing"
-        " order")]
+        " continued sweep takes the list in increasing order (up) or in decreasing order (down),"
+        " so list the speeds in increasing order")]
     parse_study(text.replace("8000 rpm, 6000 rpm, 7000 rpm", "6000 rpm, 7000 rpm, 8000 rpm")
                 + "continuation: [down]\n", "s.yaml")
 

@@ -613,7 +613,7 @@ class DaskBackend:
             else:
                 self.client = Client(self.scheduler, timeout=f"{min(self.timeout, 10.0)}s")
             self.client.wait_for_workers(1, timeout=self.timeout)
-        except (OSError, TimeoutError, ValueError) as exc:  # ValueError: an address without
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:  # ValueError: an address without
             self.__exit__()  # a port ('tcp://localhost'), or no address ('notaurl')
             raise ClusterError(f"{where}: cannot use the dask cluster ({type(exc).__name__}:"
                                f" {str(exc).splitlines()[0] if str(exc) else 'no reason given'})"

@@ -414,13 +414,15 @@ def configure(name: str, options: dict[str, Any], file: str = "<study>",
         return None
     try:
         return model.model_validate(options)
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        loc = ".".join(str(p) for p in err["loc"])
-        msg = err["msg"].removeprefix("Value error, ")
-        value = err.get("input")
-        if isinstance(value, dict):
-            value = options
-        if err["type"] == "extra_forbidden":
-            msg = f"unknown option; allowed: {', '.join(model.model_fields)}"
-        raise StudyError(file, f"{where}.{loc}" if loc else where, value, msg) from None
+    except ValidationError as exc:  # every option's problem at once (a misspelt one hid the rest)
+        problems = []
+        for err in exc.errors():
+            loc = ".".join(str(p) for p in err["loc"])
+            msg = err["msg"].removeprefix("Value error, ")
+            value = err.get("input")
+            if isinstance(value, dict):
+                value = options
+            if err["type"] == "extra_forbidden":
+                msg = f"unknown option; allowed: {', '.join(model.model_fields)}"
+            problems.append((None, f"{where}.{loc}" if loc else where, value, msg))
+        raise StudyError.many(file, problems) from None

@@ -423,6 +423,9 @@ class Study(WholeStudy):
                     raise ValueError(f"{problem.path}: {problem.message}") from None
                 sink.append(problem)
                 v = 1.0  # reported: validate the rest as if the default were given
+        if isinstance(v, str) and v.strip() == "static":
+            v = "static"  # ('static ' with a space: its own problem below, on its own line)
+            data = dict(data, solver=dict(data["solver"], initial_displacement=v))
         if isinstance(v, int | float | str) and not isinstance(v, bool) and v != "static":
             solver = dict(data["solver"], initial_displacement=f"{float(v)!r} m")
             data = dict(data, solver=solver)
@@ -645,13 +648,14 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
                     break
                 seen[val] = key
         if (with_order and name == "speed" and not is_range and getattr(study, "continuation", None)
-                and len(values) == len(raw)):
+                and len(values) == len(raw) and len(set(shown)) == len(shown)):  # (a value twice:
+            # said above, one line; [3000 rpm, 50 Hz] was also 'out of order' on the same field)
             for i in range(1, len(values)):
                 if values[i] <= values[i - 1]:
                     out.append(Problem(f"sweep.speed[{i}]", raw[i][1], (
                         f"a speed above the one before ({raw[i - 1][1]!r}): a continued sweep"
-                        " runs up the list and back down it, so list the speeds in increasing"
-                        " order")))
+                        " takes the list in increasing order (up) or in decreasing order"
+                        " (down), so list the speeds in increasing order")))
                     break
         if is_range and len(values) == 2:
             a, b = values
@@ -1176,6 +1180,17 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
                  for o in outputs]
         if all(isinstance(n, str) for n in names):
             out += output_name_problems(names)
+            for i, (name, entry) in enumerate(zip(names, outputs, strict=True)):
+                try:  # an output's options beside the study's other problems
+                    options = _output_request(entry).get("options") if isinstance(entry, dict) \
+                        else None
+                except ValueError:
+                    options = None  # its own structural error says so
+                if name in OUTPUTS and isinstance(options, dict):
+                    try:
+                        configure(name, options, "<study>", f"outputs[{i}].{name}")
+                    except StudyError as exc:
+                        out += [Problem(f, v, a) for _, f, v, a in exc.problems]
     if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full"):
         drive = scene.get("drive")
         given = scene_presence(lambda f: scene.get(f) is not None,  # a drive that is no mapping:
@@ -1274,12 +1289,13 @@ def _parse_raw(raw: Any, file: str) -> Study | MeshStudy | AnalysisStudy:
     except RecursionError:
         raise StudyError(file, "(top level)", "{...}", "values nested less deeply") from None
     problems += grid_problems(study)
-    for i, req in enumerate(study.outputs):
-        if not problems:
-            try:
-                configure(req.name, req.options, file, f"outputs[{i}].{req.name}")
-            except StudyError as exc:
-                problems.append(Problem(exc.field, exc.value, exc.allowed))
+    for i, req in enumerate(study.outputs):  # beside the other problems (were said after them)
+        if req.name not in OUTPUTS:
+            continue  # its name's own line (consistency_problems)
+        try:
+            configure(req.name, req.options, file, f"outputs[{i}].{req.name}")
+        except StudyError as exc:
+            problems += [Problem(f, v, a) for _, f, v, a in exc.problems]
     if problems:
         raise _error(file, problems, raw)
     _check_gear(study, file, raw)
