@@ -81,6 +81,18 @@ def test_iso6336_hand_value():
     assert c_gamma == pytest.approx(207.77e6, rel=1e-4)
 
 
+def test_a_pair_beyond_the_compliance_model_s_range_is_refused():
+    """Sainsot et al.'s foundation fit diverges for many teeth: z1 = 20, z2 = 2000 gave a mean
+    mesh stiffness of 18 kN/mm against ISO's c_gamma of 445 kN/mm, silently (an adversarial
+    test). More than a factor 2 from c_gamma either way is refused; 20/1000 (1.5 times) is not."""
+    with pytest.raises(GeometryError, match=r"mean mesh stiffness of 17.95 kN/mm, 0.04 times ISO"
+                                            r" 6336-1's c_gamma = 445.3 kN/mm"):
+        mesh_cycle(GearPair(module=1e-3, z1=20, z2=2000, face_width=20e-3), 50.0)
+    k = mesh_cycle(GearPair(module=1e-3, z1=20, z2=1000, face_width=20e-3), 50.0).mesh_stiffness
+    assert 1.0 < k.mean() / iso6336_stiffness(
+        GearPair(module=1e-3, z1=20, z2=1000, face_width=20e-3))[1] < 2.0
+
+
 # --------------------------------------------------------------------------- compliance
 
 

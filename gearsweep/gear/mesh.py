@@ -340,6 +340,7 @@ def mesh_cycles(
     pair_load = np.empty((loads.size, n, n_slot))
     _share_kernel(compliance, separation, loads, ste, pair_load, stiffness)
     k_pair = np.where(in_contact, 1.0 / compliance, 0.0)
+    _check_against_iso(pair, float(k_pair.sum(axis=1).mean()))
     return [
         MeshCycle(
             pair=pair,
@@ -358,6 +359,28 @@ def mesh_cycles(
         )  # fmt: skip
         for q in range(loads.size)
     ]
+
+
+ISO_FACTOR = 2.0
+"""How far the compliance model's mean mesh stiffness may lie from ISO 6336-1's c_gamma (either
+way) before the pair is refused as outside the model's range."""
+
+
+def _check_against_iso(pair: GearPair, k_mean: float) -> None:
+    """Refuse a pair whose mean mesh stiffness (unmodified teeth) is more than ``ISO_FACTOR``
+    from ISO 6336-1's c_gamma: Sainsot et al.'s foundation term is a polynomial fit over the
+    root angle and the body's radius ratio, and beyond the gears it was fitted on it diverges
+    (found by an adversarial test: z1 = 20, z2 = 2000 gave k0 = 18 kN/mm against c_gamma 445, and
+    z = 10000 gave 0.018, silently). The Table 1 pair: 219 against 208 kN/mm."""
+    _, c_gamma = iso6336_stiffness(pair)
+    ratio = k_mean / c_gamma
+    if not 1.0 / ISO_FACTOR <= ratio <= ISO_FACTOR:
+        raise GeometryError(
+            f"{pair.name}: its tooth compliance gives a mean mesh stiffness of"
+            f" {k_mean / 1e6:.4g} kN/mm, {ratio:.2g} times ISO 6336-1's c_gamma ="
+            f" {c_gamma / 1e6:.4g} kN/mm: outside the range of the compliance model (its"
+            " foundation term, a fit of Sainsot et al. 2004, diverges for many teeth or a thin"
+            " body)")
 
 
 def mesh_cycle(
