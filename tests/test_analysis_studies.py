@@ -222,3 +222,26 @@ def test_an_analysis_names_its_input_with_or_without_nc_and_refuses_a_path():
     with pytest.raises(StudyError, match=r"analysis.result: 'results/small.nc' -- the name of a"
                                          r" result in the folder the analysis writes to"):
         parse_study(text.replace("RESULT", "results/small.nc"), "s.yaml")
+
+
+def test_pinion_output_of_a_gear_scene_takes_the_pair_s_radius_where_the_drive_omits_it():
+    """A gear scene's drive may omit its base radii (the pair gives them); the pinion output
+    then took drive.base_radius_2 = None: a TypeError traceback at the first chunk (an
+    adversarial test). It takes the pair's r2, as the drive's own inertias do."""
+    from gearsweep.gear import table1_consistent
+
+    study = {"title": "p", "scene": {
+        "kind": "whine", "gear": "table1_consistent", "torque": "50 N m",
+        "damping": "5.5 N s/mm",
+        "drive": {"inertia_1": "1.5981e-3 kg*m^2", "inertia_2": "3.1567e-4 kg*m^2"}},
+        "sweep": {"speed": ["1000 rpm"]}, "solver": {"transient_periods": 10, "record_periods": 4},
+        "outputs": [{"spectrum": {"pinion": True}}]}
+    ds = gearsweep.run(study)
+    from gearsweep.analysis import sensor
+
+    r2 = table1_consistent().base_radius2
+    fs = ds.force_spectrum.where(ds.order > 0, 0.0)
+    want = sensor.pinion_displacement(fs.values, ds.frequency.values,
+                                      base_radius_2=r2, inertia_2=3.1567e-4)
+    assert_allclose(ds.pinion_spectrum.values, want * 1e6, rtol=1e-12)
+

@@ -273,11 +273,12 @@ class Spectrum:
             out["force_spectrum"] = self._force_spectrum(plan, params, sig, order, c)
             out["force_spectrum"][bad] = np.nan
         if self._pinion(plan):
-            drive = plan.study.scene.drive
+            scene = plan.study.scene  # r2: the drive's, or the gear pair's where it omits it
+            _, r2 = scene.drive_radii()  # (drive.base_radius_2 was None: a TypeError traceback)
             freq = mesh_frequency(np.asarray(params["speed"], float), plan.model.teeth)
             fs = np.where(order[None, :] > 0, out["force_spectrum"], 0.0)
             x = pinion_displacement(fs, freq[:, None] * order[None, :],
-                                    base_radius_2=drive.base_radius_2, inertia_2=drive.inertia_2)
+                                    base_radius_2=r2, inertia_2=scene.drive.inertia_2)
             out["pinion_spectrum"] = x
             out["pinion_rms"] = spectrum_rms(x)
         return out
