@@ -585,6 +585,14 @@ def main(argv: list[str] | None = None) -> int:
         for line in getattr(exc, "lines", None) or str(exc).splitlines() or [""]:
             print(f"gearsweep: error: {line}", file=sys.stderr)
         return EXIT_USAGE
+    except MemoryError as exc:  # a study larger than this machine (a mesh study of 1e7 torques
+        if debug:  # asked numpy for 14.9 GiB: a traceback)
+            raise
+        why = str(exc).splitlines()[0] if str(exc) else "no more memory"
+        print(f"gearsweep: error: {_shown(getattr(args, 'study', None) or args.command)}: out of"
+              f" memory ({why}): make the study smaller, or run it where there is more memory"
+              " (chunks already saved are kept)", file=sys.stderr)
+        return EXIT_USAGE
     except Interrupted as exc:
         print(f"gearsweep: {exc}", file=sys.stderr)
         if _TERMINATED.is_set():

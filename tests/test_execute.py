@@ -900,3 +900,20 @@ def test_workers_beyond_the_machine_s_cores_are_refused(tmp_path, capsys, monkey
         assert err.count("\n") == 1 and f"--workers: {n} -- {says}" in err, err
     assert not (tmp_path / "r.nc").exists()
 
+
+def test_running_out_of_memory_is_one_line(tmp_path, capsys, monkeypatch):
+    """A mesh study of 1e7 torques asked numpy for 14.9 GiB and ended in a traceback (an
+    adversarial test): running out of memory is one line, exit 2, naming the study."""
+    study = tmp_path / "r.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+
+    def no_memory(*args, **kwargs):
+        raise MemoryError("Unable to allocate 14.9 GiB for an array with shape (10000000, 200)")
+
+    monkeypatch.setattr("gearsweep.cli.load_study", no_memory)
+    assert main(["validate", str(study)]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"gearsweep: error: {study}: out of memory (Unable to allocate 14.9 GiB for an"
+                   " array with shape (10000000, 200)): make the study smaller, or run it where"
+                   " there is more memory (chunks already saved are kept)\n")
+
