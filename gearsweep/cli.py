@@ -171,6 +171,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
         est, _ = before_refusing(plan, est)
         check_limits(est, name)
     print(f"{name}: ok -- {_summary(study, plan, est.line())}")
+    try:  # the study may be meant for another machine's GPU: said, not refused
+        kernel_for(study.solver.device, study.solver.precision)
+    except DeviceError as exc:
+        print(f"gearsweep: note: {name}: {exc}: `gearsweep run` refuses it on this machine",
+              file=sys.stderr)
     if study.solver.step_guard != "off":  # what run will warn of, said before it runs
         n = cases_beyond_step_limit(plan)
         beyond = step_limit_text(plan, n or 0, name, before=True)

@@ -917,3 +917,21 @@ def test_running_out_of_memory_is_one_line(tmp_path, capsys, monkeypatch):
                    " array with shape (10000000, 200)): make the study smaller, or run it where"
                    " there is more memory (chunks already saved are kept)\n")
 
+
+def test_validate_notes_a_device_this_machine_lacks(tmp_path, capsys, monkeypatch):
+    """``solver.device: cuda`` passed validate ("ok") and run then refused it (an adversarial
+    test): validate says so in a note, exit 0 (the study may be meant for another machine)."""
+    from gearsweep.errors import DeviceError
+
+    def no_gpu(device, precision):
+        raise DeviceError(f"device {device}: no CUDA GPU found")
+
+    monkeypatch.setattr("gearsweep.cli.kernel_for", no_gpu)
+    study = tmp_path / "r.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+    assert main(["validate", str(study)]) == 0
+    out, err = capsys.readouterr()
+    assert ": ok -- " in out
+    assert err == (f"gearsweep: note: {study}: device cpu: no CUDA GPU found: `gearsweep run`"
+                   " refuses it on this machine\n")
+
