@@ -431,7 +431,9 @@ def describe(path: str | Path) -> str:
                          f"{ds.attrs.get('steps_per_period', '?')} steps per mesh period, "
                          f"{ds.attrs.get('transient_periods', '?')} transient + "
                          f"{ds.attrs.get('record_periods', ds.attrs.get('recorded_periods', '?'))}"
-                         " recorded periods")
+                         " recorded periods"
+                         + (f", on {ds.attrs['device']} in {ds.attrs.get('precision', '?')}"
+                            if "device" in ds.attrs else ""))
         lines.append(f"  history: {ds.attrs.get('history', '?')}")
         lines.append("  dimensions:")
         for d in ds.dims:

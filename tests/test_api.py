@@ -365,3 +365,17 @@ outputs: [floquet]
     assert capsys.readouterr().err == (
         f"gearsweep: note: {path}: the step guard's grid is too large to check here; run checks"
         " every case and says how many are beyond the step limit\n")
+
+
+def test_a_result_says_where_its_kernel_ran_and_in_what_precision(small_whine, tmp_path, capsys):
+    """A float32 GPU run differs from a float64 one by about 5e-5 relative, and the file did not
+    say which it was (an adversarial test): ``device`` and ``precision`` are global attributes,
+    and ``inspect`` prints them."""
+    from gearsweep.cli import main
+
+    out = tmp_path / "w.nc"
+    ds = gearsweep.run(small_whine, output=out)
+    assert (ds.attrs["device"], ds.attrs["precision"]) == ("cpu", "float64")
+    assert main(["inspect", str(out)]) == 0
+    assert ", on cpu in float64\n" in capsys.readouterr().out
+

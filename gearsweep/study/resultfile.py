@@ -251,6 +251,8 @@ def describe(plan: Any, elapsed: float | None = None, kernel: float | None = Non
         "divergence_factor": s.divergence_factor,
         "settle_tolerance": s.settle_tolerance,
         "step_guard": s.step_guard,
+        "device": plan.device,  # where the kernel ran (auto resolved), and in what precision:
+        "precision": s.precision,  # float32 on a GPU differs from float64 by 5e-5 relative
         "cases": plan.n_cases,
     }
     if elapsed is not None:
