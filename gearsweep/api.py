@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import numbers
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -166,10 +167,13 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     """
     if output is not None and not isinstance(output, str | Path):
         raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
-    if chunk_cases is not None and (isinstance(chunk_cases, bool)
-                                    or not isinstance(chunk_cases, int) or chunk_cases < 1):
+    if chunk_cases is not None and (isinstance(chunk_cases, bool)  # np.int64 is a whole number
+                                    or not isinstance(chunk_cases, numbers.Integral)
+                                    or chunk_cases < 1):
         raise StudyError("<study>", "chunk_cases", repr(chunk_cases)[:60],
                          "a positive whole number of cases")
+    if chunk_cases is not None:
+        chunk_cases = int(chunk_cases)
     st, text, name = _load(study)
     if output is not None and (read := reads_output(st, output)) is not None:
         raise ResultError(f"{output}: not a place for the result: it is {read.name}, which the"

@@ -155,6 +155,8 @@ def test_bad_output_and_chunk_cases_from_python_are_one_line(small_whine):
         with pytest.raises(StudyError, match=field) as err:
             gearsweep.run(small_whine, **kw)
         assert "\n" not in str(err.value)
+    # a NumPy whole number is a whole number (np.int64(2) was refused; an adversarial test)
+    assert gearsweep.run(small_whine, chunk_cases=np.int64(2)).equals(gearsweep.run(small_whine))
 
 
 def test_a_response_that_has_died_away_is_settled():

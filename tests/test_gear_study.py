@@ -390,3 +390,18 @@ def test_gear_scene_with_typed_in_stiffness_keeps_the_pairs_loaded_ste_and_phase
     assert own.stiffness == pytest.approx(pair.stiffness)
     with pytest.raises(StudyError, match="need 'stiffness' too"):
         parse_study(text.replace(" stiffness: 1073 kN/mm,", ""))
+
+
+def test_a_web_without_a_rim_is_refused():
+    """``web_width1`` without ``rim_thickness1`` was ignored (ISO's rim factor takes both):
+    refused in one line (an adversarial test)."""
+    from gearsweep.errors import StudyError
+    from gearsweep.study.schema import parse_study
+
+    text = ("type: mesh\ntitle: w\ngear: {preset: table1_consistent, web_width1: 5 mm}\n"
+            "torque: 50 N*m\n")
+    with pytest.raises(StudyError, match=r"s.yaml:3: gear: .* web_width1 needs rim_thickness1"):
+        parse_study(text, "s.yaml")
+    parse_study(text.replace("web_width1: 5 mm", "web_width1: 5 mm, rim_thickness1: 8 mm"),
+                "s.yaml")
+

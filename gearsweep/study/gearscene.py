@@ -107,6 +107,11 @@ class GearSpec(Strict):
             missing = [f for f in ("module", "z1", "z2", "face_width") if getattr(self, f) is None]
             if missing:
                 raise ValueError(f"a gear needs a preset or {', '.join(missing)}")
+        for g in (1, 2):  # a web carries a rim: alone it was ignored (ISO's C_R needs both)
+            if getattr(self, f"web_width{g}") is not None and getattr(self,
+                                                                     f"rim_thickness{g}") is None:
+                raise ValueError(f"web_width{g} needs rim_thickness{g} (ISO 6336-1's rim factor"
+                                 " takes both; a solid gear has neither)")
         return self
 
     def overrides(self) -> dict[str, Any]:
