@@ -268,7 +268,10 @@ def render() -> str:
         if opts is not None:
             lines += _fields(opts)
             lines.append("")
-    lines += ["## Variables each output writes", ""] + _variable_rows()
+    lines += ["## Variables each output writes", "",
+              "Rows `(always)` are in every dynamic study's result; rows `(type: mesh)` are a"
+              " mesh study's, which has no `status` (nothing is integrated).", ""] \
+        + _variable_rows()
     lines += ["", "## Coordinates", "", "| name | units | meaning |", "|---|---|---|"]
     for name, (units, long_name) in COORDS.items():
         kind = SWEEPABLE.get(name)
