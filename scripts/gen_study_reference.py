@@ -269,8 +269,8 @@ def render() -> str:
             lines += _fields(opts)
             lines.append("")
     lines += ["## Variables each output writes", "",
-              "Rows `(always)` are in every dynamic study's result; rows `(type: mesh)` are a"
-              " mesh study's, which has no `status` (nothing is integrated).", ""] \
+              ("Rows `(always)` are in every dynamic study's result; rows `(type: mesh)` are a"
+              " mesh study's, which has no `status` (nothing is integrated)."), ""] \
         + _variable_rows()
     lines += ["", "## Coordinates", "", "| name | units | meaning |", "|---|---|---|"]
     for name, (units, long_name) in COORDS.items():
