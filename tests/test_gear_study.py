@@ -343,14 +343,14 @@ def test_single_torque_mesh_study_has_no_torque_dim():
     ("type: mesh\ntitle: t\ngear: table1_consistent\n", "give exactly one of 'torque' and"),
     ("type: mesh\ntitle: t\ntorque: 5 N*m\n", "give exactly one of 'gear' (one pair) and 'gears'"),
     (("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 5 N*m\npositions: 10\n"
-     "harmonics: 6\n"), "harmonics 6 must be <= positions / 2 = 5"),
+     "harmonics: 6\n"), "s.yaml:6: harmonics: 6 -- at most positions / 2 = 5"),
     ("type: mesh\ntitle: t\ngear: table1_consistent\nsweep: {torque: [-5 N*m]}\n",
-     "positive torques"),
+     "s.yaml:4: sweep.torque[0]: '-5 N*m' -- a positive torque"),
     ("type: meshes\ntitle: t\n", "'mesh' (a static mesh study)"),
 ])
 def test_mesh_study_problems_are_one_study_error(text, message):
     with pytest.raises(StudyError, match=None) as info:
-        parse_study(text)
+        parse_study(text, "s.yaml")
     assert message in str(info.value)
 
 

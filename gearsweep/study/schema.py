@@ -1356,9 +1356,6 @@ class MeshStudy(WholeStudy):
             raise ValueError("'gears' needs at least one labelled gear pair")
         if (self.torque is None) == ("torque" not in self.sweep):
             raise ValueError("give exactly one of 'torque' and 'sweep.torque'")
-        if self.harmonics > self.positions // 2:
-            raise ValueError(f"harmonics {self.harmonics} must be <= positions / 2 ="
-                             f" {self.positions // 2}")
         return self
 
     @property
@@ -1388,18 +1385,25 @@ def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
         study = MeshStudy.model_validate(raw)
     except ValidationError as exc:
         raise _first_error(exc, file, raw) from None
-    _check_grids(study, file)
+    _check_grids(study, file, raw)
+    if study.harmonics > study.positions // 2:  # on the harmonics line (was the top level's)
+        raise _error(file, [Problem("harmonics", study.harmonics, f"at most positions / 2 ="
+                                    f" {study.positions // 2} (the samples per mesh cycle)")],
+                     raw)
     torques = study.torques()
-    bad = torques[~(np.isfinite(torques) & (torques > 0))]
-    if bad.size:
-        raise StudyError(file, "sweep.torque", float(bad[0]), "positive torques (they load the mesh)")
+    bad = [i for i, t in enumerate(torques) if not (math.isfinite(t) and t > 0)]
+    if bad:  # on the value's own line (had none)
+        where = ("sweep.torque" + (f"[{bad[0]}]" if not isinstance(study.sweep["torque"], Range)
+                                   else "") if study.swept_torque else "torque")
+        raise _error(file, [Problem(where, written_at(raw, where) if raw else float(torques[bad[0]]),
+                                    "a positive torque (it loads the mesh)")], raw)
     for label, spec in study.variants.items():
         where = f"gears.{label}" if label else "gear"
         try:
             pair = gear_pair(spec).check()
             static_mesh(pair, float(torques[0]), tip_reliefs(spec, pair), n=study.positions)
-        except GeometryError as exc:
-            raise GeometryError(f"{file}: {where}: {exc}") from None
+        except GeometryError as exc:  # on the gear's line, as one line (was none)
+            raise StudyError(file, where, NO_VALUE, str(exc), line_of(raw, where)) from None
     return study
 
 
