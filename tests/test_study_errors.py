@@ -299,6 +299,19 @@ def test_a_range_of_one_value_with_another_stop_a_negative_log_start_and_inf_are
     assert lines == ["s.yaml:10: sweep.speed[0]: inf -- a finite number (not nan or inf)"]
 
 
+def test_a_speed_beyond_1e6_rpm_is_refused_in_the_scene_and_the_sweep():
+    """At 1e160 rpm the whole run lasted no time, nothing moved and every statistic was 0, with
+    status 0 (an adversarial test): a speed above 1e6 rpm is refused, given or swept."""
+    said = ("a speed of at most 1e+06 rpm (ten times the fastest gears'; beyond it the whole run"
+            " lasts nanoseconds and p cannot move in it)")
+    assert _lines(GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "[1000 rpm, 1e7 rpm]")
+                  ) == [f"s.yaml:10: sweep.speed[1]: '1e7 rpm' -- {said}"]
+    text = GOOD.replace("sweep:\n  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}\n", "")
+    assert _lines(text.replace("mean_force: 100 N", "mean_force: 100 N\n  speed: 1e160 rpm")) == [
+        f"s.yaml:9: scene.speed: '1e160 rpm' -- {said}"]
+    parse_study(text.replace("mean_force: 100 N", "mean_force: 100 N\n  speed: 1e6 rpm"), "s.yaml")
+
+
 def test_a_continued_sweep_over_speeds_out_of_order_is_refused():
     """A continued sweep runs up the list of speeds and back down it: with [8000, 6000, 7000]
     "up" stepped 8000 -> 6000 -> 7000, silently (found by a new-user test). Refused at the first
