@@ -287,8 +287,11 @@ def _to_si_pint(value: object, kind: str) -> float:
     try:
         out = q.to(k.si) if k.si else q.to("dimensionless")
     except pint.DimensionalityError:
-        raise UnitParseError(
-            f"has units of {q.dimensionality}, expected {kind} (e.g. '1 {unit_hint}')") from None
+        found = next((other.name for other in KINDS.values() if other.si and other.name != k.name
+                      and ureg.Quantity(1.0, other.si).dimensionality == q.dimensionality), None)
+        what = (f"is {article(found)} ({KINDS[found].display.replace('*', ' ')})" if found
+                else f"has units of {q.dimensionality}")  # 'is a torque', not '[mass] * ...'
+        raise UnitParseError(f"{what}, expected {kind} (e.g. '1 {unit_hint}')") from None
     result = float(out.magnitude)
     if not math.isfinite(result):
         raise UnitParseError("expected a finite number (not nan or inf)")

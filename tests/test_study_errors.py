@@ -144,8 +144,13 @@ def test_a_quantity_or_a_word_field_says_what_was_wrong_with_the_quantity():
     assert _lines(text) == [("s.yaml:11: solver.initial_displacement: 2 has no unit; write e.g."
                             " '2 um', or '2 m' if SI was meant (or 'static')")]
     assert _lines(text.replace("2.0", "2 kg")) == [
-        ("s.yaml:11: solver.initial_displacement: '2 kg' -- has units of [mass], expected"
+        ("s.yaml:11: solver.initial_displacement: '2 kg' -- is a mass (kg), expected"
         " displacement (e.g. '1 um') (or 'static')")]
+    # a unit of no quantity a study has keeps pint's dimensions (was the only wording: "has units
+    # of [mass] * [length] / [time] ** 2" for a force; a new-user test)
+    assert _lines(text.replace("2.0", "2 kg/m")) == [
+        ("s.yaml:11: solver.initial_displacement: '2 kg/m' -- has units of [mass] / [length],"
+        " expected displacement (e.g. '1 um') (or 'static')")]
 
 
 def test_a_typo_in_kind_says_did_you_mean():
