@@ -29,6 +29,7 @@ from gearsweep.errors import (
     NO_VALUE,
     DeviceError,
     GearsweepError,
+    LimitError,
     ResultError,
     StudyError,
     article,
@@ -46,8 +47,10 @@ from gearsweep.study.estimate import (
     shortest_chunk_seconds,
 )
 from gearsweep.study.execute import (
+    LIMITS,
     DaskBackend,
     InProcess,
+    _size,
     check_limits,
     cores,
     step_limit_text,
@@ -153,8 +156,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
     study, text = load_study(args.study)
     name = _shown(args.study)
     if getattr(study, "type", None) == "mesh":
-
-        print(f"{name}: ok -- {summary(study)}")
+        memory = _check_mesh_memory(study, name, args.yes)
+        print(f"{name}: ok -- {summary(study)}, peak memory about {_size(memory)}")
         return 0
     if getattr(study, "type", None) == "analysis":
         print(f"{name}: ok -- analysis study {study.analysis.kind!r}")
@@ -264,6 +267,18 @@ def _check_device(study, text: str, args: argparse.Namespace) -> None:
         raise StudyError(name, "solver.device", study.solver.device, reason, line) from None
 
 
+def _check_mesh_memory(study, name: str, yes: bool) -> float:
+    """A mesh study's peak memory; one line (``LimitError``) beyond the limit unless ``yes``."""
+    from gearsweep.study.mesh import memory_bytes
+
+    memory = memory_bytes(study)
+    if memory > LIMITS.memory_bytes and not yes:
+        raise LimitError(f"{name}: refused (memory > {_size(LIMITS.memory_bytes)}): peak memory"
+                         f" about {_size(memory)} for {summary(study)}; run with --yes to go"
+                         " ahead")
+    return memory
+
+
 def cmd_run(args: argparse.Namespace) -> int:
 
     study, text = load_study(args.study)
@@ -285,6 +300,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"gearsweep: note: {name}: {article(study.type)} study is computed in one piece,"
                   f" in this process: {', '.join(unused)} do{'es' if len(unused) == 1 else ''}"
                   " not apply", file=sys.stderr)
+        if study.type == "mesh" and not args.estimate:
+            _check_mesh_memory(study, name, args.yes)
         if args.estimate:
             print(f"{name}: {article(study.type)} study, computed in one piece: no estimate")
             return 0

@@ -3,6 +3,7 @@
 import math
 import re
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -404,4 +405,21 @@ def test_a_web_without_a_rim_is_refused():
         parse_study(text, "s.yaml")
     parse_study(text.replace("web_width1: 5 mm", "web_width1: 5 mm, rim_thickness1: 8 mm"),
                 "s.yaml")
+
+
+def test_a_mesh_study_beyond_the_memory_limit_is_refused_at_once(tmp_path, capsys):
+    """A mesh study of 1e7 torques validated "ok", then asked numpy for 14.9 GiB (a traceback;
+    an adversarial test). Its peak memory (``study.mesh.memory_bytes``) is said by validate and
+    beyond 2 GB refused by validate and run, before computing, unless --yes."""
+    path = tmp_path / "m.yaml"
+    path.write_text("type: mesh\ntitle: m\ngear: table1_consistent\n"
+                    "sweep: {torque: {start: 1 N m, stop: 100 N m, num: 10000000}}\n")
+    for command in (["validate", str(path)], ["run", str(path), "-o", str(tmp_path / "m.nc")]):
+        t0 = time.perf_counter()
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "refused (memory > 2 GB): peak memory about 400 GB" in err
+        assert time.perf_counter() - t0 < 5
+    assert main(["validate", str(STUDIES / "fig01_02_mesh_cycle.yaml")]) == 0
+    assert "peak memory about 300 MB" in capsys.readouterr().out
 
