@@ -34,19 +34,7 @@ solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods
 """
 
 
-WHINE_GOOD = """\
-title: t
-scene:
-  kind: whine
-  mass: 0.1527 kg
-  teeth: 48
-  stiffness: 1073 kN/mm
-  stiffness_harmonics: [{amplitude: 100 kN/mm}]
-  damping: 5 N*s/mm
-  mean_force: 800 N
-sweep:
-  speed: [3000 rpm, 4000 rpm]
-"""
+WHINE_GOOD = "title: t\n" + WHINE_SCENE + "sweep:\n  speed: [3000 rpm, 4000 rpm]\n"
 
 
 def _lines(text: str) -> list[str]:
@@ -242,7 +230,7 @@ def test_the_problems_found_when_planning_are_said_at_once():
 def test_an_output_s_options_are_said_beside_the_study_s_other_problems():
     """An output's options were checked once everything else was right, and their first problem
     alone (a misspelt option hid a bad value; an adversarial test): now each beside the rest."""
-    text = (WHINE_GOOD.replace("mean_force: 800 N", "mean_force: -800 N x")
+    text = (WHINE_GOOD.replace("mean_force: 1000 N", "mean_force: -800 N x")
             + "outputs: [stats, {spectrum: {max_order: -40, samples_per_perod: 32}}]\n")
     assert [ln.split(" -- ")[0] for ln in _lines(text)] == [
         "s.yaml:9: scene.mean_force: '-800 N x'",
