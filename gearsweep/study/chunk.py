@@ -240,8 +240,10 @@ def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchRe
     if quiet.any() and not plan.dimensionless:  # quiet where it rests, not frozen on its way:
         # at 1e10 rpm the whole run is 5 ns, p moved 1e-13 m towards an equilibrium at 235 um,
         # and was taken as settled (status 0; found by an adversarial test)
-        n = len(quiet)
-        quiet &= ~_away_from_rest(plan, params, n, res.stats["p_mean"], scale)
+        idx = np.flatnonzero(quiet)  # the quiet cases only: often none, rarely many
+        sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+        quiet[idx] = ~_away_from_rest(plan, sub, len(idx), res.stats["p_mean"][idx],
+                                      np.broadcast_to(scale, quiet.shape)[idx])
     unsettled = (status == 0) & ~(res.stats["settle_error"] <= s.settle_tolerance) & ~quiet
     if plan.driven:  # an undriven scene decays or grows: nothing to settle into (Plan.driven)
         status[unsettled] = STATUS_NOT_SETTLED
