@@ -66,7 +66,7 @@ from gearsweep.study.schema import (
     replaced_by_sweep,
     summary,
 )
-from gearsweep.study.workspace import OutputLock, check_partial, input_files, saved_chunks
+from gearsweep.study.workspace import OutputLock, check_partial, reads_output, saved_chunks
 
 
 def _default_output(study_path: str) -> Path:
@@ -78,14 +78,15 @@ NAME_MAX = 237
 longest name written beside it adds (``.NAME.XXXXXXXX.partial`` of the atomic writer)."""
 
 
-def _check_writable(path: Path, study: str | None = None, inputs: list | tuple = ()) -> None:
+def _check_writable(path: Path, study: str | None = None, spec=None) -> None:
     """Fail before the run, not after it, when the output cannot be written: a file is created
     and removed in its folder (what the atomic writer will do). The result replaces the file at
     ``path`` by renaming a new one over it, so ``path`` must be a regular file or nothing: not a
     folder, not a device (``-o /dev/null`` replaced the device with a file), and neither the
-    study file being run nor a file it reads (``inputs``: a measured excitation, an analysis
-    study's input results). A path through folders the run will make is compared as it will be
-    then (``new/../s.yaml`` is ``s.yaml``, through links too)."""
+    study file being run nor a file it reads (``spec``, the study: its measured excitation, an
+    analysis study's input results; ``workspace.reads_output``). A path through folders the
+    run will make is compared as it will be then (``new/../s.yaml`` is ``s.yaml``, through links
+    too)."""
 
     def refuse(allowed: str) -> None:
         raise StudyError(str(path), "--output", str(path), allowed)
@@ -101,14 +102,17 @@ def _check_writable(path: Path, study: str | None = None, inputs: list | tuple =
         if above.exists() and not above.is_dir() or above.is_symlink() and not above.exists():
             refuse(f"a path in a folder ({above} is a file)")
     real = Path(os.path.realpath(path))  # as the run will reach it: links, '..', new folders
-    for used, what in ([(study, "the study file's")] if study not in (None, "-") else []) + [
-            (Path(f), f"{Path(f).name}, which the study reads") for f in inputs]:
-        try:
-            same = real.exists() and Path(used).exists() and os.path.samefile(real, used)
-        except OSError:
-            same = False
-        if same:
-            refuse(f"another path than {what} (the result would replace it)")
+    try:
+        same = study not in (None, "-") and real.exists() and Path(study).exists() \
+            and os.path.samefile(real, study)
+    except OSError:
+        same = False
+    if same:
+        refuse("another path than the study file's (the result would replace it)")
+    read = reads_output(spec, real) if spec is not None else None
+    if read is not None:
+        refuse(f"another path than {read.name}, which the study reads (the result would replace"
+               " it)")
     problem = replace_problem(real)
     if problem is not None:
         refuse(problem)
@@ -291,7 +295,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(name, "--output", args.output, "a file path, not a folder")
     out = Path(args.output) if args.output else _default_output(args.study)
     if not args.estimate:
-        _check_writable(out, args.study, input_files(study, out.parent))
+        _check_writable(out, args.study, study)
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
 
         unused = [o for o, v in (("--workers", args.workers), ("--chunk-size", args.chunk_size),
