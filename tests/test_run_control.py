@@ -322,6 +322,29 @@ def test_validate_says_the_compile_time_as_run_estimate_does(monkeypatch, capsys
     assert "includes about 6 s to compile" in capsys.readouterr().err
 
 
+def test_run_asks_the_kernel_cache_only_where_the_answer_can_change_what_it_says(
+        monkeypatch, capsys, write_study, small_whine, tmp_path):
+    """A run asks Numba's cache whether its kernel is compiled (7 ms) only where the estimate
+    is shown (--estimate, or a study over SHOW_ESTIMATE_SECONDS) or could reach the limits; a
+    small study runs without asking, and with the compile time counted as the most it can be
+    it is still under both. A long one asks, and prints the estimate with the cache's answer."""
+    from gearsweep import cli
+    from gearsweep.study import estimate as est_mod
+
+    asked = []
+    real = est_mod.compiled
+    monkeypatch.setattr(est_mod, "compiled", lambda call: asked.append(1) or real(call))
+    study = write_study(small_whine)
+    assert main(["run", str(study), "-o", str(tmp_path / "a.nc"), "-q"]) == 0
+    assert asked == []
+    assert main(["run", str(study), "--estimate"]) == 0
+    assert asked and "cases" in capsys.readouterr().out
+    asked.clear()
+    monkeypatch.setattr(cli, "SHOW_ESTIMATE_SECONDS", 0.0)  # now every study is "long"
+    assert main(["run", str(study), "-o", str(tmp_path / "b.nc")]) == 0
+    assert asked and "cases, " in capsys.readouterr().err
+
+
 def test_a_study_over_the_time_limit_at_the_stated_rate_is_measured_before_refusing(monkeypatch):
     """The stated rate (350 Msteps/s per core for RK4) is a floor: a study it puts over the
     10-minute limit is estimated again at the rate measured on the machine (here: made 3x the

@@ -32,10 +32,12 @@ from gearsweep.study.filelayout import output_bound
 from gearsweep.study.plan import Plan
 
 
-def compile_seconds(plan: Plan) -> float:
+def compile_seconds(plan: Plan, ask_cache: bool = True) -> float:
     """The one-time compile time of the kernel specialisations a CPU run of ``plan`` calls
     (``chunk.kernel_calls``) that are neither in Numba's disk cache nor compiled in this process
-    (``batch.compiled``); 0 when all are.
+    (``batch.compiled``); 0 when all are. ``ask_cache=False``: the most it can be, every
+    specialisation counted as not compiled, without asking the cache (7-8 ms the first time in a
+    process: typing the call's arguments, reading the cache's index).
 
     Each driver is compiled per combination of the terms a call gives (``rk.Specialised``:
     ``integrate_rk4_a0k1e1f0h0s0`` is RK4 with a shared stiffness table and an STE table, no
@@ -51,14 +53,15 @@ def compile_seconds(plan: Plan) -> float:
     for call in kernel_calls(plan):
         key = specialisation(call)
         if key not in seconds:
-            seconds[key] = 0.0 if compiled(call) else COLD_COMPILE_SECONDS[key[:2]]
+            seconds[key] = 0.0 if ask_cache and compiled(call) else COLD_COMPILE_SECONDS[key[:2]]
     return sum(seconds.values())
 
 
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,
-                   rate: float | None = None) -> tuple[Estimate, float]:
+                   rate: float | None = None, ask_cache: bool = True) -> tuple[Estimate, float]:
     """(estimate at the stated rate, or at ``rate`` [Msteps/s per core] measured, of which
-    seconds to compile the kernel on a cold cache)."""
+    seconds to compile the kernel on a cold cache). ``ask_cache=False``: an upper bound, with
+    every specialisation the run calls counted as compiled on the spot (``compile_seconds``)."""
     threads = threads or cores()
     s = plan.study.solver
     per = lanes_per_chunk(plan, chunk_cases) or plan.default_lanes_per_chunk()
@@ -81,7 +84,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
         kernel_s = lane_steps / (rate * 1e6)
     per_case = _case_bytes(plan)
     output = float(output_bound(plan))
-    compile_s = compile_seconds(plan)
+    compile_s = compile_seconds(plan, ask_cache)
     seconds = kernel_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
