@@ -581,3 +581,17 @@ def test_subnormals_flushed_in_the_kernel_only():
     assert np.all((x == 0.0) | (x >= tiny)), "a subnormal state left the kernel"
     assert (x >= tiny).sum() >= 10 and (x == 0.0).sum() >= 10
     assert (np.array([1e-310]) * 0.5)[0] > 0.0  # gradual underflow still on in this thread
+
+
+def test_signal_sample_j_is_the_state_after_step_n_transient_plus_j_stride_plus_one():
+    """The signal's times, as ``simulate``'s docstring states them: an undamped oscillator from
+    p = 1 matches cos(w t) at t = (n_transient + j stride + 1) h to the method's error (4e-12),
+    and is a step's phase away (2.5e-2) from t = (n_transient + j stride) h. (An outside
+    reviewer assumed the latter from the old wording.)"""
+    w, spp = 2 * np.pi * 1000.0, 256
+    h = 1e-3 / spp
+    r = simulate(h=np.array([h]), method="rk5", damping=0.0, k_mean=w * w, x0=1.0, v0=0.0,
+                 n_transient=10, n_record=100, steps_per_period=spp, signal_stride=3)
+    t = (10 + np.arange(r.signal.shape[1]) * 3 + 1) * h
+    assert np.abs(r.signal[0] - np.cos(w * t)).max() < 1e-10
+    assert np.abs(r.signal[0] - np.cos(w * (t - h))).max() > 1e-2

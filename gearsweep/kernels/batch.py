@@ -125,7 +125,11 @@ def simulate(
     n_transient, n_record, steps_per_period : int
         Steps discarded, steps recorded, steps per mesh period.
     signal_stride : int
-        If > 0, also return p at every ``signal_stride``-th recorded step.
+        If > 0, also return p at every ``signal_stride``-th recorded step: sample ``j`` is p
+        after step ``n_transient + j * signal_stride + 1``, at the time
+        ``(n_transient + j * signal_stride + 1) * h`` after the start (the state after each
+        step, not before it: one step later than ``(n_transient + j * signal_stride) * h``, a
+        phase of ``2 pi / steps_per_period`` per mesh period).
     kink_aware : bool
         Use ``gearsweep.kernels.kink``: a step that crosses a backlash boundary p = +-b is
         redone in pieces that end on the boundary, so the method keeps its order through the
