@@ -370,3 +370,32 @@ def test_a_stability_map_of_a_users_own_result_has_its_units_teeth_and_ticks():
     assert ticks == [3000, 5000, 10000, 20000, 30000]
     with pytest.raises(ValueError, match="select the other dims first"):
         plot_stability_map(ds.expand_dims(torque=[1.0, 2.0]), "unstable")
+
+
+@pytest.mark.parametrize("method,c", [("rk5", 5500.0), ("rk4", 5500.0), ("rk5", 200.0)])
+def test_integrator_edge_of_a_constant_stiffness_is_the_stability_polynomials_limit(method, c):
+    """With the stiffness ripple off the fixed-step map over a mesh period is R(h lambda)^S,
+    so its edge is where h omega_n reaches the stability polynomial's limit at the case's
+    damping ratio (``step_limit_hw``, from the polynomial's roots, not from the kernel):
+    speed = 60 omega_n / (teeth S (h omega_n)*)."""
+    k0, m, teeth, spp = 1073e6, 0.1527, 48, 200
+    wn = np.sqrt(k0 / m)
+    want = 60.0 * wn / (teeth * spp * float(st.step_limit_hw(method, c / (2 * np.sqrt(k0 * m)))))
+    got = st.integrator_edge((0.5 * want, 2.0 * want), k0=k0, k1=0.0, mass=m, teeth=teeth,
+                             damping=c, steps_per_period=spp, method=method, tol=1e-12)
+    assert got == pytest.approx(want, rel=1e-7)
+
+
+def test_integrator_edge_lies_between_the_grids_last_flagged_speed_and_the_next():
+    """The rig (k1 = 179 kN/mm) at c = 5.5 N s/mm and RK5 at 200 steps: the map diverges at the
+    grid's 165.6 rpm and not at 170.9 rpm; the edge is between them, where the multiplier is
+    1 + tol; and two speeds on one side are refused."""
+    rig = dict(k0=1073e6, k1=179e6, mass=0.1527, teeth=48, damping=5500.0, steps_per_period=200)
+    edge = st.integrator_edge((165.6, 170.93), **rig)
+    assert 165.6 < edge < 170.93
+    for speed, unstable in ((edge * 0.999, True), (edge * 1.001, False)):
+        a, b, g = mathieu_parameters(1073e6, 179e6, 0.1527, 5500.0, 48 * speed / 60)
+        mu = st.largest_multiplier(monodromy(a, b, g, 200, method="rk5"))[0]
+        assert (mu > 1 + 1e-6) == unstable
+    with pytest.raises(ValueError, match="does not cross"):
+        st.integrator_edge((100.0, 150.0), **rig)

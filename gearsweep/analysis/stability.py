@@ -46,6 +46,7 @@ multiplier of the equation does not.
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction as Fr
 
 import numpy as np
@@ -64,6 +65,7 @@ __all__ = [
     "UnstableStepError",
     "amplification",
     "check_step",
+    "integrator_edge",
     "integrator_unstable",
     "max_stable_step",
     "measured_step_limit",
@@ -325,6 +327,49 @@ def integrator_unstable(alpha, beta, gamma, steps_per_period: int, *, method: st
         floquet = fq.floquet(alpha, beta, gamma, method=method, harmonics=harmonics)
     flag = (disc > 1 + tol) & ~(floquet.multiplier > 1 + tol)
     return flag, disc
+
+
+def integrator_edge(speeds_rpm: tuple[float, float], *, k0: float, k1: float, mass: float,
+                    teeth: int, damping: float, steps_per_period: int, method: str = "rk5",
+                    tol: float = 1e-6) -> float:
+    """The speed [rpm] between the two of ``speeds_rpm`` at which the fixed-step map of the rig's
+    Hill equation (Eq. 11-12, ``mathieu_parameters``) passes between diverging and not: its
+    largest multiplier over one mesh period is ``1 + tol`` (``integrator_unstable``'s
+    threshold), found by Brent's method on the multiplier's logarithm, to 1e-9 rpm.
+
+    A grid of speeds puts this edge only between two of its points (the rig's 96 log-spaced
+    speeds are 3.2 % apart: the last flagged one, 165.6 rpm at c = 5.5 N s/mm and 200 steps,
+    lies 3 % below the edge, 170.56 rpm).
+
+    Parameters
+    ----------
+    speeds_rpm : (float, float)
+        Driving-gear speeds [rpm] that bracket the edge: the map diverges at one, not the other.
+    k0, k1, mass, teeth, damping : float, float, float, int, float
+        Mean and first-harmonic stiffness [N/m], m_eq [kg], teeth of the driving gear, viscous
+        mesh damping [N s/m].
+    steps_per_period : int
+        Fixed steps per mesh period.
+    method : {"rk4", "rk5"}
+    tol : float
+
+    Raises
+    ------
+    ValueError
+        If the two speeds do not bracket the edge.
+    """
+    from scipy.optimize import brentq
+
+    def excess(speed: float) -> float:
+        a, b, g = mathieu_parameters(k0, k1, mass, damping, teeth * speed / 60.0)
+        mu = float(largest_multiplier(fq.monodromy(a, b, g, steps_per_period, method=method))[0])
+        return min(math.log(mu), 700.0) - math.log1p(tol)  # (an overflow: inf)
+
+    lo, hi = (float(x) for x in speeds_rpm)
+    if not excess(lo) * excess(hi) < 0:
+        raise ValueError(f"the map's multiplier does not cross 1 + {tol:g} between {lo:g} and"
+                         f" {hi:g} rpm: give speeds on either side of the edge")
+    return float(brentq(excess, lo, hi, xtol=1e-9))
 
 
 def measured_step_limit(method: str, zeta, n_steps: int = 2_000_000, bound: float = 10.0,
