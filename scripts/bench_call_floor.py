@@ -3,11 +3,14 @@
     .venv/bin/python scripts/bench_call_floor.py
 """
 
+import argparse
+
 import numba
 import numpy as np
 
 from gearsweep.analysis import peers as P
 
+argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args()  # (--help ran it)
 batch = P.whine_batch(1000)
 for threads in (1, 2):
     numba.set_num_threads(threads)

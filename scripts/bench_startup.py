@@ -13,6 +13,7 @@ cut to 8 speeds, nothing else swept), then the ratio tiny run / libraries (targe
 
 from __future__ import annotations
 
+import argparse
 import statistics
 import subprocess
 import sys
@@ -48,7 +49,8 @@ def median_seconds(cmd: list[str], repeats: int = 3) -> float:
     return statistics.median(times)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)  # --help
     from bench_scale import byte_compile
 
     byte_compile()

@@ -4,11 +4,12 @@ For every method and scene kind, C in  trajectory error <= C (h omega_n)^order  
 envelope over runs at the calibration speeds (the tests hold out other speeds). A maintenance
 script, not part of the main job: run it after a change to the kernels.
 
-    python scripts/calibrate_advisor.py
+    python scripts/calibrate_advisor.py [--output FILE]
 """
 
 from __future__ import annotations
 
+import argparse
 import datetime as dt
 import json
 import math
@@ -70,10 +71,15 @@ def calibrate(window: pr.Window) -> dict:
     }
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--output", type=Path,
+                   default=ROOT / "gearsweep" / "analysis" / "data" / "error_constants.json",
+                   help="where to write the constants (default: the advisor's own file)")
+    args = p.parse_args(argv)  # (--help ran the calibration and rewrote the advisor's file)
     data = calibrate(pr.Window())
-    out = ROOT / "gearsweep" / "analysis" / "data" / "error_constants.json"
-    out.write_text(json.dumps(data, indent=2) + "\n")
+    args.output.write_text(json.dumps(data, indent=2) + "\n")
     print(json.dumps(data["constants"], indent=1))
 
 
