@@ -281,11 +281,19 @@ def render() -> str:
     lines += ["", "## Status codes (variable `status`)", "", "| code | meaning |", "|---|---|"]
     for code, meaning in STATUS_CODES.items():
         lines.append(f"| {code} | {_cell(meaning)} |")
+    from gearsweep.errors import EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USAGE
+
     lines += ["", "## Exit codes of `gearsweep`", "", "| code | meaning |", "|---|---|",
               "| 0 | done |",
-              "| 2 | the input cannot be run: one line per problem, nothing computed |",
-              ("| 130 | interrupted (Ctrl-C): the chunks computed so far are kept; the same command"
-              " continues |"), ""]
+              "| 1 | a bug: a traceback (please report it with the study) |",
+              (f"| {EXIT_USAGE} | refused or failed with a reason, one line per problem: input"
+               " that cannot be run (nothing computed), an output that cannot be written, a full"
+               " disk or no more memory (the chunks computed so far are kept; the same command"
+               " continues) |"),
+              (f"| {EXIT_INTERRUPTED} | interrupted (Ctrl-C): the chunks computed so far are kept;"
+               " the same command continues |"),
+              (f"| {EXIT_TERMINATED} | terminated (SIGTERM: `kill`, a batch system's time limit):"
+               " the chunks computed so far are kept; the same command continues |"), ""]
     return "\n".join(lines)
 
 
