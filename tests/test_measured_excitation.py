@@ -512,3 +512,36 @@ def test_a_files_stated_load_against_swept_loads_and_unstated_ones(tmp_path, cap
                coords={"mesh_phase": pos, "torque": (("torque",), [20.0], {"units": "N m"})}
                ).to_netcdf(tmp_path / "over.nc")
     assert validate(rattle + "  torque: 20 N m\n  excitation: {file: over.nc}\n")[0] == 0
+
+
+def test_the_checkpoint_key_holds_the_excitation_files_bytes_not_its_name(tmp_path):
+    """Chunks saved from one content of the excitation file are not resumed with another: the
+    study's key (its checkpoint folder) changes with the file's bytes (an interrupted run was
+    resumed after the STE column was tripled: 6,000 of 40,000 cases came from the new samples,
+    the rest from the old, with the new fit in the file). The same bytes written again (a new
+    mtime) keep the key."""
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import load_study
+
+    root = Path(__file__).resolve().parents[1] / "studies"
+    (tmp_path / "data").mkdir()
+    csv = tmp_path / "data" / "ste_table1.csv"
+    original = (root / "data" / "ste_table1.csv").read_text(encoding="utf-8")
+    csv.write_text(original, encoding="utf-8")
+    study = tmp_path / "m.yaml"
+    study.write_text((root / "whine_measured_ste.yaml").read_text(encoding="utf-8"),
+                     encoding="utf-8")
+
+    def key() -> str:
+        return make_plan(*load_study(str(study))).study_key
+
+    first = key()
+    csv.write_text(original, encoding="utf-8")  # the same bytes again
+    assert key() == first
+    rows = original.splitlines()
+    i = next(i for i, r in enumerate(rows) if r[:1].isdigit())
+    cells = rows[i].split(",")
+    cells[1] = f" {3 * float(cells[1]):.6f}"  # one STE sample changed
+    rows[i] = ",".join(cells)
+    csv.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    assert key() != first

@@ -155,13 +155,23 @@ class Plan:
         spacing, the order of keys) keeps the chunks saved by an interrupted run; a changed value,
         the title included, makes another study. (``study_sha256`` in a result is of the text.)
         The device is the one the chunks run on (``device``): ``auto`` on a machine without a
-        GPU is the study with ``cpu``, so either resumes the other's chunks."""
-        import json
+        GPU is the study with ``cpu``, so either resumes the other's chunks. A file the scene
+        reads (``excitation.file``) counts by its bytes (sha256), not its name: its samples
+        changed between an interrupted run and the next, the chunks of the old samples were
+        resumed beside new ones, with the new file's fit in the result (an adversarial test)."""
+        if "study_key" not in self.memo:
+            import json
 
-        study = self.study.model_dump(mode="json")
-        study["solver"]["device"] = self.device
-        dump = json.dumps(study, sort_keys=True)
-        return hashlib.sha256(dump.encode()).hexdigest()
+            study = self.study.model_dump(mode="json")
+            study["solver"]["device"] = self.device
+            ex = getattr(getattr(self.study, "scene", None), "excitation", None)
+            if ex is not None:
+                with open(ex.file, "rb") as fh:
+                    study["scene"]["excitation"]["file_sha256"] = hashlib.file_digest(
+                        fh, "sha256").hexdigest()
+            dump = json.dumps(study, sort_keys=True)
+            self.memo["study_key"] = hashlib.sha256(dump.encode()).hexdigest()
+        return self.memo["study_key"]
 
     @property
     def driven(self) -> bool:
