@@ -12,10 +12,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
-from gearsweep.errors import GearsweepError
+from gearsweep.errors import GearsweepError, ResultError
 from gearsweep.study.checkpoint import SUFFIX, chunk_folder
 from gearsweep.study.execute import chunks_to_run
 
@@ -69,17 +70,33 @@ class OutputLock:
     def __enter__(self) -> OutputLock:
         from filelock import Timeout
 
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        made = [p for p in (self.path.parent, *self.path.parent.parents) if not p.exists()]
         try:
-            self.lock.acquire()
-        except Timeout:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
             try:
-                pid = self.owner.read_text(encoding="utf-8").strip() or "?"
-            except OSError:
-                pid = "?"
-            raise BusyError(f"{self.out}: another gearsweep run (PID {pid}) is writing this"
-                            " output; wait for it, or choose another -o") from None
-        self.owner.write_text(f"{os.getpid()}\n", encoding="utf-8")
+                self.lock.acquire()
+            except Timeout:
+                if not self.path.exists():  # not held by another run: it cannot be made here
+                    fd = os.open(self.path, os.O_WRONLY | os.O_CREAT, 0o644)  # (/proc, a
+                    os.close(fd)  # read-only folder: the OSError that says why, below)
+                    self.path.unlink(missing_ok=True)
+                try:
+                    pid = self.owner.read_text(encoding="utf-8").strip() or "?"
+                except OSError:
+                    pid = "?"
+                raise BusyError(f"{self.out}: another gearsweep run (PID {pid}) is writing this"
+                                " output; wait for it, or choose another -o") from None
+            try:
+                self.owner.write_text(f"{os.getpid()}\n", encoding="utf-8")
+            except BaseException:
+                self.__exit__()
+                raise
+        except OSError as exc:  # a full disk, a folder where the lock goes: one line, nothing
+            for folder in made:  # left behind (were a traceback, a lock file and new folders)
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
+            raise ResultError(f"{self.out}: cannot write the result here ({self.path.name}:"
+                              f" {exc.strerror or type(exc).__name__})") from None
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -102,9 +119,9 @@ def check_partial(plan, out: str | Path) -> None:
         if folder.is_dir() and folder.name != mine and any(folder.glob(f"*{SUFFIX}")):
             n = sum(1 for _ in folder.glob(f"*{SUFFIX}"))
             raise BusyError(f"{out}: {root} holds {n} saved chunk(s) of another study (an"
-                            " interrupted run of a study with other values, or on another"
-                            " --device); finish it with that study, or remove"
-                            f" {root} to start this one")
+                            " interrupted run of a study with other values, another content of"
+                            " a file it reads, or on another --device); finish it with that"
+                            f" study, or remove {root} to start this one")
 
 
 def saved_chunks(plan, out: str | Path, chunk_cases: int | None = None) -> tuple[int, int]:
