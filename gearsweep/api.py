@@ -38,7 +38,7 @@ from gearsweep.study.execute import InProcess, run_plan, run_to_file, step_limit
 from gearsweep.study.mesh import run_mesh_study
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study
-from gearsweep.study.workspace import reads_output
+from gearsweep.study.workspace import OutputLock, check_partial, reads_output
 from gearsweep.units import UnitParseError, si_values, to_display, to_si
 
 StudyLike = str | Path | dict | Study | MeshStudy | AnalysisStudy
@@ -178,17 +178,26 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     if output is not None and (read := reads_output(st, output)) is not None:
         raise ResultError(f"{output}: not a place for the result: it is {read.name}, which the"
                           " study reads (the result would replace it)")
+    # With an output, the run holds it as the CLI does (``OutputLock``: one run at a time; a
+    # second, from Python or the shell, is refused naming the first) and refuses another
+    # study's saved chunks there (``check_partial``): without them a call beside a running
+    # `gearsweep run` made that run's file unreadable, and one of another study deleted its
+    # chunks (an adversarial test).
     if isinstance(st, MeshStudy | AnalysisStudy):
-        ds = run_unchunked(st, text, Path(output).parent if output is not None else "results")
-        if output is not None:
+        if output is None:
+            return run_unchunked(st, text, "results")
+        with OutputLock(output):
+            ds = run_unchunked(st, text, Path(output).parent)
             write_netcdf(ds, output)
         return ds
     plan = make_plan(st, text, name)
     if output is None:
         ds = run_plan(plan, backend=InProcess(), progress=progress, chunk_cases=chunk_cases)
     else:
-        with run_to_file(plan, output, chunk_cases=chunk_cases, progress=progress) as lazy:
-            ds = lazy.load()
+        with OutputLock(output):
+            check_partial(plan, output)
+            with run_to_file(plan, output, chunk_cases=chunk_cases, progress=progress) as lazy:
+                ds = lazy.load()
     _warn_step_limit(plan, ds, name if output is None else output)
     return ds
 
