@@ -935,3 +935,21 @@ def test_validate_notes_a_device_this_machine_lacks(tmp_path, capsys, monkeypatc
     assert err == (f"gearsweep: note: {study}: device cpu: no CUDA GPU found: `gearsweep run`"
                    " refuses it on this machine\n")
 
+
+
+def test_a_statistic_that_overflows_flags_its_case_as_diverged(small_whine):
+    """A mean force of 1e300 N puts p near 1e291 m: p^2 overflows, p_rms is inf. Such a case is
+    flagged as diverged (status 1) with NaN values, as a diverged case is (it was status 0 with
+    p_rms inf and a finite p_pp), and the other loads' cases are as without it."""
+    import gearsweep
+
+    small_whine["scene"].pop("mean_force")
+    small_whine["sweep"]["mean_force"] = ["400 N", "1e300 N", "1600 N"]
+    ds = gearsweep.run(small_whine)
+    bad = ds.sel(mean_force=1e300)
+    assert (bad.status == 1).all() and bad.p_rms.isnull().all() and bad.p_pp.isnull().all()
+    small_whine["sweep"]["mean_force"] = ["400 N", "1600 N"]
+    ok = gearsweep.run(small_whine)
+    assert (ok.status == 0).all()
+    for name in ("p_rms", "p_pp", "status"):
+        np.testing.assert_array_equal(ds[name].sel(mean_force=[400.0, 1600.0]), ok[name])

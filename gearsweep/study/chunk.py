@@ -232,6 +232,18 @@ def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchRe
     out = {name: plan.specs[name].to_result(a) if name in plan.specs else a
            for name, a in out.items()}  # SI -> the unit the result stores (p in um)
     status = res.status.astype(np.int8)
+    # A statistic that overflowed (p_rms of p ~ 1e291 m under a mean force of 1e300 N: p^2 is
+    # inf) is no result: the case is flagged as diverged, its values NaN as a diverged case's
+    # (it was status 0 with p_rms inf; found by an adversarial test).
+    over = status == 0
+    for a in res.stats.values():
+        over &= np.isfinite(a)
+    over = (status == 0) & ~over
+    if over.any():
+        status[over] = STATUS_DIVERGED
+        for a in out.values():
+            if a.dtype.kind == "f" and a.shape[:1] == over.shape:
+                a[over] = np.nan
     # A response that has died away (a free vibration with nothing driving it) has nothing left
     # to settle: its settle_error is round-off over round-off (0.48 with p_pp 1e-16 m). Below
     # 1e-9 of the static scale (the divergence bound's, kernel_inputs) it counts as settled.

@@ -35,7 +35,8 @@ from gearsweep.units import KINDS, to_display
 
 STATUS_CODES = {
     0: "ok",
-    1: "diverged: p became non-finite or exceeded divergence_factor x its static scale",
+    1: "diverged: p became non-finite or exceeded divergence_factor x its static scale, or a"
+       " statistic of p overflowed",
     2: "not settled: settle_error above solver.settle_tolerance (results kept; a response that"
        " has died away, p_pp below 1e-9 of its static scale, is settled; driven scenes only: an"
        " undriven one, a Mathieu chart say, decays or grows, see the floquet output)",
