@@ -37,7 +37,7 @@ from gearsweep.errors import (
 from gearsweep.files import replace_problem
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
-from gearsweep.study.checkpoint import chunk_folder, saved_layout
+from gearsweep.study.checkpoint import SUFFIX, chunk_folder, remove_checkpoints, saved_layout
 from gearsweep.study.estimate import (
     CHUNK_SECONDS,
     PROGRESS_CHUNKS,
@@ -52,6 +52,7 @@ from gearsweep.study.execute import (
     InProcess,
     _size,
     check_limits,
+    chunks_to_run,
     cores,
     step_limit_text,
     stream_to_file,
@@ -221,6 +222,8 @@ def _on_sigint(signum, frame) -> None:
     if _STOP.is_set():  # a second Ctrl-C: stop now (the chunks saved so far are kept)
         raise KeyboardInterrupt
     _STOP.set()
+    print("gearsweep: stopping after the chunk being computed, which is kept (Ctrl-C again to"
+          " stop at once)", file=sys.stderr)  # (a chunk may last up to CHUNK_SECONDS)
 
 
 _TERMINATED = threading.Event()
@@ -240,16 +243,18 @@ def _on_sigterm(signum, frame) -> None:
 
 def _stoppable(backend):
     """``backend`` whose ``run`` stops cleanly between chunks once ``_STOP`` is set: every chunk
-    computed so far is saved by the caller before the stop (raised as ``KeyboardInterrupt``)."""
+    computed so far, the one that was computing when the stop came included, is saved by the
+    caller before the stop (raised as ``KeyboardInterrupt``); a stop during the last chunk lets
+    the run finish and write its file. (The chunk that finished after the stop was dropped: a
+    single-chunk continued sweep ran to its end and kept nothing; an adversarial test.)"""
     base = type(backend)
 
     class Stoppable(base):
         def run(self, plan, todo, *args):
-            for item in base.run(self, plan, todo, *args):
-                if _STOP.is_set():
-                    raise KeyboardInterrupt
+            last = len(todo) - 1
+            for i, item in enumerate(base.run(self, plan, todo, *args)):
                 yield item
-                if _STOP.is_set():
+                if _STOP.is_set() and i < last:
                     raise KeyboardInterrupt
 
     backend.__class__ = Stoppable
@@ -334,9 +339,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     chunk, capped = chunk_cases(plan, args.chunk_size, workers=args.workers)
     saved = saved_layout(out, plan.study_key, plan.n_lanes)
     if saved:  # a resumed run keeps its chunks: estimate with them, say so if asked for others
+        asked_chunk = chunk
         chunk, capped = max(b - a for a, b in saved) * plan.cases_per_lane, False
         asked = [f for f, v in (("--chunk-size", args.chunk_size), ("--workers", args.workers))
                  if v is not None]
+        if asked and chunks_to_run(plan, None, asked_chunk) == [tuple(c) for c in saved]:
+            asked = []  # they give the saved chunks: nothing to say (said on every resume)
         if asked and not args.quiet:
             print(f"gearsweep: note: {out}: resuming in the interrupted run's {len(saved)} chunks;"
                   f" the chunks of {' and '.join(asked)} apply to a fresh run", file=sys.stderr)
@@ -370,37 +378,42 @@ def cmd_run(args: argparse.Namespace) -> int:
         check_limits(est, name)
     _long_sweep_note(plan, args)
     progress = not args.quiet and sys.stderr.isatty()
-    with OutputLock(out), _backend(args) as backend:
-        check_partial(plan, out)
-        if not args.quiet and est.seconds > SHOW_ESTIMATE_SECONDS:
-            print(f"{name}: {est.line()}", file=sys.stderr)
-        saved, total = saved_chunks(plan, out, chunk)
-        if saved and not args.quiet:
-            print(f"{out}: resuming: {saved} of {total} chunks already saved in {out}.chunks,"
-                  " computing the others", file=sys.stderr)
-        t0 = time.perf_counter()
-        previous = (signal.signal(signal.SIGINT, _on_sigint),
-                    signal.signal(signal.SIGTERM, _on_sigterm)) \
-            if threading.current_thread() is threading.main_thread() else None
-        try:
-            written = stream_to_file(plan, out, backend=_stoppable(backend), chunk_cases=chunk,
-                                     progress=progress, codec=args.codec)
-        except (KeyboardInterrupt, SystemError) as exc:
+    # The handlers are ours from the first chunk until the backend is closed (a local cluster
+    # takes 0.5-1 s to close: a signal then, with Python's handlers back, ended in a bare
+    # "interrupted" or SIGTERM's default action, the lock files left; an adversarial test).
+    ours = threading.current_thread() is threading.main_thread()
+    previous, unraisable, written = None, sys.unraisablehook, None
+    try:
+        with OutputLock(out), _backend(args) as backend:
+            check_partial(plan, out)
+            if not args.quiet and est.seconds > SHOW_ESTIMATE_SECONDS:
+                print(f"{name}: {est.line()}", file=sys.stderr)
+            saved, total = saved_chunks(plan, out, chunk)
+            if saved and not args.quiet:
+                print(f"{out}: resuming: {saved} of {total} chunks already saved in"
+                      f" {out}.chunks, computing the others", file=sys.stderr)
+            t0 = time.perf_counter()
+            if ours:
+                previous = (signal.signal(signal.SIGINT, _on_sigint),
+                            signal.signal(signal.SIGTERM, _on_sigterm))
+                sys.unraisablehook = _quiet_once_stopping(unraisable)
+            written = stream_to_file(plan, out, backend=_stoppable(backend),
+                                     chunk_cases=chunk, progress=progress, codec=args.codec)
+    except (KeyboardInterrupt, SystemError) as exc:
+        if written is None:  # (else the result is in place: a stop while the backend closed)
             if not (_STOP.is_set() or isinstance(exc, KeyboardInterrupt)):
                 raise
-            done, total = saved_chunks(plan, out, chunk)
-            how = "terminated (SIGTERM)" if _TERMINATED.is_set() else "interrupted"
-            raise Interrupted(f"{how}: {done} of {total} chunks saved in"
-                              f" {out}.chunks; run the same command to continue") from None
-        finally:
-            if previous is not None:
-                signal.signal(signal.SIGINT, previous[0])
-                signal.signal(signal.SIGTERM, previous[1])
-            _STOP.clear()
-        # Counted as the chunks were written: the file is not opened again to report them.
-        beyond = step_limit_text(plan, written.beyond, out)
-        if beyond is not None:  # the text gearsweep.run warns, as one line
-            print(f"gearsweep: warning: {beyond}", file=sys.stderr)
+            raise Interrupted(_interrupted_line(plan, out, chunk)) from None
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous[0])
+            signal.signal(signal.SIGTERM, previous[1])
+        sys.unraisablehook = unraisable
+        _STOP.clear()
+    # Counted as the chunks were written: the file is not opened again to report them.
+    beyond = step_limit_text(plan, written.beyond, out)
+    if beyond is not None:  # the text gearsweep.run warns, as one line
+        print(f"gearsweep: warning: {beyond}", file=sys.stderr)
     if not args.quiet:
         # The file's elapsed_seconds is the chunk phase; the wall time adds the one-time
         # loading (or compiling) of the kernel and the writing of the file: say both.
@@ -413,6 +426,27 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 SHOW_ESTIMATE_SECONDS = 30.0
 """``gearsweep run`` prints its estimate before a study estimated to last longer than this [s]."""
+
+
+def _quiet_once_stopping(default):
+    """``sys.unraisablehook`` that says nothing once a stop is asked: the stop, raised in the
+    main thread wherever it is, may land in a callback or a destructor (llvmlite's object cache
+    while a kernel loads), where Python prints "Exception ignored in ..." with a traceback
+    beside the run's one line (an adversarial test, 1 in 20-40 SIGTERMs during the start)."""
+    def hook(unraisable) -> None:
+        if not _STOP.is_set():
+            default(unraisable)
+    return hook
+
+
+def _interrupted_line(plan, out: Path, chunk: int | None) -> str:
+    """What an interrupted run says; a chunk folder left with no chunk in it is removed."""
+    done, total = saved_chunks(plan, out, chunk)
+    how = "terminated (SIGTERM)" if _TERMINATED.is_set() else "interrupted"
+    if done == 0 and not any(chunk_folder(out).glob(f"*/*{SUFFIX}")):
+        remove_checkpoints(out)  # (it held the manifest only)
+        return f"{how} before the first chunk was saved: nothing to continue from"
+    return f"{how}: {done} of {total} chunks saved in {out}.chunks; run the same command to continue"
 
 
 class Interrupted(Exception):

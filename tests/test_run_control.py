@@ -642,3 +642,149 @@ entry()
         threads, value = proc.stderr.strip().splitlines()[-1].split()
         assert (value if given else f"{threads} {value}") == said, proc.stderr
 
+
+
+def test_gearsweep_run_with_an_output_holds_it_as_the_cli_does(tmp_path, small_whine):
+    """``gearsweep.run(..., output=)`` takes the output's lock and refuses another study's
+    saved chunks there, as ``gearsweep run`` does: beside a running CLI run it made that run's
+    file unreadable (which then said it had written it), and a run of another study deleted
+    that run's chunks (an adversarial test)."""
+    import gearsweep
+    from gearsweep.study.workspace import BusyError, OutputLock
+
+    out = tmp_path / "o.nc"
+    with OutputLock(out), pytest.raises(BusyError, match="another gearsweep run"):
+        gearsweep.run(small_whine, output=out)
+    assert not out.exists()
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "10000"), encoding="utf-8")
+    _, out2, _, code, _ = _signalled_after_two_chunks(tmp_path, signal.SIGINT)
+    assert code == 130 and any(chunk_folder(out2).glob("*/*.npys"))
+    with pytest.raises(BusyError, match="saved chunk"):
+        gearsweep.run(small_whine, output=out2)  # another study: the chunks are kept
+    assert any(chunk_folder(out2).glob("*/*.npys"))
+    assert gearsweep.run(small_whine, output=tmp_path / "free.nc").sizes["speed"] > 0
+
+
+def test_an_output_lock_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path,
+                                                                             monkeypatch):
+    """A disk full when the lock's PID file is written, or a folder where the lock goes: one
+    line (``ResultError``), no lock files and no folders the run made (were a 40-line traceback,
+    exit 1, with ``o.nc.lock`` and an empty ``o.nc.lock.pid`` left)."""
+    import errno
+    from pathlib import Path as P
+
+    from gearsweep.errors import ResultError
+    from gearsweep.study.workspace import OutputLock
+
+    real = P.write_text
+
+    def full(self, *args, **kwargs):
+        if self.name.endswith(".lock.pid"):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(P, "write_text", full)
+    out = tmp_path / "new" / "deeper" / "o.nc"
+    with pytest.raises(ResultError, match="cannot write the result here .*No space left on device"):
+        with OutputLock(out):
+            pass
+    assert not (tmp_path / "new").exists()
+    monkeypatch.undo()
+    (tmp_path / "h.nc.lock").mkdir()
+    with pytest.raises(ResultError, match="cannot write the result here"):
+        with OutputLock(tmp_path / "h.nc"):
+            pass
+
+
+def test_a_stop_keeps_the_chunk_that_was_computing_and_the_last_chunk_finishes_the_run():
+    """After the first Ctrl-C the chunk that was computing is handed on (to be saved), then the
+    run stops; a stop during the last chunk lets the run end normally. (The chunk that finished
+    after the stop was dropped: a one-chunk continued sweep ran to its end and kept nothing.)"""
+    from gearsweep import cli
+
+    class Fake:
+        def __init__(self, stop_at: int) -> None:
+            self.stop_at = stop_at
+
+        def run(self, plan, todo):
+            for i, c in enumerate(todo):
+                if i == self.stop_at:
+                    cli._STOP.set()  # Ctrl-C while chunk i computes
+                yield c
+
+    try:
+        for stop_at, want, stops in ((1, [0, 1], True), (3, [0, 1, 2, 3], False)):
+            cli._STOP.clear()
+            got = []
+            try:
+                for c in cli._stoppable(Fake(stop_at)).run(None, [0, 1, 2, 3]):
+                    got.append(c)
+                stopped = False
+            except KeyboardInterrupt:
+                stopped = True
+            assert (got, stopped) == (want, stops)
+    finally:
+        cli._STOP.clear()
+
+
+def test_a_stop_while_the_checkpoints_are_removed_leaves_a_finished_run(tmp_path, monkeypatch,
+                                                                       write_study, small_whine):
+    """A signal after the result is in place, while the chunk files are removed, ends the run
+    as finished, the chunks all removed (it reported a failed run with the file complete, and
+    left half the chunks, which the next run said it resumed: an adversarial test)."""
+    from gearsweep.study import execute
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import load_study
+
+    real, calls = execute.remove_checkpoints, []
+
+    def interrupted(output):
+        calls.append(output)
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+        real(output)
+
+    monkeypatch.setattr(execute, "remove_checkpoints", interrupted)
+    plan = make_plan(*load_study(str(write_study(small_whine))))
+    out = tmp_path / "o.nc"
+    written = execute.stream_to_file(plan, out)
+    assert written.cases == plan.n_cases and out.is_file() and len(calls) == 2
+    assert not chunk_folder(out).exists()
+
+
+def test_exceptions_ignored_in_callbacks_are_not_printed_once_a_stop_is_asked():
+    """A stop raised in the main thread may land in a callback or a destructor (llvmlite's
+    object cache while a kernel loads): Python printed "Exception ignored in ..." with a
+    traceback beside the run's one line. Before a stop they are printed as ever."""
+    from gearsweep import cli
+
+    seen = []
+    hook = cli._quiet_once_stopping(seen.append)
+    try:
+        hook("before")
+        cli._STOP.set()
+        hook("after")
+    finally:
+        cli._STOP.clear()
+    assert seen == ["before"]
+
+
+def test_an_interruption_before_any_chunk_is_saved_leaves_no_chunk_folder(tmp_path, write_study,
+                                                                         small_whine):
+    """Interrupted before its first chunk was saved, a run says there is nothing to continue
+    from and removes the folder it made (it said "0 of 22 chunks saved ...; run the same
+    command to continue" and left a folder holding the manifest only)."""
+    from gearsweep import cli
+    from gearsweep.study.checkpoint import ChunkStore
+    from gearsweep.study.execute import chunks_to_run
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import load_study
+
+    plan = make_plan(*load_study(str(write_study(small_whine))))
+    out = tmp_path / "o.nc"
+    ChunkStore(out, plan.study_key, plan.n_lanes, chunks_to_run(plan, out, None)).open()
+    assert chunk_folder(out).is_dir()
+    line = cli._interrupted_line(plan, out, None)
+    assert line == "interrupted before the first chunk was saved: nothing to continue from"
+    assert not chunk_folder(out).exists()

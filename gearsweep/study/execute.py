@@ -1056,7 +1056,11 @@ def stream_to_file(plan: Plan, output: str | Path, *,
             f" {len(chunks)} chunks saved in {store.root}:"
             f" {'make room' if exc.errno in (errno.ENOSPC, errno.EDQUOT) else 'fix that'}"
             " and run the same command to continue") from failed
-    remove_checkpoints(output)
+    try:  # the result is in place: what follows only tidies up
+        remove_checkpoints(output)
+    except KeyboardInterrupt:  # a stop now reported a failed run and left half the chunks,
+        remove_checkpoints(output)  # which a run of the same study said it resumed (an
+        # adversarial test): the run is done; the caller ends it as a run that finished
     return Written(path=Path(output), cases=plan.n_cases, elapsed=round(elapsed, 3),
                    flagged=file.flagged, beyond=file.beyond)
 
