@@ -300,7 +300,7 @@ def result_study(ds: xr.Dataset | str | Path) -> Study | MeshStudy:
     if not isinstance(ds, xr.Dataset) or "study" not in ds.attrs:
         raise ResultError("not a gearsweep result (no 'study' attribute): give the Dataset of"
                           " gearsweep.run or open_result, or a result file's path")
-    return parse_study(ds.attrs["study"], "<result>")
+    return parse_study(ds.attrs["study"], "<result>", base=ds.attrs.get("study_folder"))
 
 
 __all__ = ["load", "open_result", "result_model", "result_study", "run", "run_study"]

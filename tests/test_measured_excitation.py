@@ -545,3 +545,26 @@ def test_the_checkpoint_key_holds_the_excitation_files_bytes_not_its_name(tmp_pa
     rows[i] = ",".join(cells)
     csv.write_text("\n".join(rows) + "\n", encoding="utf-8")
     assert key() != first
+
+
+def test_a_result_whose_study_reads_a_file_runs_again_from_the_result(tmp_path, monkeypatch):
+    """The result keeps the folder the study's relative paths were read from (``study_folder``):
+    ``run(result_study(res))`` from any working folder reads the same file and gives the same
+    numbers (it looked for ``data/ste_table1.csv`` in the working folder: no such file)."""
+    root = Path(__file__).resolve().parents[1] / "studies"
+    text = (root / "whine_measured_ste.yaml").read_text(encoding="utf-8")
+    text = text.replace("num: 96", "num: 4")
+    (tmp_path / "study").mkdir()
+    study = tmp_path / "study" / "m.yaml"
+    study.write_text(text, encoding="utf-8")
+    (tmp_path / "study" / "data").mkdir()
+    (tmp_path / "study" / "data" / "ste_table1.csv").write_bytes(
+        (root / "data" / "ste_table1.csv").read_bytes())
+    first = gearsweep.run(study, output=tmp_path / "r.nc")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    res = gearsweep.open_result(tmp_path / "r.nc")
+    assert res.attrs["study_folder"] == str((tmp_path / "study").resolve())
+    again = gearsweep.run(gearsweep.result_study(res))
+    np.testing.assert_array_equal(again.p_rms.values, first.p_rms.values)

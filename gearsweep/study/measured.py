@@ -246,8 +246,12 @@ def read_samples(path: str | Path) -> Samples:
 
 
 def _base(info: ValidationInfo) -> Path:
-    """The folder relative paths are read from: the study file's, else the working folder."""
-    name = (info.context or {}).get("file") if info is not None else None
+    """The folder relative paths are read from: the one given (``parse_study(base=)``: a
+    result's ``study_folder``), else the study file's, else the working folder."""
+    context = (info.context or {}) if info is not None else {}
+    if context.get("base"):
+        return Path(context["base"])
+    name = context.get("file")
     if name and not str(name).startswith("<"):
         return Path(name).parent
     return Path.cwd()

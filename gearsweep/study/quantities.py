@@ -108,6 +108,8 @@ class WholeStudy(Strict):
     text, with its units and comments."""
 
     _source_text: str | None = PrivateAttr(default=None)
+    _base_folder: str | None = PrivateAttr(default=None)
+    """The folder its relative file paths were read from (``schema.parse_study``)."""
 
     @property
     def source_text(self) -> str | None:

@@ -1240,16 +1240,21 @@ def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
     return _error(file, _problems(exc, raw), raw)
 
 
-def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | AnalysisStudy:
+def parse_study(text: str, file: str = "<study>", base: str | Path | None = None
+                ) -> Study | MeshStudy | AnalysisStudy:
     """Validate a study from its YAML text; every problem of the file raises one ``StudyError``
-    with a line per problem (``file.yaml:LINE: field.path: value -- message``).
+    with a line per problem (``file.yaml:LINE: field.path: value -- message``). Relative file
+    paths in it are read from ``base`` (default: the folder of ``file``, else the working one).
 
     A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh``).
     """
     duplicates: list = []
     raw = load_yaml(text, file, duplicates)
+    if base is None:
+        base = Path(file).parent if file and not file.startswith("<") else Path.cwd()
+    base = str(Path(base).resolve())
     try:
-        study = _parse_raw(raw, file)
+        study = _parse_raw(raw, file, base)
     except StudyError as exc:
         if not duplicates:
             raise
@@ -1257,10 +1262,12 @@ def parse_study(text: str, file: str = "<study>") -> Study | MeshStudy | Analysi
     if duplicates:
         raise StudyError.many(file, duplicates)
     study._source_text = text
+    study._base_folder = base
     return study
 
 
-def _parse_raw(raw: Any, file: str) -> Study | MeshStudy | AnalysisStudy:
+def _parse_raw(raw: Any, file: str, base: str | None = None
+               ) -> Study | MeshStudy | AnalysisStudy:
     """``parse_study`` of the loaded YAML (with line marks)."""
     if not isinstance(raw, dict):
         held = "nothing (an empty file)" if raw is None else (
@@ -1281,7 +1288,8 @@ def _parse_raw(raw: Any, file: str) -> Study | MeshStudy | AnalysisStudy:
             raise _first_error(exc, file, raw) from None
     problems: list[Problem] = []
     try:
-        study = Study.model_validate(raw, context={"problems": problems, "file": file})
+        study = Study.model_validate(raw, context={"problems": problems, "file": file,
+                                                   "base": base})
     except ValidationError as exc:
         err = _first_error(exc, file, raw)
         more = problems + _problems_beside_errors(raw)  # every problem of the file at once
