@@ -29,7 +29,7 @@ import numpy as np
 import xarray as xr
 import yaml
 
-from gearsweep.errors import DICT_STUDY, ResultError, StudyError
+from gearsweep.errors import DICT_STUDY, NO_VALUE, ResultError, StudyError
 from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, model_from_record
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_specs import AnalysisStudy
@@ -67,13 +67,24 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
     if isinstance(study, dict):
         text = yaml.safe_dump(_plain(study, "(study)"), sort_keys=False)
         return parse_study(text, DICT_STUDY), text, DICT_STUDY
-    if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study
-                                   and study.strip().endswith((".yaml", ".yml"))):
-        return (*load_study(study), str(study))
+    if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study and (
+            study.strip().endswith((".yaml", ".yml")) or _is_file(study))):
+        return (*load_study(study), str(study))  # (a file named otherwise was read as YAML
+        # text: "the file holds a single value 'studies/s.txt'"; an API test)
     if isinstance(study, str):
+        if "\n" not in study.strip() and ":" not in study:  # a path, not YAML text
+            raise StudyError(study.strip(), "(file)", NO_VALUE, "no such study file (YAML text"
+                             " is a mapping: 'title: ...', 'scene: ...')")
         return parse_study(study, "<text>"), study, "<text>"
     raise StudyError("<study>", "(study)", type(study).__name__,
                      "a path, YAML text, a dict or a gearsweep Study")
+
+
+def _is_file(text: str) -> bool:
+    try:
+        return Path(text.strip()).is_file()
+    except (OSError, ValueError):  # a name too long, a NUL
+        return False
 
 
 def _parses_to(text: str, study) -> bool:
@@ -234,7 +245,10 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
     ``speed`` is not a field of the model (each case's mesh frequency)."""
     if isinstance(ds, str | Path):
         ds = open_result(ds)
-    if not isinstance(ds, xr.Dataset) or "model" not in ds.attrs:
+    if not isinstance(ds, xr.Dataset):  # (a DataArray said "carries no resolved model")
+        raise ResultError(f"give the result's Dataset (gearsweep.run or open_result), or a result"
+                          f" file's path, not a {type(ds).__name__}")
+    if "model" not in ds.attrs:
         raise ResultError("this result carries no resolved model (a mesh study, or written by an"
                           " older gearsweep)")
     model = model_from_record(json.loads(ds.attrs["model"]))
