@@ -24,6 +24,7 @@ from gearsweep.study.execute import (
     _case_bytes,
     chunks_held,
     cores,
+    kernel_threads,
     lanes_per_chunk,
     measure_rate,
     with_short_ends,
@@ -62,7 +63,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     """(estimate at the stated rate, or at ``rate`` [Msteps/s per core] measured, of which
     seconds to compile the kernel on a cold cache). ``ask_cache=False``: an upper bound, with
     every specialisation the run calls counted as compiled on the spot (``compile_seconds``)."""
-    threads = threads or cores()
+    threads = threads or kernel_threads()  # (NUMBA_NUM_THREADS=1 was estimated on every core)
     s = plan.study.solver
     per = lanes_per_chunk(plan, chunk_cases) or plan.default_lanes_per_chunk()
     n = plan.n_lanes

@@ -135,6 +135,14 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
+def kernel_threads() -> int:
+    """Threads a kernel call in this process uses: Numba's (``NUMBA_NUM_THREADS``, default one
+    per CPU), at most the cores this process may use (``cores``)."""
+    import numba
+
+    return max(1, min(int(numba.config.NUMBA_NUM_THREADS), cores()))
+
+
 def lanes_per_chunk(plan: Plan, chunk_cases: int | None) -> int | None:
     """Lanes per chunk for about ``chunk_cases`` cases per chunk (``None``: the runner's default)."""
     if chunk_cases is None:
@@ -207,8 +215,8 @@ class Estimate:
         chunks = f"{self.chunks} chunk" + ("s" if self.chunks != 1 else "")
         where = (f"on the GPU at {self.rate:.3g} Msteps/s ({self.rate_source}) and compiling"
                  " its kernel (every run)" if self.device == "cuda" else
-                 f"on {self.threads} cores at {self.rate:.0f} Msteps/s per core"
-                 f" ({self.rate_source})")
+                 f"on {self.threads} core{'s' if self.threads != 1 else ''} at"
+                 f" {self.rate:.0f} Msteps/s per core ({self.rate_source})")
         cold = (f"; includes about {self.compile_seconds:.0f} s to compile the kernel once"
                 " (cold cache)" if self.compile_seconds else "")
         return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
