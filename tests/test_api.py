@@ -381,3 +381,68 @@ def test_a_result_says_where_its_kernel_ran_and_in_what_precision(small_whine, t
     assert main(["inspect", str(out)]) == 0
     assert ", on cpu in float64\n" in capsys.readouterr().out
 
+
+
+def test_a_study_path_of_any_name_is_read_as_a_file_and_a_bare_name_is_no_yaml(tmp_path,
+                                                                             small_whine):
+    """A string naming an existing file is a path whatever its suffix (``s.txt`` was read as
+    YAML text: "the file holds a single value 's.txt'"); one that names nothing and is no YAML
+    mapping says there is no such study file."""
+    import yaml
+
+    txt = tmp_path / "s.txt"
+    txt.write_text(yaml.safe_dump(small_whine), encoding="utf-8")
+    assert gearsweep.run(str(txt)).equals(gearsweep.run(small_whine))
+    with pytest.raises(StudyError, match="no such study file"):
+        gearsweep.run(str(tmp_path / "missing"))
+
+
+def test_result_model_of_a_data_array_asks_for_the_dataset(small_whine):
+    """``result_model(ds.p_rms)`` said the result "carries no resolved model"."""
+    ds = gearsweep.run(small_whine)
+    with pytest.raises(ResultError, match="give the result's Dataset .* not a DataArray"):
+        gearsweep.result_model(ds.p_rms)
+    assert gearsweep.result_model(ds).mass == pytest.approx(RIG.mass)
+
+
+def test_the_estimate_counts_numbas_threads(monkeypatch):
+    """With NUMBA_NUM_THREADS=1 a run uses one core: the estimate said "on 2 cores", half the
+    time (an API test)."""
+    import numba
+
+    from gearsweep.study import estimate as est_mod
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import load_study
+
+    plan = make_plan(*load_study(str(Path(__file__).resolve().parents[1] / "studies"
+                                     / "whine_speed_sweep.yaml")))
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
+    one = est_mod.quick_estimate(plan)[0]
+    assert one.threads == 1 and "on 1 core at" in one.line()
+    assert est_mod.quick_estimate(plan, threads=2)[0].threads == 2
+
+
+def test_response_vs_speed_draws_a_fraction_as_a_fraction(tmp_path):
+    """``plot_response_vs_speed`` drew every variable times 1e6 and labelled it um: the contact
+    loss fraction (0.5-0.9) came out as 500000-900000 um. A displacement is in um, anything else
+    in its own unit; a hue that is no other swept dim, or a result without a speed sweep, is
+    one line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from gearsweep.plot.sweep import plot_response_vs_speed
+
+    ds = gearsweep.run("title: r\n" + RATTLE_SCENE + "sweep:\n  speed: {start: 7000 rpm, stop:"
+                       " 9000 rpm, num: 5}\n  damping: [3 N*s/mm, 5.5 N*s/mm]\nsolver: {method: rk4,"
+                       " steps_per_period: 32, transient_periods: 300, record_periods: 20}\n")
+    ax = plot_response_vs_speed(ds, "contact_loss_fraction").axes[0]
+    lo, hi = ax.get_ylim()
+    assert hi <= 1.1 and ax.get_ylabel().endswith("[1]")
+    ax = plot_response_vs_speed(ds, "p_pp").axes[0]
+    assert ax.get_ylabel().endswith("[µm]")
+    drawn = np.nanmax([np.nanmax(ln.get_ydata()) for ln in ax.get_lines()])
+    assert np.isfinite(drawn) and drawn == pytest.approx(float(ds.p_pp.where(ds.status == 0).max()))
+    with pytest.raises(ValueError, match="hue='speed'"):
+        plot_response_vs_speed(ds, "p_pp", hue="speed")
+    with pytest.raises(ValueError, match="over a 'speed' sweep"):
+        plot_response_vs_speed(ds.isel(speed=0, drop=True), "p_pp")

@@ -317,7 +317,7 @@ def plot_rattle_graphical(ax: Axes, ds: xr.Dataset, *, p_range: float = 0.75e-3)
                  f"{f0 / 1e3:g} kN as fitted for Fig. 8, b = {b * 1e3:.4g} mm);\nintersections "
                  f"A: {counts[0]}, B: {counts[1]}, C: {counts[2]} (3 roots between "
                  f"{float(ds.eq15_rise_speed):.0f} and {float(ds.eq15_drop_speed):.0f} rpm of"
-                 f" the {shaft}))", fontsize=9)
+                 f" the {shaft})", fontsize=9)
     return ax.figure
 
 

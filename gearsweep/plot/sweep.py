@@ -11,7 +11,8 @@ from gearsweep.plot.common import UM, axes
 from gearsweep.units import KINDS, si_data_vars
 
 
-def _label(ds: xr.Dataset, dim: str, value) -> str:
+def value_label(ds: xr.Dataset, dim: str, value) -> str:
+    """``dim = value unit`` for a legend (damping in N s/mm, a CF unit as written in a study)."""
     units = ds[dim].attrs.get("units", "")
     if dim == "damping" and units in ("N s/m", "N s m-1"):
         return f"c = {value / 1e3:g} N s/mm"
@@ -43,7 +44,8 @@ def settled(da: xr.DataArray, ds: xr.Dataset) -> tuple[xr.DataArray, int, int]:
 def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = None,
                            hue: str | None = None, secondary_mesh_axis: bool = True,
                            hue_labels: list[str] | None = None) -> Figure:
-    """Plot ``var`` [µm] over ``speed`` [rpm], one line per value of ``hue`` (and direction).
+    """Plot ``var`` over ``speed`` [rpm], one line per value of ``hue`` (and direction): a
+    displacement in µm, anything else in its own unit.
 
     Only settled cases (``status == 0``) are drawn; the others are masked and counted in the
     legend title.
@@ -61,17 +63,29 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     hue_labels : list of str, optional
         Legend labels of the ``hue`` values (default: name = value unit).
     """
+    if "speed" not in ds.dims or var not in ds.data_vars or "speed" not in ds[var].dims:
+        raise ValueError(f"plot_response_vs_speed draws a variable over a 'speed' sweep: this"
+                         f" result has {'no ' + repr(var) if var not in ds.data_vars else ''}"
+                         f"{' over speed' if var in ds.data_vars else ''} (dims"
+                         f" {tuple(ds.dims)})")
     fig, ax = axes(ax)
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da, n_masked, n_all = settled(ds[var], ds)
     others = [d for d in da.dims if d not in ("speed", "direction")]
+    if hue is not None and hue not in others:
+        raise ValueError(f"hue={hue!r}: " + (f"one of the other swept dims of {var!r}: {others}"
+                                              if others else f"{var!r} has no other swept dim"))
     if hue is None and others:
         hue = others[0]
+    # A displacement (SI here) is drawn in um; anything else (a fraction, a count) as it is,
+    # in its own unit (contact_loss_fraction was drawn times 1e6 and labelled um; an API test)
+    metres = da.attrs.get("units") == "m"
+    scale, unit = (UM, "µm") if metres else (1.0, da.attrs.get("units", ""))
     fixed = []
     for d in others:
         if d != hue:  # drawn at its first value, and said so in the title
             da = da.isel({d: 0})
-            fixed.append(_label(ds, d, ds[d].values[0]))
+            fixed.append(value_label(ds, d, ds[d].values[0]))
     dirs = list(ds["direction"].values) if "direction" in da.dims else [None]
     hues = list(ds[hue].values) if hue else [None]
     colors = matplotlib_colors(len(hues))
@@ -84,14 +98,14 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
                 sel = sel.sel(direction=dv)
             style = {"up": dict(ls="-", marker="^", ms=3), "down": dict(ls="--", marker="v", ms=3)
                      }.get(dv, dict(ls="-"))
-            lab = (hue_labels[i] if hue_labels else _label(ds, hue, hv)) if hue else ""
+            lab = (hue_labels[i] if hue_labels else value_label(ds, hue, hv)) if hue else ""
             label = ", ".join(x for x in (lab,
                                           f"run-{dv}" if dv else "") if x)
-            ax.plot(ds["speed"].values, sel.values * UM, color=colors[i], label=label or None,
-                    lw=1.2, **style)
+            ax.plot(ds["speed"].values, sel.values * scale, color=colors[i],
+                    label=label or None, lw=1.2, **style)
     name = ds[var].attrs.get("long_name", var)
     ax.set_xlabel(speed_label(ds["speed"]))
-    ax.set_ylabel(f"{name} [µm]")
+    ax.set_ylabel(f"{name} [{unit}]" if unit else name)
     ax.set_title(name + (f" at {', '.join(fixed)} (select others with ds.sel)" if fixed else ""),
                  fontsize=10)
     ax.grid(True, alpha=0.3)

@@ -22,7 +22,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
 from gearsweep.model import model_from_record
-from gearsweep.plot.sweep import settled
+from gearsweep.plot.sweep import settled, value_label
 from gearsweep.units import si_data_vars, si_values
 
 __all__ = [
@@ -252,11 +252,11 @@ def plot_response_by_load(
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da, n_bad, n_all = settled(ds[variable], ds)  # a case that has not settled is no point
     speed = ds["speed"].values
-    unit = ds[by].attrs.get("units", "")
     base = da.isel({by: 0}).values
     for v in ds[by].values:
         y = da.sel({by: v}).values
-        ax.plot(speed, y / base if relative else y * UM, lw=1.2, label=f"{by} = {v:g} {unit}")
+        ax.plot(speed, y / base if relative else y * UM, lw=1.2,
+                label=value_label(ds, by, v))  # (said "N s mm-1", the CF unit)
     if natural_frequency_hz is not None:
         f_per_rpm = float(ds["mesh_frequency"].values[-1] / speed[-1])
         for i, n in enumerate(orders):
@@ -270,8 +270,8 @@ def plot_response_by_load(
         ax.set_yscale("log")
     ax.set_xlabel(f"speed of the {ds['speed'].attrs.get('gear', 'driving gear')} [rpm]")
     name = da.attrs.get("long_name", variable)
-    first = f"{float(ds[by].values[0]):g} {unit}"
-    ax.set_ylabel(f"{variable} / {variable} at {by} {first} [-]" if relative else f"{name} [µm]")
+    first = value_label(ds, by, float(ds[by].values[0]))
+    ax.set_ylabel(f"{variable} / {variable} at {first} [-]" if relative else f"{name} [µm]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, title=f"{n_bad} of {n_all} cases not settled (masked)" if n_bad else None,
               title_fontsize=8)
