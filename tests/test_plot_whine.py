@@ -145,3 +145,16 @@ solver: {steps_per_period: 32, transient_periods: 10, record_periods: 4}
     assert ax.get_title().endswith("at backlash = 0.2 mm (select others with ds.sel)")
     assert [t.get_text() for t in ax.get_legend().get_texts()] == [
         "stiffness = 1000 kN/mm", "stiffness = 1073 kN/mm"]
+
+
+def test_spectrum_plots_say_what_they_draw_on_in_one_line(ds):
+    """A spectrum over more dims than (speed, order), or an order the study did not keep, is one
+    line naming the fix (were xarray's transpose error and KeyError; an API test)."""
+    over_two = ds.expand_dims(copy=[1, 2]).transpose("speed", "copy", "order", ...)
+    fig, ax = plt.subplots()
+    with pytest.raises(ValueError, match=r"select one value of \[.copy.*\] first"):
+        plot_campbell(ax, over_two)
+    top = int(ds["order"].max())
+    with pytest.raises(ValueError, match=rf"order\(s\) \[{top + 1}\] are not in this spectrum"):
+        plot_order_lines(ax, ds.sel(torque=50.0), orders=(1, top + 1))
+    plt.close(fig)

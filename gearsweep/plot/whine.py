@@ -78,6 +78,29 @@ def _speed_axis(ds: xr.Dataset, driven_teeth: int | None) -> tuple[np.ndarray, s
     return driven_speed(ds, driven_teeth), f"speed of the driven gear ({driven_teeth} teeth) [rpm]"
 
 
+def _on_speed_and_order(ds: xr.Dataset, variable: str, what: str) -> xr.DataArray:
+    """``ds[variable]``, checked to be on (speed, order) only: one line naming the fix (a
+    spectrum over torque too gave xarray's transpose error)."""
+    if variable not in ds.data_vars:
+        raise ValueError(f"{what} draws {variable!r}, which this result lacks (a study with"
+                         " outputs: [spectrum])")
+    da = ds[variable]
+    if "speed" not in da.dims or "order" not in da.dims or da.ndim != 2:
+        others = [d for d in da.dims if d not in ("speed", "order")]
+        raise ValueError(f"{what} draws {variable} on (speed, order) only, got {da.dims}"
+                         + (f": select one value of {others} first (ds.isel({others[0]}=0))"
+                            if others else ""))
+    return da
+
+
+def _known_orders(ds: xr.Dataset, orders: Sequence[float], what: str) -> None:
+    missing = [n for n in orders if float(n) not in set(ds["order"].values.tolist())]
+    if missing:
+        raise ValueError(f"{what}: order(s) {missing} are not in this spectrum (orders"
+                         f" {float(ds['order'].min()):g}-{float(ds['order'].max()):g}: the"
+                         " study's spectrum max_order)")
+
+
 def plot_waterfall(
     ax: Axes,
     ds: xr.Dataset,
@@ -117,9 +140,7 @@ def plot_waterfall(
     if not hasattr(ax, "set_zlabel"):  # else it drew, then failed on the z label
         raise TypeError("plot_waterfall draws on a 3-D axes: fig.add_subplot(projection='3d')")
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
-    da = ds[variable]
-    if "speed" not in da.dims or "order" not in da.dims or da.ndim != 2:
-        raise ValueError(f"{variable} must be on (speed, order) only, got {da.dims}")
+    da = _on_speed_and_order(ds, variable, "plot_waterfall")
     speed, speed_label = _speed_axis(ds, driven_teeth)
     pick = np.unique(np.linspace(0, len(speed) - 1, traces).round().astype(int))
     orders = ds["order"].values
@@ -180,7 +201,7 @@ def plot_campbell(
         Speed axis in the driven gear's speed.
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
-    da = ds[variable]
+    da = _on_speed_and_order(ds, variable, "plot_campbell")
     is_force = da.attrs.get("units") == "N"
     scale = 1.0 if is_force else UM
     speed, speed_label = _speed_axis(ds, driven_teeth)
@@ -305,6 +326,7 @@ def plot_order_lines(
         Logarithmic amplitude axis.
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
+    _known_orders(ds, orders, "plot_order_lines")  # (was xarray's KeyError)
     speed, speed_label = _speed_axis(ds, driven_teeth)
     scale, unit, what = {0: (UM, "µm", "displacement"), 1: (1e3, "mm/s", "velocity"),
                          2: (1.0, "m/s^2", "acceleration")}[derivative]
