@@ -446,3 +446,18 @@ def test_response_vs_speed_draws_a_fraction_as_a_fraction(tmp_path):
         plot_response_vs_speed(ds, "p_pp", hue="speed")
     with pytest.raises(ValueError, match="over a 'speed' sweep"):
         plot_response_vs_speed(ds.isel(speed=0, drop=True), "p_pp")
+
+
+def test_the_analysis_plots_name_the_result_they_draw(small_whine):
+    """``plot_method_stability`` and ``plot_work_precision`` on another result say which study
+    makes theirs (a whine result gave an AttributeError of its global 'method' attribute)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from gearsweep.plot.precision import plot_method_stability, plot_work_precision
+
+    ds = gearsweep.run(small_whine)
+    with pytest.raises(ValueError, match="studies/method_stability.yaml.*no method"):
+        plot_method_stability(None, ds)
+    with pytest.raises(ValueError, match="studies/work_precision.yaml.*no trajectory_error"):
+        plot_work_precision(None, ds, scene="whine")

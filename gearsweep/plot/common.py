@@ -24,6 +24,16 @@ def axes(ax: Axes | None = None, figsize=(7.0, 4.5)) -> tuple[Figure, Axes]:
     return ax.figure, ax
 
 
+def require(ds, names: tuple[str, ...], what: str, study: str) -> None:
+    """One line (``ValueError``) where ``ds`` is not the result ``what`` draws: it lacks one of
+    the variables ``names``, which ``study`` computes (a whine result gave an AttributeError of
+    a global attribute)."""
+    missing = [n for n in names if n not in getattr(ds, "variables", {})]
+    if missing:
+        raise ValueError(f"{what} draws the result of {study}; this one has no"
+                         f" {', '.join(missing)}")
+
+
 def save(fig: Figure, path: str | Path, dpi: int = 130) -> Path:
     """Write ``fig`` as PNG (creating the folder) and close it."""
     path = Path(path)

@@ -11,7 +11,7 @@ import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from gearsweep.plot.common import axes
+from gearsweep.plot.common import axes, require
 
 STYLES = {"rk4": ("C0", "o", "-"), "rk5": ("C1", "s", "-"), "rk4-kink": ("C2", "^", "--"),
           "rk5-kink": ("C3", "v", "--"), "RK45": ("C4", "x", ":"), "DOP853": ("C5", "+", ":"),
@@ -24,6 +24,8 @@ def plot_work_precision(ax: Axes, ds: xr.Dataset, *, scene: str, cost: str = "wa
                         label_steps: bool = True) -> Figure:
     """Trajectory error against cost on one scene: every fixed-step method (fitted order in the
     legend) and every scipy peer. ``cost``: ``wall_time`` or ``rhs_evaluations``."""
+    require(ds, ("trajectory_error", cost, "order"), "plot_work_precision",
+            "studies/work_precision.yaml (analysis kind work_precision)")
     fig, ax = axes(ax)
     peer_cost, xlabel = COSTS[cost]
     sel = ds.sel(scene=scene)
@@ -60,6 +62,9 @@ def plot_work_precision(ax: Axes, ds: xr.Dataset, *, scene: str, cost: str = "wa
 def plot_method_stability(ax: Axes, ds: xr.Dataset, *, rig_zeta: float | None = None) -> Figure:
     """Largest stable h omega_n against the damping ratio: the stability polynomial (lines) and
     the kernel measured by integration (circles), per method."""
+    require(ds, ("method", "zeta_curve", "polynomial_limit", "zeta", "measured_limit"),
+            "plot_method_stability", "studies/method_stability.yaml (analysis kind"
+            " method_stability)")
     fig, ax = axes(ax)
     for i, m in enumerate(ds.method.values):
         color = f"C{i}"
