@@ -8,6 +8,7 @@ functions below them take arrays (SI units, speeds in rpm). Lengths are shown in
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 
 import numpy as np
@@ -313,11 +314,13 @@ def plot_rattle_graphical(ax: Axes, ds: xr.Dataset, *, p_range: float = 0.75e-3)
               omegas=speeds * per_rpm, labels=labels, roots=roots, p_range=p_range)
     counts = np.isfinite(roots).sum(axis=1)
     shaft = ds["speed"].attrs.get("gear", "driving gear")
-    ax.set_title("Fig. 9: Eq. (15), k f(p0) = F0 + m ω² p0 (undamped; F0 = "
-                 f"{f0 / 1e3:g} kN as fitted for Fig. 8, b = {b * 1e3:.4g} mm);\nintersections "
-                 f"A: {counts[0]}, B: {counts[1]}, C: {counts[2]} (3 roots between "
-                 f"{float(ds.eq15_rise_speed):.0f} and {float(ds.eq15_drop_speed):.0f} rpm of"
-                 f" the {shaft})", fontsize=9)
+    title = ("Fig. 9: Eq. (15), k f(p0) = F0 + m ω² p0 (undamped; F0 = "
+             f"{f0 / 1e3:g} kN as fitted for Fig. 8, b = {b * 1e3:.4g} mm); intersections "
+             f"A: {counts[0]}, B: {counts[1]}, C: {counts[2]} (3 roots between "
+             f"{float(ds.eq15_rise_speed):.0f} and {float(ds.eq15_drop_speed):.0f} rpm of"
+             f" the {shaft})")
+    ax.set_title(textwrap.fill(title, 80), fontsize=9)  # (two fixed lines were clipped on
+    # both sides at matplotlib's default figure size; an API test)
     return ax.figure
 
 
