@@ -235,10 +235,7 @@ def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchRe
     # A statistic that overflowed (p_rms of p ~ 1e291 m under a mean force of 1e300 N: p^2 is
     # inf) is no result: the case is flagged as diverged, its values NaN as a diverged case's
     # (it was status 0 with p_rms inf; found by an adversarial test).
-    over = status == 0
-    for a in res.stats.values():
-        over &= np.isfinite(a)
-    over = (status == 0) & ~over
+    over = (status == 0) & ~np.logical_and.reduce([np.isfinite(a) for a in res.stats.values()])
     if over.any():
         status[over] = STATUS_DIVERGED
         for a in out.values():
