@@ -35,6 +35,7 @@ from gearsweep.errors import (
     article,
 )
 from gearsweep.files import replace_problem
+from gearsweep.jit import set_up_runtime_in_background
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
 from gearsweep.study.checkpoint import SUFFIX, chunk_folder, remove_checkpoints, saved_layout
@@ -289,7 +290,7 @@ def _check_mesh_memory(study, name: str, yes: bool) -> float:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-
+    set_up_runtime_in_background()  # beside reading the study and planning (LLVM, no GIL)
     study, text = load_study(args.study)
     name = _shown(args.study)
     if args.study == "-" and not args.output:

@@ -182,3 +182,43 @@ def test_copies_of_one_function_compiled_in_two_processes_stay_apart(tmp_path):
     assert got[True][:2] == ["1.0", "2.0"]
     assert got[True][2:] != ["Counter()", "Counter()"]  # both loaded from the cache
     assert got[False][:2] == ["1.0", "1.0"]  # the failure the names prevent, still Numba's
+
+
+_RUNTIME_EARLY = """\
+import threading
+import numpy as np
+import numba
+from numba.core.runtime import nrt
+from gearsweep.jit import set_up_runtime_in_background
+
+assert not nrt.rtsys._init
+set_up_runtime_in_background()
+set_up_runtime_in_background()  # a second call while the first runs: no second set-up
+early = [t for t in threading.enumerate() if t.name == "gearsweep-nrt"]
+
+
+@numba.njit(cache=False)
+def f(a):  # compiled at once, racing the set-up: Numba's compiler lock orders the two
+    return np.sort(a)[0] + a.sum()
+
+
+print(len(early), f(np.array([3.0, 1.0, 2.0])), flush=True)
+for t in early:
+    t.join()
+print(nrt.rtsys._init, len([t for t in threading.enumerate() if t.name == "gearsweep-nrt"]))
+set_up_runtime_in_background()  # done already: nothing started
+print(len([t for t in threading.enumerate() if t.name == "gearsweep-nrt"]))
+"""
+
+
+def test_runtime_set_up_in_background_then_compile_and_run():
+    """``set_up_runtime_in_background`` (``gearsweep run`` calls it first) sets Numba's runtime up
+    in one thread; a function compiled and run at once in the main thread waits for it and
+    computes its result; once the runtime is set up, another call starts nothing."""
+    import os
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", _RUNTIME_EARLY], capture_output=True,
+                         text=True, check=True, env=dict(os.environ)).stdout.split("\n")
+    assert out[:3] == ["1 7.0", "True 0", "0"], out
