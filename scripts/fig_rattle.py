@@ -60,7 +60,7 @@ def fig8(bal, figures):
 def fig8_out_of_sample(ds8, results, budget, figures):
     """Fig. 8's fitted scene beside the same equation driven by the pair's own STE."""
     f0 = float(budget.fitted_force)
-    fig, (ax, ax2, ax3) = plt.subplots(3, 1, figsize=(8, 10.5), sharex=True,
+    fig, (ax, ax2, ax3) = plt.subplots(3, 1, figsize=(12, 10.5), sharex=True,
                                        gridspec_kw={"height_ratios": [2.2, 1, 1.6]})
     lines, loss_lines = [], []
     amp8, _, _ = settled(0.5 * ds8["p_pp"], ds8)
@@ -94,7 +94,8 @@ def fig8_out_of_sample(ds8, results, budget, figures):
     xlab = speed_label(first["speed"])
     rplot.plot_lines(ax, None, lines, xlabel="", ylabel="amplitude of p, (p_max - p_min)/2 [mm]",
                      scale=1e3, hline={"y": float(budget.half_gap), "label": "backlash / 2"})
-    ax.legend(fontsize=6.5, loc="lower right", ncol=1)
+    outside = {"fontsize": 6.5, "loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
+    ax.legend(**outside)  # beside the panel: inside it the legends hid lines
     ax.set_title("Fig. 8 out of sample: the same Eq. (13) driven by the Table 1 pair's own STE"
                  " (no fitted force)\n(no case reaches the back flank: backside contact 0"
                  " everywhere)", fontsize=9)
@@ -104,6 +105,7 @@ def fig8_out_of_sample(ds8, results, budget, figures):
     rplot.plot_lines(ax2, None, loss_lines, xlabel="", ylabel="contact loss\n[fraction of time]",
                      log=False)
     rplot.plot_rattle_budget(ax3, budget, colors=colors)
+    ax3.legend(**outside)
     ax3.set_xlabel(xlab)
     fig.tight_layout()
     print(save(fig, figures / "fig08_out_of_sample.png"))
