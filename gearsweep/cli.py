@@ -65,6 +65,8 @@ from gearsweep.study.schema import (
     line_of,
     load_study,
     load_yaml,
+    parse_study,
+    read_text,
     replaced_by_sweep,
     summary,
 )
@@ -291,7 +293,13 @@ def _check_mesh_memory(study, name: str, yes: bool) -> float:
 
 def cmd_run(args: argparse.Namespace) -> int:
     set_up_runtime_in_background()  # beside reading the study and planning (LLVM, no GIL)
-    study, text = load_study(args.study)
+    text, shown = read_text(args.study)
+    try:  # --device replaces solver.device before the study's device checks
+        study = parse_study(text, shown, device=args.device)
+    except StudyError:
+        if args.device is None:
+            raise
+        study = parse_study(text, shown)  # valid as written: the flag is refused below, by name
     name = _shown(args.study)
     if args.study == "-" and not args.output:
         raise StudyError(name, "--output", NO_VALUE, "a study read from stdin needs -o OUT.nc")

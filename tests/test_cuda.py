@@ -438,6 +438,27 @@ def test_a_gpu_run_is_estimated_without_a_gpu(tmp_path):
     assert "on the GPU at" in proc.stdout and "Msteps/s (stated)" in proc.stdout
 
 
+@pytest.mark.parametrize(("solver", "flag", "said"), [
+    ("{precision: float32, transient_periods: 1, record_periods: 2}", "cuda", "on the GPU at"),
+    ("{device: cuda, kink_aware: true, transient_periods: 1, record_periods: 2}", "cpu",
+     "on 1 core"),
+])
+def test_device_flag_overrides_before_the_checks(tmp_path, solver, flag, said):
+    """--device replaces solver.device (docs/gpu.md) before the study's device checks: a float32
+    study run with --device cuda, and a kink-aware rattle study of device cuda run with --device
+    cpu, were refused for the device the flag replaces."""
+    study = tmp_path / "s.yaml"
+    study.write_text("title: t\nscene: {kind: rattle, mass: 0.2 kg, teeth: 10, stiffness: 2.0e8"
+                     " N/m, damping: 400 N*s/m, backlash: 0.1 mm, torque: 5 N*m, base_radius:"
+                     " 30 mm}\nsweep: {speed: [6000 rpm, 12000 rpm]}\nsolver: " + solver + "\n")
+    cmd = [sys.executable, "-m", "gearsweep.cli", "run", str(study), "--estimate",
+           "--device", flag]
+    env = {**_no_gpu_env(), "NUMBA_NUM_THREADS": "1"}
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert said in proc.stdout, proc.stdout
+
+
 def test_auto_picks_cpu_without_gpu():
     code = ("from gearsweep.kernels.cuda import kernel_for, resolve_device;"
             " print(resolve_device('auto'), kernel_for('auto').__name__)")

@@ -1240,16 +1240,21 @@ def _first_error(exc: ValidationError, file: str, raw=None) -> StudyError:
     return _error(file, _problems(exc, raw), raw)
 
 
-def parse_study(text: str, file: str = "<study>", base: str | Path | None = None
-                ) -> Study | MeshStudy | AnalysisStudy:
+def parse_study(text: str, file: str = "<study>", base: str | Path | None = None,
+                device: str | None = None) -> Study | MeshStudy | AnalysisStudy:
     """Validate a study from its YAML text; every problem of the file raises one ``StudyError``
     with a line per problem (``file.yaml:LINE: field.path: value -- message``). Relative file
     paths in it are read from ``base`` (default: the folder of ``file``, else the working one).
 
     A top-level ``type: mesh`` selects a static mesh study (``gearsweep.study.mesh``).
+    ``device`` replaces a dynamic study's ``solver.device`` before the checks (``gearsweep run
+    --device``: a float32 or kink-aware study was refused for the device the flag replaces).
     """
     duplicates: list = []
     raw = load_yaml(text, file, duplicates)
+    if (device is not None and isinstance(raw, dict) and "type" not in raw
+            and isinstance(raw.get("solver"), dict)):
+        raw["solver"]["device"] = device
     if base is None:
         base = Path(file).parent if file and not file.startswith("<") else Path.cwd()
     base = str(Path(base).resolve())
@@ -1448,8 +1453,9 @@ def is_netcdf(path: Path) -> bool:
     return head.startswith((b"CDF\x01", b"CDF\x02", b"CDF\x05", b"\x89HDF\r\n\x1a\n"))
 
 
-def load_study(path: str | Path) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
+def load_study(path: str | Path, device: str | None = None
+               ) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
     """Read and validate a study file (``-``: stdin); returns the study and its text (kept in
-    the results)."""
+    the results). ``device`` overrides ``solver.device`` (``parse_study``)."""
     text, name = read_text(path)
-    return parse_study(text, name), text
+    return parse_study(text, name, device=device), text
