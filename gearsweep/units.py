@@ -279,10 +279,12 @@ def _to_si_pint(value: object, kind: str) -> float:
     units = dict(q.unit_items())
     if not units and k.name != "dimensionless":
         return _bare(value, k, float(q.magnitude))
-    if k.name == "speed" and q.check("1/[time]") and not any(u in _ANGLE_UNITS for u in units):
+    # Root names: a prefixed angle ('3 krpm' is pint's kilorevolutions_per_minute) is one too.
+    roots = {root for u in units for _, root, _ in ureg.parse_unit_name(u)} | set(units)
+    if k.name == "speed" and q.check("1/[time]") and not any(u in _ANGLE_UNITS for u in roots):
         # A frequency (Hz, kHz, 1/s) of a shaft is revolutions per unit time: 50 Hz = 3000 rpm.
         return _bare(value, KINDS["dimensionless"], float(q.to("1/min").magnitude))
-    if k.name == "angle" and q.dimensionless and not any(u in _ANGLE_UNITS for u in units):
+    if k.name == "angle" and q.dimensionless and not any(u in _ANGLE_UNITS for u in roots):
         raise UnitParseError(f"{value!r} is not an angle; write e.g. '30 deg' or '0.5 rad'")
     try:
         out = q.to(k.si) if k.si else q.to("dimensionless")
