@@ -293,6 +293,8 @@ def _to_si_pint(value: object, kind: str) -> float:
                       and ureg.Quantity(1.0, other.si).dimensionality == q.dimensionality), None)
         what = (f"is {article(found)} ({KINDS[found].display.replace('*', ' ')})" if found
                 else f"has units of {q.dimensionality}")  # 'is a torque', not '[mass] * ...'
+        if q.dimensionless and not any(u in _ANGLE_UNITS for u in roots):
+            what = "is a plain number (no dimension)"  # '5 %': not 'an angle (deg)'
         raise UnitParseError(f"{what}, expected {kind} (e.g. '1 {unit_hint}')") from None
     result = float(out.magnitude)
     if not math.isfinite(result):

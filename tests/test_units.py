@@ -217,6 +217,12 @@ def test_the_kept_unit_factors_give_pints_numbers(kind):
     assert to_si("200*32/48 rpm", "speed") == pytest.approx(133.333333333)  # arithmetic: pint
 
 
+def test_a_percentage_for_a_dimensioned_field_is_not_called_an_angle():
+    with pytest.raises(UnitParseError, match="is a plain number") as err:
+        to_si("5 %", "damping")  # it was called 'an angle (deg)'
+    assert "angle" not in str(err.value)
+
+
 def test_si_helpers_refuse_the_wrong_kind_of_object():
     """si_values of a whole Dataset returned a bound method wrapped in an array (an outside
     reader's finding); each helper now names the other for the other kind of object."""
