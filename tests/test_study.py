@@ -322,6 +322,19 @@ def test_cli_advise_reports_steps_cost_and_stability(tmp_path, capsys):
     assert cli(["advise", str(mathieu)]) == 2
 
 
+def test_cli_advise_prices_every_case_of_the_study(tmp_path, capsys):
+    """The cost is of the whole study (3 speeds x 4 forces = 12 cases of 210 periods), not of
+    one case per speed: a study with a second swept parameter was priced 4x too low."""
+    study = tmp_path / "grid.yaml"
+    study.write_text(LINEAR.replace("  mean_force: 50 N\n", "").replace(
+        "sweep:\n", "sweep:\n  mean_force: [10 N, 20 N, 30 N, 40 N]\n"))
+    assert cli(["advise", str(study), "--target", "1e-6"]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    spp = int(re.search(r"For a target of 1.0e-06: (\d+) steps per mesh period", flat)[1])
+    msteps = float(re.search(r"([\d.e+-]+) Msteps", flat)[1])
+    assert msteps == pytest.approx(12 * 210 * spp / 1e6, rel=5e-3)
+
+
 def test_step_guard_solved_once_per_study_matches_the_guard_per_case():
     """The guard's table over the dims it depends on (speed, damping, mass; not the force)
     gives, chunk by chunk, the verdict of ``_step_ok`` evaluated case by case."""
