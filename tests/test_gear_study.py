@@ -345,6 +345,8 @@ def test_single_torque_mesh_study_has_no_torque_dim():
     ("type: mesh\ntitle: t\ntorque: 5 N*m\n", "give exactly one of 'gear' (one pair) and 'gears'"),
     (("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 5 N*m\npositions: 10\n"
      "harmonics: 6\n"), "s.yaml:6: harmonics: 6 -- at most positions / 2 = 5"),
+    ("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 5 N*m\npositions: 8\n",
+     "s.yaml:5: positions: 8 -- at least 2 x harmonics = 20 (harmonics: 10, the default"),
     ("type: mesh\ntitle: t\ngear: table1_consistent\nsweep: {torque: [-5 N*m]}\n",
      "s.yaml:4: sweep.torque[0]: '-5 N*m' -- a positive torque"),
     ("type: meshes\ntitle: t\n", "'mesh' (a static mesh study)"),

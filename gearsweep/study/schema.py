@@ -1399,6 +1399,11 @@ def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
     except ValidationError as exc:
         raise _first_error(exc, file, raw) from None
     _check_grids(study, file, raw)
+    if study.harmonics > study.positions // 2 and "harmonics" not in raw:
+        # The default harmonics: on the positions line the user wrote (was line 1, 'harmonics')
+        raise _error(file, [Problem("positions", study.positions, f"at least 2 x harmonics ="
+                                    f" {2 * study.harmonics} (harmonics: {study.harmonics},"
+                                    " the default; or set harmonics lower)")], raw)
     if study.harmonics > study.positions // 2:  # on the harmonics line (was the top level's)
         raise _error(file, [Problem("harmonics", study.harmonics, f"at most positions / 2 ="
                                     f" {study.positions // 2} (the samples per mesh cycle)")],
