@@ -343,6 +343,8 @@ def test_single_torque_mesh_study_has_no_torque_dim():
 @pytest.mark.parametrize("text, message", [
     ("type: mesh\ntitle: t\ngear: table1_consistent\n", "give exactly one of 'torque' and"),
     ("type: mesh\ntitle: t\ntorque: 5 N*m\n", "give exactly one of 'gear' (one pair) and 'gears'"),
+    ("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 5 N*m\nsweep: {torque: [2 N*m]}\n",
+     "s.yaml:5: sweep.torque: ['2 N*m'] -- a torque swept or given, not both (torque: '5 N*m'"),
     (("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 5 N*m\npositions: 10\n"
      "harmonics: 6\n"), "s.yaml:6: harmonics: 6 -- at most positions / 2 = 5"),
     ("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 5 N*m\npositions: 8\n",

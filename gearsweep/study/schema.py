@@ -1394,6 +1394,11 @@ class MeshStudy(WholeStudy):
 
 def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
     """Validate a ``type: mesh`` study and every gear pair in it (one error line per problem)."""
+    sweep = raw.get("sweep") if isinstance(raw, dict) else None
+    if isinstance(sweep, dict) and "torque" in sweep and raw.get("torque") is not None:
+        # On the sweep's line, with the torque's value (was line 1, '(top level)', '{...}')
+        raise _error(file, [Problem("sweep.torque", sweep["torque"], "a torque swept or given,"
+                                    f" not both (torque: {raw['torque']!r} too): drop one")], raw)
     try:
         study = MeshStudy.model_validate(raw)
     except ValidationError as exc:
