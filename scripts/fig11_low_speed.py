@@ -79,8 +79,11 @@ od = [{"y": x.sel(damping=c, order=float(n)).values, "label": f"order {n}, {labe
       for j, c in enumerate(ds["damping"].values) for n in orders]
 plot_lines(ax_d, n_driven, od, xlabel="", scale=1e6, ylabel="r2 θ2 at mesh order n [µm]")
 ax_d.legend(fontsize=6.5, ncol=2)
-ax_d.set_title("mesh orders 1-3 of the pinion's angular displacement: flat in speed",
-               fontsize=9)
+line = [x.sel(damping=c0, order=float(n)) for n in orders]
+change = ", ".join(f"{n}: {float(o[-1] / o[0] - 1):+.0%}" for n, o in zip(orders, line))
+ax_d.set_title(f"mesh orders 1-3 of the pinion's angular displacement\nchange from"
+               f" {n_driven[0]:.0f} to {n_driven[-1]:.0f} rpm,"
+               f" {labels[0]}: {change}", fontsize=9)
 ax_r = fig.add_subplot(grid[1, 1], sharex=ax_d)
 rl = []
 for i, t in enumerate(loads):
@@ -91,8 +94,8 @@ for i, t in enumerate(loads):
                    "color": f"C{n - 1}", "ls": ("-", "--", ":")[i]})
 plot_lines(ax_r, n_driven, rl, xlabel=xlab, log=False, ylabel="ratio of order lines [1]")
 ax_r.legend(fontsize=6.5, ncol=2)
-ax_r.set_title("ratios between orders: set by the tooth geometry (k(t)); a few % with speed,"
-               " none with load", fontsize=9)
+ax_r.set_title("ratios between orders: set by the tooth geometry (k(t))\nthey change with speed,"
+               " not with load", fontsize=9)
 fig.suptitle(f"Fig. 11 counterpart. {base_title}, {top:g} N m on the gear shaft: what the"
              " pinion's sensors see (θ2, Eq. 4), not p.\nA magnetic pick-up's own tooth-passing"
              " line (order 1) grows in proportion to speed even for a rigid pinion: it cannot"
