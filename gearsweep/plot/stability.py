@@ -312,7 +312,7 @@ def plot_artifact_edges(ax: Axes, steps_per_period: np.ndarray, edge: dict[str, 
         What the edge is (e.g. the damping), for the title.
     """
     ax.axhspan(target_rpm * (1 - rel), target_rpm * (1 + rel), color="0.85", lw=0,
-               label=f"{target_rpm:g} rpm +- {rel:.0%} (paper)")
+               label=f"{target_rpm:g} rpm (paper) +- {rel:.0%} (our tolerance)")
     for i, (name, e) in enumerate(edge.items()):
         ax.plot(steps_per_period, e, "osD^v"[i % 5] + "-", color=f"C{i}", ms=4 + i, mfc="none",
                 lw=1.0, label=name)
