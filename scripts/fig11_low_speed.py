@@ -80,7 +80,7 @@ od = [{"y": x.sel(damping=c, order=float(n)).values, "label": f"order {n}, {labe
 plot_lines(ax_d, n_driven, od, xlabel="", scale=1e6, ylabel="r2 θ2 at mesh order n [µm]")
 ax_d.legend(fontsize=6.5, ncol=2)
 line = [x.sel(damping=c0, order=float(n)) for n in orders]
-change = ", ".join(f"{n}: {float(o[-1] / o[0] - 1):+.0%}" for n, o in zip(orders, line))
+change = ", ".join(f"{n}: {float(o[-1] / o[0] - 1):+.0%}" for n, o in zip(orders, line, strict=True))
 ax_d.set_title(f"mesh orders 1-3 of the pinion's angular displacement\nchange from"
                f" {n_driven[0]:.0f} to {n_driven[-1]:.0f} rpm,"
                f" {labels[0]}: {change}", fontsize=9)
