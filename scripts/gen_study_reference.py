@@ -71,7 +71,8 @@ SECTIONS: list[tuple[str, type[BaseModel], str]] = [
     ("scene.gear (a preset name or a mapping)", GearSpec,
      f"Presets: {', '.join(f'`{p}`' for p in PRESETS)}."),
     ("scene.gear.tip_relief", TipReliefSpec, ""),
-    ("sweep.NAME as a range", Range, "Or a list of values, e.g. `[0.1 mm, 0.2 mm]`."),
+    ("sweep.NAME as a range", Range, ("Or a list of values, e.g. `[0.1 mm, 0.2 mm]`, each"
+                                    " once, in increasing or decreasing order.")),
     ("solver", Solver, ""),
     ("scene.excitation (STE and stiffness from a file)", ExcitationSpec,
      "Samples over a mesh cycle or a revolution, fitted to the Fourier series (docs/mesh.md)."),

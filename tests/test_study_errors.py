@@ -308,15 +308,33 @@ def test_a_speed_beyond_1e6_rpm_is_refused_in_the_scene_and_the_sweep():
 def test_a_continued_sweep_over_speeds_out_of_order_is_refused():
     """A continued sweep runs up the list of speeds and back down it: with [8000, 6000, 7000]
     "up" stepped 8000 -> 6000 -> 7000, silently (found by a new-user test). Refused at the first
-    speed out of order; the same list without continuation is fine (each case on its own)."""
+    speed out of order (without continuation, as any list that is not monotonic: below)."""
     text = GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "[8000 rpm, 6000 rpm, 7000 rpm]")
-    parse_study(text, "s.yaml")
     assert _lines(text + "continuation: [up, down]\n") == [
         ("s.yaml:10: sweep.speed[1]: '6000 rpm' -- a speed above the one before ('8000 rpm'): a"
         " continued sweep takes the list in increasing order (up) or in decreasing order (down),"
         " so list the speeds in increasing order")]
     parse_study(text.replace("8000 rpm, 6000 rpm, 7000 rpm", "6000 rpm, 7000 rpm, 8000 rpm")
                 + "continuation: [down]\n", "s.yaml")
+
+
+def test_a_list_sweep_that_is_not_monotonic_is_refused():
+    """A list sweep's values become the result's coordinate in the order written: [0.3 mm,
+    0.1 mm, 200 um] gave the coordinate [0.3, 0.1, 0.2], not monotonic as CF asks of a
+    coordinate variable (found by a new-user test). Refused at the first value out of order,
+    with the direction the list started in; increasing and decreasing lists both run."""
+    bad = GOOD.replace("  speed: {", "  backlash: [0.3 mm, 0.1 mm, 200 um]\n  speed: {")
+    assert _lines(bad) == [
+        ("s.yaml:10: sweep.backlash[2]: '200 um' -- a value below the one before ('0.1 mm'): list"
+        " the values in increasing or decreasing order (the result's coordinate is monotonic, as"
+        " CF asks)")]
+    up = bad.replace("[0.3 mm, 0.1 mm, 200 um]", "[0.1 mm, 0.3 mm, 200 um]")
+    assert _lines(up) == [
+        ("s.yaml:10: sweep.backlash[2]: '200 um' -- a value above the one before ('0.3 mm'): list"
+        " the values in increasing or decreasing order (the result's coordinate is monotonic, as"
+        " CF asks)")]
+    for ok in ("[0.1 mm, 200 um, 0.3 mm]", "[0.3 mm, 200 um, 0.1 mm]"):
+        parse_study(bad.replace("[0.3 mm, 0.1 mm, 200 um]", ok), "s.yaml")
 
 
 def test_swept_and_fixed_is_stated_in_validates_summary(tmp_path, capsys):

@@ -647,15 +647,20 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
                                        " each value once, or ds.sel() cannot tell them apart"))
                     break
                 seen[val] = key
-        if (with_order and name == "speed" and not is_range and getattr(study, "continuation", None)
-                and len(values) == len(raw) and len(set(shown)) == len(shown)):  # (a value twice:
-            # said above, one line; [3000 rpm, 50 Hz] was also 'out of order' on the same field)
+        if (with_order and not is_range and len(values) == len(raw)
+                and len(set(shown)) == len(shown)):  # (a value twice: said above, one line;
+            # [3000 rpm, 50 Hz] was also 'out of order' on the same field)
+            continued = name == "speed" and getattr(study, "continuation", None)
+            down = not continued and len(values) > 1 and values[1] < values[0]
             for i in range(1, len(values)):
-                if values[i] <= values[i - 1]:
-                    out.append(Problem(f"sweep.speed[{i}]", raw[i][1], (
+                if (values[i] >= values[i - 1]) if down else (values[i] <= values[i - 1]):
+                    out.append(Problem(f"sweep.{name}[{i}]", raw[i][1], (
                         f"a speed above the one before ({raw[i - 1][1]!r}): a continued sweep"
                         " takes the list in increasing order (up) or in decreasing order"
-                        " (down), so list the speeds in increasing order")))
+                        " (down), so list the speeds in increasing order") if continued else (
+                        f"a value {'below' if down else 'above'} the one before"
+                        f" ({raw[i - 1][1]!r}): list the values in increasing or decreasing"
+                        " order (the result's coordinate is monotonic, as CF asks)")))
                     break
         if is_range and len(values) == 2:
             a, b = values
