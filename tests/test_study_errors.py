@@ -1243,3 +1243,12 @@ def test_record_periods_rules_for_one_period_a_spectrum_and_a_ratio_beyond_the_t
     assert main(["validate", str(study)]) == 2
     assert "solver.record_periods: 48 -- a multiple of 48, at least 96 for this excitation" \
         in capsys.readouterr().err
+
+
+def test_device_gpu_is_pointed_to_cuda():
+    """'device: gpu' means the GPU: the hint names cuda (by spelling it was nearest to 'cpu',
+    and said so; found by an outside test); a misspelling still gets the nearest choice."""
+    for word, meant in (("gpu", "cuda"), ("cpuu", "cpu")):
+        text = GOOD.replace("solver: {method", f"solver: {{device: {word}, method")
+        assert _lines(text) == [(f"s.yaml:11: solver.device: '{word}' -- did you mean"
+                                f" '{meant}'? (allowed: cpu, cuda, auto)")]

@@ -986,8 +986,17 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
         hint or f"; its fields: {', '.join(c for c in choices if c != 'kind')}"), meant
 
 
+SYNONYMS = {"gpu": "cuda", "nvidia": "cuda"}
+"""Words a user writes for a choice by another name: ``device: gpu`` means ``cuda`` (by spelling
+it was nearest to ``cpu``, and the hint said so; found by an outside test)."""
+
+
 def _closest(word: Any, choices) -> str | None:
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+    names = [str(c) for c in choices]
+    meant = SYNONYMS.get(str(word).strip().lower())
+    if meant in names:
+        return meant
+    close = difflib.get_close_matches(str(word), names, n=1, cutoff=0.6)
     return close[0] if close else None
 
 
