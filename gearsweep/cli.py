@@ -481,6 +481,13 @@ def describe(path: str | Path) -> str:
     try:
         path.stat()  # xarray's engines each warned they "fail while guessing" a name too long
     except OSError as exc:
+        folder = chunk_folder(path)
+        saved = len(list(folder.glob(f"*/chunk_*{SUFFIX}"))) if folder.is_dir() else 0
+        if saved:  # an interrupted run's output: say where its work is (was "no result file")
+            raise ResultError(f"{path}: no result file there yet: an interrupted run saved"
+                              f" {saved} chunk{'s' if saved != 1 else ''} in {folder}; run the"
+                              " same command (gearsweep run STUDY -o"
+                              f" {path}) to compute the others and write it") from None
         raise ResultError(f"{path}: no result file there ({exc.strerror or type(exc).__name__})"
                           ) from None
     try:

@@ -75,6 +75,13 @@ def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_pat
     assert not out.exists() and chunk_folder(out).is_dir()
     done = len(log.read_text().splitlines())
     assert done < 20
+    # inspect of the output says where the work is and how to finish it (was "no result file")
+    rc = subprocess.run([sys.executable, "-m", "gearsweep", "inspect", str(out)], cwd=tmp_path,
+                        env=_env(), capture_output=True, text=True, timeout=120)
+    assert rc.returncode == 2 and rc.stderr.strip() == (
+        f"gearsweep: error: {out}: no result file there yet: an interrupted run saved {done}"
+        f" chunks in {chunk_folder(out)}; run the same command (gearsweep run STUDY -o {out})"
+        " to compute the others and write it"), rc.stderr
     # The same command completes it, computing only the missing chunks, and says so first.
     resume = [c for c in _cmd(study, out) if c != "-q"]
     rc = subprocess.run(resume, cwd=tmp_path, env=_env(log), capture_output=True, text=True,
