@@ -71,7 +71,13 @@ from gearsweep.study.schema import (
     replaced_by_sweep,
     summary,
 )
-from gearsweep.study.workspace import OutputLock, check_partial, reads_output, saved_chunks
+from gearsweep.study.workspace import (
+    BusyError,
+    OutputLock,
+    check_partial,
+    reads_output,
+    saved_chunks,
+)
 
 
 def _default_output(study_path: str) -> Path:
@@ -380,6 +386,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             done, total = saved_chunks(plan, out, chunk)
             print(f"{name}: {done} of {total} chunks already saved in {chunk_folder(out)}:"
                   " a run computes only the others (the estimate is for them all)")
+        try:  # what the run would be refused for (it said nothing of it; an outside test)
+            check_partial(plan, out)
+        except BusyError as exc:
+            print(f"{name}: note: a run to this output would be refused: {exc}")
         _long_sweep_note(plan, args)
         return 0
     _check_device(study, text, args)  # no GPU: one line, exit 2, now

@@ -447,6 +447,26 @@ def test_cli_refuses_a_huge_study_and_estimates_it(tmp_path, capsys):
     assert not out.exists() and not chunk_folder(out).exists()
 
 
+def test_cli_estimate_says_a_run_would_be_refused_for_another_study_s_chunks(tmp_path, capsys):
+    """``--estimate`` to an output beside another study's saved chunks says, after the estimate,
+    that the run would be refused and why (it said nothing, and the run was then refused; found
+    by an outside test); the run itself is refused with that line, exit 2."""
+    study = tmp_path / "r.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+    out = tmp_path / "r.nc"
+    other = chunk_folder(out) / "another_study_key"
+    other.mkdir(parents=True)
+    (other / "chunk_0_5.npys").write_bytes(b"")
+    assert main(["run", str(study), "-o", str(out), "--estimate"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and lines[1].startswith(f"{study}: note: a run to this output would be"
+                                                    f" refused: {out}: {chunk_folder(out)} holds 1"
+                                                    " saved chunk(s) of another study"), lines
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 2
+    assert "holds 1 saved chunk(s) of another study" in capsys.readouterr().err
+    assert not out.exists()
+
+
 def test_cli_yes_overrides_the_limits(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(execute, "LIMITS", Limits(seconds=0.01))
     study = tmp_path / "r.yaml"
