@@ -299,6 +299,10 @@ def test_bad_files_give_one_line(tmp_path, header, rows, message):
 
 @pytest.mark.parametrize(("text", "message"), [
     ("mesh_phase [1], ste [um]\n0.0, 1.0\n0.5, abc\n", "line 4: 'abc' is not a number"),
+    ("mesh_phase [1], ste [um]\n0.0, 1.0\n0.5, nan\n",
+     "line 4: 'nan' is not a finite number (every sample must be one)"),
+    ("mesh_phase [1], ste [um]\n0.0, 1.0\n# a comment\ninf, 0.5\n",
+     "line 5: 'inf' is not a finite number (every sample must be one)"),
     ("mesh_phase [1], ste [um]\n0.0, 1.0\n# a comment\n0.5\n", "line 5 has 1 value, the header 2"),
     ("mesh_phase [1], ste [um]\n", "no samples under the header line"),
     ("mesh_phase [1], ste [um], ste [mm]\n0.0, 1.0, 0.001\n",

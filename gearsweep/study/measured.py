@@ -133,7 +133,7 @@ def _columns(names: list[tuple[str, str]]) -> tuple[dict[str, int], dict[str, fl
 _HEADER = re.compile(r"^\s*([^\[\]()]*?)\s*(?:[\[(]\s*([^\[\]()]*?)\s*[\])])?\s*$")
 
 
-def _read_csv(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
+def _read_csv(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, list[tuple[int, list]]]:
     text = path.read_text(encoding="utf-8-sig")
     numbered = [(i, ln) for i, ln in enumerate(text.splitlines(), 1)
                 if ln.strip() and not ln.lstrip().startswith("#")]
@@ -161,7 +161,8 @@ def _read_csv(path: Path) -> tuple[list[tuple[str, str]], np.ndarray]:
             raise ValueError(f"line {line}: {bad.strip()!r} is not a number") from None
     if not values:
         raise ValueError("no samples under the header line")
-    return names, np.array(values, dtype=float)
+    rows_at = [(line, r) for (line, _), r in zip(numbered[1:], rows[1:], strict=True)]
+    return names, np.array(values, dtype=float), rows_at
 
 
 def _number(cell: str) -> bool:
@@ -214,12 +215,21 @@ def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, dict]:
 def _read(path: str, stamp: tuple[int, int]) -> Samples:
     p = Path(path)
     try:
-        names, data, stated = _read_netcdf(p) if p.suffix.lower() in (".nc", ".nc4", ".cdf") \
-            else (*_read_csv(p), {})
+        if p.suffix.lower() in (".nc", ".nc4", ".cdf"):
+            (names, data, stated), rows_at = _read_netcdf(p), None
+        else:
+            (names, data, rows_at), stated = _read_csv(p), {}
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"cannot read the file ({type(exc).__name__})") from None
     index, factor, position = _columns(names)
-    if not np.all(np.isfinite(data[:, list(index.values())])):
+    used = list(index.values())
+    finite = np.isfinite(data[:, used])
+    if not finite.all():
+        row, col = (int(k) for k in np.argwhere(~finite)[0])
+        if rows_at is not None:  # a CSV: the line and the cell, as for text in a sample
+            line, cells = rows_at[row]
+            raise ValueError(f"line {line}: {cells[used[col]].strip()!r} is not a finite"
+                             " number (every sample must be one)")
         raise ValueError("every sample must be a finite number")
 
     def col(which: str) -> np.ndarray | None:
