@@ -492,7 +492,10 @@ def describe(path: str | Path) -> str:
         path.stat()  # xarray's engines each warned they "fail while guessing" a name too long
     except OSError as exc:
         folder = chunk_folder(path)
-        saved = len(list(folder.glob(f"*/chunk_*{SUFFIX}"))) if folder.is_dir() else 0
+        try:
+            saved = len(list(folder.glob(f"*/chunk_*{SUFFIX}"))) if folder.is_dir() else 0
+        except OSError:  # the folder's name is too long too, say
+            saved = 0
         if saved:  # an interrupted run's output: say where its work is (was "no result file")
             raise ResultError(f"{path}: no result file there yet: an interrupted run saved"
                               f" {saved} chunk{'s' if saved != 1 else ''} in {folder}; run the"
