@@ -7,7 +7,6 @@ traceback is shown only with ``--debug``.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import os
 import re
@@ -604,12 +603,8 @@ def cmd_advise(args: argparse.Namespace) -> int:
                k_harmonics=[(h.amplitude, h.order, h.phase) for h in model.stiffness_harmonics],
                backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=args.target,
                steps_per_period=s.steps_per_period,
-               periods=s.transient_periods + s.record_periods)
-    # advise() prices one case per speed: the study runs every case (other swept parameters,
-    # both directions of a continued sweep), as its --estimate counts them.
-    per_speed = plan.n_cases / len(grids["speed"])
-    a = dataclasses.replace(a, msteps=a.msteps * per_speed, kink_msteps=None
-                            if a.kink_msteps is None else a.kink_msteps * per_speed)
+               periods=s.transient_periods + s.record_periods,
+               cases_per_speed=plan.n_cases / len(grids["speed"]))  # priced as --estimate counts
     for n, how in ((a.steps_per_period, ""), (a.kink_steps_per_period, " kink-aware")):
         if n is not None and n > MAX_STEPS_PER_PERIOD:  # advice a study cannot take
             a.warnings.append(f"the{how} target needs {n} steps per mesh period, beyond the"

@@ -133,6 +133,7 @@ def advise(
     steps_per_period: int | None = None,
     periods: int = 200,
     constants: dict | None = None,
+    cases_per_speed: float = 1.0,
 ) -> Advice:
     """Steps per mesh period for a target accuracy, the cost, and stability warnings.
 
@@ -164,6 +165,9 @@ def advise(
         Mesh periods integrated per speed (transient + record), for the cost.
     constants : dict or None
         Error constants (default: ``load_constants()``).
+    cases_per_speed : float
+        Cases the study runs at each speed (its other swept parameters, both directions of a
+        continued sweep), for the cost: a study's ``n_cases / len(speeds)``.
 
     Returns
     -------
@@ -190,7 +194,7 @@ def advise(
     hw = min(hw_target, 0.9 * limit)
     spp = int(8 * math.ceil(2.0 * math.pi * wn / (omega_min * hw) / 8.0 - 1e-9))
     hw_adv = 2.0 * math.pi * wn / (omega_min * spp)
-    msteps = len(speeds) * periods * spp / 1e6
+    msteps = len(speeds) * cases_per_speed * periods * spp / 1e6
     chosen_err = None
     if steps_per_period is not None:
         hw_c = 2.0 * math.pi * wn / (omega_min * steps_per_period)
@@ -208,7 +212,8 @@ def advise(
     if kind == "rattle" and not kink_aware:
         alt = advise(mass=mass, k0=k0, damping=damping, speed_rpm=speeds, teeth=teeth,
                      k_harmonics=k_harmonics, backlash=backlash, method=method, kink_aware=True,
-                     target=target, periods=periods, constants=constants)
+                     target=target, periods=periods, constants=constants,
+                     cases_per_speed=cases_per_speed)
         kink_spp, kink_msteps = alt.steps_per_period, alt.msteps
         warnings.append(
             f"with backlash the plain step converges only as h^2; kink-aware stepping "

@@ -1477,9 +1477,8 @@ def is_netcdf(path: Path) -> bool:
     return head.startswith((b"CDF\x01", b"CDF\x02", b"CDF\x05", b"\x89HDF\r\n\x1a\n"))
 
 
-def load_study(path: str | Path, device: str | None = None
-               ) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
+def load_study(path: str | Path) -> tuple[Study | MeshStudy | AnalysisStudy, str]:
     """Read and validate a study file (``-``: stdin); returns the study and its text (kept in
-    the results). ``device`` overrides ``solver.device`` (``parse_study``)."""
+    the results)."""
     text, name = read_text(path)
-    return parse_study(text, name, device=device), text
+    return parse_study(text, name), text
