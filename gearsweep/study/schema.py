@@ -332,7 +332,9 @@ class Solver(Strict):
                                   " (a driven scene: two cycles of its excitation at least, 2"
                                   " for mesh orders, 96 for a shaft order of 48 teeth)")
     divergence_factor: Real = Field(1e6, gt=1, description="|p| bound / static scale")
-    settle_tolerance: Real = Field(1e-2, gt=0, description="settle_error above it: status 2")
+    settle_tolerance: Real = Field(1e-2, gt=0, description=(
+        "settle_error above it: status 2 (extremes compared between the halves of the record;"
+        " not a test of periodicity: an irregular motion may pass, docs/rattle.md)"))
     initial_displacement: Literal["static"] | Displacement = Field(
         0.0, description="p at t = 0 (Mathieu: a bare number; default 1); 'static': the static"
         " equilibrium on the drive flank of each case, b + F_m / k0 (b = backlash / 2, k0 the"
