@@ -208,6 +208,8 @@ def draw_figure(script: Path, results: Path, figures: Path) -> tuple[int, str, f
             runpy.run_path(str(script), run_name="__main__")
         except SystemExit as exc:
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+            if not isinstance(exc.code, int | None):  # sys.exit("why"): Python prints the why
+                print(exc.code, file=sys.stderr)
         except BaseException:  # noqa: BLE001 - reported like a script that failed
             traceback.print_exc()
             code = 1

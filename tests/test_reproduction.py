@@ -120,6 +120,7 @@ def test_main_job_figure_scripts_report_exit_codes_and_errors(tmp_path):
         "open(a.figures + '/ok.txt', 'w').write(sys.argv[0])\n")
     (tmp_path / "fig_raises.py").write_text("raise ValueError('no such result: x.nc')\n")
     (tmp_path / "fig_exits.py").write_text("import sys\nsys.exit(3)\n")
+    (tmp_path / "fig_says.py").write_text("raise SystemExit('x.nc not found: run it first')\n")
     child = tmp_path / "child.py"
     child.write_text(_DRAW_CHILD)
     r = subprocess.run([sys.executable, str(child), str(ROOT / "scripts"), str(tmp_path)],
@@ -128,5 +129,6 @@ def test_main_job_figure_scripts_report_exit_codes_and_errors(tmp_path):
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out == {"fig_ok.py": [0, []],
                    "fig_raises.py": [1, ["ValueError: no such result: x.nc"]],
-                   "fig_exits.py": [3, []]}
+                   "fig_exits.py": [3, []],
+                   "fig_says.py": [1, ["x.nc not found: run it first"]]}
     assert (tmp_path / "ok.txt").read_text().endswith("fig_ok.py")
