@@ -78,7 +78,8 @@ VARIABLES = {
     "settle_error": ("1", "change of the extremes of p between the halves of the window / p_pp"),
     "spectrum": (UM, "single-sided amplitude spectrum of p over whole mesh periods"),
     "floquet_multiplier": ("1", "largest |mu| of the monodromy matrix"),
-    "unstable": ("1", "the equation is unstable (floquet_multiplier above the variable's threshold attribute)"),
+    "unstable": ("1", ("the equation is unstable (floquet_multiplier above the variable's threshold"
+                      " attribute)")),
     "integrator_unstable": ("1", "the method and step diverge where the equation does not"),
     "status": ("1", "0 ok; nonzero flags a diverged, unsettled or skipped case"),
 }
