@@ -191,11 +191,15 @@ EXAMPLES = {
                 " speed: 1000 rpm}\noutputs: [spectrum]",
     "floquet": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
                " speed: 1000 rpm}\noutputs: [floquet]",
+    "period": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
+              " speed: 1000 rpm}\noutputs: [period]",
 }
 
 
 def _variable_rows() -> list[str]:
     rows = ["| output | variable | units | extra dims | long_name |", "|---|---|---|---|---|"]
+    missing = set(OUTPUTS) - {label.split(",")[0] for label in EXAMPLES}
+    assert not missing, f"add an example study of the outputs {sorted(missing)} to EXAMPLES"
     seen = set()
     for label, body in EXAMPLES.items():
         text = f"title: t\n{body}\n"

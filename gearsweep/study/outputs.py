@@ -23,6 +23,7 @@ from typing import Any, Protocol
 import numpy as np
 from pydantic import BaseModel, Field, ValidationError, model_validator
 
+from gearsweep.analysis.period import motion_period
 from gearsweep.analysis.sensor import pinion_displacement, spectrum_rms
 from gearsweep.analysis.spectrum import kept_bins, line_spectrum
 from gearsweep.analysis.stability import check_step
@@ -314,6 +315,67 @@ class Spectrum:
         return np.abs(c_spring + per_case("damping", model.damping)[:, None] * dp)
 
 
+class PeriodOptions(Strict):
+    """Options of the ``period`` output."""
+
+    tolerance: Real = Field(1e-3, gt=0, lt=1, description="largest change of p between samples"
+                            " one motion period apart, relative to p_pp, that counts as repeating")
+
+
+class Period:
+    """The period of the steady motion in mesh periods (docs/data-format.md).
+
+    p is recorded once per mesh period, at the same phase of each (a Poincare section),
+    and ``motion_period`` is the smallest P up to record_periods / 2 for which every sample
+    equals the one P periods before within ``tolerance`` x p_pp
+    (``gearsweep.analysis.period``): 1 for a motion with the mesh period, 2 or 4 after a period
+    doubling, the excitation's cycle for a motion that follows a longer cycle, NaN for an
+    irregular motion or one that repeats over more than half the record. ``period_mismatch`` is
+    that largest change / p_pp (where no P fits, the smallest over P). The settle test (status 2)
+    compares only the extremes of the record's halves, and an irregular motion may pass it.
+    """
+
+    name = "period"
+    options_model = PeriodOptions
+
+    @staticmethod
+    def _opts(plan: Plan) -> PeriodOptions:
+        opts = plan.options.get("period")
+        return opts if isinstance(opts, PeriodOptions) else PeriodOptions()
+
+    def signal_samples_per_period(self, plan: Plan) -> int:
+        return 1
+
+    def variables(self, plan: Plan) -> dict[str, VarSpec]:
+        rec = plan.study.solver.record_periods
+        if rec < 2:
+            raise StudyError("<study>", "solver.record_periods", rec,
+                             "at least 2 for the period output (periods up to half the record)")
+        tol = self._opts(plan).tolerance
+        return {
+            "motion_period": VarSpec(attrs={
+                "units": "1", "tolerance": tol, "longest": rec // 2,
+                "long_name": "period of the steady motion in mesh periods (p once per mesh period"
+                " repeats; NaN: irregular, or longer than half the record)"}),
+            "period_mismatch": VarSpec(attrs={
+                "units": "1", "long_name": "largest change of p between samples motion_period"
+                " mesh periods apart / p_pp (no period found: the smallest over the periods"
+                " tried)"}),
+        }
+
+    def compute(self, plan: Plan, params: dict[str, np.ndarray],
+                result: BatchResult) -> dict[str, np.ndarray]:
+        sps = plan.samples_per_period()  # the signal's, the largest any output asked for
+        q = result.signal[:, ::sps]  # one step into every recorded mesh period: the same
+        # phase whatever the signal's sampling (sample j follows step 1 + j * stride)
+        pp = result.stats["p_max"] - result.stats["p_min"]
+        period, mismatch = motion_period(q, pp, self._opts(plan).tolerance)
+        bad = result.status != 0
+        period[bad] = np.nan
+        mismatch[bad] = np.nan
+        return {"motion_period": period, "period_mismatch": mismatch}
+
+
 TOL = 1e-6
 """A multiplier counts as > 1 above 1 + TOL (converged to rtol 1e-8, far below)."""
 
@@ -396,7 +458,8 @@ class Floquet:
         }
 
 
-OUTPUTS: dict[str, Output] = {"stats": Stats(), "spectrum": Spectrum(), "floquet": Floquet()}
+OUTPUTS: dict[str, Output] = {"stats": Stats(), "spectrum": Spectrum(), "floquet": Floquet(),
+                             "period": Period()}
 """Registered outputs by name."""
 
 

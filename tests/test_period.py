@@ -1,0 +1,91 @@
+"""The ``period`` output: the period of a steady motion from p once per mesh period.
+
+Truths: sequences built with a known period; a linear scene, whose steady response to a periodic
+excitation has the excitation's period; and the rattle scene of Fig. 8 past its flip, where the
+harmonic balance's Floquet multiplier below -1 says the period-1 motion is unstable
+(tests/test_rattle.py::test_lower_branch_with_mean_force_period_doubles), so the integration
+cannot settle on period 1.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import gearsweep
+from gearsweep.analysis.period import motion_period
+from gearsweep.errors import StudyError
+
+ROOT = Path(__file__).resolve().parents[1]
+RNG = np.random.default_rng(7)
+
+
+@pytest.mark.parametrize("period", [1, 2, 3, 4, 6, 10])
+def test_motion_period_finds_the_period_of_a_repeating_sequence(period):
+    orbit = RNG.uniform(-1.0, 1.0, period)
+    q = np.tile(orbit, 20 // period + 1)[:20]
+    q = q + 1e-5 * RNG.standard_normal(q.size)  # below the tolerance of 1e-3 x p_pp (2)
+    p, mismatch = motion_period(q[None, :], np.array([2.0]), 1e-3)
+    assert p[0] == period
+    assert 0 < mismatch[0] <= 1e-3
+
+
+def test_motion_period_of_an_irregular_or_too_long_sequence_is_nan():
+    q = np.vstack([RNG.uniform(-1, 1, 20),                       # irregular
+                   np.tile(RNG.uniform(-1, 1, 11), 2)[:20]])     # period 11 > 20 / 2
+    p, mismatch = motion_period(q, np.array([2.0, 2.0]), 1e-3)
+    assert np.isnan(p).all()
+    assert (mismatch > 1e-3).all()  # the smallest over the periods tried, still above
+
+
+def test_motion_period_at_rest_and_not_finite():
+    q = np.array([[0.5] * 8, [0.0, 1.0, np.nan, 1.0, 0.0, 1.0, 0.0, 1.0]])
+    p, mismatch = motion_period(q, np.array([0.0, 1.0]), 1e-3)
+    assert p[0] == 1 and mismatch[0] == 0.0
+    assert np.isnan(p[1]) and np.isnan(mismatch[1])
+
+
+def _fig08(speeds, transient=200, record=20, outputs=("stats", "period")):
+    s = yaml.safe_load((ROOT / "studies/fig08_rattle.yaml").read_text(encoding="utf-8"))
+    s.pop("continuation", None)
+    s["sweep"] = {"speed": list(speeds)}
+    s["solver"].update(transient_periods=transient, record_periods=record)
+    s["outputs"] = list(outputs)
+    return gearsweep.run(s)
+
+
+def test_period_output_tells_period_one_from_the_motion_past_the_flip():
+    """6000 rpm, below the jumps: the motion has the mesh period. 9500 rpm, past the flip
+    (7542 rpm): the harmonic balance's period-1 solution has a multiplier below -1, so the
+    integration settles on something else; the settle test (status) may still pass it."""
+    ds = _fig08([6000.0, 9500.0])
+    assert ds.motion_period.sel(speed=6000.0) == 1
+    assert ds.period_mismatch.sel(speed=6000.0) < 1e-6
+    p = float(ds.motion_period.sel(speed=9500.0))
+    assert np.isnan(p) or p >= 2
+    assert ds.period_mismatch.sel(speed=9500.0) > 1e-3
+    assert ds.motion_period.attrs["units"] == "1" and "long_name" in ds.motion_period.attrs
+
+
+def test_a_linear_scene_responds_with_the_period_of_its_excitation():
+    """Whine (no backlash), time-varying stiffness and STE: a stable linear periodic system's
+    steady response has the excitation's period, one mesh period."""
+    s = yaml.safe_load((ROOT / "studies/whine_speed_sweep.yaml").read_text(encoding="utf-8"))
+    s["sweep"] = {"speed": [3000.0, 7000.0, 12000.0]}
+    s["outputs"] = ["stats", "period"]
+    ds = gearsweep.run(s)
+    assert (ds.motion_period == 1).all()
+
+
+def test_period_beside_a_spectrum_uses_one_sample_per_period_of_its_signal():
+    alone = _fig08([6000.0, 9500.0])
+    both = _fig08([6000.0, 9500.0], outputs=("stats", "period", {"spectrum": {"max_order": 2}}))
+    np.testing.assert_array_equal(alone.motion_period, both.motion_period)
+    np.testing.assert_allclose(alone.period_mismatch, both.period_mismatch, rtol=1e-12)
+
+
+def test_period_needs_two_recorded_periods():
+    with pytest.raises(StudyError, match="record_periods"):
+        _fig08([6000.0], record=1)
