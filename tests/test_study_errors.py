@@ -61,7 +61,7 @@ def test_an_empty_output_list_and_a_value_swept_twice_are_refused():
     ``sel`` could not tell them apart) were accepted; each is one line now."""
     assert _lines(GOOD + "outputs: []\n") == [
         ("s.yaml:12: outputs: [] -- at least one output (leave the key out for stats); allowed:"
-        " floquet, spectrum, stats")]
+        " floquet, period, spectrum, stats")]
     twice = GOOD.replace("speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
                          "speed: [6000 rpm, 100 Hz]\n  backlash: [0.1 mm, 0.2 mm, 100 um]")
     assert _lines(twice) == [
@@ -158,11 +158,11 @@ def test_errors_in_sweep_and_outputs_point_at_their_lines():
     assert _lines(text) == [  # both at once (the output's name was said after num was mended)
         "s.yaml:10: sweep.speed.num: 0 -- Input should be greater than or equal to 1",
         ("s.yaml:12: outputs[1]: 'spectrun' -- not an output; did you mean 'spectrum'? allowed:"
-         " floquet, spectrum, stats")]
+         " floquet, period, spectrum, stats")]
     text = GOOD + "outputs: [stats, spectrun]\n"
     assert _lines(text) == [
         ("s.yaml:12: outputs[1]: 'spectrun' -- not an output; did you mean 'spectrum'? allowed:"
-        " floquet, spectrum, stats")]
+        " floquet, period, spectrum, stats")]
 
 
 def test_duplicate_keys_are_refused():
