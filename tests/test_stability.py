@@ -399,3 +399,75 @@ def test_integrator_edge_lies_between_the_grids_last_flagged_speed_and_the_next(
         assert (mu > 1 + 1e-6) == unstable
     with pytest.raises(ValueError, match="does not cross"):
         st.integrator_edge((100.0, 150.0), **rig)
+
+
+CONTINUED_RIG = """
+title: rig through its principal tongue (mesh frequency twice the natural one), both sweeps
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  stiffness_harmonics: [{amplitude: 179 kN/mm}]
+sweep:
+  damping: [0 N*s/m, 0.1 N*s/mm]
+  speed: [20000 rpm, 31000 rpm, 33354 rpm, 36000 rpm, 50000 rpm]
+continuation: [up, down]
+solver: {method: rk5, steps_per_period: 64, transient_periods: 4, record_periods: 2,
+         initial_displacement: 1 um}
+outputs: [stats, floquet]
+"""
+
+
+def _monodromy_ivp(k0, k1, m, c, omega):
+    """Largest |mu| of m p'' + c p' + (k0 + k1 cos(omega t)) p = 0 over t in [0, 2 pi / omega],
+    the variational system integrated by scipy (DOP853, rtol 1e-12), independent of the kernels."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, y):
+        return [y[1], -(c * y[1] + (k0 + k1 * np.cos(omega * t)) * y[0]) / m]
+
+    T = 2 * np.pi / omega
+    cols = [solve_ivp(rhs, (0, T), y0, method="DOP853", rtol=1e-12, atol=1e-14).y[:, -1]
+            for y0 in ([1.0, 0.0], [0.0, omega])]  # second column in units of 1/omega
+    M = np.array(cols).T / [1.0, omega]  # columns: (p, p') at T from (1, 0) and (0, 1)
+    return np.abs(np.linalg.eigvals(M)).max()
+
+
+def test_continued_sweeps_compute_floquet_once_and_both_directions_agree(monkeypatch):
+    """With ``continuation: [up, down]`` the floquet output was computed speed by speed for both
+    sweeps (30x the cost of the same study without continuation); the multipliers depend on the
+    case only. Now each distinct case is computed once, up and down carry the same values, equal
+    to the study without continuation, and to the monodromy matrix of scipy's integration of the
+    variational equations (unstable in the principal tongue, 33354 rpm: N w = 2 w_n)."""
+    from gearsweep.api import run_study
+    from gearsweep.study import outputs
+    from gearsweep.study.schema import parse_study
+
+    sizes = []
+    real = outputs.floquet
+
+    def counting(a, *args, **kw):
+        sizes.append(np.size(a))
+        return real(a, *args, **kw)
+
+    monkeypatch.setattr(outputs, "floquet", counting)
+    ds = run_study(parse_study(CONTINUED_RIG))
+    assert sizes[-1] == 2 * 5 and sum(sizes[:-1]) <= 1  # the warm-up's trial, then 2 x 5 cases
+    monkeypatch.undo()
+    plain = run_study(parse_study(CONTINUED_RIG.replace("continuation: [up, down]\n", "")))
+    names = ["floquet_multiplier", "floquet_error", "unstable", "discrete_multiplier",
+             "integrator_unstable", "min_steps_per_period"]
+    for name in names:
+        up, down = ds[name].sel(direction="up"), ds[name].sel(direction="down")
+        assert np.array_equal(up.values, down.values, equal_nan=True), name
+        assert np.array_equal(up.transpose(*plain[name].dims).values, plain[name].values,
+                              equal_nan=True), name
+    mu = ds["floquet_multiplier"].sel(direction="down")
+    for c in ds.damping.values:
+        for rpm in ds.speed.values:
+            truth = _monodromy_ivp(1073e6, 179e6, 0.1527, c * 1e3, 48 * rpm * 2 * np.pi / 60)
+            assert_allclose(mu.sel(damping=c, speed=rpm), truth, rtol=1e-7)
+    unstable = ds["unstable"].sel(direction="up")
+    assert unstable.sel(speed=33354.0).all()
+    assert not unstable.sel(speed=[20000.0, 50000.0]).any()

@@ -12,7 +12,7 @@ import numpy as np
 from gearsweep.kernels import STATUS_DIVERGED, BatchResult
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import kernel_inputs
-from gearsweep.study.outputs import OUTPUTS
+from gearsweep.study.outputs import OUTPUTS, Floquet
 from gearsweep.study.plan import (
     STATUS_NOT_SETTLED,
     STATUS_SKIPPED,
@@ -321,6 +321,42 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
         out["status"] = status
         return out
     params = _lane_params(plan, lane0, lane1)
+    if "floquet" not in plan.outputs:
+        return _continued(plan, params, n)
+    with Floquet.shared():  # the multipliers depend on the case, not on the state or direction:
+        _floquet_once(plan, params, n)  # all speeds' in one batch, then each speed reuses them
+        return _continued(plan, params, n)
+
+
+def _floquet_once(plan: Plan, params: dict[str, np.ndarray], n: int) -> None:
+    """Compute the ``floquet`` output of lanes ``params`` at every speed of a continued sweep
+    (one direction; the step guard's skipped cases left out), for ``Floquet.shared`` to keep."""
+    speeds = plan.grids["speed"]
+    ns = len(speeds)
+    every = {name: np.repeat(vals, ns) for name, vals in params.items()}
+    every["speed"] = np.tile(speeds, n)
+    if plan.study.solver.step_guard == "skip":
+        keep = np.flatnonzero(_step_ok(plan, every, n * ns))
+        every = {k: v[keep] for k, v in every.items()}
+    torques = plan.case_torques(every) if plan.gear_load_swept else None
+    for load in [None] if torques is None else np.unique(torques):
+        idx = slice(None) if load is None else np.flatnonzero(torques == load)
+        sub = {k: v[idx] for k, v in every.items()}
+        at = plan if load is None else dataclasses.replace(
+            plan, model=plan.model_for_load(float(load)))
+        if len(sub["speed"]):
+            OUTPUTS["floquet"].compute(at, sub, _Sized(len(sub["speed"])))
+
+
+class _Sized:
+    """What ``Floquet.compute`` reads of a kernel result: the number of cases."""
+
+    def __init__(self, n: int) -> None:
+        self.x_final = np.empty(n)
+
+
+def _continued(plan: Plan, params: dict[str, np.ndarray], n: int) -> dict[str, np.ndarray]:
+    """``run_chunk`` of a continued sweep."""
     # Continued sweeps: the up and the down sweep of every lane advance side by side as lanes of
     # one kernel call (step k is speed k going up and speed n-1-k going down).
     speeds = plan.grids["speed"]

@@ -16,6 +16,8 @@ keeps the result in ``plan.options[name]``.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -431,31 +433,85 @@ class Floquet:
                 "method is stable (stability polynomial at the largest stiffness)"}),
         }
 
+    @staticmethod
+    @contextlib.contextmanager
+    def shared():
+        """Within: ``compute`` keeps each distinct case's multipliers and reuses them (a continued
+        sweep computes its cases speed by speed, up and down, on the same parameters: the
+        multipliers depend on the parameters only, ``chunk.run_chunk`` computes them once for
+        all its speeds first). Per thread: a chunk runs in one thread."""
+        token = _FLOQUET_MEMO.set({})
+        try:
+            yield
+        finally:
+            _FLOQUET_MEMO.reset(token)
+
     def compute(self, plan: Plan, params: dict[str, np.ndarray],
                 result: BatchResult) -> dict[str, np.ndarray]:
         n = result.x_final.shape[0]
         a, b, g, harm, kmax, cm, period = hill_parameters(plan.model, params, n)
         s = plan.study.solver
         ok = np.isfinite(a)
-        fl_mu = np.full(n, np.nan)
-        fl_err = np.full(n, np.nan)
-        disc = np.full(n, np.nan)
-        if ok.any():
-            fl = floquet(a[ok], b[ok], g[ok], method="rk5", rtol=1e-8, tol=TOL, harmonics=harm)
-            fl_mu[ok], fl_err[ok] = fl.multiplier, fl.error
-            M = monodromy(a[ok], b[ok], g[ok], s.steps_per_period, method=s.method,
-                          harmonics=harm)
-            disc[ok] = largest_multiplier(M)
+        memo = _FLOQUET_MEMO.get()
+        if memo is None:
+            fl_mu, fl_err, disc = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+            if ok.any():
+                fl_mu[ok], fl_err[ok], disc[ok] = _multipliers(a[ok], b[ok], g[ok], harm, s)
+            _, limit = check_step(s.method, s.steps_per_period, period, kmax, cm)
+            limit = np.broadcast_to(limit, (n,)).astype(float)
+        else:
+            fl_mu, fl_err, disc, limit = _shared(memo.setdefault(repr(harm), {}), s, harm, ok,
+                                                 a, b, g, kmax, cm, period)
         unstable = fl_mu > 1 + TOL
-        _, limit = check_step(s.method, s.steps_per_period, period, kmax, cm)
         return {
             "floquet_multiplier": fl_mu,
             "floquet_error": fl_err,
             "unstable": unstable,
             "discrete_multiplier": disc,
             "integrator_unstable": (disc > 1 + TOL) & ~unstable & ok,
-            "min_steps_per_period": np.broadcast_to(limit, (n,)).astype(float),
+            "min_steps_per_period": limit,
         }
+
+
+_FLOQUET_MEMO: contextvars.ContextVar[dict | None] = contextvars.ContextVar("floquet_memo",
+                                                                        default=None)
+"""``Floquet.shared``'s table per shape of the stiffness variation: case -> its arrays' values."""
+
+
+def _multipliers(a, b, g, harm, solver) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Converged largest |mu| and its error (RK5) and the study's fixed-step map's largest |mu|
+    of the cases (a, b, g) of the Hill equation of shape ``harm``."""
+    fl = floquet(a, b, g, method="rk5", rtol=1e-8, tol=TOL, harmonics=harm)
+    M = monodromy(a, b, g, solver.steps_per_period, method=solver.method, harmonics=harm)
+    return fl.multiplier, fl.error, largest_multiplier(M)
+
+
+def _shared(table: dict, solver, harm, ok, a, b, g, kmax, cm, period) -> tuple:
+    """``Floquet.compute``'s per-case arrays (multiplier, error, discrete multiplier, step limit)
+    from ``table``, the cases not yet in it computed (each once) and added."""
+    n = a.size
+    kmax, cm, period = (np.broadcast_to(x, (n,)) for x in (kmax, cm, period))
+    keys = list(zip(a.tolist(), b.tolist(), g.tolist(), kmax.tolist(), cm.tolist(),
+                    period.tolist(), ok.tolist(), strict=True))
+    todo: dict[tuple, int] = {}
+    for i, key in enumerate(keys):
+        if key not in table:
+            todo.setdefault(key, i)
+    if todo:
+        idx = np.array(list(todo.values()))
+        m = idx.size
+        fl_mu, fl_err, disc = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.nan)
+        good = ok[idx]
+        if good.any():
+            j = idx[good]
+            fl_mu[good], fl_err[good], disc[good] = _multipliers(a[j], b[j], g[j], harm, solver)
+        _, limit = check_step(solver.method, solver.steps_per_period, period[idx], kmax[idx],
+                              cm[idx])
+        limit = np.broadcast_to(limit, (m,)).astype(float)
+        for key, *vals in zip(todo, fl_mu, fl_err, disc, limit, strict=True):
+            table[key] = vals
+    out = np.array([table[key] for key in keys], dtype=float).reshape(n, 4)
+    return tuple(out[:, c].copy() for c in range(4))
 
 
 OUTPUTS: dict[str, Output] = {"stats": Stats(), "spectrum": Spectrum(), "floquet": Floquet(),
