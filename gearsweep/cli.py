@@ -149,6 +149,16 @@ def _plan(study, text: str, path: str):
     return make_plan(study, text, _shown(path))
 
 
+def _in_file(exc: StudyError, text: str, path: str) -> StudyError:
+    """A problem found after parsing (field, value, allowed; no file) at its line of the study
+    file, as the schema reports its own."""
+    if exc.file != "<study>" or not text:
+        return exc
+    raw = load_yaml(text, _shown(path))
+    return StudyError.many(_shown(path), [(line_of(raw, field), field, value, allowed)
+                                          for _, field, value, allowed in exc.problems])
+
+
 def _summary(study, plan, est_line: str) -> str:
     """validate's one line: scene, cases, solver, outputs, and the estimate."""
 
@@ -174,8 +184,14 @@ def cmd_validate(args: argparse.Namespace) -> int:
         print(f"{name}: ok -- {summary(study)}, peak memory about {_size(memory)}")
         return 0
     if getattr(study, "type", None) == "analysis":
-        print(f"{name}: ok -- analysis study {study.analysis.kind!r}")
+        from gearsweep.study.analyses import check_inputs
+
         folder = _default_output(args.study).parent  # where `run` without -o reads them
+        try:
+            check_inputs(study, folder)  # what run would refuse of them, said now
+        except StudyError as exc:
+            raise _in_file(exc, text, args.study) from None
+        print(f"{name}: ok -- analysis study {study.analysis.kind!r}")
         for needed in getattr(study.analysis, "inputs", lambda: [])():
             if not (folder / f"{needed}.nc").exists():  # valid, but run would stop: say so now
                 print(f"gearsweep: note: {name}: it reads {folder / needed}.nc, not there yet:"
@@ -334,7 +350,11 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         t0 = time.perf_counter()
         with OutputLock(out):
-            write_netcdf(run_unchunked(study, text, out.parent), out)
+            try:
+                ds = run_unchunked(study, text, out.parent)
+            except StudyError as exc:
+                raise _in_file(exc, text, args.study) from None
+            write_netcdf(ds, out)
         if not args.quiet:
             print(f"{out}: {study.type} study in {time.perf_counter() - t0:.2f} s")
         return 0

@@ -213,6 +213,31 @@ def test_jump_analyses_of_a_run_up_only_result_are_one_line(tmp_path, capsys):
         assert err.count("\n") == 1 and "continued up and down over speed" in err, err
 
 
+def test_a_jump_map_of_a_result_without_up_and_down_is_refused_at_its_line(tmp_path,
+                                                                         monkeypatch, capsys):
+    """validate said ok of a jump_map reading a result with no up/down sweep, and run refused it
+    with 'flat: jump_map needs ...': no file, line or field. Both now give the study file's
+    line of analysis.result, its value and what is allowed, exit 2."""
+    from gearsweep.cli import main
+
+    flat = {**RATTLE, "sweep": {"speed": {"start": "7000 rpm", "stop": "8600 rpm", "num": 3}},
+            "solver": {**RATTLE["solver"], "transient_periods": 5}}
+    del flat["continuation"]  # one sweep of independent speeds
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    gearsweep.run(flat, output=tmp_path / "results" / "flat.nc")
+    study = tmp_path / "jm.yaml"
+    study.write_text("type: analysis\ntitle: t\nanalysis:\n  kind: jump_map\n  result: flat\n",
+                     encoding="utf-8")
+    line = (f"gearsweep: error: {study}:5: analysis.result: 'flat' -- jump_map needs a result"
+            " continued up and down over speed (continuation: [up, down]): a jump is where the"
+            " two differ; this one has no up and down sweep\n")
+    assert main(["validate", str(study)]) == 2
+    assert capsys.readouterr().err == line
+    assert main(["run", str(study), "-o", str(tmp_path / "results" / "jm.nc")]) == 2
+    assert capsys.readouterr().err == line
+
+
 def test_an_analysis_names_its_input_with_or_without_nc_and_refuses_a_path():
     from gearsweep.study.schema import parse_study
 

@@ -20,7 +20,7 @@ from gearsweep.analysis import hb
 from gearsweep.analysis import precision as pr
 from gearsweep.analysis import rattle as rfit
 from gearsweep.analysis import stability as st
-from gearsweep.errors import ResultError
+from gearsweep.errors import ResultError, StudyError
 from gearsweep.model import PAPER_RIG, RPM, MeshModel, model_from_record
 from gearsweep.study.analysis_specs import (
     AnalysisStudy,
@@ -542,15 +542,23 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
     return data, coords, attrs, {}
 
 
+def _jump_map_input(o: JumpMap, ds: xr.Dataset) -> None:
+    """``StudyError`` (its field ``analysis.result``, reported at the study file's line by the
+    caller) unless ``ds`` is a result ``jump_map`` can read."""
+    if "contact_loss_fraction" not in ds:
+        raise StudyError("<study>", "analysis.result", o.result, "jump_map needs a result with"
+                         " backlash (contact_loss_fraction); this one has none")
+    if not _both_ways(ds):
+        raise StudyError("<study>", "analysis.result", o.result, "jump_map needs a result"
+                         " continued up and down over speed (continuation: [up, down]): a jump is"
+                         " where the two differ; this one has no up and down sweep")
+
+
 def jump_map(o: JumpMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
     """Share of speeds with contact loss and the jump summary of every case of a continued
     sweep (see ``JumpMap``)."""
     ds = inputs[o.result]
-    if "contact_loss_fraction" not in ds:
-        raise ResultError(f"{o.result}: jump_map needs a result with backlash (contact loss)")
-    if not _both_ways(ds):
-        raise ResultError(f"{o.result}: jump_map needs a sweep continued up and down over speed"
-                          " (continuation: [up, down]): a jump is where the two differ")
+    _jump_map_input(o, ds)
     js = jump_summary(ds)
     dims = list(js["hysteresis_width"].dims)
     loss = ds["contact_loss_fraction"].max("direction")
@@ -592,6 +600,24 @@ def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
         prov[f"input_{name}"] = ds.attrs.get("study_sha256") or hashlib.sha256(
             ds.attrs.get("study", "").encode()).hexdigest()
     return inputs, prov
+
+
+INPUT_CHECKS = {"jump_map": _jump_map_input}
+"""Per analysis kind, the check of what it reads (``check_inputs``; the analysis runs it too)."""
+
+
+def check_inputs(study: AnalysisStudy, results: str | Path) -> None:
+    """Check the analysis's inputs that are in the folder ``results`` (``validate``: those not
+    there yet are only noted); ``StudyError`` as the analysis itself would raise."""
+    check = INPUT_CHECKS.get(study.analysis.kind)
+    for name in study.analysis.inputs() if check and hasattr(study.analysis, "inputs") else []:
+        path = Path(results) / f"{name}.nc"
+        try:
+            ds = xr.open_dataset(path)
+        except (OSError, ValueError):  # missing or unreadable: run says so (validate notes
+            continue  # a missing one)
+        with ds:
+            check(study.analysis, ds)
 
 
 def run_analysis_study(study: AnalysisStudy, text: str = "", results: str | Path = "results"):
