@@ -10,9 +10,12 @@ from numpy.testing import assert_allclose
 from scipy.special import mathieu_a, mathieu_b
 
 from gearsweep.analysis import stability as st
+from gearsweep.api import run_study
 from gearsweep.errors import GearsweepError, StepLimitWarning
 from gearsweep.kernels import simulate
 from gearsweep.kernels.floquet import floquet, mathieu_parameters, monodromy, paper_criterion
+from gearsweep.study.plan import make_plan
+from gearsweep.study.schema import parse_study
 
 
 def _bisect(flag, lo, hi, n=40):
@@ -471,3 +474,45 @@ def test_continued_sweeps_compute_floquet_once_and_both_directions_agree(monkeyp
     unstable = ds["unstable"].sel(direction="up")
     assert unstable.sel(speed=33354.0).all()
     assert not unstable.sel(speed=[20000.0, 50000.0]).any()
+
+
+def test_the_estimate_prices_the_floquet_output(monkeypatch):
+    """--estimate left the floquet output out (0 s for any number of cases). It now adds its
+    time per distinct case (continued sweeps: one for both directions, as it is computed), and
+    the monodromy steps it assumes are an upper bound within 3x of those a run counts."""
+    from gearsweep.kernels import floquet as fq
+    from gearsweep.study import outputs
+    from gearsweep.study.estimate import quick_estimate
+    from gearsweep.study.execute import STATED_RATE, WRITE_RATE
+
+    rig = RIG_STUDY.replace("speed: [150 rpm, 1500 rpm]",
+                            "speed: {start: 100 rpm, stop: 2000 rpm, num: 24, spacing: log}")
+
+    def est(text):
+        return quick_estimate(make_plan(parse_study(text), text), ask_cache=False)[0]
+
+    with_f, without = est(rig), est(rig.replace("[stats, floquet]", "[stats]"))
+    assert without.output_seconds == 0 and with_f.output_seconds > 0
+    assert with_f.seconds - with_f.compile_seconds == pytest.approx(  # its maps' compile and
+        without.seconds - without.compile_seconds + with_f.output_seconds  # its variables' bytes
+        + (with_f.output_bytes - without.output_bytes) / WRITE_RATE)
+    both = est(rig.replace("sweep:", "continuation: [up, down]\nsweep:"))
+    per_chunk = outputs.FLOQUET_CALL_SECONDS
+    assert abs(both.output_seconds - with_f.output_seconds) <= per_chunk * max(both.chunks,
+                                                                               with_f.chunks)
+    cases = with_f.cases
+    steps = ((with_f.output_seconds - cases * outputs.FLOQUET_CASE_SECONDS
+              - with_f.chunks * per_chunk) * STATED_RATE["rk5"] * 1e6 / cases)
+    counted = []
+    real = fq.monodromy
+
+    def counting(a, b, g, S, **kw):
+        counted.append(2 * np.size(a) * S)
+        return real(a, b, g, S, **kw)
+
+    monkeypatch.setattr(fq, "monodromy", counting)
+    monkeypatch.setattr(outputs, "monodromy", counting)
+    with pytest.warns(StepLimitWarning):
+        run_study(parse_study(rig))
+    measured = (sum(counted) - 2 * 200) / cases  # less the warm-up's study map
+    assert measured <= steps <= 3 * measured, (steps, measured)

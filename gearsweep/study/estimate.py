@@ -27,6 +27,7 @@ from gearsweep.study.execute import (
     kernel_threads,
     lanes_per_chunk,
     measure_rate,
+    output_seconds,
     with_short_ends,
 )
 from gearsweep.study.filelayout import output_bound
@@ -95,10 +96,12 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     count = full + (1 if rest else 0)
     ends = [(0, min(per, n))] + ([(n - (rest or per), n)] if count > 1 else [])
     count += len(with_short_ends(plan, ends, threads)) - len(ends)  # as chunks_to_run cuts them
+    outputs_s = output_seconds(plan, count)
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
                    chunks=count, threads=threads, rate=rate,
-                   rate_source=source, seconds=seconds, memory_bytes=memory,
-                   output_bytes=output, device=plan.device, compile_seconds=compile_s)
+                   rate_source=source, seconds=seconds + outputs_s, memory_bytes=memory,
+                   output_bytes=output, device=plan.device, compile_seconds=compile_s,
+                   output_seconds=outputs_s)
     return est, compile_s
 
 
@@ -124,7 +127,8 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
     if over != [o for o in over if o.startswith("time")] or not over or est.device == "cuda":
         return est, est.compile_seconds  # within the limits, refused for memory or output
         # whatever the rate, or on the GPU (the CPU kernel's rate says nothing of it)
-    kernel = est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE - est.compile_seconds
+    kernel = (est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE - est.compile_seconds
+              - est.output_seconds)
     if kernel / MAX_SPEEDUP > execute.LIMITS.seconds:
         return est, est.compile_seconds  # no machine is that much faster: refused at once,
         # nothing compiled

@@ -78,6 +78,16 @@ fallback, not a promise. Measured on this 2-core AVX-512 machine, rattle scene: 
 core for RK4 (``scripts/bench_scale.py``, docs/scale.md); half that allows for AVX2 (4 lanes per
 vector instead of 8), and RK5 takes 6 stages to RK4's 4."""
 
+def output_seconds(plan: Plan, chunks: int) -> float:
+    """Time of the outputs' own work beyond the kernel's [s] (``Output.seconds`` where an output
+    has one: the ``floquet`` output's monodromy maps and step-limit scan), at the stated RK5
+    rate (those maps are RK5)."""
+    from gearsweep.study.outputs import OUTPUTS
+
+    return sum(OUTPUTS[o].seconds(plan, chunks, STATED_RATE["rk5"]) for o in plan.outputs
+               if hasattr(OUTPUTS[o], "seconds"))
+
+
 BASELINE_MEMORY = 300e6
 """Resident memory of the interpreter with numpy, numba, xarray and the compiled kernels [bytes]."""
 
@@ -209,6 +219,8 @@ class Estimate:
     compile_seconds: float = 0.0
     """Of ``seconds``, the one-time compile of kernel specialisations not yet compiled
     (``estimate.compile_seconds``)."""
+    output_seconds: float = 0.0
+    """Of ``seconds``, the outputs' own work beyond the kernel (``output_seconds``)."""
 
     def line(self) -> str:
         """The estimate in one line, saying when it includes compiling the kernel."""
@@ -329,14 +341,16 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     steps_case = plan.steps_per_case
     per_case = _case_bytes(plan)
     output = float(output_bound(plan))
-    seconds = _lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS + output / WRITE_RATE
+    outputs_s = output_seconds(plan, len(chunks))
+    seconds = (_lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS
+               + output / WRITE_RATE + outputs_s)
     biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
     memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal
     return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
-                    memory_bytes=memory, output_bytes=output)
+                    memory_bytes=memory, output_bytes=output, output_seconds=outputs_s)
 
 
 def check_limits(est: Estimate, where: str, limits: Limits | None = None) -> None:
