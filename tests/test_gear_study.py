@@ -427,3 +427,31 @@ def test_a_mesh_study_beyond_the_memory_limit_is_refused_at_once(tmp_path, capsy
     assert main(["validate", str(STUDIES / "fig01_02_mesh_cycle.yaml")]) == 0
     assert "peak memory about 300 MB" in capsys.readouterr().out
 
+
+
+@pytest.mark.parametrize("continued", [False, True])
+def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continued):
+    """step_guard: skip with a gear scene that sweeps its load, the first speed beyond the step
+    limit of 16 RK4 steps per mesh period: its cases are skipped (status 3), the others run.
+    Before, the warm-up's one case (skipped: no loads left to merge) ended in an IndexError
+    traceback."""
+    import gearsweep
+
+    study = {
+        "title": "skip at the first speed",
+        "scene": {"kind": "full", "gear": "table1_consistent", "harmonics": 10,
+                  "drive": {"inertia_1": "1.5981e-3 kg*m^2", "inertia_2": "3.1567e-4 kg*m^2",
+                            "base_radius_1": "56.3816 mm", "base_radius_2": "37.5877 mm"},
+                  "backlash": "0.4698 mm", "damping": "5.5 N*s/mm"},
+        "sweep": {"torque": ["2 N*m", "8.9 N*m"], "speed": ["1000 rpm", "10000 rpm"]},
+        "solver": {"method": "rk4", "steps_per_period": 16, "step_guard": "skip",
+                   "transient_periods": 4, "record_periods": 4},
+    }
+    if continued:
+        study["continuation"] = ["up"]
+    ds = gearsweep.run(study)
+    status = ds.status.squeeze(drop=True)
+    assert (status.sel(speed=1000.0) == 3).all()  # 16 steps per period: beyond RK4's limit
+    assert (status.sel(speed=10000.0) != 3).all()
+    assert ds.p_rms.sel(speed=1000.0).isnull().all()
+    assert ds.p_rms.sel(speed=10000.0).notnull().all()

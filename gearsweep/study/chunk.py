@@ -84,8 +84,10 @@ def _integrate_subset(plan: Plan, params, n: int, x0, v0, ok: np.ndarray) -> tup
 
 def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:
     """One kernel call for the cases, or one per distinct load of a gear scene that sweeps it
-    (each load has its own k(t) and e(t): ``Plan.model_for_load``)."""
-    if not plan.gear_load_swept:
+    (each load has its own k(t) and e(t): ``Plan.model_for_load``). No cases (every one the
+    step guard skips): one call of none, at the plan's model (there were no loads to merge: an
+    IndexError traceback)."""
+    if not plan.gear_load_swept or n == 0:
         return _integrate_model(plan, params, n, x0, v0)
     torques = plan.case_torques(params)
     loads, which = np.unique(torques, return_inverse=True)
