@@ -503,12 +503,13 @@ class Floquet:
         }
 
 
-FLOQUET_CASE_SECONDS = 40e-6
-"""``min_steps_per_period``'s step-limit scan per case (``analysis.stability.check_step``, 2000
-radii of the stability polynomial) and the bookkeeping of ``compute``. Measured on this 2-core
-machine (26 Nov 2026), the floquet output's whole time per case, as the wall time of a run with
-[stats, floquet] less that of [stats]: 34 us (Strutt chart, 26,462 cases), 18 us (a rattle
-study, 10,000 distinct cases); twice the larger, as the stated kernel rate halves the measured."""
+FLOQUET_CASE_SECONDS = 10e-6
+"""The bookkeeping of ``compute`` per case, besides its monodromy maps (priced by their steps).
+Measured on this 2-core machine (26 Nov 2026, 23:15 UTC), the floquet output's whole time per
+case, as the wall time of a run with [stats, floquet] less that of [stats]: 13 us (Strutt chart,
+26,462 cases), 17 us (a continued rattle study, 10,000 distinct cases), 5-9 us (a whine study,
+100,000 cases). Until that day the step-limit scan of ``min_steps_per_period`` ran per case
+(34 and 18 us in the first two; 40 us was priced); it now runs per distinct damping ratio."""
 FLOQUET_CALL_SECONDS = 0.06
 """The same scan's fixed part, per ``compute`` call (one per chunk): 0.05 s for one case."""
 FLOQUET_PERIODS = 15
