@@ -69,7 +69,50 @@ _prefer_512_bit_vectors()
 
 OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
 
-jit = numba.njit(**OPTIONS)
+
+def _cached(**options):
+    """``numba.njit(**options)`` for a function kept in Numba's disk cache, or compiled in every
+    process where no cache can be kept: Numba raises at import (``RuntimeError``, no locator
+    available) when neither ``__pycache__`` beside the package nor the user's cache folder
+    (``NUMBA_CACHE_DIR``, ``~/.cache``) can be written, a read-only installation run by a user
+    without a writable home."""
+    cached = numba.njit(**options)
+    uncached = numba.njit(**{**options, "cache": False})
+
+    def decorate(func):
+        try:
+            return cached(func)
+        except RuntimeError as exc:
+            if "no locator available" not in str(exc):
+                raise
+            return uncached(func)
+    return decorate
+
+
+def _save_overload_or_skip() -> None:
+    """A specialisation that Numba cannot write to its disk cache (a full disk, a folder made
+    read-only meanwhile) is used as compiled, and compiled again by the next process: Numba's
+    own ``Cache.save_overload`` raises the ``OSError``, which ended the run before its first
+    chunk and was reported as the result file's disk being full."""
+    from numba.core import caching
+
+    cls = getattr(caching, "Cache", None)
+    real = vars(cls).get("save_overload") if cls is not None else None
+    if real is None:  # pragma: no cover - another Numba layout
+        return
+
+    def save_overload(self, sig, data):
+        try:
+            real(self, sig, data)
+        except OSError:
+            pass
+
+    cls.save_overload = save_overload
+
+
+_save_overload_or_skip()
+
+jit = _cached(**OPTIONS)
 """Decorator for scalar kernels and helpers."""
 
 jit_helper = numba.njit(**{**OPTIONS, "cache": False})
@@ -312,7 +355,7 @@ slower). Copy propagation removes those copies, as Numba's parallel pipeline doe
 fusion; as a function of its own compiled with this pipeline, see docs/benchmark.md)."""
 
 
-jit_block_cached = numba.njit(pipeline_class=_InlinedCompiler, **OPTIONS)
+jit_block_cached = _cached(pipeline_class=_InlinedCompiler, **OPTIONS)
 """``jit_block`` for a function called from Python (the kink-aware drivers' block ranges): its
 own entry in Numba's disk cache."""
 

@@ -222,3 +222,35 @@ def test_runtime_set_up_in_background_then_compile_and_run():
     out = subprocess.run([sys.executable, "-c", _RUNTIME_EARLY], capture_output=True,
                          text=True, check=True, env=dict(os.environ)).stdout.split("\n")
     assert out[:3] == ["1 7.0", "True 0", "0"], out
+
+
+def _twice(x):
+    return 2.0 * x
+
+
+def test_a_full_cache_disk_leaves_the_compiled_function_usable(monkeypatch, tmp_path):
+    # Numba's disk cache is written after every compilation; a full disk (ENOSPC) there ended a
+    # run before its first chunk, reported as the result file's disk being full.
+    import errno
+
+    from numba.core import caching
+
+    def full(self, name, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(caching.IndexDataCacheFile, "_save_data", full)
+    f = gj.jit(_twice)
+    assert f(1.5) == 3.0
+    assert not list(tmp_path.rglob("*.nbi"))
+
+
+def test_a_cache_that_cannot_be_kept_anywhere_compiles_in_the_process(monkeypatch):
+    # A read-only installation run by a user whose home is not writable: Numba found no place
+    # for the cache and raised RuntimeError on import of the package.
+    from numba.core import caching
+
+    monkeypatch.setattr(caching.CacheImpl, "_locator_classes", [])
+    f = gj.jit(_twice)
+    g = gj.jit_block_cached(_twice)
+    assert f(1.5) == 3.0 and g(2.0) == 4.0
