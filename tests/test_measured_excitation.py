@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+import yaml
 from numpy.testing import assert_allclose
 
 import gearsweep
@@ -572,3 +573,16 @@ def test_a_result_whose_study_reads_a_file_runs_again_from_the_result(tmp_path, 
     assert res.attrs["study_folder"] == str((tmp_path / "study").resolve())
     again = gearsweep.run(gearsweep.result_study(res))
     np.testing.assert_array_equal(again.p_rms.values, first.p_rms.values)
+
+
+def test_a_missing_file_of_a_study_without_a_file_names_where_it_was_looked_for(tmp_path,
+                                                                                 monkeypatch):
+    """A study from stdin or a dict reads its relative paths from the working folder, which the
+    message said was the study file's folder (``<stdin>:17: ... 'data/ste.csv' -- no such file
+    (a path relative to the study file)``); it now names the path it looked for."""
+    text = typed_whine("  excitation: {file: data/nothere.csv}\n")
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(StudyError) as e:
+        gearsweep.run(yaml.safe_load(study(text)))
+    (line,) = str(e.value).splitlines()
+    assert str(tmp_path / "data" / "nothere.csv") in line and "working folder" in line, line

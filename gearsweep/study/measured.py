@@ -251,7 +251,9 @@ def read_samples(path: str | Path) -> Samples:
     try:
         st = p.stat()
     except OSError:
-        raise ValueError("no such file (a path relative to the study file)") from None
+        raise ValueError(f"no such file: {p.absolute()} (a relative path is read from the study"
+                         " file's folder; of a study from stdin or a dict, from the working"
+                         " folder)") from None
     return _read(str(p.resolve()), (st.st_mtime_ns, st.st_size))
 
 
