@@ -26,7 +26,7 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: b
     checkpoints) skip it. ``direct``: write past the page cache where the file system allows it
     (``DirectFile``: large files written once and read rarely, the chunk checkpoints; ``write``
     may then only call ``file_object.write``). On any error the temporary file is removed and
-    the error raised."""
+    the error raised (an ``OSError`` that names no file, as ``os.write``'s, names ``path``)."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:
         if direct and DirectFile.usable(tmp):
@@ -47,8 +47,10 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: b
                     fh.flush()
                     os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.filename is None:
+            exc.filename = str(path)  # a full disk: "cannot write: No space left on device"
         raise
 
 

@@ -191,3 +191,17 @@ def test_a_durable_direct_file_is_fsynced(tmp_path, monkeypatch):
     atomic_write(path, lambda fh: fh.write(data), durable=True, direct=True)
     assert path.read_bytes() == data.tobytes()
     assert len(synced) == 1
+
+
+def test_a_full_disk_names_the_file_it_could_not_write(tmp_path, monkeypatch):
+    """``os.write``'s ENOSPC names no file: a checkpoint that filled the disk was reported as
+    ``OUT.nc: cannot write: No space left on device``; it now names the checkpoint."""
+    def full(self, length):
+        raise OSError(errno.ENOSPC, "No space left on device")  # as os.write raises it
+
+    monkeypatch.setattr(DirectFile, "_flush", full)
+    monkeypatch.setattr(DirectFile, "usable", classmethod(lambda cls, path: True))
+    store = _store(tmp_path)
+    with pytest.raises(OSError) as e:
+        store.save(0, 10, _arrays())
+    assert e.value.errno == errno.ENOSPC and e.value.filename == str(store.path(0, 10))
