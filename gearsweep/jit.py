@@ -16,6 +16,7 @@ import os
 import sys
 import threading
 import types
+import warnings
 from collections import Counter, defaultdict
 from pathlib import Path
 
@@ -104,8 +105,10 @@ def _save_overload_or_skip() -> None:
     def save_overload(self, sig, data):
         try:
             real(self, sig, data)
-        except OSError:
-            pass
+        except OSError as exc:  # said once a process (Python's default filter: once per text)
+            warnings.warn(f"Numba's cache cannot be written ({exc.strerror or exc}): the kernels"
+                          " run as compiled, and are compiled again by every run until it can"
+                          " (NUMBA_CACHE_DIR moves it)", stacklevel=2)
 
     cls.save_overload = save_overload
 
