@@ -16,6 +16,15 @@ from typing import IO
 from gearsweep.errors import ResultError
 
 
+def cache_folder(module_file: str | Path) -> Path:
+    """Where a module keeps its small on-disk caches (the unit factors, the step-limit tables):
+    beside Numba's cache. In ``NUMBA_CACHE_DIR`` where that is set (a read-only installation
+    points it at a writable folder; the caches were written beside the package whatever it
+    said, and there refused), else the module's own ``__pycache__``."""
+    where = os.environ.get("NUMBA_CACHE_DIR")
+    return Path(where) / "gearsweep" if where else Path(module_file).parent / "__pycache__"
+
+
 def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: bool = True,
                  direct: bool = False) -> None:
     """Call ``write(file_object)`` on a temporary file next to ``path``, then rename it to

@@ -26,7 +26,7 @@ from functools import cache
 import numpy as np
 
 from gearsweep.errors import article
-from gearsweep.files import atomic_write
+from gearsweep.files import atomic_write, cache_folder
 
 
 @dataclass(frozen=True)
@@ -163,7 +163,7 @@ def _factor_cache_path():
 
     source = Path(__file__).read_bytes()  # pint's version from its metadata: no import of pint
     key = hashlib.sha256(source + version("pint").encode()).hexdigest()[:16]
-    return Path(__file__).parent / "__pycache__" / f"unit_factors.{key}.json"
+    return cache_folder(__file__) / f"unit_factors.{key}.json"
 
 
 @cache
@@ -186,7 +186,7 @@ def _keep_factor(key: str, factor: float) -> None:
     table[key] = factor
     try:  # a concurrent writer may drop an entry: it is computed again next time
         path = _factor_cache_path()
-        path.parent.mkdir(exist_ok=True)
+        path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write(path, lambda fh: fh.write(json.dumps(table).encode()), durable=False)
     except OSError:  # a read-only installation: pint in every process
         pass

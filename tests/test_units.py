@@ -256,3 +256,19 @@ def test_the_units_a_result_file_writes_are_read_back(kind):
 ])
 def test_udunits_powers_after_a_unit(text, kind, si):
     assert to_si(text, kind) == pytest.approx(si, rel=1e-15)
+
+
+def test_the_unit_and_step_limit_caches_follow_numba_cache_dir(tmp_path):
+    """A read-only installation points NUMBA_CACHE_DIR at a writable folder: the unit factors
+    and the step-limit tables are kept there too (they were written beside the package whatever
+    it said, refused there, and pint's registry was built again by every run)."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("from gearsweep.units import to_si; from gearsweep.study.plan import _hw_table;"
+            " to_si('50000 N*mm', 'torque'); _hw_table('rk4')")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    subprocess.run([sys.executable, "-c", code], env=env, check=True)
+    kept = sorted(p.name.split(".")[0] for p in (tmp_path / "gearsweep").iterdir())
+    assert kept == ["hw_table", "unit_factors"]

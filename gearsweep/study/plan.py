@@ -16,14 +16,13 @@ import math
 import re
 from dataclasses import dataclass, field
 from functools import lru_cache
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from gearsweep.analysis.stability import ray_limit, stability_polynomial, step_limit_hw
 from gearsweep.errors import NO_VALUE, StudyError
-from gearsweep.files import atomic_write
+from gearsweep.files import atomic_write, cache_folder
 from gearsweep.gear.measured import positive_minimum
 from gearsweep.kernels import LANES
 from gearsweep.kernels.cuda import CHUNK_STEPS as GPU_CHUNK_STEPS
@@ -388,12 +387,12 @@ _GUARD_MARGIN = 2e-3
 def _hw_table(method: str) -> tuple[np.ndarray, np.ndarray, float]:
     """(zeta grid, largest stable h w_n on it, largest stable h|lambda| on the negative real
     axis) of ``method``, solved once from its stability polynomial and kept on disk beside the
-    Numba cache (``__pycache__``), keyed by the source of the solver and the polynomial: about
+    Numba cache (``files.cache_folder``), keyed by the source of the solver and the polynomial: about
     0.4 s of solving that every run of a guarded study would otherwise pay at start-up."""
     key = hashlib.sha256(repr((
         inspect.getsource(_solve_hw_table), inspect.getsource(step_limit_hw),
         inspect.getsource(ray_limit), stability_polynomial(method))).encode()).hexdigest()[:16]
-    path = Path(__file__).parent / "__pycache__" / f"hw_table.{method}.{key}.npz"
+    path = cache_folder(__file__) / f"hw_table.{method}.{key}.npz"
     try:
         with np.load(path) as f:
             return f["zeta"], f["hw"], float(f["real"])
@@ -401,7 +400,7 @@ def _hw_table(method: str) -> tuple[np.ndarray, np.ndarray, float]:
         pass
     zeta, hw, real = _solve_hw_table(method)
     try:  # a concurrent reader sees the whole file or none
-        path.parent.mkdir(exist_ok=True)
+        path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write(path, lambda fh: np.savez(fh, zeta=zeta, hw=hw, real=real), durable=False)
     except OSError:  # a read-only installation: solve it in every process
         pass
