@@ -327,6 +327,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(name, "--output", NO_VALUE, "a study read from stdin needs -o OUT.nc")
     if args.output is not None and not args.output.strip():
         raise StudyError(name, "--output", args.output, "a file path (it is empty)")
+    if args.output == "-":  # as the study's '-' is stdin, a user may mean stdout: it wrote ./-
+        raise StudyError(name, "--output", args.output, "a file path (a netCDF result is not"
+                         " written to stdout; write it to a file, or './-' for a file named '-')")
     if args.output is not None and args.output.endswith(("/", os.sep)):  # Path() drops the '/'
         raise StudyError(name, "--output", args.output, "a file path, not a folder")
     out = Path(args.output) if args.output else _default_output(args.study)

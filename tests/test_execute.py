@@ -567,13 +567,15 @@ def test_outputs_that_would_replace_inputs_or_cannot_be_named_are_one_line(tmp_p
                       ("new/" + "x" * 300 + "/../r.nc", "names of at most 255 bytes"),
                       ("x" * 240 + ".nc", "a file name of at most 237 bytes"),
                       ("s.yaml/../r.nc", "a path in a folder (s.yaml is a file)"),
-                      ("newdir/", "a file path, not a folder")):
+                      ("newdir/", "a file path, not a folder"),
+                      ("-", "not written to stdout")):  # it wrote a file named '-'
         assert main(["run", "s.yaml", "-o", out]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "--output" in err and says in err, err
     assert Path("s.yaml").read_text(encoding="utf-8") == text and not Path("new").exists()
     assert (tmp_path / "data/ste_table1.csv").read_bytes() == csv
     assert not Path("newdir").exists() and not (tmp_path / "data/new").exists()
+    assert not Path("-").exists()
     # an analysis study's input result, from the CLI and from Python (both wrote over it)
     (tmp_path / "res").mkdir()
     rattle = tmp_path / "res" / "fig08_rattle.nc"
