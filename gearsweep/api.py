@@ -38,7 +38,7 @@ from gearsweep.study.execute import InProcess, run_plan, run_to_file, step_limit
 from gearsweep.study.mesh import run_mesh_study
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study
-from gearsweep.study.workspace import OutputLock, check_partial, reads_output
+from gearsweep.study.workspace import OutputLock, check_partial, output_path, reads_output
 from gearsweep.units import UnitParseError, si_values, to_display, to_si
 
 StudyLike = str | Path | dict | Study | MeshStudy | AnalysisStudy
@@ -178,6 +178,8 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     """
     if output is not None and not isinstance(output, str | Path):
         raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
+    if output is not None:
+        output = output_path(output)
     if chunk_cases is not None and (isinstance(chunk_cases, bool)  # np.int64 is a whole number
                                     or not isinstance(chunk_cases, numbers.Integral)
                                     or chunk_cases < 1):

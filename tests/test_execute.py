@@ -975,3 +975,26 @@ def test_a_statistic_that_overflows_flags_its_case_as_diverged(small_whine):
     assert (ok.status == 0).all()
     for name in ("p_rms", "p_pp", "status"):
         np.testing.assert_array_equal(ds[name].sel(mean_force=[400.0, 1600.0]), ok[name])
+
+
+def test_an_output_through_a_symbolic_link_is_written_to_its_target(tmp_path, monkeypatch):
+    """The result is written beside its path and renamed over it: over a link, that replaced
+    the link with a file and left the target as it was. Now the run writes the target, from
+    the CLI and from Python."""
+    import gearsweep
+
+    monkeypatch.chdir(tmp_path)
+    study = ("title: t\nscene: {kind: whine, mass: 0.15 kg, teeth: 48, stiffness: 1000 kN/mm,"
+             " mean_force: 800 N, damping: 5 N*s/mm}\nsweep: {speed: [3000, 4000]}\n")
+    Path("s.yaml").write_text(study, encoding="utf-8")
+    Path("target").mkdir()
+    Path("target/r.nc").write_bytes(b"")  # an empty file may be replaced
+    Path("link.nc").symlink_to(tmp_path / "target/r.nc")
+    assert main(["run", "s.yaml", "-o", "link.nc", "-q"]) == 0
+    assert Path("link.nc").is_symlink()
+    first = Path("target/r.nc").read_bytes()
+    assert first[:4] == b"\x89HDF"
+    ds = gearsweep.run(study, output=tmp_path / "link.nc")
+    ds.close()
+    assert Path("link.nc").is_symlink() and Path("target/r.nc").read_bytes()[:4] == b"\x89HDF"
+    assert not [p for p in Path(".").iterdir() if p.name not in ("s.yaml", "target", "link.nc")]

@@ -37,6 +37,14 @@ def input_files(study, results: str | Path) -> list[Path]:
     return files
 
 
+def output_path(out: str | Path) -> Path:
+    """The path a run writes for ``out``: a symbolic link's target (the result is written beside
+    its path and renamed over it, which replaced the link with a file and left the target as it
+    was), else ``out`` as given."""
+    out = Path(out)
+    return Path(os.path.realpath(out)) if out.is_symlink() else out
+
+
 def reads_output(study, out: str | Path) -> Path | None:
     """The input of ``study`` (``input_files``) that the result ``out`` would replace, if any:
     an analysis run with ``-o`` its own input result replaced it, and ``gearsweep.run`` with
