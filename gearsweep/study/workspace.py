@@ -42,7 +42,10 @@ def output_path(out: str | Path) -> Path:
     its path and renamed over it, which replaced the link with a file and left the target as it
     was), else ``out`` as given."""
     out = Path(out)
-    return Path(os.path.realpath(out)) if out.is_symlink() else out
+    try:
+        return Path(os.path.realpath(out)) if out.is_symlink() else out
+    except OSError:  # a name too long, say: the checks of the output say so, in one line
+        return out
 
 
 def reads_output(study, out: str | Path) -> Path | None:
