@@ -78,9 +78,11 @@ def _run(cache: Path, study: Path) -> None:
 
 
 def _files(cache: Path) -> dict[str, tuple[int, int]]:
-    """Every file of the cache: (size, mtime). Numba writes only when it compiles."""
+    """Every file Numba keeps in the cache: (size, mtime). Numba writes only when it compiles
+    (``gearsweep/`` holds the package's own small caches, the unit factors and step limits:
+    ``files.cache_folder``)."""
     return {str(p.relative_to(cache)): (p.stat().st_size, p.stat().st_mtime_ns)
-            for p in cache.rglob("*") if p.is_file()}
+            for p in cache.rglob("*") if p.is_file() and p.relative_to(cache).parts[0] != "gearsweep"}
 
 
 def _drivers(files) -> set[str]:
