@@ -62,7 +62,7 @@ RATTLE = {  # the Fig. 8 scene (studies/fig08_rattle.yaml) on a coarse, cheap gr
     "continuation": ["up", "down"],
     "solver": {"method": "rk4", "steps_per_period": 32, "transient_periods": 30,
                "record_periods": 4, "initial_displacement": "static"},
-    "outputs": ["stats"],
+    "outputs": ["stats", "period"],
 }
 
 
@@ -95,6 +95,10 @@ def test_rattle_balance_reads_the_result_it_balances(tmp_path):
                            stiffness=k, mass=m, half_gap=b)
     assert_allclose(bal.eq15_distance.sel(direction="up").values, d.relative)
     assert bal.aft_speed.size > 10 and bal.attrs["input_small"] == res.attrs["study_sha256"]
+    # the counts of motions without a short period (the figure's note)
+    assert int(bal.no_period) == int(res.motion_period.isnull().sum())
+    assert int(bal.no_period_settled) == int((res.motion_period.isnull() & (res.status == 0)).sum())
+    assert int(bal.longest_period) == RATTLE["solver"]["record_periods"] // 2
     jm = gearsweep.run({"type": "analysis", "title": "jumps", "analysis": {
         "kind": "jump_map", "result": "small", "loss_threshold": 0.5}},
         output=tmp_path / "small_jumps.nc")

@@ -264,7 +264,11 @@ def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float = 0.6,
         ax.annotate(f"period-1 lower branch unstable above {flip:.0f} rpm (flip):\n"
                     "the integration follows period-2, -4 or irregular motions\n"
                     f"({int(ds.not_settled)} of {int(ds.cases)} case-speeds not settled:"
-                    " masked)", (flip, float(ds.flip_amplitude) * MM), xytext=note_at,
+                    " masked" + (f";\n{int(ds.no_period)} with no period <="
+                                 f" {int(ds.longest_period)} mesh periods:"
+                                 f" {int(ds.no_period_settled)} settled)"
+                                 if int(ds.get("no_period", -1)) >= 0 else ")"),
+                    (flip, float(ds.flip_amplitude) * MM), xytext=note_at,
                     fontsize=7.5, arrowprops={"arrowstyle": "->", "color": "0.3"})
     ax.text(0.99, 0.99, "Eq. (15) against the integration:\n"
             f"run-down rise {float(ds.eq15_rise_speed):.0f} rpm (integration"

@@ -366,6 +366,14 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "contact_loss_above_drop_mean": ((), _stat(np.mean, above)),
         "settle_error_max": ((), float(ds["settle_error"].max())),
         "not_settled": ((), n_bad), "cases": ((), int(ds["status"].size)),
+        # settled is not periodic: where the result has the period output, how many case-speeds
+        # repeat within no half record (irregular or longer), and how many of those are status 0
+        "no_period": ((), int(ds["motion_period"].isnull().sum()) if "motion_period" in ds
+                      else -1),
+        "no_period_settled": ((), int((ds["motion_period"].isnull() & (ds["status"] == 0)).sum())
+                              if "motion_period" in ds else -1),
+        "longest_period": ((), int(ds["motion_period"].attrs.get("longest", -1))
+                           if "motion_period" in ds else -1),
         "mass": ((), m), "stiffness": ((), k), "damping": ((), c), "half_gap": ((), b),
         "backlash": ((), model.backlash), "force_amplitude": ((), f0),
         "force_order": ((), fh.order), "mean_force": ((), fm),
@@ -431,6 +439,11 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "settle_error_max": {"units": "1", "long_name": "largest settle_error of the integration"},
         "not_settled": {"units": "1", "long_name": "case-speeds with status != 0"},
         "cases": {"units": "1", "long_name": "case-speeds of the integration"},
+        "no_period": {"units": "1", "long_name": "case-speeds whose motion repeats within no"
+                      " half record (motion_period NaN; -1: the result has no period output)"},
+        "no_period_settled": {"units": "1", "long_name": "of those, case-speeds with status 0"},
+        "longest_period": {"units": "1", "long_name": "the longest period the period output"
+                           " tried [mesh periods]"},
         "mass": {"units": "kg", "long_name": "m_eq"},
         "stiffness": {"kind": "stiffness", "long_name": "mesh stiffness k"},
         "damping": {"kind": "damping", "long_name": "mesh damping c"},
