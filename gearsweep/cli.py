@@ -333,7 +333,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                          " written to stdout; write it to a file, or './-' for a file named '-')")
     if args.output is not None and args.output.endswith(("/", os.sep)):  # Path() drops the '/'
         raise StudyError(name, "--output", args.output, "a file path, not a folder")
-    out = output_path(args.output) if args.output else _default_output(args.study)
+    out = output_path(args.output if args.output else _default_output(args.study))
     if not args.estimate:
         _check_writable(out, args.study, study)
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks

@@ -998,3 +998,19 @@ def test_an_output_through_a_symbolic_link_is_written_to_its_target(tmp_path, mo
     ds.close()
     assert Path("link.nc").is_symlink() and Path("target/r.nc").read_bytes()[:4] == b"\x89HDF"
     assert not [p for p in Path(".").iterdir() if p.name not in ("s.yaml", "target", "link.nc")]
+
+
+def test_a_default_output_that_is_a_symbolic_link_is_written_to_its_target(tmp_path, monkeypatch):
+    """Without -o the result goes to results/STUDY.nc; where that is a link (results kept on
+    another disk, say) the rename over it replaced the link with a file, as -o did."""
+    monkeypatch.chdir(tmp_path)
+    study = ("title: t\nscene: {kind: whine, mass: 0.15 kg, teeth: 48, stiffness: 1000 kN/mm,"
+             " mean_force: 800 N, damping: 5 N*s/mm}\nsweep: {speed: [3000, 4000]}\n")
+    Path("s.yaml").write_text(study, encoding="utf-8")
+    Path("store").mkdir()
+    Path("store/s.nc").write_bytes(b"")
+    Path("results").mkdir()
+    Path("results/s.nc").symlink_to(tmp_path / "store/s.nc")
+    assert main(["run", "s.yaml", "-q"]) == 0
+    assert Path("results/s.nc").is_symlink()
+    assert Path("store/s.nc").read_bytes()[:4] == b"\x89HDF"
