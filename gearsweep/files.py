@@ -208,6 +208,9 @@ def replace_problem(path: str | Path) -> str | None:
         return f"a path the file system takes ({exc.strerror or type(exc).__name__})"
     if path.is_dir():
         return "a file path, not a folder"
+    if path.is_symlink() and _loops(path):  # (other links are written to their targets)
+        return ("a file path, not a loop of symbolic links (it leads to no file; the result"
+                " would replace the link)")
     if path.exists() and not path.is_file():
         return ("a regular file or a new path (this is a device, a pipe or a socket, which the"
                 " result would replace)")
@@ -215,6 +218,15 @@ def replace_problem(path: str | Path) -> str | None:
         return ("a new path or a netCDF file (this file holds something else, which the result"
                 " would replace: a study, say; remove it first if that is meant)")
     return None
+
+
+def _loops(path: Path) -> bool:
+    """Whether the symbolic link ``path`` is in a loop of links."""
+    try:
+        os.stat(path)
+    except OSError as exc:
+        return exc.errno == errno.ELOOP
+    return False
 
 
 _SIGNATURES = (b"\x89HDF\r\n\x1a\n", b"CDF\x01", b"CDF\x02", b"CDF\x05")

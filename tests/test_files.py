@@ -205,3 +205,18 @@ def test_a_full_disk_names_the_file_it_could_not_write(tmp_path, monkeypatch):
     with pytest.raises(OSError) as e:
         store.save(0, 10, _arrays())
     assert e.value.errno == errno.ENOSPC and e.value.filename == str(store.path(0, 10))
+
+
+def test_an_output_in_a_loop_of_symbolic_links_is_refused(tmp_path):
+    """A loop leads to no file: the rename over it replaced the link with a file, silently
+    (a link that leads somewhere is written to its target, workspace.output_path)."""
+    from gearsweep.files import replace_problem
+    from gearsweep.study.workspace import output_path
+
+    (tmp_path / "a.nc").symlink_to(tmp_path / "b.nc")
+    (tmp_path / "b.nc").symlink_to(tmp_path / "a.nc")
+    (tmp_path / "self.nc").symlink_to(tmp_path / "self.nc")
+    (tmp_path / "dangling.nc").symlink_to(tmp_path / "new.nc")
+    for name in ("a.nc", "self.nc"):
+        assert "loop of symbolic links" in replace_problem(output_path(tmp_path / name))
+    assert replace_problem(output_path(tmp_path / "dangling.nc")) is None
