@@ -89,3 +89,33 @@ def test_period_beside_a_spectrum_uses_one_sample_per_period_of_its_signal():
 def test_period_needs_two_recorded_periods():
     with pytest.raises(StudyError, match="record_periods"):
         _fig08([6000.0], record=1)
+
+
+def test_the_estimate_prices_the_period_output_by_its_comparisons():
+    """motion_period compares every pair of samples P apart up to R / 2: its time grows as
+    cases x R^2, and a long record made it the bulk of a run (16.2 s of 16.7 s at 2,000 cases
+    and 4,000 recorded periods) while --estimate priced it 0 s. Truth: the time of
+    motion_period itself on samples of the study's shape (best of 2), within 3x."""
+    import time
+
+    from gearsweep.study.estimate import quick_estimate
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import parse_study
+
+    s = yaml.safe_load((ROOT / "studies/fig08_rattle.yaml").read_text(encoding="utf-8"))
+    s.pop("continuation")
+    s["sweep"] = {"speed": {"start": 5000, "stop": 11000, "num": 100}}
+    s["solver"]["record_periods"] = 2000
+
+    def est(outputs):
+        text = yaml.safe_dump(dict(s, outputs=outputs))
+        return quick_estimate(make_plan(parse_study(text), text), ask_cache=False)[0]
+
+    priced = est(["stats", "period"]).output_seconds - est(["stats"]).output_seconds
+    q = RNG.standard_normal((100, 2000))  # irregular: no period, every P tried
+    took = []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        motion_period(q, np.full(100, 8.0), 1e-3)
+        took.append(time.perf_counter() - t0)
+    assert min(took) / 3 < priced < 3 * min(took)
