@@ -20,9 +20,18 @@ def cache_folder(module_file: str | Path) -> Path:
     """Where a module keeps its small on-disk caches (the unit factors, the step-limit tables):
     beside Numba's cache. In ``NUMBA_CACHE_DIR`` where that is set (a read-only installation
     points it at a writable folder; the caches were written beside the package whatever it
-    said, and there refused), else the module's own ``__pycache__``."""
+    said, and there refused), else, or where that folder cannot be made and written (Numba then
+    caches in the package's ``__pycache__``, silently), the module's own ``__pycache__``."""
     where = os.environ.get("NUMBA_CACHE_DIR")
-    return Path(where) / "gearsweep" if where else Path(module_file).parent / "__pycache__"
+    if where:
+        folder = Path(where) / "gearsweep"
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            if os.access(folder, os.W_OK):
+                return folder
+        except OSError:  # (the caches were kept nowhere: pint's registry built in every run)
+            pass
+    return Path(module_file).parent / "__pycache__"
 
 
 def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: bool = True,
