@@ -44,13 +44,19 @@ def motion_period(samples: np.ndarray, scale: np.ndarray, tolerance: float
     scale = np.broadcast_to(np.asarray(scale, dtype=float), (n,))
     period = np.full(n, np.nan)
     mismatch = np.full(n, np.inf)
+    left = np.arange(n)  # the cases without a period yet: only they are compared further
     with np.errstate(invalid="ignore", divide="ignore"):
         for p in range(1, r // 2 + 1):
-            diff = np.max(np.abs(q[:, p:] - q[:, :-p]), axis=1)
-            d = np.where(diff == 0.0, 0.0, diff / scale)
-            new = np.isnan(period) & (d <= tolerance)
-            period[new] = p
-            mismatch = np.where(new, d, np.where(np.isnan(period), np.fmin(mismatch, d), mismatch))
+            if not left.size:
+                break
+            ql = q[left]
+            diff = np.max(np.abs(ql[:, p:] - ql[:, :-p]), axis=1)
+            d = np.where(diff == 0.0, 0.0, diff / scale[left])
+            found = d <= tolerance
+            period[left[found]] = p
+            mismatch[left[found]] = d[found]
+            mismatch[left[~found]] = np.fmin(mismatch[left[~found]], d[~found])
+            left = left[~found]
     mismatch[~np.isfinite(mismatch)] = np.nan
     bad = ~np.isfinite(q).all(axis=1)
     period[bad] = np.nan

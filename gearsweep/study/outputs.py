@@ -355,9 +355,10 @@ class Period:
         return 1
 
     def seconds(self, plan: Plan, chunks: int, rate: float) -> float:
-        """Predicted time of ``compute`` over a run [s]: ``motion_period`` compares every pair of
-        samples P apart for P up to R / 2, about 3 R^2 / 8 comparisons a case
-        (``PERIOD_COMPARE_SECONDS`` each): quadratic in ``record_periods``."""
+        """Predicted time of ``compute`` over a run [s], at most: ``motion_period`` compares the
+        samples P apart for P = 1, 2, ... until the case's period, up to R / 2, so a case with no
+        period up to there costs about 3 R^2 / 8 comparisons (``PERIOD_COMPARE_SECONDS`` each),
+        quadratic in ``record_periods``, and a period-1 case R. Priced as if no case had one."""
         r = plan.study.solver.record_periods
         pairs = sum(r - p for p in range(1, r // 2 + 1))
         return plan.n_cases * pairs * PERIOD_COMPARE_SECONDS
@@ -372,7 +373,8 @@ class Period:
             "motion_period": VarSpec(attrs={
                 "units": "1", "tolerance": tol, "longest": rec // 2,
                 "long_name": "period of the steady motion in mesh periods (p once per mesh period"
-                " repeats; NaN: irregular, or longer than half the record)"}),
+                " repeats; NaN: irregular, longer than half the record, still decaying, or the"
+                " case diverged or was skipped)"}),
             "period_mismatch": VarSpec(attrs={
                 "units": "1", "long_name": "largest change of p between samples motion_period"
                 " mesh periods apart / p_pp (no period found: the smallest over the periods"
