@@ -119,6 +119,13 @@ class Output(Protocol):
                 result: BatchResult) -> dict[str, np.ndarray]: ...
 
 
+def options_of(plan: Plan, output: Output) -> BaseModel:
+    """The options of ``output`` in the plan's study: the model ``configure`` validated, or its
+    defaults where the study gave none."""
+    opts = plan.options.get(output.name)
+    return opts if isinstance(opts, output.options_model) else output.options_model()
+
+
 class Stats:
     """Steady-state statistics of p (docs/data-format.md): rms, peak-to-peak, extremes, mean, contact."""
 
@@ -192,10 +199,8 @@ class Spectrum:
     name = "spectrum"
     options_model = SpectrumOptions
 
-    @staticmethod
-    def _opts(plan: Plan) -> SpectrumOptions:
-        opts = plan.options.get("spectrum")
-        return opts if isinstance(opts, SpectrumOptions) else SpectrumOptions()
+    def _opts(self, plan: Plan) -> SpectrumOptions:
+        return options_of(plan, self)
 
     def signal_samples_per_period(self, plan: Plan) -> int:
         o = self._opts(plan)
@@ -346,10 +351,8 @@ class Period:
     name = "period"
     options_model = PeriodOptions
 
-    @staticmethod
-    def _opts(plan: Plan) -> PeriodOptions:
-        opts = plan.options.get("period")
-        return opts if isinstance(opts, PeriodOptions) else PeriodOptions()
+    def _opts(self, plan: Plan) -> PeriodOptions:
+        return options_of(plan, self)
 
     def signal_samples_per_period(self, plan: Plan) -> int:
         return 1
