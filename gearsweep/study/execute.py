@@ -61,6 +61,7 @@ from gearsweep.study.chunk import (
     run_prepared,
 )
 from gearsweep.study.filelayout import output_bound
+from gearsweep.study.outputs import OUTPUTS
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
 from gearsweep.study.resultfile import ResultFile, result_layout
 
@@ -82,8 +83,6 @@ def output_seconds(plan: Plan, chunks: int) -> float:
     """Time of the outputs' own work beyond the kernel's [s] (``Output.seconds`` where an output
     has one: the ``floquet`` output's monodromy maps and step-limit scan), at the stated RK5
     rate (those maps are RK5)."""
-    from gearsweep.study.outputs import OUTPUTS
-
     return sum(OUTPUTS[o].seconds(plan, chunks, STATED_RATE["rk5"]) for o in plan.outputs
                if hasattr(OUTPUTS[o], "seconds"))
 
