@@ -79,7 +79,7 @@ class DirectFile:
     fresh page-cache pages, which on this project's virtual machines cost about 1 s of CPU per
     GB (``dd``: 1.0 s of system time for 755 MB buffered, 0.04 s with ``oflag=direct``), and
     a 1e7-case run's 740 MB of chunk checkpoints took that CPU from the kernel beside it
-    (docs/scale.md). The last block is padded to ``ALIGN`` and the file cut to its length.
+    (docs/scale-log.md). The last block is padded to ``ALIGN`` and the file cut to its length.
 
     Where it cannot help, files are written the ordinary way (``usable``): no ``O_DIRECT``
     (macOS, Windows), a file system that refuses it (``EINVAL``: tmpfs before Linux 6.6, some

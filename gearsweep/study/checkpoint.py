@@ -16,8 +16,8 @@ sha256 of the study as validated, so a comment or spacing edited in its file kee
   Written past the page cache where the file system allows it and is fast (Linux ``O_DIRECT``,
   ``files.DirectFile``): copying a 1e7-case run's 740 MB of chunks into fresh page-cache pages
   took about 0.5 s of CPU from the kernel beside it on 2 cores (whole run / kernel 1.25 -> 1.18,
-  docs/scale.md); elsewhere through the page cache. Not fsync'ed: fsync'ing every chunk cost
-  a 1e7-case run 0.58 s of its 15 s (medians of 4 alternating runs, docs/scale.md), and the
+  docs/scale-log.md); elsewhere through the page cache. Not fsync'ed: fsync'ing every chunk cost
+  a 1e7-case run 0.58 s of its 15 s (medians of 4 alternating runs, docs/scale-log.md), and the
   directory entries and sizes (and, where the page cache is used, the bytes) reach the disk on
   the system's schedule (Linux: within seconds to ``vm.dirty_expire_centisecs``, 30 s). So a
   machine that loses power can lose the chunks of the last half minute or so; a chunk file left

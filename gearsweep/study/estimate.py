@@ -156,7 +156,7 @@ CHUNKS_PER_WORKER = 3
 """With ``--workers N`` the default chunks are cut into at least about this many per worker
 process, so that every worker has work and the last chunks' tail is short: at the default
 1e9 steps a 1e6-case study was 3 chunks, and 8 or 16 workers ran its chunk phase no faster than
-4 (2.0, 2.65 and 2.67 s; 16-core machine, 26 Nov 2026, docs/scale.md)."""
+4 (2.0, 2.65 and 2.67 s; 16-core machine, 26 Nov 2026, docs/scale-log.md)."""
 
 WORKER_CHUNK_STEPS = 1e8
 """... but a chunk of at least about this many steps (0.1 s of one core), so that dask's cost

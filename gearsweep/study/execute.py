@@ -173,7 +173,7 @@ def with_short_ends(plan: Plan, chunks: list[tuple[int, int]], threads: int | No
     saved and written, and the file closed, while they wait again. Both take time in proportion
     to their chunk, so the first and the last are a quarter of a chunk each (rounded to whole
     rounds of kernel blocks over the ``threads`` cores): 1e6 cases on 2 cores waited 26 ms for
-    the first chunk's inputs and 38 ms for the last chunk's write (docs/scale.md). A chunk is cut
+    the first chunk's inputs and 38 ms for the last chunk's write (docs/scale-log.md). A chunk is cut
     only if each part is still at least two rounds of blocks (a part that leaves cores idle
     would cost more than it saves); a GPU run is left as it is (a short chunk fills fewer of its
     threads)."""
@@ -809,7 +809,7 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     # machine with cores to spare (the kernel releases the GIL, and so do the file writes and
     # netCDF4's compression: ``ResultFile``). In one thread they followed each other: on 16
     # cores about 1.9 s beside a 1e7-case run's 3 s kernel, and with compression the chunk
-    # phase was 0.2 s longer than without (docs/scale.md). At most two chunks wait for them.
+    # phase was 0.2 s longer than without (docs/scale-log.md). At most two chunks wait for them.
     saver = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-saver")
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="gearsweep-writer")
 
