@@ -88,9 +88,11 @@ def _is_file(text: str) -> bool:
 
 
 def _parses_to(text: str, study) -> bool:
-    """Whether ``text`` validates to ``study`` (a study changed after it was read does not)."""
+    """Whether ``text`` validates to ``study`` (a study changed after it was read does not),
+    read from the folder ``study`` was read from (its private ``_base_folder`` is compared too:
+    from the working folder, a study read elsewhere was never equal to its own text)."""
     try:
-        return parse_study(text, "<study>") == study
+        return parse_study(text, "<study>", base=study._base_folder) == study
     except StudyError:
         return False
 

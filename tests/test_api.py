@@ -14,6 +14,7 @@ import xarray as xr
 from conftest import RATTLE_SCENE, RIG
 
 import gearsweep
+from gearsweep.api import load
 from gearsweep.cli import main as cli
 from gearsweep.errors import GearsweepError, ResultError, StepLimitWarning, StudyError
 from gearsweep.model import MeshModel, model_from_record, model_record
@@ -95,6 +96,19 @@ def test_a_result_runs_again_from_its_own_attributes(small_whine):
     third = gearsweep.run(gearsweep.result_study(again))
     np.testing.assert_array_equal(third.p_rms.values, ds.p_rms.values)
     assert third.attrs["study"] == ds.attrs["study"]
+
+
+def test_a_study_read_from_another_folder_keeps_its_text(small_whine, write_study):
+    """A study read from a file outside the working folder (``api.load``, ``result_study`` of a
+    result with a ``study_folder``) runs its own text: the text was compared with the study as
+    if read from the working folder, never equal, and the result held the SI dump without units,
+    which ``result_study`` refused (an outside tester's finding)."""
+    path = write_study(small_whine)
+    assert path.parent != Path.cwd()
+    study, text = load(path)
+    ds = gearsweep.run(study)
+    assert ds.attrs["study"] == text
+    assert gearsweep.result_study(ds) == gearsweep.result_study(gearsweep.run(path))
 
 
 def test_numpy_values_and_other_python_types_in_a_dict_study(small_whine):
