@@ -241,7 +241,8 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
     A field of the model the result sweeps (``mean_force``, ``damping``, ``backlash``, ...,
     ``torque`` as the mean force; Mathieu's ``alpha``, ``beta``, ``gamma``) has one value per
     case: select it with ``case``, a coordinate value in the result's own unit as for
-    ``ds.sel`` (``result_model(ds, mean_force=833, backlash=0.1)``: 833 N, 0.1 mm). A swept
+    ``ds.sel`` (``result_model(ds, mean_force=833, backlash=0.1)``: 833 N, 0.1 mm), or already
+    selected in ``ds`` (``result_model(ds.sel(mean_force=833))``: a scalar coordinate). A swept
     field not selected is NaN, never the scene's own value, which the kernel did not run. A gear
     scene sweeping its load has k(t) and e(t) of each load: selected, they are computed again
     from the study the result carries (as the run did); else their amplitudes and phases are NaN
@@ -256,6 +257,11 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
         raise ResultError("this result carries no resolved model (a mesh study, or written by an"
                           " older gearsweep)")
     model = model_from_record(json.loads(ds.attrs["model"]))
+    # a swept dim that ``ds.sel``/``ds.isel`` made a scalar coordinate is selected at its value
+    # (the model had the scene's value there, which the kernel did not run)
+    chosen = [n for n, c in ds.coords.items() if n in SWEEPABLE and n != "speed" and c.ndim == 0]
+    case = {n: float(ds[n]) for n in chosen} | case
+    ds = ds.expand_dims(chosen)
     swept = [d for d in ds.dims if d in SWEEPABLE and d != "speed"]
     if "speed" in case:  # swept, but no field of the model (it said "not a swept field")
         raise ResultError("speed is not a field of the model: a case's speed sets only its mesh"

@@ -328,6 +328,24 @@ def test_result_model_gives_a_swept_field_only_where_it_is_selected(small_whine)
         gearsweep.result_model(ds, damping=[5.5])
 
 
+def test_result_model_of_a_result_selected_with_sel_or_isel(small_whine):
+    """``ds.sel``/``ds.isel`` make a swept dim a scalar coordinate: ``result_model`` of that
+    Dataset gave the scene's unswept values (mean_force 0.0, damping of the scene), a model the
+    kernel never ran; it is the selected value (an outside tester's finding)."""
+    small_whine["sweep"]["mean_force"] = ["400 N", "833 N"]
+    small_whine["sweep"]["damping"] = ["2 N s/mm", "5.5 N s/mm"]
+    ds = gearsweep.run(small_whine)
+    picked = gearsweep.result_model(ds, mean_force=400, damping=2)  # not the scene's values
+    assert (picked.mean_force, picked.damping) == (400.0, 2000.0)
+    assert gearsweep.result_model(ds.sel(mean_force=400, damping=2)) == picked
+    assert gearsweep.result_model(ds.isel(mean_force=0), damping=2) == picked
+    assert gearsweep.result_model(ds.sel(mean_force=400), mean_force=400, damping=2) == picked
+    partly = gearsweep.result_model(ds.sel(damping=2))
+    assert partly.damping == 2000.0 and np.isnan(partly.mean_force)
+    with pytest.raises(ResultError, match=r"mean_force=833 is not one of the result's 1 values"):
+        gearsweep.result_model(ds.sel(mean_force=400), mean_force=833)
+
+
 def test_result_model_of_a_gear_scene_at_a_swept_load():
     import re
 
