@@ -227,8 +227,11 @@ def open_result(path: str | Path) -> xr.Dataset:
                           " or run it")
     try:
         ds = xr.load_dataset(path)
-    except (OSError, ValueError) as exc:
-        raise ResultError(f"{path}: not a readable netCDF file ({exc})") from None
+    except (OSError, ValueError) as exc:  # one line, as ``cli.describe`` says it
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if "IO backends" in why:  # xarray: no engine recognises the file (four lines of advice)
+            why = "not a netCDF file"
+        raise ResultError(f"{path}: not a readable netCDF file ({why})") from None
     if "study" not in ds.attrs:
         raise ResultError(f"{path}: not a gearsweep result (no 'study' attribute)")
     return ds

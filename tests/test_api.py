@@ -143,6 +143,18 @@ def test_model_record_round_trips(rig):
     assert model_from_record(model_record(rig)) == rig
 
 
+def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
+    """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
+    ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside
+    tester's finding)."""
+    png = tmp_path / "figure.png"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    for bad in (png, tmp_path):
+        with pytest.raises(ResultError, match="not a readable netCDF file") as exc:
+            gearsweep.open_result(bad)
+        assert "\n" not in str(exc.value)
+
+
 def test_open_result_refuses_a_study_and_a_missing_file(write_study, small_whine, tmp_path):
     with pytest.raises(ResultError, match="is a study"):
         gearsweep.open_result(write_study(small_whine))
