@@ -143,6 +143,20 @@ def test_model_record_round_trips(rig):
     assert model_from_record(model_record(rig)) == rig
 
 
+def test_run_to_an_output_with_a_tilde_returns_the_file_it_wrote(small_whine, tmp_path,
+                                                                   monkeypatch):
+    """``output='~/r.nc'`` was written with '~' as a folder name and opened by xarray, which
+    expands '~', from the home folder: FileNotFoundError once the run was done (an outside
+    tester's finding). The Dataset returned is the file written."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    (tmp_path / "home").mkdir()
+    ds = gearsweep.run(small_whine, output="~/r.nc")
+    written = [p for p in (tmp_path / "~" / "r.nc", tmp_path / "home" / "r.nc") if p.exists()]
+    assert len(written) == 1
+    _same(ds, gearsweep.open_result(written[0]))
+
+
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
     """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
     ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside

@@ -1041,7 +1041,9 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
                    codec=codec)
     import xarray as xr
 
-    return xr.open_dataset(output)
+    # absolute: xarray expands a leading '~' that the writing did not (``output='~/r.nc'`` was
+    # written to ./~/r.nc, then opened from the home folder: FileNotFoundError after the run)
+    return xr.open_dataset(os.path.abspath(output))
 
 
 def stream_to_file(plan: Plan, output: str | Path, *,
