@@ -147,6 +147,36 @@ solver: {steps_per_period: 32, transient_periods: 10, record_periods: 4}
         "stiffness = 1000 kN/mm", "stiffness = 1073 kN/mm"]
 
 
+def test_response_vs_speed_counts_the_masked_cases_it_draws(tmp_path):
+    """The legend's "N of M cases not settled (masked)" counted the whole result, also the
+    values of the dims drawn only at their first value: a figure of 4 settled cases said
+    "1 of 8 ... masked" (an outside tester's finding)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import gearsweep
+    from gearsweep.plot.sweep import plot_response_vs_speed
+
+    ds = gearsweep.run("""
+title: t
+scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, damping: 5 N s/mm,
+        backlash: 0.2 mm, mean_force: 200 N, fluctuation: [{amplitude: 300 N, order: 1}]}
+sweep:
+  speed: [5000 rpm, 6000 rpm]
+  stiffness: [1000 kN/mm, 1073 kN/mm]
+  backlash: [0.2 mm, 0.3 mm]
+solver: {steps_per_period: 32, transient_periods: 10, record_periods: 4}
+""")
+    ds["status"][:] = 0
+    ds["status"][{"speed": 1, "stiffness": 0, "backlash": 1}] = 2  # not drawn (backlash 0.3 mm)
+    ax = plot_response_vs_speed(ds, "p_pp").axes[0]
+    assert ax.get_legend().get_title().get_text() == ""  # none of the drawn 4 is masked
+    assert all(np.isfinite(line.get_ydata()).all() for line in ax.get_lines())
+    ds["status"][{"speed": 1, "stiffness": 0, "backlash": 0}] = 2  # drawn
+    ax = plot_response_vs_speed(ds, "p_pp").axes[0]
+    assert ax.get_legend().get_title().get_text() == "1 of 4 cases not settled (masked)"
+
+
 def test_spectrum_plots_say_what_they_draw_on_in_one_line(ds):
     """A spectrum over more dims than (speed, order), or an order the study did not keep, is one
     line naming the fix (were xarray's transpose error and KeyError; an API test)."""

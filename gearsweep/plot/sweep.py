@@ -70,22 +70,23 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
                          f" {tuple(ds.dims)})")
     fig, ax = axes(ax)
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
-    da, n_masked, n_all = settled(ds[var], ds)
-    others = [d for d in da.dims if d not in ("speed", "direction")]
+    others = [d for d in ds[var].dims if d not in ("speed", "direction")]
     if hue is not None and hue not in others:
         raise ValueError(f"hue={hue!r}: " + (f"one of the other swept dims of {var!r}: {others}"
                                               if others else f"{var!r} has no other swept dim"))
     if hue is None and others:
         hue = others[0]
+    fixed = []
+    for d in others:
+        if d != hue:  # drawn at its first value, and said so in the title
+            fixed.append(value_label(ds, d, ds[d].values[0]))
+            ds = ds.isel({d: 0})
+    # masked and counted among the cases drawn (it counted those of the dims held fixed too)
+    da, n_masked, n_all = settled(ds[var], ds)
     # A displacement (SI here) is drawn in um; anything else (a fraction, a count) as it is,
     # in its own unit (contact_loss_fraction was drawn times 1e6 and labelled um; an API test)
     metres = da.attrs.get("units") == "m"
     scale, unit = (UM, "µm") if metres else (1.0, da.attrs.get("units", ""))
-    fixed = []
-    for d in others:
-        if d != hue:  # drawn at its first value, and said so in the title
-            da = da.isel({d: 0})
-            fixed.append(value_label(ds, d, ds[d].values[0]))
     dirs = list(ds["direction"].values) if "direction" in da.dims else [None]
     hues = list(ds[hue].values) if hue else [None]
     colors = matplotlib_colors(len(hues))
