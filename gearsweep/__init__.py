@@ -32,4 +32,9 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'gearsweep' has no attribute {name!r}")
 
 
+def __dir__() -> list[str]:
+    # what a notebook's completion lists (``gearsweep.<TAB>``): the API too, without loading it
+    return sorted({*globals(), *_API})
+
+
 __all__ = ["__version__", *_API]

@@ -157,6 +157,15 @@ def test_run_to_an_output_with_a_tilde_returns_the_file_it_wrote(small_whine, tm
     _same(ds, gearsweep.open_result(written[0]))
 
 
+def test_dir_of_the_package_lists_the_api_without_loading_it():
+    """``dir(gearsweep)`` (a notebook's ``gearsweep.<TAB>``) listed no public name: the API is
+    loaded on first use by the module's ``__getattr__`` (an outside tester's finding)."""
+    code = ("import sys, gearsweep; names = dir(gearsweep);"
+            " print(all(n in names for n in gearsweep.__all__), 'gearsweep.api' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.stdout.split() == ["True", "False"], r.stderr
+
+
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
     """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
     ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside
