@@ -67,6 +67,9 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
     if isinstance(study, dict):
         text = yaml.safe_dump(_plain(study, "(study)"), sort_keys=False)
         return parse_study(text, DICT_STUDY), text, DICT_STUDY
+    if isinstance(study, str) and "\n" not in study.strip():  # one line, as read from a file or
+        study = study.strip()  # a form ('s.yaml\n'): found by _is_file stripped, then opened
+        # unstripped ("No such file"), or said "no such study file" with a newline after it
     if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study and (
             study.strip().endswith((".yaml", ".yml")) or _is_file(study))):
         return (*load_study(study), str(study))  # (a file named otherwise was read as YAML

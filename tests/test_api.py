@@ -157,6 +157,16 @@ def test_run_to_an_output_with_a_tilde_returns_the_file_it_wrote(small_whine, tm
     _same(ds, gearsweep.open_result(written[0]))
 
 
+def test_a_path_with_a_newline_or_spaces_around_it_is_the_file(small_whine, write_study):
+    """A path as read from a file (``'s.yaml\\n'``) was said "no such study file", one with
+    spaces around it was opened with them ("No such file or directory") though the check that
+    took it for a path had found the file stripped (an outside tester's finding)."""
+    path = write_study(small_whine)
+    plain = gearsweep.run(path)
+    for text in (f"{path}\n", f" {path} "):
+        np.testing.assert_array_equal(gearsweep.run(text).p_rms.values, plain.p_rms.values)
+
+
 def test_dir_of_the_package_lists_the_api_without_loading_it():
     """``dir(gearsweep)`` (a notebook's ``gearsweep.<TAB>``) listed no public name: the API is
     loaded on first use by the module's ``__getattr__`` (an outside tester's finding)."""
