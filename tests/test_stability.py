@@ -373,6 +373,10 @@ def test_a_stability_map_of_a_users_own_result_has_its_units_teeth_and_ticks():
     assert ticks == [3000, 5000, 10000, 20000, 30000]
     with pytest.raises(ValueError, match="select the other dims first"):
         plot_stability_map(ds.expand_dims(torque=[1.0, 2.0]), "unstable")
+    # a result without damping (or speed) was told to select them: ds.sel(speed=..., damping=...)
+    with pytest.raises(ValueError, match=r"'unstable' has no damping dim \(dims \('speed',\)\)"
+                                         r"; give a result of a study sweeping both"):
+        plot_stability_map(ds.isel(damping=0), "unstable")
 
 
 @pytest.mark.parametrize("method,c", [("rk5", 5500.0), ("rk4", 5500.0), ("rk5", 200.0)])

@@ -159,9 +159,14 @@ def plot_stability_map(ds, var: str = "unstable", ax: Axes | None = None, title:
     selected first (``ds.sel(...)``)."""
     flag = ds[var] if isinstance(var, str) else var
     extra = [d for d in flag.dims if d not in ("speed", "damping")]
-    if extra or set(flag.dims) != {"speed", "damping"}:
+    missing = [d for d in ("speed", "damping") if d not in flag.dims]
+    if missing:  # said "select the other dims first (ds.sel(speed=..., damping=...))"
+        raise ValueError(f"a map over speed and damping: {flag.name or 'the flag'!r} has no"
+                         f" {' and no '.join(missing)} dim (dims {tuple(flag.dims)}); give a"
+                         " result of a study sweeping both")
+    if extra:
         raise ValueError(f"a map over speed and damping: select the other dims first"
-                         f" (ds.sel({', '.join(f'{d}=...' for d in extra) or 'speed=..., damping=...'}))")
+                         f" (ds.sel({', '.join(f'{d}=...' for d in extra)}))")
     teeth = json.loads(ds.attrs["model"]).get("teeth") if "model" in ds.attrs else None
     kwargs.setdefault("label", var if isinstance(var, str) else "flagged")
     return plot_operating_map(flag["speed"].values, si_values(flag["damping"]),
