@@ -98,6 +98,20 @@ class StudyError(GearsweepError):
         self.args = ("\n".join(lines),)
         return self
 
+    def __reduce__(self):
+        # pickled (a process pool's worker, a dask worker): Exception's default rebuilds it as
+        # ``cls(*args)``, the message alone, which __init__ does not take: unpickling raised
+        # TypeError and a ProcessPoolExecutor running gearsweep.run said BrokenProcessPool
+        return _rebuilt, (type(self), self.args, self.__dict__)
+
+
+def _rebuilt(cls: type, args: tuple, state: dict) -> GearsweepError:
+    """An exception ``cls`` with ``args`` and attributes ``state``, without its ``__init__``."""
+    err = cls.__new__(cls)
+    err.args = args
+    err.__dict__.update(state)
+    return err
+
 
 class GeometryError(GearsweepError):
     """A gear pair that cannot exist (interference, pointed teeth, contact ratio below 1, ...)."""

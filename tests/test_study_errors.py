@@ -55,6 +55,21 @@ def test_three_errors_give_three_lines_with_line_numbers():
     ], lines
 
 
+def test_a_study_error_survives_pickling_as_a_process_pool_sends_it():
+    """StudyError could be pickled but not unpickled (Exception rebuilds it from its message
+    alone, which ``__init__`` does not take): ``gearsweep.run`` of a bad study in a
+    ProcessPoolExecutor gave BrokenProcessPool, the message lost (an outside tester's finding)."""
+    import pickle
+
+    text = GOOD.replace("mass: 0.1527 kg", "mass: -1 kg").replace("method: rk4", "method: rk3")
+    with pytest.raises(StudyError) as err:
+        parse_study(text, "s.yaml")
+    again = pickle.loads(pickle.dumps(err.value))
+    assert type(again) is StudyError and str(again) == str(err.value)
+    assert (again.lines, again.problems, again.field, again.line) == (
+        err.value.lines, err.value.problems, err.value.field, err.value.line)
+
+
 def test_an_empty_output_list_and_a_value_swept_twice_are_refused():
     """``outputs: []`` (a result of status flags only) and a sweep that lists one value twice,
     in any spelling (``100 um`` after ``0.1 mm``: the file's coordinate would hold 0.1 twice and
