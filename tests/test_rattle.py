@@ -587,3 +587,28 @@ def test_a_shaft_order_force_puts_no_jump_in_the_fig8_window():
         assert_allclose(up, down, rtol=1e-3)  # the branches coincide at every speed
         seen.append((float(ds.contact_loss_fraction.max()), float(ds.backside_contact_fraction.max())))
     assert seen[0] == (0.0, 0.0) and seen[1][1] > 0 and seen[2][1] > 0  # the mesh does open
+
+
+def test_the_rattle_plots_refuse_another_result_in_one_line():
+    """plot_rattle_balance of the rattle study's own result (not its rattle_balance analysis)
+    raised KeyError "No variable named 'amplitude'" from inside xarray; one line saying which
+    result it draws, as the other plot functions of analysis results (an outside tester's
+    finding)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import xarray as xr
+
+    from gearsweep.plot import rattle as pr
+
+    dynamic = xr.Dataset({"p_pp": ("speed", [1.0, 2.0])}, coords={"speed": [5000.0, 6000.0]})
+    for f, study in ((pr.plot_rattle_balance, "fig08_rattle_balance"),
+                     (pr.plot_rattle_contact, "fig08_rattle_balance"),
+                     (pr.plot_rattle_graphical, "fig08_rattle_balance"),
+                     (pr.plot_rattle_budget, "fig08_rattle_budget")):
+        fig, ax = plt.subplots()
+        with pytest.raises(ValueError, match=rf"{f.__name__} draws the result of"
+                                             rf" studies/{study}.yaml .*; this one has no "):
+            f(ax, dynamic)
+        plt.close(fig)

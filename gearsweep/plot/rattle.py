@@ -16,10 +16,14 @@ import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from gearsweep.plot.common import require
 from gearsweep.plot.sweep import speed_label as _speed_label
 from gearsweep.units import si_data_vars
 
 MM = 1e3
+
+BALANCE = "studies/fig08_rattle_balance.yaml (analysis kind rattle_balance)"
+"""What the ``plot_rattle_balance``, ``_contact`` and ``_graphical`` figures draw the result of."""
 
 
 def _split_runs(mask: np.ndarray) -> list[slice]:
@@ -236,6 +240,7 @@ def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float = 0.6,
     describing-function curves, the AFT branch, the paper's Eq. (15) points, where the lower
     branch flips, and Eq. (15) against the integration; titled with the scene's numbers.
     ``ymax`` [mm]; ``note_at`` (rpm, mm): where the flip note is written."""
+    require(ds, ("amplitude", "aft_speed", "eq15_root"), "plot_rattle_balance", BALANCE)
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     speed = ds["speed"].values
     amp = ds["amplitude"]
@@ -293,6 +298,8 @@ def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float = 0.6,
 def plot_rattle_contact(ax: Axes, ds: xr.Dataset) -> Figure:
     """Contact-loss and back-flank fractions of a ``rattle_balance`` Dataset's integration, with
     the contact loss above the run-up drop."""
+    require(ds, ("contact_loss_fraction", "contact_loss_above_drop_min"), "plot_rattle_contact",
+            BALANCE)
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     loss, back = ds["contact_loss_fraction"], ds["backside_contact_fraction"]
     plot_contact(ax, ds["speed"].values, loss.sel(direction="up"), loss.sel(direction="down"),
@@ -308,6 +315,7 @@ def plot_rattle_contact(ax: Axes, ds: xr.Dataset) -> Figure:
 def plot_rattle_graphical(ax: Axes, ds: xr.Dataset, *, p_range: float = 0.75e-3) -> Figure:
     """Fig. 9 from a ``rattle_balance`` Dataset: Eq. (15)'s spring curve and its three lines
     with their roots, titled with the number of cuts of each line."""
+    require(ds, ("line_speed", "graphical_root"), "plot_rattle_graphical", BALANCE)
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     per_rpm = float(ds.omega_per_rpm)
     speeds = ds["line_speed"].values
@@ -332,6 +340,8 @@ def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | Non
                        ) -> Figure:
     """The force budget of a ``rattle_budget`` Dataset over its speeds: the fitted force, the
     mean force, m_eq w^2 e_1, and per scene k e_1 and the least force that opens the mesh."""
+    require(ds, ("budget_speed", "inertia_force"), "plot_rattle_budget",
+            "studies/fig08_rattle_budget.yaml (analysis kind rattle_budget)")
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     colors = colors or {0: "tab:blue", 1: "tab:orange"}
     sp = ds["budget_speed"].values
