@@ -37,7 +37,7 @@ from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.execute import InProcess, run_plan, run_to_file, step_limit_warning
 from gearsweep.study.mesh import run_mesh_study
 from gearsweep.study.plan import make_plan
-from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study
+from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study, study_text
 from gearsweep.study.workspace import OutputLock, check_partial, output_path, reads_output
 from gearsweep.units import UnitParseError, si_values, to_display, to_si
 
@@ -62,8 +62,11 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
         text = getattr(study, "source_text", None)
         if text is not None and _parses_to(text, study):  # the text it was read from, with its
             return study, text, "<study>"  # units and comments (result_study's, say), if the same
-        return study, yaml.safe_dump(study.model_dump(mode="json", exclude_none=True),
-                                     sort_keys=False), "<study>"
+        # changed in Python (``model_copy(update=...)`` validates nothing): checked as a file
+        # is, and run from a text that reads back (a dump without units did not: a mass of -1
+        # ran to NaN, and result_study refused the result's study, "0.1527 has no unit")
+        text = study_text(study)
+        return parse_study(text, "<study>", base=study._base_folder), text, "<study>"
     if isinstance(study, dict):
         text = yaml.safe_dump(_plain(study, "(study)"), sort_keys=False)
         return parse_study(text, DICT_STUDY), text, DICT_STUDY

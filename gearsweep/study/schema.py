@@ -45,6 +45,7 @@ import numpy as np
 import yaml
 from pydantic import (
     AfterValidator,
+    BaseModel,
     BeforeValidator,
     Field,
     TypeAdapter,
@@ -87,7 +88,14 @@ from gearsweep.study.quantities import (
     Torque,
     WholeStudy,
 )
-from gearsweep.units import UnitParseError, decimal_coordinates, to_display, to_si
+from gearsweep.units import (
+    KINDS,
+    QuantityKind,
+    UnitParseError,
+    decimal_coordinates,
+    to_display,
+    to_si,
+)
 
 
 class Drive(Strict):
@@ -1285,6 +1293,46 @@ def parse_study(text: str, file: str = "<study>", base: str | Path | None = None
     study._source_text = text
     study._base_folder = base
     return study
+
+
+def study_text(study: Study | MeshStudy | AnalysisStudy) -> str:
+    """YAML text that ``parse_study`` validates to ``study``: its fields as they are now, each
+    quantity with its SI unit (``0.0004698 m``; a bare SI number is refused, as from a user).
+    For a study changed in Python (``model_copy(update=...)`` does not validate): parsed again,
+    the change is checked like a study file's, and a result's ``study`` attribute stays a study
+    that reads back. Every study in ``studies/`` parses back to itself (a test)."""
+    fields = _with_units(study)
+    if isinstance(study, Study) and study.scene.kind == "mathieu":  # dimensionless (a bare
+        fields["solver"]["initial_displacement"] = study.solver.initial_displacement  # number)
+    return yaml.safe_dump(fields, sort_keys=False, allow_unicode=True)
+
+
+def _with_units(value: Any, kind: str | None = None) -> Any:
+    """``study_text``'s fields: models as mappings, quantity floats with their SI unit."""
+    if isinstance(value, BaseModel):
+        return {name: _with_units(getattr(value, name), _quantity_kind(info))
+                for name, info in type(value).model_fields.items()
+                if getattr(value, name) is not None}
+    if isinstance(value, list | tuple):
+        return [_with_units(v, kind) for v in value]
+    if isinstance(value, dict):
+        return {k: _with_units(v, kind) for k, v in value.items()}
+    if kind is not None and isinstance(value, float):
+        return f"{value!r} {KINDS[kind].si}"
+    return value
+
+
+def _quantity_kind(field: Any) -> str | None:
+    """The kind of a quantity field (``quantities.Q``'s ``QuantityKind``), also inside an
+    optional or a union (``Literal["static"] | Displacement``); else ``None``."""
+    todo = [*field.metadata, field.annotation]
+    while todo:
+        a = todo.pop()
+        if isinstance(a, QuantityKind):
+            return a.kind
+        todo.extend(getattr(a, "__metadata__", ()))
+        todo.extend(typing.get_args(a))
+    return None
 
 
 def _parse_raw(raw: Any, file: str, base: str | None = None
