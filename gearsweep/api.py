@@ -75,6 +75,7 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
         # unstripped ("No such file"), or said "no such study file" with a newline after it
     if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study and (
             study.strip().endswith((".yaml", ".yml")) or _is_file(study))):
+        study = _user_path(study)
         return (*load_study(study), str(study))  # (a file named otherwise was read as YAML
         # text: "the file holds a single value 'studies/s.txt'"; an API test)
     if isinstance(study, str):
@@ -86,9 +87,15 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
                      "a path, YAML text, a dict or a gearsweep Study")
 
 
+def _user_path(path: str | Path) -> Path:
+    """``path`` with a leading ``~`` made the home folder, as xarray, pandas and the shell do
+    (``run(output="~/r.nc")`` wrote the folder ``./~``, then xarray opened the home's)."""
+    return Path(path).expanduser()
+
+
 def _is_file(text: str) -> bool:
     try:
-        return Path(text.strip()).is_file()
+        return _user_path(text.strip()).is_file()
     except (OSError, ValueError):  # a name too long, a NUL
         return False
 
@@ -187,7 +194,7 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     if output is not None and not isinstance(output, str | Path):
         raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
     if output is not None:
-        output = output_path(output)
+        output = output_path(_user_path(output))
     if chunk_cases is not None and (isinstance(chunk_cases, bool)  # np.int64 is a whole number
                                     or not isinstance(chunk_cases, numbers.Integral)
                                     or chunk_cases < 1):
@@ -225,7 +232,7 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
 
 def open_result(path: str | Path) -> xr.Dataset:
     """Open a result file in memory; one line (``ResultError``) if it is missing or not ours."""
-    path = Path(path)
+    path = _user_path(path)
     if not path.exists():
         raise ResultError(f"{path}: no such result file (run the study first)")
     if path.suffix in (".yaml", ".yml"):

@@ -177,18 +177,24 @@ def test_model_record_round_trips(rig):
     assert model_from_record(model_record(rig)) == rig
 
 
-def test_run_to_an_output_with_a_tilde_returns_the_file_it_wrote(small_whine, tmp_path,
-                                                                   monkeypatch):
+def test_paths_with_a_tilde_are_in_the_home_folder(small_whine, write_study, tmp_path,
+                                                    monkeypatch):
     """``output='~/r.nc'`` was written with '~' as a folder name and opened by xarray, which
-    expands '~', from the home folder: FileNotFoundError once the run was done (an outside
-    tester's finding). The Dataset returned is the file written."""
+    expands '~', from the home folder: FileNotFoundError once the run was done, and
+    ``open_result('~/r.nc')`` said "no such result file" (an outside tester's findings). The
+    API expands a leading '~' as xarray, pandas and the shell do: study, output and result."""
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("HOME", str(tmp_path / "home"))
-    (tmp_path / "home").mkdir()
-    ds = gearsweep.run(small_whine, output="~/r.nc")
-    written = [p for p in (tmp_path / "~" / "r.nc", tmp_path / "home" / "r.nc") if p.exists()]
-    assert len(written) == 1
-    _same(ds, gearsweep.open_result(written[0]))
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    path = write_study(small_whine)
+    (home / "s.yaml").write_text(path.read_text())
+    ds = gearsweep.run("~/s.yaml", output="~/r.nc")
+    assert (home / "r.nc").is_file() and not (tmp_path / "~").exists()
+    _same(ds, gearsweep.open_result(home / "r.nc"))
+    _same(ds, gearsweep.open_result("~/r.nc"))
+    assert gearsweep.result_study("~/r.nc").title == gearsweep.result_study(ds).title
+    _same(gearsweep.run(Path("~/s.yaml")), gearsweep.run(path))
 
 
 def test_a_path_with_a_newline_or_spaces_around_it_is_the_file(small_whine, write_study):
