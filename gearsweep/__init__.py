@@ -20,21 +20,29 @@ Layers, each importing only from those below it (``docs/architecture.md``; impor
 from gearsweep._version import __version__
 
 _API = ("run", "open_result", "result_model", "result_study")
+_MODULES = ("analysis", "api", "errors", "gear", "kernels", "model", "plot", "study", "units")
+"""Subpackages and modules reachable as attributes after ``import gearsweep`` alone
+(``gearsweep.units.si_values(da)``, as the README writes it, raised AttributeError until some
+API call had imported them; an outside tester's finding)."""
 
 
 def __getattr__(name: str):
-    # The API is imported on first use: ``import gearsweep`` stays as cheap as its version, and
-    # the CLI loads only what a command needs.
+    # The API and the modules are imported on first use: ``import gearsweep`` stays as cheap as
+    # its version, and the CLI loads only what a command needs.
     if name in _API:
         from gearsweep import api
 
         return getattr(api, name)
+    if name in _MODULES:
+        import importlib
+
+        return importlib.import_module(f"gearsweep.{name}")
     raise AttributeError(f"module 'gearsweep' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
     # what a notebook's completion lists (``gearsweep.<TAB>``): the API too, without loading it
-    return sorted({*globals(), *_API})
+    return sorted({*globals(), *_API, *_MODULES})
 
 
 __all__ = ["__version__", *_API]

@@ -216,6 +216,17 @@ def test_dir_of_the_package_lists_the_api_without_loading_it():
     assert r.stdout.split() == ["True", "False"], r.stderr
 
 
+def test_the_modules_are_attributes_after_import_gearsweep_alone():
+    """``import gearsweep; gearsweep.units.si_values(da)`` (the README's spelling) raised
+    AttributeError until an API call had imported the module (an outside tester's finding)."""
+    code = ("import gearsweep; print(gearsweep.units.si_values.__name__,"
+            " gearsweep.errors.StudyError.__name__, 'units' in dir(gearsweep))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.stdout.split() == ["si_values", "StudyError", "True"], r.stderr
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        gearsweep.nothing  # noqa: B018
+
+
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
     """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
     ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside
