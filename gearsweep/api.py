@@ -145,7 +145,12 @@ def run_unchunked(study: MeshStudy | AnalysisStudy, text: str = "",
 def run_study(study: Study | MeshStudy | AnalysisStudy, text: str = "",
               progress: bool = False) -> xr.Dataset:
     """Run every chunk of a validated study in this process and return its Dataset in memory
-    (cases beyond the step limit: one ``StepLimitWarning``, as ``run``)."""
+    (cases beyond the step limit: one ``StepLimitWarning``, as ``run``). ``text``: the study's
+    YAML for the result's ``study`` attribute; by default the text it was read from, or
+    ``schema.study_text`` of it (an empty attribute made ``result_study`` say "the file holds
+    nothing"; an outside tester's finding)."""
+    if not text:
+        study, text, _ = _load(study)
     if isinstance(study, MeshStudy | AnalysisStudy):
         return run_unchunked(study, text)
     plan = make_plan(study, text)

@@ -227,6 +227,17 @@ def test_the_modules_are_attributes_after_import_gearsweep_alone():
         gearsweep.nothing  # noqa: B018
 
 
+def test_run_study_without_its_text_gives_a_result_that_reads_back(small_whine):
+    """``api.run_study(study)`` wrote ``study=""`` and ``result_study`` of the result said "the
+    file holds nothing" (an outside tester's finding): it carries the study's own text."""
+    from gearsweep.api import run_study
+
+    study, text = load(small_whine)
+    ds = run_study(study)
+    assert ds.attrs["study"] == text
+    assert gearsweep.result_study(ds).model_dump() == study.model_dump()
+
+
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
     """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
     ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside
