@@ -310,6 +310,22 @@ def test_monodromy_matches_finite_differences_of_the_integrator(rpm):
     assert_allclose(ours, fd, rtol=2e-3)
 
 
+def test_aft_continuation_says_when_it_stops_short():
+    """A branch cut short by ``max_points`` or by a corrector failing at ``min_step`` came back
+    with no word of it (an outside tester: a linear system stopped at 0.979 of a requested 2
+    omega_0). ``ended`` says why it stopped; a complete branch passes ``omega_end``."""
+    system = hb.MeshSystem(mass=M, stiffness=K, damping=C, half_gap=None, force_mean=FM,
+                           force_harmonics=(F0,))
+    w0 = np.sqrt(K / M)
+    ell = F0 / K  # the response's scale: steps of the scaled unknowns move along omega
+    full = hb.aft_continuation(system, 0.5 * w0, 1.5 * w0, harmonics=3, n_time=64, length=ell)
+    assert full.complete and full.ended == "end" and full.omega[-1] > 1.5 * w0
+    short = hb.aft_continuation(system, 0.5 * w0, 1.5 * w0, harmonics=3, n_time=64,
+                                length=ell, max_points=5)
+    assert not short.complete and short.ended == "max_points" and short.omega.size == 5
+    assert short.omega[-1] < 1.5 * w0
+
+
 def test_lower_branch_with_mean_force_period_doubles():
     """At 9500 rpm with F_m = 887 N the period-1 solution has a multiplier below -1 (flip); the
     integration settles on a motion that does not repeat every period (p one period apart

@@ -366,6 +366,15 @@ class HBBranch:
     """Largest Floquet multiplier modulus [1]."""
     stable: np.ndarray
     """``multiplier < 1``."""
+    ended: str = "end"
+    """Why the continuation stopped: ``"end"`` (omega passed ``omega_end``), ``"max_points"``
+    or ``"min_step"`` (the corrector failed at the smallest step): the branch is then shorter
+    than asked for (it stopped with no word of it; an outside tester's finding)."""
+
+    @property
+    def complete(self) -> bool:
+        """Whether the branch reaches the ``omega_end`` it was asked for."""
+        return self.ended == "end"
 
     @property
     def amplitude(self) -> np.ndarray:
@@ -627,7 +636,8 @@ def aft_continuation(system: MeshSystem, omega_start: float, omega_end: float, *
     omega / sqrt(k0 / m))``: tangent predictor, Newton corrector on the residual bordered with the
     arc-length condition, step halved on failure and grown after easy corrections. The branch
     turns at folds, so omega need not be monotonic; the run ends when omega passes
-    ``omega_end`` or after ``max_points`` solutions.
+    ``omega_end`` or after ``max_points`` solutions, or where the corrector fails at
+    ``min_step`` (``HBBranch.ended`` says which; ``complete``: the first).
 
     Parameters
     ----------
@@ -682,6 +692,7 @@ def aft_continuation(system: MeshSystem, omega_start: float, omega_end: float, *
     t = tangent(J, e_w)
     ys = [y.copy()]
     h = step
+    ended = "max_points"
     while len(ys) < max_points:
         pred = y + h * t
         yn = pred.copy()
@@ -698,6 +709,7 @@ def aft_continuation(system: MeshSystem, omega_start: float, omega_end: float, *
         if not ok:
             h *= 0.5
             if h < min_step:
+                ended = "min_step"
                 break
             continue
         t = tangent(J, t)
@@ -706,6 +718,7 @@ def aft_continuation(system: MeshSystem, omega_start: float, omega_end: float, *
         if it <= 3:
             h = min(1.3 * h, max_step)
         if direction * (y[-1] * w0 - omega_end) > 0:
+            ended = "end"
             break
     ys = np.asarray(ys)
     coef = ys[:, :-1] * ell
@@ -713,4 +726,4 @@ def aft_continuation(system: MeshSystem, omega_start: float, omega_end: float, *
     sig = coef @ bal.E.T
     mult = np.array([bal.monodromy_multiplier(cf, w) for cf, w in zip(coef, omega, strict=True)])
     return HBBranch(omega=omega, coefficients=coef, p_max=sig.max(axis=1), p_min=sig.min(axis=1),
-                    multiplier=mult, stable=mult < 1.0)
+                    multiplier=mult, stable=mult < 1.0, ended=ended)

@@ -302,6 +302,12 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     aft = hb.aft_continuation(system, speed[0] * w_per_rpm, speed[-1] * w_per_rpm,
                               harmonics=o.harmonics, n_time=o.n_time)
     t_aft = time.perf_counter() - t0
+    if not aft.complete:  # the flip and the turning points would be those of part of the branch
+        why = ("after its most points" if aft.ended == "max_points"
+               else "its corrector failed at the smallest step")
+        raise ResultError(f"{o.result}: the harmonic-balance branch stopped at"
+                          f" {aft.omega[-1] / w_per_rpm:.0f} rpm of {speed[0]:.0f}-{speed[-1]:.0f}"
+                          f" rpm ({why}); try other harmonics or n_time")
     js = jump_summary(ds)
     up_jump, down_jump = float(js.jump_up_speed), float(js.jump_down_speed)
     # the paper's (o): Eq. (15), undamped, no mean force, every root, on a grid of speeds
@@ -459,7 +465,8 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "speed": dict(ds["speed"].attrs),
     }
     settings = {"balanced_title": ds.attrs.get("title", o.result), "aft_seconds": round(t_aft, 1),
-                "aft_points": int(aft.omega.size), "aft_harmonics": o.harmonics}
+                "aft_points": int(aft.omega.size), "aft_harmonics": o.harmonics,
+                "aft_ended": aft.ended}
     return data, coords, attrs, settings
 
 
