@@ -93,3 +93,24 @@ def test_every_kind_of_result_passes_the_cf_checker_strict(name, tmp_path):
         if result["scored_points"] != result["possible_points"] else []
     assert result["high_count"] == result["medium_count"] == result["low_count"] == 0, issues
     assert result["scored_points"] == result["possible_points"], (issues, proc.stderr)
+
+
+def test_labels_carry_no_unit_in_mesh_and_analysis_results():
+    """docs/data-format.md: labels (``direction``, ``method``) carry no ``units``. The dynamic
+    results left them without; the mesh and analysis results (``build_dataset``) wrote ``"-"``
+    (``variant``, ``method``; not a UDUNITS unit) or ``"1"`` (``scene``, ``peer``: dimensionless)
+    on string coordinates (found by an outside reader of the main job's files)."""
+    import gearsweep
+
+    mesh = gearsweep.run({"type": "mesh", "title": "variants", "torque": "50 N m",
+                          "positions": 20, "harmonics": 2,
+                          "gears": {"a": "table1_consistent", "b": "table1_consistent"}})
+    analysis = gearsweep.run({"type": "analysis", "title": "limits", "analysis": {
+        "kind": "method_stability", "zeta": [0.3], "curve_points": 3, "zeta_max": 0.4,
+        "steps": 1000}})
+    labels = [(ds, n) for ds in (mesh, analysis) for n in ds.variables
+              if ds[n].dtype.kind in "OSU"]
+    assert {n for _, n in labels} >= {"variant", "method"}
+    for ds, n in labels:
+        assert "units" not in ds[n].attrs, (n, ds[n].attrs.get("units"))
+    assert analysis["zeta"].attrs["units"] == "1"  # numbers keep theirs

@@ -104,7 +104,10 @@ def variable_attrs(name: str, table: dict, extra: dict | None = None, values=Non
     kind = a.pop("kind", None)
     if kind is not None:  # given in SI, stored in the kind's display unit
         values, a["units"] = to_display(np.asarray(values), kind), KINDS[kind].cf
-    a.setdefault("units", "1")
+    if values is not None and np.asarray(values).dtype.kind in "OSU":
+        a.pop("units", None)  # a label (method, direction, variant, scene): no unit
+    else:
+        a.setdefault("units", "1")
     a.setdefault("long_name", name.replace("_", " "))
     return values, a
 
