@@ -59,6 +59,7 @@ from gearsweep.study.execute import (
     stream_to_file,
 )
 from gearsweep.study.plan import cases_beyond_step_limit, make_plan
+from gearsweep.study.provenance import command
 from gearsweep.study.schema import (
     MAX_STEPS_PER_PERIOD,
     is_netcdf,
@@ -700,7 +701,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv is None:
+        return _main(list(sys.argv[1:]))
+    with command(["gearsweep", *argv]):  # the result's history names this command
+        return _main(list(argv))
+
+
+def _main(argv: list[str]) -> int:
     debug = "--debug" in argv  # accepted anywhere on the command line
     argv = [a for a in argv if a != "--debug"]
     parser = build_parser()

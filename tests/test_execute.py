@@ -1014,3 +1014,22 @@ def test_a_default_output_that_is_a_symbolic_link_is_written_to_its_target(tmp_p
     assert main(["run", "s.yaml", "-q"]) == 0
     assert Path("results/s.nc").is_symlink()
     assert Path("store/s.nc").read_bytes()[:4] == b"\x89HDF"
+
+
+def test_history_names_the_command_main_was_given(tmp_path, small_whine):
+    """``main(["run", ...])`` from Python (scripts/main_job.py runs every study so) writes that
+    command into ``history``, not the process's ``sys.argv``: the main job's results said
+    ``main_job.py``, which does not say which study made them or where (found by an outside
+    reader of the main job's files)."""
+    import shlex
+
+    import yaml
+
+    study = tmp_path / "s.yaml"
+    study.write_text(yaml.safe_dump(small_whine))
+    out = tmp_path / "out.nc"
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 0
+    with xr.open_dataset(out) as ds:
+        history = ds.attrs["history"]
+    assert f": {shlex.join(['gearsweep', 'run', str(study), '-o', str(out), '-q'])} (gearsweep " \
+        in history, history

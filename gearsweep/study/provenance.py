@@ -7,6 +7,7 @@ to the software that made it.
 
 from __future__ import annotations
 
+import contextlib
 import platform
 import shlex
 import sys
@@ -23,8 +24,27 @@ def _version(dist: str) -> str:
         return "?"
 
 
+_command: list[str] | None = None
+"""The command ``cli.main`` was given when called from Python with its arguments (``command``):
+scripts/main_job.py runs every study as ``main(["run", STUDY, "-o", OUT, "-q"])``, and its results
+said ``main_job.py``, the process's ``sys.argv``, not the command that made them."""
+
+
+@contextlib.contextmanager
+def command(argv: list[str]):
+    """Within it, ``command_line()`` is ``argv`` (``["gearsweep", "run", ...]``)."""
+    global _command
+    before, _command = _command, list(argv)
+    try:
+        yield
+    finally:
+        _command = before
+
+
 def command_line() -> str:
     """The command that is running, as a user would type it (``gearsweep run s.yaml -o o.nc``)."""
+    if _command is not None:
+        return shlex.join(_command)
     argv = list(sys.argv) or ["python"]
     name = Path(argv[0]).name
     if name in ("gearsweep", "cli.py", "__main__.py") or argv[0] == "-m":
