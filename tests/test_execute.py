@@ -1033,3 +1033,20 @@ def test_history_names_the_command_main_was_given(tmp_path, small_whine):
         history = ds.attrs["history"]
     assert f": {shlex.join(['gearsweep', 'run', str(study), '-o', str(out), '-q'])} (gearsweep " \
         in history, history
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["/v/bin/gearsweep", "run", "s.yaml"], "gearsweep run s.yaml"),
+    (["/v/lib/site-packages/gearsweep/__main__.py", "run", "s.yaml"], "gearsweep run s.yaml"),
+    (["/v/lib/site-packages/pytest/__main__.py", "-q", "t.py"], "python -m pytest -q t.py"),
+    (["/home/u/mystudy/__main__.py", "o.nc"], "python -m mystudy o.nc"),
+    (["/home/u/tools/cli.py", "o.nc"], "cli.py o.nc"),
+])
+def test_history_command_of_another_program_is_not_called_gearsweep(monkeypatch, argv, expected):
+    """A program run as ``python -m PACKAGE`` (or a script named cli.py) that calls
+    ``gearsweep.run(..., output=...)`` was recorded as ``gearsweep ARGS``, a command that never
+    ran (``python -m mystudy o.nc`` gave ``gearsweep o.nc``)."""
+    from gearsweep.study.provenance import command_line
+
+    monkeypatch.setattr(sys, "argv", argv)
+    assert command_line() == expected

@@ -46,9 +46,13 @@ def command_line() -> str:
     if _command is not None:
         return shlex.join(_command)
     argv = list(sys.argv) or ["python"]
-    name = Path(argv[0]).name
-    if name in ("gearsweep", "cli.py", "__main__.py") or argv[0] == "-m":
+    path = Path(argv[0])
+    name = path.name
+    if name == "gearsweep" or argv[0] == "-m" or (
+            name in ("cli.py", "__main__.py") and path.parent.name == "gearsweep"):
         name = "gearsweep"
+    elif name == "__main__.py":  # python -m PACKAGE: another program (pytest, a user's package)
+        name = f"python -m {path.parent.name}"
     elif argv[0] in ("-c", ""):  # python -c '...' or an interactive session
         name = "python -c" if argv[0] == "-c" else "python"
     return " ".join([name, shlex.join(argv[1:])]).strip()
