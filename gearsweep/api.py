@@ -275,8 +275,9 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
         raise ResultError(f"give the result's Dataset (gearsweep.run or open_result), or a result"
                           f" file's path, not a {type(ds).__name__}")
     if "model" not in ds.attrs:
-        raise ResultError("this result carries no resolved model (a mesh study, or written by an"
-                          " older gearsweep)")
+        raise ResultError("this result carries no resolved model (a mesh or analysis study:"
+                          " only a dynamic study's result has one; or written by an older"
+                          " gearsweep)")
     model = model_from_record(json.loads(ds.attrs["model"]))
     # a swept dim that ``ds.sel``/``ds.isel`` made a scalar coordinate is selected at its value
     # (the model had the scene's value there, which the kernel did not run)

@@ -544,6 +544,17 @@ def test_result_model_of_a_data_array_asks_for_the_dataset(small_whine):
     assert gearsweep.result_model(ds).mass == pytest.approx(RIG.mass)
 
 
+def test_result_model_of_an_analysis_result_does_not_call_it_a_mesh_study():
+    """An analysis result has no model either: the message named only "a mesh study, or written
+    by an older gearsweep", wrong for an analysis result of this version (found by an outside
+    reader of the main job's files)."""
+    ds = gearsweep.run({"type": "analysis", "title": "limits", "analysis": {
+        "kind": "method_stability", "zeta": [0.3], "curve_points": 3, "zeta_max": 0.4,
+        "steps": 1000}})
+    with pytest.raises(ResultError, match="no resolved model .*analysis study"):
+        gearsweep.result_model(ds)
+
+
 def test_the_estimate_counts_numbas_threads(monkeypatch):
     """With NUMBA_NUM_THREADS=1 a run uses one core: the estimate said "on 2 cores", half the
     time (an API test)."""
