@@ -1041,6 +1041,7 @@ def test_history_names_the_command_main_was_given(tmp_path, small_whine):
     (["/v/lib/site-packages/pytest/__main__.py", "-q", "t.py"], "python -m pytest -q t.py"),
     (["/home/u/mystudy/__main__.py", "o.nc"], "python -m mystudy o.nc"),
     (["/home/u/tools/cli.py", "o.nc"], "cli.py o.nc"),
+    (["-", "o.nc"], "python - o.nc"),  # python - o.nc < script.py: it said "- o.nc"
 ])
 def test_history_command_of_another_program_is_not_called_gearsweep(monkeypatch, argv, expected):
     """A program run as ``python -m PACKAGE`` (or a script named cli.py) that calls

@@ -53,8 +53,8 @@ def command_line() -> str:
         name = "gearsweep"
     elif name == "__main__.py":  # python -m PACKAGE: another program (pytest, a user's package)
         name = f"python -m {path.parent.name}"
-    elif argv[0] in ("-c", ""):  # python -c '...' or an interactive session
-        name = "python -c" if argv[0] == "-c" else "python"
+    elif argv[0] in ("-c", "-", ""):  # python -c '...', a script from stdin, an interactive one
+        name = {"-c": "python -c", "-": "python -"}.get(argv[0], "python")
     return " ".join([name, shlex.join(argv[1:])]).strip()
 
 
