@@ -359,7 +359,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 ds = run_unchunked(study, text, out.parent)
             except StudyError as exc:
                 raise _in_file(exc, text, args.study) from None
-            write_netcdf(ds, out)
+            write_netcdf(ds, out, codec=args.codec)
         if not args.quiet:
             print(f"{out}: {study.type} study in {time.perf_counter() - t0:.2f} s")
         return 0

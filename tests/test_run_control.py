@@ -293,6 +293,25 @@ def test_codec_zlib_writes_the_same_numbers_for_readers_without_zstd(tmp_path):
             np.testing.assert_array_equal(z[name].values, zl[name].values)
 
 
+@pytest.mark.parametrize("text", [
+    "type: mesh\ntitle: m\ngear: table1_consistent\ntorque: 50 N m\npositions: 20\nharmonics: 2\n",
+    ("type: analysis\ntitle: a\nanalysis: {kind: method_stability, zeta: [0.3], curve_points: 3,"
+     " zeta_max: 0.4, steps: 1000}\n")])
+def test_codec_zlib_applies_to_mesh_and_analysis_results_too(tmp_path, text):
+    """``--codec zlib`` was dropped for a mesh or analysis study: its file was written with zstd,
+    which the reader the option is for cannot read (found by an outside reader of results)."""
+    study = tmp_path / "s.yaml"
+    study.write_text(text, encoding="utf-8")
+    out = tmp_path / "l.nc"
+    assert main(["run", str(study), "-o", str(out), "-q", "--codec", "zlib"]) == 0
+    with xr.open_dataset(out) as ds:
+        numeric = [n for n in ds.data_vars if ds[n].dtype.kind in "fiub" and ds[n].ndim]
+        assert numeric
+        for name in numeric:
+            assert ds[name].encoding.get("zlib") is True, name
+            assert not ds[name].encoding.get("zstd"), name
+
+
 def test_a_continued_sweep_too_long_for_one_chunk_is_said_before_running(tmp_path, capsys):
     """One continued sweep is never split (its state carries from speed to speed): when it alone
     lasts beyond the chunk target, the run says so before computing (issue 29: a kill loses at
