@@ -238,6 +238,31 @@ def test_run_study_without_its_text_gives_a_result_that_reads_back(small_whine):
     assert gearsweep.result_study(ds).model_dump() == study.model_dump()
 
 
+def test_the_result_names_the_model_fields_its_cases_did_not_run_with(small_whine):
+    """``model`` holds the scene's value of a swept field (``damping: 0.0`` in rattle_map.nc),
+    which no case ran; read without the code, the file said every case had it (an outside
+    tester's finding). ``model_swept`` names those fields; a speed sweep has none."""
+    import json
+
+    plain = gearsweep.run(small_whine)
+    assert "model_swept" not in plain.attrs
+    small_whine["sweep"]["damping"] = ["1 N*s/mm", "2 N*s/mm"]
+    small_whine["sweep"]["mean_force"] = ["500 N", "800 N"]
+    ds = gearsweep.run(small_whine)
+    assert ds.attrs["model_swept"].split() == ["damping", "mean_force"]
+    model = json.loads(ds.attrs["model"])
+    assert all(name in model for name in ds.attrs["model_swept"].split())
+    assert model["damping"] not in si_of(ds["damping"])  # the scene's, not a case's
+    case = gearsweep.result_model(ds, damping=2.0, mean_force=800.0)
+    assert case.damping == pytest.approx(2000.0)
+
+
+def si_of(da: xr.DataArray) -> list[float]:
+    from gearsweep.units import si_values
+
+    return [float(v) for v in np.ravel(si_values(da))]
+
+
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
     """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
     ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside

@@ -163,14 +163,40 @@ class Plan:
 
             study = self.study.model_dump(mode="json")
             study["solver"]["device"] = self.device
-            ex = getattr(getattr(self.study, "scene", None), "excitation", None)
-            if ex is not None:
-                with open(ex.file, "rb") as fh:
-                    study["scene"]["excitation"]["file_sha256"] = hashlib.file_digest(
-                        fh, "sha256").hexdigest()
+            if self.excitation_sha256 is not None:
+                study["scene"]["excitation"]["file_sha256"] = self.excitation_sha256
             dump = json.dumps(study, sort_keys=True)
             self.memo["study_key"] = hashlib.sha256(dump.encode()).hexdigest()
         return self.memo["study_key"]
+
+    @property
+    def excitation_sha256(self) -> str | None:
+        """sha256 of the bytes of the file the scene's k(t) and e(t) are fitted from
+        (``excitation.file``), read once; ``None`` without one. In the study key, and in the
+        result (``excitation_sha256``): the samples are not in the file, and the same study text
+        fitted to other samples gave other numbers under the same ``study_sha256``."""
+        if "excitation_sha256" not in self.memo:
+            ex = getattr(getattr(self.study, "scene", None), "excitation", None)
+            digest = None
+            if ex is not None:
+                with open(ex.file, "rb") as fh:
+                    digest = hashlib.file_digest(fh, "sha256").hexdigest()
+            self.memo["excitation_sha256"] = digest
+        return self.memo["excitation_sha256"]
+
+    @property
+    def model_swept(self) -> list[str]:
+        """The fields of ``model`` that hold the scene's own value where the cases had others:
+        each swept parameter (``torque`` as ``mean_force``), and with a gear scene that sweeps
+        its load, its k(t) and e(t) (those of the first load, unless a stiffness is typed beside
+        the gear). The result names them (``model_swept``): its ``model`` attribute alone read
+        as if every case had run with ``damping: 0.0`` (an outside tester's finding)."""
+        out = [("mean_force" if d == "torque" else d) for d in self.dims if d != "speed"]
+        if self.gear_load_swept:
+            typed_k = getattr(self.study.scene, "stiffness", None) is not None
+            out += [] if typed_k else ["stiffness", "stiffness_harmonics"]
+            out += ["ste_harmonics"]
+        return list(dict.fromkeys(out))
 
     @property
     def driven(self) -> bool:

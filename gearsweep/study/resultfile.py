@@ -266,6 +266,10 @@ def describe(plan: Any, elapsed: float | None = None, kernel: float | None = Non
     attrs = global_attrs(plan.study.title, plan.text, settings,
                          source=f"gearsweep study, scene {plan.study.scene.kind!r}")
     attrs["model"] = json.dumps(model_record(plan.model))
+    if plan.model_swept:
+        attrs["model_swept"] = " ".join(plan.model_swept)
+    if plan.excitation_sha256 is not None:
+        attrs["excitation_sha256"] = plan.excitation_sha256
     if getattr(plan.study.scene, "excitation", None) is not None and plan.study._base_folder:
         # where the study's relative paths were read from: its result runs again from there
         # (``api.result_study``; it looked in the working folder: no such file)
