@@ -349,6 +349,21 @@ def test_floquet_output_flags_the_integrator_on_the_rig():
                     rtol=5e-8)
 
 
+def test_skipped_cases_are_not_computed_and_their_flags_say_so():
+    """With ``step_guard: skip`` the 150 rpm cases are skipped (status 3), floquet_multiplier
+    NaN; ``unstable`` and ``integrator_unstable`` (booleans: no missing value) are false there,
+    which read as "stable" (an outside tester's finding): their long_names say so."""
+    from gearsweep.api import run_study
+    from gearsweep.study.schema import parse_study
+
+    ds = run_study(parse_study(RIG_STUDY.replace("solver: {", "solver: {step_guard: skip, ", 1)))
+    slow = ds.sel(speed=150.0)
+    assert (slow["status"] == 3).all() and slow["floquet_multiplier"].isnull().all()
+    assert not slow["unstable"].any() and not slow["integrator_unstable"].any()
+    for name in ("unstable", "integrator_unstable"):
+        assert "false also where floquet_multiplier is NaN" in ds[name].attrs["long_name"]
+
+
 def test_a_stability_map_of_a_users_own_result_has_its_units_teeth_and_ticks():
     """plot_operating_map, given a 30-tooth result's arrays, said '48 teeth', had no speed tick
     labels outside the paper's 100-2000 rpm, and drew the file's N s/mm as N s/m (1000 times

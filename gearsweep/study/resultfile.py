@@ -79,8 +79,9 @@ VARIABLES = {
     "spectrum": (UM, "single-sided amplitude spectrum of p over whole mesh periods"),
     "floquet_multiplier": ("1", "largest |mu| of the monodromy matrix"),
     "unstable": ("1", ("the equation is unstable (floquet_multiplier above the variable's threshold"
-                      " attribute)")),
-    "integrator_unstable": ("1", "the method and step diverge where the equation does not"),
+                      " attribute; false also where floquet_multiplier is NaN: not computed)")),
+    "integrator_unstable": ("1", ("the method and step diverge where the equation does not (false"
+                                  " also where floquet_multiplier is NaN: not computed)")),
     "status": ("1", "0 ok; nonzero flags a diverged, unsettled or skipped case"),
 }
 
