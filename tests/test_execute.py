@@ -1051,3 +1051,28 @@ def test_history_command_of_another_program_is_not_called_gearsweep(monkeypatch,
 
     monkeypatch.setattr(sys, "argv", argv)
     assert command_line() == expected
+
+
+def test_history_names_the_commit_of_a_git_checkout(tmp_path):
+    """The version was 0.1.0 for every commit: a result did not name the code that made it (an
+    outside data steward's finding). From a git checkout, ``history`` names the commit, read
+    from ``.git`` (a loose ref, a packed one, a detached HEAD); an installed wheel names none."""
+    from gearsweep.study.provenance import provenance, source_commit
+
+    sha = "0123456789abcdef0123456789abcdef01234567"
+    git = tmp_path / ".git"
+    assert source_commit(tmp_path) is None  # no checkout
+    (git / "refs" / "heads").mkdir(parents=True)
+    (git / "HEAD").write_text("ref: refs/heads/main\n")
+    (git / "refs" / "heads" / "main").write_text(sha + "\n")
+    assert source_commit(tmp_path) == sha[:12]
+    (git / "refs" / "heads" / "main").unlink()
+    (git / "packed-refs").write_text(f"# pack-refs with: peeled\n{sha[::-1]} refs/heads/other\n"
+                                     f"{sha} refs/heads/main\n")
+    assert source_commit(tmp_path) == sha[:12]
+    (git / "HEAD").write_text(sha[::-1] + "\n")  # detached
+    assert source_commit(tmp_path) == sha[::-1][:12]
+    (git / "HEAD").write_text("not a commit\n")
+    assert source_commit(tmp_path) is None
+    here = source_commit()  # this test's own checkout, if it is one
+    assert (f" commit {here}," in provenance()) == (here is not None)

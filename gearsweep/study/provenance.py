@@ -58,9 +58,32 @@ def command_line() -> str:
     return " ".join([name, shlex.join(argv[1:])]).strip()
 
 
+def source_commit(root: Path | None = None) -> str | None:
+    """The git commit of the checkout gearsweep runs from (its first 12 hex digits), read from
+    ``.git`` beside the package (no ``git`` process); ``None`` for an installed wheel or where
+    it cannot be read. The version alone (0.1.0 for every commit) did not name the code that
+    made a result (an outside data steward's finding). Edits not committed are not seen."""
+    git = (root or Path(__file__).resolve().parents[2]) / ".git"
+    try:
+        head = (git / "HEAD").read_text(encoding="ascii").strip()
+        if head.startswith("ref: "):
+            ref = head[5:]
+            loose = git / ref
+            if loose.is_file():
+                head = loose.read_text(encoding="ascii").strip()
+            else:  # packed by git gc: "<sha> <ref>" lines
+                packed = (git / "packed-refs").read_text(encoding="ascii").splitlines()
+                head = next(line.split()[0] for line in packed if line.endswith(" " + ref))
+    except (OSError, UnicodeDecodeError, StopIteration):  # no checkout (a wheel), a worktree
+        return None  # (.git is a file there), or unreadable
+    return head[:12] if len(head) >= 12 and all(c in "0123456789abcdef" for c in head) else None
+
+
 def provenance() -> str:
-    """``gearsweep run s.yaml -o o.nc (gearsweep 0.1.0, numba 0.60.0, numpy 2.1.0, ...)``."""
+    """``gearsweep run s.yaml -o o.nc (gearsweep 0.1.0 commit 0123456789ab, numba 0.60.0, ...)``
+    (the commit where gearsweep runs from a git checkout: ``source_commit``)."""
     versions = ", ".join(f"{d} {_version(d)}" for d in ("numba", "numpy", "xarray"))
-    return (f"{command_line()} (gearsweep {__version__}, {versions},"
-            f" Python {platform.python_version()})")
+    commit = source_commit()
+    ours = f"gearsweep {__version__}" + (f" commit {commit}" if commit else "")
+    return f"{command_line()} ({ours}, {versions}, Python {platform.python_version()})"
 
