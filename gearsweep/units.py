@@ -101,7 +101,7 @@ _UDUNITS_POWER = re.compile(r"(?<=[A-Za-z])(-?\d+)(?![\w.])")
 _SI_SHOWN = {"N*s/m": "N s/m"}
 """The SI units of ``KINDS`` as a study would write them, where pint's spelling differs."""
 _ANGLE_UNITS = ("radian", "degree", "revolution", "turn", "arcminute", "arcsecond", "grade",
-                "revolutions_per_minute", "cycle")
+                "revolutions_per_minute", "revolutions_per_second", "cycle")
 
 
 @cache

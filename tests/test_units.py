@@ -41,6 +41,7 @@ def test_each_spelling_parses_to_the_right_quantity(text, kind, si):
     ("50 Hz", 3000.0), ("0.05 kHz", 3000.0), ("50 rev/s", 3000.0), ("50 1/s", 3000.0),
     ("100 rad/s", 100 * 60 / (2 * math.pi)), ("360 deg/s", 60.0),
     ("3 krpm", 3000.0), ("3 kilorpm", 3000.0),  # prefixed rpm: an angular rate, not 2 pi off
+    ("50 rps", 3000.0), ("50 revolutions_per_second", 3000.0),  # pint's rps: 2 pi rad/s, not 2 pi rev/s
 ])
 def test_a_shaft_speed_in_hz_is_revolutions_per_second(text, rpm):
     """50 Hz at a shaft is 3000 rpm, not 50 rad/s (477.5 rpm): never 2 pi off."""
