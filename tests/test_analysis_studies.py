@@ -141,6 +141,24 @@ def test_static_start_is_the_drive_flank_equilibrium_of_each_load():
     assert np.abs(common.p_rms.values / swept.p_rms.values - 1).max() > 1e-6
 
 
+def test_static_start_of_a_negative_load_is_the_back_flank_equilibrium():
+    """A mean force below zero (coast side) presses the back flank: its static equilibrium is
+    -b + F_m / k0, where an unexcited, damped case stays at rest (p_pp 0). Started at
+    b + F_m / k0 (the drive flank's formula), the -500 N case began inside the backlash and
+    crossed it (p_pp 100.7 um at 0.1 mm backlash, status 2)."""
+    ds = gearsweep.run({
+        "title": "coast", "scene": {
+            "kind": "rattle", "mass": "0.1527 kg", "teeth": 48, "stiffness": "1073 kN/mm",
+            "damping": "5.5 N*s/mm", "backlash": "0.1 mm"},
+        "sweep": {"speed": ["3000 rpm"], "mean_force": ["-500 N", "500 N"]},
+        "solver": {"transient_periods": 0, "record_periods": 20,
+                   "initial_displacement": "static"}})
+    rest = np.array([-50.0 - 500 / 1073e3 * 1e3, 50.0 + 500 / 1073e3 * 1e3])  # um
+    assert_allclose(ds.p_mean.isel(speed=0).values, rest, rtol=1e-12)
+    assert (ds.p_pp.values < 1e-9).all()
+    assert (ds.status.values == 0).all()
+
+
 @pytest.mark.slow  # compiles the full-scene kernel
 def test_pinion_output_is_eq4_per_line_of_the_mesh_force():
     """``spectrum: {pinion: true}``: r2 theta2 per line is (r2^2 / I2) |W_k| / (2 pi f_k)^2 of

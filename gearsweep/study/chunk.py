@@ -131,7 +131,9 @@ def _merge(parts: list[tuple[np.ndarray, tuple]], n: int) -> tuple:
 
 def _start(plan: Plan, params: dict[str, np.ndarray], n: int) -> float | np.ndarray:
     """p at t = 0 of each case: the solver's ``initial_displacement``, or with ``static`` the
-    static equilibrium on the drive flank b + F_m / k0 of each case (at its own load)."""
+    static equilibrium of each case (at its own load) on the flank its load presses: b + F_m / k0
+    on the drive flank, -b + F_m / k0 on the back flank for F_m < 0 (b + F_m / k0 was in the gap
+    there, or past the back flank, and the case started with a flight across the backlash)."""
     s = plan.study.solver
     if s.initial_displacement != "static":
         return s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
@@ -139,7 +141,7 @@ def _start(plan: Plan, params: dict[str, np.ndarray], n: int) -> float | np.ndar
         raise ValueError("initial_displacement 'static' needs a gear scene, not Mathieu")
 
     half_gap, fm, k0 = _static_terms(plan, params, n)
-    return half_gap + fm / k0
+    return np.where(fm < 0, -half_gap, half_gap) + fm / k0
 
 
 def _static_terms(plan: Plan, params: dict[str, np.ndarray], n: int) -> tuple:

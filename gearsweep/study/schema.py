@@ -345,8 +345,9 @@ class Solver(Strict):
         " not a test of periodicity: an irregular motion may pass, docs/rattle.md)"))
     initial_displacement: Literal["static"] | Displacement = Field(
         0.0, description="p at t = 0 (Mathieu: a bare number; default 1); 'static': the static"
-        " equilibrium on the drive flank of each case, b + F_m / k0 (b = backlash / 2, k0 the"
-        " mean stiffness at the case's load)")
+        " equilibrium of each case on the flank its load presses, b + F_m / k0 (the drive flank;"
+        " -b + F_m / k0, the back flank, for F_m < 0; b = backlash / 2, k0 the mean stiffness at"
+        " the case's load)")
     initial_velocity: Annotated[Real, BeforeValidator(_bare_velocity)] = Field(
         0.0, allow_inf_nan=False, description="p' at t = 0 in m/s (a bare number)")
     device: Literal["cpu", "cuda", "auto"] = Field(
