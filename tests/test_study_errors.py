@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import WHINE_SCENE
 
@@ -16,6 +17,7 @@ from gearsweep.cli import main
 from gearsweep.errors import StudyError
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import parse_study
+from gearsweep.units import decimal_coordinates
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -1267,3 +1269,28 @@ def test_device_gpu_is_pointed_to_cuda():
         text = GOOD.replace("solver: {method", f"solver: {{device: {word}, method")
         assert _lines(text) == [(f"s.yaml:11: solver.device: '{word}' -- did you mean"
                                 f" '{meant}'? (allowed: cpu, cuda, auto)")]
+
+
+@pytest.mark.parametrize(("stop", "num", "spacing"), [
+    ("5000.0000000001 rpm", 5, "linear"), ("5000.000000001 rpm", 5, "linear"),
+    ("5000.0000000001 rpm", 5, "log"), ("5000.00000001 rpm", 5, "log"),
+    ("0.1000000000000002 mm", 3, "linear"), ("0.100000000002 mm", 3, "linear")])
+def test_a_range_finer_than_the_coordinates_digits_is_refused(stop, num, spacing):
+    """A list with two values that the result's 14-digit coordinate cannot tell apart is
+    refused; a range of such values was not ({start: 3000 rpm, stop: 3000.0000000001 rpm,
+    num: 5} wrote five speeds of 3000 rpm, and ds.sel(speed=3000) gave several). Truth: the
+    coordinate the file would hold, the range's grid rounded as the result rounds it."""
+    start = "0.1 mm" if stop.endswith("mm") else "5000 rpm"
+    name = "backlash" if stop.endswith("mm") else "speed"
+    a, b = (float(v.split()[0]) for v in (start, stop))
+    grid = np.geomspace(a, b, num) if spacing == "log" else np.linspace(a, b, num)
+    equal = len(set(decimal_coordinates(grid))) < num
+    text = GOOD.replace("  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                        f"  speed: [5000 rpm]\n  {name}: {{start: {start}, stop: {stop},"
+                        f" num: {num}, spacing: {spacing}}}" if name == "backlash" else
+                        f"  speed: {{start: {start}, stop: {stop}, num: {num}, spacing: {spacing}}}")
+    if equal:
+        lines = _lines(text)
+        assert len(lines) == 1 and f"sweep.{name}.num: {num} -- fewer values" in lines[0], lines
+    else:
+        parse_study(text, "s.yaml")

@@ -89,6 +89,7 @@ from gearsweep.study.quantities import (
     WholeStudy,
 )
 from gearsweep.units import (
+    COORDINATE_DIGITS,
     KINDS,
     QuantityKind,
     UnitParseError,
@@ -687,12 +688,32 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
                 end = "start" if a <= 0 else "stop"
                 out.append(Problem(f"sweep.{name}.{end}", getattr(spec, end),
                                    "above zero: log spacing needs positive start and stop"))
+            elif kind != "dimensionless" and spec.num > 1 and a < b and _finer_than_kept(
+                    shown, spec):  # [3000 rpm, 3000.00000000001 rpm] is refused above
+                out.append(Problem(f"sweep.{name}.num", spec.num, (
+                    f"fewer values from {spec.start!r} to {spec.stop!r}: {spec.num} of them are"
+                    f" closer than the {COORDINATE_DIGITS} significant digits the result's"
+                    " coordinate keeps, so some are equal there and ds.sel() cannot tell them"
+                    " apart")))
             elif with_order and a > b:  # equal only for num: 1 (above)
                 out.append(Problem(f"sweep.{name}.start", spec.start, (
                     f"start must be below stop ({spec.stop!r}): give a range in increasing order"
                     " (a down sweep is 'continuation: [down]')") if spec.num > 1 else (
                     f"start must be at most stop ({spec.stop!r}); one value is [value]")))
     return out
+
+
+def _finer_than_kept(shown: list[float], spec: Range) -> bool:
+    """Whether neighbouring points of the range ``shown`` (start, stop in the display unit) can
+    round to one value at ``COORDINATE_DIGITS`` significant digits: a linear step below the last
+    kept digit of the largest end, or a log ratio within 10^(1 - digits) of 1 (arithmetic
+    only: no grid is built)."""
+    a, b = shown
+    if spec.spacing == "log":
+        return (b / a) ** (1.0 / (spec.num - 1)) - 1.0 < 10.0 ** (1 - COORDINATE_DIGITS)
+    top = max(abs(a), abs(b))
+    unit = 10.0 ** (math.floor(math.log10(top)) - (COORDINATE_DIGITS - 1)) if top else 0.0
+    return (b - a) / (spec.num - 1) < unit
 
 
 def _check_grids(study, file: str, raw=None) -> None:
