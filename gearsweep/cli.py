@@ -600,6 +600,22 @@ def _looks_like_study(path: Path) -> bool:
                for line in text.splitlines() if ":" in line)
 
 
+def _steps_multiple(plan) -> int:
+    """What the advised steps per period must be a multiple of for this study to take it: 8, and
+    each samples_per_period an output fixes (a spectrum's): the advice of 536 steps for a study
+    with a 32-sample spectrum was refused by validate ('a multiple of 32')."""
+    from gearsweep.study.outputs import OUTPUTS, options_of
+
+    multiple = 8
+    for name in plan.outputs:
+        out = OUTPUTS[name]
+        if getattr(out, "options_model", None) is not None:
+            sps = getattr(options_of(plan, out), "samples_per_period", None)
+            if sps:
+                multiple = math.lcm(multiple, int(sps))
+    return multiple
+
+
 def cmd_advise(args: argparse.Namespace) -> int:
     """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
 
@@ -629,7 +645,8 @@ def cmd_advise(args: argparse.Namespace) -> int:
                backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=args.target,
                steps_per_period=s.steps_per_period,
                periods=s.transient_periods + s.record_periods,
-               cases_per_speed=plan.n_cases / len(grids["speed"]))  # priced as --estimate counts
+               cases_per_speed=plan.n_cases / len(grids["speed"]),  # priced as --estimate counts
+               multiple=_steps_multiple(plan))
     for n, how in ((a.steps_per_period, ""), (a.kink_steps_per_period, " kink-aware")):
         if n is not None and n > MAX_STEPS_PER_PERIOD:  # advice a study cannot take
             a.warnings.append(f"the{how} target needs {n} steps per mesh period, beyond the"

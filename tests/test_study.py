@@ -335,6 +335,35 @@ def test_cli_advise_prices_every_case_of_the_study(tmp_path, capsys):
     assert msteps == pytest.approx(12 * 210 * spp / 1e6, rel=5e-3)
 
 
+@pytest.mark.parametrize("target", ["1e-4", "1e-5", "1e-6"])
+def test_cli_advise_gives_steps_the_study_takes(tmp_path, capsys, target):
+    """The advised steps per period (plain and kink-aware), written into the study, pass the
+    study's own checks: for a rattle scene with a 32-sample spectrum the advice at 1e-4 was 536
+    steps, which validate refused ('a multiple of 32 (the samples per period the outputs
+    need)')."""
+    from gearsweep.study.plan import make_plan
+
+    text = textwrap.dedent("""\
+        title: rattle with a spectrum
+        scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm,
+                damping: 2 N*s/mm, backlash: 0.1 mm, mean_force: 100 N,
+                fluctuation: [{amplitude: 300 N, order: 1}]}
+        sweep:
+          speed: {start: 5000 rpm, stop: 12000 rpm, num: 3}
+        solver: {method: rk4, steps_per_period: 64, transient_periods: 10, record_periods: 10}
+        outputs: [stats, {spectrum: {max_order: 3, samples_per_period: 32}}]
+        """)
+    study = tmp_path / "s.yaml"
+    study.write_text(text)
+    assert cli(["advise", str(study), "--target", target]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    advised = [int(re.search(r"For a target of [\d.e+-]+: (\d+) steps per mesh period", flat)[1]),
+               int(re.search(r"needs (\d+) steps per period", flat)[1])]  # plain, kink-aware
+    for spp in advised:
+        t = text.replace("steps_per_period: 64", f"steps_per_period: {spp}")
+        make_plan(parse_study(t, "s.yaml"), t)  # raises StudyError if the study refuses it
+
+
 def test_step_guard_solved_once_per_study_matches_the_guard_per_case():
     """The guard's table over the dims it depends on (speed, damping, mass; not the force)
     gives, chunk by chunk, the verdict of ``_step_ok`` evaluated case by case."""

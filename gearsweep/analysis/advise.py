@@ -134,6 +134,7 @@ def advise(
     periods: int = 200,
     constants: dict | None = None,
     cases_per_speed: float = 1.0,
+    multiple: int = 8,
 ) -> Advice:
     """Steps per mesh period for a target accuracy, the cost, and stability warnings.
 
@@ -168,6 +169,9 @@ def advise(
     cases_per_speed : float
         Cases the study runs at each speed (its other swept parameters, both directions of a
         continued sweep), for the cost: a study's ``n_cases / len(speeds)``.
+    multiple : int
+        The advised steps per period is a multiple of this (8; a study whose outputs sample p
+        at a fixed number of points per period needs a multiple of that too).
 
     Returns
     -------
@@ -192,7 +196,7 @@ def advise(
     limit = stability_limit(method, min(zeta, 0.999))
     warnings = []
     hw = min(hw_target, 0.9 * limit)
-    spp = int(8 * math.ceil(2.0 * math.pi * wn / (omega_min * hw) / 8.0 - 1e-9))
+    spp = int(multiple * math.ceil(2.0 * math.pi * wn / (omega_min * hw) / multiple - 1e-9))
     hw_adv = 2.0 * math.pi * wn / (omega_min * spp)
     msteps = len(speeds) * cases_per_speed * periods * spp / 1e6
     chosen_err = None
@@ -213,7 +217,7 @@ def advise(
         alt = advise(mass=mass, k0=k0, damping=damping, speed_rpm=speeds, teeth=teeth,
                      k_harmonics=k_harmonics, backlash=backlash, method=method, kink_aware=True,
                      target=target, periods=periods, constants=constants,
-                     cases_per_speed=cases_per_speed)
+                     cases_per_speed=cases_per_speed, multiple=multiple)
         kink_spp, kink_msteps = alt.steps_per_period, alt.msteps
         warnings.append(
             f"with backlash the plain step converges only as h^2; kink-aware stepping "
