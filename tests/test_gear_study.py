@@ -455,3 +455,45 @@ def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continue
     assert (status.sel(speed=10000.0) != 3).all()
     assert ds.p_rms.sel(speed=1000.0).isnull().all()
     assert ds.p_rms.sel(speed=10000.0).notnull().all()
+
+
+def test_step_guard_of_a_swept_load_judges_each_load_by_its_own_stiffness():
+    """A relieved pair's k(t) changes with load (k0 163 kN/mm at 12.5 N m, 219 at 100 N m), so
+    at 16 RK5 steps per period the step limit falls at 1034 rpm for one and 1119 rpm for the
+    other. The guard judged every case by the first listed load's k(t): at 1080 rpm the 100 N m
+    case was within the limit after 12.5 N m and the 12.5 N m case beyond it after 100 N m.
+    Truth: each load in a study of its own; the counts of validate agree."""
+    import gearsweep
+    from gearsweep.study.plan import cases_beyond_step_limit, make_plan
+
+    def study(torques):
+        return textwrap.dedent(f"""\
+            title: guard per load
+            scene:
+              kind: whine
+              gear: {{preset: table1_consistent,
+                      tip_relief: {{amount: 6 um, shape: linear, start_at: single_contact}}}}
+              harmonics: 10
+              mass: 0.1527 kg
+              damping: 5.5 N*s/mm
+            sweep:
+              speed: [1000 rpm, 1080 rpm, 1200 rpm]
+              torque: {torques}
+            solver: {{method: rk5, steps_per_period: 16, transient_periods: 0,
+                      record_periods: 2}}
+            """)
+
+    alone = {}
+    for t in ("12.5 N*m", "100 N*m"):
+        with pytest.warns(gearsweep.errors.StepLimitWarning):
+            ds = gearsweep.run(study(f"[{t}]"))
+        alone[float(ds.torque[0])] = ds.beyond_step_limit.isel(torque=0).values
+    assert alone[100.0].tolist() == [True, True, False]  # the case the two loads judge apart
+    assert alone[12.5].tolist() == [True, False, False]
+    for order in ("[12.5 N*m, 100 N*m]", "[100 N*m, 12.5 N*m]"):
+        text = study(order)
+        with pytest.warns(gearsweep.errors.StepLimitWarning):
+            ds = gearsweep.run(text)
+        for t, want in alone.items():
+            assert ds.beyond_step_limit.sel(torque=t).values.tolist() == want.tolist(), order
+        assert cases_beyond_step_limit(make_plan(parse_study(text), text)) == 3

@@ -476,8 +476,21 @@ def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
     stability polynomial (the rule of ``gearsweep.analysis.stability.check_step``: steps per
     period >= T / h*).
     """
+    if plan.gear_load_swept and n:  # each case at its own load's k(t): the first load's k(t)
+        torques = plan.case_torques(params)  # judged every load, so a case's verdict hung on
+        ok = np.empty(n, bool)  # the order of the others (100 N m at 1080 rpm, 16 steps: beyond
+        for load in np.unique(torques):  # alone, within after 12.5 N m)
+            idx = np.flatnonzero(torques == load)
+            sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+            ok[idx] = _model_step_ok(plan, plan.model_for_load(float(load)), sub, len(idx))
+        return ok
+    return _model_step_ok(plan, plan.model, params, n)
+
+
+def _model_step_ok(plan: Plan, model, params: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """``_step_ok`` of cases that share the model ``model``."""
     s = plan.study.solver
-    *_, kmax, cm, period = hill_parameters(plan.model, params, n)
+    *_, kmax, cm, period = hill_parameters(model, params, n)
     h_star = _stable_steps(s.method, kmax, cm)
     with np.errstate(divide="ignore", invalid="ignore"):
         need = np.ceil(np.asarray(period, float) / h_star)
@@ -488,6 +501,13 @@ GUARD_PARAMS = ("alpha", "beta", "gamma", "speed", "mass", "stiffness", "damping
 """The swept parameters ``_step_ok`` depends on (those ``hill_parameters`` reads for its
 kmax/m, c/m and period)."""
 
+
+def _guard_dims(plan: Plan) -> tuple[str, ...]:
+    """The swept dims ``_step_ok`` depends on: ``GUARD_PARAMS``, and the load of a gear scene
+    that sweeps it (k(t) is the pair's at each load)."""
+    return GUARD_PARAMS + (("torque", "mean_force") if plan.gear_load_swept else ())
+
+
 _GUARD_TABLE_MAX = 1 << 20
 """Largest grid over the guard's dims that is solved once per study (else: per chunk)."""
 
@@ -497,7 +517,7 @@ def cases_beyond_step_limit(plan: Plan) -> int | None:
     (``_step_ok``, solved on the grid of the swept dims it depends on, speed included, before
     anything runs: ``gearsweep validate`` says so); ``None`` when that grid is larger than
     ``_GUARD_TABLE_MAX``."""
-    dims = [d for d in plan.dims if d in GUARD_PARAMS]
+    dims = [d for d in plan.dims if d in _guard_dims(plan)]
     m = math.prod(len(plan.grids[d]) for d in dims)
     if m > _GUARD_TABLE_MAX:
         return None
@@ -516,7 +536,7 @@ def _guard_table(plan: Plan) -> tuple[list[int], tuple[int, ...], np.ndarray] | 
     backlash besides speed and damping checks speeds x dampings once instead of every case.
     """
     if "guard" not in plan.memo:
-        pos = [i for i, d in enumerate(plan.lane_dims) if d in GUARD_PARAMS]
+        pos = [i for i, d in enumerate(plan.lane_dims) if d in _guard_dims(plan)]
         shape = tuple(len(plan.grids[plan.lane_dims[i]]) for i in pos)
         m = int(np.prod(shape, dtype=np.int64))
         table = None
