@@ -634,6 +634,12 @@ def cmd_advise(args: argparse.Namespace) -> int:
                          "a gear scene (whine, rattle, full): the Mathieu scene has no accuracy model")
     s = study.solver
     grids = plan.grids
+    if plan.gear_load_swept:
+        # k(t) is the pair's at each load: the stiffest sets omega_n (the first listed load's
+        # did, so the advice for [12.5 N m, 100 N m] and [100 N m, 12.5 N m] differed)
+        loads = plan.case_torques({n: grids[n] for n in ("torque", "mean_force") if n in grids})
+        model = max((plan.model_for_load(float(t)) for t in np.unique(loads)),
+                    key=lambda m: m.stiffness + sum(abs(h.amplitude) for h in m.stiffness_harmonics))
     k0 = float(np.max(grids["stiffness"])) if "stiffness" in grids else model.stiffness
     mass = float(np.min(grids["mass"])) if "mass" in grids else model.mass
     damping = float(np.min(grids["damping"])) if "damping" in grids else model.damping

@@ -497,3 +497,20 @@ def test_step_guard_of_a_swept_load_judges_each_load_by_its_own_stiffness():
         for t, want in alone.items():
             assert ds.beyond_step_limit.sel(torque=t).values.tolist() == want.tolist(), order
         assert cases_beyond_step_limit(make_plan(parse_study(text), text)) == 3
+
+
+def test_advise_of_a_swept_load_takes_the_stiffest_load(tmp_path, capsys):
+    """``advise`` reports omega_n 'at the largest stiffness'; for a relieved pair sweeping its
+    load it took the first listed load's k(t): 4.491e4 rad/s for [12.5 N m, 100 N m], 4.813e4
+    for [100 N m, 12.5 N m]. Truth: the advice for the stiffer load (100 N m) alone."""
+    base = (STUDIES / "fig06_mean_torque_relief.yaml").read_text(encoding="utf-8")
+    said = {}
+    for order in ("[100 N*m]", "[12.5 N*m, 100 N*m]", "[100 N*m, 12.5 N*m]"):
+        path = tmp_path / "s.yaml"
+        path.write_text(base.replace("torque: [12.5 N*m, 25 N*m, 50 N*m, 100 N*m]",
+                                     f"torque: {order}"))
+        assert main(["advise", str(path), "--target", "1e-6"]) == 0
+        flat = " ".join(capsys.readouterr().out.split())
+        said[order] = re.search(r"omega_n = ([\d.e+-]+) rad/s and damping ratio ([\d.]+)",
+                                flat).groups()
+    assert said["[12.5 N*m, 100 N*m]"] == said["[100 N*m]"] == said["[100 N*m, 12.5 N*m]"]
