@@ -814,3 +814,44 @@ def test_an_interruption_before_any_chunk_is_saved_leaves_no_chunk_folder(tmp_pa
     line = cli._interrupted_line(plan, out, None)
     assert line == "interrupted before the first chunk was saved: nothing to continue from"
     assert not chunk_folder(out).exists()
+
+
+@pytest.mark.parametrize("terms", [("fluctuation",), ("fluctuation", "ste", "stiffness_harmonics")])
+def test_the_estimate_counts_the_excitation_tables_of_a_long_cycle(terms):
+    """Orders 0.0208333 and 0.0208 make a cycle of 30,000 mesh periods: the kernel's tables (5
+    nodes a step over the cycle) are 38.4 MB each at 32 steps per period. The estimate said 300
+    MB whatever the cycle (a study peaking at 4.0 GB ran without --yes). Truth: the memory
+    NumPy allocates to build the kernel inputs (tracemalloc's peak)."""
+    import tracemalloc
+
+    import yaml
+
+    from gearsweep.model import kernel_inputs
+    from gearsweep.study.estimate import BASELINE_MEMORY, quick_estimate, table_bytes
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import parse_study
+
+    scene = {"kind": "whine", "mass": "0.1527 kg", "teeth": 48, "stiffness": "1073 kN/mm",
+             "damping": "5.5 N*s/mm", "mean_force": "833 N",
+             "fluctuation": [{"amplitude": "300 N", "order": 0.0208},
+                             {"amplitude": "1 N", "order": 0.0208333}],
+             "ste": [{"amplitude": "5 um", "order": 0.0208}],
+             "stiffness_harmonics": [{"amplitude": "100 kN/mm", "order": 0.0208}]}
+    for name in ("ste", "stiffness_harmonics"):
+        if name not in terms:
+            scene.pop(name)
+    text = yaml.safe_dump({"title": "long cycle", "scene": scene, "sweep": {"speed": [3000]},
+                           "solver": {"steps_per_period": 32, "transient_periods": 0,
+                                      "record_periods": 60000}})
+    plan = make_plan(parse_study(text), text)
+    assert plan.model.cycle_periods == 30000
+    tracemalloc.start()
+    try:
+        kernel_inputs(plan.model, {"speed": np.array([3000.0])}, 1, 32)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak > 1e8  # the tables are what matters here
+    assert peak <= 1.01 * table_bytes(plan, several=False) <= 1.5 * peak
+    est, _ = quick_estimate(plan)
+    assert est.memory_bytes >= BASELINE_MEMORY + peak / 1.01

@@ -13,6 +13,7 @@ import math
 
 from gearsweep.kernels import LANES, cuda
 from gearsweep.kernels.batch import COLD_COMPILE_SECONDS, compiled, specialisation
+from gearsweep.model import MeshModel
 from gearsweep.study import execute
 from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
@@ -59,6 +60,30 @@ def compile_seconds(plan: Plan, ask_cache: bool = True) -> float:
     return sum(seconds.values())
 
 
+TABLE_TEMPORARIES = 5
+"""Arrays of a table's size that building the tables holds besides the tables themselves
+(``fourier_table``: the phases, the argument, its cosine, the scaled cosine; rounded up).
+Measured on this 2-core machine (27 Nov 2026), peak resident memory of whine scenes whose
+orders 0.0208333 and 0.02083 make a cycle of 300,000 mesh periods: one 768 MB table (64 steps
+per period) 4.0 GB, 4.8 tables' worth beyond the baseline; three 384 MB tables (32 steps)
+3.29 GB, 7.8 tables' worth; both were estimated at 300 MB and ran without --yes."""
+
+
+def table_bytes(plan: Plan, several: bool = True) -> float:
+    """Memory of the excitation tables of the kernel's inputs [bytes]: stiffness, STE and force,
+    each 5 stage nodes per step over the excitation's cycle in float64, those of the next chunk
+    made while one computes (``several`` chunks), and ``TABLE_TEMPORARIES`` while one is built.
+    Negligible for mesh orders (one period); a shaft order's or a long cycle's is not."""
+    m = plan.model
+    if not isinstance(m, MeshModel):
+        return 0.0
+    n = sum(bool(h) for h in (m.stiffness_harmonics, m.ste_harmonics, m.force_harmonics))
+    if not n:
+        return 0.0
+    size = 5.0 * 8 * plan.study.solver.steps_per_period * m.cycle_periods
+    return size * ((2 if several else 1) * n + TABLE_TEMPORARIES)
+
+
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,
                    rate: float | None = None, ask_cache: bool = True) -> tuple[Estimate, float]:
     """(estimate at the stated rate, or at ``rate`` [Msteps/s per core] measured, of which
@@ -94,6 +119,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     if plan.device == "cuda":
         memory += cuda.HOST_MEMORY_BYTES
     count = full + (1 if rest else 0)
+    memory += table_bytes(plan, several=count > 1)
     ends = [(0, min(per, n))] + ([(n - (rest or per), n)] if count > 1 else [])
     count += len(with_short_ends(plan, ends, threads)) - len(ends)  # as chunks_to_run cuts them
     outputs_s = output_seconds(plan, count)
