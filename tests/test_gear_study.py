@@ -514,3 +514,29 @@ def test_advise_of_a_swept_load_takes_the_stiffest_load(tmp_path, capsys):
         said[order] = re.search(r"omega_n = ([\d.e+-]+) rad/s and damping ratio ([\d.]+)",
                                 flat).groups()
     assert said["[12.5 N*m, 100 N*m]"] == said["[100 N*m]"] == said["[100 N*m, 12.5 N*m]"]
+
+
+@pytest.mark.parametrize(("lines", "said"), [
+    ("  torque: 50 N*m\nsweep:\n  speed: [3000 rpm]\n", None),
+    ("sweep:\n  speed: [3000 rpm]\n  torque: [50 N*m, -50 N*m]\n",
+     "s.yaml:9: sweep.torque[1]: '-50 N*m'"),
+    ("sweep:\n  speed: [3000 rpm]\n  torque: [50 N*m, 0 N*m]\n", "s.yaml:9: sweep.torque[1]: '0 N*m'"),
+    ("sweep:\n  speed: [3000 rpm]\n  torque: {start: 0 N*m, stop: 50 N*m, num: 3}\n",
+     "s.yaml:9: sweep.torque.start: '0 N*m'"),
+    ("sweep:\n  speed: [3000 rpm]\n  mean_force: [800 N, -1 kN]\n",
+     "s.yaml:9: sweep.mean_force[1]: '-1 kN'"),
+    ("  mean_force: -800 N\nsweep:\n  speed: [3000 rpm]\n", "s.yaml:7: scene.mean_force: '-800 N'"),
+])
+def test_every_load_of_a_gear_scene_must_be_positive_in_one_line(lines, said):
+    """A gear scene's k(t) and STE are the pair's under its load: only the first swept load was
+    checked, so [50 N m, -50 N m] validated and the run stopped at the second load with 'the
+    mean torque -50.0 N m must be positive to load the mesh', naming no file, line or field."""
+    text = ("title: g\nscene:\n  kind: whine\n  gear: table1_consistent\n  mass: 0.1527 kg\n"
+            "  damping: 5.5 N*s/mm\n" + lines)
+    if said is None:
+        parse_study(text, "s.yaml")
+        return
+    with pytest.raises(StudyError) as err:
+        parse_study(text, "s.yaml")
+    assert str(err.value) == (f"{said} -- a positive load: a gear scene's k(t) and STE are the"
+                              " pair's under it, in the drive direction")

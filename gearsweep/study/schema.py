@@ -1410,11 +1410,32 @@ def first_load(study: Study) -> float | None:
     return None
 
 
+GEAR_LOAD = ("a positive load: a gear scene's k(t) and STE are the pair's under it, in the drive"
+             " direction")
+
+
 def _check_gear(study: Study, file: str, raw=None) -> None:
     """Geometry of a scene's gear pair: checked here, so ``validate`` refuses what ``run`` would."""
     sc = study.scene
     if getattr(sc, "gear", None) is None:
         return
+    problems = []  # every load is one the pair's k(t) and STE are computed at: the first alone
+    for name in ("torque", "mean_force"):  # was checked, so [50 N m, -50 N m] validated and
+        spec = study.sweep.get(name)  # run stopped at the second load, in a line of no field
+        if spec is not None:
+            keys = ["start", "stop"] if isinstance(spec, Range) else list(range(len(spec)))
+            values = ([to_si(spec.start, SWEEPABLE[name]), to_si(spec.stop, SWEEPABLE[name])]
+                      if isinstance(spec, Range) else study.grid(name))
+            bad = next((k for k, v in zip(keys, values, strict=True) if not v > 0), None)
+            if bad is not None:
+                where = f"sweep.{name}.{bad}" if isinstance(bad, str) else f"sweep.{name}[{bad}]"
+                shown = getattr(spec, bad) if isinstance(bad, str) else spec[bad]
+                problems.append(Problem(where, written_at(raw, where) or shown, GEAR_LOAD))
+        elif getattr(sc, name, None) is not None and not getattr(sc, name) > 0:
+            problems.append(Problem(f"scene.{name}", written_at(raw, f"scene.{name}")
+                                    or getattr(sc, name), GEAR_LOAD))
+    if problems:
+        raise _error(file, problems, raw)
     try:
         ex = scene_excitation(sc, first_load(study))
     except GeometryError as exc:
