@@ -26,7 +26,7 @@ from gearsweep.gear.excitation import DEFAULT_HARMONICS
 from gearsweep.gear.measured import fit_orders
 from gearsweep.model import MeshModel, model_record
 from gearsweep.study.outputs import status_attrs
-from gearsweep.study.provenance import provenance
+from gearsweep.study.provenance import command_line, provenance
 
 FILE_CHUNK_BYTES = 1 << 20
 """Uncompressed size of one chunk of a result variable in the file (at most) [bytes]."""
@@ -83,6 +83,11 @@ template of every study in studies/)."""
 
 HISTORY_STAMP = len("2026-11-26T04:41:00Z: ")
 """``history``'s time stamp before ``provenance()``."""
+
+COMMAND_BYTES = 4096
+"""``history``'s command line, at most (unless this process's own is longer): counted alike
+whichever command asks (``validate``, ``run --estimate``, the run itself), so that they give
+one estimate."""
 
 BTREE_FILL = 31
 """Chunks per node of a chunked variable's B-tree at least: HDF5 (netCDF-4 files use the 1.8
@@ -227,12 +232,15 @@ def _excitation_variables(plan: Any) -> list[FileVariable]:
 
 def global_text(plan: Any) -> int:
     """Bytes of the file's global attributes, at most: the study text, its title, the model
-    JSON and ``history`` (with this process's command line: a run's own; ``validate``'s is
-    shorter than the run's by its ``-o`` path) counted, the rest allowed for
-    (``GLOBAL_TEXT_BYTES``)."""
-    return (GLOBAL_TEXT_BYTES + HISTORY_STAMP + len(provenance().encode())
+    JSON (with ``model_swept`` and ``excitation_sha256``) and ``history`` (its command line as
+    ``COMMAND_BYTES``) counted, the rest allowed for (``GLOBAL_TEXT_BYTES``)."""
+    command = len(command_line().encode())
+    return (GLOBAL_TEXT_BYTES + HISTORY_STAMP + len(provenance().encode()) - command
+            + max(command, COMMAND_BYTES)
             + len(plan.text.encode()) + len(plan.study.title.encode())
-            + len(json.dumps(model_record(plan.model)).encode()))
+            + len(json.dumps(model_record(plan.model)).encode())
+            + len(" ".join(plan.model_swept))
+            + (64 if getattr(plan.study.scene, "excitation", None) is not None else 0))
 
 
 def output_bound(plan: Any) -> int:
