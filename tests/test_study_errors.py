@@ -130,6 +130,23 @@ def test_a_torque_fluctuation_needs_a_base_radius():
                 "s.yaml")
 
 
+def test_a_harmonic_order_given_twice_in_a_list_is_refused():
+    """An order left out is the harmonic's position + 1: ``[{amplitude: 5 um, order: 2},
+    {amplitude: 1 um}]`` was two order-2 harmonics, summed by the kernel with no word (an outside
+    tester measured 6 um at order 2). Refused at the second, in one line each list; the same
+    orders in different lists (k_2 beside e_2) are fine."""
+    text = GOOD.replace("mean_force: 100 N\n", (
+        "mean_force: 100 N\n  ste: [{amplitude: 5 um, order: 2}, {amplitude: 1 um}]\n"
+        "  fluctuation: [{amplitude: 300 N, order: 1}, {amplitude: 30 N, order: 1.0}]\n"))
+    assert _lines(text) == [
+        ("s.yaml:9: scene.ste[1]: '(left out: position + 1 = 2)' -- order 2 again"
+         " (scene.ste[0] has it): give each harmonic of a list its own order"),
+        ("s.yaml:10: scene.fluctuation[1].order: 1.0 -- order 1 again (scene.fluctuation[0]"
+         " has it): give each harmonic of a list its own order")]
+    parse_study(text.replace("{amplitude: 1 um}", "{amplitude: 1 um, order: 3}")
+                .replace("order: 1.0}", "order: 2}"), "s.yaml")
+
+
 def test_a_range_of_equal_values_is_refused():
     """``{start: 1 N s/mm, stop: 1 N s/mm, num: 3}`` gave three equal coordinates that sel()
     could not tell apart (as a value listed twice, which is refused); one value with num 1 is

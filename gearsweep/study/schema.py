@@ -113,7 +113,7 @@ class Drive(Strict):
 class StiffnessHarmonic(Strict):
     amplitude: Stiffness = Field(ge=0, description="k_n of Eq. (1)")
     order: Order | None = Field(None, gt=0, allow_inf_nan=False,
-                               description="mesh order (default: position + 1)")
+                               description="mesh order (default: position + 1; once per list)")
     phase: Angle | None = Field(None, description="phase a_n (default 0; beside a 'gear': the"
                                 " pair's phase of that order, so that k(t) and the pair's STE"
                                 " keep their relative phase)")
@@ -122,7 +122,7 @@ class StiffnessHarmonic(Strict):
 class SteHarmonic(Strict):
     amplitude: Displacement = Field(ge=0, description="STE harmonic e_n")
     order: Order | None = Field(None, gt=0, allow_inf_nan=False,
-                               description="mesh order (default: position + 1)")
+                               description="mesh order (default: position + 1; once per list)")
     phase: Angle = Field(0.0, description="phase")
 
 
@@ -492,6 +492,26 @@ def speed_problems(kind: str, swept: bool, given: bool, continuation: list) -> l
     return out
 
 
+def repeated_order_problems(scene) -> list[Problem]:
+    """A list of harmonics (``stiffness_harmonics``, ``ste``, ``fluctuation``) that gives one
+    order twice, at the second: the kernel summed them, with no word (an order left out is the
+    harmonic's position + 1, so ``[{amplitude: 5 um, order: 2}, {amplitude: 1 um}]`` was two
+    order-2 harmonics, 6 um; an outside tester's finding)."""
+    out = []
+    for name in ("stiffness_harmonics", "ste", "fluctuation"):
+        seen: dict[float, int] = {}
+        for i, h in enumerate(getattr(scene, name, None) or []):
+            order = float(h.order if h.order is not None else i + 1)
+            if order in seen:
+                given = h.order is not None
+                out.append(Problem(f"scene.{name}[{i}]" + (".order" if given else ""),
+                                   h.order if given else f"(left out: position + 1 = {i + 1})",
+                                   f"order {order:g} again (scene.{name}[{seen[order]}] has it):"
+                                   " give each harmonic of a list its own order"))
+            seen.setdefault(order, i)
+    return out
+
+
 def consistency_problems(study: Study) -> list[Problem]:
     """What the fields' own checks cannot see: sweep vs scene, outputs, continuation."""
     out: list[Problem] = []
@@ -499,6 +519,7 @@ def consistency_problems(study: Study) -> list[Problem]:
     out += sweep_name_problems(sc.kind, list(study.sweep))
     out += speed_problems(sc.kind, "speed" in study.sweep, getattr(sc, "speed", None) is not None,
                           study.continuation)
+    out += repeated_order_problems(sc)
     if sc.kind != "mathieu":
         if sc.gear is not None:
             out += gear_load_problems(list(study.sweep), any(
