@@ -147,6 +147,21 @@ def test_a_harmonic_order_given_twice_in_a_list_is_refused():
                 .replace("order: 1.0}", "order: 2}"), "s.yaml")
 
 
+def test_a_mass_swept_beside_a_drive_is_refused():
+    """The drive's inertias make the mass (Eq. 7) and a torque fluctuation's force with it; a
+    swept mass replaced the one and not the other, scaling the forcing by m_drive / m_swept (an
+    outside tester's finding). One line on the sweep."""
+    drive = ("  drive: {inertia_1: 1.6e-3 kg*m^2, inertia_2: 3.2e-4 kg*m^2,"
+             " base_radius_1: 56 mm, base_radius_2: 38 mm}\n")
+    text = (GOOD.replace("  mass: 0.1527 kg\n", drive)
+            .replace("sweep:\n", "sweep:\n  mass: [0.1 kg, 0.2 kg]\n"))
+    lines = _lines(text)
+    assert len(lines) == 1 and lines[0].startswith("s.yaml:") and (
+        "sweep.mass: '(swept)' -- a scene with scene.drive takes its mass from the drive's"
+        " inertias (Eq. 7)") in lines[0], lines
+    parse_study(text.replace("  mass: [0.1 kg, 0.2 kg]\n", ""), "s.yaml")
+
+
 def test_a_range_of_equal_values_is_refused():
     """``{start: 1 N s/mm, stop: 1 N s/mm, num: 3}`` gave three equal coordinates that sel()
     could not tell apart (as a value listed twice, which is refused); one value with num 1 is

@@ -520,6 +520,12 @@ def consistency_problems(study: Study) -> list[Problem]:
     out += speed_problems(sc.kind, "speed" in study.sweep, getattr(sc, "speed", None) is not None,
                           study.continuation)
     out += repeated_order_problems(sc)
+    if "mass" in study.sweep and getattr(sc, "drive", None) is not None:
+        # the drive's inertias make the mass (Eq. 7), and a torque fluctuation's force with it:
+        # a swept mass beside them scaled the forcing by m_drive / m_swept (an outside tester)
+        out.append(Problem("sweep.mass", "(swept)", "a scene with scene.drive takes its mass"
+                           " from the drive's inertias (Eq. 7): sweep a scene with scene.mass"
+                           " instead of scene.drive"))
     if sc.kind != "mathieu":
         if sc.gear is not None:
             out += gear_load_problems(list(study.sweep), any(
