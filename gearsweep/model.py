@@ -86,13 +86,25 @@ class MeshModel:
         """Mesh periods in one cycle of every excitation (1 unless some order is fractional)."""
         p = 1
         for hm in (*self.stiffness_harmonics, *self.ste_harmonics, *self.force_harmonics):
-            exact = Fraction(hm.order)
-            near = exact.limit_denominator(max(10 * self.teeth, 64))  # 0.0208333 is 1/48
-            if abs(float(near) - hm.order) > 1e-4 * hm.order:  # a decimal of 5 digits is its
-                near = exact.limit_denominator(10**6)  # fraction; 1/97 of 8 teeth is not 1/80
-            den = near.denominator
+            den = self._order_fraction(hm.order).denominator
             p = p * den // math.gcd(p, den)
         return p
+
+    def _order_fraction(self, order: float) -> Fraction:
+        exact = Fraction(order)
+        near = exact.limit_denominator(max(10 * self.teeth, 64))  # 0.0208333 is 1/48
+        if abs(float(near) - order) > 1e-4 * order:  # a decimal of 5 digits is its
+            near = exact.limit_denominator(10**6)  # fraction; 1/97 of 8 teeth is not 1/80
+        return near
+
+    def longest_cycle_order(self) -> tuple[float, Fraction] | None:
+        """The order whose fraction has the largest denominator (the one that makes the
+        excitation's cycle long), with that fraction; ``None`` when every order is whole."""
+        orders = [h.order for h in (*self.stiffness_harmonics, *self.ste_harmonics,
+                                    *self.force_harmonics)]
+        fractions = [(o, self._order_fraction(o)) for o in orders]
+        worst = max(fractions, key=lambda of: of[1].denominator, default=None)
+        return worst if worst is not None and worst[1].denominator > 1 else None
 
     def scene(self, speed_rpm: float) -> Scene:
         """This model at one shaft speed, divided by the mass (the reference solvers' form)."""

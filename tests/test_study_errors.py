@@ -937,8 +937,18 @@ def test_a_shaft_order_excitation_needs_two_whole_cycles_recorded(tmp_path, caps
     assert main(["validate", str(study)]) == 2
     assert capsys.readouterr().err == (
         f"gearsweep: error: {study}:13: solver.record_periods: 50 -- at least 96 for this"
-        " excitation (its cycle is 48 mesh periods: the settle test compares the extremes of"
-        " the record's two halves, each must hold a whole cycle)\n")
+        " excitation (its cycle is 48 mesh periods, set by order 0.0208333 = 1/48: the settle"
+        " test compares the extremes of the record's two halves, each must hold a whole"
+        " cycle)\n")
+    # a decimal that stands for a short fraction is named, with the fraction to write (0.3333
+    # is 3333/10000, a cycle of 10,000 periods; an outside tester's finding)
+    assert main(["validate", str(study)]) == 2
+    capsys.readouterr()
+    study.write_text(SHAFT_ORDER.replace("RECORD", "").replace("1/48", "0.3333"),
+                     encoding="utf-8")
+    assert main(["validate", str(study)]) == 2
+    assert ("its cycle is 10000 mesh periods, set by order 0.3333 = 3333/10000, write '1/3' if"
+            " that is meant:") in capsys.readouterr().err
     good = parse_study(SHAFT_ORDER.replace("RECORD", ", record_periods: 96"))
     assert good.scene.fluctuation[0].order == 1 / 48
     ds = run_study(good)

@@ -55,16 +55,27 @@ STATUS_CODES = {
 ``codes`` attributes, the reference's table, the estimate's attribute text)."""
 
 
-def record_periods_needed(cycle: int, multiple: bool = False) -> str:
+def record_periods_needed(cycle: int, multiple: bool = False, model: Any = None) -> str:
     """What a driven scene's ``record_periods`` must be for an excitation cycle of ``cycle`` mesh
     periods: two cycles at least (the settle test compares the extremes of the record's two
-    halves, each must hold a whole cycle); with ``multiple`` (a spectrum) also whole cycles."""
+    halves, each must hold a whole cycle); with ``multiple`` (a spectrum) also whole cycles.
+    With the ``model``, a long cycle names the order that sets it (0.3333 is 3333/10000, a
+    cycle of 10,000 periods, where 1/3 is one of 3: an outside tester's finding)."""
     what = f"a multiple of {cycle}, at least {2 * cycle}" if multiple and cycle > 1 \
         else f"at least {2 * cycle}"
+    source = model.longest_cycle_order() if cycle > 1 and model is not None and hasattr(
+        model, "longest_cycle_order") else None
+    why = ""
+    if source is not None:
+        order, exact = source
+        why = f", set by order {order:g} = {exact.numerator}/{exact.denominator}"
+        short = exact.limit_denominator(100)
+        if short != exact and abs(float(short) - order) <= 1e-3 * order:  # 0.3333 for 1/3
+            why += f", write '{short.numerator}/{short.denominator}' if that is meant"
     return (f"{what} for this excitation (its cycle is {cycle} mesh period"
-            f"{'s' if cycle != 1 else ''}: the settle test compares the extremes of the record's"
-            " two halves, each must hold a whole cycle" + ("; a spectrum needs whole cycles)"
-                                                          if multiple else ")"))
+            f"{'s' if cycle != 1 else ''}{why}: the settle test compares the extremes of the"
+            " record's two halves, each must hold a whole cycle" + (
+                "; a spectrum needs whole cycles)" if multiple else ")"))
 
 
 def status_attrs() -> dict[str, Any]:
@@ -240,7 +251,7 @@ class Spectrum:
         cycle = plan.model.cycle_periods if isinstance(plan.model, MeshModel) else 1
         if rec % cycle or (plan.driven and rec < 2 * cycle):  # both rules in one line
             problems.append((None, "solver.record_periods", rec,
-                             record_periods_needed(cycle, multiple=True) if plan.driven else
+                             record_periods_needed(cycle, True, plan.model) if plan.driven else
                              f"a multiple of {cycle} mesh periods (the cycle of the excitation)"
                              " for a spectrum without leakage"))
         try:

@@ -370,7 +370,7 @@ def _make_plan(study: Study, text: str) -> Plan:
     rec, cycle = study.solver.record_periods, getattr(plan.model, "cycle_periods", 1)
     if plan.driven and rec < 2 * cycle:
         problems.append(StudyError("<study>", "solver.record_periods", rec,
-                                   record_periods_needed(cycle)))
+                                   record_periods_needed(cycle, model=plan.model)))
     spp = study.solver.steps_per_period
     sps = None if refused else plan.samples_per_period()  # (options refused: their defaults
     if sps and spp % sps:  # are no guide to the samples the study asks for)
