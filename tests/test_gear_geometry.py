@@ -130,6 +130,9 @@ INCONSISTENT = [
     ({"thickness1": 3.0e-3, "thickness2": 3.0e-3, "backlash": 0.5e-3}, "cannot coexist"),
     ({"fillet_radius": 1.5e-3}, "does not fit the tooth space"),
     ({"contact_ratio_range": (1.0, 1.5)}, "outside the stated range [1, 1.5]"),
+    # tips that do not reach (22 + 42 mm < 70 mm) were said as "contact ratio -1.916"
+    ({"centre_distance": 70e-3}, ("the teeth do not reach each other: tip radii 22 + 42 mm ="
+     " 64 mm, not more than the centre distance 70 mm")),
 ]
 
 

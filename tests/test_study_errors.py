@@ -147,19 +147,33 @@ def test_a_harmonic_order_given_twice_in_a_list_is_refused():
                 .replace("order: 1.0}", "order: 2}"), "s.yaml")
 
 
-def test_a_mass_swept_beside_a_drive_is_refused():
-    """The drive's inertias make the mass (Eq. 7) and a torque fluctuation's force with it; a
-    swept mass replaced the one and not the other, scaling the forcing by m_drive / m_swept (an
-    outside tester's finding). One line on the sweep."""
+def test_a_mass_swept_beside_a_drive_and_a_torque_fluctuation_is_refused():
+    """A torque fluctuation's force is Eq. (7) of the drive's m_eq; a swept mass replaced the
+    mass and not that force, scaling the forcing by m_drive / m_swept (an outside tester's
+    finding). One line on the sweep; a force fluctuation, or no fluctuation, is as before (the
+    sweep replaces the drive's m_eq, which validate notes)."""
     drive = ("  drive: {inertia_1: 1.6e-3 kg*m^2, inertia_2: 3.2e-4 kg*m^2,"
-             " base_radius_1: 56 mm, base_radius_2: 38 mm}\n")
+             " base_radius_1: 56 mm, base_radius_2: 38 mm}\n"
+             "  fluctuation: [{amplitude: 5 N*m, order: 1}]\n")
     text = (GOOD.replace("  mass: 0.1527 kg\n", drive)
             .replace("sweep:\n", "sweep:\n  mass: [0.1 kg, 0.2 kg]\n"))
     lines = _lines(text)
     assert len(lines) == 1 and lines[0].startswith("s.yaml:") and (
-        "sweep.mass: '(swept)' -- a scene with scene.drive takes its mass from the drive's"
-        " inertias (Eq. 7)") in lines[0], lines
+        "sweep.mass: '(swept)' -- a torque fluctuation beside scene.drive is a force from the"
+        " drive's inertias (Eq. 7)") in lines[0], lines
     parse_study(text.replace("  mass: [0.1 kg, 0.2 kg]\n", ""), "s.yaml")
+    parse_study(text.replace("5 N*m", "300 N"), "s.yaml")
+
+
+def test_a_gear_field_written_for_the_pair_says_which_fields_it_is():
+    """``teeth: [20, 40]`` under a mesh study's gear was told "'teeth' is an unknown field --
+    did you mean 'teeth'?" (a scene's field; an outside tester's finding)."""
+    text = ("type: mesh\ntitle: t\ngear:\n  module: 2 mm\n  teeth: [20, 40]\n"
+            "  pressure_angle: 20 deg\n  face_width: 20 mm\ntorque: 50 N*m\n")
+    assert _lines(text) == [("s.yaml:5: gear.teeth: 'teeth' is not a field of gear -- did you"
+                            " mean z1 and z2 (the teeth of gear 1 and of gear 2)?")]
+    assert "did you mean 'face_width'" in _lines(text.replace("face_width", "facewidth")
+                                                  .replace("  teeth: [20, 40]", "  z1: 20\n  z2: 40"))[0]
 
 
 def test_a_range_of_equal_values_is_refused():

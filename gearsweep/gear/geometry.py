@@ -548,7 +548,14 @@ class GearPair:
                 f"(end of contact {(self.s_end - self.line_of_action_length) * mm:.3g} mm past T2)"
             )
         eps = self.contact_ratio
-        if eps < 1.0:
+        ra1, ra2 = self.tip_radius
+        a = self.operating_centre_distance
+        if ra1 + ra2 <= a:  # said as "contact ratio -1.916" (an outside tester's finding)
+            out.append(
+                f"the teeth do not reach each other: tip radii {ra1 * mm:.4g} + {ra2 * mm:.4g} mm"
+                f" = {(ra1 + ra2) * mm:.4g} mm, not more than the centre distance {a * mm:.4g} mm"
+            )
+        elif eps < 1.0:
             out.append(
                 f"contact ratio {eps:.3f} is below 1: path of contact "
                 f"{self.path_of_contact * mm:.4g} mm is shorter than the base pitch "

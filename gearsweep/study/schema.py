@@ -520,12 +520,14 @@ def consistency_problems(study: Study) -> list[Problem]:
     out += speed_problems(sc.kind, "speed" in study.sweep, getattr(sc, "speed", None) is not None,
                           study.continuation)
     out += repeated_order_problems(sc)
-    if "mass" in study.sweep and getattr(sc, "drive", None) is not None:
-        # the drive's inertias make the mass (Eq. 7), and a torque fluctuation's force with it:
-        # a swept mass beside them scaled the forcing by m_drive / m_swept (an outside tester)
-        out.append(Problem("sweep.mass", "(swept)", "a scene with scene.drive takes its mass"
-                           " from the drive's inertias (Eq. 7): sweep a scene with scene.mass"
-                           " instead of scene.drive"))
+    if "mass" in study.sweep and getattr(sc, "drive", None) is not None and any(
+            f.is_torque for f in getattr(sc, "fluctuation", [])):
+        # a torque fluctuation's force is Eq. (7) of the drive's m_eq: a swept mass replaced the
+        # one and not the other, scaling the forcing by m_drive / m_swept (an outside tester)
+        out.append(Problem("sweep.mass", "(swept)", "a torque fluctuation beside scene.drive is"
+                           " a force from the drive's inertias (Eq. 7), which a swept mass"
+                           " would contradict: give the fluctuation as a force, or sweep a"
+                           " scene with scene.mass instead of scene.drive"))
     if sc.kind != "mathieu":
         if sc.gear is not None:
             out += gear_load_problems(list(study.sweep), any(
@@ -1024,6 +1026,11 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
                                        *AnalysisStudy.model_fields]))
         where = "a study"
         listed = (f"{article(own)} study", tuple(studies[own].model_fields))
+    elif parent and parent[-1] == "gear":  # a mesh study's or a scene's pair
+        choices, where = tuple(GearSpec.model_fields), "gear"
+        pair = GEAR_WORDS.get(key)
+        if pair:  # 'teeth: [20, 40]' was told "did you mean 'teeth'?" (a scene's field)
+            return f"{key!r} is not a field of gear -- did you mean {pair}?", None
     elif len(parent) == 1 and parent[0] in _TAGGED:
         noun, kinds = parent[0], _TAGGED[parent[0]]
         held = raw.get(noun) if isinstance(raw, dict) else None
@@ -1045,6 +1052,15 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
         hint or f"; its fields: {', '.join(c for c in choices if c != 'kind')}"), meant
 
 
+GEAR_WORDS = {"teeth": "z1 and z2 (the teeth of gear 1 and of gear 2)",
+              "z": "z1 and z2 (the teeth of gear 1 and of gear 2)",
+              "shift": "x1 and x2 (the profile shifts)",
+              "profile_shift": "x1 and x2 (the profile shifts)",
+              "tip_radius": "tip_radius1 and tip_radius2",
+              "root_radius": "root_radius1 and root_radius2"}
+"""Fields a user writes for a pair that a gear spells per gear (an outside tester wrote
+``teeth: [20, 40]``)."""
+
 SYNONYMS = {"gpu": "cuda", "nvidia": "cuda"}
 """Words a user writes for a choice by another name: ``device: gpu`` means ``cuda`` (by spelling
 it was nearest to ``cpu``, and the hint said so; found by an outside test)."""
@@ -1056,7 +1072,7 @@ def _closest(word: Any, choices) -> str | None:
     if meant in names:
         return meant
     close = difflib.get_close_matches(str(word), names, n=1, cutoff=0.6)
-    return close[0] if close else None
+    return close[0] if close and close[0] != str(word) else None  # (never itself)
 
 
 def _did_you_mean(word: Any, choices) -> str:
