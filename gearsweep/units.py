@@ -286,6 +286,12 @@ def _to_si_pint(value: object, kind: str) -> float:
         return _bare(value, KINDS["dimensionless"], float(q.to("1/min").magnitude))
     if k.name == "angle" and q.dimensionless and not any(u in _ANGLE_UNITS for u in roots):
         raise UnitParseError(f"{value!r} is not an angle; write e.g. '30 deg' or '0.5 rad'")
+    if k.name not in ("angle", "speed") and any(u in _ANGLE_UNITS for u in roots):
+        # pint takes an angle for a plain number: '0.5 mm/rad' was read as 0.5 mm, '5 deg*mm'
+        # as 0.087 mm, '1 rad/s' as a frequency of 1 Hz (an outside tester's finding)
+        what = "a plain number" if k.name == "dimensionless" else article(kind)
+        raise UnitParseError(f"{value!r} has an angle unit, which {what} does not have;"
+                             f" write e.g. '1 {unit_hint}'")
     try:
         out = q.to(k.si) if k.si else q.to("dimensionless")
     except pint.DimensionalityError:

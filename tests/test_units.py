@@ -289,3 +289,17 @@ def test_an_unusable_numba_cache_dir_leaves_the_caches_beside_the_package(tmp_pa
     assert cache_folder(u.__file__) == Path(u.__file__).parent / "__pycache__"
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))  # one it can make: there
     assert cache_folder(u.__file__) == tmp_path / "cache" / "gearsweep"
+
+
+@pytest.mark.parametrize(("text", "kind"), [("0.5 mm/rad", "length"), ("5 deg*mm", "length"),
+                                            ("3 N*m/rad", "torque"), ("1 rad/s", "frequency"),
+                                            ("1073 kN/mm/rad", "stiffness"),
+                                            ("2 rad", "dimensionless")])
+def test_an_angle_unit_in_a_quantity_that_has_none_is_refused(text, kind):
+    """pint reads an angle as a plain number: '0.5 mm/rad' was taken for 0.5 mm and '1 rad/s'
+    for a frequency of 1 Hz (2 pi off; an outside tester's finding). An angle and a speed keep
+    theirs."""
+    with pytest.raises(UnitParseError, match="has an angle unit"):
+        to_si(text, kind)
+    assert to_si("30 deg", "angle") == pytest.approx(math.pi / 6)
+    assert to_si("2 pi rad/s", "speed") == pytest.approx(60.0)
