@@ -7,7 +7,8 @@
 Layers, each importing only from those below it (``docs/architecture.md``; import-linter checks):
 
 * ``gearsweep.cli``      -- the command line over ``api``.
-* ``gearsweep.api``      -- ``run``, ``open_result``, ``result_model``, ``result_study``.
+* ``gearsweep.api``      -- ``run``, ``estimate``, ``open_result``, ``result_model``,
+  ``result_study``.
 * ``gearsweep.study``    -- YAML -> schema -> plan -> chunks -> kernel -> Dataset -> netCDF.
   ``gearsweep.plot``     -- plot functions that draw Datasets (never import ``study``).
 * ``gearsweep.analysis`` -- harmonic balance, Floquet, spectra, references, the step advisor.
@@ -19,7 +20,7 @@ Layers, each importing only from those below it (``docs/architecture.md``; impor
 
 from gearsweep._version import __version__
 
-_API = ("run", "open_result", "result_model", "result_study")
+_API = ("run", "estimate", "open_result", "result_model", "result_study")
 _MODULES = ("analysis", "api", "errors", "gear", "kernels", "model", "plot", "study", "units")
 """Subpackages and modules reachable as attributes after ``import gearsweep`` alone
 (``gearsweep.units.si_values(da)``, as the README writes it, raised AttributeError until some

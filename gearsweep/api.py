@@ -34,7 +34,17 @@ from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, model_
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_specs import AnalysisStudy
 from gearsweep.study.dataset import write_netcdf
-from gearsweep.study.execute import InProcess, run_plan, run_to_file, step_limit_warning
+from gearsweep.study.estimate import before_refusing, quick_estimate
+from gearsweep.study.estimate import chunk_cases as chunk_size
+from gearsweep.study.execute import (
+    LIMITS,
+    Estimate,
+    InProcess,
+    check_limits,
+    run_plan,
+    run_to_file,
+    step_limit_warning,
+)
 from gearsweep.study.mesh import run_mesh_study
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study, study_text
@@ -167,8 +177,41 @@ def _warn_step_limit(plan, ds: xr.Dataset, where: str | Path) -> None:
         warnings.warn(found, stacklevel=3)
 
 
+def estimate(study: StudyLike, *, chunk_cases: int | None = None) -> Estimate:
+    """What running a dynamic study in this process would take, before anything runs: the
+    estimate ``gearsweep run --estimate`` prints (``.line()``: its text; ``.seconds``,
+    ``.memory_bytes``, ``.output_bytes``: wall time with any one-time compile, peak memory of a
+    run that writes a file, and the file's upper bound; ``.over()``: the limits it passes).
+
+    Raises
+    ------
+    StudyError
+        For a mesh or analysis study (computed in one piece, with no estimate), and as ``run``.
+    """
+    st, text, name = _load(study)
+    if isinstance(st, MeshStudy | AnalysisStudy):
+        raise StudyError(name, "type", st.type, "a dynamic study (a mesh or analysis study is"
+                         " computed in one piece, with no estimate)")
+    plan = make_plan(st, text, name)
+    return quick_estimate(plan, chunk_size(plan, chunk_cases)[0])[0]
+
+
+def _within_limits(plan, chunk_cases: int | None, in_memory: bool, where: str) -> None:
+    """``run``'s check of the CLI's limits (``LimitError`` with the estimate, as ``gearsweep run``
+    without ``--yes``): a study the CLI refused, ``run`` started (a 1e9-case study raised
+    MemoryError for 7.45 GiB after 0.6 s; an outside tester's finding). A result held in memory
+    (no ``output``) counts its arrays in the peak memory, and has no file to limit."""
+    chunk = chunk_size(plan, chunk_cases)[0]
+    est, _ = before_refusing(plan, quick_estimate(plan, chunk)[0], chunk)
+    limits = LIMITS
+    if in_memory:
+        est = dataclasses.replace(est, memory_bytes=est.memory_bytes + est.output_bytes)
+        limits = dataclasses.replace(LIMITS, output_bytes=math.inf)
+    check_limits(est, where, limits, ahead="pass yes=True to go ahead")
+
+
 def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = False,
-        chunk_cases: int | None = None) -> xr.Dataset:
+        chunk_cases: int | None = None, yes: bool = False) -> xr.Dataset:
     """Validate and run a study in this process; return its Dataset.
 
     Parameters
@@ -183,6 +226,11 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         Show a progress bar per chunk (stderr).
     chunk_cases : int, optional
         About this many cases per chunk (default: sized from the step count).
+    yes : bool
+        Run a study predicted beyond the limits too (10 min, 2 GB of memory, 2 GB of output:
+        ``estimate``); without it such a study raises ``LimitError`` before anything runs, as
+        ``gearsweep run`` without ``--yes`` refuses it. Without ``output`` the result's arrays
+        count in the memory.
 
     Returns
     -------
@@ -224,6 +272,8 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
             write_netcdf(ds, output)
         return ds
     plan = make_plan(st, text, name)
+    if not yes:
+        _within_limits(plan, chunk_cases, output is None, name if output is None else str(output))
     if output is None:
         ds = run_plan(plan, backend=InProcess(), progress=progress, chunk_cases=chunk_cases)
     else:
@@ -349,4 +399,4 @@ def result_study(ds: xr.Dataset | str | Path) -> Study | MeshStudy:
     return parse_study(ds.attrs["study"], "<result>", base=ds.attrs.get("study_folder"))
 
 
-__all__ = ["load", "open_result", "result_model", "result_study", "run", "run_study"]
+__all__ = ["estimate", "load", "open_result", "result_model", "result_study", "run", "run_study"]

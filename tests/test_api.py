@@ -263,6 +263,48 @@ def si_of(da: xr.DataArray) -> list[float]:
     return [float(v) for v in np.ravel(si_values(da))]
 
 
+SCALE = (ROOT / "studies" / "heavy" / "scale_1e6.yaml").read_text(encoding="utf-8")
+
+
+def _scale(speeds: int) -> str:
+    """The 1e6-case scale study with ``speeds`` speeds (x 10,000 cases)."""
+    old = "speed: {start: 2000 rpm, stop: 12000 rpm, num: 100}"
+    assert old in SCALE
+    return SCALE.replace(old, f"speed: {{start: 2000 rpm, stop: 12000 rpm, num: {speeds}}}")
+
+
+def test_estimate_from_python_is_the_clis(small_whine, write_study, capsys):
+    """``gearsweep.estimate``: the estimate ``run --estimate`` prints, from Python (it needed
+    ``quick_estimate(make_plan(...))``; an outside tester's finding)."""
+    path = write_study(small_whine)
+    est = gearsweep.estimate(path)
+    assert cli(["run", str(path), "--estimate"]) == 0
+    assert capsys.readouterr().out.strip() == f"{path}: {est.line()}"
+    assert est.cases == 7 and not est.over()
+    with pytest.raises(StudyError, match="type: 'mesh' -- a dynamic study"):
+        gearsweep.estimate(ROOT / "studies" / "mesh_ste_vs_load.yaml")
+
+
+def test_run_refuses_what_the_cli_refuses_unless_yes():
+    """A study the CLI refuses without --yes, ``gearsweep.run`` started: 1e9 cases raised
+    MemoryError for 7.45 GiB after 0.6 s (an outside tester's finding). Now one LimitError
+    with the estimate, before anything runs; a result held in memory counts its arrays (2e7
+    cases: 531 MB streamed to a file, 2.02 GB held), which a file does not."""
+    from gearsweep.api import _load, _within_limits
+    from gearsweep.errors import LimitError
+    from gearsweep.study.plan import make_plan
+
+    with pytest.raises(LimitError, match=r"refused \(time > 10.0 min, memory > 2 GB\): "
+                                         r"1,000,000,000 cases.*; pass yes=True to go ahead"):
+        gearsweep.run(_scale(100_000))
+    st, text, name = _load(_scale(2000))
+    plan = make_plan(st, text, name)
+    assert gearsweep.estimate(_scale(2000)).memory_bytes < 1e9
+    _within_limits(plan, None, False, "r.nc")  # streamed to a file: within the limits
+    with pytest.raises(LimitError, match=r"refused \(memory > 2 GB\): 20,000,000 cases"):
+        _within_limits(plan, None, True, name)
+
+
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
     """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
     ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside

@@ -352,12 +352,13 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
                     memory_bytes=memory, output_bytes=output, output_seconds=outputs_s)
 
 
-def check_limits(est: Estimate, where: str, limits: Limits | None = None) -> None:
-    """Raise ``LimitError`` (one line, with the estimate) if ``est`` is beyond ``limits``."""
+def check_limits(est: Estimate, where: str, limits: Limits | None = None,
+                 ahead: str = "run with --yes to go ahead") -> None:
+    """Raise ``LimitError`` (one line, with the estimate, then ``ahead``: how to go ahead) if
+    ``est`` is beyond ``limits``."""
     over = est.over(limits or LIMITS)
     if over:
-        raise LimitError(f"{where}: refused ({', '.join(over)}): {est.line()};"
-                         f" run with --yes to go ahead")
+        raise LimitError(f"{where}: refused ({', '.join(over)}): {est.line()}; {ahead}")
 
 
 # ------------------------------------------------------------------------------------ backends
