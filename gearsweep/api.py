@@ -34,7 +34,7 @@ from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, model_
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_specs import AnalysisStudy
 from gearsweep.study.dataset import write_netcdf
-from gearsweep.study.estimate import before_refusing, quick_estimate
+from gearsweep.study.estimate import before_refusing, quick_estimate, small_chunk_note
 from gearsweep.study.estimate import chunk_cases as chunk_size
 from gearsweep.study.execute import (
     LIMITS,
@@ -274,6 +274,9 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     plan = make_plan(st, text, name)
     if not yes:
         _within_limits(plan, chunk_cases, output is None, name if output is None else str(output))
+    small = small_chunk_note(plan, chunk_cases)
+    if small:  # the CLI's note for --chunk-size
+        warnings.warn(f"{name}: chunk_cases={chunk_cases}: {small}", stacklevel=2)
     if output is None:
         ds = run_plan(plan, backend=InProcess(), progress=progress, chunk_cases=chunk_cases)
     else:

@@ -46,6 +46,7 @@ from gearsweep.study.estimate import (
     chunk_cases,
     quick_estimate,
     shortest_chunk_seconds,
+    small_chunk_note,
 )
 from gearsweep.study.execute import (
     LIMITS,
@@ -388,6 +389,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if asked and not args.quiet:
             print(f"gearsweep: note: {out}: resuming in the interrupted run's {len(saved)} chunks;"
                   f" the chunks of {' and '.join(asked)} apply to a fresh run", file=sys.stderr)
+    small = None if saved or args.workers else small_chunk_note(plan, args.chunk_size)
+    if small and not args.quiet:
+        print(f"gearsweep: note: {name}: --chunk-size {args.chunk_size}: {small}", file=sys.stderr)
     if capped and args.chunk_size is not None and not args.quiet:
         print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than the"
               f" runner's (at most {CHUNK_SECONDS:.0f} s, and at least {PROGRESS_CHUNKS} chunks"

@@ -305,6 +305,30 @@ def test_run_refuses_what_the_cli_refuses_unless_yes():
         _within_limits(plan, None, True, name)
 
 
+def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_study, capsys):
+    """The kernel computes LANES lanes a block on each core: chunks of fewer run mostly empty
+    blocks (a continued 1e6-case study in chunks of 2,000 cases took 58 s against 5.5 s by
+    default; an outside tester's finding; here 25x on 10,000 cases). ``run`` warns it and the
+    CLI notes it; the default chunks and a study smaller than one round say nothing."""
+    import warnings
+
+    from gearsweep.kernels import LANES
+    from gearsweep.study.execute import cores
+
+    with pytest.warns(UserWarning, match=r"chunk_cases=2: chunks of 2 cases are 2 cases each,"
+                                         r" where the kernel computes \d+ at a time"):
+        gearsweep.run(small_whine, chunk_cases=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        gearsweep.run(small_whine)
+        gearsweep.run(small_whine, chunk_cases=7)  # one chunk: all of the study
+    path = write_study(small_whine)
+    assert cli(["run", str(path), "-o", str(path.with_suffix(".nc")), "--chunk-size", "3"]) == 0
+    err = capsys.readouterr().err
+    assert "--chunk-size 3: chunks of 3 cases are 3 cases each" in err
+    assert f"at least {LANES * cores()} cases per chunk avoid it" in err  # a case per lane
+
+
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
     """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
     ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside
@@ -344,7 +368,9 @@ def test_bad_output_and_chunk_cases_from_python_are_one_line(small_whine):
             gearsweep.run(small_whine, **kw)
         assert "\n" not in str(err.value)
     # a NumPy whole number is a whole number (np.int64(2) was refused; an adversarial test)
-    assert gearsweep.run(small_whine, chunk_cases=np.int64(2)).equals(gearsweep.run(small_whine))
+    with pytest.warns(UserWarning, match="chunk_cases=2: chunks of 2 cases"):  # (small)
+        two = gearsweep.run(small_whine, chunk_cases=np.int64(2))
+    assert two.equals(gearsweep.run(small_whine))
 
 
 def test_a_response_that_has_died_away_is_settled():
