@@ -145,6 +145,21 @@ def test_a_study_changed_in_python_is_checked_and_its_result_reads_back(small_wh
     _same(gearsweep.run(back), ds)
 
 
+def test_a_study_changed_in_python_with_numpy_values_reads_back(small_whine):
+    """A value set with ``model_copy(update=...)`` from a numpy array is a numpy scalar: its
+    text was 'np.float64(0.2) kg' (refused: "unknown unit 'np'") and an np.int64 one PyYAML's
+    RepresenterError; as in a dict study, it is its plain value."""
+    from gearsweep.study.schema import parse_study, study_text
+
+    study, _ = load(small_whine)
+    changed = study.model_copy(update={
+        "scene": study.scene.model_copy(update={"mass": np.float64(0.2)}),
+        "solver": study.solver.model_copy(update={"record_periods": np.int64(20)})})
+    again = parse_study(study_text(changed), "<study>")
+    assert (again.scene.mass, again.solver.record_periods) == (0.2, 20)
+    assert gearsweep.estimate(changed).output_bytes == gearsweep.estimate(again).output_bytes
+
+
 def test_numpy_values_and_other_python_types_in_a_dict_study(small_whine):
     """numpy scalars and arrays, tuples and Paths are what a study built in Python holds: they
     run as their plain values (they crashed inside PyYAML); anything else is one StudyError."""

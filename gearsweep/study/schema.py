@@ -1382,6 +1382,8 @@ def _with_units(value: Any, kind: str | None = None) -> Any:
         return [_with_units(v, kind) for v in value]
     if isinstance(value, dict):
         return {k: _with_units(v, kind) for k, v in value.items()}
+    if isinstance(value, np.generic):  # a numpy scalar set in Python: its repr 'np.float64(0.2)'
+        value = value.item()  # was read as a unit 'np', and PyYAML cannot represent one
     if kind is not None and isinstance(value, float):
         return f"{value!r} {KINDS[kind].si}"
     return value
