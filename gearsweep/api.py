@@ -188,12 +188,24 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None) -> Estimate:
     StudyError
         For a mesh or analysis study (computed in one piece, with no estimate), and as ``run``.
     """
+    chunk_cases = _chunk_cases(chunk_cases)
     st, text, name = _load(study)
     if isinstance(st, MeshStudy | AnalysisStudy):
         raise StudyError(name, "type", st.type, "a dynamic study (a mesh or analysis study is"
                          " computed in one piece, with no estimate)")
     plan = make_plan(st, text, name)
     return quick_estimate(plan, chunk_size(plan, chunk_cases)[0])[0]
+
+
+def _chunk_cases(chunk_cases) -> int | None:
+    """``chunk_cases`` of ``run`` and ``estimate`` checked: ``None`` or a positive whole number
+    (``estimate`` took 0, -5 and 2.5 without a word, and priced chunks ``run`` refuses)."""
+    if chunk_cases is not None and (isinstance(chunk_cases, bool)  # np.int64 is a whole number
+                                    or not isinstance(chunk_cases, numbers.Integral)
+                                    or chunk_cases < 1):
+        raise StudyError("<study>", "chunk_cases", repr(chunk_cases)[:60],
+                         "a positive whole number of cases")
+    return None if chunk_cases is None else int(chunk_cases)
 
 
 def _within_limits(plan, chunk_cases: int | None, in_memory: bool, where: str) -> None:
@@ -248,13 +260,7 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
     if output is not None:
         output = output_path(_user_path(output))
-    if chunk_cases is not None and (isinstance(chunk_cases, bool)  # np.int64 is a whole number
-                                    or not isinstance(chunk_cases, numbers.Integral)
-                                    or chunk_cases < 1):
-        raise StudyError("<study>", "chunk_cases", repr(chunk_cases)[:60],
-                         "a positive whole number of cases")
-    if chunk_cases is not None:
-        chunk_cases = int(chunk_cases)
+    chunk_cases = _chunk_cases(chunk_cases)
     st, text, name = _load(study)
     if output is not None and (read := reads_output(st, output)) is not None:
         raise ResultError(f"{output}: not a place for the result: it is {read.name}, which the"

@@ -300,6 +300,16 @@ def test_estimate_from_python_is_the_clis(small_whine, write_study, capsys):
         gearsweep.estimate(ROOT / "studies" / "mesh_ste_vs_load.yaml")
 
 
+def test_estimate_refuses_the_chunk_sizes_run_refuses(small_whine):
+    """``estimate(chunk_cases=...)`` is checked as ``run``'s is: 0, -5 and 2.5 were priced
+    without a word (0 and -5 as chunks of one case each), where ``run`` refuses them."""
+    for bad in (0, -5, 2.5, True):
+        with pytest.raises(StudyError, match=r"chunk_cases: .* a positive whole number"):
+            gearsweep.estimate(small_whine, chunk_cases=bad)
+    assert gearsweep.estimate(small_whine, chunk_cases=np.int64(7)).line() == \
+        gearsweep.estimate(small_whine, chunk_cases=7).line()
+
+
 def test_run_refuses_what_the_cli_refuses_unless_yes():
     """A study the CLI refuses without --yes, ``gearsweep.run`` started: 1e9 cases raised
     MemoryError for 7.45 GiB after 0.6 s (an outside tester's finding). Now one LimitError
