@@ -174,6 +174,11 @@ def test_a_gear_field_written_for_the_pair_says_which_fields_it_is():
                             " mean z1 and z2 (the teeth of gear 1 and of gear 2)?")]
     assert "did you mean 'face_width'" in _lines(text.replace("face_width", "facewidth")
                                                   .replace("  teeth: [20, 40]", "  z1: 20\n  z2: 40"))[0]
+    labelled = ("type: mesh\ntitle: t\ngears:\n  a: table1_consistent\n  b:\n    module: 2 mm\n"
+                "    tip_radius: 22 mm\n    z1: 20\n    z2: 40\n    face_width: 20 mm\n"
+                "torque: 50 N*m\n")  # a mesh study's labelled pairs: said alike
+    assert _lines(labelled) == [("s.yaml:7: gears.b.tip_radius: 'tip_radius' is not a field of"
+                                 " gear -- did you mean tip_radius1 and tip_radius2?")]
 
 
 def test_a_range_of_equal_values_is_refused():

@@ -1026,7 +1026,8 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
                                        *AnalysisStudy.model_fields]))
         where = "a study"
         listed = (f"{article(own)} study", tuple(studies[own].model_fields))
-    elif parent and parent[-1] == "gear":  # a mesh study's or a scene's pair
+    elif (parent and parent[-1] == "gear") or (len(parent) == 2 and parent[0] == "gears"):
+        # a mesh study's or a scene's pair, or one of a mesh study's labelled pairs
         choices, where = tuple(GearSpec.model_fields), "gear"
         pair = GEAR_WORDS.get(key)
         if pair:  # 'teeth: [20, 40]' was told "did you mean 'teeth'?" (a scene's field)
