@@ -45,7 +45,7 @@ from gearsweep.study.execute import (
     run_to_file,
     step_limit_warning,
 )
-from gearsweep.study.mesh import run_mesh_study
+from gearsweep.study.mesh import check_memory, run_mesh_study
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study, study_text
 from gearsweep.study.workspace import OutputLock, check_partial, output_path, reads_output
@@ -271,6 +271,9 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     # `gearsweep run` made that run's file unreadable, and one of another study deleted its
     # chunks (an adversarial test).
     if isinstance(st, MeshStudy | AnalysisStudy):
+        if isinstance(st, MeshStudy) and not yes:  # as the CLI refuses it without --yes
+            check_memory(st, name if output is None else str(output),
+                         ahead="pass yes=True to go ahead")
         if output is None:
             return run_unchunked(st, text, "results")
         with OutputLock(output):

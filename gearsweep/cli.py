@@ -29,7 +29,6 @@ from gearsweep.errors import (
     NO_VALUE,
     DeviceError,
     GearsweepError,
-    LimitError,
     ResultError,
     StudyError,
     article,
@@ -49,7 +48,6 @@ from gearsweep.study.estimate import (
     small_chunk_note,
 )
 from gearsweep.study.execute import (
-    LIMITS,
     DaskBackend,
     InProcess,
     _size,
@@ -306,14 +304,9 @@ def _check_device(study, text: str, args: argparse.Namespace) -> None:
 
 def _check_mesh_memory(study, name: str, yes: bool) -> float:
     """A mesh study's peak memory; one line (``LimitError``) beyond the limit unless ``yes``."""
-    from gearsweep.study.mesh import memory_bytes
+    from gearsweep.study.mesh import check_memory, memory_bytes
 
-    memory = memory_bytes(study)
-    if memory > LIMITS.memory_bytes and not yes:
-        raise LimitError(f"{name}: refused (memory > {_size(LIMITS.memory_bytes)}): peak memory"
-                         f" about {_size(memory)} for {summary(study)}; run with --yes to go"
-                         " ahead")
-    return memory
+    return memory_bytes(study) if yes else check_memory(study, name)
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -428,6 +428,27 @@ def test_a_mesh_study_beyond_the_memory_limit_is_refused_at_once(tmp_path, capsy
     assert "peak memory about 300 MB" in capsys.readouterr().out
 
 
+def test_run_from_python_refuses_a_mesh_study_beyond_the_memory_limit_unless_yes(tmp_path,
+                                                                                 monkeypatch):
+    """``gearsweep.run`` refuses what ``gearsweep run`` refuses without --yes: a mesh study of
+    1e7 torques (400 GB) went straight to computing (numpy's MemoryError, after a while)."""
+    import gearsweep
+    import gearsweep.api
+    from gearsweep.errors import LimitError
+
+    text = ("type: mesh\ntitle: m\ngear: table1_consistent\n"
+            "sweep: {torque: {start: 1 N m, stop: 100 N m, num: 10000000}}\n")
+    ran = []
+    monkeypatch.setattr(gearsweep.api, "run_unchunked", lambda *a: ran.append(a))
+    for output in (None, tmp_path / "m.nc"):
+        with pytest.raises(LimitError, match=r"refused \(memory > 2 GB\): peak memory about 400"
+                                             r" GB for mesh study.*; pass yes=True to go ahead$"):
+            gearsweep.run(text, output=output)
+    assert not ran
+    gearsweep.run(text, yes=True)
+    assert len(ran) == 1
+
+
 
 @pytest.mark.parametrize("continued", [False, True])
 def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continued):

@@ -26,10 +26,12 @@ import time
 import numpy as np
 import xarray as xr
 
+from gearsweep.errors import LimitError
 from gearsweep.gear import iso6336_stiffness, mesh_cycles
 from gearsweep.study.dataset import build_dataset
+from gearsweep.study.execute import LIMITS, _size
 from gearsweep.study.gearscene import gear_pair, tip_reliefs
-from gearsweep.study.schema import MeshStudy
+from gearsweep.study.schema import MeshStudy, summary
 from gearsweep.units import KINDS
 
 _ATTRS = {  # name -> (kind of gearsweep.units, or a unit; long name)
@@ -70,6 +72,18 @@ def memory_bytes(study: MeshStudy) -> float:
     14.9 GiB, a traceback)."""
     return BASE_BYTES + BYTES_PER_POINT * len(study.variants) * len(study.torques()) \
         * study.positions
+
+
+def check_memory(study: MeshStudy, where: str, ahead: str = "run with --yes to go ahead"
+                 ) -> float:
+    """A mesh study's peak memory (``memory_bytes``); one line (``LimitError``, then ``ahead``:
+    how to go ahead) beyond the memory limit: the CLI without ``--yes``, ``gearsweep.run``
+    without ``yes=True``."""
+    memory = memory_bytes(study)
+    if memory > LIMITS.memory_bytes:
+        raise LimitError(f"{where}: refused (memory > {_size(LIMITS.memory_bytes)}): peak memory"
+                         f" about {_size(memory)} for {summary(study)}; {ahead}")
+    return memory
 
 
 def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
