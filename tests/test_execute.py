@@ -1035,6 +1035,41 @@ def test_history_names_the_command_main_was_given(tmp_path, small_whine):
         in history, history
 
 
+def test_history_command_of_main_in_one_thread_is_not_another_threads(monkeypatch):
+    """The command ``main`` was given was a module global: ``gearsweep.run`` in another thread
+    wrote it into its history, and two calls that overlapped (A in, B in, A out, B out) left
+    A's command as every later result's of the process."""
+    import threading
+
+    from gearsweep.study.provenance import command, command_line
+
+    monkeypatch.setattr(sys, "argv", ["myscript.py", "arg"])
+    steps = [threading.Event() for _ in range(3)]
+    seen = []
+
+    def a():
+        with command(["gearsweep", "run", "a.yaml"]):
+            steps[0].set()
+            steps[1].wait()
+            seen.append(command_line())
+        steps[2].set()
+
+    def b():
+        steps[0].wait()
+        with command(["gearsweep", "run", "b.yaml"]):
+            seen.append(command_line())
+            steps[1].set()
+            steps[2].wait()
+
+    threads = [threading.Thread(target=f) for f in (a, b)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert seen == ["gearsweep run b.yaml", "gearsweep run a.yaml"]
+    assert command_line() == "myscript.py arg"
+
+
 @pytest.mark.parametrize("argv, expected", [
     (["/v/bin/gearsweep", "run", "s.yaml"], "gearsweep run s.yaml"),
     (["/v/lib/site-packages/gearsweep/__main__.py", "run", "s.yaml"], "gearsweep run s.yaml"),

@@ -26,6 +26,7 @@ before a run; ``check_limits`` refuses a study beyond ``LIMITS`` unless confirme
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import gc
 import logging
@@ -857,7 +858,8 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
         if todo and isinstance(be, InProcess):
             be.prepare_first(plan, todo[0])
         if open_file is not None:  # after the warm-up: Python beside Python gains nothing (the
-            opened = writer.submit(start)  # GIL), beside the kernel it does
+            opened = writer.submit(contextvars.copy_context().run, start)  # GIL), beside the
+            # kernel it does; with this thread's context: the history's command (provenance)
         chunks = be.run(plan, todo, store) if isinstance(be, DaskBackend) else be.run(plan, todo)
         for a, b, arrays in chunks:
             saves.append(saver.submit(keep, a, b, arrays))

@@ -8,6 +8,7 @@ to the software that made it.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import platform
 import shlex
 import sys
@@ -24,27 +25,31 @@ def _version(dist: str) -> str:
         return "?"
 
 
-_command: list[str] | None = None
+_command: contextvars.ContextVar[list[str] | None] = contextvars.ContextVar(
+    "gearsweep_command", default=None)
 """The command ``cli.main`` was given when called from Python with its arguments (``command``):
 scripts/main_job.py runs every study as ``main(["run", STUDY, "-o", OUT, "-q"])``, and its results
-said ``main_job.py``, the process's ``sys.argv``, not the command that made them."""
+said ``main_job.py``, the process's ``sys.argv``, not the command that made them. A context
+variable, not a module global: ``main`` in one thread named another thread's results, and two
+calls that overlapped left the first one's command for every later result of the process."""
 
 
 @contextlib.contextmanager
 def command(argv: list[str]):
-    """Within it, ``command_line()`` is ``argv`` (``["gearsweep", "run", ...]``)."""
-    global _command
-    before, _command = _command, list(argv)
+    """Within it (in this thread, and what it hands a copy of its context), ``command_line()``
+    is ``argv`` (``["gearsweep", "run", ...]``)."""
+    token = _command.set(list(argv))
     try:
         yield
     finally:
-        _command = before
+        _command.reset(token)
 
 
 def command_line() -> str:
     """The command that is running, as a user would type it (``gearsweep run s.yaml -o o.nc``)."""
-    if _command is not None:
-        return shlex.join(_command)
+    given = _command.get()
+    if given is not None:
+        return shlex.join(given)
     argv = list(sys.argv) or ["python"]
     path = Path(argv[0])
     name = path.name
