@@ -21,6 +21,7 @@ import dataclasses
 import json
 import math
 import numbers
+import os
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -99,8 +100,10 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
 
 def _user_path(path: str | Path) -> Path:
     """``path`` with a leading ``~`` made the home folder, as xarray, pandas and the shell do
-    (``run(output="~/r.nc")`` wrote the folder ``./~``, then xarray opened the home's)."""
-    return Path(path).expanduser()
+    (``run(output="~/r.nc")`` wrote the folder ``./~``, then xarray opened the home's); a
+    ``~user`` of no such user is left as it is, as they leave it (``Path.expanduser`` raised
+    RuntimeError, a traceback where a missing file is one line)."""
+    return Path(os.path.expanduser(path))
 
 
 def _is_file(text: str) -> bool:

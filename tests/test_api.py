@@ -212,6 +212,17 @@ def test_paths_with_a_tilde_are_in_the_home_folder(small_whine, write_study, tmp
     _same(gearsweep.run(Path("~/s.yaml")), gearsweep.run(path))
 
 
+def test_a_path_with_the_home_of_no_such_user_is_one_line(tmp_path, monkeypatch):
+    """``~nosuchuser/s.yaml`` is left as it is, as the shell, xarray and pandas leave it: a
+    missing study or result is one line (``Path.expanduser`` raised "RuntimeError: Could not
+    determine home directory." from load, run and open_result)."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(StudyError, match=r"~gearsweep_no_such_user/s\.yaml"):
+        load("~gearsweep_no_such_user/s.yaml")
+    with pytest.raises(ResultError, match=r"~gearsweep_no_such_user/r\.nc: no such result file"):
+        gearsweep.open_result("~gearsweep_no_such_user/r.nc")
+
+
 def test_a_path_with_a_newline_or_spaces_around_it_is_the_file(small_whine, write_study):
     """A path as read from a file (``'s.yaml\\n'``) was said "no such study file", one with
     spaces around it was opened with them ("No such file or directory") though the check that
