@@ -349,7 +349,7 @@ def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_
     import warnings
 
     from gearsweep.kernels import LANES
-    from gearsweep.study.execute import cores
+    from gearsweep.study.execute import kernel_threads
 
     with pytest.warns(UserWarning, match=r"chunk_cases=2: chunks of 2 cases are 2 cases each,"
                                          r" where the kernel computes \d+ at a time"):
@@ -362,7 +362,26 @@ def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_
     assert cli(["run", str(path), "-o", str(path.with_suffix(".nc")), "--chunk-size", "3"]) == 0
     err = capsys.readouterr().err
     assert "--chunk-size 3: chunks of 3 cases are 3 cases each" in err
-    assert f"at least {LANES * cores()} cases per chunk avoid it" in err  # a case per lane
+    assert f"at least {LANES * kernel_threads()} cases per chunk avoid it" in err  # a case per lane
+
+
+def test_the_small_chunk_note_counts_the_kernels_threads(small_whine, monkeypatch):
+    """A round of kernel blocks is LANES lanes on each of the kernel's threads (Numba's), not
+    on each core: with NUMBA_NUM_THREADS=1 on 4 cores, chunks of one full block were told
+    "the kernel computes 128 at a time on 4 cores ... up to 4x the time"."""
+    import numba
+
+    from gearsweep.api import _load
+    from gearsweep.kernels import LANES
+    from gearsweep.study import estimate as est_mod
+    from gearsweep.study.plan import make_plan
+
+    small_whine["sweep"]["speed"]["num"] = 10 * LANES
+    plan = make_plan(*_load(small_whine))
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
+    monkeypatch.setattr(est_mod, "cores", lambda: 4)
+    assert est_mod.small_chunk_note(plan, LANES) is None
+    assert f"computes {LANES} at a time on 1 core:" in est_mod.small_chunk_note(plan, LANES // 2)
 
 
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):

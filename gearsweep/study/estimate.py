@@ -197,7 +197,8 @@ def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = No
     cases (2 lanes of 1,000 speeds) took 58 s against 5.5 s by default (an outside tester)."""
     if requested is None or plan.device != "cpu":
         return None
-    threads = threads or cores()
+    threads = threads or kernel_threads()  # the kernel's (cores() warned of a round of blocks
+    # on every core where NUMBA_NUM_THREADS=1 runs one)
     ways = max(len(plan.directions), 1)
     round_lanes = max(LANES * threads // ways, 1)
     lanes = lanes_per_chunk(plan, requested)
