@@ -34,3 +34,13 @@ def test_study_reference_names_every_field_output_and_status():
         assert f"| {code} |" in text
     assert "| backlash | length | `mm` |" not in text  # a sweepable row names the parameter
     assert "| `backlash` | length | `mm` | rattle, full |" in text
+
+
+def test_every_harmonic_list_says_an_order_is_given_once():
+    """``repeated_order_problems`` refuses an order given twice in ``stiffness_harmonics``,
+    ``ste`` and ``fluctuation``; the reference said so of the first two only."""
+    text = _generator().render()
+    for section in ("scene.stiffness_harmonics[i]", "scene.ste[i]", "scene.fluctuation[i]"):
+        part = text.split(f"## {section}", 1)[1].split("\n## ", 1)[0]
+        order = next(line for line in part.splitlines() if line.startswith("| `order` |"))
+        assert "once per list" in order, (section, order)

@@ -134,7 +134,8 @@ class Fluctuation(Strict):
 
     amplitude: Real | str = Field(description="force [N] or driving torque [N m] amplitude")
     order: Order = Field(gt=0, allow_inf_nan=False,
-                        description="mesh order (1 = mesh frequency; 1/teeth, e.g. 1/48, = shaft)")
+                        description="mesh order (1 = mesh frequency; 1/teeth, e.g. 1/48, = shaft;"
+                        " once per list)")
     phase: Angle = Field(0.0, description="phase")
 
     @field_validator("amplitude", mode="before")
