@@ -180,11 +180,14 @@ def _warn_step_limit(plan, ds: xr.Dataset, where: str | Path) -> None:
         warnings.warn(found, stacklevel=3)
 
 
-def estimate(study: StudyLike, *, chunk_cases: int | None = None) -> Estimate:
+def estimate(study: StudyLike, *, chunk_cases: int | None = None,
+             in_memory: bool = False) -> Estimate:
     """What running a dynamic study in this process would take, before anything runs: the
     estimate ``gearsweep run --estimate`` prints (``.line()``: its text; ``.seconds``,
-    ``.memory_bytes``, ``.output_bytes``: wall time with any one-time compile, peak memory of a
-    run that writes a file, and the file's upper bound; ``.over()``: the limits it passes).
+    ``.memory_bytes``, ``.output_bytes``: wall time with any one-time compile, peak memory,
+    and the file's upper bound; ``.over()``: the limits it passes). ``in_memory``: of ``run``
+    without ``output``, whose result's arrays are held in memory (the peak counts them), the
+    estimate ``run`` checks against the limits.
 
     Raises
     ------
@@ -197,7 +200,14 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None) -> Estimate:
         raise StudyError(name, "type", st.type, "a dynamic study (a mesh or analysis study is"
                          " computed in one piece, with no estimate)")
     plan = make_plan(st, text, name)
-    return quick_estimate(plan, chunk_size(plan, chunk_cases)[0])[0]
+    est = quick_estimate(plan, chunk_size(plan, chunk_cases)[0])[0]
+    return _held(est) if in_memory else est
+
+
+def _held(est: Estimate) -> Estimate:
+    """``est`` of a run whose result is held in memory: its arrays (their file's upper bound)
+    on top of the peak memory."""
+    return dataclasses.replace(est, memory_bytes=est.memory_bytes + est.output_bytes)
 
 
 def _chunk_cases(chunk_cases) -> int | None:
@@ -217,12 +227,13 @@ def _within_limits(plan, chunk_cases: int | None, in_memory: bool, where: str) -
     MemoryError for 7.45 GiB after 0.6 s; an outside tester's finding). A result held in memory
     (no ``output``) counts its arrays in the peak memory, and has no file to limit."""
     chunk = chunk_size(plan, chunk_cases)[0]
+    limits = dataclasses.replace(LIMITS, output_bytes=math.inf) if in_memory else LIMITS
+    held = _held if in_memory else (lambda e: e)
+    est = quick_estimate(plan, chunk, ask_cache=False)[0]  # as the CLI: Numba's cache is asked
+    if not held(est).over(limits):  # (1.3 ms a call) only where the answer can matter
+        return
     est, _ = before_refusing(plan, quick_estimate(plan, chunk)[0], chunk)
-    limits = LIMITS
-    if in_memory:
-        est = dataclasses.replace(est, memory_bytes=est.memory_bytes + est.output_bytes)
-        limits = dataclasses.replace(LIMITS, output_bytes=math.inf)
-    check_limits(est, where, limits, ahead="pass yes=True to go ahead")
+    check_limits(held(est), where, limits, ahead="pass yes=True to go ahead")
 
 
 def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = False,
@@ -283,6 +294,8 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
             ds = run_unchunked(st, text, Path(output).parent)
             write_netcdf(ds, output)
         return ds
+    if not isinstance(yes, bool):  # yes="no" went ahead
+        raise StudyError("<study>", "yes", yes, "True or False")
     plan = make_plan(st, text, name)
     if not yes:
         _within_limits(plan, chunk_cases, output is None, name if output is None else str(output))

@@ -289,8 +289,10 @@ def _to_si_pint(value: object, kind: str) -> float:
     if k.name not in ("angle", "speed") and any(u in _ANGLE_UNITS for u in roots):
         # pint takes an angle for a plain number: '0.5 mm/rad' was read as 0.5 mm, '5 deg*mm'
         # as 0.087 mm, '1 rad/s' as a frequency of 1 Hz (an outside tester's finding)
-        what = "a plain number" if k.name == "dimensionless" else article(kind)
-        raise UnitParseError(f"{value!r} has an angle unit, which {what} does not have;"
+        if k.name == "dimensionless":
+            raise UnitParseError(f"{value!r} has an angle unit, which a plain number does not"
+                                 " have; write the number alone, e.g. '2'")
+        raise UnitParseError(f"{value!r} has an angle unit, which {article(kind)} does not have;"
                              f" write e.g. '1 {unit_hint}'")
     try:
         out = q.to(k.si) if k.si else q.to("dimensionless")

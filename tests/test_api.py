@@ -336,6 +336,9 @@ def test_run_refuses_what_the_cli_refuses_unless_yes():
     st, text, name = _load(_scale(2000))
     plan = make_plan(st, text, name)
     assert gearsweep.estimate(_scale(2000)).memory_bytes < 1e9
+    assert gearsweep.estimate(_scale(2000), in_memory=True).over() == ["memory > 2 GB"]
+    with pytest.raises(StudyError, match=r"yes: 'no' -- True or False"):
+        gearsweep.run(_scale(2000), yes="no")
     _within_limits(plan, None, False, "r.nc")  # streamed to a file: within the limits
     with pytest.raises(LimitError, match=r"refused \(memory > 2 GB\): 20,000,000 cases"):
         _within_limits(plan, None, True, name)

@@ -13,7 +13,6 @@ import math
 
 from gearsweep.kernels import LANES, cuda
 from gearsweep.kernels.batch import COLD_COMPILE_SECONDS, compiled, specialisation
-from gearsweep.model import MeshModel
 from gearsweep.study import execute
 from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
@@ -29,6 +28,7 @@ from gearsweep.study.execute import (
     lanes_per_chunk,
     measure_rate,
     output_seconds,
+    table_bytes,
     with_short_ends,
 )
 from gearsweep.study.filelayout import output_bound
@@ -58,30 +58,6 @@ def compile_seconds(plan: Plan, ask_cache: bool = True) -> float:
         if key not in seconds:
             seconds[key] = 0.0 if ask_cache and compiled(call) else COLD_COMPILE_SECONDS[key[:2]]
     return sum(seconds.values())
-
-
-TABLE_TEMPORARIES = 5
-"""Arrays of a table's size that building the tables holds besides the tables themselves
-(``fourier_table``: the phases, the argument, its cosine, the scaled cosine; rounded up).
-Measured on this 2-core machine (27 Nov 2026), peak resident memory of whine scenes whose
-orders 0.0208333 and 0.02083 make a cycle of 300,000 mesh periods: one 768 MB table (64 steps
-per period) 4.0 GB, 4.8 tables' worth beyond the baseline; three 384 MB tables (32 steps)
-3.29 GB, 7.8 tables' worth; both were estimated at 300 MB and ran without --yes."""
-
-
-def table_bytes(plan: Plan, several: bool = True) -> float:
-    """Memory of the excitation tables of the kernel's inputs [bytes]: stiffness, STE and force,
-    each 5 stage nodes per step over the excitation's cycle in float64, those of the next chunk
-    made while one computes (``several`` chunks), and ``TABLE_TEMPORARIES`` while one is built.
-    Negligible for mesh orders (one period); a shaft order's or a long cycle's is not."""
-    m = plan.model
-    if not isinstance(m, MeshModel):
-        return 0.0
-    n = sum(bool(h) for h in (m.stiffness_harmonics, m.ste_harmonics, m.force_harmonics))
-    if not n:
-        return 0.0
-    size = 5.0 * 8 * plan.study.solver.steps_per_period * m.cycle_periods
-    return size * ((2 if several else 1) * n + TABLE_TEMPORARIES)
 
 
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,

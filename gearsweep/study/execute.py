@@ -51,6 +51,7 @@ from gearsweep.files import check_replaceable
 from gearsweep.jit import cache_loads_without_set_up
 from gearsweep.kernels import LANES
 from gearsweep.kernels.batch import compiled
+from gearsweep.model import MeshModel
 from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints, saved_layout
 from gearsweep.study.chunk import (
     KERNEL_CLOCK,
@@ -313,6 +314,30 @@ def measure_rate(plan: Plan, threads: int, seconds: float = 0.3) -> float:
     return steps / dt / threads / 1e6
 
 
+TABLE_TEMPORARIES = 5
+"""Arrays of a table's size that building the tables holds besides the tables themselves
+(``fourier_table``: the phases, the argument, its cosine, the scaled cosine; rounded up).
+Measured on this 2-core machine (27 Nov 2026), peak resident memory of whine scenes whose
+orders 0.0208333 and 0.02083 make a cycle of 300,000 mesh periods: one 768 MB table (64 steps
+per period) 4.0 GB, 4.8 tables' worth beyond the baseline; three 384 MB tables (32 steps)
+3.29 GB, 7.8 tables' worth; both were estimated at 300 MB and ran without --yes."""
+
+
+def table_bytes(plan: Plan, several: bool = True) -> float:
+    """Memory of the excitation tables of the kernel's inputs [bytes]: stiffness, STE and force,
+    each 5 stage nodes per step over the excitation's cycle in float64, those of the next chunk
+    made while one computes (``several`` chunks), and ``TABLE_TEMPORARIES`` while one is built.
+    Negligible for mesh orders (one period); a shaft order's or a long cycle's is not."""
+    m = plan.model
+    if not isinstance(m, MeshModel):
+        return 0.0
+    n = sum(bool(h) for h in (m.stiffness_harmonics, m.ste_harmonics, m.force_harmonics))
+    if not n:
+        return 0.0
+    size = 5.0 * 8 * plan.study.solver.steps_per_period * m.cycle_periods
+    return size * ((2 if several else 1) * n + TABLE_TEMPORARIES)
+
+
 def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None = None,
              rate: float | None = None) -> Estimate:
     """Predict wall time, peak memory and output size of running ``chunks`` of ``plan``.
@@ -347,7 +372,8 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
-    memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal
+    memory = (BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal
+              + table_bytes(plan, several=len(chunks) > 1))
     return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
                     memory_bytes=memory, output_bytes=output, output_seconds=outputs_s)
