@@ -44,3 +44,16 @@ def test_every_harmonic_list_says_an_order_is_given_once():
         part = text.split(f"## {section}", 1)[1].split("\n## ", 1)[0]
         order = next(line for line in part.splitlines() if line.startswith("| `order` |"))
         assert "once per list" in order, (section, order)
+
+
+def test_study_reference_states_the_gear_defaults():
+    """A gear mapping's unset fields get GearPair's defaults; the reference must say which
+    (a 25 deg pair is refused for the unstated 0.38 m fillet)."""
+    text = _generator().render()
+    for field, default in [("fillet_radius", "0.38 module"), ("pressure_angle", "20 deg"),
+                           ("youngs_modulus", "206 GPa"), ("poisson", "0.3"),
+                           ("tip_radius1", "m (1 + x1)"), ("root_radius1", "m (1.25 - x1)")]:
+        row = next(line for line in text.splitlines() if line.startswith(f"| `{field}` | ")
+                   and "(length)" in line or line.startswith(f"| `{field}` | ") and field
+                   in ("pressure_angle", "youngs_modulus", "poisson"))
+        assert default in row, (field, row)

@@ -79,20 +79,25 @@ class GearSpec(Strict):
     z1: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driving gear 1")
     z2: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driven gear 2")
     face_width: Length | None = Field(None, gt=0, description="face width [m]")
-    pressure_angle: Angle | None = Field(None, gt=0, description="reference pressure angle [rad]")
+    pressure_angle: Angle | None = Field(None, gt=0, description=(
+        "reference pressure angle (unset: 20 deg) [rad]"))
     x1: Real | None = Field(None, description="profile shift coefficient of gear 1")
     x2: Real | None = Field(None, description="profile shift coefficient of gear 2")
-    tip_radius1: Length | None = Field(None, gt=0)
+    tip_radius1: Length | None = Field(None, gt=0, description=(
+        "tip radius (unset: m z1 / 2 + m (1 + x1), no tip shortening) [m]"))
     tip_radius2: Length | None = Field(None, gt=0)
-    root_radius1: Length | None = Field(None, gt=0)
+    root_radius1: Length | None = Field(None, gt=0, description=(
+        "root radius (unset: m z1 / 2 - m (1.25 - x1)) [m]"))
     root_radius2: Length | None = Field(None, gt=0)
-    fillet_radius: Length | None = Field(None, gt=0)
+    fillet_radius: Length | None = Field(None, gt=0, description=(
+        "root fillet radius (unset: 0.38 module, which may not fit the tooth space at 25 deg) [m]"))
     centre_distance: Length | None = Field(None, gt=0)
     backlash: Length | None = Field(None, ge=0, description="circumferential backlash [m]")
     thickness1: Length | None = Field(None, gt=0, description="tooth thickness at r [m]")
     thickness2: Length | None = Field(None, gt=0)
-    youngs_modulus: Pressure | None = Field(None, gt=0, description="Young's modulus [Pa]")
-    poisson: Real | None = Field(None, ge=0, lt=0.5)
+    youngs_modulus: Pressure | None = Field(None, gt=0, description=(
+        "Young's modulus (unset: 206 GPa) [Pa]"))
+    poisson: Real | None = Field(None, ge=0, lt=0.5, description="Poisson's ratio (unset: 0.3)")
     bore_radius1: Length | None = Field(None, gt=0)
     bore_radius2: Length | None = Field(None, gt=0)
     rim_thickness1: Length | None = Field(None, gt=0)
