@@ -130,6 +130,10 @@ INCONSISTENT = [
     ({"thickness1": 3.0e-3, "thickness2": 3.0e-3, "backlash": 0.5e-3}, "cannot coexist"),
     ({"fillet_radius": 1.5e-3}, "does not fit the tooth space"),
     ({"contact_ratio_range": (1.0, 1.5)}, "outside the stated range [1, 1.5]"),
+    # a module in um beside a face in mm ran, with STE 1000x the tooth depth
+    ({"module": 2e-6, "z1": 25, "z2": 50, "face_width": 20e-3},
+     "face width 20 mm is 10,000 modules of 0.002 mm: a spur gear's is 0.5 to 100 modules"),
+    ({"face_width": 0.5e-3}, "face width 0.5 mm is 0.25 modules of 2 mm"),
     # tips that do not reach (22 + 42 mm < 70 mm) were said as "contact ratio -1.916"
     ({"centre_distance": 70e-3}, ("the teeth do not reach each other: tip radii 22 + 42 mm ="
      " 64 mm, not more than the centre distance 70 mm")),

@@ -43,6 +43,10 @@ __all__ = [
 ]
 
 _TOL_BACKLASH = 1e-6  # [m] given and computed backlash agree within 1 um
+MAX_FACE_MODULES = 100.0
+"""Widest face a pair may have, in modules: spur gears are about 6 to 40 modules wide (ISO
+6336's b/m), a helical or a very wide one up to about 60; 100 and above is a unit slip (a
+module in um, a face in inches written as mm)."""
 
 
 class GeometryWarning(UserWarning):
@@ -493,6 +497,14 @@ class GearPair:
         """
         out: list[str] = []
         mm = 1e3
+        width = self.face_width / self.module
+        if not 0.5 <= width <= MAX_FACE_MODULES:  # a unit slip ('module: 2 um' beside a 20 mm
+            out.append(  # face ran, 1000x the tooth depth of STE; an outside tester's finding)
+                f"face width {self.face_width * mm:.4g} mm is"
+                f" {f'{width:,.0f}' if width >= 10 else f'{width:.2g}'} modules of"
+                f" {self.module * mm:.4g} mm: a spur gear's is 0.5 to {MAX_FACE_MODULES:g}"
+                " modules (a unit slip?)"
+            )
         a = self.operating_centre_distance
         ra1, ra2 = self.tip_radius
         rf1, rf2 = self.root_radius
