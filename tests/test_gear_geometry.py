@@ -140,6 +140,28 @@ INCONSISTENT = [
 ]
 
 
+@pytest.mark.parametrize("z", [12, 14, 17])
+def test_an_undercut_pinion_is_told_the_shift_that_avoids_it(z):
+    """The undercut line said what was wrong, not what would do (an outside gear engineer: z =
+    17 at 20 deg needs x1 >= 0.006). The shift it names is the least that passes: 0.1 % less
+    is still undercut (the root follows the shift, m (1.25 - x) below the reference circle)."""
+    import re
+
+    pair = GearPair(module=2e-3, z1=z, z2=40, face_width=20e-3)
+    line = next(p for p in pair.problems() if p.startswith("undercut"))
+    x_min = float(re.search(r"a profile shift x1 >= ([0-9.]+) avoids it", line).group(1))
+    # the closed form of the limit for a standard rack: x >= 1.25 - rho_f (1 - sin a) / m -
+    # z sin^2(a) / 2 (ISO 53's rack: fillet 0.38 m)
+    a = math.radians(20.0)
+    assert x_min == pytest.approx(1.25 - 0.38 * (1 - math.sin(a)) - z * math.sin(a) ** 2 / 2,
+                                  abs=6e-4)
+    def undercut(x):
+        return any(p.startswith("undercut") for p in GearPair(
+            module=2e-3, z1=z, z2=40, face_width=20e-3, x1=x).problems())
+
+    assert not undercut(x_min + 1e-3) and undercut(x_min - 1e-3)
+
+
 def test_tip_fillet_interference_is_named():
     # 60/60 teeth with tips at r + 1.25 m: the mating tip reaches down to 58.11 mm, while a 1 mm
     # fillet runs up the flank to 58.24 mm.

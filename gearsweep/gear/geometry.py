@@ -542,11 +542,17 @@ class GearPair:
             )
             limit = r * math.sin(self.pressure_angle) ** 2
             if h_straight > limit + 1e-12:
+                # the root follows the shift (m (1.25 - x) below r) unless it is given: then a
+                # shift of x + (h - limit) / m brings the rack's flank back to the limit
+                given = getattr(self, f"root_radius{g}") is not None
+                cure = "" if given else (
+                    f"; a profile shift x{g} >= {x + (h_straight - limit) / self.module:.3g}"
+                    " avoids it")
                 out.append(
                     f"undercut: gear {g} (z = {self.z1 if g == 1 else self.z2}, x = {x:.3g}) is "
                     f"undercut by the generating rack: straight rack flank reaches "
                     f"{h_straight * mm:.3g} mm inside the reference circle, more than "
-                    f"r sin^2(alpha) = {limit * mm:.3g} mm"
+                    f"r sin^2(alpha) = {limit * mm:.3g} mm{cure}"
                 )
         # Involute interference: contact outside the segment T1 T2.
         if self.s_start < 0:
