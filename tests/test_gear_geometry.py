@@ -125,6 +125,7 @@ INCONSISTENT = [
     ({"tip_radius1": 20.6e-3, "tip_radius2": 40.6e-3}, "contact ratio 0.552 is below 1"),
     ({"z1": 12}, "undercut: gear 1 (z = 12"),
     ({"z1": 12}, "involute interference"),
+    ({"z1": 10}, "(start of contact 1.64 mm before T1)"),  # was "-1.64 mm before"
     ({"z1": 14, "x1": 1.0}, "pointed teeth: gear 1 tip thickness"),
     ({"thickness1": 3.3e-3, "thickness2": 3.3e-3}, "do not fit the circular pitch 6.283 mm"),
     ({"thickness1": 3.0e-3, "thickness2": 3.0e-3, "backlash": 0.5e-3}, "cannot coexist"),

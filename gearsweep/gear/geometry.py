@@ -558,7 +558,7 @@ class GearPair:
         if self.s_start < 0:
             out.append(
                 f"involute interference: the tip of gear 2 meets gear 1 below its base circle "
-                f"(start of contact {self.s_start * mm:.3g} mm before T1)"
+                f"(start of contact {-self.s_start * mm:.3g} mm before T1)"
             )
         if self.s_end > self.line_of_action_length:
             out.append(
