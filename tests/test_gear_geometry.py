@@ -163,6 +163,23 @@ def test_an_undercut_pinion_is_told_the_shift_that_avoids_it(z):
     assert not undercut(x_min + 1e-3) and undercut(x_min - 1e-3)
 
 
+def test_a_fillet_that_does_not_fit_is_told_the_largest_that_does():
+    """A standard 25 deg 25/50 pair was refused for its default fillet (0.38 m = 0.76 mm) with no
+    word of the default or of what fits (an outside gear engineer's finding). The radius named
+    fits, 0.02 mm more does not."""
+    import re
+
+    pair = dict(module=2e-3, z1=25, z2=50, face_width=20e-3, pressure_angle=math.radians(25))
+    line = next(p for p in GearPair(**pair).problems() if p.startswith("fillet radius"))
+    assert "0.76 mm (the default, 0.38 module) does not fit the tooth space of gear 2" in line
+    most = float(re.search(r"at most ([0-9.]+) mm fits \(fillet_radius\)", line).group(1)) * 1e-3
+
+    def fits(rho):
+        return not any("fillet" in p for p in GearPair(**pair, fillet_radius=rho).problems())
+
+    assert fits(most) and not fits(most + 2e-5)
+
+
 def test_tip_fillet_interference_is_named():
     # 60/60 teeth with tips at r + 1.25 m: the mating tip reaches down to 58.11 mm, while a 1 mm
     # fillet runs up the flank to 58.24 mm.
