@@ -121,6 +121,19 @@ def test_unsettled_cases_are_masked_and_counted(ds):
     assert ax.get_legend().get_title().get_text().startswith("1 of ")
 
 
+THREE_DIMS = """
+title: t
+scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, damping: 5 N s/mm,
+        backlash: 0.2 mm, mean_force: 200 N, fluctuation: [{amplitude: 300 N, order: 1}]}
+sweep:
+  speed: [5000 rpm, 6000 rpm]
+  stiffness: [1000 kN/mm, 1073 kN/mm]
+  backlash: [0.2 mm, 0.3 mm]
+solver: {steps_per_period: 32, transient_periods: 10, record_periods: 4}
+"""
+"""A rattle result over speed x stiffness x backlash: one dim more than a figure draws."""
+
+
 def test_response_vs_speed_names_the_swept_values_it_holds_fixed(tmp_path):
     """A result over speed x damping x backlash drew one backlash silently (the first): the
     title now names it; legend units are written as a study writes them (N s/mm, kN/mm)."""
@@ -130,16 +143,7 @@ def test_response_vs_speed_names_the_swept_values_it_holds_fixed(tmp_path):
     import gearsweep
     from gearsweep.plot.sweep import plot_response_vs_speed
 
-    ds = gearsweep.run("""
-title: t
-scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, damping: 5 N s/mm,
-        backlash: 0.2 mm, mean_force: 200 N, fluctuation: [{amplitude: 300 N, order: 1}]}
-sweep:
-  speed: [5000 rpm, 6000 rpm]
-  stiffness: [1000 kN/mm, 1073 kN/mm]
-  backlash: [0.2 mm, 0.3 mm]
-solver: {steps_per_period: 32, transient_periods: 10, record_periods: 4}
-""")
+    ds = gearsweep.run(THREE_DIMS)
     fig = plot_response_vs_speed(ds, "p_pp")
     ax = fig.axes[0]
     assert ax.get_title().endswith("at backlash = 0.2 mm (select others with ds.sel)")
@@ -157,16 +161,7 @@ def test_response_vs_speed_counts_the_masked_cases_it_draws(tmp_path):
     import gearsweep
     from gearsweep.plot.sweep import plot_response_vs_speed
 
-    ds = gearsweep.run("""
-title: t
-scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, damping: 5 N s/mm,
-        backlash: 0.2 mm, mean_force: 200 N, fluctuation: [{amplitude: 300 N, order: 1}]}
-sweep:
-  speed: [5000 rpm, 6000 rpm]
-  stiffness: [1000 kN/mm, 1073 kN/mm]
-  backlash: [0.2 mm, 0.3 mm]
-solver: {steps_per_period: 32, transient_periods: 10, record_periods: 4}
-""")
+    ds = gearsweep.run(THREE_DIMS)
     ds["status"][:] = 0
     ds["status"][{"speed": 1, "stiffness": 0, "backlash": 1}] = 2  # not drawn (backlash 0.3 mm)
     ax = plot_response_vs_speed(ds, "p_pp").axes[0]
