@@ -60,8 +60,10 @@ def study_file(size: float, folder: Path) -> Path:
     old = "speed: {start: 2000 rpm, stop: 12000 rpm, num: 100}"
     assert old in text, "the scale study changed: update bench_pipeline.study_file"
     path = folder / f"scale_{size:.0e}.yaml"
-    path.write_text(text.replace(old, f"speed: {{start: 2000 rpm, stop: 12000 rpm,"
-                                      f" num: {SPEEDS[size]}}}"), encoding="utf-8")
+    num = SPEEDS[size]  # one speed is a list (a range of one value is refused)
+    new = (f"speed: {{start: 2000 rpm, stop: 12000 rpm, num: {num}}}" if num > 1
+           else "speed: [2000 rpm]")
+    path.write_text(text.replace(old, new), encoding="utf-8")
     return path
 
 
