@@ -185,10 +185,10 @@ step gpu_study 70 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$st
 step gpu_study_none 45 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size" \
   --repeats 2 --codec none
 step startup 40 env.txt "$PY" scripts/bench_startup.py  # the start of a process, on this image
-step pipeline_1e7 65 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
-  --threads "$threads" --repeats 2
-step pipeline_1e7_buffered 65 pipeline.jsonl env GEARSWEEP_DIRECT_IO=0 "$PY" \
-  scripts/bench_pipeline.py --sizes "$study_size" --threads "$threads" --repeats 2
+step pipeline_1e7 90 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
+  --threads "$threads" --repeats "${REPEATS_1E7:-2}"
+step pipeline_1e7_buffered 90 pipeline.jsonl env GEARSWEEP_DIRECT_IO=0 "$PY" \
+  scripts/bench_pipeline.py --sizes "$study_size" --threads "$threads" --repeats "${REPEATS_1E7:-2}"
 step gpu_study_buffered 70 gpu_study.txt env GEARSWEEP_DIRECT_IO=0 "$PY" scripts/bench_pipeline.py \
   --gpu-study "$study_size" --repeats 2
 step pipeline_none 65 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "$study_size" \
