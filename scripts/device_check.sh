@@ -23,6 +23,7 @@
 #   pipeline.jsonl     whole run / kernel-only at 1e6 and 1e7 cases on all cores (bench_pipeline.py)
 #   kernel_gpu.jsonl   B1/B2 on the GPU in float64 (then float32, last), against the CPU kernel and C
 #   gpu_study.txt      the 1e7-case study on the GPU: whole run against its kernel seconds
+#                      (gpu_cache: the CUDA kernel compiled, then loaded from the disk cache)
 #   gpu_tests.txt      the real-GPU tests of tests/test_cuda.py (PTX, every scene against the CPU)
 #   workers.jsonl      --workers 1,2,4,8,16 at 1e6 cases against in-process (bench_pipeline.py);
 #                      workers_1e7: 4,8,16 pinned at 1e7 cases (efficiency against 4 workers;
@@ -184,6 +185,7 @@ step pipeline 110 pipeline.jsonl "$PY" scripts/bench_pipeline.py --sizes "${PIPE
   --threads "$threads" --repeats "${REPEATS:-3}"
 step kernel_gpu 60 kernel_gpu.jsonl "$PY" scripts/bench_kernel.py --device cuda "${ref[@]}" \
   "${gpu_sizes[@]}"
+step gpu_cache 90 gpu_study.txt "$PY" scripts/bench_gpu_cache.py  # compile, then load from disk
 step gpu_study 70 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size" \
   --repeats 2
 step gpu_study_none 45 gpu_study.txt "$PY" scripts/bench_pipeline.py --gpu-study "$study_size" \

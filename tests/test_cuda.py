@@ -517,6 +517,36 @@ def test_kernels_compile_for_a_real_gpu():
         assert ops["local"] == 0 and ops["calls"] == 0 and ops["fma"] > 10, (name, ops)
 
 
+CACHE_KEY_CHILD = """
+import hashlib, json
+from numba.cuda.serialize import dumps
+from gearsweep.kernels import cuda as gk
+out = {}
+for spec in ((4, True, False, True, True, True, False, "float64"),
+             (5, False, True, False, True, False, True, "float32")):
+    k = gk._kernel(*spec)
+    f = getattr(k, "py_func", None) or k.fn  # a CUDA dispatcher, or the simulator's kernel
+    cells = tuple(c.cell_contents for c in f.__closure__)
+    out[f.__qualname__] = hashlib.sha256(dumps(cells)).hexdigest()
+print(json.dumps(out))
+"""
+
+
+@needs_numba_cuda
+def test_kernel_cache_key_is_the_same_in_every_process():
+    """numba-cuda finds a kernel in its disk cache by a hash of the values the kernel closes
+    over (``dumps`` of its closure cells, as in numba-cuda's ``_index_key``). A closure over a
+    function (a Numba dispatcher pickles with an identity made anew in each process) gave every
+    process another key: the kernel was compiled in every run, and the cache grew. Two fresh
+    processes must agree, and two specialisations must not."""
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    keys = [json.loads(subprocess.run([sys.executable, "-c", CACHE_KEY_CHILD], env=env, check=True,
+                                      capture_output=True, text=True, timeout=300).stdout)
+            for _ in range(2)]
+    assert keys[0] == keys[1]
+    assert len(set(keys[0].values())) == len(keys[0]) == 2
+
+
 @pytest.fixture(scope="module")
 def real_gpu() -> None:
     """Skips unless numba-cuda sees a real GPU (checked only when a ``gpu`` test runs: it loads

@@ -41,12 +41,14 @@ CUDA streams with pinned host buffers, so one chunk's transfers overlap the othe
 from __future__ import annotations
 
 import functools
+import hashlib
 import importlib.util
 import math
 import os
 import sys
 import threading
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -181,17 +183,45 @@ def kernel_for(device: str = "cpu", precision: str = "float64"):
     return functools.partial(simulate_cuda, precision=precision)
 
 
+def _row_values(tab, j, on):
+    """The 5 node values of step ``j`` (zeros when the term is off: ``on`` is None)."""
+    if on is None:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    return tab[j, 0], tab[j, 1], tab[j, 2], tab[j, 3], tab[j, 4]
+
+
+_row = None
+"""``_row_values`` as a CUDA device function, made by ``_kernel`` on first use (numba-cuda is
+imported only then). A module global, as are the CPU kernel's functions the kernels call
+(``rk._rk4_step`` ...): numba-cuda keys its disk cache on the values a kernel closes over,
+and a function's pickle carries an identity made anew in every process, so a kernel closing
+over functions would never be found in the cache."""
+
+
+@functools.cache
+def _source_token() -> int:
+    """A number that changes with the source of the CUDA kernels and of the CPU functions they
+    call (this module and ``rk``): closed over by every kernel, so that its disk cache entry is
+    not used after either file changed (numba-cuda's cache checks only this module's file)."""
+    digest = hashlib.sha256()
+    for module in (sys.modules[__name__], rk):
+        digest.update(Path(module.__file__).read_bytes())
+    return int(digest.hexdigest()[:15], 16)
+
+
 @functools.cache
 def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, has_gap: bool,
             has_signal: bool, precision: str):
-    """The CUDA kernel of one specialisation (terms on/off, method, precision), compiled lazily on
-    its first launch and kept for the process."""
-    _cuda()
+    """The CUDA kernel of one specialisation (terms on/off, method, precision), compiled on its
+    first launch, or loaded from Numba's disk cache (``NUMBA_CACHE_DIR`` or ``__pycache__``, as
+    the CPU kernels) where an earlier process compiled it for this GPU, and kept for the
+    process. The kernel closes over plain values only (see ``_row``), each specialisation under
+    a name of its own (one cache index each, as the CPU kernels: ``rk.Specialised``)."""
+    global _row
+    cu = _cuda()
+    if _row is None:
+        _row = cu.jit(device=True, inline="always")(_row_values)
     dt = PRECISIONS[precision]
-    step4 = rk._rk4_step
-    step5 = rk._rk5_step
-    kfun, gfun = rk._k, rk._g
-    stat_step, final_stats = rk._stat_step, rk._final_stats
     rk4 = method == rk.RK4
     # sentinels: None where the CPU kernel passes None (term off), 1 where it passes an array
     KT = 1 if has_k else None
@@ -200,22 +230,16 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
     FT = 1 if has_f else None
     GAP = 1 if has_gap else None
     SIG = has_signal
+    SOURCE = _source_token()
     ST_DIVERGED = rk.STATUS_DIVERGED
     NS = rk.N_STATS
     inf = math.inf
     nan = math.nan
 
-    @cuda.jit(device=True, inline="always")
-    def row(tab, j, on):
-        """The 5 node values of step ``j`` (zeros when the term is off: ``on`` is None)."""
-        if on is None:
-            return 0.0, 0.0, 0.0, 0.0, 0.0
-        return tab[j, 0], tab[j, 1], tab[j, 2], tab[j, 3], tab[j, 4]
-
     def integrate(P, n, ktab, etab, ftab, S, n_transient, n_record, spp, stride, out, status,
                   signal):
         i = cuda.grid(1)
-        if i >= n:
+        if i >= n or SOURCE < 0:  # SOURCE (>= 0) is a closed-over value: see _source_token
             return
         hh = P[_PH, i]
         h2 = dt(0.5 * hh)
@@ -249,28 +273,28 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
         for s in range(n_transient + n_record):
             if s == half and s > n_transient:
                 max1, min1, max2, min2 = max2, min2, -inf, inf
-            K = row(ktab, j, KT)
-            E = row(etab, j, ET)
-            F = row(ftab, j, FT)
+            K = _row(ktab, j, KT)
+            E = _row(etab, j, ET)
+            F = _row(ftab, j, FT)
             if rk4:
-                Xn, Vn = step4(X, V, hh, h2, h6, c,
-                               kfun(km, ka, K[0], KT, KA), kfun(km, ka, K[2], KT, KA),
-                               kfun(km, ka, K[4], KT, KA),
-                               gfun(gm, es, E[0], ET, fs, F[0], FT),
-                               gfun(gm, es, E[2], ET, fs, F[2], FT),
-                               gfun(gm, es, E[4], ET, fs, F[4], FT),
-                               b, GAP, True, 0.0)
+                Xn, Vn = rk._rk4_step(X, V, hh, h2, h6, c,
+                                      rk._k(km, ka, K[0], KT, KA), rk._k(km, ka, K[2], KT, KA),
+                                      rk._k(km, ka, K[4], KT, KA),
+                                      rk._g(gm, es, E[0], ET, fs, F[0], FT),
+                                      rk._g(gm, es, E[2], ET, fs, F[2], FT),
+                                      rk._g(gm, es, E[4], ET, fs, F[4], FT),
+                                      b, GAP, True, 0.0)
             else:
-                Xn, Vn = step5(X, V, hh, c,
-                               kfun(km, ka, K[0], KT, KA), kfun(km, ka, K[1], KT, KA),
-                               kfun(km, ka, K[2], KT, KA), kfun(km, ka, K[3], KT, KA),
-                               kfun(km, ka, K[4], KT, KA),
-                               gfun(gm, es, E[0], ET, fs, F[0], FT),
-                               gfun(gm, es, E[1], ET, fs, F[1], FT),
-                               gfun(gm, es, E[2], ET, fs, F[2], FT),
-                               gfun(gm, es, E[3], ET, fs, F[3], FT),
-                               gfun(gm, es, E[4], ET, fs, F[4], FT),
-                               b, GAP, True, 0.0)
+                Xn, Vn = rk._rk5_step(X, V, hh, c,
+                                      rk._k(km, ka, K[0], KT, KA), rk._k(km, ka, K[1], KT, KA),
+                                      rk._k(km, ka, K[2], KT, KA), rk._k(km, ka, K[3], KT, KA),
+                                      rk._k(km, ka, K[4], KT, KA),
+                                      rk._g(gm, es, E[0], ET, fs, F[0], FT),
+                                      rk._g(gm, es, E[1], ET, fs, F[1], FT),
+                                      rk._g(gm, es, E[2], ET, fs, F[2], FT),
+                                      rk._g(gm, es, E[3], ET, fs, F[3], FT),
+                                      rk._g(gm, es, E[4], ET, fs, F[4], FT),
+                                      b, GAP, True, 0.0)
             X = dt(Xn)
             V = dt(Vn)
             j = j + 1 if j + 1 < S else 0
@@ -282,7 +306,7 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
                         prev = 1.0 if abs(X) < b else 0.0
                     if half == n_transient:
                         max1, min1, max2, min2 = max2, min2, -inf, inf
-                max2, min2, s1, s2, gaps, backs, impacts, prev = stat_step(
+                max2, min2, s1, s2, gaps, backs, impacts, prev = rk._stat_step(
                     float(X), max2, min2, s1, s2, shift, float(b), gaps, backs, impacts, prev, GAP)
                 if SIG:
                     r = s - n_transient
@@ -304,13 +328,15 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
             for q in range(NS):
                 out[q, i] = nan
             return
-        st = final_stats(n_record, spp, max1, min1, max2, min2, s1, s2, shift, gaps, backs,
+        st = rk._final_stats(n_record, spp, max1, min1, max2, min2, s1, s2, shift, gaps, backs,
                          impacts)
         for q in range(NS):
             out[q, i] = st[q]
 
-    integrate.__name__ = integrate.__qualname__ = f"integrate_rk{method}_cuda_{precision}"
-    return cuda.jit(integrate)
+    tag = "".join(f"{t}{int(on)}" for t, on in zip("kaefgs", (has_k, has_kamp, has_e, has_f,
+                                                                has_gap, has_signal), strict=True))
+    integrate.__name__ = integrate.__qualname__ = f"integrate_rk{method}_cuda_{precision}_{tag}"
+    return cu.jit(integrate, cache=True)
 
 
 def _chunk_cases(cu, per_case: int, n: int, max_chunk: int | None) -> int:
