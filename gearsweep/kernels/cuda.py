@@ -336,7 +336,12 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
     tag = "".join(f"{t}{int(on)}" for t, on in zip("kaefgs", (has_k, has_kamp, has_e, has_f,
                                                                 has_gap, has_signal), strict=True))
     integrate.__name__ = integrate.__qualname__ = f"integrate_rk{method}_cuda_{precision}_{tag}"
-    return cu.jit(integrate, cache=True)
+    try:
+        return cu.jit(integrate, cache=True)
+    except RuntimeError as exc:  # no folder to keep it in: compiled in every process, as the CPU
+        if "no locator available" not in str(exc):  # kernels are (gearsweep.jit._cached)
+            raise
+        return cu.jit(integrate)
 
 
 def _chunk_cases(cu, per_case: int, n: int, max_chunk: int | None) -> int:
