@@ -628,3 +628,31 @@ def test_the_rattle_plots_refuse_another_result_in_one_line():
                                              rf" studies/{study}.yaml .*; this one has no "):
             f(ax, dynamic)
         plt.close(fig)
+
+
+def test_fig8_labels_its_backlash_line_inside_the_axes():
+    """plot_fig8 names its dotted line "backlash / 2" at the axes' left edge. The label was
+    placed at the x limit of the data drawn so far (the describing-function curves reach down to
+    290 rpm), and plot_rattle_balance then narrowed the axes to the sweep: in fig08_rattle.png
+    the label sat at -5,870 rpm, outside the axes, and the line had no name (an outside
+    tester's finding)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gearsweep.plot import rattle as pr
+
+    fig, ax = plt.subplots()
+    speed = np.linspace(5000.0, 11000.0, 5)
+    wide = {"speed": np.array([300.0, 12000.0]), "amplitude": np.array([3e-4, 1e-4]),
+            "stable": np.array([True, True]), "label": "a curve", "color": "k"}
+    pr.plot_fig8(ax, speed, np.full(5, 3e-4), np.full(5, 2e-4), half_gap=2.349e-4,
+                 curves=[wide])
+    ax.set_xlim(speed[0], speed[-1])  # as plot_rattle_balance does after it
+    fig.canvas.draw()
+    (label,) = [t for t in ax.texts if t.get_text() == "backlash / 2"]
+    box, frame = label.get_window_extent(), ax.get_window_extent()
+    assert frame.x0 <= box.x0 < box.x1 <= frame.x1
+    assert frame.y0 <= box.y0 < box.y1 <= frame.y1
+    plt.close(fig)

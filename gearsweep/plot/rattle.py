@@ -85,8 +85,10 @@ def plot_fig8(ax: Axes, speed, amp_up, amp_down, *, half_gap: float,
         ax.plot(eq15["speed"], np.asarray(eq15["amplitude"]) * MM, "o", mfc="none", ms=5,
                 color="0.35", label=eq15.get("label", "Eq. (15), paper's method (o)"))
     ax.axhline(half_gap * MM, color="0.5", lw=0.8, ls=":")
-    ax.annotate("backlash / 2", (ax.get_xlim()[0], half_gap * MM), xytext=(4, 3),
-                textcoords="offset points", fontsize=8, color="0.4")
+    # at the left edge of the axes, whatever x limits the caller sets afterwards (placed at
+    # the data's xlim it sat at -5,870 rpm in fig08_rattle.png, outside the 5,000-11,000 axes)
+    ax.annotate("backlash / 2", (0.0, half_gap * MM), xycoords=("axes fraction", "data"),
+                xytext=(4, 3), textcoords="offset points", fontsize=8, color="0.4")
     ax.set_xlabel(speed_label)
     ax.set_ylabel("amplitude of p, (p_max - p_min)/2 [mm]")
     ax.legend(fontsize=7.5, loc="lower left")
