@@ -31,6 +31,7 @@ print(save(fig, args.figures / "fig01_ste.png", dpi=150))
 
 fig, ax = axes(figsize=(6.4, 4.0))
 plot_load_sharing(ax, ds)
+ax.legend(loc="lower center", fontsize=8)
 ax.set_title(f"Fig. 2: load sharing, contact ratio {float(ds['contact_ratio']):.2f}\n{pair}",
              fontsize=9)
 print(save(fig, args.figures / "fig02_load_sharing.png", dpi=150))

@@ -352,6 +352,10 @@ def test_plots_draw_the_computed_data():
         assert share.max() == pytest.approx(1.0, rel=1e-12)
         path_mm = mc.pair.path_of_contact * 1e3
         assert pos_mm.min() == 0.0 and pos_mm.max() == pytest.approx(path_mm, rel=1e-12)
+        # every curve of Fig. 2 has a legend entry: the thin lines had none
+        handles, labels = axes[1].get_legend_handles_labels()
+        assert labels == ["the preceding and following pairs", "one tooth pair"]
+        assert len(axes[1].lines) == 3 + 2  # three curves (two thin), the LPSTC and HPSTC lines
         k, backlash = 2e8, 0.4e-3
         plot_backlash_stiffness(axes[2], k, backlash)
         p, force = axes[2].lines[0].get_data()

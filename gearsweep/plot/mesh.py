@@ -148,8 +148,9 @@ def plot_load_sharing(ax: Axes, cycle: MeshCycle | xr.Dataset) -> Figure:
     pos = np.append(pos, eps)
     share = np.append(share, share[-1])
     to_mm = pb * MM
-    for shift in (-1, 1):
-        ax.plot((pos + shift) * to_mm, share, color="0.6", lw=0.8)
+    for shift in (-1, 1):  # one legend entry for both (Fig. 2 drew them unexplained)
+        ax.plot((pos + shift) * to_mm, share, color="0.6", lw=0.8,
+                label="the preceding and following pairs" if shift == -1 else None)
     ax.plot(pos * to_mm, share, color="C0", lw=2.0, label="one tooth pair")
     for mark, text in ((eps - 1, "LPSTC"), (1.0, "HPSTC")):
         ax.axvline(mark * to_mm, color="0.4", ls=":", lw=0.8)
