@@ -62,8 +62,8 @@ def fig8_out_of_sample(ds8, results, budget, figures):
     f0 = float(budget.fitted_force)
     fig, (ax, ax2, ax3) = plt.subplots(3, 1, figsize=(12, 10.5), sharex=True,
                                        gridspec_kw={"height_ratios": [2.2, 1, 1.6]})
-    lines, loss_lines = [], []
-    amp8, _, _ = settled(0.5 * ds8["p_pp"], ds8)
+    lines, loss_lines, masked = [], [], []
+    amp8, nb8, na8 = settled(0.5 * ds8["p_pp"], ds8)
     lines.append({"x": ds8["speed"].values, "y": amp8.sel(direction="up").values,
                   "color": "0.55", "lw": 2.0,
                   "label": f"Fig. 8 scene, FITTED F0 = {f0 / 1e3:g} kN (run-up)"})
@@ -90,6 +90,7 @@ def fig8_out_of_sample(ds8, results, budget, figures):
                                    "label": None, **kw})
         if nb:
             print(f"{ds.attrs['title']}: {nb} of {na} case-speeds not settled (masked)")
+            masked.append(f"{name} {nb} of {na}")
     first = results[str(budget["scene"].values[0])]
     xlab = speed_label(first["speed"])
     rplot.plot_lines(ax, None, lines, xlabel="", ylabel="amplitude of p, (p_max - p_min)/2 [mm]",
@@ -98,7 +99,9 @@ def fig8_out_of_sample(ds8, results, budget, figures):
     ax.legend(**outside)  # beside the panel: inside it the legends hid lines
     ax.set_title("Fig. 8 out of sample: the same Eq. (13) driven by the Table 1 pair's own STE"
                  " (no fitted force)\n(no case reaches the back flank: backside contact 0"
-                 " everywhere)", fontsize=9)
+                 " everywhere; not settled, masked: "
+                 + ", ".join([f"Fig. 8 scene {nb8} of {na8}"] + masked) + " case-speeds)",
+                 fontsize=9)
     loss8, _, _ = settled(ds8["contact_loss_fraction"], ds8)
     loss_lines.insert(0, {"x": ds8["speed"].values, "y": loss8.sel(direction="up").values,
                           "color": "0.55", "lw": 2.0, "label": None})
