@@ -40,8 +40,9 @@ k0 = float(ds["k_harmonic"].sel(harmonic=0))
 backlash = float(ds["gear_backlash"])
 fig, ax = axes(figsize=(6.4, 4.0))
 plot_backlash_stiffness(ax, k0, backlash, mean_force=float(ds["mean_force"]))
-ax.set_title(f"Fig. 3: mesh force with backlash, k = k0 of Table 1 at {torque:g} N m\n"
-             f"backlash {backlash * 1e3:.3g} mm along the line of action", fontsize=9)
+ax.set_title(f"Fig. 3: mesh force with backlash; k = k0 computed for the Table 1 pair\n"
+             f"at {torque:g} N m (the paper prints no k for Fig. 3), backlash"
+             f" {backlash * 1e3:.3g} mm along the line of action", fontsize=9)
 print(save(fig, args.figures / "fig03_backlash_stiffness.png", dpi=150))
 
 shift = open_result(args.results, "table1_profile_shift")
