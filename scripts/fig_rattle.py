@@ -152,7 +152,8 @@ def rattle_map(ds, scene, figures):
     fig, axes = plt.subplots(2, nb, figsize=(3.0 * nb + 1.5, 7.5), sharey=True, sharex=True)
     rplot.plot_rattle_map(list(axes[0]), list(axes[1]),  # the plot takes SI (the file: display)
                           from_display(ds["damping"].values, "damping"), ds["torque"].values,
-                          from_display(ds["backlash"].values, "length"), frac.values, width.values)
+                          from_display(ds["backlash"].values, "length"), frac.values, width.values,
+                          ds["hysteresis_open"].transpose(*dims).values)
     fig.suptitle(f"Where rattle occurs over {ds.attrs['speed_from']:.0f}-{ds.attrs['speed_to']:.0f} "
                  f"rpm, the fitted scene of Fig. 8 (F0 = {force.amplitude / 1e3:.3g} kN at mesh"
                  f" order {force.order:g}, fitted; the Table 1 pair's own STE gives no rattle):\n"

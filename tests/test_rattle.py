@@ -488,6 +488,43 @@ def test_hysteresis_closes_as_damping_grows():
     assert_allclose(width[has], df_width[has], rtol=0.2)
 
 
+def test_a_drop_across_an_unsettled_speed_is_one_jump():
+    """A run-up drop spread over two grid steps by an unsettled speed between them (each step
+    under the threshold, 20 % and 22.5 %, the whole drop 38 %): that speed is no end of a jump
+    (``settled_up`` False there, as ``jump_summary`` passes for a case with status != 0), so
+    the drop is one jump, at the midpoint of its settled neighbours. With RK5 the Fig. 8 run-up
+    drop lost its detection this way (a transient caught mid-drop at 8,023 rpm)."""
+    speed = np.arange(6.0)
+    up = np.array([1.0, 1.0, 1.0, 0.8, 0.62, 0.62])
+    down = np.array([1.0, 0.62, 0.62, 0.62, 0.62, 0.62])
+    assert np.isnan(jumps.find_jumps(speed, up, down).up_speed)  # the mid-drop value split it
+    jp = jumps.find_jumps(speed, up, down, settled_up=speed != 3)
+    assert jp.up_speed == 3.0 and jp.up_size == pytest.approx(-0.38)
+    assert jp.down_speed == 0.5 and (jp.band_low, jp.band_high) == (0.5, 3.0)
+    assert not jp.open_low and not jp.open_high
+
+
+def test_a_loop_open_at_the_top_of_the_sweep_has_its_width():
+    """A run-down that starts on the rattling branch where the run-up never left the other one
+    (the two still differ at the highest speed) jumps at 2.5; the run-up has no jump. The loop
+    spans 2.5 to at least the top speed, 5: width 2.5, open at the top (it was 0: no hysteresis,
+    on 1,493 sweeps of the rattle map). Swapped, the same at the bottom."""
+    speed = np.arange(6.0)
+    up = np.full(6, 0.5)
+    down = np.array([0.5, 0.5, 0.5, 1.0, 1.0, 1.0])
+    jp = jumps.find_jumps(speed, up, down)
+    assert np.isnan(jp.up_speed) and jp.down_speed == 2.5
+    assert (jp.band_low, jp.band_high, jp.width) == (2.5, 5.0, 2.5)
+    assert jp.open_high and not jp.open_low
+    jp = jumps.find_jumps(speed, down[::-1].copy(), up)  # the run-up starts high, drops at 2.5
+    assert jp.up_speed == 2.5 and np.isnan(jp.down_speed)
+    assert (jp.band_low, jp.band_high) == (0.0, 2.5) and jp.open_low and not jp.open_high
+    # the top speed diverged (NaN): the band ends at the highest speed where both are known
+    down[5] = np.nan
+    jp = jumps.find_jumps(speed, up, down)
+    assert (jp.band_high, jp.open_high) == (4.0, True)
+
+
 def test_find_jumps_rejects_decreasing_speeds():
     with pytest.raises(ValueError, match="increase"):
         jumps.find_jumps([2.0, 1.0], [1.0, 1.0], [1.0, 1.0])
@@ -540,6 +577,18 @@ def test_jump_summary_of_a_dataset():
     assert_allclose(js["jump_down_speed"].values, [1250.0, np.nan])
     assert_allclose(js["hysteresis_width"].values, [300.0, 0.0])
     assert js["hysteresis_width"].attrs["units"] == "rpm"
+    assert js["hysteresis_open"].values.tolist() == [0, 0]
+    # a drop in two steps of 20 % and 21 % (3 -> 2.4 -> 1.9): no jump between neighbours;
+    # with the middle speed not settled (status 2), one jump across it, at its midpoint
+    up2 = np.array([3, 3, 3, 3, 3, 3, 2.4, 1.9, 1.9, 1.9])
+    down2 = np.array([3, 3, 3, 1.9, 1.9, 1.9, 1.9, 1.9, 1.9, 1.9])
+    ds2 = xr.Dataset({"p_pp": (("direction", "speed"), 2 * np.stack([up2, down2]))},
+                     coords={"direction": ["up", "down"], "speed": speed})
+    ds2["status"] = xr.zeros_like(ds2["p_pp"], dtype=np.int8)
+    assert np.isnan(float(jump_summary(ds2)["jump_up_speed"]))
+    ds2["status"].loc[{"direction": "up", "speed": 1600.0}] = 2
+    js2 = jump_summary(ds2)
+    assert float(js2["jump_up_speed"]) == 1600.0 and float(js2["hysteresis_width"]) == 350.0
 
 
 def test_fig08_study_runs_through_the_study_layer():

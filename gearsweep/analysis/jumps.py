@@ -19,8 +19,21 @@ change near 0.6). Condition 2 removes steep single-valued responses (lightly dam
 without a fold), which are identical up and down, whatever the grid.
 
 The *hysteresis band* is the interval between the run-down jump (up) and the run-up jump (down):
-``[min, max]`` of the two jump speeds. All functions take the speed along the last axis and
-broadcast over any leading axes (sweeps of a parameter study).
+``[min, max]`` of the two jump speeds. Where one sweep has no jump but the two still differ at
+the end of the swept speeds on its side (a run-down that starts on another branch than the
+run-up reached, and jumps within the range while the run-up never does), the loop goes on
+beyond the sweep: the band ends at the last speed where both are known, and it is *open* there
+(``open_low`` / ``open_high``; its width is a lower bound).
+
+A sweep with no such step between neighbours is searched once more with the speeds where it
+did not settle left out (``settled_up`` / ``settled_down`` False): a drop spread over two grid
+steps by a transient caught between them (each step under the threshold, the whole drop over
+it) is then one jump, at the midpoint of its settled neighbours. Only then: a sweep that did
+not settle may also be on another branch in a motion that does not repeat (the speed where it
+left its branch is the first step), and whether the two sweeps differ is judged on every
+finite amplitude. A NaN amplitude (a diverged case) is no point of either sweep. All functions
+take the speed along the last axis and broadcast over any leading axes (sweeps of a parameter
+study).
 """
 
 from __future__ import annotations
@@ -39,6 +52,22 @@ def relative_steps(amplitude: np.ndarray) -> np.ndarray:
         return np.where(scale > 0, d / np.where(scale > 0, scale, 1.0), 0.0)
 
 
+def _known_steps(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed relative change from the last known (finite) amplitude before each point to the
+    point, along the last axis, and that earlier point's index (-1, and a change of NaN, where
+    the point or every point before it is unknown)."""
+    n = a.shape[-1]
+    known = np.isfinite(a)
+    last = np.maximum.accumulate(np.where(known, np.arange(n), -1), axis=-1)
+    prev = np.concatenate([np.full(a.shape[:-1] + (1,), -1), last[..., :-1]], axis=-1)
+    b = np.take_along_axis(a, np.maximum(prev, 0), axis=-1)
+    scale = np.maximum(np.abs(a), np.abs(b))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step = np.where(scale > 0, (a - b) / np.where(scale > 0, scale, 1.0), 0.0)
+    ok = known & (prev >= 0)
+    return np.where(ok, step, np.nan), np.where(ok, prev, -1)
+
+
 @dataclass(frozen=True)
 class JumpSummary:
     """Jumps of an up and a down sweep (arrays over the leading axes; NaN: no jump)."""
@@ -55,6 +84,11 @@ class JumpSummary:
     """Lower end of the hysteresis band [speed unit]."""
     band_high: np.ndarray
     """Upper end of the hysteresis band [speed unit]."""
+    open_low: np.ndarray
+    """The band reaches the lowest speed where both sweeps are known, still two-valued, without
+    a run-down jump: the loop goes on below the sweep (the width is a lower bound)."""
+    open_high: np.ndarray
+    """The same at the highest speed, without a run-up jump."""
 
     @property
     def width(self) -> np.ndarray:
@@ -62,21 +96,22 @@ class JumpSummary:
         return np.nan_to_num(self.band_high - self.band_low, nan=0.0)
 
 
-def _largest_jump(speed, steps, differs, threshold):
-    """Speed and size of the largest qualifying step along the last axis."""
-    two_valued = differs[..., :-1] | differs[..., 1:]
-    ok = (np.abs(steps) > threshold) & two_valued
-    score = np.where(ok, np.abs(steps), -1.0)
-    i = np.argmax(score, axis=-1)
-    found = np.take_along_axis(score, i[..., None], axis=-1)[..., 0] > 0
-    mid = 0.5 * (speed[..., :-1] + speed[..., 1:])
-    mid = np.broadcast_to(mid, steps.shape)
-    at = np.take_along_axis(mid, i[..., None], axis=-1)[..., 0]
-    size = np.take_along_axis(steps, i[..., None], axis=-1)[..., 0]
+def _largest_jump(speed, steps, prev, differs, threshold):
+    """Speed and size of the largest qualifying step (``_known_steps``) along the last axis."""
+    two_valued = differs | np.take_along_axis(differs, np.maximum(prev, 0), axis=-1)
+    ok = (np.abs(np.nan_to_num(steps)) > threshold) & two_valued & (prev >= 0)
+    score = np.where(ok, np.abs(np.nan_to_num(steps)), -1.0)
+    i = np.argmax(score, axis=-1)[..., None]
+    found = np.take_along_axis(score, i, axis=-1)[..., 0] > 0
+    at = 0.5 * (np.take_along_axis(speed, i, axis=-1)
+                + np.take_along_axis(speed, np.take_along_axis(np.maximum(prev, 0), i, axis=-1),
+                                     axis=-1))[..., 0]
+    size = np.take_along_axis(steps, i, axis=-1)[..., 0]
     return np.where(found, at, np.nan), np.where(found, size, np.nan)
 
 
-def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25) -> JumpSummary:
+def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25, settled_up=True,
+               settled_down=True) -> JumpSummary:
     """Jump speeds and hysteresis band of an up and a down sweep (criterion: module docstring).
 
     Parameters
@@ -87,24 +122,52 @@ def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25) -> JumpSummary:
         Response amplitude of the run-up and the run-down, both ordered by increasing speed.
     threshold : float
         Relative change that marks a jump and relative difference that marks two values [1].
+    settled_up, settled_down : array_like of bool (..., n), or True
+        Where each sweep settled (see the module docstring).
     """
     s = np.asarray(speed, dtype=float)
     if np.any(np.diff(s, axis=-1) <= 0):
         raise ValueError("speed must increase along the last axis")
-    up = np.asarray(amp_up, dtype=float)
-    down = np.asarray(amp_down, dtype=float)
+    up, down = np.broadcast_arrays(np.asarray(amp_up, dtype=float),
+                                   np.asarray(amp_down, dtype=float))
+    s = np.broadcast_to(s, up.shape)
     scale = np.maximum(np.abs(up), np.abs(down))
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(scale > 0, np.abs(up - down) / np.where(scale > 0, scale, 1.0), 0.0)
-    differs = rel > threshold
-    up_speed, up_size = _largest_jump(s, relative_steps(up), differs, threshold)
-    # the run-down travels towards lower speeds: its jump size is measured in that direction
-    down_speed, down_size = _largest_jump(s, -relative_steps(down), differs, threshold)
-    both = np.stack(np.broadcast_arrays(up_speed, down_speed))
+    both = np.isfinite(up) & np.isfinite(down)
+    differs = both & (rel > threshold)
+
+    def largest(a, settled, sign):
+        """The sweep's largest jump between neighbours; where it has none, across the speeds
+        where it did not settle (``sign`` -1: the run-down, measured towards lower speeds)."""
+        step, prev = _known_steps(a)
+        at, size = _largest_jump(s, sign * step, prev, differs, threshold)
+        step, prev = _known_steps(np.where(settled, a, np.nan))
+        at2, size2 = _largest_jump(s, sign * step, prev, differs, threshold)
+        none = np.isnan(at)
+        return np.where(none, at2, at), np.where(none, size2, size)
+
+    up_speed, up_size = largest(up, settled_up, 1.0)
+    down_speed, down_size = largest(down, settled_down, -1.0)
+    # the ends of the loop: the jumps, or an end of the sweep that is still two-valued
+    n = up.shape[-1]
+    first = np.argmax(both, axis=-1)[..., None]
+    last = (n - 1 - np.argmax(both[..., ::-1], axis=-1))[..., None]
+    any_both = both.any(axis=-1)
+
+    def at(a, i):
+        return np.take_along_axis(a, i, axis=-1)[..., 0]
+
+    open_low = any_both & np.isnan(down_speed) & at(differs, first)
+    open_high = any_both & np.isnan(up_speed) & at(differs, last)
+    low_end = np.where(open_low, at(s, first), down_speed)
+    high_end = np.where(open_high, at(s, last), up_speed)
+    ends = np.stack(np.broadcast_arrays(low_end, high_end))
     with np.errstate(invalid="ignore"):
-        lo = np.where(np.all(np.isnan(both), axis=0), np.nan, np.nanmin(np.where(
-            np.isnan(both), np.inf, both), axis=0))
-        hi = np.where(np.all(np.isnan(both), axis=0), np.nan, np.nanmax(np.where(
-            np.isnan(both), -np.inf, both), axis=0))
+        lo = np.where(np.all(np.isnan(ends), axis=0), np.nan, np.nanmin(np.where(
+            np.isnan(ends), np.inf, ends), axis=0))
+        hi = np.where(np.all(np.isnan(ends), axis=0), np.nan, np.nanmax(np.where(
+            np.isnan(ends), -np.inf, ends), axis=0))
     return JumpSummary(up_speed=up_speed, up_size=up_size, down_speed=down_speed,
-                       down_size=down_size, band_low=lo, band_high=hi)
+                       down_size=down_size, band_low=lo, band_high=hi, open_low=open_low,
+                       open_high=open_high)

@@ -195,7 +195,7 @@ def plot_lines(ax: Axes, x, lines: Sequence[dict], *, xlabel: str, ylabel: str,
 
 
 def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
-                    hysteresis_width) -> Figure:
+                    hysteresis_width, hysteresis_open=None) -> Figure:
     """Design map over damping x torque, one column of panels per backlash value.
 
     Parameters
@@ -212,16 +212,24 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
         Share of swept speeds at which either sweep loses contact [1].
     hysteresis_width : array_like (n_b, n_c, n_t)
         Width of the jump hysteresis band [rpm].
+    hysteresis_open : array_like (n_b, n_c, n_t) or None
+        Non-zero where the band reaches an end of the swept speeds (its width a lower bound):
+        hatched.
     """
     im = imh = None
     c = np.asarray(damping) / 1e3
     vmax = max(float(np.nanmax(hysteresis_width)), 1.0)
-    for ax, axh, bl, frac, width in zip(axes, axes_hyst, backlash, rattle_fraction,
-                                        hysteresis_width, strict=True):
+    opened = (np.zeros(np.shape(hysteresis_width), bool) if hysteresis_open is None
+              else np.asarray(hysteresis_open) > 0)
+    for ax, axh, bl, frac, width, op in zip(axes, axes_hyst, backlash, rattle_fraction,
+                                            hysteresis_width, opened, strict=True):
         im = ax.pcolormesh(torque, c, frac, vmin=0, vmax=1, cmap="magma", shading="nearest")
         ax.contour(torque, c, frac, [0.01], colors="cyan", linewidths=1.0)
         imh = axh.pcolormesh(torque, c, width, vmin=0, vmax=vmax, cmap="viridis",
                              shading="nearest")
+        if op.any():
+            axh.pcolor(torque, c, np.ma.masked_where(~op, op), shading="nearest", hatch="////",
+                       facecolor="none", edgecolor="w", linewidth=0.0, alpha=0.6)
         for a in (ax, axh):
             a.set_yscale("log")
         ax.set_title(f"backlash {bl * MM:g} mm", fontsize=9)
@@ -232,7 +240,8 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     cb = fig.colorbar(im, ax=list(axes), shrink=0.9)
     cb.set_label("share of speeds with contact loss [1]\n(cyan: rattle-free boundary)")
     cbh = fig.colorbar(imh, ax=list(axes_hyst), shrink=0.9)
-    cbh.set_label("hysteresis band width [rpm]")
+    cbh.set_label("hysteresis band width [rpm]" + ("\n(hatched: open at an end of the sweep,"
+                                                   " at least this wide)" if opened.any() else ""))
     return fig
 
 

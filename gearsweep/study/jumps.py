@@ -2,8 +2,8 @@
 
 ``jump_summary(ds)`` applies ``gearsweep.analysis.jumps.find_jumps`` (the criterion is stated in
 its module docstring) to the amplitude ``p_pp / 2`` of the ``up`` and ``down`` sweeps of every
-case and returns the speeds where each sweep jumps and the hysteresis band between them, on the
-study's other dims.
+case (a case-speed that did not settle, ``status`` != 0, is no end of a jump) and returns the
+speeds where each sweep jumps and the hysteresis band between them, on the study's other dims.
 """
 
 from __future__ import annotations
@@ -21,6 +21,9 @@ JUMP_VARIABLES = {
     "hysteresis_low": ("rpm", "lower end of the jump hysteresis band"),
     "hysteresis_high": ("rpm", "upper end of the jump hysteresis band"),
     "hysteresis_width": ("rpm", "width of the jump hysteresis band (0: none)"),
+    "hysteresis_open": ("1", ("the hysteresis band reaches an end of the swept speeds still"
+                              " two-valued, its width a lower bound (0: no, 1: the lowest speed,"
+                              " 2: the highest, 3: both)")),
 }
 
 
@@ -42,18 +45,23 @@ def jump_summary(ds: xr.Dataset, threshold: float = 0.25) -> xr.Dataset:
     if "direction" not in ds.dims or not {"up", "down"} <= set(ds["direction"].values.tolist()):
         raise ValueError("a jump summary needs a study continued both up and down")
     amp = 0.5 * ds["p_pp"]
-    up = amp.sel(direction="up")
-    down = amp.sel(direction="down")
-    other = [d for d in up.dims if d != "speed"]
-    up = up.transpose(*other, "speed")
-    down = down.transpose(*other, "speed")
-    js = find_jumps(ds["speed"].values, up.values, down.values, threshold)
+    settled = (ds["status"] == 0).broadcast_like(amp) if "status" in ds else xr.ones_like(
+        amp, dtype=bool)  # every result has a status
+    other = [d for d in amp.dims if d not in ("direction", "speed")]
+
+    def sweep(da, direction):
+        return da.sel(direction=direction).transpose(*other, "speed").values
+
+    js = find_jumps(ds["speed"].values, sweep(amp, "up"), sweep(amp, "down"), threshold,
+                    settled_up=sweep(settled, "up"), settled_down=sweep(settled, "down"))
     coords = {d: ds[d] for d in other}
     out = {}
     values = {"jump_up_speed": js.up_speed, "jump_up_size": js.up_size,
               "jump_down_speed": js.down_speed, "jump_down_size": js.down_size,
               "hysteresis_low": js.band_low, "hysteresis_high": js.band_high,
-              "hysteresis_width": js.width}
+              "hysteresis_width": js.width,
+              "hysteresis_open": (np.asarray(js.open_low, np.int8)
+                                  + 2 * np.asarray(js.open_high, np.int8))}
     for name, (units, long_name) in JUMP_VARIABLES.items():
         out[name] = xr.DataArray(np.asarray(values[name]), dims=other, coords=coords,
                                  attrs={"units": units, "long_name": long_name})
