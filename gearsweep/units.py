@@ -73,10 +73,6 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
 )}
 """The one table of quantities: kind -> SI unit, display unit, spellings."""
 
-CANONICAL = {k.name: k.si for k in KINDS.values()}
-"""SI unit of every kind (speed: rpm), as the kernel takes it."""
-
-
 _INTEGER = re.compile(r"(?<![\w.])(?<![eE][-+])(\d[\d_]*)(?![\w.])")
 """An integer literal on its own (not part of a float, an exponent or a name)."""
 
@@ -308,17 +304,6 @@ def _to_si_pint(value: object, kind: str) -> float:
     if not math.isfinite(result):
         raise UnitParseError("expected a finite number (not nan or inf)")
     return result
-
-
-def kind_of(value: object, kinds: tuple[str, ...]) -> str:
-    """Which of ``kinds`` the quantity ``value`` is (e.g. a fluctuation given as force or torque)."""
-    for kind in kinds:
-        try:
-            to_si(value, kind)
-            return kind
-        except UnitParseError:
-            continue
-    raise UnitParseError(f"expected one of: {', '.join(kinds)}")
 
 
 @cache

@@ -546,7 +546,6 @@ def run_diffrax(batch: Batch, compiled, per_step: int, rtol: float, *, repeat: i
                     notes={"max_steps_in_batch": int(steps.max())}, seconds_median=med)
 
 
-DIFFRAX_EVENT_SOLVERS = ("Tsit5", "Dopri5", "Dopri8")
 MAX_SEGMENTS = 4096
 """Bound on the linear pieces (backlash crossings + 1) of one case in ``diffrax_event_solver``."""
 EVENT_HYSTERESIS = 1e-9

@@ -19,7 +19,6 @@ from gearsweep.plot.common import axes
 from gearsweep.units import si_values
 
 UNSTABLE_COLOR = "#c0392b"
-INTEGRATOR_COLOR = "#e67e22"
 
 
 def _mask_image(ax: Axes, x: np.ndarray, y: np.ndarray, mask: np.ndarray, color: str,
@@ -90,55 +89,6 @@ def plot_strutt(alpha: np.ndarray, beta: np.ndarray, unstable: np.ndarray,
     if gamma is not None:
         ax.set_title(rf"$\gamma$ = {gamma:g}")
     ax.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.9)
-    return fig
-
-
-def plot_rig_strutt(alpha: np.ndarray, ratio: np.ndarray, unstable: np.ndarray,
-                    ax: Axes | None = None, gamma: float | None = None,
-                    rig_ratio: float | None = None, speed_of_alpha=None,
-                    color: str = UNSTABLE_COLOR) -> Figure:
-    """Unstable region at large alpha, drawn over (alpha, beta/alpha) with alpha on a log axis.
-
-    Parameters
-    ----------
-    alpha : ndarray (na,)
-        Mean stiffness parameter [-] (log-spaced).
-    ratio : ndarray (nr,)
-        beta / alpha = k1 / k0 [-].
-    unstable : ndarray of bool (nr, na)
-    rig_ratio : float, optional
-        k1/k0 of the rig, drawn as a line.
-    speed_of_alpha : (callable, callable), optional
-        Forward and inverse maps alpha -> speed [rpm] for a secondary axis.
-    """
-    fig, ax = axes(ax)
-    _mask_image(ax, alpha, ratio, unstable, color)
-    handles = [Patch(color=color, label="unstable (Floquet)")]
-    if rig_ratio is not None:
-        ax.axhline(rig_ratio, color="k", lw=1.0, ls="--")
-        handles.append(Line2D([], [], color="k", ls="--",
-                              label=f"rig: k1/k0 = {rig_ratio:.3f}"))
-    ax.set_xscale("log")
-    ax.set_xlabel(r"$\alpha$ [-]")
-    ax.set_ylabel(r"$\beta / \alpha = k_1 / k_0$ [-]")
-    ax.set_xlim(alpha.min(), alpha.max())
-    ax.set_ylim(ratio.min(), ratio.max())
-    if ratio.max() > 1.0:
-        ax.axhline(1.0, color="0.2", lw=0.6)
-        ax.annotate("k(t) < 0 in part of the cycle above this line", (alpha.max(), 1.0),
-                    xytext=(-4, -10), textcoords="offset points", ha="right", fontsize=7)
-    if speed_of_alpha is not None:
-        from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
-
-        sec = ax.secondary_xaxis("top", functions=speed_of_alpha)
-        sec.set_xlabel("speed of the driving gear (48 teeth) [rpm]", fontsize=8)
-        sec.xaxis.set_major_locator(FixedLocator([100, 200, 300, 500, 1000, 2000]))
-        sec.xaxis.set_minor_locator(NullLocator())
-        sec.xaxis.set_major_formatter(ScalarFormatter())
-        sec.tick_params(labelsize=7)
-    if gamma is not None:
-        ax.set_title(rf"$\gamma$ = {gamma:g}", fontsize=9, loc="left")
-    ax.legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.9)
     return fig
 
 
