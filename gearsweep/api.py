@@ -31,7 +31,7 @@ import xarray as xr
 import yaml
 
 from gearsweep.errors import DICT_STUDY, NO_VALUE, ResultError, StudyError
-from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, model_from_record
+from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, mean_mesh_force, model_from_record
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_specs import AnalysisStudy
 from gearsweep.study.dataset import write_netcdf
@@ -396,7 +396,7 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
         if name in si:
             torque = si[name] if name == "torque" else si[name] * model.base_radius
             at_load = make_plan(result_study(ds), ds.attrs["study"]).model_for_load(torque)
-            model = dataclasses.replace(at_load, mean_force=torque / model.base_radius)
+            model = dataclasses.replace(at_load, mean_force=mean_mesh_force(torque, model.base_radius))
         else:
             def unknown_load(hs: tuple[Harmonic, ...]) -> tuple[Harmonic, ...]:
                 return tuple(Harmonic(math.nan, h.order, math.nan) for h in hs)
@@ -412,7 +412,7 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
         swept.remove(name)
     changes = {("mean_force" if d == "torque" else d): si.get(d, math.nan) for d in swept}
     if "torque" in swept and "torque" in si:
-        changes["mean_force"] = si["torque"] / model.base_radius
+        changes["mean_force"] = mean_mesh_force(si["torque"], model.base_radius)
     return dataclasses.replace(model, **changes)
 
 

@@ -200,7 +200,7 @@ def kernel_inputs(model: MeshModel | MathieuModel, cases: dict[str, np.ndarray],
     if "torque" in cases:
         if model.base_radius is None:
             raise ValueError("sweeping torque needs the driving gear's base radius")
-        fm = np.asarray(cases["torque"], dtype=float) / model.base_radius
+        fm = mean_mesh_force(np.asarray(cases["torque"], dtype=float), model.base_radius)
     else:
         fm = _case(cases, "mean_force", model.mean_force, n)
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from gearsweep.kernels import STATUS_DIVERGED, BatchResult
 from gearsweep.kernels.cuda import kernel_for
-from gearsweep.model import kernel_inputs
+from gearsweep.model import kernel_inputs, mean_mesh_force
 from gearsweep.study.outputs import OUTPUTS, Floquet
 from gearsweep.study.plan import (
     STATUS_NOT_SETTLED,
@@ -158,7 +158,7 @@ def _static_terms(plan: Plan, params: dict[str, np.ndarray], n: int) -> tuple:
     else:
         k0 = case("stiffness", model.stiffness)
     if "torque" in params:
-        fm = np.asarray(params["torque"], float) / model.base_radius
+        fm = mean_mesh_force(np.asarray(params["torque"], float), model.base_radius)
     else:
         fm = case("mean_force", model.mean_force)
     return case("backlash", model.backlash) / 2.0, fm, k0

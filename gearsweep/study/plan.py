@@ -27,7 +27,14 @@ from gearsweep.gear.measured import positive_minimum
 from gearsweep.kernels import LANES
 from gearsweep.kernels.cuda import CHUNK_STEPS as GPU_CHUNK_STEPS
 from gearsweep.kernels.cuda import planned_device
-from gearsweep.model import Harmonic, MathieuModel, MeshModel, equivalent_mass, hill_parameters
+from gearsweep.model import (
+    Harmonic,
+    MathieuModel,
+    MeshModel,
+    equivalent_mass,
+    hill_parameters,
+    mean_mesh_force,
+)
 from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
@@ -70,7 +77,7 @@ def build_model(study: Study, torque: float | None = None) -> MeshModel | Mathie
         r1 = gear.base_radius_1
     mean_force = sc.mean_force if sc.mean_force is not None else 0.0
     if sc.torque is not None:
-        mean_force = sc.torque / r1
+        mean_force = mean_mesh_force(sc.torque, r1)
     fluct = []
     for f in sc.fluctuation:
         if not f.is_torque:
