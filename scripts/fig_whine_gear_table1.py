@@ -5,22 +5,18 @@ a case whose rms still grows at the end of its window (status 2, the parametric 
 twice the natural frequency at low damping) has no steady value; those are masked and counted.
 """
 
-import math
-
 from _common import open_result, parse
 
 from gearsweep.api import result_model
 from gearsweep.plot.common import save
 from gearsweep.plot.sweep import plot_response_vs_speed
-from gearsweep.units import si_values
+from gearsweep.plot.whine import damping_labels
 
 args = parse(__doc__)
 ds = open_result(args.results, "whine_gear_table1")
 model = result_model(ds)  # k0 of the gear pair, m_eq
 k0, m = model.stiffness, model.mass
-labels = [f"c = {c / 1e3:g} N s/mm (ζ = {c / (2 * math.sqrt(k0 * m)):.3f})"
-          for c in si_values(ds["damping"])]
-fig = plot_response_vs_speed(ds, "p_rms", hue="damping", hue_labels=labels)
+fig = plot_response_vs_speed(ds, "p_rms", hue="damping", hue_labels=damping_labels(ds))
 ax = fig.axes[0]
 ax.set_yscale("log")
 bad = int((ds["status"] != 0).sum())
