@@ -279,7 +279,7 @@ MESH_UNITS = {"ste": "um", "load_share": "1", "mesh_stiffness": "kN mm-1",
 
 
 def test_mesh_study_netcdf_has_data_md_names_dims_units_and_mesh_cycle_values(tmp_path, capsys):
-    """``gearsweep run`` of a ``type: mesh`` study: DATA.md names, dims and units; the values are
+    """``gearsweep run`` of a ``type: mesh`` study: docs/data-format.md names, dims and units; the values are
     those of mesh_cycles called directly (to round-off); the file opens with no arguments."""
     text = """\
         type: mesh

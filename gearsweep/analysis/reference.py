@@ -1,6 +1,6 @@
 """Reference solutions of the 1-DOF model that do not share the fixed-step kernel's errors.
 
-Two independent references for a ``gearsweep.analysis.scene.Scene``:
+Two independent references for a ``gearsweep.model.Scene``:
 
 ``reference_ivp``
     scipy ``solve_ivp`` with DOP853 (rtol 1e-12, atol 1e-12 times the response scale). The

@@ -1,7 +1,7 @@
 """Kink-aware fixed-step RK4/RK5: steps that cross the backlash boundaries are finished in the
 new region.
 
-Same model, tables, arguments and statistics as ``gearsweep.kernels.rk.integrate`` (see its
+Same model, tables, arguments and statistics as ``gearsweep.kernels.batch.simulate`` (see its
 docstring); the two kernels differ only in steps whose end state lies in another region of the
 dead zone than their start state (regions p > b, |p| <= b, p < -b).
 

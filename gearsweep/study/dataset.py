@@ -101,7 +101,7 @@ def build_dataset(
     source: str = "gearsweep",
     var_attrs: dict[str, dict] | None = None,
 ) -> xr.Dataset:
-    """Build a result Dataset per DATA.md: named dims, units and long names, global attributes
+    """Build a result Dataset per docs/data-format.md: named dims, units and long names, global attributes
     (``resultfile.variable_attrs``, ``resultfile.global_attrs``).
 
     Parameters
@@ -217,7 +217,7 @@ def store_chunk(results: dict[str, np.ndarray], plan: Any, lane0: int, lane1: in
 
 def assemble(plan: Any, results: dict[str, np.ndarray], elapsed: float | None = None,
              kernel: float | None = None) -> xr.Dataset:
-    """The Dataset of ``describe(plan)`` (DATA.md), its results the lane-ordered arrays
+    """The Dataset of ``describe(plan)`` (docs/data-format.md), its results the lane-ordered arrays
     ``results`` put on the study's dims."""
     desc = describe(plan, elapsed, kernel)
     lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]

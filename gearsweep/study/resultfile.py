@@ -62,7 +62,7 @@ COORDS = {
     "method": ("-", "integrator name"),
     "steps_per_period": ("1", "integration steps per mesh period"),
 }
-"""Units and long names of the coordinates of DATA.md (units as CF/UDUNITS strings: "1" for a
+"""Units and long names of the coordinates of docs/data-format.md (units as CF/UDUNITS strings: "1" for a
 dimensionless number; the string labels, direction and method, carry none in the file). Swept
 coordinates are stored in their display unit (``display_coordinate``), not the SI unit here."""
 
@@ -115,7 +115,7 @@ def variable_attrs(name: str, table: dict, extra: dict | None = None, values=Non
 
 def global_attrs(title: str, study_text: str = "", settings: dict | None = None,
                  source: str = "gearsweep") -> dict[str, Any]:
-    """A result's global attributes (DATA.md): conventions, title, history (time stamp and
+    """A result's global attributes (docs/data-format.md): conventions, title, history (time stamp and
     ``provenance``), source, the study text as run with its sha256, then ``settings``."""
     now = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     attrs: dict[str, Any] = {
@@ -208,7 +208,7 @@ def result_dims(plan: Any, name: str) -> tuple[str, ...]:
 
 
 def describe(plan: Any, elapsed: float | None = None, kernel: float | None = None) -> Description:
-    """Every variable and attribute of ``plan``'s result (DATA.md), the results as shapes."""
+    """Every variable and attribute of ``plan``'s result (docs/data-format.md), the results as shapes."""
     sizes = {d: len(plan.grids[d]) for d in plan.dims}
     if plan.continued:
         sizes["direction"] = len(plan.directions)
