@@ -22,9 +22,10 @@ from typing import Annotated, Literal
 
 from pydantic import BeforeValidator, Field, model_validator
 
+from gearsweep.kernels.tableaux import KERNEL_METHODS
 from gearsweep.study.quantities import Count, Real, Speed, Strict, WholeStudy
 
-Method = Literal["rk4", "rk5"]
+Method = Literal[KERNEL_METHODS]
 
 
 class MethodStability(Strict):

@@ -57,6 +57,8 @@ from pydantic import (
 
 from gearsweep.errors import NO_VALUE, GeometryError, StudyError, article
 from gearsweep.gear.excitation import static_mesh
+from gearsweep.kernels.cuda import DEVICES, PRECISIONS
+from gearsweep.kernels.tableaux import KERNEL_METHODS
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.analysis_specs import AnalysisSpec, AnalysisStudy
 from gearsweep.study.gearscene import (
@@ -330,7 +332,7 @@ MAX_STEPS_PER_PERIOD = 65536
 
 
 class Solver(Strict):
-    method: Literal["rk4", "rk5"] = "rk4"
+    method: Literal[KERNEL_METHODS] = "rk4"
     steps_per_period: Count = Field(64, ge=4, le=MAX_STEPS_PER_PERIOD,
                                     description="steps per mesh period")
     kink_aware: Flag = Field(
@@ -352,10 +354,10 @@ class Solver(Strict):
         " the case's load)")
     initial_velocity: Annotated[Real, BeforeValidator(_bare_velocity)] = Field(
         0.0, allow_inf_nan=False, description="p' at t = 0 in m/s (a bare number)")
-    device: Literal["cpu", "cuda", "auto"] = Field(
+    device: Literal[DEVICES] = Field(
         "cpu", description="where the kernel runs: cpu, cuda (a CUDA GPU, docs/gpu.md) or auto"
         " (cuda where a GPU is present)")
-    precision: Literal["float64", "float32"] = Field(
+    precision: Literal[tuple(PRECISIONS)] = Field(
         "float64", description="float32: the state in single precision (device cuda only)")
     step_guard: Annotated[Literal["warn", "skip", "off"], BeforeValidator(_guard_word)] = Field(
         "warn", description="cases whose step is beyond the method's stability limit: flag them"
