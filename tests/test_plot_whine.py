@@ -183,3 +183,23 @@ def test_spectrum_plots_say_what_they_draw_on_in_one_line(ds):
     with pytest.raises(ValueError, match=rf"order\(s\) \[{top + 1}\] are not in this spectrum"):
         plot_order_lines(ax, ds.sel(torque=50.0), orders=(1, top + 1))
     plt.close(fig)
+
+
+def test_damping_legend_is_in_n_s_per_mm_from_either_unit_of_the_file():
+    """A damping sweep's legend says the value the study wrote (2.5 N s/mm), whether the result
+    stores damping as a study writes it (N s mm-1) or in SI (N s m-1, 2500): neither branch of
+    ``value_label`` was tested (a factor of 10 in either passed every test)."""
+    import xarray as xr
+
+    import gearsweep
+    from gearsweep.plot.sweep import plot_response_vs_speed, value_label
+
+    ds = gearsweep.run(STUDY.replace("  torque: [25 N*m, 50 N*m]",
+                                     "  damping: [2.5 N*s/mm, 5.5 N*s/mm]")
+                       .replace("num: 41", "num: 3"))
+    assert ds["damping"].attrs["units"] == "N s mm-1"
+    ax = plot_response_vs_speed(ds, "p_pp", hue="damping").axes[0]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["c = 2.5 N s/mm",
+                                                                  "c = 5.5 N s/mm"]
+    si = xr.Dataset(coords={"damping": ("damping", [2500.0], {"units": "N s m-1"})})
+    assert value_label(si, "damping", 2500.0) == "c = 2.5 N s/mm"
