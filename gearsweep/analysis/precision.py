@@ -24,7 +24,7 @@ import numpy as np
 from gearsweep.analysis.reference import PiecewiseSolution, reference_exact, reference_ivp
 from gearsweep.kernels import rk
 from gearsweep.kernels.batch import simulate
-from gearsweep.model import PAPER_RIG, Scene, gear_scene
+from gearsweep.model import PAPER_RIG, Scene, gear_scene, mesh_frequency
 
 SAMPLES_PER_PERIOD = 8
 """Common sampling instants per mesh period (the coarsest step studied, 8 per period)."""
@@ -183,7 +183,7 @@ TEETH = PAPER_RIG.teeth
 
 def whine_scene(rpm: float = 6000.0, *, damping: float = DAMPING, k0: float = K0) -> Scene:
     """Smooth scene: time-varying stiffness and STE, no backlash (Eq. 9)."""
-    return gear_scene(mass=MASS, damping=damping, k0=k0, mesh_frequency=TEETH * rpm / 60.0,
+    return gear_scene(mass=MASS, damping=damping, k0=k0, mesh_frequency=float(mesh_frequency(rpm, TEETH)),
                       k_harmonics=K_HARMONICS, ste_harmonics=STE_HARMONICS, force=FORCE)
 
 
@@ -191,5 +191,5 @@ def rattle_scene(rpm: float = 9000.0, *, damping: float = DAMPING, k0: float = K
                  backlash: float = 4e-6) -> Scene:
     """Rattle scene: constant stiffness, first STE harmonic, backlash (Eq. 13); at 9000 rpm the
     teeth leave contact and strike the back flank four times per mesh period."""
-    return gear_scene(mass=MASS, damping=damping, k0=k0, mesh_frequency=TEETH * rpm / 60.0,
+    return gear_scene(mass=MASS, damping=damping, k0=k0, mesh_frequency=float(mesh_frequency(rpm, TEETH)),
                       ste_harmonics=STE_HARMONICS[:1], force=FORCE, backlash=backlash)

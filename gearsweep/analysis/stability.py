@@ -55,6 +55,7 @@ from gearsweep.errors import GearsweepError
 from gearsweep.kernels import STATUS_DIVERGED, simulate, tableaux
 from gearsweep.kernels import floquet as fq
 from gearsweep.kernels.floquet import floquet, largest_multiplier, mathieu_parameters, paper_criterion
+from gearsweep.model import mesh_frequency
 
 __all__ = [
     "TABLEAUX",
@@ -375,7 +376,7 @@ def integrator_edge(speeds_rpm: tuple[float, float], *, k0: float, k1: float, ma
     from scipy.optimize import brentq
 
     def excess(speed: float) -> float:
-        a, b, g = mathieu_parameters(k0, k1, mass, damping, teeth * speed / 60.0)
+        a, b, g = mathieu_parameters(k0, k1, mass, damping, float(mesh_frequency(speed, teeth)))
         mu = float(largest_multiplier(fq.monodromy(a, b, g, steps_per_period, method=method))[0])
         return min(math.log(mu), 700.0) - math.log1p(tol)  # (an overflow: inf)
 
@@ -471,7 +472,7 @@ def operating_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teet
     speed = np.asarray(speed_rpm, dtype=float)
     c = np.asarray(damping, dtype=float)
     S, C = np.meshgrid(speed, c)
-    fmesh = teeth * S / 60.0
+    fmesh = mesh_frequency(S, teeth)
     alpha, beta, gamma = mathieu_parameters(k0, k1, mass, C, fmesh)
     fl = floquet(alpha, beta, gamma, method=method, tol=tol, rtol=rtol)
     flag, disc = integrator_unstable(alpha, beta, gamma, coarse_spp, method=method, floquet=fl,
@@ -593,7 +594,7 @@ def artifact_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teeth
     speed = np.asarray(speed_rpm, dtype=float)
     c = np.asarray(damping, dtype=float)
     S_, C_ = np.meshgrid(speed, c)
-    alpha, beta, gamma = mathieu_parameters(k0, k1, mass, C_, teeth * S_ / 60.0)
+    alpha, beta, gamma = mathieu_parameters(k0, k1, mass, C_, mesh_frequency(S_, teeth))
     methods = tuple(methods)
     spps = tuple(int(s) for s in steps_per_period)
     flag = np.zeros((len(methods), len(spps)) + alpha.shape, bool)
