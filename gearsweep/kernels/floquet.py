@@ -156,6 +156,17 @@ class FloquetResult:
         return self.multiplier > 1.0 + self.tol
 
 
+HW0, SPP_MIN, SPP_MAX = 0.5, 16, 2**16
+"""``floquet``'s defaults: the first step count resolves the stiffest frozen pole with
+h |lambda| <= HW0, and lies within SPP_MIN .. SPP_MAX (``initial_steps``)."""
+
+
+def initial_steps(a, b, g, harmonics) -> np.ndarray:
+    """The steps per period ``floquet`` starts from with its defaults (what a study's estimate
+    counts)."""
+    return np.minimum(_initial_spp(a, b, g, harmonics, HW0, SPP_MIN), SPP_MAX)
+
+
 def _initial_spp(a, b, g, harmonics, hw0: float, spp_min: int) -> np.ndarray:
     amps = np.atleast_1d((harmonics if harmonics is not None else MATHIEU)[0])
     kmax = np.abs(a) + np.abs(b) * np.sum(np.abs(amps))
@@ -165,7 +176,7 @@ def _initial_spp(a, b, g, harmonics, hw0: float, spp_min: int) -> np.ndarray:
 
 
 def floquet(alpha, beta, gamma=0.0, *, method: str = "rk5", rtol: float = 1e-9,
-            atol: float = 1e-12, spp_min: int = 16, spp_max: int = 2**16, hw0: float = 0.5,
+            atol: float = 1e-12, spp_min: int = SPP_MIN, spp_max: int = SPP_MAX, hw0: float = HW0,
             tol: float = 1e-6, harmonics=None) -> FloquetResult:
     """Largest Floquet multiplier of every case, the step refined until it has converged.
 

@@ -32,8 +32,8 @@ from gearsweep.analysis.stability import check_step
 from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import (
-    _initial_spp,
     floquet,
+    initial_steps,
     largest_multiplier,
     monodromy,
     monodromy_call,
@@ -468,9 +468,7 @@ class Floquet:
         n = len(params["speed"]) if "speed" in params else 1
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             a, b, gm, harm, *_ = hill_parameters(plan.model, params, n)
-            first = _initial_spp(np.nan_to_num(a), np.nan_to_num(b), np.nan_to_num(gm), harm,
-                                 0.5, 16)
-        first = np.minimum(first, 2**16)
+            first = initial_steps(np.nan_to_num(a), np.nan_to_num(b), np.nan_to_num(gm), harm)
         steps = 2.0 * (FLOQUET_PERIODS * float(np.mean(first)) + plan.study.solver.steps_per_period)
         cases = plan.n_cases / max(len(plan.directions), 1)
         return (cases * (FLOQUET_CASE_SECONDS + steps / (rate * 1e6))
