@@ -101,8 +101,9 @@ _RK5_N61, _RK5_N62, _RK5_N63, _RK5_N64, _RK5_N65 = _K["RK5_N6"]
 _RK5_D6 = _K["RK5_D6"]
 _RK5_B1, _, _RK5_B3, _RK5_B4, _, _ = _K["RK5_B"]
 _RK5_D = _K["RK5_D"]
-METHODS = {"rk4": RK4, "rk5": RK5}
-STAGES = {RK4: 4, RK5: 6}
+METHODS = dict(zip(tableaux.KERNEL_METHODS, (RK4, RK5), strict=True))
+STAGES = {code: tableaux.get(name).stages for name, code in METHODS.items()}
+"""Stages (right-hand side evaluations) of a step of each method, from its tableau."""
 
 # Columns of the statistics array returned per case.
 ST_MAX, ST_MIN, ST_MEAN, ST_RMS, ST_CONTACT_LOSS, ST_BACKSIDE, ST_IMPACTS, ST_SETTLE = range(8)
