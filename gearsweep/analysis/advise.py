@@ -46,7 +46,7 @@ def stability_polynomial(method: str) -> np.ndarray:
     """Coefficients (ascending powers of z = h lambda) of the stability function R(z) of the
     kernel's method, as floats (derived from its tableau in ``gearsweep.kernels.tableaux``)."""
     if method not in tableaux.KERNEL_METHODS:
-        raise ValueError(f"method must be 'rk4' or 'rk5', got {method!r}")
+        raise ValueError(f"method must be one of {', '.join(tableaux.KERNEL_METHODS)}, got {method!r}")
     return np.array([float(c) for c in tableaux.stability_polynomial(method)])
 
 
@@ -177,8 +177,7 @@ def advise(
     -------
     Advice
     """
-    if method not in ("rk4", "rk5"):
-        raise ValueError(f"method must be 'rk4' or 'rk5', got {method!r}")
+    stability_polynomial(method)  # the method check
     if not target > 0:
         raise ValueError(f"target must be positive, got {target}")
     speeds = np.atleast_1d(np.asarray(speed_rpm, dtype=float))
