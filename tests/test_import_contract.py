@@ -27,9 +27,14 @@ and netCDF4 (0.35 s), where a result is built: in ``run_to_file`` that is the wr
 beside the first chunk's kernel (docs/scale.md). import-linter still sees these edges (it reads
 imports inside functions too); only these modules may have them."""
 
-FIGURE_FORBIDDEN = ("gearsweep.kernels", "gearsweep.analysis", "gearsweep.model", "gearsweep.study.plan",
-                    "gearsweep.study.chunk", "gearsweep.study.execute", "gearsweep.api.run")
-"""What a figure script must not import: it opens result files and calls ``gearsweep.plot``."""
+FIGURE_FORBIDDEN = ("gearsweep.kernels", "gearsweep.analysis", "gearsweep.model", "gearsweep.gear",
+                    "gearsweep.study", "gearsweep.api.run", "gearsweep.api.estimate")
+"""What a figure script must not import: it opens result files and calls ``gearsweep.plot``
+(``gearsweep.gear``: the tooth physics; ``gearsweep.study``: every stage of a run, the mesh and
+analysis computations with them)."""
+FIGURE_FORBIDDEN_CALLS = ("run", "estimate")
+"""``gearsweep.run(...)`` and ``gearsweep.estimate(...)`` after ``import gearsweep`` (no import
+names them: a figure script that ran a study passed)."""
 
 STILL_COMPUTING: set[str] = set()
 """Figure scripts that still compute (issue 22: to become study outputs). The test below fails
@@ -73,8 +78,24 @@ def test_no_function_level_import_of_gearsweep_modules(path):
 
 
 def _figure_offences(path: Path) -> list[tuple[int, str]]:
-    return [(ln, m) for ln, m in _imports(ast.parse(path.read_text()))
-            if m.startswith(FIGURE_FORBIDDEN) or m in ("gearsweep.run", "gearsweep.api.run")]
+    tree = ast.parse(path.read_text())
+    calls = [(n.lineno, f"gearsweep.{n.attr}") for n in ast.walk(tree)
+             if isinstance(n, ast.Attribute) and n.attr in FIGURE_FORBIDDEN_CALLS
+             and isinstance(n.value, ast.Name) and n.value.id == "gearsweep"]
+    return [(ln, m) for ln, m in _imports(tree)
+            if m.startswith(FIGURE_FORBIDDEN) or m in ("gearsweep.run", "gearsweep.estimate")] + calls
+
+
+def test_the_figure_check_sees_a_study_run_and_gear_physics(tmp_path):
+    """A figure script that ran a study through ``import gearsweep`` and computed a mesh cycle
+    passed ``test_figure_scripts_only_draw`` (found by an outside tester)."""
+    script = tmp_path / "fig_probe.py"
+    script.write_text("import gearsweep\nfrom gearsweep.gear import mesh_cycle\n"
+                      "from gearsweep.study.analyses import COMPUTE\n"
+                      "ds = gearsweep.run('studies/x.yaml')\n")
+    assert sorted(_figure_offences(script)) == [(2, "gearsweep.gear.mesh_cycle"),
+                                                (3, "gearsweep.study.analyses.COMPUTE"),
+                                                (4, "gearsweep.run")]
 
 
 @pytest.mark.parametrize("path", sorted((ROOT / "scripts").glob("fig*.py")), ids=lambda p: p.name)
