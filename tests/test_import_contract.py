@@ -52,6 +52,9 @@ def _imports(tree: ast.AST, *, nested_only: bool = False) -> list[tuple[int, str
                 out += [(node.lineno, a.name) for a in node.names]
             elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
                 out += [(node.lineno, f"{node.module}.{a.name}") for a in node.names]
+            elif isinstance(node, ast.ImportFrom):  # relative: a module of gearsweep itself
+                where = ".".join(filter(None, ["gearsweep", node.module]))
+                out += [(node.lineno, f"{where}.{a.name}") for a in node.names]
     return out
 
 
@@ -65,6 +68,13 @@ def test_the_nested_import_scanner_sees_only_function_bodies():
     tree = ast.parse("import os\nfrom gearsweep import model\n"
                      "def f():\n    from gearsweep.study import plan\n    import yaml\n")
     assert _imports(tree, nested_only=True) == [(4, "gearsweep.study.plan"), (5, "yaml")]
+
+
+def test_the_nested_import_scanner_sees_relative_imports():
+    """``from ..study import plan`` inside a function is a hidden edge too (the scanner read only
+    absolute imports)."""
+    tree = ast.parse("def f():\n    from ..study import plan\n    from . import units\n")
+    assert _imports(tree, nested_only=True) == [(2, "gearsweep.study.plan"), (3, "gearsweep.units")]
 
 
 @pytest.mark.parametrize("path", sorted(PACKAGE.rglob("*.py")), ids=lambda p: str(p.relative_to(ROOT)))
