@@ -54,7 +54,13 @@ import numpy as np
 from gearsweep.errors import GearsweepError
 from gearsweep.kernels import STATUS_DIVERGED, simulate, tableaux
 from gearsweep.kernels import floquet as fq
-from gearsweep.kernels.floquet import floquet, largest_multiplier, mathieu_parameters, paper_criterion
+from gearsweep.kernels.floquet import (
+    UNSTABLE_TOL,
+    floquet,
+    largest_multiplier,
+    mathieu_parameters,
+    paper_criterion,
+)
 from gearsweep.model import mesh_frequency
 
 __all__ = [
@@ -311,7 +317,7 @@ def require_stable_step(method: str, steps_per_period, mesh_period, k_max_over_m
 
 
 def integrator_unstable(alpha, beta, gamma, steps_per_period: int, *, method: str = "rk5",
-                        floquet=None, tol: float = 1e-6, harmonics=None):
+                        floquet=None, tol: float = UNSTABLE_TOL, harmonics=None):
     """Cases where the discrete map diverges although the equation does not.
 
     Parameters
@@ -346,7 +352,7 @@ def integrator_unstable(alpha, beta, gamma, steps_per_period: int, *, method: st
 
 def integrator_edge(speeds_rpm: tuple[float, float], *, k0: float, k1: float, mass: float,
                     teeth: int, damping: float, steps_per_period: int, method: str = "rk5",
-                    tol: float = 1e-6) -> float:
+                    tol: float = UNSTABLE_TOL) -> float:
     """The speed [rpm] between the two of ``speeds_rpm`` at which the fixed-step map of the rig's
     Hill equation (Eq. 11-12, ``mathieu_parameters``) passes between diverging and not: its
     largest multiplier over one mesh period is ``1 + tol`` (``integrator_unstable``'s
@@ -433,7 +439,7 @@ def measured_step_limit(method: str, zeta, n_steps: int = 2_000_000, bound: floa
 
 def operating_map(speed_rpm, damping, *, k0: float, k1: float, mass: float, teeth: int,
                   method: str = "rk5", coarse_spp: int = 200, fine_spp: int = 2048,
-                  n_periods: int = 100, threshold: float = 1e3, tol: float = 1e-6,
+                  n_periods: int = 100, threshold: float = 1e3, tol: float = UNSTABLE_TOL,
                   rtol: float = 1e-7) -> dict:
     """Stability of the paper's rig over speed x damping, four ways (the data of Fig. 7.2).
 

@@ -156,6 +156,10 @@ class FloquetResult:
         return self.multiplier > 1.0 + self.tol
 
 
+UNSTABLE_TOL = 1e-6
+"""A multiplier counts as > 1 above 1 + UNSTABLE_TOL: ``floquet``'s ``unstable``, the floquet
+output's ``unstable`` and ``integrator_unstable`` (their ``threshold`` attribute)."""
+
 HW0, SPP_MIN, SPP_MAX = 0.5, 16, 2**16
 """``floquet``'s defaults: the first step count resolves the stiffest frozen pole with
 h |lambda| <= HW0, and lies within SPP_MIN .. SPP_MAX (``initial_steps``)."""
@@ -177,7 +181,7 @@ def _initial_spp(a, b, g, harmonics, hw0: float, spp_min: int) -> np.ndarray:
 
 def floquet(alpha, beta, gamma=0.0, *, method: str = "rk5", rtol: float = 1e-9,
             atol: float = 1e-12, spp_min: int = SPP_MIN, spp_max: int = SPP_MAX, hw0: float = HW0,
-            tol: float = 1e-6, harmonics=None) -> FloquetResult:
+            tol: float = UNSTABLE_TOL, harmonics=None) -> FloquetResult:
     """Largest Floquet multiplier of every case, the step refined until it has converged.
 
     Parameters

@@ -32,6 +32,7 @@ from gearsweep.analysis.stability import check_step
 from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import (
+    UNSTABLE_TOL,
     floquet,
     initial_steps,
     largest_multiplier,
@@ -413,7 +414,7 @@ PERIOD_COMPARE_SECONDS = 1.3e-9
 UTC), the Fig. 8 scene at 2,000 speeds without continuation, [stats, period] less [stats]: 3.7 s
 at 2,000 recorded periods, 16.2 s at 4,000 (1.2e10 comparisons); the estimate priced 0 s."""
 
-TOL = 1e-6
+TOL = UNSTABLE_TOL
 """A multiplier counts as > 1 above 1 + TOL (converged to rtol 1e-8, far below)."""
 
 
