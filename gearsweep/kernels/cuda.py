@@ -276,6 +276,8 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
             K = _row(ktab, j, KT)
             E = _row(etab, j, ET)
             F = _row(ftab, j, FT)
+            if s == n_transient and GAP is not None:  # apart or not before the first recorded
+                prev = 1.0 if abs(X) < b else 0.0  # state (rk._mark_prev)
             if rk4:
                 Xn, Vn = rk._rk4_step(X, V, hh, h2, h6, c,
                                       rk._k(km, ka, K[0], KT, KA), rk._k(km, ka, K[2], KT, KA),
@@ -300,10 +302,8 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
             j = j + 1 if j + 1 < S else 0
             jp = jp + 1 if jp + 1 < spp else 0
             if s >= n_transient:
-                if s == n_transient:  # the first recorded step: origin of the sums, contact state
+                if s == n_transient:  # the first recorded step: origin of the sums
                     shift = float(X)
-                    if GAP is not None:
-                        prev = 1.0 if abs(X) < b else 0.0
                     if half == n_transient:
                         max1, min1, max2, min2 = max2, min2, -inf, inf
                 max2, min2, s1, s2, gaps, backs, impacts, prev = rk._stat_step(

@@ -155,15 +155,16 @@ from gearsweep.kernels.rk import (
 # rare lanes, stays a function of its own (its helpers are inlined into it).
 _RK = inlined_copies({name: getattr(rk, name) for name in (
     "_accumulate", "_check", "_cycle", "_finish", "_g", "_k", "_load", "_rk4_lanes", "_rk5_lanes",
-    "_row", "_sample", "_scratch", "_split", "_start_record", "_law", "_stage_spring", "_spring",
+    "_row", "_sample", "_scratch", "_split", "_start_record", "_mark_prev", "_law",
+    "_stage_spring", "_spring",
     "_dead_zone", "_after_step", "_record", "_stat_step", "_final_stats", "_rk4_step",
     "_rk5_step")}, {"_KINK": True})
 _accumulate, _check, _cycle, _finish = (_RK[n] for n in ("_accumulate", "_check", "_cycle",
                                                          "_finish"))
 _g, _k, _load, _rk4_lanes, _rk5_lanes = (_RK[n] for n in ("_g", "_k", "_load", "_rk4_lanes",
                                                           "_rk5_lanes"))
-_row, _sample, _scratch, _split, _start_record = (_RK[n] for n in (
-    "_row", "_sample", "_scratch", "_split", "_start_record"))
+_row, _sample, _scratch, _split, _start_record, _mark_prev = (_RK[n] for n in (
+    "_row", "_sample", "_scratch", "_split", "_start_record", "_mark_prev"))
 
 _RK4_METHOD = True
 """The method the fix-up helpers below serve (``_substep`` ... ``_fix_jobs``): a module global,
@@ -851,6 +852,9 @@ def _integrate_blocks(h, cm, kmean, kamp, ktab, gmean, escale, etab, fscale, fta
         # states of steps n_transient ... end: the same states, the same statistics.
         for s in range(n_transient + n_record + 1):
             rec = s > n_transient
+            if s == n_transient:  # the state before the first recorded one: apart or not
+                for q in range(sub):
+                    _mark_prev(w, q * _BLOCK, half_gap)
             if rec:
                 for q in range(sub):
                     if s == n_transient + 1:

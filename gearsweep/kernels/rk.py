@@ -609,10 +609,13 @@ def _integrate_function(method):
                 # in registers. ``rec`` is a constant at each call site, so each of the two
                 # copies LLVM inlines is one branch-free vector loop (a run-time flag stops LLVM from
                 # vectorising the dead-zone case: B2 0.16 s -> 0.25 s). The first recorded step
-                # sets the origin of the sums and the contact state the statistics start from.
+                # sets the origin of the sums; the contact state the impacts start from is that
+                # of the state before it (``_mark_prev``).
                 rec = s > n_transient
                 if s == half and rec:
                     _split(w, 0)
+                if s == n_transient:  # the state before the first recorded one: apart or not
+                    _mark_prev(w, 0, half_gap)
                 if rk4:
                     if rec:
                         _rk4_lanes(w, 0, half_gap, kamp, ktab, K, etab, E, ftab, F, True)
@@ -715,10 +718,20 @@ def _sample(w, o, signal, r, stride, i0, n):
 
 
 @jit_helper
+def _mark_prev(w, o, half_gap):
+    """Whether each lane is apart (``_PREV``) in the state just before the first recorded one,
+    so that an entry into contact at the window's first step is counted: over whole periods of a
+    periodic motion every entry is then counted once, wherever the window starts."""
+    if half_gap is not None:
+        for l in range(LANES):
+            w[o + _PREV * LANES + l] = 1.0 if abs(w[o + _X * LANES + l]) < w[o + _B * LANES + l] else 0.0
+
+
+@jit_helper
 def _start_record(w, o, half_gap):
-    """Reset the running statistics at the first recorded step."""
+    """Reset the running statistics at the first recorded step (``_PREV`` is ``_mark_prev``'s)."""
     for l in range(LANES):
-        for q in range(_MAX1, _PREV + 1):
+        for q in range(_MAX1, _PREV):
             w[o + q * LANES + l] = 0.0
         w[o + _MAX1 * LANES + l] = -np.inf
         w[o + _MAX2 * LANES + l] = -np.inf
@@ -726,8 +739,6 @@ def _start_record(w, o, half_gap):
         w[o + _MIN2 * LANES + l] = np.inf
         # sums about the first sample: no cancellation in the rms
         w[o + _SHIFT * LANES + l] = w[o + _X * LANES + l]
-        if half_gap is not None:
-            w[o + _PREV * LANES + l] = 1.0 if abs(w[o + _X * LANES + l]) < w[o + _B * LANES + l] else 0.0
 
 
 @jit_helper
