@@ -276,8 +276,8 @@ def _kernel(method: int, has_k: bool, has_kamp: bool, has_e: bool, has_f: bool, 
             K = _row(ktab, j, KT)
             E = _row(etab, j, ET)
             F = _row(ftab, j, FT)
-            if s == n_transient and GAP is not None:  # apart or not before the first recorded
-                prev = 1.0 if abs(X) < b else 0.0  # state (rk._mark_prev)
+            if s == n_transient and GAP is not None:  # the region of the state before the
+                prev = rk._region(float(X), float(b))  # first recorded one (rk._mark_prev)
             if rk4:
                 Xn, Vn = rk._rk4_step(X, V, hh, h2, h6, c,
                                       rk._k(km, ka, K[0], KT, KA), rk._k(km, ka, K[2], KT, KA),

@@ -157,7 +157,7 @@ _RK = inlined_copies({name: getattr(rk, name) for name in (
     "_accumulate", "_check", "_cycle", "_finish", "_g", "_k", "_load", "_rk4_lanes", "_rk5_lanes",
     "_row", "_sample", "_scratch", "_split", "_start_record", "_mark_prev", "_law",
     "_stage_spring", "_spring",
-    "_dead_zone", "_after_step", "_record", "_stat_step", "_final_stats", "_rk4_step",
+    "_dead_zone", "_after_step", "_record", "_stat_step", "_region", "_final_stats", "_rk4_step",
     "_rk5_step")}, {"_KINK": True})
 _accumulate, _check, _cycle, _finish = (_RK[n] for n in ("_accumulate", "_check", "_cycle",
                                                          "_finish"))

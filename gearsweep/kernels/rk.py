@@ -609,8 +609,8 @@ def _integrate_function(method):
                 # in registers. ``rec`` is a constant at each call site, so each of the two
                 # copies LLVM inlines is one branch-free vector loop (a run-time flag stops LLVM from
                 # vectorising the dead-zone case: B2 0.16 s -> 0.25 s). The first recorded step
-                # sets the origin of the sums; the contact state the impacts start from is that
-                # of the state before it (``_mark_prev``).
+                # sets the origin of the sums; the region the impacts start from is that of the
+                # state before it (``_mark_prev``).
                 rec = s > n_transient
                 if s == half and rec:
                     _split(w, 0)
@@ -719,12 +719,12 @@ def _sample(w, o, signal, r, stride, i0, n):
 
 @jit_helper
 def _mark_prev(w, o, half_gap):
-    """Whether each lane is apart (``_PREV``) in the state just before the first recorded one,
-    so that an entry into contact at the window's first step is counted: over whole periods of a
-    periodic motion every entry is then counted once, wherever the window starts."""
+    """Each lane's region (``_PREV``, ``_region``) in the state just before the first recorded
+    one, so that an entry into contact at the window's first step is counted: over whole periods
+    of a periodic motion every entry is then counted once, wherever the window starts."""
     if half_gap is not None:
         for l in range(LANES):
-            w[o + _PREV * LANES + l] = 1.0 if abs(w[o + _X * LANES + l]) < w[o + _B * LANES + l] else 0.0
+            w[o + _PREV * LANES + l] = _region(w[o + _X * LANES + l], w[o + _B * LANES + l])
 
 
 @jit_helper
@@ -783,9 +783,11 @@ def _record(w, o, l, X, half_gap):
 @jit_helper
 def _stat_step(X, pmax, pmin, s1, s2, shift, b, gaps, backs, impacts, prev, half_gap):
     """The running statistics of one case after entering p = X, branch-free (counts are sums of
-    0.0/1.0; an impact is a step from the gap into contact): extremes, sums of (p - shift) and its
-    square, and with backlash the counts of steps apart / on the back flank / impacts and whether
-    the case was apart (``prev``). The one definition, used by ``_record`` and the CUDA kernel."""
+    0.0/1.0; an impact is a step into contact on a flank from the gap or from the other flank,
+    whose gap the step crossed): extremes, sums of (p - shift) and its square, and with backlash
+    the counts of steps apart / on the back flank / impacts and the case's region (``prev``: 1
+    drive flank, 0 apart, -1 back flank, ``_region``). The one definition, used by ``_record``
+    and the CUDA kernel."""
     pmax = max(pmax, X)
     pmin = min(pmin, X)
     d = X - shift
@@ -793,11 +795,20 @@ def _stat_step(X, pmax, pmin, s1, s2, shift, b, gaps, backs, impacts, prev, half
     s2 += d * d
     if half_gap is not None:
         gap = 1.0 if abs(X) < b else 0.0
+        back = 1.0 if X < -b else 0.0
         gaps += gap
-        backs += 1.0 if X < -b else 0.0
-        impacts += prev * (1.0 - gap)  # gap -> contact: an impact
-        prev = gap
+        backs += back
+        region = 1.0 - gap - 2.0 * back
+        impacts += (1.0 - gap) * (1.0 if region != prev else 0.0)  # into contact: an impact
+        prev = region
     return pmax, pmin, s1, s2, gaps, backs, impacts, prev
+
+
+@jit_helper
+def _region(X, b):
+    """The region of the dead zone p = X is in: 1 drive flank, 0 apart (|p| < b), -1 back flank
+    (p < -b); ``_stat_step``'s ``prev``."""
+    return 0.0 if abs(X) < b else (-1.0 if X < -b else 1.0)
 
 
 @jit_helper
