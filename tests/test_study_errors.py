@@ -123,11 +123,32 @@ def test_a_torque_fluctuation_needs_a_base_radius():
     text = GOOD.replace("mean_force: 100 N\n",
                         "mean_force: 100 N\n  fluctuation: [{amplitude: 5 N m, order: 1}]\n")
     assert _lines(text) == [
-        ("s.yaml:9: scene.fluctuation[0].amplitude: '5 N m' -- a force (e.g. '300 N'), or give"
-        " scene.base_radius or scene.drive for a torque amplitude: F = T / r1")]
+        ("s.yaml:9: scene.fluctuation[0].amplitude: '5 N m' -- a force (e.g. '300 N'), or for a"
+        " torque amplitude give scene.base_radius (F = T / r1, a rigid driven gear) or"
+        " scene.drive (Eq. 7: F = m_eq T r1 / I1)")]
     parse_study(text.replace("5 N m", "300 N"), "s.yaml")
     parse_study(text.replace("mean_force: 100 N", "mean_force: 100 N\n  base_radius: 30 mm"),
                 "s.yaml")
+
+
+def test_the_torque_fluctuation_message_gives_the_force_each_choice_makes():
+    """The message names the force each way of giving a torque amplitude makes, and that force
+    is the one the model holds: T / r1 with a base radius; with a drive Eq. (7), m_eq T r1 / I1,
+    computed here from the inertias (equal gears: half of T / r1, which the message used to name
+    for both)."""
+    text = GOOD.replace("mean_force: 100 N\n",
+                        "mean_force: 100 N\n  fluctuation: [{amplitude: 5 N m, order: 1}]\n")
+    (line,) = _lines(text)
+    assert "F = T / r1" in line and "F = m_eq T r1 / I1" in line
+    radius = text.replace("mean_force: 100 N", "mean_force: 100 N\n  base_radius: 50 mm")
+    force = make_plan(parse_study(radius, "s.yaml")).model.force_harmonics[0].amplitude
+    assert force == pytest.approx(5 / 0.05, rel=1e-12)
+    i1, i2, r1, r2 = 1e-3, 1e-3, 0.05, 0.05
+    drive = re.sub(r"  mass: [^\n]*\n", "  drive: {inertia_1: 0.001 kg m^2, inertia_2: 0.001 kg"
+                   " m^2, base_radius_1: 50 mm, base_radius_2: 50 mm}\n", text)
+    m_eq = 1 / (r1**2 / i1 + r2**2 / i2)
+    force = make_plan(parse_study(drive, "s.yaml")).model.force_harmonics[0].amplitude
+    assert force == pytest.approx(m_eq * 5 * r1 / i1, rel=1e-12)
 
 
 def test_a_harmonic_order_given_twice_in_a_list_is_refused():

@@ -565,8 +565,9 @@ def consistency_problems(study: Study) -> list[Problem]:
             for i, f in enumerate(getattr(sc, "fluctuation", [])):
                 if f.is_torque:  # Eq. (7) needs r1 (and the drive's inertia)
                     out.append(Problem(f"scene.fluctuation[{i}].amplitude", f.amplitude,
-                                       "a force (e.g. '300 N'), or give scene.base_radius or"
-                                       " scene.drive for a torque amplitude: F = T / r1"))
+                                       "a force (e.g. '300 N'), or for a torque amplitude"
+                                       " give scene.base_radius (F = T / r1, a rigid driven"
+                                       " gear) or scene.drive (Eq. 7: F = m_eq T r1 / I1)"))
                     break
         loads = {}
         for name in ("torque", "mean_force"):  # the swept loads in SI, for a file's own load
