@@ -266,7 +266,7 @@ HELD_OUT = [
 @pytest.mark.parametrize(("kind", "rpm", "damping", "k0", "method", "kink", "target"), HELD_OUT)
 def test_advised_step_meets_target_on_held_out_cases(kind, rpm, damping, k0, method, kink, target):
     """Speeds, dampings and stiffnesses not used in the calibration
-    (``scripts/fig_work_precision.py --calibrate``: 3000-12000 rpm whine, 7000-13000 rpm rattle, both
+    (``scripts/calibrate_advisor.py``: 3000-12000 rpm whine, 7000-13000 rpm rattle, both
     at c = 5500 N s/m, k0 = 1.073e9 N/m): the advised step count must reach the target
     trajectory error against the reference, and not by far (the advisor aims at target / 2).
     Measured: 0.157-0.490 of the target where the error model is the method's order (smooth,
