@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 import matplotlib
@@ -89,7 +90,7 @@ def plot(ds: xr.Dataset, path: Path) -> None:
     plt.close(fig)
 
 
-def main() -> None:
+def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--data", type=Path, default=None)
     ap.add_argument("--results", type=Path, default=None,
@@ -102,9 +103,14 @@ def main() -> None:
     if explicit is None and args.results is not None:
         candidate = args.results / "work_precision_peers.nc"
         explicit = candidate if candidate.exists() else None
-    src = data_file(explicit)
-    with xr.open_dataset(src) as ds:
-        ds = ds.load()
+    try:
+        src = data_file(explicit)
+        with xr.open_dataset(src) as ds:
+            ds = ds.load()
+    except (OSError, ValueError) as exc:  # missing, or not a netCDF file: one line, exit 2
+        print(f"fig_work_precision_peers: {explicit or 'the data file'}: cannot be read"
+              f" ({type(exc).__name__}: {str(exc).splitlines()[0][:200]})", file=sys.stderr)
+        return 2
     plot(ds, args.out)
     for s in ds.scene.values:
         for m in ds.method.values:
@@ -112,7 +118,8 @@ def main() -> None:
             if math.isfinite(o):
                 print(f"order {s} {m}: {o:.2f}")
     print(f"read {src}, wrote {args.out}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -206,3 +206,18 @@ def test_figure_draws_from_the_committed_file(tmp_path):
     with xr.open_dataset(ROOT / "docs" / "data" / "work_precision_peers.nc") as ds:
         fig.plot(ds.load(), tmp_path / "wp.png")
     assert (tmp_path / "wp.png").stat().st_size > 10_000
+
+
+def test_figure_script_refuses_an_unreadable_data_file_in_one_line(tmp_path):
+    """A --data file that is missing or not netCDF: one line naming it, exit 2 (it was a
+    netCDF4 traceback)."""
+    import subprocess
+    import sys
+
+    for bad in (tmp_path / "none.nc", ROOT / "README.md"):
+        proc = subprocess.run([sys.executable, str(ROOT / "scripts" / "fig_work_precision_peers.py"),
+                               "--data", str(bad), "--out", str(tmp_path / "x.png")],
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 2, proc.stderr
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and str(bad) in lines[0], proc.stderr
