@@ -5,7 +5,9 @@ Fig. 7.2 artifact map for four fifth-order Runge-Kutta methods, and the integrat
 
 Every figure draws study results: studies/strutt_mathieu.yaml, stability_rig.yaml and
 stability_rig_fine.yaml (Figs. 7.1, 7.2), stability_artifact_map.yaml (the four tableaux) and
-method_stability.yaml (the integrators' step limits). Nothing is computed here.
+method_stability.yaml (the integrators' step limits). Nothing is integrated here; the one thing
+evaluated at draw time is Fig. 7.1's reference, the undamped transition curves a_n(q)/4, b_n(q)/4
+(scipy's Mathieu characteristic values, closed form, milliseconds: ``plot.stability.plot_strutt``).
 """
 
 from __future__ import annotations
