@@ -66,9 +66,17 @@ def calibrate(window: pr.Window) -> dict:
         "source": f"scripts/calibrate_advisor.py, gearsweep {git_commit()}, "
                   f"{dt.datetime.now(dt.UTC).date().isoformat()}",
         "calibration_speeds_rpm": CALIBRATION_RPM,
+        "calibration_damping_ratio": calibration_damping_ratio(),
         "window_periods": [window.transient_periods, window.record_periods],
         "constants": table,
     }
+
+
+def calibration_damping_ratio() -> dict:
+    """zeta = c / (2 m omega_n) of the calibration scenes, omega_n at the largest stiffness (as
+    ``advise`` takes it): the advisor warns far below it (``advise.LIGHT_DAMPING``)."""
+    k_max = {"whine": pr.K0 + sum(abs(a) for a, _, _ in pr.K_HARMONICS), "rattle": pr.K0}
+    return {kind: pr.DAMPING / (2.0 * math.sqrt(k * pr.MASS)) for kind, k in k_max.items()}
 
 
 def main(argv: list[str] | None = None) -> None:

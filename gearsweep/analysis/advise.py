@@ -37,6 +37,14 @@ SAFETY = 2.0
 """The advised step aims at target / SAFETY: the constants are envelopes over a few speeds, and
 a held-out case can sit slightly above them (one held-out RK5 whine case reached 0.9 of the
 envelope's prediction)."""
+LIGHT_DAMPING = 0.5
+"""A damping ratio below this fraction of the calibration's (``calibration_damping_ratio`` of
+the constants, about 0.2) is warned about: near a resonance the steady response's error grows
+about as 1 / zeta (the resonance's amplification of the step's phase error), and the constants
+were fitted on scenes damped as the paper's rig. Measured at the whine scene's resonance (18,370
+rpm, tests/test_precision.py): at zeta = 0.01 the advised RK4 step gave 7.3 times the expected
+error, RK5 4.1 times, both within the warning's bound zeta_cal / zeta = 19.5; an independent
+check on 27 Nov 2026 found 113 times at zeta = 0.001 (bound 215)."""
 KINK_COST = 1.5
 """Wall time of a kink-aware step over a plain one on a rattle batch: 1.43-1.53 on benchmark B2
 (``scripts/bench_kink.py``, docs/precision.md); fewer crossings per step cost less."""
@@ -211,6 +219,12 @@ def advise(
             warnings.append(
                 f"{steps_per_period} steps per period miss the target ({chosen_err:.1e} > "
                 f"{target:.1e}).")
+    zeta_cal = (constants or load_constants()).get("calibration_damping_ratio", {}).get(kind)
+    if zeta_cal and zeta < LIGHT_DAMPING * zeta_cal:
+        warnings.append(
+            f"damping ratio {zeta:.3g} is far below the calibration's {zeta_cal:.2f}: near a"
+            f" resonance the error grows about as 1 / zeta, up to about {zeta_cal / zeta:.0f}"
+            " times the expected error; check with a run at twice the steps.")
     kink_spp = kink_msteps = None
     if kind == "rattle" and not kink_aware:
         alt = advise(mass=mass, k0=k0, damping=damping, speed_rpm=speeds, teeth=teeth,
