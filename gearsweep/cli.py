@@ -48,6 +48,7 @@ from gearsweep.study.estimate import (
     small_chunk_note,
 )
 from gearsweep.study.execute import (
+    LIMITS,
     DaskBackend,
     InProcess,
     _size,
@@ -692,7 +693,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--estimate", action="store_true",
                    help="print the estimated time, memory and output size; do not run")
     r.add_argument("--yes", action="store_true",
-                   help="run even if the estimate is beyond the limits (10 min, 2 GB)")
+                   help=f"run even if the estimate is beyond the limits ({LIMITS.seconds / 60:g}"
+                        f" min, {LIMITS.memory_bytes / 1e9:g} GB of memory,"
+                        f" {LIMITS.output_bytes / 1e9:g} GB of output)")
     r.add_argument("--device", choices=("cpu", "cuda", "auto"),
                    help="where the kernel runs (overrides solver.device; docs/gpu.md)")
     r.add_argument("--chunk-size", type=int, metavar="CASES",
