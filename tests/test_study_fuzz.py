@@ -316,3 +316,21 @@ def test_malformed_scalar_through_the_cli(scalar, tmp_path, capsys):
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and re.match(rf"gearsweep: error: {re.escape(str(path))}:\d+: ", err)
+
+
+@pytest.mark.parametrize("text", [
+    VALID[2] + "outputs: [{spectrum: {max_order: 4, samples_per_period: 1" + "0" * 400 + "}}]\n",
+    "type: analysis\ntitle: t\nanalysis: {kind: work_precision, steps_per_period: [8, 16, 8"
+    + "0" * 20 + "]}\n",
+    "type: analysis\ntitle: t\nanalysis: {kind: artifact_map, rig: r, steps_per_period: [1"
+    + "0" * 400 + "]}\n",
+])
+def test_whole_numbers_beyond_the_steps_a_study_takes_are_one_line(text):
+    """A spectrum's samples_per_period of 1e400 ended in OverflowError (a traceback, exit 1), and an
+    analysis' steps_per_period of 8e20 was valid until its run ended in numpy's ValueError
+    "Maximum allowed size exceeded" (a traceback after `validate` said ok; found by a fuzzer):
+    both are bounded by the steps per mesh period a study takes."""
+    _check(text)
+    with pytest.raises(StudyError, match=r"(samples|steps)_per_period.* less than or equal to"
+                                         r" 65536"):
+        parse_study(text, "fuzz.yaml")

@@ -23,7 +23,14 @@ from typing import Annotated, Literal
 from pydantic import BeforeValidator, Field, model_validator
 
 from gearsweep.kernels.tableaux import KERNEL_METHODS
-from gearsweep.study.quantities import Count, Real, Speed, Strict, WholeStudy
+from gearsweep.study.quantities import (
+    MAX_STEPS_PER_PERIOD,
+    Count,
+    Real,
+    Speed,
+    Strict,
+    WholeStudy,
+)
 
 Method = Literal[KERNEL_METHODS]
 
@@ -57,7 +64,7 @@ class ArtifactMap(Strict):
                             " resolved model and its speed and damping grids")
     methods: list[Literal["rk5", "fehlberg5", "cashkarp5", "dopri5"]] = Field(
         default_factory=lambda: ["rk5", "fehlberg5", "cashkarp5", "dopri5"], min_length=1)
-    steps_per_period: list[Annotated[Count, Field(ge=4)]] = Field(
+    steps_per_period: list[Annotated[Count, Field(ge=4, le=MAX_STEPS_PER_PERIOD)]] = Field(
         default_factory=lambda: list(range(100, 421, 20)), min_length=1)
 
     def inputs(self) -> list[str]:
@@ -75,7 +82,8 @@ class WorkPrecision(Strict):
     rattle_speed: Speed = Field(9000.0, gt=0, description="speed of the rattle scene [rpm]")
     methods: list[Literal["rk4", "rk5", "rk4-kink", "rk5-kink"]] = Field(
         default_factory=lambda: ["rk4", "rk5", "rk4-kink", "rk5-kink"], min_length=1)
-    steps_per_period: list[Annotated[Count, Field(ge=8, multiple_of=8)]] = Field(
+    steps_per_period: list[Annotated[Count, Field(ge=8, le=MAX_STEPS_PER_PERIOD,
+                                                  multiple_of=8)]] = Field(
         default_factory=lambda: [8, 16, 32, 64, 128, 256, 512, 1024], min_length=3,
         description="multiples of 8 (the common sampling grid)")
     peers: list[Literal["RK45", "DOP853", "LSODA"]] = Field(

@@ -40,7 +40,7 @@ from gearsweep.kernels.floquet import (
     monodromy_call,
 )
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
-from gearsweep.study.quantities import Count, Flag, Real, Strict
+from gearsweep.study.quantities import MAX_STEPS_PER_PERIOD, Count, Flag, Real, Strict
 from gearsweep.units import KINDS, to_display
 
 STATUS_CODES = {
@@ -173,9 +173,9 @@ class SpectrumOptions(Strict):
 
     max_order: Real = Field(4.0, gt=0, description="highest mesh order kept [-]")
     samples_per_period: Count | None = Field(
-        None, ge=2, description="samples of p per mesh period (a divisor of steps_per_period;"
-        " default: the smallest divisor >= 4 max_order, so orders below 3 max_order cannot alias"
-        " into the kept bins)")
+        None, ge=2, le=MAX_STEPS_PER_PERIOD, description="samples of p per mesh period (a divisor"
+        " of steps_per_period; default: the smallest divisor >= 4 max_order, so orders below 3"
+        " max_order cannot alias into the kept bins)")
     force: Flag = Field(True, description="also the spectrum of the dynamic mesh force"
                         " k(t) f(p) + c p' (variable force_spectrum) [N]")
     pinion: Flag = Field(False, description="also what the pinion's sensors see: its angular"

@@ -44,6 +44,10 @@ def _whole(value: Any) -> Any:
     return value
 
 
+MAX_STEPS_PER_PERIOD = 65536
+"""The most steps per mesh period a study takes (``solver.steps_per_period``, an analysis'
+``steps_per_period``; a spectrum's ``samples_per_period`` divides it)."""
+
 Count = Annotated[int, BeforeValidator(_whole)]
 """An integer field of a study (teeth, steps, periods, harmonics, ...): YAML's ``true`` and
 ``false`` are refused (pydantic's lax mode took them as 1 and 0); otherwise pydantic's ``int``."""

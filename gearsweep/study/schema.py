@@ -73,6 +73,7 @@ from gearsweep.study.gearscene import (
 from gearsweep.study.measured import ExcitationSpec, excitation_problems
 from gearsweep.study.outputs import OUTPUTS, configure
 from gearsweep.study.quantities import (
+    MAX_STEPS_PER_PERIOD,
     Angle,
     Count,
     Damping,
@@ -325,10 +326,6 @@ class Range(Strict):
     stop: Real | str
     num: Count = Field(ge=1, le=10_000_000)
     spacing: Literal["linear", "log"] = "linear"
-
-
-MAX_STEPS_PER_PERIOD = 65536
-"""The most steps per mesh period a study takes (``solver.steps_per_period``)."""
 
 
 class Solver(Strict):
