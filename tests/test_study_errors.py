@@ -417,7 +417,7 @@ def test_a_continued_sweep_over_speeds_out_of_order_is_refused():
     speed out of order (without continuation, as any list that is not monotonic: below)."""
     text = GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "[8000 rpm, 6000 rpm, 7000 rpm]")
     assert _lines(text + "continuation: [up, down]\n") == [
-        ("s.yaml:10: sweep.speed[1]: '6000 rpm' -- a speed above the one before ('8000 rpm'): a"
+        ("s.yaml:10: sweep.speed[1]: '6000 rpm' -- a speed below the one before ('8000 rpm'): a"
         " continued sweep takes the list in increasing order (up) or in decreasing order (down),"
         " so list the speeds in increasing order")]
     parse_study(text.replace("8000 rpm, 6000 rpm, 7000 rpm", "6000 rpm, 7000 rpm, 8000 rpm")
@@ -431,16 +431,33 @@ def test_a_list_sweep_that_is_not_monotonic_is_refused():
     with the direction the list started in; increasing and decreasing lists both run."""
     bad = GOOD.replace("  speed: {", "  backlash: [0.3 mm, 0.1 mm, 200 um]\n  speed: {")
     assert _lines(bad) == [
-        ("s.yaml:10: sweep.backlash[2]: '200 um' -- a value below the one before ('0.1 mm'): list"
+        ("s.yaml:10: sweep.backlash[2]: '200 um' -- a value above the one before ('0.1 mm'): list"
         " the values in increasing or decreasing order (the result's coordinate is monotonic, as"
         " CF asks)")]
     up = bad.replace("[0.3 mm, 0.1 mm, 200 um]", "[0.1 mm, 0.3 mm, 200 um]")
     assert _lines(up) == [
-        ("s.yaml:10: sweep.backlash[2]: '200 um' -- a value above the one before ('0.3 mm'): list"
+        ("s.yaml:10: sweep.backlash[2]: '200 um' -- a value below the one before ('0.3 mm'): list"
         " the values in increasing or decreasing order (the result's coordinate is monotonic, as"
         " CF asks)")]
     for ok in ("[0.1 mm, 200 um, 0.3 mm]", "[0.3 mm, 200 um, 0.1 mm]"):
         parse_study(bad.replace("[0.3 mm, 0.1 mm, 200 um]", ok), "s.yaml")
+
+
+@pytest.mark.parametrize("values", [[0.3, 0.1, 0.2], [0.1, 0.3, 0.2], [0.1, 0.2, 0.4, 0.3],
+                                    [0.4, 0.3, 0.1, 0.2], [0.4, 0.1, 0.5]])
+@pytest.mark.parametrize("continued", [False, True])
+def test_the_line_of_a_value_out_of_order_says_where_it_lies(values, continued):
+    """'above' or 'below the one before' as the numbers are: the line said 'below' of 0.2 mm after
+    0.1 mm (and 'above' of 6000 rpm after 8000 rpm in a continued sweep; found by a fuzzer)."""
+    name, unit = ("speed", "rpm") if continued else ("backlash", "mm")
+    scale = 10000 if continued else 1
+    listed = ", ".join(f"{v * scale:g} {unit}" for v in values)
+    text = GOOD.replace("  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                        f"  {name}: [{listed}]" + ("" if continued else "\n  speed: [5000 rpm]"))
+    [line] = _lines(text + ("continuation: [up]\n" if continued else ""))
+    i = int(re.search(rf"sweep\.{name}\[(\d+)\]", line).group(1))
+    word = re.search(r"a (?:value|speed) (above|below) the one before", line).group(1)
+    assert word == ("above" if values[i] > values[i - 1] else "below"), line
 
 
 def test_swept_and_fixed_is_stated_in_validates_summary(tmp_path, capsys):

@@ -720,10 +720,10 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
             for i in range(1, len(values)):
                 if (values[i] >= values[i - 1]) if down else (values[i] <= values[i - 1]):
                     out.append(Problem(f"sweep.{name}[{i}]", raw[i][1], (
-                        f"a speed above the one before ({raw[i - 1][1]!r}): a continued sweep"
+                        f"a speed below the one before ({raw[i - 1][1]!r}): a continued sweep"
                         " takes the list in increasing order (up) or in decreasing order"
                         " (down), so list the speeds in increasing order") if continued else (
-                        f"a value {'below' if down else 'above'} the one before"
+                        f"a value {'above' if down else 'below'} the one before"
                         f" ({raw[i - 1][1]!r}): list the values in increasing or decreasing"
                         " order (the result's coordinate is monotonic, as CF asks)")))
                     break
