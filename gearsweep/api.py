@@ -129,12 +129,12 @@ def _plain(value, where: str):
     is one ``StudyError`` naming the field."""
     import numpy as np
 
+    if isinstance(value, np.generic):  # first: np.float64 and np.str_ are a float and a str,
+        return value.item()  # which PyYAML cannot represent
     if isinstance(value, str | bool | int | float) or value is None:
         return value
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value.tolist())]
+    if isinstance(value, np.ndarray):  # (a 0-d array's tolist() is its one value)
+        return _plain(value.tolist(), where)
     if isinstance(value, Path):
         return str(value)
     if isinstance(value, Mapping):

@@ -3,6 +3,7 @@ Dataset the CLI writes; results carry their model and study, so they can be run 
 
 from __future__ import annotations
 
+import copy
 import os
 import subprocess
 import sys
@@ -173,6 +174,28 @@ def test_numpy_values_and_other_python_types_in_a_dict_study(small_whine):
     small_whine["scene"]["mass"] = object()
     with pytest.raises(StudyError, match=r"scene\.mass: .* a number, a string with units"):
         gearsweep.run(small_whine)
+
+
+def test_numpy_floats_strings_and_0d_arrays_in_a_dict_study(small_whine):
+    """np.float64 and np.str_ are subclasses of float and str: they were passed on as they are and
+    PyYAML raised RepresenterError (a traceback); a 0-d array (np.array(5.0), what reductions
+    return) raised TypeError. A study written with them is the plain one (found by a fuzzer: a
+    list(np.linspace(...)) sweep is a list of np.float64)."""
+    small_whine["sweep"]["mass"] = ["0.1527 kg", "0.2 kg"]
+    plain = copy.deepcopy(small_whine)
+    speed = small_whine["sweep"]["speed"]
+    speed["start"], speed["stop"] = np.str_(speed["start"]), np.array(speed["stop"])
+    small_whine["sweep"]["mass"] = [np.str_(v) for v in small_whine["sweep"]["mass"]]
+    small_whine["solver"]["record_periods"] = np.array(small_whine["solver"]["record_periods"])
+    assert gearsweep.estimate(small_whine).line() == gearsweep.estimate(plain).line()
+    mathieu = {"title": "m", "scene": {"kind": "mathieu", "alpha": np.float64(0.25),
+                                       "beta": np.float64(0.1)},
+               "sweep": {"gamma": list(np.linspace(0.0, 0.02, 3))},
+               "solver": {"steps_per_period": 32}}
+    assert gearsweep.estimate(mathieu).line() == gearsweep.estimate(
+        {**mathieu, "scene": {"kind": "mathieu", "alpha": 0.25, "beta": 0.1},
+         "sweep": {"gamma": [0.0, 0.01, 0.02]}}).line()
+    assert gearsweep.estimate(mathieu).line().startswith("3 cases")
 
 
 def test_result_study_and_model_take_a_path_and_refuse_what_is_not_a_result(small_whine,
