@@ -280,6 +280,26 @@ def test_duplicate_keys_are_refused():
     assert any("scene" in ln and "required" in ln for ln in lines), lines
 
 
+def test_a_key_yaml_reads_as_a_number_or_a_boolean_is_named_as_written():
+    """YAML 1.1 reads the keys on, no, yes, 2 and null as true, false, true, the number 2 and
+    None: the line named a list index and pydantic's words ("scene[1]: 1 -- Keys should be
+    strings" for 'on: 1', "gears[0].[key]: False -- Input should be a valid string" for a gear
+    labelled no; found by a fuzzer). It names the key as written, on its line, and says to quote it."""
+    assert _lines(GOOD.replace("  teeth: 48\n", "  teeth: 48\n  on: 1\n")) == [
+        ("s.yaml:6: scene.on: 'on' as a key is read by YAML as true, not as a name; write it in"
+         " quotes ('on') if a name is meant")]
+    mesh = "type: mesh\ntitle: t\ngears:\n  no: table1_consistent\n  2: table1_consistent\ntorque: 5 N*m\n"
+    assert _lines(mesh) == [
+        ("s.yaml:4: gears.no: 'no' as a key is read by YAML as false, not as a name; write it in"
+         " quotes ('no') if a name is meant"),
+        ("s.yaml:5: gears.2: '2' as a key is read by YAML as the number 2, not as a name; write it"
+         " in quotes ('2') if a name is meant")]
+    parse_study(mesh.replace("no:", "'no':").replace("2:", "'2':"), "s.yaml")
+    assert _lines("title: t\n~: x\n")[1:] == [
+        ("s.yaml:2: ~: '~' as a key is read by YAML as null, not as a name; write it in quotes"
+        " ('~') if a name is meant")]  # (after line 1's: the scene is missing)
+
+
 def test_a_range_from_high_to_low_is_refused():
     """It said "sweep.speed.start: '6000 rpm' -- at most stop ('5000 rpm')", which reads oddly;
     a range of one value may start at its stop (the only equal start and stop allowed)."""

@@ -799,6 +799,9 @@ class _Loader(yaml.SafeLoader):
     def __init__(self, stream) -> None:
         super().__init__(stream)
         self.duplicates: list[tuple[_Map, Any, int, int]] = []
+        self.odd_keys: list[tuple[_Map, str, int, Any]] = []
+        """Keys YAML reads as other than a name (``on``, ``no``, ``2``, ``~``): (mapping, the key
+        as written, its line, what YAML read); the mapping holds them as written."""
 
 
 def _construct_map(loader: _Loader, node: yaml.MappingNode):
@@ -810,6 +813,9 @@ def _construct_map(loader: _Loader, node: yaml.MappingNode):
         if knode.tag == "tag:yaml.org,2002:merge":
             continue
         key = loader.construct_object(knode, deep=True)
+        if not isinstance(key, str) and isinstance(knode, yaml.ScalarNode):
+            loader.odd_keys.append((data, knode.value, knode.start_mark.line + 1, key))
+            key = knode.value
         try:
             hash(key)
         except TypeError:
@@ -823,6 +829,8 @@ def _construct_map(loader: _Loader, node: yaml.MappingNode):
     loader.flatten_mapping(node)
     for knode, vnode in node.value:
         key = _construct(loader, knode)
+        if not isinstance(key, str) and isinstance(knode, yaml.ScalarNode):
+            key = knode.value  # as written (odd_keys: refused, named so)
         try:
             data[key] = _construct(loader, vnode)
         except TypeError:
@@ -940,13 +948,21 @@ def load_yaml(text: str, file: str, duplicates: list | None = None) -> Any:
     finally:
         if loader is not None:
             loader.dispose()
-    if loader.duplicates:
+    if loader.duplicates or loader.odd_keys:
         problems = []
         for container, key, line, first in loader.duplicates:
             where = _path_of(raw, container) or ""
             path = f"{where}.{key}" if where else str(key)
             msg = f"duplicate key (also on line {first}); each key at most once in a mapping"
             problems.append((line, path, NO_VALUE, msg))
+        for container, key, line, read in loader.odd_keys:
+            where = _path_of(raw, container) or ""
+            what = (str(read).lower() if isinstance(read, bool) else "null" if read is None
+                    else f"the number {read!r}" if isinstance(read, int | float)
+                    else f"{article(type(read).__name__)} ({read})")
+            msg = (f"{key!r} as a key is read by YAML as {what}, not as a name; write it in"
+                   f" quotes ('{key}') if a name is meant")
+            problems.append((line, f"{where}.{key}" if where else key, NO_VALUE, msg))
         if duplicates is None:
             raise StudyError.many(file, problems)
         duplicates.extend(problems)
