@@ -913,6 +913,19 @@ def test_true_is_not_a_number_in_gear_and_analysis_studies(study, old, new, wher
     parse_study(text, str(path))
 
 
+def test_a_misspelt_key_of_a_mesh_sweep_and_a_single_value_for_three_have_plain_lines():
+    """pydantic's own words came through: 'sweep.torqe.[key]: ...' (its location of a mapping's
+    key) and 'analysis.graphical: 0.7 -- Input should be a valid tuple' (found by a fuzzer)."""
+    mesh = (ROOT / "studies" / "mesh_ste_vs_load.yaml").read_text(encoding="utf-8")
+    assert "  torque: {start" in mesh
+    [line] = _lines(mesh.replace("  torque: {start", "  torqe: {start"))
+    assert line.startswith("s.yaml:14: sweep.torqe: 'torqe' -- did you mean 'torque'?"), line
+    balance = (ROOT / "studies" / "fig08_rattle_balance.yaml").read_text(encoding="utf-8")
+    assert "graphical: [0.7, 0.5, 1.25]" in balance
+    assert _lines(balance.replace("graphical: [0.7, 0.5, 1.25]", "graphical: 0.7")) == [
+        "s.yaml:23: analysis.graphical: 0.7 -- a list, e.g. [a, b, c]"]
+
+
 def test_validate_says_true_is_not_a_number_in_one_line(tmp_path, capsys):
     path = tmp_path / "m.yaml"
     path.write_text("title: m\nscene: {kind: mathieu, alpha: true}\n", encoding="utf-8")

@@ -1004,6 +1004,8 @@ def _user_path(loc: tuple) -> list[str | int]:
             continue
         if p.startswith(("function-", "literal[", "union[", "list[", "dict[")) or p in _BRANCHES:
             continue
+        if p == "[key]":  # pydantic's mark of a mapping's key ('sweep.torqe.[key]')
+            continue
         parts.append(p)
     return parts
 
@@ -1198,6 +1200,8 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             msg = (f"a list; for one item write [{one}]" if isinstance(one, str | int | float)
                    else "a list; a mapping here is one item of it: write it as [{...}]"
                    if isinstance(one, dict) else "a list, e.g. [a, b]")
+        elif t == "tuple_type":  # pydantic's word: a file writes a list (analysis.graphical)
+            msg = "a list, e.g. [a, b, c]"
         elif t == "finite_number":
             msg = "a finite number (not nan or inf)"
         elif "has no unit" in msg:
