@@ -926,6 +926,16 @@ def test_a_misspelt_key_of_a_mesh_sweep_and_a_single_value_for_three_have_plain_
         "s.yaml:23: analysis.graphical: 0.7 -- a list, e.g. [a, b, c]"]
 
 
+@pytest.mark.parametrize("field", ["fluctuation", "ste"])
+def test_a_single_value_for_a_list_of_harmonics_is_told_to_write_mappings(field):
+    """'fluctuation: 300 N' said "a list; for one item write [300 N]", which is refused in turn
+    (an item is a mapping of amplitude and order; found by a fuzzer)."""
+    text = GOOD.replace("mean_force: 100 N", f"mean_force: 100 N\n  {field}: 300 N")
+    assert _lines(text) == [(f"s.yaml:9: scene.{field}: '300 N' -- a list of mappings, e.g."
+                            " [{amplitude: ..., order: ..., ...}]")]
+    assert "for one item write [stats]" in _lines(GOOD + "outputs: stats\n")[0]
+
+
 def test_validate_says_true_is_not_a_number_in_one_line(tmp_path, capsys):
     path = tmp_path / "m.yaml"
     path.write_text("title: m\nscene: {kind: mathieu, alpha: true}\n", encoding="utf-8")

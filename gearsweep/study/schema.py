@@ -1197,7 +1197,10 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             msg = "a list of values or {start, stop, num}"
         elif t == "list_type":  # 'outputs: stats', 'continuation: up': one item, no brackets
             one = _as_written(raw, parts)
-            msg = (f"a list; for one item write [{one}]" if isinstance(one, str | int | float)
+            item = _list_item_model(parts[-1]) if parts else None
+            msg = (f"a list of mappings, e.g. [{{{_example(item)}}}]"
+                   if item is not None and not isinstance(one, dict)  # ('fluctuation: 300 N')
+                   else f"a list; for one item write [{one}]" if isinstance(one, str | int | float)
                    else "a list; a mapping here is one item of it: write it as [{...}]"
                    if isinstance(one, dict) else "a list, e.g. [a, b]")
         elif t == "tuple_type":  # pydantic's word: a file writes a list (analysis.graphical)
@@ -1223,6 +1226,18 @@ def _models() -> dict[str, type]:
         found[m.__name__] = m
         todo += m.__subclasses__()
     return found
+
+
+def _list_item_model(name: Any) -> type | None:
+    """The model of the items of a study's field ``name`` that is a list of mappings
+    (``fluctuation``, ``ste``, ``stiffness_harmonics``), else ``None``."""
+    for model in _models().values():
+        f = model.model_fields.get(name) if isinstance(name, str) else None
+        args = typing.get_args(f.annotation) if f is not None else ()
+        if (f is not None and typing.get_origin(f.annotation) is list and args
+                and isinstance(args[0], type) and issubclass(args[0], BaseModel)):
+            return args[0]
+    return None
 
 
 def _example(model: type, first: tuple[str, ...] = ()) -> str:
