@@ -936,6 +936,24 @@ def test_a_single_value_for_a_list_of_harmonics_is_told_to_write_mappings(field)
     assert "for one item write [stats]" in _lines(GOOD + "outputs: stats\n")[0]
 
 
+def test_a_value_of_the_wrong_type_inside_a_sweep_says_what_that_value_is():
+    """null or a list as a range's start or stop, or as an item of a list, said "a list of values
+    or {start, stop, num}", the words of the sweep's entry, not of the field named (found by a
+    fuzzer)."""
+    text = GOOD.replace("  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}\n", (
+        "  speed: {start: null, stop: 6000 rpm, num: 3}\n"
+        "  backlash: [0.1 mm, [0.2 mm]]\n"
+        "  damping: {start: 1 N*s/mm, stop: {a: 1}, num: 3}\n"
+        "  mass: {start: 1 kg, stop: 2 kg, num: null}\n"))
+    assert _lines(text) == [
+        "s.yaml:10: sweep.speed.start: None -- a speed such as '1 rpm'",
+        "s.yaml:11: sweep.backlash[1]: '[...]' -- a length such as '1 mm'",
+        "s.yaml:12: sweep.damping.stop: '{...}' -- a damping such as '1 N s/mm'",
+        "s.yaml:13: sweep.mass.num: None -- Input should be a valid integer"]
+    assert _lines(GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "5000 rpm")) == [
+        "s.yaml:10: sweep.speed: '5000 rpm' -- a list of values or {start, stop, num}"]
+
+
 def test_validate_says_true_is_not_a_number_in_one_line(tmp_path, capsys):
     path = tmp_path / "m.yaml"
     path.write_text("title: m\nscene: {kind: mathieu, alpha: true}\n", encoding="utf-8")
@@ -1243,7 +1261,7 @@ def test_an_unknown_top_level_key_lists_the_fields_of_its_own_kind_of_study(text
       " you mean 'num'?"),
       "s.yaml:11: sweep.backlash.start: 0.1 has no unit; write e.g. '0.1 mm', or '0.1 m' if SI was meant"]),
     ("[0.1, [0.2 mm]]",
-     ["s.yaml:11: sweep.backlash[1]: '[...]' -- a list of values or {start, stop, num}",
+     ["s.yaml:11: sweep.backlash[1]: '[...]' -- a length such as '1 mm'",
       "s.yaml:11: sweep.backlash[0]: 0.1 has no unit; write e.g. '0.1 mm', or '0.1 m' if SI was meant"]),
 ])
 def test_a_broken_sweep_entry_still_has_its_units_checked(entry, lines, tmp_path, capsys):

@@ -1193,8 +1193,13 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             hint = _did_you_mean(value, allowed)
             if hint:
                 msg = hint.removeprefix(" -- ") + f" (allowed: {', '.join(allowed)})"
-        elif t.endswith("_type") and len(path) >= 2 and path[0] == "sweep":
+        elif t.endswith("_type") and len(path) == 2 and path[0] == "sweep":
             msg = "a list of values or {start, stop, num}"
+        elif (t.endswith("_type") and len(path) == 3 and path[0] == "sweep"
+              and path[1] in SWEEPABLE and path[2] != "num"):  # a range's start or stop, an item
+            kind = SWEEPABLE[path[1]]
+            msg = ("a number" if kind == "dimensionless"
+                   else f"{article(kind)} such as '1 {KINDS[kind].examples[0]}'")
         elif t == "list_type":  # 'outputs: stats', 'continuation: up': one item, no brackets
             one = _as_written(raw, parts)
             item = _list_item_model(parts[-1]) if parts else None
