@@ -79,7 +79,11 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
         text = study_text(study)
         return parse_study(text, "<study>", base=study._base_folder), text, "<study>"
     if isinstance(study, dict):
-        text = yaml.safe_dump(_plain(study, "(study)"), sort_keys=False)
+        try:
+            text = yaml.safe_dump(_plain(study, "(study)"), sort_keys=False)
+        except RecursionError:  # (a file nested as deeply is one line too: parse_study)
+            raise StudyError(DICT_STUDY, "(top level)", "{...}", "values nested less deeply (or a"
+                             " mapping that holds itself)") from None
         return parse_study(text, DICT_STUDY), text, DICT_STUDY
     if isinstance(study, str) and "\n" not in study.strip():  # one line, as read from a file or
         study = study.strip()  # a form ('s.yaml\n'): found by _is_file stripped, then opened

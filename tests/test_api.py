@@ -198,6 +198,21 @@ def test_numpy_floats_strings_and_0d_arrays_in_a_dict_study(small_whine):
     assert gearsweep.estimate(mathieu).line().startswith("3 cases")
 
 
+def test_a_dict_study_nested_too_deeply_or_holding_itself_is_one_study_error(small_whine):
+    """A dict nested 1000 deep, or one that holds itself, ended in RecursionError (a traceback);
+    the same nesting in a file is one line (found by a fuzzer)."""
+    for depth in (350, 1000):  # (350: past the conversion, within PyYAML's dump)
+        deep = 1.0
+        for _ in range(depth):
+            deep = {"a": deep}
+        small_whine["scene"]["mass"] = deep
+        with pytest.raises(StudyError, match="nested less deeply"):
+            gearsweep.estimate(small_whine)
+    small_whine["scene"]["mass"] = small_whine["scene"]
+    with pytest.raises(StudyError, match="nested less deeply"):
+        gearsweep.estimate(small_whine)
+
+
 def test_result_study_and_model_take_a_path_and_refuse_what_is_not_a_result(small_whine,
                                                                           tmp_path):
     out = tmp_path / "r.nc"
