@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -328,6 +329,22 @@ def test_bad_csv_lines_and_twin_columns_are_named(tmp_path, text, message):
         load_study(f)
     (line,) = str(e.value).splitlines()
     assert "scene.excitation.file: 'x.csv'" in line and message in line, line
+
+
+def test_a_sample_beyond_a_float_in_si_is_named_by_its_line(tmp_path):
+    """1e308 N/mm is 1e311 N/m: the check of finite samples ran on the numbers as written, the
+    unit's factor then overflowed (numpy's RuntimeWarning on stderr, and 'the fitted mesh stiffness
+    is not positive (nan N/m ...)'; found by a fuzzer). Named by its line, and no warning."""
+    (tmp_path / "x.csv").write_text("mesh_phase [1], mesh_stiffness [N/mm]\n0.0, 2e5\n"
+                                    "0.5, 1e308\n", encoding="utf-8")
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  excitation: {file: x.csv}\n")))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(StudyError) as e:
+            load_study(f)
+    (line,) = str(e.value).splitlines()
+    assert "scene.excitation.file: 'x.csv' -- line 3: '1e308' is beyond a float in SI (N/m)" in line
 
 
 @pytest.mark.parametrize(("extra", "sweep", "message"), [

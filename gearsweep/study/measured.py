@@ -232,10 +232,16 @@ def _read(path: str, stamp: tuple[int, int]) -> Samples:
                              " number (every sample must be one)")
         raise ValueError("every sample must be a finite number")
 
-    def col(which: str) -> np.ndarray | None:
-        return data[:, index[which]] * factor[which] if which in index else None
-
-    return Samples(position, col("position"), col("ste"), col("stiffness"), **stated)
+    with np.errstate(over="ignore"):  # 1e308 N/mm is 1e311 N/m: said below, in one line
+        si = {which: data[:, i] * factor[which] for which, i in index.items()}
+    for which, values in si.items():
+        if not np.isfinite(values).all():
+            row = int(np.argwhere(~np.isfinite(values))[0][0])
+            where = (f"line {rows_at[row][0]}: {rows_at[row][1][index[which]].strip()!r}"
+                     if rows_at is not None else f"a sample of {names[index[which]][0]!r}")
+            unit = {"ste": "m", "stiffness": "N/m"}.get(which, "rad")
+            raise ValueError(f"{where} is beyond a float in SI ({unit})")
+    return Samples(position, si["position"], si.get("ste"), si.get("stiffness"), **stated)
 
 
 def read_samples(path: str | Path) -> Samples:
