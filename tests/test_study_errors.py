@@ -954,6 +954,16 @@ def test_a_value_of_the_wrong_type_inside_a_sweep_says_what_that_value_is():
         "s.yaml:10: sweep.speed: '5000 rpm' -- a list of values or {start, stop, num}"]
 
 
+@pytest.mark.parametrize("name", ["floquet", "stats", "period"])
+def test_a_single_value_as_the_options_of_an_output_names_the_output(name):
+    """'outputs: [{floquet: 5}]' said "outputs[0].options: 5 -- a mapping (name: value, ...)":
+    'options' is no key of the file, and floquet takes no options at all (found by a fuzzer)."""
+    [line] = _lines(GOOD + f"outputs: [{{{name}: 5}}]\n")
+    assert line.startswith(f"s.yaml:12: outputs[0].{name}: 5 -- "), line
+    if name != "period":
+        assert line.endswith(f"the '{name}' output takes no options"), line
+
+
 def test_validate_says_true_is_not_a_number_in_one_line(tmp_path, capsys):
     path = tmp_path / "m.yaml"
     path.write_text("title: m\nscene: {kind: mathieu, alpha: true}\n", encoding="utf-8")

@@ -1278,6 +1278,9 @@ def _mapping_wanted(parts: list, err: dict, raw: Any) -> str:
             model = OUTPUTS[name].options_model
             return (f"a mapping of {noun} options ({_example(model)})"
                     + (", not a list" if isinstance(written, list) else ""))
+        if isinstance(name, str) and name in OUTPUTS:  # ('floquet: 5': not a key 'options')
+            parts[2] = name
+            return f"the {name!r} output takes no options"
     model = _models().get(str(err.get("ctx", {}).get("class_name", "")))
     if parts and parts[-1] in _TAGGED:
         kinds = _TAGGED[noun]
