@@ -93,6 +93,23 @@ def test_a_pair_beyond_the_compliance_model_s_range_is_refused():
         GearPair(module=1e-3, z1=20, z2=1000, face_width=20e-3))[1] < 2.0
 
 
+@pytest.mark.parametrize("youngs_modulus", [2.5e9, 70e9, 110e9, 450e9])
+def test_a_pair_of_another_material_is_checked_against_iso_for_that_material(youngs_modulus):
+    """Every compliance term is 1/E, so a pair's stiffness is E times that of steel (E = 206 GPa)
+    and ISO 6336-1 scales its c' and c_gamma by E / E_st for other materials. The range check
+    compared with steel's c_gamma: an aluminium (70 GPa) or plastic (2.5 GPa) Table 1 pair was
+    refused as beyond the compliance model's range, "its foundation term ... diverges for many
+    teeth or a thin body" (found by a fuzzer). Its stiffness is the steel pair's times E / E_st."""
+    steel = table1_consistent()
+    other = dataclasses.replace(steel, youngs_modulus=youngs_modulus)
+    k = mesh_cycle(other, 50.0).mesh_stiffness.mean()
+    assert k == pytest.approx(mesh_cycle(steel, 50.0).mesh_stiffness.mean()
+                              * youngs_modulus / 206e9, rel=1e-6)
+    far = GearPair(module=1e-3, z1=20, z2=2000, face_width=20e-3, youngs_modulus=youngs_modulus)
+    with pytest.raises(GeometryError, match=r"0.04 times ISO 6336-1's c_gamma"):
+        mesh_cycle(far, 50.0)  # still beyond the model's range, whatever the material
+
+
 # --------------------------------------------------------------------------- compliance
 
 

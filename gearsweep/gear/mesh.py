@@ -361,6 +361,9 @@ def mesh_cycles(
     ]
 
 
+E_STEEL = 206e9
+"""ISO 6336-1's Young's modulus of steel, E_st [Pa], for which its stiffness values hold."""
+
 ISO_FACTOR = 2.0
 """How far the compliance model's mean mesh stiffness may lie from ISO 6336-1's c_gamma (either
 way) before the pair is refused as outside the model's range."""
@@ -371,8 +374,11 @@ def _check_against_iso(pair: GearPair, k_mean: float) -> None:
     from ISO 6336-1's c_gamma: Sainsot et al.'s foundation term is a polynomial fit over the
     root angle and the body's radius ratio, and beyond the gears it was fitted on it diverges
     (found by an adversarial test: z1 = 20, z2 = 2000 gave k0 = 18 kN/mm against c_gamma 445, and
-    z = 10000 gave 0.018, silently). The Table 1 pair: 219 against 208 kN/mm."""
+    z = 10000 gave 0.018, silently). The Table 1 pair: 219 against 208 kN/mm. ISO's values are
+    for steel (E_st = 206 GPa); for another material it scales them by E / E_st, as every term of
+    the compliance model is 1/E (an aluminium pair, 0.36 times steel's c_gamma, was refused)."""
     _, c_gamma = iso6336_stiffness(pair)
+    c_gamma *= pair.youngs_modulus / E_STEEL
     ratio = k_mean / c_gamma
     if not 1.0 / ISO_FACTOR <= ratio <= ISO_FACTOR:
         raise GeometryError(
