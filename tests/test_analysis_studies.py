@@ -8,6 +8,7 @@ from numpy.testing import assert_allclose
 
 import gearsweep
 from gearsweep.analysis.advise import stability_limit
+from gearsweep.cli import main
 from gearsweep.errors import StudyError
 from gearsweep.study.schema import replaced_by_sweep
 
@@ -64,6 +65,28 @@ RATTLE = {  # the Fig. 8 scene (studies/fig08_rattle.yaml) on a coarse, cheap gr
                "record_periods": 4, "initial_displacement": "static"},
     "outputs": ["stats", "period"],
 }
+
+
+@pytest.mark.parametrize("step", ["1e-300 rpm", "0.01 rpm"])
+def test_an_eq15_step_too_fine_for_the_result_s_speeds_is_one_line(tmp_path, capsys, step,
+                                                                   monkeypatch):
+    """eq15_step: 1e-300 rpm ended in numpy's ValueError 'Maximum allowed size exceeded' (a
+    traceback) and 1e-6 rpm in 'out of memory' (44.7 GiB for the Eq. (15) speeds); validate said
+    ok (found by a fuzzer). Over the result's 7000-8600 rpm, 0.01 rpm is 160,000 speeds, more
+    than the 100,000 points the other point counts of an analysis take."""
+    small = {**RATTLE, "sweep": {"speed": {"start": "7000 rpm", "stop": "8600 rpm", "num": 3}},
+             "solver": {**RATTLE["solver"], "transient_periods": 2}}
+    monkeypatch.chdir(tmp_path)  # validate and run read results/ (run's default output folder)
+    gearsweep.run(small, output=tmp_path / "results" / "small.nc")
+    study = tmp_path / "b.yaml"
+    study.write_text(f"type: analysis\ntitle: b\nanalysis:\n  kind: rattle_balance\n"
+                     f"  result: small\n  eq15_step: {step}\n", encoding="utf-8")
+    for argv in (["validate", str(study)], ["run", str(study)]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"gearsweep: error: {study}:6: analysis.eq15_step: ") and (
+            "at most 100,000 speeds" in err) and err.count("\n") == 1, err
+    assert not (tmp_path / "results" / "b.nc").exists()
 
 
 @pytest.mark.slow

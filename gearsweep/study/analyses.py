@@ -274,10 +274,29 @@ def _both_ways(ds) -> bool:
     return "direction" in ds.dims and {"up", "down"} <= {str(d) for d in ds["direction"].values}
 
 
+EQ15_SPEEDS = 100_000
+"""The most speeds of the Eq. (15) points (the point counts of the analyses take as many)."""
+
+
+def _rattle_balance_input(o: RattleBalance, ds: xr.Dataset) -> None:
+    """``StudyError`` (field ``analysis.eq15_step``) when the step gives more than
+    ``EQ15_SPEEDS`` speeds over the result's: 1e-300 rpm ended in numpy's 'Maximum allowed size
+    exceeded', 1e-6 rpm in tens of GiB."""
+    speed = ds["speed"].values if "speed" in ds.coords else np.zeros(0)
+    if speed.size < 2:
+        return  # (the analysis says what it needs of the result)
+    if not (speed[-1] + 1.0 - speed[0]) / o.eq15_step <= EQ15_SPEEDS:
+        least = (speed[-1] + 1.0 - speed[0]) / EQ15_SPEEDS
+        raise StudyError("<study>", "analysis.eq15_step", f"{o.eq15_step:g} rpm", (
+            f"at least {least:.3g} rpm: at most {EQ15_SPEEDS:,} speeds of Eq. (15) over the"
+            f" result's {speed[0]:g}-{speed[-1]:g} rpm"))
+
+
 def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, dict]:
     """Describing function, AFT branch, turning points and Eq. (15) of a rattle result's scene,
     beside the result's own integration (see ``RattleBalance``)."""
     ds = inputs[o.result]
+    _rattle_balance_input(o, ds)
     model = _model(ds, o.result)
     if len(model.force_harmonics) != 1 or model.backlash is None or model.stiffness_harmonics:
         raise ResultError(f"{o.result}: rattle_balance needs a constant-stiffness scene with"
@@ -622,7 +641,7 @@ def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
     return inputs, prov
 
 
-INPUT_CHECKS = {"jump_map": _jump_map_input}
+INPUT_CHECKS = {"jump_map": _jump_map_input, "rattle_balance": _rattle_balance_input}
 """Per analysis kind, the check of what it reads (``check_inputs``; the analysis runs it too)."""
 
 
