@@ -964,6 +964,20 @@ def test_a_single_value_as_the_options_of_an_output_names_the_output(name):
         assert line.endswith(f"the '{name}' output takes no options"), line
 
 
+@pytest.mark.parametrize("command", ["validate", "run"])
+def test_a_result_name_longer_than_a_file_name_is_one_line(tmp_path, capsys, command):
+    """An analysis' result of 300 characters ended in OSError 'File name too long' from
+    validate and run (a traceback; found by a fuzzer): no file of that name can exist."""
+    path = tmp_path / "a.yaml"
+    path.write_text("type: analysis\ntitle: t\nanalysis:\n  kind: jump_map\n  result: "
+                    + "x" * 300 + "\n", encoding="utf-8")
+    argv = [command, str(path)] + (["-o", str(tmp_path / "o.nc")] if command == "run" else [])
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"gearsweep: error: {path}:5: analysis.result: 'xxx") and (
+        "at most 252 bytes" in err) and err.count("\n") == 1, err
+
+
 def test_validate_says_true_is_not_a_number_in_one_line(tmp_path, capsys):
     path = tmp_path / "m.yaml"
     path.write_text("title: m\nscene: {kind: mathieu, alpha: true}\n", encoding="utf-8")

@@ -107,6 +107,9 @@ def _result_name(value: object) -> object:
         raise ValueError("the name of a result in the folder the analysis writes to (e.g."
                          " fig08_rattle for results/fig08_rattle.nc), not a path: run the"
                          " analysis with -o in the folder that holds it")
+    if len(name.encode()) > 252:  # name.nc is no file name (255 bytes): 'File name too long'
+        raise ValueError(f"a name of at most 252 bytes (this one has {len(name.encode())}):"
+                         " its result name.nc is a file name")
     return name
 
 
