@@ -331,6 +331,32 @@ def test_bad_csv_lines_and_twin_columns_are_named(tmp_path, text, message):
     assert "scene.excitation.file: 'x.csv'" in line and message in line, line
 
 
+def test_an_excitation_file_that_is_a_pipe_is_refused_without_reading_it(tmp_path):
+    """A named pipe (or a device: /dev/zero) as excitation.file was opened and read: validate
+    hung on a pipe with no writer, and /dev/zero grew the memory without end (found by a
+    fuzzer). It is refused as not a regular file, before it is opened."""
+    import os
+    import threading
+
+    os.mkfifo(tmp_path / "x.csv")
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  stiffness: 2e8 N/m\n  excitation: {file: x.csv}\n")))
+    said: list[str] = []
+
+    def load() -> None:
+        try:
+            load_study(f)
+        except StudyError as exc:
+            said.append(str(exc))
+
+    reader = threading.Thread(target=load, daemon=True)  # (without the check: blocked in open)
+    reader.start()
+    reader.join(30)
+    assert not reader.is_alive(), "load_study is still waiting on the pipe"
+    (line,) = said[0].splitlines()
+    assert "scene.excitation.file: 'x.csv' -- not a regular file" in line, line
+
+
 def test_a_sample_beyond_a_float_in_si_is_named_by_its_line(tmp_path):
     """1e308 N/mm is 1e311 N/m: the check of finite samples ran on the numbers as written, the
     unit's factor then overflowed (numpy's RuntimeWarning on stderr, and 'the fitted mesh stiffness

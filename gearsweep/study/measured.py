@@ -30,6 +30,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+import stat
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -260,6 +261,9 @@ def read_samples(path: str | Path) -> Samples:
         raise ValueError(f"no such file: {p.absolute()} (a relative path is read from the study"
                          " file's folder; of a study from stdin or a dict, from the working"
                          " folder)") from None
+    if not stat.S_ISREG(st.st_mode):  # a pipe was waited on, a device read without end
+        raise ValueError(f"not a regular file: {p.absolute()} (a folder, a device or a pipe);"
+                         " the samples are read from a CSV or netCDF file")
     return _read(str(p.resolve()), (st.st_mtime_ns, st.st_size))
 
 
