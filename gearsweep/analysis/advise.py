@@ -221,10 +221,12 @@ def advise(
                 f"{target:.1e}).")
     zeta_cal = (constants or load_constants()).get("calibration_damping_ratio", {}).get(kind)
     if zeta_cal and zeta < LIGHT_DAMPING * zeta_cal:
+        bound = (f"up to about {zeta_cal / zeta:.0f} times the expected error" if zeta > 0
+                 else "without bound (undamped)")
         warnings.append(
             f"damping ratio {zeta:.3g} is far below the calibration's {zeta_cal:.2f}: near a"
-            f" resonance the error grows about as 1 / zeta, up to about {zeta_cal / zeta:.0f}"
-            " times the expected error; check with a run at twice the steps.")
+            f" resonance the error grows about as 1 / zeta, {bound}; check with a run at twice"
+            " the steps.")
     kink_spp = kink_msteps = None
     if kind == "rattle" and not kink_aware:
         alt = advise(mass=mass, k0=k0, damping=damping, speed_rpm=speeds, teeth=teeth,

@@ -304,11 +304,13 @@ class Plan:
 
 
 STEPS_PER_HARMONIC = 4
-"""Fewest steps per period of the highest excitation harmonic a study takes: the excitation
-tables are read at the steps' nodes, and with fewer steps the integration cannot follow that
-harmonic's forcing (at half a step per period an STE of order 64 gave p_rms 8.8e-14 um against
-3.56 um at 1024 steps per mesh period, and status 0). The studies of this repository take 12.8
-or more."""
+"""Fewest steps per period of the highest excitation harmonic written in the study (its
+``stiffness_harmonics``, ``ste`` and ``fluctuation``; a gear's or an excitation file's
+harmonics, whose number is a setting and whose highest are small, are not held to it). The
+excitation tables are read at the steps' nodes, and with fewer steps the integration cannot
+follow that harmonic's forcing: at half a step per period an STE of order 64 gave p_rms
+8.8e-14 um against 3.56 um at 1024 steps per mesh period, with status 0. The studies of this
+repository take 12.8 or more."""
 
 
 def make_plan(study: Study, text: str = "", file: str | None = None) -> Plan:
@@ -387,9 +389,10 @@ def _make_plan(study: Study, text: str) -> Plan:
         problems.append(StudyError("<study>", "solver.record_periods", rec,
                                    record_periods_needed(cycle, model=plan.model)))
     spp = study.solver.steps_per_period
-    orders = [h.order for h in (*getattr(plan.model, "stiffness_harmonics", ()),
-                                *getattr(plan.model, "ste_harmonics", ()),
-                                *getattr(plan.model, "force_harmonics", ()))]
+    orders = [h.order for typed, model_field in (  # the harmonics written in the study (a
+        ("stiffness_harmonics", "stiffness_harmonics"), ("ste", "ste_harmonics"),  # gear's or
+        ("fluctuation", "force_harmonics"))  # an excitation file's: their number is a setting)
+        if getattr(study.scene, typed, None) for h in getattr(plan.model, model_field, ())]
     if orders and spp < STEPS_PER_HARMONIC * max(orders):  # (order 64 at 32 steps: p_rms
         top = max(orders)  # 8.8e-14 um against 3.56 um at 1024 steps, status 0)
         problems.append(StudyError("<study>", "solver.steps_per_period", spp, (
