@@ -58,7 +58,12 @@ from gearsweep.study.execute import (
     step_limit_text,
     stream_to_file,
 )
-from gearsweep.study.plan import cases_beyond_step_limit, make_plan
+from gearsweep.study.plan import (
+    SETTLED_RESIDUAL,
+    cases_beyond_step_limit,
+    make_plan,
+    transient_residual,
+)
 from gearsweep.study.provenance import command
 from gearsweep.study.schema import (
     MAX_STEPS_PER_PERIOD,
@@ -220,6 +225,14 @@ def cmd_validate(args: argparse.Namespace) -> int:
             print(f"gearsweep: note: {name}: the step guard's grid is too large to check here;"
                   " run checks every case and says how many are beyond the step limit",
                   file=sys.stderr)
+    left = transient_residual(plan)
+    if left is not None:
+        residual, speed, need = left
+        print(f"gearsweep: note: {name}: solver.transient_periods"
+              f" {study.solver.transient_periods} leave up to {residual:.0%} of the start's free"
+              f" vibration (exp(-c / (2 m) periods x T) at {speed:g} rpm, the least damped"
+              f" case); a beat slower than the record can pass as settled (status 0): {need}"
+              f" transient periods leave {SETTLED_RESIDUAL:.0%}", file=sys.stderr)
     return 0
 
 

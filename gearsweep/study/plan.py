@@ -554,6 +554,45 @@ def cases_beyond_step_limit(plan: Plan) -> int | None:
     return int((~ok).sum()) * (plan.n_cases // m)  # each grid point: the other dims' cases
 
 
+SETTLED_RESIDUAL = 0.01
+"""Share of the start's free vibration the transient may leave, exp(-c / (2 m) N_t T), before
+``gearsweep validate`` notes it: the ``status`` check compares the halves of the record and
+misses a beat slower than the record (an outside check, 27 Nov 2026: zeta = 0.001, 300
+transient and 20 recorded periods, status 0 with p_pp 10-17 % off, where this estimate gives
+15 %)."""
+
+
+def transient_residual(plan: Plan) -> tuple[float, float, int] | None:
+    """The largest share of a free vibration the transient leaves among the cases of ``plan``
+    with damping (exp(-c / (2 m) N_t T_mesh), on the grid of the swept dims it depends on), the
+    speed where it is largest [rpm], and the transient periods that bring it to
+    ``SETTLED_RESIDUAL``; ``None`` when it is below that, for a Mathieu chart (a stability
+    study), or when the grid is larger than ``_GUARD_TABLE_MAX``."""
+    if isinstance(plan.model, MathieuModel):
+        return None
+    dims = [d for d in plan.dims if d in GUARD_PARAMS]
+    m = math.prod(len(plan.grids[d]) for d in dims)
+    if m > _GUARD_TABLE_MAX:
+        return None
+    grid = np.meshgrid(*[plan.grids[d] for d in dims], indexing="ij")
+    params = {d: g.ravel() for d, g in zip(dims, grid, strict=True)}
+    *_, cm, period = hill_parameters(plan.model, params, m)
+    cm, period = np.broadcast_to(cm, (m,)), np.broadcast_to(period, (m,))
+    damped = cm > 0
+    if not damped.any():
+        return None
+    decay = 0.5 * cm[damped] * period[damped]  # per mesh period
+    n_t = plan.study.solver.transient_periods
+    worst = int(np.argmin(decay))
+    residual = math.exp(-decay[worst] * n_t)
+    if residual <= SETTLED_RESIDUAL:
+        return None
+    speeds = params.get("speed", np.full(m, plan.grids["speed"][0] if "speed" in plan.grids
+                                          else math.nan))
+    speed = float(np.broadcast_to(speeds, (m,))[damped][worst])
+    return residual, speed, math.ceil(math.log(1 / SETTLED_RESIDUAL) / decay[worst])
+
+
 def _guard_table(plan: Plan) -> tuple[list[int], tuple[int, ...], np.ndarray] | None:
     """The step guard solved once on the grid of the swept dims it depends on.
 
