@@ -60,6 +60,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Kind("frequency", "Hz", "Hz", "Hz", ("Hz", "kHz")),
     Kind("length", "m", "mm", "mm", ("mm", "m", "um", "µm", "micron", "in")),
     Kind("displacement", "m", "um", "um", ("um", "µm", "micron", "mm", "m")),
+    Kind("velocity", "m/s", "mm/s", "mm s-1", ("mm/s", "m/s", "um/s")),
     Kind("mass", "kg", "kg", "kg", ("kg", "g")),
     Kind("force", "N", "N", "N", ("N", "kN")),
     Kind("torque", "N*m", "N*m", "N m", ("N m", "N*m", "N.m", "N·m", "Nm", "N mm", "Nmm",

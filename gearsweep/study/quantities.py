@@ -35,7 +35,7 @@ def Q(kind: str) -> Any:  # noqa: N802 -- reads as a type in the models
 Length, Mass, Force, Torque = Q("length"), Q("mass"), Q("force"), Q("torque")
 Damping, Stiffness, Inertia, Angle, Speed = (Q("damping"), Q("stiffness"), Q("inertia"),
                                             Q("angle"), Q("speed"))
-Displacement, Pressure = Q("displacement"), Q("pressure")
+Displacement, Pressure, Velocity = Q("displacement"), Q("pressure"), Q("velocity")
 
 
 def _whole(value: Any) -> Any:

@@ -89,6 +89,7 @@ from gearsweep.study.quantities import (
     Stiffness,
     Strict,
     Torque,
+    Velocity,
     WholeStudy,
 )
 from gearsweep.units import (
@@ -350,8 +351,8 @@ class Solver(Strict):
         " equilibrium of each case on the flank its load presses, b + F_m / k0 (the drive flank;"
         " -b + F_m / k0, the back flank, for F_m < 0; b = backlash / 2, k0 the mean stiffness at"
         " the case's load)")
-    initial_velocity: Annotated[Real, BeforeValidator(_bare_velocity)] = Field(
-        0.0, allow_inf_nan=False, description="p' at t = 0 in m/s (a bare number)")
+    initial_velocity: Velocity = Field(
+        0.0, description="p' at t = 0 (Mathieu: a bare number, in its own units)")
     device: Literal[DEVICES] = Field(
         "cpu", description="where the kernel runs: cpu, cuda (a CUDA GPU, docs/gpu.md) or auto"
         " (cuda where a GPU is present)")
@@ -360,18 +361,6 @@ class Solver(Strict):
     step_guard: Annotated[Literal["warn", "skip", "off"], BeforeValidator(_guard_word)] = Field(
         "warn", description="cases whose step is beyond the method's stability limit: flag them"
         " (warn), do not integrate them (skip, status 3), or do not check (off)")
-
-
-def _bare_velocity(v: Any) -> Any:
-    """``initial_velocity`` is a bare number in m/s (dimensionless in a Mathieu scene): a value
-    written with a unit got pydantic's "unable to parse string as a number"."""
-    if isinstance(v, str):
-        try:
-            float(v)
-        except ValueError:
-            raise ValueError("a bare number, in m/s (p' at t = 0; this field takes no unit,"
-                             " e.g. 0.001)") from None
-    return v
 
 
 def _guard_word(v: Any) -> Any:
@@ -424,24 +413,30 @@ class Study(WholeStudy):
         if not (isinstance(data, dict) and isinstance(data.get("scene"), dict)
                 and data["scene"].get("kind") == "mathieu" and isinstance(data.get("solver"), dict)):
             return data
-        v = data["solver"].get("initial_displacement")
-        if isinstance(v, str) and v.strip() != "static":
-            try:
-                float(v)
-            except ValueError:
-                problem = Problem("solver.initial_displacement", v, "a bare number in a mathieu"
-                                  " scene (p in units of its own scale, e.g. 1): no unit there")
-                sink = (info.context or {}).get("problems") if info is not None else None
-                if sink is None:
-                    raise ValueError(f"{problem.path}: {problem.message}") from None
-                sink.append(problem)
-                v = 1.0  # reported: validate the rest as if the default were given
-        if isinstance(v, str) and v.strip() == "static":
-            v = "static"  # ('static ' with a space: its own problem below, on its own line)
-            data = dict(data, solver=dict(data["solver"], initial_displacement=v))
-        if isinstance(v, int | float | str) and not isinstance(v, bool) and v != "static":
-            solver = dict(data["solver"], initial_displacement=f"{float(v)!r} m")
-            data = dict(data, solver=solver)
+        starts = (("initial_displacement", "m", "p in units of its own scale, e.g. 1"),
+                  ("initial_velocity", "m/s", "p' in its own units, e.g. 0"))
+        for name, si, what in starts:
+            v = data["solver"].get(name)
+            if isinstance(v, bool) or isinstance(v, str) and v.strip() != "static":
+                try:
+                    if isinstance(v, bool):
+                        raise ValueError(v)
+                    float(v)
+                except ValueError:
+                    problem = Problem(f"solver.{name}", v, "a number (not true or false)"
+                                      if isinstance(v, bool) else f"a bare number in a mathieu"
+                                      f" scene ({what}): no unit there")
+                    sink = (info.context or {}).get("problems") if info is not None else None
+                    if sink is None:
+                        raise ValueError(f"{problem.path}: {problem.message}") from None
+                    sink.append(problem)
+                    v = 1.0 if name == "initial_displacement" else 0.0  # reported: the rest is
+                    # validated as if the default were given
+            if isinstance(v, str) and v.strip() == "static" and name == "initial_displacement":
+                v = "static"  # ('static ' with a space: its own problem below, on its own line)
+                data = dict(data, solver=dict(data["solver"], initial_displacement=v))
+            if isinstance(v, int | float | str) and not isinstance(v, bool) and v != "static":
+                data = dict(data, solver=dict(data["solver"], **{name: f"{float(v)!r} {si}"}))
         return data
 
     @model_validator(mode="after")
@@ -1438,6 +1433,7 @@ def study_text(study: Study | MeshStudy | AnalysisStudy) -> str:
     fields = _with_units(study)
     if isinstance(study, Study) and study.scene.kind == "mathieu":  # dimensionless (a bare
         fields["solver"]["initial_displacement"] = study.solver.initial_displacement  # number)
+        fields["solver"]["initial_velocity"] = study.solver.initial_velocity
     return yaml.safe_dump(fields, sort_keys=False, allow_unicode=True)
 
 
