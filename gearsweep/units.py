@@ -189,6 +189,9 @@ def _keep_factor(key: str, factor: float) -> None:
         pass
 
 
+_LOOSE_UNDERSCORE = re.compile(r"(?<=\d)_(?!\d)|(?<![\w])_\d|__")
+"""An underscore in a number that is not between two digits (Python's rule, and pint's)."""
+
 _SPLIT_NUMBER = re.compile(r"\d\s+\d+(?:\.\d*)?(?=\s|$|[A-Za-z_])")
 """Digits, a space, a number that is not the start of a unit (``2 000 rpm``, not ``50 1/s``)."""
 
@@ -202,6 +205,8 @@ def _check_number_text(value: str) -> None:
                              " 4.92) and no thousands separators")
     if _SPLIT_NUMBER.search(value):
         raise UnitParseError("a space inside a number; write it without (e.g. 2000)")
+    if _LOOSE_UNDERSCORE.search(value):  # ('1__0 mm' read as 10 mm, '1_ mm' as 1 mm)
+        raise UnitParseError("an underscore in a number stands between two digits (e.g. 10_000)")
 
 
 def to_si(value: object, kind: str) -> float:

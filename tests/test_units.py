@@ -72,12 +72,17 @@ def test_a_bare_number_in_a_dimensioned_field_is_refused(value, kind, message):
     ("300,5 N", "force", "a comma in a quantity"),
     ("2 000 rpm", "speed", "a space inside a number"),
     ("1 073 kN/mm", "stiffness", "a space inside a number"),
+    ("1__0 mm", "length", "an underscore in a number stands between two digits"),
+    ("1_ mm", "length", "an underscore in a number stands between two digits"),
 ])
 def test_decimal_commas_and_digit_gaps_are_refused(value, kind, message):
     """pint reads '4,92 N*s/mm' as a tuple and '2 000 rpm' as 2 * 0 rpm: both came out as 0.0
-    and a study ran with no damping (an outside reader's finding); now one line says why."""
+    and a study ran with no damping (an outside reader's finding); now one line says why.
+    '1__0 mm' was read as 10 mm and '1_ mm' as 1 mm (pint refuses both; an outside fuzz
+    tester); an underscore between digits groups them, as in Python."""
     with pytest.raises(UnitParseError, match=message):
         to_si(value, kind)
+    assert to_si("10_000 rpm", "speed") == 10000.0
 
 
 def test_an_unknown_unit_is_named_with_the_spellings_of_its_kind():
