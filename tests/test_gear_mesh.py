@@ -108,6 +108,9 @@ def test_a_pair_of_another_material_is_checked_against_iso_for_that_material(you
     far = GearPair(module=1e-3, z1=20, z2=2000, face_width=20e-3, youngs_modulus=youngs_modulus)
     with pytest.raises(GeometryError, match=r"0.04 times ISO 6336-1's c_gamma"):
         mesh_cycle(far, 50.0)  # still beyond the model's range, whatever the material
+    # ISO's values for the pair's material (a mesh study's iso_* outputs: they were steel's)
+    iso = np.array(iso6336_stiffness(other)) / np.array(iso6336_stiffness(steel))
+    assert iso == pytest.approx([youngs_modulus / 206e9] * 2, rel=1e-12)
 
 
 # --------------------------------------------------------------------------- compliance

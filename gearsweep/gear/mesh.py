@@ -377,8 +377,7 @@ def _check_against_iso(pair: GearPair, k_mean: float) -> None:
     z = 10000 gave 0.018, silently). The Table 1 pair: 219 against 208 kN/mm. ISO's values are
     for steel (E_st = 206 GPa); for another material it scales them by E / E_st, as every term of
     the compliance model is 1/E (an aluminium pair, 0.36 times steel's c_gamma, was refused)."""
-    _, c_gamma = iso6336_stiffness(pair)
-    c_gamma *= pair.youngs_modulus / E_STEEL
+    _, c_gamma = iso6336_stiffness(pair)  # (for the pair's material)
     ratio = k_mean / c_gamma
     if not 1.0 / ISO_FACTOR <= ratio <= ISO_FACTOR:
         raise GeometryError(
@@ -487,6 +486,8 @@ def iso6336_stiffness(pair: GearPair) -> tuple[float, float]:
     both gears), ``C_B = mean over gears of (1 + 0.5 (1.2 - h_fP/m)) (1 - 0.02 (20 deg -
     alpha_P))`` with ``h_fP = r + x m - r_f``; ``c_gamma = c' (0.75 eps_alpha + 0.25)``.
     ISO's values are per mm face width [N/(mm um)]; here multiplied by the face width: N/m.
+    They are for steel (E_st = 206 GPa); for another material ``c'`` is multiplied by E / E_st
+    (here E is the pair's one ``youngs_modulus``; every term of the compliance model is 1/E too).
     Valid for ``F_t K_A / b >= 100 N/mm`` (ISO scales ``c'`` down below that; not applied).
 
     Parameters
@@ -516,7 +517,7 @@ def iso6336_stiffness(pair: GearPair) -> tuple[float, float]:
         cb.append((1.0 + 0.5 * (1.2 - h_fp)) * (1.0 - 0.02 * (20.0 - alpha_deg)))
     c_b = 0.5 * (cb[0] + cb[1])
     c_r = 0.5 * (rim_factor(pair, 1) + rim_factor(pair, 2))
-    c_prime = c_th * 0.8 * c_r * c_b  # [N/(mm um)]
+    c_prime = c_th * 0.8 * c_r * c_b * pair.youngs_modulus / E_STEEL  # [N/(mm um)]
     c_gamma = c_prime * (0.75 * pair.contact_ratio + 0.25)
     per_metre = pair.face_width * 1e3 * 1e6  # N/(mm um) * b[mm] = N/um -> N/m
     return c_prime * per_metre, c_gamma * per_metre
