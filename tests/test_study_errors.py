@@ -1557,3 +1557,17 @@ solver: {{method: rk4, steps_per_period: 64, transient_periods: 300, record_peri
     path.write_text(text.format(c="5.5 N*s/mm"), encoding="utf-8")
     assert main(["validate", str(path)]) == 0
     assert "transient" not in capsys.readouterr().err
+
+
+def test_a_spectrum_too_long_to_hold_is_refused_before_its_coordinates_are_made(tmp_path):
+    """record_periods: 1e8 beside a spectrum took validate 19 s and 6.45 GB (its order
+    coordinate and the speed x order frequency were made before the estimate could refuse it;
+    an outside fuzz tester): now one line at solver.record_periods, at once."""
+    text = (ROOT / "studies" / "fig05_waterfall.yaml").read_text(encoding="utf-8")
+    text = re.sub(r"record_periods: \d+", "record_periods: 100000000", text)
+    t0 = time.perf_counter()
+    with pytest.raises(StudyError) as err:
+        make_plan(parse_study(text, "w.yaml"))
+    assert time.perf_counter() - t0 < 10
+    (line,) = str(err.value).split("\n")
+    assert "solver.record_periods: 100000000 -- a spectrum of at most" in line

@@ -166,6 +166,13 @@ class Stats:
         return out
 
 
+MAX_SPECTRUM_CELLS = 1 << 24
+"""Most lines x speeds of a spectrum output (its ``order`` coordinate and the 2-D ``frequency``
+on speed x order): beyond it a study is refused before they are made (``record_periods: 1e8``
+took ``gearsweep validate`` 19 s and 6.45 GB before its estimate could refuse it). The
+studies here keep at most 2.4e5."""
+
+
 class SpectrumOptions(Strict):
     """Options of the ``spectrum`` output (a study model like the others: its validator is
     built when a study first asks for a spectrum; built with the class, it was 4 ms of every
@@ -259,9 +266,16 @@ class Spectrum:
             pinion = self._pinion(plan)
         except StudyError as exc:
             problems += exc.problems
+        lines = kept_bins(rec * sps, rec, o.max_order)
+        speeds = len(plan.grids.get("speed", (0,)))
+        if lines * speeds > MAX_SPECTRUM_CELLS:  # before the coordinates are made: 1e8 recorded
+            problems.append((None, "solver.record_periods", rec, (  # periods took validate to
+                f"a spectrum of at most {MAX_SPECTRUM_CELLS:.3g} lines x speeds: {lines:.3g}"  # 6 GB
+                f" lines (max_order {o.max_order:g} x record_periods) at {speeds} speeds; record"
+                " fewer periods or keep a lower max_order")))
         if problems:
             raise StudyError.many("<study>", problems)
-        order = np.arange(kept_bins(rec * sps, rec, o.max_order)) / rec
+        order = np.arange(lines) / rec
         aux = {}
         if isinstance(plan.model, MeshModel):
             f_mesh = mesh_frequency(plan.grids["speed"], plan.model.teeth)
