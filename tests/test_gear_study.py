@@ -561,3 +561,19 @@ def test_every_load_of_a_gear_scene_must_be_positive_in_one_line(lines, said):
         parse_study(text, "s.yaml")
     assert str(err.value) == (f"{said} -- a positive load: a gear scene's k(t) and STE are the"
                               " pair's under it, in the drive direction")
+
+
+def test_a_tip_relief_of_more_than_a_tenth_of_a_module_is_refused(tmp_path, capsys):
+    """'amount: 10 m' for '10 um' gave a largest STE of 2,482,897 um (an outside fuzz tester);
+    more than 0.1 module (250 um for the Table 1 pair's 2.5 mm) is refused as a unit slip, on
+    the gear's line; 250 um itself is taken."""
+    text = (Path(__file__).resolve().parents[1] / "studies" / "mesh_tip_relief.yaml").read_text(
+        encoding="utf-8")
+    path = tmp_path / "r.yaml"
+    for amount, code in (("10 m", 2), ("251 um", 2), ("250 um", 0)):
+        path.write_text(re.sub(r"amount: 6 um", f"amount: {amount}", text), encoding="utf-8")
+        assert main(["validate", str(path)]) == code
+        err = capsys.readouterr().err
+        if code:
+            (line,) = err.strip().splitlines()
+            assert "tip_relief.amount" in line and "at most 0.1 module (250 um here)" in line

@@ -39,6 +39,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, Field, model_validator
 
+from gearsweep.errors import GeometryError
 from gearsweep.gear import GearPair, TipRelief, table1_as_printed, table1_consistent
 from gearsweep.gear.excitation import DEFAULT_HARMONICS, GearExcitation, gear_excitation
 from gearsweep.study.quantities import Angle, Count, Length, Pressure, Real, Strict
@@ -139,11 +140,22 @@ def gear_pair(spec: GearSpec) -> GearPair:
     return GearPair(name="gear pair", **fields)
 
 
+MAX_RELIEF_MODULES = 0.1
+"""Largest tip relief amount C_a taken, in modules (reliefs are tens of micrometres, some
+hundredths of a module): a larger one is refused as a unit slip (an outside fuzz tester's
+'amount: 10 m' gave a largest STE of 2,482,897 um)."""
+
+
 def tip_reliefs(spec: GearSpec, pair: GearPair) -> tuple[TipRelief | None, TipRelief | None]:
     """The tip relief of gear 1 and gear 2 described by ``spec`` (None where not relieved)."""
     r = spec.tip_relief
     if r is None:
         return None, None
+    if r.amount > MAX_RELIEF_MODULES * pair.module:  # ('10 m' for '10 um': an STE of 2.5 km)
+        raise GeometryError(
+            f"tip_relief.amount {r.amount * 1e6:.6g} um is {r.amount / pair.module:.3g} modules;"
+            f" a tip relief is at most {MAX_RELIEF_MODULES:g} module"
+            f" ({MAX_RELIEF_MODULES * pair.module * 1e6:.4g} um here): a unit slip?")
     out: list[TipRelief | None] = []
     for g, side in ((1, "driving"), (2, "driven")):
         if r.gears not in ("both", side):
