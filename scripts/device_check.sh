@@ -174,9 +174,10 @@ threads=$(nproc)
 # code, with GEARSWEEP_DIRECT_IO=0 (buffered, as before it), the start since the light cache loads
 # (ac1544c), and the workers at 1e7 cases. Two calls on 27 Nov measured those
 # (docs/data/device-2026-11-27/README.md has their commands): the 1e7 ratio on 16 cores came out at
-# 1.475-1.603 in five batches, direct against buffered undecided, so the default is now those two
-# steps with five runs each (REPEATS_1E7), the start beside them.
-STEPS=${STEPS:-startup,pipeline_1e7,pipeline_1e7_buffered}
+# 1.475-1.605 in six batches, direct against buffered undecided, so the default is now those two
+# steps with five runs each (REPEATS_1E7), the start beside them; first the real-GPU tests: the
+# CUDA kernel's impacts count changed after the last call (9f47285, simulator only).
+STEPS=${STEPS:-gpu_tests,startup,pipeline_1e7,pipeline_1e7_buffered}
 REPEATS_1E7=${REPEATS_1E7:-5}
 step kernel_cpu 75 kernel_cpu.jsonl "$PY" scripts/bench_kernel.py "${ref[@]}" "${cases[@]}" --rounds 3
 step gpu_tests 120 gpu_tests.txt "$PY" -m pytest -q -p no:cacheprovider -p no:benchmark -n 4 \
