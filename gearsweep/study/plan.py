@@ -539,18 +539,28 @@ _GUARD_TABLE_MAX = 1 << 20
 """Largest grid over the guard's dims that is solved once per study (else: per chunk)."""
 
 
+def _swept_grid(plan: Plan, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], int] | None:
+    """Every combination of the swept values of ``names`` (flat arrays by dim), and how many;
+    ``None`` when there are more than ``_GUARD_TABLE_MAX``."""
+    dims = [d for d in plan.dims if d in names]
+    m = math.prod(len(plan.grids[d]) for d in dims)
+    if m > _GUARD_TABLE_MAX:
+        return None
+    grid = np.meshgrid(*[plan.grids[d] for d in dims], indexing="ij")  # NumPy: validate compiles
+    return {d: g.ravel() for d, g in zip(dims, grid, strict=True)}, m  # nothing
+
+
 def cases_beyond_step_limit(plan: Plan) -> int | None:
     """How many cases of ``plan`` the step guard will find beyond the method's stability limit
     (``_step_ok``, solved on the grid of the swept dims it depends on, speed included, before
     anything runs: ``gearsweep validate`` says so); ``None`` when that grid is larger than
     ``_GUARD_TABLE_MAX``."""
-    dims = [d for d in plan.dims if d in _guard_dims(plan)]
-    m = math.prod(len(plan.grids[d]) for d in dims)
-    if m > _GUARD_TABLE_MAX:
+    swept = _swept_grid(plan, _guard_dims(plan))
+    if swept is None:
         return None
-    grid = np.meshgrid(*[plan.grids[d] for d in dims], indexing="ij")  # NumPy: validate compiles
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # nothing
-        ok = np.asarray(_step_ok(plan, {d: g.ravel() for d, g in zip(dims, grid, strict=True)}, m))
+    params, m = swept
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        ok = np.asarray(_step_ok(plan, params, m))
     return int((~ok).sum()) * (plan.n_cases // m)  # each grid point: the other dims' cases
 
 
@@ -568,29 +578,21 @@ def transient_residual(plan: Plan) -> tuple[float, float, int] | None:
     speed where it is largest [rpm], and the transient periods that bring it to
     ``SETTLED_RESIDUAL``; ``None`` when it is below that, for a Mathieu chart (a stability
     study), or when the grid is larger than ``_GUARD_TABLE_MAX``."""
-    if isinstance(plan.model, MathieuModel):
+    swept = None if isinstance(plan.model, MathieuModel) else _swept_grid(plan, GUARD_PARAMS)
+    if swept is None or "speed" not in swept[0]:
         return None
-    dims = [d for d in plan.dims if d in GUARD_PARAMS]
-    m = math.prod(len(plan.grids[d]) for d in dims)
-    if m > _GUARD_TABLE_MAX:
-        return None
-    grid = np.meshgrid(*[plan.grids[d] for d in dims], indexing="ij")
-    params = {d: g.ravel() for d, g in zip(dims, grid, strict=True)}
+    params, m = swept
     *_, cm, period = hill_parameters(plan.model, params, m)
-    cm, period = np.broadcast_to(cm, (m,)), np.broadcast_to(period, (m,))
-    damped = cm > 0
+    damped = np.broadcast_to(cm, (m,)) > 0
     if not damped.any():
         return None
-    decay = 0.5 * cm[damped] * period[damped]  # per mesh period
-    n_t = plan.study.solver.transient_periods
+    decay = 0.5 * np.broadcast_to(cm, (m,))[damped] * period[damped]  # per mesh period
     worst = int(np.argmin(decay))
-    residual = math.exp(-decay[worst] * n_t)
+    residual = math.exp(-decay[worst] * plan.study.solver.transient_periods)
     if residual <= SETTLED_RESIDUAL:
         return None
-    speeds = params.get("speed", np.full(m, plan.grids["speed"][0] if "speed" in plan.grids
-                                          else math.nan))
-    speed = float(np.broadcast_to(speeds, (m,))[damped][worst])
-    return residual, speed, math.ceil(math.log(1 / SETTLED_RESIDUAL) / decay[worst])
+    return (residual, float(params["speed"][damped][worst]),
+            math.ceil(math.log(1 / SETTLED_RESIDUAL) / decay[worst]))
 
 
 def _guard_table(plan: Plan) -> tuple[list[int], tuple[int, ...], np.ndarray] | None:
