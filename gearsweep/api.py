@@ -33,6 +33,9 @@ import yaml
 from gearsweep.errors import DICT_STUDY, NO_VALUE, ResultError, StudyError
 from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, mean_mesh_force, model_from_record
 from gearsweep.study.analyses import run_analysis_study
+from gearsweep.study.analysis_cost import AnalysisEstimate
+from gearsweep.study.analysis_cost import check_limits as check_analysis
+from gearsweep.study.analysis_cost import estimate as estimate_analysis
 from gearsweep.study.analysis_specs import AnalysisStudy
 from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.estimate import before_refusing, quick_estimate, small_chunk_note
@@ -185,7 +188,7 @@ def _warn_step_limit(plan, ds: xr.Dataset, where: str | Path) -> None:
 
 
 def estimate(study: StudyLike, *, chunk_cases: int | None = None,
-             in_memory: bool = False) -> Estimate:
+             in_memory: bool = False) -> Estimate | AnalysisEstimate:
     """What running a dynamic study in this process would take, before anything runs: the
     estimate ``gearsweep run --estimate`` prints (``.line()``: its text; ``.seconds``,
     ``.memory_bytes``, ``.output_bytes``: wall time with any one-time compile, peak memory,
@@ -193,16 +196,22 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None,
     without ``output``, whose result's arrays are held in memory (the peak counts them), the
     estimate ``run`` checks against the limits.
 
+    An analysis study gives an ``AnalysisEstimate`` (``.line()``, ``.seconds``,
+    ``.memory_bytes``, ``.over()``; its inputs read from ``results/``), the one ``gearsweep
+    validate`` prints (``gearsweep.study.analysis_cost``).
+
     Raises
     ------
     StudyError
-        For a mesh or analysis study (computed in one piece, with no estimate), and as ``run``.
+        For a mesh study (computed in one piece, with no estimate of its time), and as ``run``.
     """
     chunk_cases = _chunk_cases(chunk_cases)
     st, text, name = _load(study)
-    if isinstance(st, MeshStudy | AnalysisStudy):
-        raise StudyError(name, "type", st.type, "a dynamic study (a mesh or analysis study is"
-                         " computed in one piece, with no estimate)")
+    if isinstance(st, AnalysisStudy):
+        return estimate_analysis(st, "results")
+    if isinstance(st, MeshStudy):
+        raise StudyError(name, "type", st.type, "a dynamic or analysis study (a mesh study is"
+                         " computed in one piece, with no estimate of its time)")
     plan = make_plan(st, text, name)
     est = quick_estimate(plan, chunk_size(plan, chunk_cases)[0])[0]
     return _held(est) if in_memory else est
@@ -289,9 +298,12 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     # `gearsweep run` made that run's file unreadable, and one of another study deleted its
     # chunks (an adversarial test).
     if isinstance(st, MeshStudy | AnalysisStudy):
+        where = name if output is None else str(output)
         if isinstance(st, MeshStudy) and not yes:  # as the CLI refuses it without --yes
-            check_memory(st, name if output is None else str(output),
-                         ahead="pass yes=True to go ahead")
+            check_memory(st, where, ahead="pass yes=True to go ahead")
+        if isinstance(st, AnalysisStudy) and not yes:
+            check_analysis(st, "results" if output is None else Path(output).parent, where,
+                           ahead="pass yes=True to go ahead")
         if output is None:
             return run_unchunked(st, text, "results")
         with OutputLock(output):

@@ -198,7 +198,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
             check_inputs(study, folder)  # what run would refuse of them, said now
         except StudyError as exc:
             raise _in_file(exc, text, args.study) from None
-        print(f"{name}: ok -- analysis study {study.analysis.kind!r}")
+        from gearsweep.study import analysis_cost
+
+        est = (analysis_cost.estimate(study, folder) if args.yes
+               else analysis_cost.check_limits(study, folder, name))
+        print(f"{name}: ok -- analysis study {study.analysis.kind!r}; estimate: {est.line()}")
         for needed in getattr(study.analysis, "inputs", lambda: [])():
             if not (folder / f"{needed}.nc").exists():  # valid, but run would stop: say so now
                 print(f"gearsweep: note: {name}: it reads {folder / needed}.nc, not there yet:"
@@ -355,7 +359,16 @@ def cmd_run(args: argparse.Namespace) -> int:
                   " not apply", file=sys.stderr)
         if study.type == "mesh" and not args.estimate:
             _check_mesh_memory(study, name, args.yes)
-        if args.estimate:
+        if study.type == "analysis":  # what it will take, said (--estimate) or refused
+            from gearsweep.study import analysis_cost
+
+            if args.estimate:
+                print(f"{name}: analysis study {study.analysis.kind!r}, computed in one piece:"
+                      f" {analysis_cost.estimate(study, out.parent).line()}")
+                return 0
+            if not args.yes:
+                analysis_cost.check_limits(study, out.parent, name)
+        elif args.estimate:
             print(f"{name}: {article(study.type)} study, computed in one piece: no estimate")
             return 0
         from gearsweep.api import run_unchunked

@@ -1,0 +1,231 @@
+"""What an analysis study will cost, from arithmetic on its options: no integration, no compile.
+
+An analysis study is computed in one piece, but its options reach far: ``work_precision`` with
+``copies: 1000000`` and ``transient_periods: 100000`` validated and then ran for days (an outside
+tester's finding, 27 Nov 2026). ``estimate`` counts each kind's work in its own unit and prices
+it at rates measured on the 2-core machine this project is developed on (27 Nov 2026, medians of
+a few runs; ``tests/test_analysis_cost.py`` checks the estimate against a run's own time), so that
+``gearsweep validate``, ``gearsweep run`` (and ``--estimate``) and ``gearsweep.run`` say it, and
+refuse beyond ``execute.LIMITS`` unless confirmed, as for a dynamic study. Rates are stated
+floors, like ``execute.STATED_RATE`` for the kernel: a faster machine runs in less.
+
+What is counted, per kind:
+
+* ``method_stability``: 22 bisection trials of ``steps`` kernel steps for each method, its damping
+  ratios in blocks of ``LANES`` cases (``stability.measured_step_limit``), at ``STATED_RATE``.
+* ``artifact_map``: per tableau and step count, ``steps_per_period`` products of 2 x 2 stage
+  matrices over the rig's speed x damping grid (``stability.tableau_monodromy``: NumPy over the
+  grid, a fixed cost per step) and the paper's criterion; the grid is the rig result's, read
+  from its file's dimensions (not there yet: priced at ``RIG_POINTS_UNKNOWN``).
+* ``work_precision``: per scene, the reference solution (scipy DOP853 at rtol 1e-12 with crossing
+  events, or the exact piecewise solution and its DOP853 cross-check without stiffness ripple),
+  every peer at every rtol (scipy's ``solve_ivp`` with a Python right-hand side: evaluations per
+  radian of the scene's fastest motion, growing as rtol^-q), and every fixed-step method at
+  every step count on ``copies`` cases, ``repeat`` times, at ``STATED_RATE`` (``KINK_COST`` for
+  the kink-aware step). Memory: the kernel's recorded signal of ``copies`` cases.
+* ``rattle_balance``: the harmonic-balance branch, growing with its harmonics and time samples
+  (1.6 s at its study's 25 and 1,024; 66.5 s at the schema's most, 200 and 65,536).
+* ``rattle_budget``, ``jump_map``: a fixed time (they read results and integrate nothing).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import netCDF4
+
+from gearsweep.analysis import precision as pr
+from gearsweep.analysis.advise import KINK_COST
+from gearsweep.errors import LimitError
+from gearsweep.kernels import LANES, rk
+from gearsweep.study.analysis_specs import (
+    AnalysisStudy,
+    ArtifactMap,
+    MethodStability,
+    RattleBalance,
+    WorkPrecision,
+)
+from gearsweep.study.execute import (
+    BASELINE_MEMORY,
+    LIMITS,
+    STATED_RATE,
+    _duration,
+    _size,
+    kernel_threads,
+)
+
+BISECTION_TRIALS = 22
+"""Trials of ``stability.measured_step_limit`` (its ``iterations``) per method."""
+
+MONODROMY_CALL_SECONDS = 0.05
+"""``artifact_map``: fixed time per tableau and step count (the criterion, the multipliers)
+[s]; measured 0.049-0.054 s."""
+MONODROMY_STEP_SECONDS = 5e-5
+"""... per step of the period, whatever the grid [s] (NumPy's cost per call)."""
+MONODROMY_POINT_STEP_SECONDS = 4.2e-7
+"""... per step and grid point [s] (768 and 7,680 points, 100-400 steps: 0.32-0.42 us)."""
+RIG_POINTS_UNKNOWN = 768
+"""Grid points priced where the rig result is not there yet (``studies/stability_rig.yaml``'s
+96 speeds x 8 dampings)."""
+
+REFERENCE_SECONDS_PER_RADIAN = {"whine": 1e-3, "rattle": 1e-3}
+"""``work_precision``'s reference solution per radian of the scene's fastest motion over the
+integrated time [s]: DOP853 at rtol 1e-12 with events 0.25-0.55 ms (whine), the exact solution
+0.03-0.22 ms plus its DOP853 cross-check 0.43 ms (rattle), on the idle machine; Python's speed
+varies more between machines than the kernel's, so about twice that is stated."""
+PEER_RHS_PER_RADIAN = {"whine": {"RK45": 4.5, "DOP853": 4.4, "LSODA": 4.5},
+                       "rattle": {"RK45": 6.6, "DOP853": 21.5, "LSODA": 8.8}}
+"""Right-hand-side evaluations of each scipy peer per radian at rtol 1e-3, per scene (the dead
+zone's kinks cost the rattle scene's high-order peer most)..."""
+PEER_RTOL_EXPONENT = {"RK45": 0.2, "DOP853": 0.12, "LSODA": 0.11}
+"""... growing as (rtol / 1e-3)^-q (fitted over rtol 1e-3 ... 1e-10: 0.185-0.193, 0.105-0.118,
+0.082-0.106)."""
+PEER_RHS_SECONDS = 8e-6
+"""One evaluation of the Python right-hand side inside ``solve_ivp`` [s] (3.0-4.8 us measured on
+the idle machine, 13.4 s for the whole work_precision study beside three other jobs against 7.2
+s alone: stated with that margin)."""
+
+BALANCE_SECONDS = 1.0
+"""``rattle_balance``: its fixed part (the describing-function curves, Eq. (15)) [s], ..."""
+BALANCE_HARMONIC_SECONDS = 0.031
+"""... per harmonic of the AFT branch [s] (12-100 harmonics at 512-4,096 samples: 0.99-3.99 s) ..."""
+BALANCE_SAMPLE_SECONDS = 4.5e-6
+"""... and per harmonic and time sample [s] (200 harmonics, 65,536 samples: 66.5 s)."""
+FIXED_ANALYSIS_SECONDS = {"rattle_budget": 0.5, "jump_map": 0.5}
+"""The kinds that only read results [s] (measured: the Fig. 8 budget 0.03-0.05 s, the rattle map's
+jumps 0.25 s)."""
+
+
+@dataclass(frozen=True)
+class AnalysisEstimate:
+    """An analysis study's predicted wall time and peak memory, with what makes them up."""
+
+    kind: str
+    seconds: float
+    memory_bytes: float
+    parts: tuple[tuple[str, float], ...] = ()
+    """(what, seconds) of the larger contributions, in words."""
+    note: str = ""
+
+    def line(self) -> str:
+        what = "; ".join(f"{w} {_duration(s)}" for w, s in self.parts if s >= 0.05)
+        return (f"about {_duration(self.seconds)} at stated rates" + (f" ({what})" if what else "")
+                + f", peak memory about {_size(self.memory_bytes)}"
+                + (f"; {self.note}" if self.note else ""))
+
+    def over(self) -> list[str]:
+        out = []
+        if self.seconds > LIMITS.seconds:
+            out.append(f"time > {_duration(LIMITS.seconds)}")
+        if self.memory_bytes > LIMITS.memory_bytes:
+            out.append(f"memory > {_size(LIMITS.memory_bytes)}")
+        return out
+
+
+def _kernel_seconds(cases: int, steps: float, method: str, threads: int) -> float:
+    """A batch kernel call of ``cases`` cases of ``steps`` steps at the stated rate: blocks of
+    ``LANES`` cases, one block per core at a time."""
+    rounds = math.ceil(math.ceil(cases / LANES) / threads)
+    return rounds * LANES * steps / (STATED_RATE[method] * 1e6)
+
+
+def _method_stability(o: MethodStability, threads: int) -> AnalysisEstimate:
+    s = sum(BISECTION_TRIALS * _kernel_seconds(len(o.zeta), o.steps, m, threads)
+            for m in o.methods)
+    trials = BISECTION_TRIALS * len(o.methods)
+    return AnalysisEstimate(o.kind, s, BASELINE_MEMORY,
+                            ((f"{trials} trials of {o.steps:,} steps", s),))
+
+
+def _rig_points(o: ArtifactMap, results: Path | None) -> tuple[int, str]:
+    path = None if results is None else Path(results) / f"{o.rig}.nc"
+    if path is not None and path.exists():
+        try:
+            with netCDF4.Dataset(path) as nc:
+                dims = nc.dimensions
+                return len(dims["speed"]) * len(dims["damping"]), ""
+        except (OSError, KeyError):
+            pass  # the analysis says what is wrong with it
+    return RIG_POINTS_UNKNOWN, f"{o.rig}.nc not read: priced at {RIG_POINTS_UNKNOWN} grid points"
+
+
+def _artifact_map(o: ArtifactMap, results: Path | None) -> AnalysisEstimate:
+    points, note = _rig_points(o, results)
+    per_method = sum(MONODROMY_CALL_SECONDS + spp * (MONODROMY_STEP_SECONDS
+                                                     + MONODROMY_POINT_STEP_SECONDS * points)
+                     for spp in o.steps_per_period)
+    s = len(o.methods) * per_method
+    # the monodromy matrices and stage products of the grid, and the flags kept per step
+    memory = BASELINE_MEMORY + points * 8 * 40 + len(o.methods) * len(o.steps_per_period) \
+        * points * 9
+    what = f"{len(o.methods)} tableaux x {len(o.steps_per_period)} steps over {points} grid points"
+    return AnalysisEstimate(o.kind, s, memory, ((what, s),), note)
+
+
+def _radians(scene, window: pr.Window) -> float:
+    """Radians of the scene's fastest motion (its natural frequency at the largest stiffness, or
+    the highest order of its excitation) over the integrated time."""
+    orders = [r for _, r, _ in (*scene.k_harmonics, *scene.g_harmonics)] or [1.0]
+    fastest = max(scene.omega_n, scene.omega * max(orders))
+    return window.periods * scene.period * fastest
+
+
+def _work_precision(o: WorkPrecision, threads: int) -> AnalysisEstimate:
+    window = pr.Window(o.transient_periods, o.record_periods)
+    make = {"whine": pr.whine_scene, "rattle": pr.rattle_scene}
+    speed = {"whine": o.whine_speed, "rattle": o.rattle_speed}
+    ref = peers = fixed = 0.0
+    for name in o.scenes:
+        scene = make[name](speed[name])
+        rad = _radians(scene, window)
+        ref += REFERENCE_SECONDS_PER_RADIAN[name] * rad
+        peers += sum(PEER_RHS_PER_RADIAN[name][p] * (tol / 1e-3) ** -PEER_RTOL_EXPONENT[p] * rad
+                     * PEER_RHS_SECONDS for p in o.peers for tol in o.rtol)
+        for m in o.methods:
+            method = m.split("-")[0]
+            cost = KINK_COST if m.endswith("-kink") else 1.0
+            fixed += sum(o.repeat * cost * _kernel_seconds(o.copies, window.periods * spp,
+                                                           method, threads)
+                         for spp in o.steps_per_period)
+    samples = window.record_periods * pr.SAMPLES_PER_PERIOD  # the recorded signal per case
+    stages = max(rk.STAGES[rk.METHODS[m.split("-")[0]]] for m in o.methods)
+    memory = BASELINE_MEMORY + o.copies * 8 * (samples + 4 * stages + 16)
+    runs = len(o.scenes) * len(o.methods) * len(o.steps_per_period)
+    return AnalysisEstimate(o.kind, ref + peers + fixed, memory, (
+        (f"{len(o.scenes)} reference solutions", ref),
+        (f"{len(o.scenes) * len(o.peers) * len(o.rtol)} scipy runs", peers),
+        (f"{runs} fixed-step runs of {o.copies:,} cases x {o.repeat}", fixed)))
+
+
+def estimate(study: AnalysisStudy, results: str | Path | None = None,
+             threads: int | None = None) -> AnalysisEstimate:
+    """The predicted time and memory of an analysis study; ``results``: the folder its inputs
+    are read from (an artifact map's grid is its rig result's)."""
+    o = study.analysis
+    threads = threads or kernel_threads()
+    if isinstance(o, MethodStability):
+        return _method_stability(o, threads)
+    if isinstance(o, ArtifactMap):
+        return _artifact_map(o, None if results is None else Path(results))
+    if isinstance(o, WorkPrecision):
+        return _work_precision(o, threads)
+    if isinstance(o, RattleBalance):
+        s = BALANCE_SECONDS + o.harmonics * (BALANCE_HARMONIC_SECONDS
+                                             + BALANCE_SAMPLE_SECONDS * o.n_time)
+        return AnalysisEstimate(o.kind, s, BASELINE_MEMORY, ((
+            f"a harmonic-balance branch of {o.harmonics} harmonics, {o.n_time} samples", s),))
+    return AnalysisEstimate(o.kind, FIXED_ANALYSIS_SECONDS[o.kind], BASELINE_MEMORY)
+
+
+def check_limits(study: AnalysisStudy, results: str | Path | None, where: str,
+                 ahead: str = "run with --yes to go ahead") -> AnalysisEstimate:
+    """The estimate; one line (``LimitError``, then ``ahead``: how to go ahead) beyond the time
+    or memory limit: the CLI without ``--yes``, ``gearsweep.run`` without ``yes=True``."""
+    est = estimate(study, results)
+    over = est.over()
+    if over:
+        raise LimitError(f"{where}: refused ({', '.join(over)}): analysis"
+                         f" {study.analysis.kind!r}, {est.line()}; {ahead}")
+    return est

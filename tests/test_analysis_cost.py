@@ -1,0 +1,165 @@
+"""The time and memory of an analysis study, said before it runs and refused beyond the limits.
+
+A ``work_precision`` study with ``copies: 1000000`` validated and then ran for days (an outside
+tester, 27 Nov 2026): analysis studies had no estimate. ``gearsweep.study.analysis_cost`` prices
+each kind's work; these tests check its arithmetic on the cases whose cost is known exactly
+(linear in copies, repeats, steps), that the CLI and the API say and refuse it as they do for
+a dynamic study, and (``-m slow``) that the estimate is not below what the studies of
+``studies/`` take here.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import netCDF4
+import pytest
+import yaml
+
+import gearsweep
+from gearsweep.cli import main
+from gearsweep.errors import LimitError
+from gearsweep.study import analysis_cost as ac
+from gearsweep.study.analyses import run_analysis_study
+from gearsweep.study.execute import LIMITS
+from gearsweep.study.schema import parse_study
+
+ROOT = Path(__file__).resolve().parents[1]
+ANALYSES = sorted(p.name for p in (ROOT / "studies").glob("*.yaml")
+                  if "type: analysis" in p.read_text(encoding="utf-8"))
+
+
+def _study(name: str, **changes):
+    data = yaml.safe_load((ROOT / "studies" / name).read_text(encoding="utf-8"))
+    data["analysis"].update(changes)
+    text = yaml.safe_dump(data, sort_keys=False)
+    return parse_study(text, name), text
+
+
+def test_every_analysis_study_here_is_estimated_within_the_limits():
+    assert len(ANALYSES) >= 6
+    for name in ANALYSES:
+        est = ac.estimate(_study(name)[0], ROOT / "results")
+        assert 0 < est.seconds < LIMITS.seconds and not est.over(), (name, est.line())
+
+
+def test_the_fixed_step_part_is_linear_in_copies_and_repeats():
+    """Whole blocks of LANES cases: 64 copies are 2 blocks, 6400 are 200 (on one thread)."""
+    small, _ = _study("work_precision.yaml", peers=[], copies=64, repeat=1)
+    big, _ = _study("work_precision.yaml", peers=[], copies=6400, repeat=3)
+    a, b = ac.estimate(small, threads=1), ac.estimate(big, threads=1)
+    ref = dict(a.parts)["2 reference solutions"]
+    assert dict(b.parts)["2 reference solutions"] == ref  # copies do not touch the references
+    fixed_a, fixed_b = a.seconds - ref, b.seconds - ref
+    assert fixed_b / fixed_a == pytest.approx(300.0, rel=1e-12)
+
+
+def test_the_fixed_step_part_is_the_kernels_steps_at_the_stated_rate():
+    """One scene, one method, one block: periods x steps per period steps of LANES lanes at
+    ``STATED_RATE`` (350 Msteps/s per core for RK4), per step count."""
+    st, _ = _study("work_precision.yaml", scenes=["whine"], methods=["rk4"],
+                   steps_per_period=[16, 32, 64], peers=[], copies=32, repeat=1,
+                   transient_periods=40, record_periods=20)
+    parts = dict(ac.estimate(st, threads=1).parts)
+    assert parts["3 fixed-step runs of 32 cases x 1"] == pytest.approx(
+        32 * 60 * (16 + 32 + 64) / 350e6, rel=1e-12)
+
+
+def test_a_scipy_peer_costs_more_at_a_tighter_tolerance():
+    loose, _ = _study("work_precision.yaml", peers=["RK45"], rtol=[1e-3])
+    tight, _ = _study("work_precision.yaml", peers=["RK45"], rtol=[1e-8])
+    ratio = dict(ac.estimate(tight).parts)["2 scipy runs"] / dict(ac.estimate(loose).parts)[
+        "2 scipy runs"]
+    assert ratio == pytest.approx(10 ** (5 * ac.PEER_RTOL_EXPONENT["RK45"]), rel=1e-12)
+
+
+def test_method_stability_counts_its_bisection_trials_in_blocks():
+    st, _ = _study("method_stability.yaml", methods=["rk4"], zeta=[0.1] * 33, steps=1_000_000)
+    # 33 ratios are two blocks of 32 lanes: on one thread two rounds, on two one round
+    one = ac.estimate(st, threads=1).seconds
+    two = ac.estimate(st, threads=2).seconds
+    assert one == pytest.approx(ac.BISECTION_TRIALS * 2 * 32 * 1e6 / 350e6, rel=1e-12)
+    assert two == pytest.approx(one / 2, rel=1e-12)
+
+
+def test_the_artifact_map_is_priced_on_its_rig_results_grid(tmp_path):
+    st, _ = _study("stability_artifact_map.yaml", methods=["rk5"], steps_per_period=[100])
+    missing = ac.estimate(st, tmp_path)
+    assert "stability_rig.nc not read" in missing.line()
+    with netCDF4.Dataset(tmp_path / "stability_rig.nc", "w") as nc:  # a rig of 3000 x 10
+        nc.createDimension("speed", 3000)
+        nc.createDimension("damping", 10)
+    big = ac.estimate(st, tmp_path)
+    expected = (ac.MONODROMY_CALL_SECONDS + 100 * (ac.MONODROMY_STEP_SECONDS
+                                                   + 30_000 * ac.MONODROMY_POINT_STEP_SECONDS))
+    assert big.seconds == pytest.approx(expected, rel=1e-12)
+    assert "not read" not in big.line()
+
+
+@pytest.fixture
+def huge(tmp_path):
+    """The outside tester's study: a million copies, 1e5 transient periods."""
+    _, text = _study("work_precision.yaml", copies=1_000_000, transient_periods=100_000)
+    path = tmp_path / "huge.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_validate_refuses_a_study_of_days_in_one_line(huge, capsys):
+    assert main(["validate", str(huge)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith(f"gearsweep: error: {huge}: refused (time > 10.0 min): analysis"
+                             " 'work_precision', about ")
+    assert err[0].endswith("; run with --yes to go ahead")
+    assert main(["validate", "--yes", str(huge)]) == 0
+    assert " h at stated rates" in capsys.readouterr().out
+
+
+def test_run_refuses_it_before_computing_anything(huge, tmp_path, capsys):
+    t0 = time.perf_counter()
+    assert main(["run", str(huge), "-o", str(tmp_path / "out.nc")]) == 2
+    assert time.perf_counter() - t0 < 20  # nothing integrated (the run is priced at ~3000 h)
+    assert "refused (time > 10.0 min)" in capsys.readouterr().err
+    assert not (tmp_path / "out.nc").exists()
+    assert main(["run", "--estimate", str(huge), "-o", str(tmp_path / "out.nc")]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"{huge}: analysis study 'work_precision', computed in one piece: about")
+
+
+def test_the_api_refuses_it_unless_confirmed_and_estimates_it(huge, tmp_path):
+    with pytest.raises(LimitError, match=r"refused \(time > 10.0 min\).*pass yes=True"):
+        gearsweep.run(huge, output=tmp_path / "out.nc")
+    est = gearsweep.estimate(huge)
+    assert est.seconds > 1e6 and est.over() == ["time > 10.0 min"]
+    assert est.memory_bytes == pytest.approx(
+        300e6 + 1e6 * 8 * (20 * 8 + 4 * 6 + 16), rel=1e-12)  # the signal of a million copies
+
+
+def test_validate_says_the_estimate_of_a_study_within_the_limits(capsys):
+    assert main(["validate", str(ROOT / "studies" / "method_stability.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "ok -- analysis study 'method_stability'; estimate: about " in out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ANALYSES)
+def test_the_estimate_is_not_below_the_run_here(name):
+    """Each analysis study of studies/ run here (its inputs from results/, as the main job
+    leaves them), against its estimate: the stated rates are floors, so the run takes at most
+    the estimate (a factor 1.5 allowed for a busy machine), and the estimate is within 10x."""
+    st, text = _study(name)
+    if not all((ROOT / "results" / f"{n}.nc").exists()
+               for n in getattr(st.analysis, "inputs", lambda: [])()):
+        pytest.skip("run the main job first (the analysis reads its results)")
+    est = ac.estimate(st, ROOT / "results")
+    run_analysis_study(st, text, ROOT / "results")  # compiles what it calls
+    t0 = time.perf_counter()
+    run_analysis_study(st, text, ROOT / "results")
+    seconds = time.perf_counter() - t0
+    print(name, round(seconds, 3), est.line())
+    assert seconds <= 1.5 * est.seconds, (name, seconds, est.line())
+    assert est.seconds <= 10 * max(seconds, 0.1), (name, seconds, est.line())
+    assert math.isfinite(est.memory_bytes)
