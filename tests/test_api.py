@@ -345,8 +345,11 @@ def test_estimate_from_python_is_the_clis(small_whine, write_study, capsys):
     assert cli(["run", str(path), "--estimate"]) == 0
     assert capsys.readouterr().out.strip() == f"{path}: {est.line()}"
     assert est.cases == 7 and not est.over()
-    with pytest.raises(StudyError, match="type: 'mesh' -- a dynamic study"):
+    with pytest.raises(StudyError, match="type: 'mesh' -- a dynamic or analysis study"):
         gearsweep.estimate(ROOT / "studies" / "mesh_ste_vs_load.yaml")
+    analysis = ROOT / "studies" / "method_stability.yaml"  # the line run --estimate prints too
+    assert cli(["run", str(analysis), "--estimate"]) == 0
+    assert capsys.readouterr().out.strip().endswith(gearsweep.estimate(analysis).line())
 
 
 def test_estimate_refuses_the_chunk_sizes_run_refuses(small_whine):

@@ -317,6 +317,11 @@ def test_bad_files_give_one_line(tmp_path, header, rows, message):
     ("mesh_phase [1], mesh_stiffness [N/mm], mesh_stiffness [N/mm], ste [um]\n0.0, 1, 1, 1\n",
      "two stiffness columns"),
     ("angle [deg], mesh_phase [1], ste [um]\n0.0, 0.0, 1.0\n", "two position columns"),
+    # a sample of 1e30 um validated and ran to p_rms 6e28 um with status 0 (an outside tester)
+    ("mesh_phase [1], ste [um]\n0.0, 1.0\n0.5, 1e30\n",
+     ("line 4: '1e30' is beyond an STE of at most 1 mm (STEs are micrometres to tens of"
+     " micrometres: a unit slip?)")),
+    ("mesh_phase [1], ste [m]\n0.0, 5e-6\n0.5, -0.002\n", "line 4: '-0.002' is beyond an STE"),
 ])
 def test_bad_csv_lines_and_twin_columns_are_named(tmp_path, text, message):
     """A CSV problem names its line in the file (comments counted; a ragged row said "setting

@@ -1573,3 +1573,17 @@ def test_a_spectrum_too_long_to_hold_is_refused_before_its_coordinates_are_made(
     assert time.perf_counter() - t0 < 10
     (line,) = str(err.value).split("\n")
     assert "solver.record_periods: 100000000 -- a spectrum of at most" in line
+
+
+@pytest.mark.parametrize(("amplitude", "ok"), [("5 m", False), ("2 mm", False), ("1 mm", True),
+                                              ("5 um", True)])
+def test_a_typed_ste_beyond_a_millimetre_is_a_unit_slip(amplitude, ok):
+    """'5 m' for '5 um' ran (an STE of metres, p of metres, status 0): an STE is micrometres to
+    tens of micrometres, and a sampled one is bounded the same (test_measured_excitation.py)."""
+    text = GOOD.replace("mean_force: 100 N\n", f"mean_force: 100 N\n  ste: [{{amplitude: {amplitude}}}]\n")
+    if ok:
+        parse_study(text, "s.yaml")
+        return
+    assert _lines(text) == [(f"s.yaml:9: scene.ste[0].amplitude: '{amplitude}' -- an STE of at"
+                            " most 1 mm (STEs are micrometres to tens of micrometres: a unit"
+                            " slip?)")]

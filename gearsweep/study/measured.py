@@ -48,7 +48,7 @@ from gearsweep.gear.measured import (
     min_samples,
 )
 from gearsweep.model import Harmonic
-from gearsweep.study.quantities import Count, Strict
+from gearsweep.study.quantities import MAX_STE, STE_BEYOND, Count, Strict
 from gearsweep.units import UnitParseError, to_si
 
 POSITION = {"mesh_phase": "mesh_phase", "angle": "angle", "roll_angle": "angle"}
@@ -242,6 +242,12 @@ def _read(path: str, stamp: tuple[int, int]) -> Samples:
                      if rows_at is not None else f"a sample of {names[index[which]][0]!r}")
             unit = {"ste": "m", "stiffness": "N/m"}.get(which, "rad")
             raise ValueError(f"{where} is beyond a float in SI ({unit})")
+    ste = si.get("ste")
+    if ste is not None and np.abs(ste).max() > MAX_STE:
+        row = int(np.argmax(np.abs(ste)))
+        where = (f"line {rows_at[row][0]}: {rows_at[row][1][index['ste']].strip()!r}"
+                 if rows_at is not None else f"a sample of {names[index['ste']][0]!r}")
+        raise ValueError(f"{where} is beyond {STE_BEYOND}")
     return Samples(position, si["position"], si.get("ste"), si.get("stiffness"), **stated)
 
 

@@ -44,6 +44,15 @@ def _whole(value: Any) -> Any:
     return value
 
 
+MAX_STE = 1e-3
+"""The largest static transmission error a study takes, typed as a harmonic or sampled in an
+excitation file [m]: an STE is micrometres to tens of micrometres (a tip relief, at most 0.1
+module, bounds it on a 'gear'), so 1 mm is a unit slip ('5 m' for '5 um': a CSV sample of 1e30 um
+validated and ran to p_rms 6e28 um with status 0; an outside tester's finding)."""
+
+STE_BEYOND = (f"an STE of at most {MAX_STE * 1e3:g} mm (STEs are micrometres to tens of"
+              " micrometres: a unit slip?)")
+
 MAX_STEPS_PER_PERIOD = 65536
 """The most steps per mesh period a study takes (``solver.steps_per_period``, an analysis'
 ``steps_per_period``; a spectrum's ``samples_per_period`` divides it)."""

@@ -73,7 +73,9 @@ from gearsweep.study.gearscene import (
 from gearsweep.study.measured import ExcitationSpec, excitation_problems
 from gearsweep.study.outputs import OUTPUTS, configure
 from gearsweep.study.quantities import (
+    MAX_STE,
     MAX_STEPS_PER_PERIOD,
+    STE_BEYOND,
     Angle,
     Count,
     Damping,
@@ -123,8 +125,15 @@ class StiffnessHarmonic(Strict):
                                 " keep their relative phase)")
 
 
+def _ste_bound(v: float) -> float:
+    if v > MAX_STE:
+        raise ValueError(STE_BEYOND)
+    return v
+
+
 class SteHarmonic(Strict):
-    amplitude: Displacement = Field(ge=0, description="STE harmonic e_n")
+    amplitude: Annotated[Displacement, AfterValidator(_ste_bound)] = Field(
+        ge=0, description="STE harmonic e_n (at most 1 mm)")
     order: Order | None = Field(None, gt=0, allow_inf_nan=False,
                                description="mesh order (default: position + 1; once per list)")
     phase: Angle = Field(0.0, description="phase")
