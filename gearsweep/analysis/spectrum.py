@@ -9,13 +9,19 @@ at order ``r`` (and the mean as itself at order 0), so Parseval reads
     mean(x**2) = c_0**2 + sum_{0 < k < n/2} |c_k|**2 / 2 + |c_{n/2}|**2
 
 (the last term only for even ``n``).
+
+Phases (``line_phase``) are referred to the start of the excitation (phase 0 at t = 0), not to
+the first sample: with sample 0 at ``start`` periods, a component ``a cos(2 pi r t / T + phase)``
+shows as ``phase`` at order ``r``, whatever the offset. The mean's phase is 0 or pi (its sign);
+the Nyquist bin sees only ``a cos(.)`` at the samples, so its (amplitude, phase) is the one
+line through the samples, not the component's own.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["kept_bins", "line_spectrum", "mean_square"]
+__all__ = ["kept_bins", "line_phase", "line_spectrum", "mean_square", "wrap_phase"]
 
 
 def kept_bins(n_samples: int, periods: int, max_order: float) -> int:
@@ -85,3 +91,34 @@ def mean_square(coeff: np.ndarray, n_samples: int) -> np.ndarray:
     if n_samples % 2 == 0:
         total = total + 0.5 * a2[..., -1]  # Nyquist: c = X / n, counted once, not halved
     return total
+
+
+def wrap_phase(theta) -> np.ndarray:
+    """Angles [rad] wrapped to (-pi, pi] (pi stays pi; -pi becomes pi)."""
+    return np.pi - np.mod(np.pi - np.asarray(theta, dtype=float), 2.0 * np.pi)
+
+
+def line_phase(coeff: np.ndarray, periods: int, start_periods: int = 0,
+               start_fraction: float = 0.0) -> np.ndarray:
+    """Phase of each line of ``line_spectrum``, referred to t = 0 [rad], in (-pi, pi].
+
+    With sample 0 at ``t / T = start_periods + start_fraction`` (``T`` the period of the
+    excitation), the signal is ``x(t) ~= sum_k |c_k| cos(2 pi (k / periods) t / T + theta_k)``:
+    ``theta_k = arg(c_k) - 2 pi (k / periods) (start_periods + start_fraction)``. The whole
+    periods are taken modulo ``periods`` in integers, so that a start after 1e9 periods loses
+    no digit (``k start_periods`` in floating point would keep none of the phase).
+
+    Parameters
+    ----------
+    coeff : ndarray complex (..., K)
+        ``c_k`` of ``line_spectrum`` for ``k = 0 .. K - 1``.
+    periods : int
+        Whole periods in the window [-].
+    start_periods, start_fraction : int, float
+        Where sample 0 lies: whole periods, and the fraction of one after them [-].
+    """
+    c = np.asarray(coeff)
+    k = np.arange(c.shape[-1], dtype=np.int64)
+    turns = (k * (int(start_periods) % periods)) % periods / periods \
+        + k * (float(start_fraction) / periods)
+    return wrap_phase(np.angle(c) - 2.0 * np.pi * np.mod(turns, 1.0))

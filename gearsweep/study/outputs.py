@@ -27,7 +27,7 @@ from pydantic import BaseModel, Field, ValidationError, model_validator
 
 from gearsweep.analysis.period import motion_period
 from gearsweep.analysis.sensor import pinion_displacement, spectrum_rms
-from gearsweep.analysis.spectrum import kept_bins, line_spectrum
+from gearsweep.analysis.spectrum import kept_bins, line_phase, line_spectrum
 from gearsweep.analysis.stability import check_step
 from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
@@ -166,6 +166,13 @@ class Stats:
         return out
 
 
+PHASE_FLOOR = 1e-9
+"""A line's phase is NaN where its amplitude is at most this fraction of the largest sample or
+line of its case (the ``phase_floor`` attribute of ``spectrum_phase``): there the line is the
+round-off of the sums (about 1e-16 of the largest), and its phase says nothing. 1e-9 leaves
+six decades for the round-off of long records; lines above it keep their phase, small as they
+are (a transient not yet decayed shows there too: the phase is that of what was recorded)."""
+
 MAX_SPECTRUM_CELLS = 1 << 24
 """Most lines x speeds of a spectrum output (its ``order`` coordinate and the 2-D ``frequency``
 on speed x order): beyond it a study is refused before they are made (``record_periods: 1e8``
@@ -189,6 +196,11 @@ class SpectrumOptions(Strict):
                          " motion at the base circle r2 theta2 per line (pinion_spectrum) and its"
                          " rms (pinion_rms) [um], from the mesh force by Eq. (4)"
                          " (gearsweep.analysis.sensor); needs force and scene.drive")
+    phase: Flag = Field(False, description="also the phase of each line, spectrum_phase (and"
+                        " force_spectrum_phase with force) [rad] in (-pi, pi]: p ~ sum spectrum"
+                        " cos(2 pi order phi + spectrum_phase), phi the mesh phase (0 at t = 0);"
+                        " NaN where the line is below phase_floor of its case's largest or the"
+                        " case has no spectrum (docs/data-format.md)")
 
     @model_validator(mode="after")
     def _nyquist(self) -> SpectrumOptions:
@@ -213,6 +225,16 @@ class Spectrum:
     ``k(t) f(p)`` is formed from the samples (k(t) is known at every sample), and ``c p'`` is
     added bin by bin as ``i c w_k`` times the spectrum of p (exact for a periodic, band-limited
     p; the Nyquist bin of ``c p'``, whose phase is not observable, is taken as zero).
+
+    With ``phase: true``, ``spectrum_phase`` (and ``force_spectrum_phase``) [rad] give each
+    line's phase theta_r in the model's convention (the harmonics of ``gearsweep.model`` are
+    ``a cos(2 pi r phi + phase)``, phi the mesh phase, 0 at t = 0): p(phi) ~= sum_r A_r
+    cos(2 pi r phi + theta_r), A_r the ``spectrum``. The samples sit after step
+    ``n_transient + j * stride + 1`` (``_first_sample``), which the phase is referred back from.
+    Order 0: 0 or pi (the sign of the mean). The Nyquist order (kept only where max_order is
+    samples_per_period / 2) sees a line only at the samples: its pair is the one line through
+    them. NaN where the amplitude is (a case that diverged, did not settle or was skipped) and
+    where the line is at most ``PHASE_FLOOR`` of its case's largest sample or line.
     """
 
     name = "spectrum"
@@ -290,6 +312,19 @@ class Spectrum:
                 "units": "N", "samples_per_period": sps,
                 "long_name": "single-sided amplitude spectrum of the dynamic mesh force"
                              " k(t) f(p) + c p' over whole mesh periods"})
+        if o.phase:
+            phase_attrs = {"units": "rad", "phase_floor": PHASE_FLOOR}
+            specs["spectrum_phase"] = VarSpec(**common, attrs={**phase_attrs, "long_name": (
+                "phase of each line of spectrum: p ~ sum spectrum cos(2 pi order phi +"
+                " spectrum_phase), phi the mesh phase (0 at t = 0), in (-pi, pi]; NaN where the"
+                " line is at most phase_floor of its case's largest or spectrum is NaN")})
+            if self._force(plan):
+                specs["force_spectrum_phase"] = VarSpec(**common, attrs={
+                    **phase_attrs, "long_name": (
+                        "phase of each line of force_spectrum: k(t) f(p) + c p' ~ sum"
+                        " force_spectrum cos(2 pi order phi + force_spectrum_phase), phi the mesh"
+                        " phase (0 at t = 0), in (-pi, pi]; NaN where the line is at most"
+                        " phase_floor of its case's largest or force_spectrum is NaN")})
         if pinion:
             specs["pinion_spectrum"] = VarSpec(**common, kind="displacement", attrs={
                 "long_name": "pinion motion r2 theta2 per line: (r2^2 / I2)"
@@ -310,9 +345,15 @@ class Spectrum:
         amp = np.abs(c)
         amp[bad] = np.nan
         out = {"spectrum": amp}
+        if o.phase:
+            out["spectrum_phase"] = self._phase(plan, c, np.max(np.abs(sig), axis=1), bad)
         if self._force(plan):
-            out["force_spectrum"] = self._force_spectrum(plan, params, sig, order, c)
+            force, spring = self._force_spectrum(plan, params, sig, order, c)
+            out["force_spectrum"] = np.abs(force)
             out["force_spectrum"][bad] = np.nan
+            if o.phase:
+                out["force_spectrum_phase"] = self._phase(
+                    plan, force, np.max(np.abs(spring), axis=1), bad)
         if self._pinion(plan):
             scene = plan.study.scene  # r2: the drive's, or the gear pair's where it omits it
             _, r2 = scene.drive_radii()  # (drive.base_radius_2 was None: a TypeError traceback)
@@ -324,16 +365,39 @@ class Spectrum:
             out["pinion_rms"] = spectrum_rms(x)
         return out
 
+    def _first_sample(self, plan: Plan) -> tuple[int, int]:
+        """Where the recorded sample j = 0 lies after t = 0: (whole mesh periods, steps after
+        them). Sample j is the state after ``n_transient + j * stride + 1`` steps (the kernel
+        records the end of each step from step ``n_transient`` on: ``rk._sample``)."""
+        return plan.study.solver.transient_periods, 1
+
+    def _phase(self, plan: Plan, coeff: np.ndarray, largest_sample: np.ndarray,
+               bad: np.ndarray) -> np.ndarray:
+        """The lines' phases [rad] (``line_phase`` referred to t = 0), NaN where the case has no
+        spectrum (``bad``) and where a line is at most ``PHASE_FLOOR`` of the case's largest
+        sample or line."""
+        s = plan.study.solver
+        whole, step = self._first_sample(plan)
+        theta = line_phase(coeff, s.record_periods, whole, step / s.steps_per_period)
+        amp = np.abs(coeff)
+        with np.errstate(invalid="ignore"):  # a diverged case's non-finite samples
+            scale = np.fmax(largest_sample, np.max(amp, axis=1, initial=0.0))
+            theta[amp <= PHASE_FLOOR * scale[:, None]] = np.nan
+        theta[bad] = np.nan
+        theta[~np.isfinite(amp)] = np.nan
+        return theta
+
     def _force_spectrum(self, plan: Plan, params: dict[str, np.ndarray], sig: np.ndarray,
-                        order: np.ndarray, c: np.ndarray) -> np.ndarray:
-        """|spectrum| of k(t) f(p) + c p' for every case of the chunk [N]."""
+                        order: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Complex spectrum of k(t) f(p) + c p' for every case of the chunk [N], and the samples
+        of k(t) f(p) [N]."""
         model: MeshModel = plan.model  # type: ignore[assignment]
         s = plan.study.solver
         n = sig.shape[0]
         spp = s.steps_per_period
         stride = spp // self.signal_samples_per_period(plan)
-        # Sample j holds the state after step n_transient + j * stride: phase in mesh periods.
-        phi = s.transient_periods + (1.0 + stride * np.arange(sig.shape[1])) / spp
+        whole, step = self._first_sample(plan)  # phase of sample j in mesh periods
+        phi = whole + (step + stride * np.arange(sig.shape[1])) / spp
 
         def per_case(name: str, default: float) -> np.ndarray:
             return np.asarray(params[name], float) if name in params else np.full(n, default)
@@ -351,7 +415,7 @@ class Spectrum:
         n_samples = sig.shape[1]
         if n_samples % 2 == 0 and len(order) == n_samples // 2 + 1:
             dp[:, -1] = 0.0
-        return np.abs(c_spring + per_case("damping", model.damping)[:, None] * dp)
+        return c_spring + per_case("damping", model.damping)[:, None] * dp, k_t * f_p
 
 
 class PeriodOptions(Strict):
