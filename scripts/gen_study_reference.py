@@ -189,6 +189,8 @@ EXAMPLES = {
                             " backlash: 0.1 mm, speed: 1000 rpm}\noutputs: [stats]",
     "spectrum": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
                 " speed: 1000 rpm}\noutputs: [spectrum]",
+    "spectrum, with phase": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
+                            " speed: 1000 rpm}\noutputs: [{spectrum: {phase: true}}]",
     "floquet": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
                " speed: 1000 rpm}\noutputs: [floquet]",
     "period": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"

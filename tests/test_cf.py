@@ -32,7 +32,7 @@ sweep:
   speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}
 continuation: [up, down]
 solver: {steps_per_period: 32, transient_periods: 4, record_periods: 4}
-outputs: [stats, spectrum]
+outputs: [stats, {spectrum: {phase: true}}]
 """,
     "whine_floquet": """\
 title: whine with Floquet multipliers

@@ -98,8 +98,10 @@ sweep: {{speed: {{start: 12000 rpm, stop: 18000 rpm, num: 3}}}}
 continuation: [up]
 solver: {{method: rk4, steps_per_period: 16, transient_periods: 3, record_periods: 2,
          device: {device}}}
+outputs: [stats, {{spectrum: {{phase: true}}}}]
 """
-"""A study through the runner on each device (continued sweep: each case starts from the last)."""
+"""A study through the runner on each device (continued sweep: each case starts from the last),
+with the spectrum's amplitudes and phases (made from the GPU's recorded signal)."""
 
 
 LOW_OCCUPANCY_SEEN = ("\x1b[1mGrid size 1 will likely result in GPU under-utilization due to low"
@@ -274,6 +276,8 @@ def test_study_on_cuda_gives_the_cpu_result(gpu_results):
     with xr.open_dataset(gpu_results["study_nc"]) as gpu:
         assert set(gpu.data_vars) == set(cpu.data_vars)
         assert cpu["status"].size == 3
+        for name in ("spectrum_phase", "force_spectrum_phase"):  # compared below, not vacuous
+            assert int(cpu[name].notnull().sum()) >= 3 * 4, name
         for name, c in cpu.data_vars.items():
             g, c = gpu[name].values, c.values
             assert g.shape == c.shape, name

@@ -301,8 +301,8 @@ def test_every_line_with_its_phase_gives_back_the_samples():
 
 def test_no_phase_where_there_is_no_line_or_no_case():
     """p = 0 (no excitation, no mean force): every amplitude 0 and every phase NaN; a case the
-    integrator blows up (100 rpm: h w_n = 14.8, beyond RK4's limit, status 1): NaN as its
-    amplitude."""
+    integrator blows up (100 rpm: h w_n = 14.8, beyond RK4's limit, status 1) or the step
+    guard skips (status 3): NaN as its amplitude."""
     quiet = run(study([5000.0], spp=64, excitation="ste: []").replace(
         f"mean_force: {FM} N,", ""))
     assert (quiet.spectrum == 0).all() and quiet.spectrum_phase.isnull().all()
@@ -313,6 +313,11 @@ def test_no_phase_where_there_is_no_line_or_no_case():
     for name in ("spectrum_phase", "force_spectrum_phase"):
         assert ds[name].isel(speed=0).isnull().all()
         assert ds[name].isel(speed=1).sel(order=[0.0, 1.0]).notnull().all()
+    skipped = run(study([100.0, 5000.0], spp=16, excitation=STE, guard="skip"))
+    assert skipped.status.values.tolist() == [3, 0]
+    assert skipped.spectrum_phase.isel(speed=0).isnull().all()
+    np.testing.assert_array_equal(skipped.spectrum_phase.isel(speed=1),
+                                  ds.spectrum_phase.isel(speed=1))
 
 
 # ---------------------------------------------------------- chunks, resume, continuation

@@ -199,8 +199,8 @@ class SpectrumOptions(Strict):
     phase: Flag = Field(False, description="also the phase of each line, spectrum_phase (and"
                         " force_spectrum_phase with force) [rad] in (-pi, pi]: p ~ sum spectrum"
                         " cos(2 pi order phi + spectrum_phase), phi the mesh phase (0 at t = 0);"
-                        " NaN where the line is below phase_floor of its case's largest or the"
-                        " case has no spectrum (docs/data-format.md)")
+                        " NaN where the line is at most phase_floor (1e-9) of its case's largest"
+                        " or spectrum is NaN (docs/data-format.md)")
 
     @model_validator(mode="after")
     def _nyquist(self) -> SpectrumOptions:
@@ -233,8 +233,9 @@ class Spectrum:
     ``n_transient + j * stride + 1`` (``_first_sample``), which the phase is referred back from.
     Order 0: 0 or pi (the sign of the mean). The Nyquist order (kept only where max_order is
     samples_per_period / 2) sees a line only at the samples: its pair is the one line through
-    them. NaN where the amplitude is (a case that diverged, did not settle or was skipped) and
-    where the line is at most ``PHASE_FLOOR`` of its case's largest sample or line.
+    them. NaN where the amplitude is NaN (a case that diverged or was skipped; one that did not
+    settle keeps its lines and their phases, as its other results) and where the line is at
+    most ``PHASE_FLOOR`` of its case's largest sample or line.
     """
 
     name = "spectrum"
@@ -373,9 +374,9 @@ class Spectrum:
 
     def _phase(self, plan: Plan, coeff: np.ndarray, largest_sample: np.ndarray,
                bad: np.ndarray) -> np.ndarray:
-        """The lines' phases [rad] (``line_phase`` referred to t = 0), NaN where the case has no
-        spectrum (``bad``) and where a line is at most ``PHASE_FLOOR`` of the case's largest
-        sample or line."""
+        """The lines' phases [rad] (``line_phase`` referred to t = 0), NaN where the amplitude
+        is (``bad``: the kernel's status, non-finite lines) and where a line is at most
+        ``PHASE_FLOOR`` of the case's largest sample or line."""
         s = plan.study.solver
         whole, step = self._first_sample(plan)
         theta = line_phase(coeff, s.record_periods, whole, step / s.steps_per_period)
