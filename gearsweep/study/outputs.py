@@ -199,8 +199,8 @@ class SpectrumOptions(Strict):
     phase: Flag = Field(False, description="also the phase of each line, spectrum_phase (and"
                         " force_spectrum_phase with force) [rad] in (-pi, pi]: p ~ sum spectrum"
                         " cos(2 pi order phi + spectrum_phase), phi the mesh phase (0 at t = 0);"
-                        " NaN where the line is at most phase_floor (1e-9) of its case's largest"
-                        " or spectrum is NaN (docs/data-format.md)")
+                        f" NaN where the line is at most phase_floor ({PHASE_FLOOR:g}) of its"
+                        " case's largest or spectrum is NaN (docs/data-format.md)")
 
     @model_validator(mode="after")
     def _nyquist(self) -> SpectrumOptions:
