@@ -167,7 +167,7 @@ def test_default_is_off_and_leaves_the_other_variables_as_they_were():
     for name in ("spectrum_phase", "force_spectrum_phase"):
         assert on[name].dims == on.spectrum.dims
         assert on[name].attrs["units"] == "rad" and on[name].attrs["long_name"]
-        assert on[name].attrs["phase_floor"] == PHASE_FLOOR
+        assert on[name].attrs["phase_floor"] == PHASE_FLOOR["float64"] == 1e-9
     no_force = run(study([5000.0], spp=64, excitation=STE, force=False))
     assert "spectrum_phase" in no_force and "force_spectrum_phase" not in no_force
 
@@ -295,7 +295,7 @@ def test_every_line_with_its_phase_gives_back_the_samples():
                      np.cos(2 * math.pi * order[None, :, None] * phi[None, None, :]
                             + np.where(keep, theta, 0.0)[:, :, None]))
     scale = np.max(np.abs(sig), axis=1, keepdims=True)
-    floor = PHASE_FLOOR * scale * (~keep).sum(axis=1, keepdims=True)
+    floor = PHASE_FLOOR["float64"] * scale * (~keep).sum(axis=1, keepdims=True)
     assert (np.abs(back - sig) <= floor + 1e-12 * scale).all()
 
 
@@ -318,6 +318,31 @@ def test_no_phase_where_there_is_no_line_or_no_case():
     assert skipped.spectrum_phase.isel(speed=0).isnull().all()
     np.testing.assert_array_equal(skipped.spectrum_phase.isel(speed=1),
                                   ds.spectrum_phase.isel(speed=1))
+
+
+def test_float32_samples_get_the_float32_floor():
+    """A float32 run (a GPU's ``precision: float32``) records p in single precision: the empty
+    orders of a linear response are its round-off, up to 1e-8 of the largest, above the
+    float64 floor. The same kernel result, its samples rounded to float32, under a plan with
+    ``precision: float32``: those orders have no phase, orders 0 and 1 keep theirs (to 1e-6,
+    float32's rounding of p against its amplitude); with the float64 floor the noise would
+    have phases."""
+    import dataclasses
+
+    text = study([3000.0, N_RES, 25000.0], spp=64, excitation=STE)
+    plan, res, out = _signal_and_output(text)
+    res32 = dataclasses.replace(res, signal=res.signal.astype(np.float32).astype(float))
+    solver = plan.study.solver.model_copy(update={"precision": "float32", "device": "cuda"})
+    plan32 = dataclasses.replace(plan, study=plan.study.model_copy(update={"solver": solver}))
+    params = {"speed": plan.grids["speed"]}
+    noisy = OUTPUTS["spectrum"].compute(plan, params, res32)["spectrum_phase"]
+    got = OUTPUTS["spectrum"].compute(plan32, params, res32)["spectrum_phase"]
+    empty = ~np.isin(np.arange(17) / 4, [0.0, 1.0])
+    assert np.isfinite(noisy[:, empty]).sum() >= 5  # round-off above 1e-9 at several orders
+    assert np.isnan(got[:, empty]).all()
+    np.testing.assert_allclose(got[:, ~empty], out["spectrum_phase"][:, ~empty], rtol=0,
+                               atol=1e-6)
+    assert OUTPUTS["spectrum"].variables(plan32)["spectrum_phase"].attrs["phase_floor"] == 1e-4
 
 
 # ---------------------------------------------------------- chunks, resume, continuation

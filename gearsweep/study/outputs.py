@@ -166,12 +166,16 @@ class Stats:
         return out
 
 
-PHASE_FLOOR = 1e-9
-"""A line's phase is NaN where its amplitude is at most this fraction of the largest sample or
-line of its case (the ``phase_floor`` attribute of ``spectrum_phase``): there the line is the
-round-off of the sums (about 1e-16 of the largest), and its phase says nothing. 1e-9 leaves
-six decades for the round-off of long records; lines above it keep their phase, small as they
-are (a transient not yet decayed shows there too: the phase is that of what was recorded)."""
+PHASE_FLOOR = {"float64": 1e-9, "float32": 1e-4}
+"""Per ``solver.precision``: a line's phase is NaN where its amplitude is at most this fraction
+of the largest sample or line of its case (the ``phase_floor`` attribute of ``spectrum_phase``).
+Below it the line is round-off, or in float32 the single precision's own error, and its phase
+says nothing. float64: round-off lines are about 1e-13 of the largest (a linear response's
+empty orders, tests/test_spectrum_phase.py), 1e-9 leaves four decades. float32 (a GPU): the
+empty orders' round-off was 4e-8 of the largest on the CUDA simulator, and a float32 run
+differs from float64 by 5e-5 (the ``precision`` attribute's note): 1e-4. Lines above it keep
+their phase, small as they are (a transient not yet decayed shows there too: the phase is that
+of what was recorded)."""
 
 MAX_SPECTRUM_CELLS = 1 << 24
 """Most lines x speeds of a spectrum output (its ``order`` coordinate and the 2-D ``frequency``
@@ -199,8 +203,9 @@ class SpectrumOptions(Strict):
     phase: Flag = Field(False, description="also the phase of each line, spectrum_phase (and"
                         " force_spectrum_phase with force) [rad] in (-pi, pi]: p ~ sum spectrum"
                         " cos(2 pi order phi + spectrum_phase), phi the mesh phase (0 at t = 0);"
-                        f" NaN where the line is at most phase_floor ({PHASE_FLOOR:g}) of its"
-                        " case's largest or spectrum is NaN (docs/data-format.md)")
+                        f" NaN where the line is at most phase_floor ({PHASE_FLOOR['float64']:g};"
+                        f" float32: {PHASE_FLOOR['float32']:g}) of its case's largest or spectrum"
+                        " is NaN (docs/data-format.md)")
 
     @model_validator(mode="after")
     def _nyquist(self) -> SpectrumOptions:
@@ -235,7 +240,7 @@ class Spectrum:
     samples_per_period / 2) sees a line only at the samples: its pair is the one line through
     them. NaN where the amplitude is NaN (a case that diverged or was skipped; one that did not
     settle keeps its lines and their phases, as its other results) and where the line is at
-    most ``PHASE_FLOOR`` of its case's largest sample or line.
+    most ``PHASE_FLOOR`` (of the solver's precision) of its case's largest sample or line.
     """
 
     name = "spectrum"
@@ -314,7 +319,8 @@ class Spectrum:
                 "long_name": "single-sided amplitude spectrum of the dynamic mesh force"
                              " k(t) f(p) + c p' over whole mesh periods"})
         if o.phase:
-            phase_attrs = {"units": "rad", "phase_floor": PHASE_FLOOR}
+            phase_attrs = {"units": "rad",
+                           "phase_floor": PHASE_FLOOR[plan.study.solver.precision]}
             specs["spectrum_phase"] = VarSpec(**common, attrs={**phase_attrs, "long_name": (
                 "phase of each line of spectrum: p ~ sum spectrum cos(2 pi order phi +"
                 " spectrum_phase), phi the mesh phase (0 at t = 0), in (-pi, pi]; NaN where the"
@@ -376,14 +382,14 @@ class Spectrum:
                bad: np.ndarray) -> np.ndarray:
         """The lines' phases [rad] (``line_phase`` referred to t = 0), NaN where the amplitude
         is (``bad``: the kernel's status, non-finite lines) and where a line is at most
-        ``PHASE_FLOOR`` of the case's largest sample or line."""
+        ``PHASE_FLOOR`` (of the solver's precision) of the case's largest sample or line."""
         s = plan.study.solver
         whole, step = self._first_sample(plan)
         theta = line_phase(coeff, s.record_periods, whole, step / s.steps_per_period)
         amp = np.abs(coeff)
         with np.errstate(invalid="ignore"):  # a diverged case's non-finite samples
             scale = np.fmax(largest_sample, np.max(amp, axis=1, initial=0.0))
-            theta[amp <= PHASE_FLOOR * scale[:, None]] = np.nan
+            theta[amp <= PHASE_FLOOR[s.precision] * scale[:, None]] = np.nan
         theta[bad] = np.nan
         theta[~np.isfinite(amp)] = np.nan
         return theta
