@@ -93,7 +93,9 @@ class GearSpec(Strict):
     fillet_radius: Length | None = Field(None, gt=0, description=(
         "root fillet radius (unset: 0.38 module, which may not fit the tooth space at 25 deg) [m]"))
     centre_distance: Length | None = Field(None, gt=0)
-    backlash: Length | None = Field(None, ge=0, description="circumferential backlash [m]")
+    backlash: Length | None = Field(None, ge=0, description=(
+        "circumferential backlash at the pitch circle (the pair's geometry; a rattle or full"
+        " scene's dead zone is scene.backlash, on the line of action, not taken from here) [m]"))
     thickness1: Length | None = Field(None, gt=0, description="tooth thickness at r [m]")
     thickness2: Length | None = Field(None, gt=0)
     youngs_modulus: Pressure | None = Field(None, gt=0, description=(

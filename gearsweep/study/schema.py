@@ -532,11 +532,18 @@ def gear_backlash_problems(scene, swept: bool) -> list[Problem]:
     if not swept and abs(scene.backlash - loa) <= 1e-6:
         return []
     where = "sweep.backlash" if swept else "scene.backlash"
-    value = "(swept)" if swept else f"{scene.backlash * 1e3:g} mm"
+    value = ("(swept)" if swept else f"{scene.backlash * 1e3:g} mm" if "backlash" in
+             scene.model_fields_set else f"(not given: {scene.backlash * 1e3:g} mm)")
+    # The scene does not take its dead zone from the gear (docs/mesh.md): this line said "give
+    # it ... or as gear.backlash", and a full scene with gear.backlash alone was then refused
+    # with the scene's default 0 mm, which the file did not write (an outside tester's finding).
     return [Problem(where, value, f"the gear's backlash is {loa * 1e3:.4g} mm on the line of"
                     f" action (gear.backlash {gear.backlash * 1e3:g} mm at the pitch circle x"
-                    " cos alpha_w): give the dead zone once, as scene.backlash (on the line of"
-                    " action) or as gear.backlash")]
+                    " cos alpha_w), but the dynamic model's dead zone is"
+                    f" {where}, not taken from the gear: "
+                    + ("leave gear.backlash out (the swept values are on the line of action)"
+                       if swept else f"write scene.backlash: {loa * 1e3:.4g} mm (on the line of"
+                       " action), or leave gear.backlash out"))]
 
 
 def consistency_problems(study: Study) -> list[Problem]:
@@ -1175,6 +1182,12 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
                 explained.add((*path[:-1], meant))
         elif t == "missing":
             value, msg = "(missing)", "this field is required"
+            gear = _as_written(raw, ["scene", "gear"])
+            if parts == ["scene", "backlash"] and isinstance(gear, dict) and "backlash" in gear:
+                # gear.backlash (at the pitch circle) is not the scene's dead zone (docs/mesh.md)
+                msg += (" (the dead zone along the line of action; gear.backlash, at the pitch"
+                        " circle, is not passed on: write scene.backlash = gear.backlash x cos"
+                        " alpha_w)")
         elif t == "union_tag_invalid":
             ctx = e.get("ctx", {})
             tags = re.findall(r"'([^']*)'", str(ctx.get("expected_tags", "")))
