@@ -275,7 +275,11 @@ def _to_si_pint(value: object, kind: str) -> float:
             unknown = ", ".join(repr(n) for n in names)
             raise UnitParseError(f"unknown unit {unknown}; {article(kind)} is written e.g."
                                  f" '1 {unit_hint}' ({', '.join(k.examples)})") from None
-        raise UnitParseError(f"cannot read {value!r} as a quantity ({type(exc).__name__})") from None
+        # ('150 N-m' is N minus m to pint: its DimensionalityError's name was the message)
+        dash = (" (a '-' between units is a minus: join units with a space, '*' or '.')"
+                if re.search(r"[^\W\d_]\s*-\s*[^\W\d_]", value) else "")
+        raise UnitParseError(f"cannot read {value!r} as {article(kind)}{dash}; write e.g."
+                             f" '1 {unit_hint}' ({', '.join(k.examples)})") from None
     if not isinstance(q, pint.Quantity):
         return _bare(value, k, float(q))
     units = dict(q.unit_items())

@@ -94,6 +94,23 @@ def test_an_unknown_unit_is_named_with_the_spellings_of_its_kind():
     assert to_si("4.92 Ns/mm", "damping") == pytest.approx(4920.0)  # as 'Nm' is N*m
 
 
+@pytest.mark.parametrize(("text", "kind", "message"), [
+    ("150 N-m", "torque", ("cannot read '150 N-m' as a torque (a '-' between units is a minus:"
+     " join units with a space, '*' or '.'); write e.g. '1 N m' (N m, N*m, N.m, N\u00b7m, Nm,"
+     " N mm, Nmm, kN m)")),
+    ("5 N s-mm", "damping", ("cannot read '5 N s-mm' as a damping (a '-' between units is a"
+     " minus")),
+    ("3 mm)", "length", "cannot read '3 mm)' as a length; write e.g. '1 mm' (mm, m,"),
+])
+def test_a_quantity_pint_cannot_read_says_what_to_write(text, kind, message):
+    """'150 N-m' (pint: N minus m) said only "cannot read '150 N-m' as a quantity
+    (DimensionalityError)": pint's exception name, not what to write (an engineer new to the
+    tool)."""
+    with pytest.raises(UnitParseError) as err:
+        to_si(text, kind)
+    assert str(err.value).startswith(message), str(err.value)
+
+
 def test_documented_exceptions_to_the_bare_number_rule():
     assert to_si(3000, "speed") == 3000.0  # a shaft speed is read in rpm (study reference)
     assert to_si(0, "length") == 0.0  # zero is zero in any unit
