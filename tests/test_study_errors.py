@@ -1613,3 +1613,24 @@ def test_a_typed_ste_beyond_a_millimetre_is_a_unit_slip(amplitude, ok):
     assert _lines(text) == [(f"s.yaml:9: scene.ste[0].amplitude: '{amplitude}' -- an STE of at"
                             " most 1 mm (STEs are micrometres to tens of micrometres: a unit"
                             " slip?)")]
+
+
+@pytest.mark.parametrize(("old", "new", "line", "hint"), [
+    ("  mean_force: 100 N", " mean_force: 100 N", 8,
+     ("expected <block end>, but found '<block mapping start>' (this line's indentation does not"
+     " match the lines of its block)")),
+    ("  mean_force: 100 N", "    mean_force: 100 N", 8,
+     ("mapping values are not allowed here (a line indented deeper than the one above it, or ': '"
+     " inside a value: quote the value)")),
+    ("  mean_force: 100 N", "\tmean_force: 100 N", 8,
+     "found character '\\t' that cannot start any token (a tab: YAML indents with spaces only)"),
+    ("num: 3}", "num: 3}}", 10,
+     ("expected <block end>, but found '}' (braces { } or brackets [ ] on this line that do not"
+     " pair up)")),
+])
+def test_a_layout_mistake_in_yaml_is_said_in_the_files_terms(old, new, line, hint):
+    """A line indented one space too few, too many, with a tab, or a stray brace: pyyaml's own
+    words ("expected <block end>, but found '<block mapping start>'") were the whole message
+    (an engineer new to the tool); the line now also says what in the layout is wrong."""
+    assert GOOD.count(old) == 1
+    assert _lines(GOOD.replace(old, new)) == [f"s.yaml:{line}: (yaml): not valid YAML: {hint}"]

@@ -941,6 +941,16 @@ def load_yaml(text: str, file: str, duplicates: list | None = None) -> Any:
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         problem = exc.problem or exc.context or "not valid YAML"
+        # pyyaml's words for the layout mistakes of a hand-written file, said in the file's
+        if "expected <block end>, but found '<block" in problem:  # terms
+            problem += " (this line's indentation does not match the lines of its block)"
+        elif re.fullmatch(r"expected <block end>, but found '[,}\]]'", problem):
+            problem += " (braces { } or brackets [ ] on this line that do not pair up)"
+        elif problem == "mapping values are not allowed here":
+            problem += (" (a line indented deeper than the one above it, or ': ' inside a"
+                        " value: quote the value)")
+        elif "'\\t' that cannot start any token" in problem:
+            problem += " (a tab: YAML indents with spaces only)"
         raise StudyError(file, "(yaml)", NO_VALUE, f"not valid YAML: {problem}",
                          mark.line + 1 if mark is not None else None) from None
     except yaml.reader.ReaderError as exc:
