@@ -367,3 +367,35 @@ def test_aliasing_falls_with_the_samples_per_period():
     assert np.all(err64 < 1e-12)
     assert 1e-6 < err16[4] < 1e-4  # visible, and the largest on the highest kept order
     assert err16[4] == err16.max()
+
+
+GEAR_WHINE = """
+title: a gear pair's whine spectrum, default sampling
+scene:
+  kind: whine
+  gear: {module: 3 mm, z1: 25, z2: 41, face_width: 20 mm}
+  torque: 150 N*m
+  drive: {inertia_1: 4.87e-4 kg m^2, inertia_2: 3.527e-3 kg m^2}
+  damping: 2 N s/mm
+sweep:
+  speed: [500 rpm, 1000 rpm]
+solver: {method: rk4, steps_per_period: 256, transient_periods: 100, record_periods: 4}
+outputs: [stats, {spectrum: {max_order: 4}}]
+"""
+
+
+def test_the_default_sampling_of_a_gear_scenes_spectrum_does_not_alias():
+    """A gear pair's k(t) (10 harmonics) gives p and k(t) f(p) lines far above 3 max_order; the
+    default samples_per_period (16 for max_order 4) folded them back: at 500-1000 rpm its
+    force_spectrum line 3 came out 78x and 105x the converged value, line 1 4.7x, and line 4 of p
+    39 % off (an engineer new to the tool). Now the default takes 4 samples per period of the
+    excitation's highest order too (64 here); against all 256 steps sampled: 1e-3."""
+    plan = make_plan(parse_study(GEAR_WHINE), GEAR_WHINE)
+    assert plan.samples_per_period() == 64
+    lines = [0.0, 1.0, 2.0, 3.0, 4.0]
+    default = run(GEAR_WHINE)
+    every = run(GEAR_WHINE.replace("max_order: 4}", "max_order: 4, samples_per_period: 256}"))
+    for name in ("spectrum", "force_spectrum"):
+        got, ref = (d[name].sel(order=lines).values for d in (default, every))
+        assert_allclose(got, ref, rtol=1e-3, atol=1e-6 * ref.max(), err_msg=name)
+    assert default.spectrum.attrs["samples_per_period"] == 64

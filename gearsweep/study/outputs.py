@@ -192,8 +192,9 @@ class SpectrumOptions(Strict):
     max_order: Real = Field(4.0, gt=0, description="highest mesh order kept [-]")
     samples_per_period: Count | None = Field(
         None, ge=2, le=MAX_STEPS_PER_PERIOD, description="samples of p per mesh period (a divisor"
-        " of steps_per_period; default: the smallest divisor >= 4 max_order, so orders below 3"
-        " max_order cannot alias into the kept bins)")
+        " of steps_per_period; default: the smallest divisor >= 4 max_order and >= 4 x the"
+        " highest order of the scene's excitation, a gear's included: orders below 3 x the larger"
+        " of the two cannot alias into the kept bins)")
     force: Flag = Field(True, description="also the spectrum of the dynamic mesh force"
                         " k(t) f(p) + c p' (variable force_spectrum) [N]")
     pinion: Flag = Field(False, description="also what the pinion's sensors see: its angular"
@@ -254,8 +255,17 @@ class Spectrum:
         if o.samples_per_period is not None:
             return o.samples_per_period
         spp = plan.study.solver.steps_per_period
+        # At least 4 samples per period of the excitation's highest order too: a gear pair's
+        # k(t) (10 harmonics, steps where one pair takes over from two) gives p and k(t) f(p)
+        # lines far above 3 max_order. At 16 samples (max_order 4) they folded back: a 25/41
+        # pair at 500-1500 rpm had its force_spectrum lines 1-3 1.3x-105x too large and order 4
+        # of p 39 % off (an engineer new to the tool; tests/test_whine.py).
+        model = plan.model
+        top = max((h.order for h in (*model.stiffness_harmonics, *model.ste_harmonics,
+                                     *model.force_harmonics)), default=0.0) \
+            if isinstance(model, MeshModel) else 0.0
         for d in range(1, spp + 1):
-            if spp % d == 0 and d >= 4 * o.max_order:
+            if spp % d == 0 and d >= 4 * max(o.max_order, top):
                 return d
         return spp
 
