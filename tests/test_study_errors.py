@@ -1634,3 +1634,21 @@ def test_a_layout_mistake_in_yaml_is_said_in_the_files_terms(old, new, line, hin
     (an engineer new to the tool); the line now also says what in the layout is wrong."""
     assert GOOD.count(old) == 1
     assert _lines(GOOD.replace(old, new)) == [f"s.yaml:{line}: (yaml): not valid YAML: {hint}"]
+
+
+def test_a_range_given_by_its_step_says_to_give_num():
+    """``{start, stop, step}`` (the way many tools write a range) got two lines: num missing, and
+    "'step' is not a field ... -- did you mean 'stop'?", which misleads. Now one line naming
+    num, and the num that start, stop and step give where it is whole (an engineer new to the
+    tool)."""
+    text = GOOD.replace("num: 3}", "step: 500 rpm}")
+    assert _lines(text) == [
+        ("s.yaml:10: sweep.speed.step: 'step' is not a field of a {start, stop, num} range: give"
+         " num, the number of values (start, stop and step 500 rpm give num: 3)")]
+    assert _lines(text.replace("step: 500 rpm", "step: 300 rpm")) == [
+        ("s.yaml:10: sweep.speed.step: 'step' is not a field of a {start, stop, num} range: give"
+         " num, the number of values")]
+    assert _lines(text.replace("step: 500 rpm", "increment: 0")) == [
+        ("s.yaml:10: sweep.speed.increment: 'increment' is not a field of a {start, stop, num}"
+         " range: give num, the number of values")]
+    parse_study(GOOD, "s.yaml")

@@ -1062,6 +1062,23 @@ def _vocabulary() -> tuple[str, ...]:
     return tuple(sorted(names))
 
 
+def _num_of_steps(raw: Any, parent: list, key: str) -> str:
+    """`` (start, stop and step 50 rpm give num: 111)`` where a range written with a step
+    (``{start, stop, step}``) gives a whole number of values, else ``''``."""
+    spec = _as_written(raw, parent)
+    kind = SWEEPABLE.get(parent[1])
+    if not isinstance(spec, dict) or kind is None:
+        return ""
+    try:
+        start, stop, step = (to_si(spec.get(k), kind) for k in ("start", "stop", key))
+        n = (stop - start) / step + 1
+    except (UnitParseError, TypeError, ValueError, ZeroDivisionError, OverflowError):
+        return ""
+    if not (math.isfinite(n) and n >= 1 and abs(n - round(n)) < 1e-9 * n):
+        return ""
+    return f" (start, stop and {key} {spec.get(key)} give num: {round(n)})"
+
+
 def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, str | None]:
     """Why ``key`` is not allowed under ``parent``, and the field it suggests (or ``None``): a
     field of another scene (or analysis) kind is named as such, and a misspelling is matched
@@ -1073,6 +1090,10 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
     listed = None  # where and which fields to list when nothing is close: those of the choices
     if len(parent) == 2 and parent[0] == "sweep":
         choices, where = tuple(Range.model_fields), "a {start, stop, num} range"
+        if key in ("step", "increment", "delta", "interval"):
+            # a range by its step: the line said "did you mean 'stop'?" beside "num: missing"
+            return (f"{key!r} is not a field of {where}: give num, the number of values"
+                    f"{_num_of_steps(raw, parent, key)}"), "num"
     elif parent == ["solver"]:
         choices, where = tuple(Solver.model_fields), "solver"
     elif parent == []:  # any kind of study's: a misspelt 'analysis' or 'mesh' made it dynamic
