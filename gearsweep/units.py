@@ -244,6 +244,16 @@ def to_si(value: object, kind: str) -> float:
 
 def _to_si_pint(value: object, kind: str) -> float:
     """``to_si`` through pint's registry."""
+    try:
+        return _to_si_pint_checked(value, kind)
+    except OverflowError:  # pint's own arithmetic on the units: '0.1527 N**1527 kg' (a fuzz find)
+        raise UnitParseError(f"cannot read {value!r}: a power of a unit or a number too large;"
+                             f" {article(kind)} is written e.g. '1 {KINDS[kind].examples[0]}'"
+                             ) from None
+
+
+def _to_si_pint_checked(value: object, kind: str) -> float:
+    """``_to_si_pint`` but for pint's OverflowError."""
     k = KINDS[kind]
     unit_hint = k.examples[0]
     if isinstance(value, bool):

@@ -111,6 +111,16 @@ def test_a_quantity_pint_cannot_read_says_what_to_write(text, kind, message):
     assert str(err.value).startswith(message), str(err.value)
 
 
+def test_a_unit_to_a_huge_power_is_a_unit_error_not_a_traceback():
+    """``mass: 0.1527 N**1527 kg`` (a mutation test_study_fuzz found) overflowed inside pint's
+    dimensionality check: an OverflowError, a traceback and exit code 1."""
+    with pytest.raises(UnitParseError, match="a power of a unit or a number too large; a mass is"
+                       " written e.g. '1 kg'"):
+        to_si("0.1527 N**1527 kg", "mass")
+    with pytest.raises(UnitParseError, match="too large"):
+        to_si("1 N**400 kg", "torque")
+
+
 def test_documented_exceptions_to_the_bare_number_rule():
     assert to_si(3000, "speed") == 3000.0  # a shaft speed is read in rpm (study reference)
     assert to_si(0, "length") == 0.0  # zero is zero in any unit
