@@ -1651,4 +1651,6 @@ def test_a_range_given_by_its_step_says_to_give_num():
     assert _lines(text.replace("step: 500 rpm", "increment: 0")) == [
         ("s.yaml:10: sweep.speed.increment: 'increment' is not a field of a {start, stop, num}"
          " range: give num, the number of values")]
+    # beside a num, a step is a field too many (test_an_unknown_field_is_matched_...)
+    assert "did you mean 'stop'?" in _lines(text.replace("{start", "{num: 3, start"))[0]
     parse_study(GOOD, "s.yaml")

@@ -1090,7 +1090,9 @@ def _unknown_field(key: str, parent: list, raw: Any, missing=()) -> tuple[str, s
     listed = None  # where and which fields to list when nothing is close: those of the choices
     if len(parent) == 2 and parent[0] == "sweep":
         choices, where = tuple(Range.model_fields), "a {start, stop, num} range"
-        if key in ("step", "increment", "delta", "interval"):
+        spec = _as_written(raw, parent)
+        if key in ("step", "increment", "delta", "interval") and isinstance(spec, dict) \
+                and "num" not in spec:
             # a range by its step: the line said "did you mean 'stop'?" beside "num: missing"
             return (f"{key!r} is not a field of {where}: give num, the number of values"
                     f"{_num_of_steps(raw, parent, key)}"), "num"
