@@ -601,6 +601,9 @@ def describe(path: str | Path) -> str:
                 finite = vals[vals == vals]
                 if finite.size:
                     rng = f"  [{finite.min() + 0.0:.4g} .. {finite.max() + 0.0:.4g}]"  # no -0
+            elif v.dtype.kind == "b" and v.size:  # a flag: how many cases it marks (a
+                rng = f"  [true for {int(v.values.sum()):,} of {v.size:,}]"  # 0.7 m p_rms of
+                # a step beyond the limit stood beside 'status: 300 x code 0' with no count)
             lines.append(f"    {name:<26} {v.attrs.get('units', ''):<6} ({', '.join(v.dims)})"
                          f" {v.attrs.get('long_name', '')}{rng}")
         if "status" in ds:

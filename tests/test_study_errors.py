@@ -1388,6 +1388,25 @@ def test_inspect_prints_no_unit_for_a_dimensionless_coordinate(tmp_path, capsys)
     assert "    speed               2 values from 1000 to 2000 rpm" in lines, lines
 
 
+def test_inspect_counts_the_cases_a_flag_marks(tmp_path, capsys):
+    """A flag (``beyond_step_limit``) was listed with no count: a whine at 64 steps per period
+    had 7 of 300 cases beyond the step limit, one of them p_rms 0.7 m with status 0, and inspect
+    said only 'status: 300 x code 0' (an engineer new to the tool)."""
+    import numpy as np
+    import xarray as xr
+
+    path = tmp_path / "f.nc"
+    flag = np.zeros(300, bool)
+    flag[:7] = True
+    xr.Dataset({"beyond_step_limit": ("speed", flag, {"units": "1", "long_name": "beyond"}),
+                "status": ("speed", np.zeros(300, np.int8), {"units": "1"})},
+               coords={"speed": ("speed", np.linspace(500.0, 6000.0, 300), {"units": "rpm"})},
+               attrs={"study": "title: f"}).to_netcdf(path)
+    assert main(["inspect", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "    beyond_step_limit          1      (speed) beyond  [true for 7 of 300]" in lines, lines
+
+
 def test_advise_says_it_reads_stdin_and_names_it_as_validate_does(monkeypatch, capsys):
     """'advise --help' had no help for its study and did not say that '-' reads stdin; a study
     read from stdin was labelled '-:' where validate says '<stdin>:'."""
