@@ -4,18 +4,27 @@ warning when a chosen step lies beyond the method's stability limit.
 Error model (measured, ``scripts/calibrate_advisor.py``): the trajectory error over the
 steady-state window, relative to the response amplitude, obeys
 
-    err <= C (h omega_n)^p,      h = T_mesh / steps_per_period,  omega_n = sqrt(k_max / m)
+    err <= C (h omega_n max(1, r))^p min(1, (r / knee)^2),
+    h = T_mesh / steps_per_period,  omega_n = sqrt(k_max / m),  r = Omega / omega_n
 
-with p = 4 (RK4) or 5 (RK5) on smooth scenes and with the kink-aware step on backlash scenes,
-and p = 2 for the plain step on backlash scenes (the kinks of the dead zone). C is the upper
-envelope over the calibration runs, stored with its provenance in ``data/error_constants.json``.
-h omega_n is largest at the lowest speed, so the lowest speed sets the step count:
+(Omega: the mesh angular frequency), with p = 4 (RK4) or 5 (RK5) on smooth scenes and with the
+kink-aware step on backlash scenes, and p = 2 for the plain step on backlash scenes (the kinks
+of the dead zone). Why this shape (docs/precision.md, "Step advice"): the damped free vibration
+decays in the transient, so the steady error is that of the forced response. Near the resonance
+it is the shift of the discrete natural frequency, ~ (h omega_n)^p, amplified by the resonance;
+far below it the same shift weighted by the response's sensitivity to omega_n, about r^2 (the
+static response is exact for a Runge-Kutta step), so (h omega_n)^p r^2; far above it the
+method's error on the forcing itself, ~ (h Omega)^p = (h omega_n r)^p. C and the knee are fitted
+per method and scene kind (``data/error_constants.json``, with the provenance): C the upper
+envelope over the calibration runs, the knee the one whose envelope overestimates them least.
+At a fixed step count the model's error does not grow with speed, so the lowest speed sets the
+step count:
 
-    steps_per_period >= 2 pi omega_n / (Omega_min (target / (SAFETY C))^(1/p))
+    steps_per_period >= 2 pi max(1, 1/r) (SAFETY C s / target)^(1/p),  s = min(1, (r/knee)^2)
 
-rounded up to a multiple of 8 (SAFETY = 2). Stability: the step must also satisfy h omega_n
-below the limit of the method's stability polynomial on the ray of the eigenvalues
-omega_n (-zeta +- i sqrt(1 - zeta^2)), zeta = c / (2 m omega_n).
+at the lowest speed, rounded up to a multiple of 8 (SAFETY = 2). Stability: the step must also
+satisfy h omega_n below the limit of the method's stability polynomial on the ray of the
+eigenvalues omega_n (-zeta +- i sqrt(1 - zeta^2)), zeta = c / (2 m omega_n).
 """
 
 from __future__ import annotations
@@ -74,6 +83,14 @@ def load_constants(path: Path = CONSTANTS_FILE) -> dict:
     return json.loads(Path(path).read_text())
 
 
+def model_error(constant: float, order: float, knee: float | None, h_omega_n: float,
+                ratio: float) -> float:
+    """The error model's bound C (h omega_n max(1, r))^p min(1, (r / knee)^2) [1] for the step
+    h omega_n and r = Omega / omega_n (``knee`` None: no reduction below the resonance)."""
+    sensitivity = 1.0 if not knee else min(1.0, (ratio / knee) ** 2)
+    return constant * (h_omega_n * max(1.0, ratio)) ** order * sensitivity
+
+
 @dataclass(frozen=True)
 class Advice:
     """Result of ``advise`` (see there)."""
@@ -91,6 +108,10 @@ class Advice:
     constant: float
     omega_n: float
     zeta: float
+    ratio: float = math.nan
+    """r = Omega / omega_n at the lowest speed (mesh angular frequency over omega_n)."""
+    knee: float | None = None
+    """The error model's knee in r (None: none)."""
     chosen: int | None = None
     chosen_error: float | None = None
     kink_steps_per_period: int | None = None
@@ -98,6 +119,9 @@ class Advice:
     for the same target (None otherwise)."""
     kink_msteps: float | None = None
     warnings: list[str] = field(default_factory=list)
+
+    def _knee_text(self) -> str:
+        return f" min(1, (r / {self.knee:g})^2)" if self.knee else ""
 
     def report(self, scene: str | None = None, width: int = 96) -> str:
         """A few lines of at most ``width`` characters for a person. ``scene`` names the case
@@ -116,8 +140,9 @@ class Advice:
         lines.append(
             f"For a target of {self.target:.1e}: {self.steps_per_period} steps per mesh period"
             f" (h omega_n = {self.h_omega_n:.3g} at the lowest speed, expected error"
-            f" {self.expected_error:.1e} from err <= {self.constant:.3g} (h omega_n)^"
-            f"{self.order:g}), {self.msteps:.3g} Msteps.")
+            f" {self.expected_error:.1e} from err <= {self.constant:.3g} (h omega_n max(1, r))^"
+            f"{self.order:g}{self._knee_text()} with r = Omega / omega_n = {self.ratio:.3g}),"
+            f" {self.msteps:.3g} Msteps.")
         sampled = (math.pi / self.steps_per_period) ** 2 / 2
         lines.append(f"The target is the trajectory's (and p_rms's) error; p_pp, p_max and p_min"
                      f" are taken on the step grid and can be off by up to (pi/N)^2/2 of the amplitude ="
@@ -198,8 +223,9 @@ def advise(
     kind = "rattle" if backlash is not None else "whine"
     key = f"{kind}/{method}" + ("-kink" if kink_aware and kind == "rattle" else "")
     table = (constants or load_constants())["constants"][key]
-    C, p = table["C"], table["order"]
-    hw_target = (target / (SAFETY * C)) ** (1.0 / p)
+    C, p, knee = table["C"], table["order"], table.get("knee")
+    r = omega_min / wn
+    hw_target = (target / (SAFETY * model_error(C, p, knee, 1.0, r))) ** (1.0 / p)
     limit = stability_limit(method, min(zeta, 0.999))
     warnings = []
     hw = min(hw_target, 0.9 * limit)
@@ -209,7 +235,7 @@ def advise(
     chosen_err = None
     if steps_per_period is not None:
         hw_c = 2.0 * math.pi * wn / (omega_min * steps_per_period)
-        chosen_err = C * hw_c**p
+        chosen_err = model_error(C, p, knee, hw_c, r)
         if hw_c >= limit:
             warnings.append(
                 f"{steps_per_period} steps per period give h omega_n = {hw_c:.3f} at "
@@ -239,5 +265,6 @@ def advise(
             f"(solver.kink_aware: true) restores order {alt.order:g} and needs {kink_spp} steps "
             f"per period ({kink_msteps:.3g} Msteps) for the same target, each step costing up to "
             f"about {KINK_COST:g} times a plain one.")
-    return Advice(method, kink_aware, kind, target, spp, hw_adv, C * hw_adv**p, limit, msteps,
-                  p, C, wn, zeta, steps_per_period, chosen_err, kink_spp, kink_msteps, warnings)
+    return Advice(method, kink_aware, kind, target, spp, hw_adv, model_error(C, p, knee, hw_adv, r),
+                  limit, msteps, p, C, wn, zeta, r, knee, steps_per_period, chosen_err, kink_spp,
+                  kink_msteps, warnings)
