@@ -250,14 +250,14 @@ def test_advice_warns_beyond_stability_limit():
 
 HELD_OUT = [
     # scene, speed [rpm], damping [N s/m], k0 [N/m], method, kink-aware, target
-    ("whine", 5000.0, pr.DAMPING, pr.K0, "rk4", False, 1e-6),
-    ("whine", 7500.0, pr.DAMPING, pr.K0, "rk5", False, 1e-6),
-    ("whine", 5000.0, pr.DAMPING, pr.K0, "rk4", False, 1e-4),
+    ("whine", 5250.0, pr.DAMPING, pr.K0, "rk4", False, 1e-6),
+    ("whine", 7750.0, pr.DAMPING, pr.K0, "rk5", False, 1e-6),
+    ("whine", 5250.0, pr.DAMPING, pr.K0, "rk4", False, 1e-4),
     ("whine", 5000.0, 3000.0, 0.8e9, "rk4", False, 1e-6),
     ("whine", 8000.0, 3000.0, 0.8e9, "rk5", False, 1e-6),
     ("rattle", 7500.0, pr.DAMPING, pr.K0, "rk4", True, 1e-6),
-    ("rattle", 11000.0, pr.DAMPING, pr.K0, "rk5", True, 1e-6),
-    ("rattle", 11000.0, pr.DAMPING, pr.K0, "rk4", False, 1e-4),
+    ("rattle", 11500.0, pr.DAMPING, pr.K0, "rk5", True, 1e-6),
+    ("rattle", 11500.0, pr.DAMPING, pr.K0, "rk4", False, 1e-4),
     ("rattle", 9500.0, 4000.0, 1.2e9, "rk4", True, 1e-6),
     ("rattle", 12000.0, 4000.0, 1.2e9, "rk5", True, 1e-6),
 ]
@@ -266,15 +266,20 @@ HELD_OUT = [
 @pytest.mark.parametrize(("kind", "rpm", "damping", "k0", "method", "kink", "target"), HELD_OUT)
 def test_advised_step_meets_target_on_held_out_cases(kind, rpm, damping, k0, method, kink, target):
     """Speeds, dampings and stiffnesses not used in the calibration
-    (``scripts/calibrate_advisor.py``: 3000-12000 rpm whine, 7000-13000 rpm rattle, both
-    at c = 5500 N s/m, k0 = 1.073e9 N/m): the advised step count must reach the target
+    (``scripts/calibrate_advisor.py``: 1000-30,000 rpm, both scenes at c = 5500 N s/m,
+    k0 = 1.073e9 N/m; 5000 and 8000 rpm whine lie on its 500 rpm grid, but at another damping
+    and stiffness): the advised step count must reach the target
     trajectory error against the reference, and not by far (the advisor aims at target / 2).
-    Measured: 0.157-0.490 of the target where the error model is the method's order (smooth,
-    or kink-aware), so the floor target / 10 fails advice about twice the steps needed (order 4;
-    8x the steps: 4096 times less error); the plain step through the backlash kinks (order 2)
-    0.059: its error depends on where the crossings fall within the step, and the constant is
-    the envelope over the calibration speeds, hence its floor target / 30 (8x the steps: 64
-    times less error, still caught)."""
+    Measured (constants of 27 Nov 2026, fitted from 1000 to 30,000 rpm): 0.128-0.604 of the
+    target where the error model is the method's order (smooth, or kink-aware; 0.604: whine at
+    5000 rpm with c = 3000 N s/m and k0 = 0.8e9 N/m, zeta = 0.12, near the third harmonic's
+    resonance r = 1/3, where the error grows as the damping falls: 1.2 times the model's
+    expected error there, within the safety factor 2), so the floor target / 10 fails advice
+    about twice the steps needed (order 4; 8x the steps: 4096 times less error); the plain step
+    through the backlash kinks (order 2) 0.291 at 11,500 rpm, 0.093 at 11,000 (a calibration
+    speed now): its error depends on where the crossings fall within the step, and the
+    constant is the envelope over the calibration speeds, hence its floor target / 30 (8x the
+    steps: 64 times less error, still caught)."""
     make = pr.whine_scene if kind == "whine" else pr.rattle_scene
     scene = make(rpm, damping=damping, k0=k0)
     adv = advise(mass=pr.MASS, k0=k0, damping=damping, speed_rpm=[rpm], teeth=pr.TEETH,
@@ -298,9 +303,12 @@ ACROSS_RESONANCE = [
     ("rattle", 36000.0),  # r = 2.16, above
 ]
 ACROSS_FACTOR = 30.0
-"""The most the error model may overestimate a held-out case by (measured: up to 17, whine RK5
-at 1250 rpm; the old model C (h omega_n)^p overestimated the whine scene by 4000 at 1250 rpm
-(RK4) and underestimated it above resonance)."""
+"""The most the error model may overestimate a held-out case by. Measured (27 Nov 2026): 1.2-4.2
+from r = 0.23 up, 7-21 for the rattle scene far below and far above, 16 whine RK4 at 1250 rpm;
+the old model C (h omega_n)^p overestimated the whine scene by about 10,000 at 1250 rpm and
+underestimated it above resonance (30,000 rpm: 3.2 times). Whine RK5 far below (r < 0.1) gets
+twice this factor: measured 41 at 1250 rpm, where its error over (h omega_n)^5 r^2 is 1/25 of
+its peak among the harmonics' resonances, which C / knee^2 must cover (docs/precision.md)."""
 
 
 @pytest.mark.parametrize("method", ["rk4", "rk5"])
@@ -316,7 +324,8 @@ def test_error_model_bounds_held_out_speeds_from_far_below_to_above_resonance(ki
                  k_harmonics=() if rattle else pr.K_HARMONICS, backlash=4e-6 if rattle else None,
                  method=method, kink_aware=rattle, target=1e-6 if method == "rk4" else 1e-7)
     err = _trajectory_error(scene, method, adv.steps_per_period, rattle)
-    assert err <= adv.expected_error <= ACROSS_FACTOR * err, (
+    factor = ACROSS_FACTOR * (2 if (method, kind) == ("rk5", "whine") and adv.ratio < 0.1 else 1)
+    assert err <= adv.expected_error <= factor * err, (
         adv.steps_per_period, err, adv.expected_error)
 
 
@@ -452,10 +461,12 @@ def test_kink_aware_order_with_time_varying_stiffness_and_all_tables(method, lo,
 @pytest.mark.parametrize(("method", "target"), [("rk4", 1e-4), ("rk5", 1e-6)])
 def test_light_damping_is_warned_about_and_its_error_stays_within_the_warning(method, target):
     """At the whine scene's resonance (mesh frequency = omega_n, 18,370 rpm) with zeta = 0.01,
-    a twentieth of the calibration's: the advised step's error is 7.3x (RK4, over the target)
-    and 4.1x (RK5, within it by the safety factor) the expected error (measured), which the
-    constants, fitted at zeta = 0.2, cannot know; advise says so, and the error stays within the
-    factor it names (zeta_cal / zeta = 19.5). At the calibration's damping no such warning."""
+    a twentieth of the calibration's: the advised step's error is 4.4x (RK4, over the target)
+    and 1.9x (RK5, within it by the safety factor) the expected error (measured with the
+    constants fitted from 1000 to 30,000 rpm; 7.3x and 4.1x with the earlier constants, whose
+    C was 0.6 and 0.46 of the present ones), which the constants, fitted at zeta = 0.2, cannot
+    know; advise says so, and the error stays within the factor it names (zeta_cal / zeta =
+    19.5). At the calibration's damping no such warning."""
     from gearsweep.analysis import advise as adv_mod
 
     k_max = pr.K0 + sum(abs(a) for a, _, _ in pr.K_HARMONICS)
@@ -470,6 +481,6 @@ def test_light_damping_is_warned_about_and_its_error_stays_within_the_warning(me
     zeta_cal = adv_mod.load_constants()["calibration_damping_ratio"]["whine"]
     assert f"up to about {zeta_cal / 0.01:.0f} times" in warning
     err = _trajectory_error(pr.whine_scene(rpm, damping=c), method, adv.steps_per_period, False)
-    assert 2 * adv.expected_error < err <= adv.expected_error * zeta_cal / 0.01, (
+    assert adv.expected_error < err <= adv.expected_error * zeta_cal / 0.01, (
         err, adv.expected_error)
     assert (err > target) == (method == "rk4")  # RK4 misses the target; RK5 keeps within it

@@ -51,9 +51,13 @@ LIGHT_DAMPING = 0.5
 the constants, about 0.2) is warned about: near a resonance the steady response's error grows
 about as 1 / zeta (the resonance's amplification of the step's phase error), and the constants
 were fitted on scenes damped as the paper's rig. Measured at the whine scene's resonance (18,370
-rpm, tests/test_precision.py): at zeta = 0.01 the advised RK4 step gave 7.3 times the expected
-error, RK5 4.1 times, both within the warning's bound zeta_cal / zeta = 19.5; an independent
-check on 27 Nov 2026 found 113 times at zeta = 0.001 (bound 215)."""
+rpm, tests/test_precision.py): at zeta = 0.01 the advised RK4 step gave 4.4 times the expected
+error, RK5 1.9 times, both within the warning's bound zeta_cal / zeta = 19.5; at zeta = 0.001,
+21 and 11 times (bound 195). (With the constants fitted at 3000-12000 rpm before 27 Nov 2026:
+7.3 and 4.1 times at zeta = 0.01, 113 at 0.001.) Far below the resonance the error hardly
+depends on zeta (the linear oscillator's, closed form: within a factor of about 2 from zeta = 0.01 to
+0.2 at r = 0.05), but the harmonics' resonances at r = 1/n are resonances too, so the warning
+does not depend on the speeds."""
 KINK_COST = 1.5
 """Wall time of a kink-aware step over a plain one on a rattle batch: 1.43-1.53 on benchmark B2
 (``scripts/bench_kink.py``, docs/precision.md); fewer crossings per step cost less."""
