@@ -675,6 +675,9 @@ def cmd_advise(args: argparse.Namespace) -> int:
         backlash = float(np.min(grids["backlash"])) if "backlash" in grids else model.backlash
     a = advise(mass=mass, k0=k0, damping=damping, speed_rpm=grids["speed"], teeth=model.teeth,
                k_harmonics=[(h.amplitude, h.order, h.phase) for h in model.stiffness_harmonics],
+               highest_order=max([1.0, *(h.order for h in (*model.stiffness_harmonics,
+                                                           *model.ste_harmonics,
+                                                           *model.force_harmonics))]),
                backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=args.target,
                steps_per_period=s.steps_per_period,
                periods=s.transient_periods + s.record_periods,

@@ -2,7 +2,9 @@
 
 For every method and scene kind, the error model of ``gearsweep.analysis.advise``
 
-    trajectory error <= C (h omega_n max(1, r))^order min(1, (r / knee)^2),  r = Omega / omega_n
+    trajectory error <= C (h omega_n max(1, r))^order min(1, (n r / knee)^2),  r = Omega / omega_n
+
+(n: the scene's highest harmonic order, 3 whine, 1 rattle)
 
 is fitted to runs at the calibration speeds, which lie far below, near and above the resonance
 (the tests hold out other speeds): for each knee on a grid, C is the upper envelope of the
@@ -42,8 +44,8 @@ rattle, so r = 0.05-1.6 whine, 0.06-1.8 rattle (contact loss from about 7000 rpm
 scene's harmonics (orders up to 3 in stiffness and STE, and their products) resonate at r = 1/n:
 its error over (h omega_n)^4 r^2 peaks near 5500 rpm, 19 times its value at 1000 rpm (a 250 rpm
 scan, 27 Nov 2026), hence the 500 rpm grid from 1500 to 10000 rpm, which meets that peak."""
-KNEES = tuple(round(0.1 + 0.02 * i, 2) for i in range(46))
-"""Knees tried (0.1 .. 1.0)."""
+KNEES = tuple(round(0.1 + 0.02 * i, 2) for i in range(146))
+"""Knees tried (0.1 .. 3.0)."""
 ORDER = {"rk4": 4, "rk5": 5}
 """Orders assumed in the advisor's error model (the plain step on the rattle scene: 2)."""
 
@@ -53,15 +55,15 @@ def _split(name: str) -> tuple[str, bool]:
 
 
 
-def fit(points: list[tuple[float, float, float]], p: float) -> dict:
-    """Knee and C of the model from (error, h omega_n, r) triples: for each knee in ``KNEES``
+def fit(points: list[tuple[float, float, float, float]], p: float) -> dict:
+    """Knee and C of the model from (error, h omega_n, r, n) tuples: for each knee in ``KNEES``
     the envelope C = max err / shape; the knee kept is the one whose envelope overestimates the
     points least on average (geometric mean of predicted / measured; the largest ratio is set
     by the points far below resonance whatever the knee, since C / knee^2 must cover the
     largest err / ((h omega_n)^p r^2), so it cannot choose)."""
     best = None
     for knee in KNEES:
-        ratios = np.array([e / shape(hw, r, p, knee) for e, hw, r in points])
+        ratios = np.array([e / shape(hw, r, n, p, knee) for e, hw, r, n in points])
         over = ratios.max() / ratios
         mean_log = float(np.mean(np.log(over)))
         if best is None or mean_log < best[0]:
@@ -71,9 +73,14 @@ def fit(points: list[tuple[float, float, float]], p: float) -> dict:
     return best[1]
 
 
-def shape(hw: float, r: float, p: float, knee: float) -> float:
+def shape(hw: float, r: float, n: float, p: float, knee: float) -> float:
     """The model's error over C (``advise.model_error`` with C = 1)."""
-    return adv.model_error(1.0, p, knee, hw, r)
+    return adv.model_error(1.0, p, knee, hw, r, n)
+
+
+def highest_order(scene) -> float:
+    """n of the model: the highest order of the scene's stiffness and forcing harmonics (>= 1)."""
+    return max([1.0, *(float(o) for _, o, _ in (*scene.k_harmonics, *scene.g_harmonics))])
 
 
 def calibrate(window: pr.Window) -> dict:
@@ -97,14 +104,15 @@ def calibrate(window: pr.Window) -> dict:
                                      repeat=1)
                     e = r.trajectory_error
                     if math.isfinite(e) and 1e-10 < e < 1e-2:
-                        points.append((e, hw, scene.omega / scene.omega_n))
+                        points.append((e, hw, scene.omega / scene.omega_n, highest_order(scene)))
             table[f"{kind}/{m}"] = fit(points, p)
     return {
-        "description": "trajectory error <= C (h omega_n max(1, r))^order min(1, (r / knee)^2),"
-                       " r = mesh frequency / omega_n; C = upper envelope over the calibration"
-                       " runs for the knee that overestimates them least (geometric mean);"
-                       " worst_ratio, median_ratio: of predicted / measured; error relative to"
-                       " the amplitude (see gearsweep.analysis.precision)",
+        "description": ("trajectory error <= C (h omega_n max(1, r))^order min(1, (n r / knee)^2),"
+                        " r = mesh frequency / omega_n, n = highest harmonic order; C = upper"
+                        " envelope over the calibration runs for the knee that overestimates"
+                        " them least (geometric mean); worst_ratio, median_ratio: of predicted /"
+                        " measured; error relative to the amplitude (see"
+                        " gearsweep.analysis.precision)"),
         "source": f"scripts/calibrate_advisor.py, gearsweep {git_commit()}, "
                   f"{dt.datetime.now(dt.UTC).date().isoformat()}",
         "calibration_speeds_rpm": CALIBRATION_RPM,

@@ -4,23 +4,25 @@ warning when a chosen step lies beyond the method's stability limit.
 Error model (measured, ``scripts/calibrate_advisor.py``): the trajectory error over the
 steady-state window, relative to the response amplitude, obeys
 
-    err <= C (h omega_n max(1, r))^p min(1, (r / knee)^2),
+    err <= C (h omega_n max(1, r))^p min(1, (n r / knee)^2),
     h = T_mesh / steps_per_period,  omega_n = sqrt(k_max / m),  r = Omega / omega_n
 
-(Omega: the mesh angular frequency), with p = 4 (RK4) or 5 (RK5) on smooth scenes and with the
+(Omega: the mesh angular frequency; n >= 1: the highest order of the scene's stiffness, STE and
+force harmonics, whose resonance lies at r = 1 / n), with p = 4 (RK4) or 5 (RK5) on smooth scenes and with the
 kink-aware step on backlash scenes, and p = 2 for the plain step on backlash scenes (the kinks
 of the dead zone). Why this shape (docs/precision.md, "Step advice"): the damped free vibration
 decays in the transient, so the steady error is that of the forced response. Near the resonance
 it is the shift of the discrete natural frequency, ~ (h omega_n)^p, amplified by the resonance;
 far below it the same shift weighted by the response's sensitivity to omega_n, about r^2 (the
-static response is exact for a Runge-Kutta step), so (h omega_n)^p r^2; far above it the
+static response is exact for a Runge-Kutta step), so (h omega_n)^p r^2, with r the highest
+harmonic's, n r (below its own resonance each harmonic's error goes so); far above it the
 method's error on the forcing itself, ~ (h Omega)^p = (h omega_n r)^p. C and the knee are fitted
 per method and scene kind (``data/error_constants.json``, with the provenance): C the upper
 envelope over the calibration runs, the knee the one whose envelope overestimates them least.
 At a fixed step count the model's error does not grow with speed, so the lowest speed sets the
 step count:
 
-    steps_per_period >= 2 pi max(1, 1/r) (SAFETY C s / target)^(1/p),  s = min(1, (r/knee)^2)
+    steps_per_period >= 2 pi max(1, 1/r) (SAFETY C s / target)^(1/p),  s = min(1, (n r/knee)^2)
 
 at the lowest speed, rounded up to a multiple of 8 (SAFETY = 2). Stability: the step must also
 satisfy h omega_n below the limit of the method's stability polynomial on the ray of the
@@ -88,10 +90,11 @@ def load_constants(path: Path = CONSTANTS_FILE) -> dict:
 
 
 def model_error(constant: float, order: float, knee: float | None, h_omega_n: float,
-                ratio: float) -> float:
-    """The error model's bound C (h omega_n max(1, r))^p min(1, (r / knee)^2) [1] for the step
-    h omega_n and r = Omega / omega_n (``knee`` None: no reduction below the resonance)."""
-    sensitivity = 1.0 if not knee else min(1.0, (ratio / knee) ** 2)
+                ratio: float, highest_order: float = 1.0) -> float:
+    """The error model's bound C (h omega_n max(1, r))^p min(1, (n r / knee)^2) [1] for the step
+    h omega_n, r = Omega / omega_n and the scene's highest harmonic order n (``knee`` None: no
+    reduction below the resonance)."""
+    sensitivity = 1.0 if not knee else min(1.0, (highest_order * ratio / knee) ** 2)
     return constant * (h_omega_n * max(1.0, ratio)) ** order * sensitivity
 
 
@@ -115,7 +118,9 @@ class Advice:
     ratio: float = math.nan
     """r = Omega / omega_n at the lowest speed (mesh angular frequency over omega_n)."""
     knee: float | None = None
-    """The error model's knee in r (None: none)."""
+    """The error model's knee in n r (None: none)."""
+    highest_order: float = 1.0
+    """n: the highest harmonic order of the scene's excitation (at least 1)."""
     chosen: int | None = None
     chosen_error: float | None = None
     kink_steps_per_period: int | None = None
@@ -125,7 +130,8 @@ class Advice:
     warnings: list[str] = field(default_factory=list)
 
     def _knee_text(self) -> str:
-        return f" min(1, (r / {self.knee:g})^2)" if self.knee else ""
+        return (f" min(1, ({self.highest_order:g} r / {self.knee:g})^2)" if self.knee
+                else "")
 
     def report(self, scene: str | None = None, width: int = 96) -> str:
         """A few lines of at most ``width`` characters for a person. ``scene`` names the case
@@ -163,6 +169,7 @@ def advise(
     speed_rpm,
     teeth: int,
     k_harmonics=(),
+    highest_order: float | None = None,
     backlash: float | None = None,
     method: str = "rk4",
     kink_aware: bool = False,
@@ -189,6 +196,10 @@ def advise(
         Teeth of that gear (mesh frequency = teeth * rpm / 60).
     k_harmonics : sequence of (amplitude [N/m], order, phase [rad])
         Stiffness harmonics; omega_n uses the largest stiffness k0 + sum |k_n|.
+    highest_order : float or None
+        The highest order among the scene's stiffness, STE and force harmonics (default: that
+        of ``k_harmonics``); at least 1 is taken. Its resonance, at r = 1 / n, ends the error
+        model's reduction far below the resonance.
     backlash : float or None
         Total backlash [m]; selects the rattle error constants.
     method : {"rk4", "rk5"}
@@ -229,7 +240,10 @@ def advise(
     table = (constants or load_constants())["constants"][key]
     C, p, knee = table["C"], table["order"], table.get("knee")
     r = omega_min / wn
-    hw_target = (target / (SAFETY * model_error(C, p, knee, 1.0, r))) ** (1.0 / p)
+    if highest_order is None:
+        highest_order = max((float(o) for _, o, _ in k_harmonics), default=1.0)
+    n = max(1.0, float(highest_order))
+    hw_target = (target / (SAFETY * model_error(C, p, knee, 1.0, r, n))) ** (1.0 / p)
     limit = stability_limit(method, min(zeta, 0.999))
     warnings = []
     hw = min(hw_target, 0.9 * limit)
@@ -239,7 +253,7 @@ def advise(
     chosen_err = None
     if steps_per_period is not None:
         hw_c = 2.0 * math.pi * wn / (omega_min * steps_per_period)
-        chosen_err = model_error(C, p, knee, hw_c, r)
+        chosen_err = model_error(C, p, knee, hw_c, r, n)
         if hw_c >= limit:
             warnings.append(
                 f"{steps_per_period} steps per period give h omega_n = {hw_c:.3f} at "
@@ -260,7 +274,8 @@ def advise(
     kink_spp = kink_msteps = None
     if kind == "rattle" and not kink_aware:
         alt = advise(mass=mass, k0=k0, damping=damping, speed_rpm=speeds, teeth=teeth,
-                     k_harmonics=k_harmonics, backlash=backlash, method=method, kink_aware=True,
+                     k_harmonics=k_harmonics, highest_order=n, backlash=backlash,
+                     method=method, kink_aware=True,
                      target=target, periods=periods, constants=constants,
                      cases_per_speed=cases_per_speed, multiple=multiple)
         kink_spp, kink_msteps = alt.steps_per_period, alt.msteps
@@ -269,6 +284,6 @@ def advise(
             f"(solver.kink_aware: true) restores order {alt.order:g} and needs {kink_spp} steps "
             f"per period ({kink_msteps:.3g} Msteps) for the same target, each step costing up to "
             f"about {KINK_COST:g} times a plain one.")
-    return Advice(method, kink_aware, kind, target, spp, hw_adv, model_error(C, p, knee, hw_adv, r),
-                  limit, msteps, p, C, wn, zeta, r, knee, steps_per_period, chosen_err, kink_spp,
-                  kink_msteps, warnings)
+    return Advice(method, kink_aware, kind, target, spp, hw_adv,
+                  model_error(C, p, knee, hw_adv, r, n), limit, msteps, p, C, wn, zeta, r, knee, n,
+                  steps_per_period, chosen_err, kink_spp, kink_msteps, warnings)
