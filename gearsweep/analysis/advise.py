@@ -53,9 +53,9 @@ LIGHT_DAMPING = 0.5
 the constants, about 0.2) is warned about: near a resonance the steady response's error grows
 about as 1 / zeta (the resonance's amplification of the step's phase error), and the constants
 were fitted on scenes damped as the paper's rig. Measured at the whine scene's resonance (18,370
-rpm, tests/test_precision.py): at zeta = 0.01 the advised RK4 step gave 4.4 times the expected
+rpm, tests/test_precision.py): at zeta = 0.01 the advised RK4 step gave 4.6 times the expected
 error, RK5 1.9 times, both within the warning's bound zeta_cal / zeta = 19.5; at zeta = 0.001,
-21 and 11 times (bound 195). (With the constants fitted at 3000-12000 rpm before 27 Nov 2026:
+22 and 11 times (bound 195). (With the constants fitted at 3000-12000 rpm before 27 Nov 2026:
 7.3 and 4.1 times at zeta = 0.01, 113 at 0.001.) Far below the resonance the error hardly
 depends on zeta (the linear oscillator's, closed form: within a factor of about 2 from zeta = 0.01 to
 0.2 at r = 0.05), but the harmonics' resonances at r = 1/n are resonances too, so the warning
@@ -93,8 +93,11 @@ def model_error(constant: float, order: float, knee: float | None, h_omega_n: fl
                 ratio: float, highest_order: float = 1.0) -> float:
     """The error model's bound C (h omega_n max(1, r))^p min(1, (n r / knee)^2) [1] for the step
     h omega_n, r = Omega / omega_n and the scene's highest harmonic order n (``knee`` None: no
-    reduction below the resonance)."""
-    sensitivity = 1.0 if not knee else min(1.0, (highest_order * ratio / knee) ** 2)
+    reduction below the resonance). A knee above n is taken as n, so that the reduction ends at
+    the resonance r = 1 at the latest (else the bound would grow with speed above it)."""
+    if not knee:
+        return constant * (h_omega_n * max(1.0, ratio)) ** order
+    sensitivity = min(1.0, (highest_order * ratio / min(knee, highest_order)) ** 2)
     return constant * (h_omega_n * max(1.0, ratio)) ** order * sensitivity
 
 
