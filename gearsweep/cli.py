@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from gearsweep import __version__
-from gearsweep.analysis.advise import advise
+from gearsweep.analysis.advise import ACCURACY_NOTE, advise
 from gearsweep.errors import (
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
@@ -229,6 +229,15 @@ def cmd_validate(args: argparse.Namespace) -> int:
             print(f"gearsweep: note: {name}: the step guard's grid is too large to check here;"
                   " run checks every case and says how many are beyond the step limit",
                   file=sys.stderr)
+    if isinstance(plan.model, MeshModel):  # what the steps as written cost in accuracy
+        a = _advice(plan, ACCURACY_NOTE)
+        if a.chosen_error is not None and a.chosen_error > ACCURACY_NOTE and not any(
+                "stability limit" in w for w in a.warnings):  # (the step guard says that)
+            print(f"gearsweep: note: {name}: {study.solver.steps_per_period} steps per mesh"
+                  f" period: expected trajectory error up to {a.chosen_error:.0%} of the"
+                  f" amplitude at the lowest speed ({study.solver.method}; the step advisor's"
+                  " bound, which can overestimate far below resonance: docs/precision.md);"
+                  f" `gearsweep advise {name}` gives the steps a target needs", file=sys.stderr)
     left = transient_residual(plan)
     if left is not None:
         residual, speed, need = left
@@ -643,22 +652,12 @@ def _steps_multiple(plan) -> int:
     return multiple
 
 
-def cmd_advise(args: argparse.Namespace) -> int:
-    """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
-
-    name = _shown(args.study)
-    if not (math.isfinite(args.target) and 0.0 < args.target < 1.0):
-        raise StudyError(name, "--target", args.target,
-                         "a relative error between 0 and 1 (e.g. 1e-4)")
-    study, text = load_study(args.study)
-    if getattr(study, "type", None) in ("mesh", "analysis"):
-        raise StudyError(name, "type", study.type,
-                         "a dynamic study (whine, rattle, full): nothing is integrated here")
-    plan = _plan(study, text, args.study)
+def _advice(plan, target: float):
+    """``advise`` for a gear scene's plan: its lowest mass and damping, its stiffest load and
+    stiffness, its smallest backlash, the steps it has (``Advice.chosen_error``: the expected
+    error of those)."""
+    study = plan.study
     model = plan.model
-    if not isinstance(model, MeshModel):
-        raise StudyError(name, "scene.kind", study.scene.kind,
-                         "a gear scene (whine, rattle, full): the Mathieu scene has no accuracy model")
     s = study.solver
     grids = plan.grids
     if plan.gear_load_swept:
@@ -673,16 +672,34 @@ def cmd_advise(args: argparse.Namespace) -> int:
     backlash = None
     if plan.has_backlash:
         backlash = float(np.min(grids["backlash"])) if "backlash" in grids else model.backlash
-    a = advise(mass=mass, k0=k0, damping=damping, speed_rpm=grids["speed"], teeth=model.teeth,
-               k_harmonics=[(h.amplitude, h.order, h.phase) for h in model.stiffness_harmonics],
-               highest_order=max([1.0, *(h.order for h in (*model.stiffness_harmonics,
-                                                           *model.ste_harmonics,
-                                                           *model.force_harmonics))]),
-               backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=args.target,
-               steps_per_period=s.steps_per_period,
-               periods=s.transient_periods + s.record_periods,
-               cases_per_speed=plan.n_cases / len(grids["speed"]),  # priced as --estimate counts
-               multiple=_steps_multiple(plan))
+    return advise(mass=mass, k0=k0, damping=damping, speed_rpm=grids["speed"], teeth=model.teeth,
+                  k_harmonics=[(h.amplitude, h.order, h.phase) for h in model.stiffness_harmonics],
+                  highest_order=max([1.0, *(h.order for h in (*model.stiffness_harmonics,
+                                                              *model.ste_harmonics,
+                                                              *model.force_harmonics))]),
+                  backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=target,
+                  steps_per_period=s.steps_per_period,
+                  periods=s.transient_periods + s.record_periods,
+                  cases_per_speed=plan.n_cases / len(grids["speed"]),  # priced as --estimate
+                  multiple=_steps_multiple(plan))
+
+
+def cmd_advise(args: argparse.Namespace) -> int:
+    """Steps per mesh period for a target accuracy, its cost, and stability warnings."""
+
+    name = _shown(args.study)
+    if not (math.isfinite(args.target) and 0.0 < args.target < 1.0):
+        raise StudyError(name, "--target", args.target,
+                         "a relative error between 0 and 1 (e.g. 1e-4)")
+    study, text = load_study(args.study)
+    if getattr(study, "type", None) in ("mesh", "analysis"):
+        raise StudyError(name, "type", study.type,
+                         "a dynamic study (whine, rattle, full): nothing is integrated here")
+    plan = _plan(study, text, args.study)
+    if not isinstance(plan.model, MeshModel):
+        raise StudyError(name, "scene.kind", study.scene.kind,
+                         "a gear scene (whine, rattle, full): the Mathieu scene has no accuracy model")
+    a = _advice(plan, args.target)
     for n, how in ((a.steps_per_period, ""), (a.kink_steps_per_period, " kink-aware")):
         if n is not None and n > MAX_STEPS_PER_PERIOD:  # advice a study cannot take
             a.warnings.append(f"the{how} target needs {n} steps per mesh period, beyond the"

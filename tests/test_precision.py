@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,6 +14,8 @@ from gearsweep.analysis.advise import advise, stability_limit, stability_polynom
 from gearsweep.analysis.reference import reference_exact, reference_ivp
 from gearsweep.kernels.batch import simulate
 from gearsweep.model import Scene
+
+ROOT = Path(__file__).resolve().parents[1]
 
 # ----------------------------------------------------------------------------- references
 
@@ -546,3 +550,34 @@ def test_light_damping_is_warned_about_and_its_error_stays_within_the_warning(me
     assert adv.expected_error < err <= adv.expected_error * zeta_cal / 0.01, (
         err, adv.expected_error)
     assert (err > target) == (method == "rk4")  # RK4 misses the target; RK5 keeps within it
+
+
+@pytest.mark.parametrize(("steps", "noted"), [(16, True), (64, False)])
+def test_validate_notes_a_step_the_advisor_expects_to_miss_by_percents(steps, noted, tmp_path,
+                                                                       capsys):
+    """RK4 at few steps per period was 20-40 % off with nothing said by `validate` or `run`
+    (an outside tester): `validate` now notes an expected error (the advisor's bound, the one
+    `advise` prints as "As written") above ``ACCURACY_NOTE``, and is silent below it (every
+    study of studies/ is)."""
+    from gearsweep.analysis.advise import ACCURACY_NOTE
+    from gearsweep.cli import main
+
+    text = (ROOT / "studies" / "whine_speed_sweep.yaml").read_text(encoding="utf-8")
+    text = text.replace("steps_per_period: 64", f"steps_per_period: {steps}").replace(
+        "start: 1000 rpm", "start: 6000 rpm")
+    path = tmp_path / "w.yaml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["advise", str(path)]) == 0
+    said = re.search(r"As written: \d+ steps per mesh period, expected trajectory error"
+                     r" ([0-9.e+-]+)", " ".join(capsys.readouterr().out.split()))
+    assert (float(said.group(1)) > ACCURACY_NOTE) == noted
+    assert main(["validate", str(path)]) == 0
+    notes = [ln for ln in capsys.readouterr().err.splitlines() if "expected trajectory" in ln]
+    if noted:
+        assert notes == [(f"gearsweep: note: {path}: 16 steps per mesh period: expected"
+                         f" trajectory error up to {float(said.group(1)):.0%} of the amplitude at"
+                         " the lowest speed (rk4; the step advisor's bound, which can"
+                         " overestimate far below resonance: docs/precision.md); `gearsweep"
+                         f" advise {path}` gives the steps a target needs")]
+    else:
+        assert notes == []

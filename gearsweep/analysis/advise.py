@@ -60,6 +60,12 @@ error, RK5 1.9 times, both within the warning's bound zeta_cal / zeta = 19.5; at
 depends on zeta (the linear oscillator's, closed form: within a factor of about 2 from zeta = 0.01 to
 0.2 at r = 0.05), but the harmonics' resonances at r = 1/n are resonances too, so the warning
 does not depend on the speeds."""
+ACCURACY_NOTE = 0.05
+"""``gearsweep validate`` notes a study whose own steps give an expected trajectory error
+(this model's bound, at the lowest speed) above this fraction of the amplitude: RK4 at 8 steps
+per mesh period was 20-40 % off without a word (an outside tester). Every study of studies/ is
+below 1 % (0.71 % the most, studies/whine_speed_sweep.yaml); the bound can overestimate far
+below resonance (docs/precision.md), which the note says."""
 KINK_COST = 1.5
 """Wall time of a kink-aware step over a plain one on a rattle batch: 1.43-1.53 on benchmark B2
 (``scripts/bench_kink.py``, docs/precision.md); fewer crossings per step cost less."""
