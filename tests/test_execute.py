@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import os
+import re
 import signal
 import stat
 import subprocess
@@ -272,7 +273,11 @@ def test_the_cli_resumes_in_the_saved_chunks_and_says_so(rattle_reference, tmp_p
     assert f"2 of {len(chunks)} chunks already saved in" in capsys.readouterr().out
     log.unlink()
     assert main(["run", str(study), "-o", str(out), "--chunk-size", "96", "--yes"]) == 0
-    err = capsys.readouterr().err
+    cap = capsys.readouterr()
+    err = cap.err
+    n = len(chunks)  # the summary says what this run computed (it said all the cases' time)
+    assert cap.out.startswith(f"{out}: 288 cases ({n - 2} of {n} chunks computed now, 2 saved"
+                              " before) in ")
     assert f"resuming in the interrupted run's {len(chunks)} chunks" in err
     assert "the chunks of --chunk-size apply to a fresh run" in err
     assert f"resuming: 2 of {len(chunks)} chunks already saved" in err
@@ -664,6 +669,24 @@ def test_progress_per_chunk_on_stderr_only_when_asked(capsys):
     run_plan(plan, chunk_cases=CHUNK, progress=False)
     captured = capsys.readouterr()
     assert captured.err == "" and captured.out == ""
+
+
+def test_progress_for_a_log_is_plain_lines_not_too_often(capsys, monkeypatch):
+    """Without a terminal (a batch log) the CLI asks for ``progress="log"``: it printed nothing
+    until the end (an engineer new to the tool). One plain line per finished chunk at most every
+    ``LOG_PROGRESS_SECONDS`` (0 here: every chunk but the last), none for a run shorter than
+    it (the default: this run takes well under 30 s)."""
+    plan = plan_of(RATTLE)
+    run_plan(plan, chunk_cases=CHUNK, progress="log")
+    assert capsys.readouterr().err == ""
+    monkeypatch.setattr(execute, "LOG_PROGRESS_SECONDS", 0.0)
+    run_plan(plan, chunk_cases=CHUNK, progress="log")
+    lines = capsys.readouterr().err.splitlines()
+    chunks = -(-288 // CHUNK)
+    assert len(lines) == chunks - 1, lines
+    done = [int(re.match(r"gearsweep: (\d+) of 288 cases \((\d+)%\), [0-9.]+ \w+ so far"
+                         r"(, about [0-9.]+ \w+ left)?$", ln).group(1)) for ln in lines]
+    assert done == sorted(done) and done[-1] < 288 and done[0] > 0
 
 
 def test_result_file_has_ordinary_permissions(tmp_path):

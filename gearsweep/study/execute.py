@@ -814,7 +814,7 @@ def _open_store(plan: Plan, checkpoint: str | Path | None, chunks: list[tuple[in
 
 
 def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
-             backend: InProcess | DaskBackend | None, store: ChunkStore | None, progress: bool,
+             backend: InProcess | DaskBackend | None, store: ChunkStore | None, progress: bool | str,
              sink=None, open_file=None, done: list[tuple[int, int]] = ()
              ) -> tuple[float, float | None, ResultFile | None]:
     """Compute the chunks ``todo``; in background threads while the next one computes, make
@@ -830,7 +830,8 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     by the caller (on an error it is removed here).
     """
     per_lane = plan.cases_per_lane
-    bar = _progress_bar(plan, done_cases) if progress else _NoBar()
+    bar = (_LogLines(plan, done_cases) if progress == "log"
+           else _progress_bar(plan, done_cases) if progress else _NoBar())
     be = backend if backend is not None else InProcess()
     # Two background threads while the next chunk computes: one makes each chunk's arrays and
     # saves its checkpoint file, the other writes the result file, so that the two overlap on a
@@ -982,6 +983,36 @@ def _progress_bar(plan: Plan, done_cases: int):
                 mininterval=0, miniters=1)
 
 
+LOG_PROGRESS_SECONDS = 30.0
+"""Without a terminal (a batch job's log, ``nohup``, a pipe), ``progress="log"`` prints a plain
+line on stderr at most this often [s], the first after this long: a run shorter than it prints
+none (a run in a batch log showed nothing until its end; an engineer new to the tool)."""
+
+
+class _LogLines:
+    """Progress as plain lines for a log (``progress="log"``): cases done, time so far, time
+    left at the rate of this run's chunks, per finished chunk but at most every
+    ``LOG_PROGRESS_SECONDS``."""
+
+    def __init__(self, plan: Plan, done_cases: int) -> None:
+        self.total, self.done, self.first = plan.n_cases, done_cases, done_cases
+        self.t0 = self.last = time.perf_counter()
+
+    def update(self, n: int) -> None:
+        self.done += n
+        now = time.perf_counter()
+        if now - self.last < LOG_PROGRESS_SECONDS or self.done >= self.total:
+            return
+        self.last = now
+        rate = (self.done - self.first) / (now - self.t0)
+        left = f", about {_duration((self.total - self.done) / rate)} left" if rate > 0 else ""
+        print(f"gearsweep: {self.done:,} of {self.total:,} cases ({self.done / self.total:.0%}),"
+              f" {_duration(now - self.t0)} so far{left}", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        pass
+
+
 class _NoBar:
     """No progress bar: without one, tqdm is not imported (20 ms) and starts no thread."""
 
@@ -1008,8 +1039,9 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
         and reused by a re-run (see ``gearsweep.study.checkpoint``). ``None``: no checkpoints.
     chunk_cases : int
         About this many cases per chunk (default: about ``runner.CHUNK_STEPS`` steps per chunk).
-    progress : bool
-        Show a progress bar (tqdm, on stderr) updated per finished chunk.
+    progress : bool or "log"
+        Show a progress bar (tqdm, on stderr) updated per finished chunk; ``"log"``: plain
+        lines instead, at most every ``LOG_PROGRESS_SECONDS`` (for a log, not a terminal).
 
     The Dataset's ``elapsed_seconds`` is the chunk phase: computing the chunks and saving their
     checkpoints (in-process, after ``warm_up`` has loaded the compiled kernel); in-process, its
@@ -1047,7 +1079,7 @@ class Written:
 
 
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
-                chunk_cases: int | None = None, progress: bool = False,
+                chunk_cases: int | None = None, progress: bool | str = False,
                 codec: str | None = None) -> xr.Dataset:
     """Run ``plan`` with checkpoints next to ``output``, writing the netCDF as the chunks finish
     (``stream_to_file``), and return the file opened lazily.
@@ -1077,7 +1109,7 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
 
 def stream_to_file(plan: Plan, output: str | Path, *,
                    backend: InProcess | DaskBackend | None = None, chunk_cases: int | None = None,
-                   progress: bool = False, codec: str | None = None) -> Written:
+                   progress: bool | str = False, codec: str | None = None) -> Written:
     """``run_to_file`` without opening the written file: what was written, counted on the
     way."""
     check_replaceable(output)  # before any computing
