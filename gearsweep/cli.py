@@ -605,6 +605,8 @@ def describe(path: str | Path) -> str:
             else:
                 lines.append(f"    {d:<14} {ds.sizes[d]:>6}")
         lines.append("  variables:")
+        width = max([26, *(len(str(n)) for n in ds.data_vars)])  # long names kept aligned
+        uw = max([6, *(len(str(v.attrs.get("units", ""))) for v in ds.data_vars.values())])
         for name, v in ds.data_vars.items():
             rng = ""
             if v.dtype.kind == "f" and v.size:
@@ -615,7 +617,7 @@ def describe(path: str | Path) -> str:
             elif v.dtype.kind == "b" and v.size:  # a flag: how many cases it marks (a
                 rng = f"  [true for {int(v.values.sum()):,} of {v.size:,}]"  # 0.7 m p_rms of
                 # a step beyond the limit stood beside 'status: 300 x code 0' with no count)
-            lines.append(f"    {name:<26} {v.attrs.get('units', ''):<6} ({', '.join(v.dims)})"
+            lines.append(f"    {name:<{width}} {v.attrs.get('units', ''):<{uw}} ({', '.join(v.dims)})"
                          f" {v.attrs.get('long_name', '')}{rng}")
         if "status" in ds:
             st = ds["status"].values

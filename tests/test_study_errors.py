@@ -1673,3 +1673,21 @@ def test_a_range_given_by_its_step_says_to_give_num():
     # beside a num, a step is a field too many (test_an_unknown_field_is_matched_...)
     assert "did you mean 'stop'?" in _lines(text.replace("{start", "{num: 3, start"))[0]
     parse_study(GOOD, "s.yaml")
+
+
+def test_inspect_keeps_long_variable_names_and_units_in_their_columns(tmp_path, capsys):
+    """'excitation_fit_residual_stiffness' (33 characters) and 'kN mm-1' pushed their lines'
+    units and dimensions out of the columns (an engineer new to the tool)."""
+    import numpy as np
+    import xarray as xr
+
+    path = tmp_path / "f.nc"
+    xr.Dataset({"p_rms": ("speed", np.ones(3), {"units": "um", "long_name": "rms"}),
+                "excitation_fit_residual_stiffness": ((), 1.0, {"units": "kN mm-1",
+                                                              "long_name": "residual"})},
+               coords={"speed": ("speed", [1.0, 2.0, 3.0], {"units": "rpm"})},
+               attrs={"study": "title: f"}).to_netcdf(path)
+    assert main(["inspect", str(path)]) == 0
+    rows = [ln for ln in capsys.readouterr().out.splitlines() if " rms " in ln or " residual " in ln]
+    assert len(rows) == 2 and len({r.index("(") for r in rows}) == 1, rows
+    assert len({r.index(" um ") if " um " in r else r.index(" kN") for r in rows}) == 1, rows
