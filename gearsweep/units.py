@@ -55,8 +55,8 @@ class QuantityKind:
 
 
 KINDS: dict[str, Kind] = {k.name: k for k in (
-    Kind("speed", "rpm", "rpm", "rpm", ("rpm", "RPM", "rev/min", "r/min", "Hz (rev/s)", "kHz",
-                                         "rad/s"), bare=True),
+    Kind("speed", "rpm", "rpm", "rpm", ("rpm", "RPM", "rev/min", "r/min", "U/min", "Hz (rev/s)",
+                                         "kHz", "rad/s"), bare=True),
     Kind("frequency", "Hz", "Hz", "Hz", ("Hz", "kHz")),
     Kind("length", "m", "mm", "mm", ("mm", "m", "um", "µm", "micron", "in")),
     Kind("displacement", "m", "um", "um", ("um", "µm", "micron", "mm", "m")),
@@ -85,7 +85,7 @@ _WORD_ALIASES = {
     "micron": "um", "microns": "um", "Nms": "N*m*s", "Ns": "N*s", "kNs": "kN*s",
 }
 _SPELLINGS = (
-    (re.compile(r"\b(?:rev|r)\s*/\s*min\b"), "rpm"),
+    (re.compile(r"\b(?:rev|r|U)\s*/\s*min\b"), "rpm"),  # U/min: German for rpm
     (re.compile(r"\b(?:rev|r)\s*/\s*s\b"), "Hz"),
     (re.compile("[µμ]"), "u"),
     (re.compile(r"(?<=[A-Za-z])\s*[·.]\s*(?=[A-Za-z])"), "*"),

@@ -15,6 +15,7 @@ from gearsweep.units import KINDS, UnitParseError, display_factor, to_display, t
     ("1000 RPM", "speed", 1000.0),
     ("1000 rev/min", "speed", 1000.0),
     ("1000 r/min", "speed", 1000.0),
+    ("1000 U/min", "speed", 1000.0),  # Umdrehungen pro Minute (was read as enzyme units)
     ("30 N m", "torque", 30.0),
     ("30 N*m", "torque", 30.0),
     ("30 N.m", "torque", 30.0),
