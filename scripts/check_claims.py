@@ -147,7 +147,7 @@ def _namespace(results: Path, cache: dict):
 def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, list[str]]:
     """(claims checked, reasons of the failed ones) of every ``folder/*.yaml`` in the
     per-figure format of docs/claims/README.md (``tol``, ``scale``, names ``js``, ``model``...)."""
-    from gearsweep.analysis import hb, rattle, sensor, stability
+    from gearsweep.analysis import hb, rattle, sensor, spectrum, stability
 
     cache: dict = {}
     docs: dict = {}
@@ -175,7 +175,7 @@ def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, l
                 continue
             try:
                 env = {"np": np, "math": math, "hb": hb, "rattle": rattle, "sensor": sensor,
-                       "stability": stability,
+                       "stability": stability, "spectrum": spectrum,
                        **names(load(str(c["result"])))}
                 got = float(np.asarray(eval(str(c["expr"]),  # noqa: S307
                                             {"__builtins__": SAFE_BUILTINS}, env)))

@@ -4,7 +4,9 @@ Writes figures/fig05_waterfall.png (3-D waterfall: frequency x speed x amplitude
 figures/fig05_campbell.png (order/speed colour map with mesh orders 1-3 and f_n, and the order
 lines), and figures/fig05_order_sources.png: the order lines of the study and of its two variants
 with the STE off (studies/fig05_waterfall_no_ste.yaml) and the stiffness ripple off
-(studies/fig05_waterfall_no_ripple.yaml), which says where each order comes from. Run from the
+(studies/fig05_waterfall_no_ripple.yaml), which says where each order comes from, and
+figures/fig05_phase.png: each order's phase behind the STE's (the study and the ripple-off
+variant), which passes -90 degrees where the line is a resonance. Run from the
 repository root after running the three studies:
 
     python scripts/fig05_waterfall.py [--results results] [--figures figures]
@@ -24,6 +26,7 @@ from gearsweep.plot.whine import (
     natural_frequency,
     plot_campbell,
     plot_order_lines,
+    plot_ste_phase_lags,
     plot_waterfall,
 )
 
@@ -73,7 +76,27 @@ def draw_sources(results: Path, figures: Path) -> None:
     print(save(fig, figures / "fig05_order_sources.png", dpi=150))
 
 
+def draw_phase(results: Path, figures: Path) -> None:
+    """fig05_phase.png: the lag of orders 1-4 behind the STE's, the study and its ripple-off
+    variant: a resonance of the STE's forcing passes -90 degrees at 60 f_n / (48 n)."""
+    study = open_result(results, "fig05_waterfall")
+    flat = open_result(results, "fig05_waterfall_no_ripple")
+    f_n = natural_frequency(study)
+    teeth = int(round(float(study.mesh_frequency[-1] / study.speed[-1] * 60)))
+    fig, ax = plt.subplots(figsize=(8.0, 4.8), layout="constrained")
+    plot_ste_phase_lags(ax, study)
+    plot_ste_phase_lags(ax, flat, linestyle="--", label=", ripple off")
+    for n in (1, 2, 3, 4):
+        ax.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
+    ax.legend(fontsize=7.5, ncols=2)
+    ax.set_title(f"Fig. 5's order lines: phase behind the STE's same order; {damping_text(study)}"
+                 f"\nsolid: the study; dashed: stiffness ripple off; dotted: 60 f_n / ({teeth} n),"
+                 " where a resonance of -m e'' passes -90 deg", fontsize=9)
+    print(save(fig, figures / "fig05_phase.png", dpi=150))
+
+
 if __name__ == "__main__":
     args = parse(__doc__.splitlines()[0])
     draw(open_result(args.results, "fig05_waterfall"), args.figures)
     draw_sources(args.results, args.figures)
+    draw_phase(args.results, args.figures)

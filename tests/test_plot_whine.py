@@ -203,3 +203,38 @@ def test_damping_legend_is_in_n_s_per_mm_from_either_unit_of_the_file():
                                                                   "c = 5.5 N s/mm"]
     si = xr.Dataset(coords={"damping": ("damping", [2500.0], {"units": "N s m-1"})})
     assert value_label(si, "damping", 2500.0) == "c = 2.5 N s/mm"
+
+
+def test_the_phase_lag_behind_the_ste_passes_a_quarter_period_at_the_natural_frequency():
+    """fig05_phase.png: with constant stiffness the order-n line of p answers m w^2 e_n cos(...),
+    in phase with the STE, and lags it by exactly 90 degrees at w = omega_n (the receptance's
+    closed form), whatever the damping; ``ste_phase_lag`` (the STE's phase taken from the
+    result's model) and ``first_crossing`` find that speed to a fraction of the grid step."""
+    from gearsweep.analysis.spectrum import first_crossing
+    from gearsweep.plot.whine import plot_ste_phase_lags, ste_phase_lag
+
+    text = (STUDY.replace("  stiffness_harmonics: [{amplitude: 179 kN/mm}]\n", "")
+            .replace("phase: 180 deg}, {amplitude: 1 um, phase: 180 deg}",
+                     "phase: 40 deg}, {amplitude: 1 um, phase: -100 deg}")
+            .replace("num: 41", "num: 321").replace("  torque: [25 N*m, 50 N*m]\n", "")
+            .replace("  base_radius: 56.38 mm\n", "  mean_force: 800 N\n"))
+    text = text.replace("outputs: [stats, {spectrum: {max_order: 4}}]",
+                        "outputs: [stats, {spectrum: {max_order: 4, phase: true}}]")
+    assert "phase: true" in text
+    ds = run_study(parse_study(text, "t.yaml"), text)
+    f_n = math.sqrt(1073e6 / 0.1527) / (2 * math.pi)
+    for n in (1, 2):
+        lag = ste_phase_lag(ds, n)
+        assert lag.attrs["units"] == "deg" and lag.dims == ("speed",)  # (it kept 'rad')
+        cross = first_crossing(ds.speed.values, lag.values, -90.0)
+        assert cross == pytest.approx(60 * f_n / (48 * n), abs=5.0)  # grid step 50 rpm
+        r = n * 48 * ds.speed.values / 60 / f_n  # and the receptance's phase at every speed
+        zeta = 5500 / (2 * math.sqrt(1073e6 * 0.1527))
+        assert_allclose(lag.values, -np.degrees(np.arctan2(2 * zeta * r, 1 - r**2)), atol=0.05)
+    fig, ax = plt.subplots()
+    plot_ste_phase_lags(ax, ds, orders=(1, 2))
+    assert [ln.get_label() for ln in ax.lines[:2]] == ["order 1", "order 2"]
+    assert "[deg]" in ax.get_ylabel() and "[rpm]" in ax.get_xlabel()
+    plt.close(fig)
+    assert math.isnan(first_crossing([0.0, 1.0], [0.0, 1.0], -1.0))
+    assert first_crossing([0.0, 1.0, 2.0], [0.0, -1.0, -3.0], -2.0) == 1.5

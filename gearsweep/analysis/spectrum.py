@@ -98,6 +98,17 @@ def wrap_phase(theta) -> np.ndarray:
     return np.pi - np.mod(np.pi - np.asarray(theta, dtype=float), 2.0 * np.pi)
 
 
+def first_crossing(x, y, level: float) -> float:
+    """The first ``x`` at which ``y`` passes below ``level`` (linear between the samples), NaN
+    where it never does: e.g. the speed at which a line's phase lag passes a quarter period."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    below = np.flatnonzero(y < level)
+    if below.size == 0 or below[0] == 0:
+        return float("nan")
+    i = int(below[0])
+    return float(x[i - 1] + (x[i] - x[i - 1]) * (level - y[i - 1]) / (y[i] - y[i - 1]))
+
+
 def line_phase(coeff: np.ndarray, periods: int, start_periods: int = 0,
                start_fraction: float = 0.0) -> np.ndarray:
     """Phase of each line of ``line_spectrum``, referred to t = 0 [rad], in (-pi, pi].

@@ -21,6 +21,7 @@ from matplotlib.axes import Axes
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
+from gearsweep.analysis.spectrum import wrap_phase
 from gearsweep.model import model_from_record
 from gearsweep.plot.sweep import settled, value_label
 from gearsweep.units import si_data_vars, si_values
@@ -344,3 +345,44 @@ def plot_order_lines(
     ax.legend(fontsize=8, title=f"{n_bad} of {n_all} cases not settled (masked)" if n_bad else None,
               title_fontsize=8)
     return ax.figure
+
+
+def ste_phase_lag(ds: xr.Dataset, order: float) -> xr.DataArray:
+    """Phase of the order-``order`` line of p behind the same order of the scene's STE [deg],
+    wrapped to (-180, 180]: ``spectrum_phase`` minus the STE harmonic's phase (the resolved
+    model's, ``attrs["model"]``). The STE drives the mesh through -m e'' = m w^2 e, in phase with
+    e, so a line that is a resonance of that forcing lags it by 90 degrees at w = omega_n
+    whatever the damping (exactly so where the stiffness does not vary)."""
+    if "spectrum_phase" not in ds:
+        raise ValueError("ste_phase_lag: the result has no spectrum_phase (outputs: spectrum"
+                         " with phase: true)")
+    _known_orders(ds, [order], "ste_phase_lag")
+    model = model_from_record(json.loads(ds.attrs["model"]))
+    ste = [h for h in model.ste_harmonics if math.isclose(h.order, order)]
+    if len(ste) != 1:
+        raise ValueError(f"ste_phase_lag: the scene has no STE harmonic of order {order:g}")
+    lag = ds["spectrum_phase"].sel(order=float(order)) - ste[0].phase
+    out = np.degrees(xr.apply_ufunc(wrap_phase, lag)).rename("ste_phase_lag")
+    out.attrs = {"units": "deg", "long_name": f"phase of the order-{order:g} line of p behind"
+                 f" the STE's order-{order:g} term, in (-180, 180]"}
+    return out
+
+
+def plot_ste_phase_lags(ax: Axes, ds: xr.Dataset, *, orders: Sequence[int] = (1, 2, 3, 4),
+                        linestyle: str = "-", label: str = "") -> Figure:
+    """The lag of each order line of p behind the STE's same order against speed [deg]
+    (``ste_phase_lag``), with -90 degrees marked: a resonance of the STE's forcing passes it at
+    omega_n. Cases that did not settle are left out."""
+    speed, speed_label = _speed_axis(ds, None)
+    for i, n in enumerate(orders):
+        lag, _, _ = settled(ste_phase_lag(ds, n), ds)
+        ax.plot(speed, lag.values, ls=linestyle, lw=1.1, color=f"C{i}",
+                label=f"order {n}{label}")
+    ax.axhline(-90.0, color="0.3", lw=0.8)
+    ax.set_xlabel(speed_label)
+    ax.set_ylabel("phase of p behind the STE, same order [deg]")
+    ax.set_ylim(-185, 10)
+    ax.set_yticks(range(-180, 1, 30))
+    ax.grid(True, alpha=0.3)
+    return ax.figure
+
