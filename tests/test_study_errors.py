@@ -1670,6 +1670,11 @@ def test_a_range_given_by_its_step_says_to_give_num():
     assert _lines(text.replace("step: 500 rpm", "increment: 0")) == [
         ("s.yaml:10: sweep.speed.increment: 'increment' is not a field of a {start, stop, num}"
          " range: give num, the number of values")]
+    # a step that gives more values than a range takes: their count, not a num of 300 digits
+    assert _lines(text.replace("step: 500 rpm", "step: 1e-300 rpm")) == [
+        ("s.yaml:10: sweep.speed.step: 'step' is not a field of a {start, stop, num} range: give"
+         " num, the number of values (start, stop and step 1e-300 rpm give 1e+303 values, more"
+         " than the 10,000,000 a range takes)")]
     # beside a num, a step is a field too many (test_an_unknown_field_is_matched_...)
     assert "did you mean 'stop'?" in _lines(text.replace("{start", "{num: 3, start"))[0]
     parse_study(GOOD, "s.yaml")

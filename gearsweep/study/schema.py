@@ -329,12 +329,16 @@ SCENE_PARAMETERS = {
 """Which parameters each scene lets a study sweep."""
 
 
+MAX_RANGE_NUM = 10_000_000
+"""The most values of a ``{start, stop, num}`` range."""
+
+
 class Range(Strict):
     """``{start, stop, num}``: ``num`` values from ``start`` to ``stop`` inclusive."""
 
     start: Real | str
     stop: Real | str
-    num: Count = Field(ge=1, le=10_000_000)
+    num: Count = Field(ge=1, le=MAX_RANGE_NUM)
     spacing: Literal["linear", "log"] = "linear"
 
 
@@ -1076,6 +1080,9 @@ def _num_of_steps(raw: Any, parent: list, key: str) -> str:
         return ""
     if not (math.isfinite(n) and n >= 1 and abs(n - round(n)) < 1e-9 * n):
         return ""
+    if n > MAX_RANGE_NUM:  # (1e-300 rpm printed a num of 300 digits, beyond what num takes)
+        return (f" (start, stop and {key} {spec.get(key)} give {n:.3g} values, more than the"
+                f" {MAX_RANGE_NUM:,} a range takes)")
     return f" (start, stop and {key} {spec.get(key)} give num: {round(n)})"
 
 
