@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -11,6 +13,8 @@ from gearsweep.analysis.advise import stability_limit
 from gearsweep.cli import main
 from gearsweep.errors import StudyError
 from gearsweep.study.schema import replaced_by_sweep
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_method_stability_study_measures_the_polynomials_limit():
@@ -315,3 +319,19 @@ def test_pinion_output_of_a_gear_scene_takes_the_pair_s_radius_where_the_drive_o
                                       base_radius_2=r2, inertia_2=3.1567e-4)
     assert_allclose(ds.pinion_spectrum.values, want * 1e6, rtol=1e-12)
 
+
+
+@pytest.mark.parametrize("content", [b"garbage\n", b""])
+def test_a_corrupt_input_result_is_one_line_not_a_traceback(tmp_path, capsys, content):
+    """A rig result that is no netCDF (a truncated copy, a text file): validate notes nothing
+    (it cannot read it), and run ended in xarray's ValueError traceback ('did not find a match
+    in any of xarray's currently installed IO backends'), exit 1. Now one line, exit 2."""
+    (tmp_path / "stability_rig.nc").write_bytes(content)
+    study = tmp_path / "stability_artifact_map.yaml"
+    study.write_text((ROOT / "studies" / "stability_artifact_map.yaml").read_text())
+    assert main(["run", str(study), "-o", str(tmp_path / "map.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [(f"gearsweep: error: {tmp_path / 'stability_rig.nc'}: not a readable netCDF"
+                    " result (ValueError); analysis 'artifact_map' reads it: run"
+                    " studies/stability_rig.yaml again")]
+    assert not (tmp_path / "map.nc").exists()

@@ -634,7 +634,12 @@ def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
         if not path.exists():
             raise ResultError(f"{path}: no such result; analysis {study.analysis.kind!r} reads"
                               f" it: run studies/{name}.yaml first")
-        ds = xr.load_dataset(path)
+        try:
+            ds = xr.load_dataset(path)
+        except (OSError, ValueError) as exc:  # (a file that is no netCDF: xarray's traceback)
+            raise ResultError(f"{path}: not a readable netCDF result ({type(exc).__name__});"
+                              f" analysis {study.analysis.kind!r} reads it: run"
+                              f" studies/{name}.yaml again") from None
         inputs[name] = ds
         prov[f"input_{name}"] = ds.attrs.get("study_sha256") or hashlib.sha256(
             ds.attrs.get("study", "").encode()).hexdigest()
