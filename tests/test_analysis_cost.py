@@ -163,3 +163,45 @@ def test_the_estimate_is_not_below_the_run_here(name):
     assert seconds <= 1.5 * est.seconds, (name, seconds, est.line())
     assert est.seconds <= 10 * max(seconds, 0.1), (name, seconds, est.line())
     assert math.isfinite(est.memory_bytes)
+
+
+def _jump_map(tmp_path) -> Path:
+    path = tmp_path / "rattle_map_jumps.yaml"
+    path.write_text((ROOT / "studies" / "rattle_map_jumps.yaml").read_text(encoding="utf-8"),
+                    encoding="utf-8")
+    return path
+
+
+def test_the_results_an_analysis_reads_count_in_its_memory_as_loaded(tmp_path):
+    """An analysis holds its inputs whole (``xr.load_dataset``): the estimate adds what xarray's
+    loaded Dataset holds (its ``nbytes``, strings aside), counted from the file's header."""
+    import numpy as np
+    import xarray as xr
+
+    ds = xr.Dataset({"p": (("direction", "speed", "mass"), np.zeros((2, 300, 7))),
+                     "status": (("direction", "speed", "mass"), np.zeros((2, 300, 7), np.int8)),
+                     "rattles": (("mass",), np.zeros(7, bool))},
+                    coords={"speed": np.arange(300.0), "mass": np.arange(7, dtype=np.float32)})
+    ds.to_netcdf(tmp_path / "rattle_map.nc")
+    st = parse_study(_jump_map(tmp_path).read_text(encoding="utf-8"), "j.yaml")
+    assert ac.input_bytes(st, tmp_path) == xr.load_dataset(tmp_path / "rattle_map.nc").nbytes
+    assert ac.estimate(st, tmp_path).memory_bytes == pytest.approx(
+        ac.estimate(st).memory_bytes + ds.nbytes, rel=1e-12)
+    assert ac.input_bytes(st, tmp_path / "elsewhere") == 0
+
+
+def test_a_jump_map_of_a_result_larger_than_memory_is_refused_before_loading_it(tmp_path, capsys):
+    """The rattle map it reads holds 3.2 GB (a sweep of 200,000 cases x 2,000 speeds, unwritten
+    chunks of a compressed variable here: the file is small): it was priced at 300 MB and
+    xr.load_dataset would have read it all."""
+    with netCDF4.Dataset(tmp_path / "rattle_map.nc", "w") as nc:
+        nc.createDimension("speed", 2000)
+        nc.createDimension("case", 200_000)
+        nc.createVariable("p_rms", "f8", ("speed", "case"), zlib=True)
+    assert (tmp_path / "rattle_map.nc").stat().st_size < 1e6
+    study = _jump_map(tmp_path)
+    assert main(["run", str(study), "-o", str(tmp_path / "jumps.nc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "refused (memory > 2 GB): analysis 'jump_map'" in err[0], err
+    assert "peak memory about 3.5 GB" in err[0]
+    assert not (tmp_path / "jumps.nc").exists()

@@ -26,15 +26,19 @@ What is counted, per kind:
 * ``rattle_balance``: the harmonic-balance branch, growing with its harmonics and time samples
   (1.6 s at its study's 25 and 1,024; 66.5 s at the schema's most, 200 and 65,536).
 * ``rattle_budget``, ``jump_map``: a fixed time (they read results and integrate nothing).
+
+Memory, every kind: the results it reads are loaded whole, counted from their files' headers
+(``input_bytes``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import netCDF4
+import numpy as np
 
 from gearsweep.analysis import precision as pr
 from gearsweep.analysis.advise import KINK_COST
@@ -199,16 +203,47 @@ def _work_precision(o: WorkPrecision, threads: int) -> AnalysisEstimate:
         (f"{runs} fixed-step runs of {o.copies:,} cases x {o.repeat}", fixed)))
 
 
+def input_bytes(study: AnalysisStudy, results: Path | None) -> float:
+    """The bytes of the results an analysis reads, as it holds them: each is loaded whole
+    (``analyses._open_inputs``: ``xr.load_dataset``), every variable at its shape and type (a
+    jump map of a 2 GB rattle map was priced at 300 MB); from the files' headers, nothing
+    read. One not there or not readable counts 0 (the analysis says what is wrong with it)."""
+    total = 0.0
+    for name in getattr(study.analysis, "inputs", lambda: [])() if results is not None else []:
+        try:
+            with netCDF4.Dataset(Path(results) / f"{name}.nc") as nc:
+                total += sum(math.prod(v.shape) * (v.dtype.itemsize if isinstance(
+                    v.dtype, np.dtype) else 8) for v in _variables(nc))
+        except OSError:
+            pass
+    return total
+
+
+def _variables(group):
+    """Every variable of a netCDF group and its subgroups."""
+    yield from group.variables.values()
+    for sub in group.groups.values():
+        yield from _variables(sub)
+
+
 def estimate(study: AnalysisStudy, results: str | Path | None = None,
              threads: int | None = None) -> AnalysisEstimate:
     """The predicted time and memory of an analysis study; ``results``: the folder its inputs
-    are read from (an artifact map's grid is its rig result's)."""
+    are read from (an artifact map's grid is its rig result's; the results it reads are held
+    in memory whole: ``input_bytes``)."""
+    est = _estimate(study, None if results is None else Path(results), threads)
+    held = input_bytes(study, None if results is None else Path(results))
+    return replace(est, memory_bytes=est.memory_bytes + held) if held else est
+
+
+def _estimate(study: AnalysisStudy, results: Path | None,
+              threads: int | None) -> AnalysisEstimate:
     o = study.analysis
     threads = threads or kernel_threads()
     if isinstance(o, MethodStability):
         return _method_stability(o, threads)
     if isinstance(o, ArtifactMap):
-        return _artifact_map(o, None if results is None else Path(results))
+        return _artifact_map(o, results)
     if isinstance(o, WorkPrecision):
         return _work_precision(o, threads)
     if isinstance(o, RattleBalance):
