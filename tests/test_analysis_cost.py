@@ -205,3 +205,31 @@ def test_a_jump_map_of_a_result_larger_than_memory_is_refused_before_loading_it(
     assert len(err) == 1 and "refused (memory > 2 GB): analysis 'jump_map'" in err[0], err
     assert "peak memory about 3.5 GB" in err[0]
     assert not (tmp_path / "jumps.nc").exists()
+
+
+@pytest.mark.parametrize(("field", "value"), [("whine_speed", "1e300 rpm"),
+                                              ("rattle_speed", "2e6 rpm")])
+def test_a_work_precision_speed_beyond_a_scenes_is_refused_in_one_line(tmp_path, capsys, field,
+                                                                         value):
+    """whine_speed 1e300 rpm: validate, pricing the scene, ended in an OverflowError traceback
+    (exit 1); the speeds take the bound of a scene's speed, MAX_SPEED."""
+    data = yaml.safe_load((ROOT / "studies" / "work_precision.yaml").read_text(encoding="utf-8"))
+    data["analysis"][field] = value
+    (tmp_path / "wp.yaml").write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    assert main(["validate", str(tmp_path / "wp.yaml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith(
+        f"analysis.{field}: '{value}' -- a speed of at most 1e+06 rpm (ten times the fastest"
+        " gears'; beyond it the whole run lasts nanoseconds and p cannot move in it)"), err
+
+
+def test_a_study_of_ages_is_said_in_a_few_digits(tmp_path, capsys):
+    """whine_speed 1e-300 rpm: its reference solution was priced as a number of 300 digits
+    followed by ' h' in the refusal line."""
+    _, text = _study("work_precision.yaml", whine_speed="1e-300 rpm")
+    (tmp_path / "wp.yaml").write_text(text, encoding="utf-8")
+    assert main(["validate", str(tmp_path / "wp.yaml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "refused (time > 10.0 min)" in err[0]
+    assert "2 reference solutions 1.92e+300 h" in err[0]
+    assert max(len(w) for w in err[0].split("refused")[1].split()) < 20, err

@@ -20,7 +20,7 @@ from __future__ import annotations
 import re
 from typing import Annotated, Literal
 
-from pydantic import BeforeValidator, Field, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
 from gearsweep.kernels.tableaux import KERNEL_METHODS
 from gearsweep.study.quantities import (
@@ -30,9 +30,12 @@ from gearsweep.study.quantities import (
     Speed,
     Strict,
     WholeStudy,
+    speed_bound,
 )
 
 Method = Literal[KERNEL_METHODS]
+BoundSpeed = Annotated[Speed, AfterValidator(speed_bound)]
+"""A driving-gear speed [rpm], at most ``MAX_SPEED`` as in a scene."""
 
 
 class MethodStability(Strict):
@@ -78,8 +81,9 @@ class WorkPrecision(Strict):
     kind: Literal["work_precision"]
     scenes: list[Literal["whine", "rattle"]] = Field(
         default_factory=lambda: ["whine", "rattle"], min_length=1)
-    whine_speed: Speed = Field(6000.0, gt=0, description="speed of the whine scene [rpm]")
-    rattle_speed: Speed = Field(9000.0, gt=0, description="speed of the rattle scene [rpm]")
+    # at most MAX_SPEED as a scene's speed (1e300 rpm: an OverflowError traceback in validate)
+    whine_speed: BoundSpeed = Field(6000.0, gt=0, description="speed of the whine scene [rpm]")
+    rattle_speed: BoundSpeed = Field(9000.0, gt=0, description="speed of the rattle scene [rpm]")
     methods: list[Literal["rk4", "rk5", "rk4-kink", "rk5-kink"]] = Field(
         default_factory=lambda: ["rk4", "rk5", "rk4-kink", "rk5-kink"], min_length=1)
     steps_per_period: list[Annotated[Count, Field(ge=8, le=MAX_STEPS_PER_PERIOD,
@@ -152,7 +156,7 @@ class RattleBudget(Strict):
     names: list[str] = Field(min_length=1, description="a short name per scene (legends)")
     mesh: ResultName = Field(description="the pair's mesh study (its ste_harmonic gives e_1)")
     points: Count = Field(200, ge=2, le=100_000, description="speeds of the budget lines")
-    at_speeds: list[Speed] = Field(default_factory=lambda: [7500.0, 8000.0],
+    at_speeds: list[BoundSpeed] = Field(default_factory=lambda: [7500.0, 8000.0],
                                    description="speeds where m w^2 e_1 is reported [rpm]")
 
     @model_validator(mode="after")

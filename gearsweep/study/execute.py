@@ -254,7 +254,9 @@ def _duration(s: float) -> str:
         return f"{s:.1f} s"
     if s < 5400:
         return f"{s / 60:.1f} min"
-    return f"{s / 3600:.1f} h"
+    if s < 3.6e9:
+        return f"{s / 3600:.1f} h"
+    return f"{s / 3600:.3g} h"  # (an analysis at 1e-300 rpm: 'h' after 300 digits)
 
 
 def _size(b: float) -> str:

@@ -44,6 +44,21 @@ def _whole(value: Any) -> Any:
     return value
 
 
+MAX_SPEED = 1e6
+"""The highest driving-gear speed a study takes [rpm]: ten times the fastest gears' 1e5 rpm. At
+1e10 rpm and beyond the whole run lasts nanoseconds and p cannot move in it (at 1e160 rpm not a
+bit of it: every statistic 0, taken as settled)."""
+
+SPEED_BEYOND = (f"a speed of at most {MAX_SPEED:.0e} rpm (ten times the fastest gears'; beyond it"
+                " the whole run lasts nanoseconds and p cannot move in it)")
+
+
+def speed_bound(v: float) -> float:
+    if v > MAX_SPEED:
+        raise ValueError(SPEED_BEYOND)
+    return v
+
+
 MAX_STE = 1e-3
 """The largest static transmission error a study takes, typed as a harmonic or sampled in an
 excitation file [m]: an STE is micrometres to tens of micrometres (a tip relief, at most 0.1

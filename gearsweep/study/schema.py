@@ -73,8 +73,10 @@ from gearsweep.study.gearscene import (
 from gearsweep.study.measured import ExcitationSpec, excitation_problems
 from gearsweep.study.outputs import OUTPUTS, configure
 from gearsweep.study.quantities import (
+    MAX_SPEED,
     MAX_STE,
     MAX_STEPS_PER_PERIOD,
+    SPEED_BEYOND,
     STE_BEYOND,
     Angle,
     Count,
@@ -93,6 +95,7 @@ from gearsweep.study.quantities import (
     Torque,
     Velocity,
     WholeStudy,
+    speed_bound,
 )
 from gearsweep.units import (
     COORDINATE_DIGITS,
@@ -207,21 +210,6 @@ def scene_presence(has, drive_has) -> str:
     return "; ".join(problems)
 
 
-MAX_SPEED = 1e6
-"""The highest driving-gear speed a study takes [rpm]: ten times the fastest gears' 1e5 rpm. At
-1e10 rpm and beyond the whole run lasts nanoseconds and p cannot move in it (at 1e160 rpm not a
-bit of it: every statistic 0, taken as settled)."""
-
-SPEED_BEYOND = (f"a speed of at most {MAX_SPEED:.0e} rpm (ten times the fastest gears'; beyond it"
-                " the whole run lasts nanoseconds and p cannot move in it)")
-
-
-def _speed_bound(v: float) -> float:
-    if v > MAX_SPEED:
-        raise ValueError(SPEED_BEYOND)
-    return v
-
-
 class _Driven(Strict):
     """Fields shared by the scenes of the gear drive (not the dimensionless Mathieu scene)."""
 
@@ -237,7 +225,7 @@ class _Driven(Strict):
     excitation: ExcitationSpec | None = Field(None, description="STE and/or stiffness samples"
                                               " from a file, fitted (study/measured.py)")
     damping: Damping = Field(0.0, ge=0, description="mesh viscous damping c")
-    speed: Annotated[Speed, AfterValidator(_speed_bound)] | None = Field(
+    speed: Annotated[Speed, AfterValidator(speed_bound)] | None = Field(
         None, gt=0, description="driving-gear speed if not swept")
     mean_force: Force | None = Field(None, description="mean mesh force F_m")
     torque: Torque | None = Field(None, description="mean driving torque T1m")
