@@ -335,3 +335,25 @@ def test_a_corrupt_input_result_is_one_line_not_a_traceback(tmp_path, capsys, co
                     " result (ValueError); analysis 'artifact_map' reads it: run"
                     " studies/stability_rig.yaml again")]
     assert not (tmp_path / "map.nc").exists()
+
+
+def test_rattle_balance_needs_four_samples_per_harmonic(tmp_path, capsys):
+    """n_time 64 with 25 harmonics: validate said ok, and run ended in AFTBalance's ValueError
+    traceback ('n_time must be at least 4 * harmonics'). Now validate says it at the field."""
+    text = (ROOT / "studies" / "fig08_rattle_balance.yaml").read_text(encoding="utf-8")
+    assert "  n_time: 1024\n" in text and "  harmonics: 25\n" in text
+    study = tmp_path / "bal.yaml"
+    study.write_text(text.replace("  n_time: 1024\n", "  n_time: 99\n"), encoding="utf-8")
+    assert main(["validate", str(study)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith(
+        "analysis.n_time: 99 -- at least 4 samples per harmonic: 100 for the 25 harmonics (or at"
+        " most 24 harmonics)"), err
+    study.write_text(text.replace("  n_time: 1024\n", "  n_time: 100\n"), encoding="utf-8")
+    assert main(["validate", str(study)]) == 0  # the least AFTBalance takes
+    from gearsweep.analysis.hb import AFT_SAMPLES_PER_HARMONIC, AFTBalance, MeshSystem
+
+    assert AFT_SAMPLES_PER_HARMONIC == 4
+    with pytest.raises(ValueError, match="at least 4"):
+        AFTBalance(MeshSystem(mass=1.0, stiffness=1.0, damping=0.1, half_gap=None), harmonics=25,
+                   n_time=99)

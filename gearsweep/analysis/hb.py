@@ -382,6 +382,11 @@ class HBBranch:
         return 0.5 * (self.p_max - self.p_min)
 
 
+AFT_SAMPLES_PER_HARMONIC = 4
+"""``AFTBalance`` takes at least this many time samples per harmonic (``n_time >= 4 H``): its
+FFT projection then equals the matrix product exactly (``_weighted``), up to round-off."""
+
+
 class AFTBalance:
     """Residual and Jacobian of multi-harmonic balance by alternating frequency-time.
 
@@ -399,8 +404,8 @@ class AFTBalance:
     """
 
     def __init__(self, system: MeshSystem, harmonics: int = 20, n_time: int = 1024) -> None:
-        if n_time < 4 * harmonics:
-            raise ValueError("n_time must be at least 4 * harmonics")
+        if n_time < AFT_SAMPLES_PER_HARMONIC * harmonics:
+            raise ValueError(f"n_time must be at least {AFT_SAMPLES_PER_HARMONIC} * harmonics")
         self.system = system
         self.H = int(harmonics)
         self.N = int(n_time)
