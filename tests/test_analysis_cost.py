@@ -233,3 +233,21 @@ def test_a_study_of_ages_is_said_in_a_few_digits(tmp_path, capsys):
     assert len(err) == 1 and "refused (time > 10.0 min)" in err[0]
     assert "2 reference solutions 1.92e+300 h" in err[0]
     assert max(len(w) for w in err[0].split("refused")[1].split()) < 20, err
+
+
+def test_the_harmonic_balance_holds_its_matrices_in_the_memory_estimate():
+    """At the schema's most (200 harmonics, 65,536 samples) AFTBalance keeps E and P, 420 MB
+    (620 MB resident at its peak): the estimate said the interpreter's 300 MB alone."""
+    from gearsweep.analysis.hb import AFTBalance, MeshSystem
+
+    for harmonics, n_time in ((200, 65536), (25, 1024)):
+        st, _ = _study("fig08_rattle_balance.yaml", harmonics=harmonics, n_time=n_time)
+        if n_time > 4096:  # its matrices' bytes without making them
+            held = 2 * (2 * harmonics + 1) * n_time * 8
+        else:
+            bal = AFTBalance(MeshSystem(mass=0.1, stiffness=1e8, damping=50.0, half_gap=2e-6),
+                             harmonics=harmonics, n_time=n_time)
+            held = bal.E.nbytes + bal.P.nbytes
+            assert held == 2 * (2 * harmonics + 1) * n_time * 8
+        est = ac.estimate(st).memory_bytes - ac.BASELINE_MEMORY
+        assert held <= est <= 2 * held, (harmonics, n_time, est, held)

@@ -24,7 +24,8 @@ What is counted, per kind:
   every step count on ``copies`` cases, ``repeat`` times, at ``STATED_RATE`` (``KINK_COST`` for
   the kink-aware step). Memory: the kernel's recorded signal of ``copies`` cases.
 * ``rattle_balance``: the harmonic-balance branch, growing with its harmonics and time samples
-  (1.6 s at its study's 25 and 1,024; 66.5 s at the schema's most, 200 and 65,536).
+  (1.6 s at its study's 25 and 1,024; 66.5 s at the schema's most, 200 and 65,536); memory: its
+  matrices of harmonics x samples (about 1 GB at the most).
 * ``rattle_budget``, ``jump_map``: a fixed time (they read results and integrate nothing).
 
 Memory, every kind: the results it reads are loaded whole, counted from their files' headers
@@ -97,6 +98,10 @@ BALANCE_HARMONIC_SECONDS = 0.031
 """... per harmonic of the AFT branch [s] (12-100 harmonics at 512-4,096 samples: 0.99-3.99 s) ..."""
 BALANCE_SAMPLE_SECONDS = 4.5e-6
 """... and per harmonic and time sample [s] (200 harmonics, 65,536 samples: 66.5 s)."""
+BALANCE_SAMPLE_BYTES = 56
+"""... and its memory per harmonic and time sample [bytes]: ``AFTBalance``'s matrices E and P
+(2H + 1 by n_time each) and their making (cos, sin); 47-55 B measured (peak resident memory at
+200 x 16,384, 50 x 65,536 and 200 x 65,536: 620 MB there)."""
 FIXED_ANALYSIS_SECONDS = {"rattle_budget": 0.5, "jump_map": 0.5}
 """The kinds that only read results [s] (measured: the Fig. 8 budget 0.03-0.05 s, the rattle map's
 jumps 0.25 s)."""
@@ -249,7 +254,8 @@ def _estimate(study: AnalysisStudy, results: Path | None,
     if isinstance(o, RattleBalance):
         s = BALANCE_SECONDS + o.harmonics * (BALANCE_HARMONIC_SECONDS
                                              + BALANCE_SAMPLE_SECONDS * o.n_time)
-        return AnalysisEstimate(o.kind, s, BASELINE_MEMORY, ((
+        memory = BASELINE_MEMORY + BALANCE_SAMPLE_BYTES * o.harmonics * o.n_time
+        return AnalysisEstimate(o.kind, s, memory, ((
             f"a harmonic-balance branch of {o.harmonics} harmonics, {o.n_time} samples", s),))
     return AnalysisEstimate(o.kind, FIXED_ANALYSIS_SECONDS[o.kind], BASELINE_MEMORY)
 
