@@ -64,7 +64,8 @@ ACCURACY_NOTE = 0.05
 """``gearsweep validate`` notes a study whose own steps give an expected trajectory error
 (this model's bound, at the lowest speed) above this fraction of the amplitude: RK4 at 8 steps
 per mesh period was 20-40 % off without a word (an outside tester). Every study of studies/ is
-below 1 % (0.71 % the most, studies/whine_speed_sweep.yaml); the bound can overestimate far
+below 1 % (0.75 % the most, studies/rattle_table1_pair.yaml; tests/test_precision.py); the
+bound can overestimate far
 below resonance (docs/precision.md), which the note says."""
 KINK_COST = 1.5
 """Wall time of a kink-aware step over a plain one on a rattle batch: 1.43-1.53 on benchmark B2
