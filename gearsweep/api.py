@@ -288,6 +288,8 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     if output is not None:
         output = output_path(_user_path(output))
     chunk_cases = _chunk_cases(chunk_cases)
+    if not isinstance(yes, bool):  # yes="no" went ahead (a mesh or analysis study: unchecked)
+        raise StudyError("<study>", "yes", yes, "True or False")
     st, text, name = _load(study)
     if output is not None and (read := reads_output(st, output)) is not None:
         raise ResultError(f"{output}: not a place for the result: it is {read.name}, which the"
@@ -310,8 +312,6 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
             ds = run_unchunked(st, text, Path(output).parent)
             write_netcdf(ds, output)
         return ds
-    if not isinstance(yes, bool):  # yes="no" went ahead
-        raise StudyError("<study>", "yes", yes, "True or False")
     plan = make_plan(st, text, name)
     if not yes:
         _within_limits(plan, chunk_cases, output is None, name if output is None else str(output))

@@ -251,3 +251,14 @@ def test_the_harmonic_balance_holds_its_matrices_in_the_memory_estimate():
             assert held == 2 * (2 * harmonics + 1) * n_time * 8
         est = ac.estimate(st).memory_bytes - ac.BASELINE_MEMORY
         assert held <= est <= 2 * held, (harmonics, n_time, est, held)
+
+
+def test_the_api_takes_yes_as_a_bool_for_an_analysis_study_too(tmp_path):
+    """``yes="no"`` is truthy: a mesh or analysis study skipped its limit check and ran (the
+    check of ``yes`` came after their branch); here the analysis went on to read its input."""
+    from gearsweep.errors import StudyError
+
+    st = (ROOT / "studies" / "fig08_rattle_balance.yaml").read_text(encoding="utf-8")
+    with pytest.raises(StudyError, match=r"yes: 'no' -- True or False"):
+        gearsweep.run(st, output=tmp_path / "b.nc", yes="no")
+    assert not list(tmp_path.iterdir())
