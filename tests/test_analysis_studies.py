@@ -322,7 +322,8 @@ def test_pinion_output_of_a_gear_scene_takes_the_pair_s_radius_where_the_drive_o
 
 
 @pytest.mark.parametrize("content", [b"garbage\n", b""])
-def test_a_corrupt_input_result_is_one_line_not_a_traceback(tmp_path, capsys, content):
+def test_a_corrupt_input_result_is_one_line_not_a_traceback(tmp_path, capsys, monkeypatch,
+                                                              content):
     """A rig result that is no netCDF (a truncated copy, a text file): validate notes nothing
     (it cannot read it), and run ended in xarray's ValueError traceback ('did not find a match
     in any of xarray's currently installed IO backends'), exit 1. Now one line, exit 2."""
@@ -335,6 +336,14 @@ def test_a_corrupt_input_result_is_one_line_not_a_traceback(tmp_path, capsys, co
                     " result (ValueError); analysis 'artifact_map' reads it: run"
                     " studies/stability_rig.yaml again")]
     assert not (tmp_path / "map.nc").exists()
+    # validate said ok of it: now it says what run would (its inputs read from results/ here)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "stability_rig.nc").write_bytes(content)
+    assert main(["validate", str(study)]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [(
+        f"gearsweep: error: {Path('results') / 'stability_rig.nc'}: not a readable netCDF result"
+        " (ValueError); analysis 'artifact_map' reads it: run studies/stability_rig.yaml again")]
 
 
 def test_rattle_balance_needs_four_samples_per_harmonic(tmp_path, capsys):

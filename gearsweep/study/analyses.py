@@ -637,9 +637,7 @@ def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
         try:
             ds = xr.load_dataset(path)
         except (OSError, ValueError) as exc:  # (a file that is no netCDF: xarray's traceback)
-            raise ResultError(f"{path}: not a readable netCDF result ({type(exc).__name__});"
-                              f" analysis {study.analysis.kind!r} reads it: run"
-                              f" studies/{name}.yaml again") from None
+            raise _unreadable(study, path, name, exc) from None
         inputs[name] = ds
         prov[f"input_{name}"] = ds.attrs.get("study_sha256") or hashlib.sha256(
             ds.attrs.get("study", "").encode()).hexdigest()
@@ -650,18 +648,28 @@ INPUT_CHECKS = {"jump_map": _jump_map_input, "rattle_balance": _rattle_balance_i
 """Per analysis kind, the check of what it reads (``check_inputs``; the analysis runs it too)."""
 
 
+def _unreadable(study: AnalysisStudy, path: Path, name: str, exc: Exception) -> ResultError:
+    return ResultError(f"{path}: not a readable netCDF result ({type(exc).__name__}); analysis"
+                       f" {study.analysis.kind!r} reads it: run studies/{name}.yaml again")
+
+
 def check_inputs(study: AnalysisStudy, results: str | Path) -> None:
     """Check the analysis's inputs that are in the folder ``results`` (``validate``: those not
-    there yet are only noted); ``StudyError`` as the analysis itself would raise."""
+    there yet are only noted); ``StudyError`` as the analysis itself would raise, and
+    ``ResultError`` for one that is there but not a readable netCDF file (as ``run`` refuses
+    it: validate said ok of it)."""
     check = INPUT_CHECKS.get(study.analysis.kind)
-    for name in study.analysis.inputs() if check and hasattr(study.analysis, "inputs") else []:
+    for name in study.analysis.inputs() if hasattr(study.analysis, "inputs") else []:
         path = Path(results) / f"{name}.nc"
+        if not path.exists():
+            continue  # (validate notes it)
         try:
             ds = xr.open_dataset(path)
-        except (OSError, ValueError):  # missing or unreadable: run says so (validate notes
-            continue  # a missing one)
+        except (OSError, ValueError) as exc:
+            raise _unreadable(study, path, name, exc) from None
         with ds:
-            check(study.analysis, ds)
+            if check:
+                check(study.analysis, ds)
 
 
 def run_analysis_study(study: AnalysisStudy, text: str = "", results: str | Path = "results"):
