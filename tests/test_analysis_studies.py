@@ -239,7 +239,9 @@ def test_validate_notes_a_result_the_analysis_reads_that_is_not_there(tmp_path, 
                        " yet: run studies/fig08_rattle.yaml first (or run it with -o in the"
                        " folder that holds that result)\n")
     (tmp_path / "results").mkdir()
-    (tmp_path / "results" / "fig08_rattle.nc").write_bytes(b"")
+    import netCDF4  # a readable netCDF file (an empty one is refused as run refuses it)
+
+    netCDF4.Dataset(tmp_path / "results" / "fig08_rattle.nc", "w").close()
     assert main(["validate", str(study)]) == 0
     assert capsys.readouterr().err == ""
 
@@ -346,19 +348,24 @@ def test_a_corrupt_input_result_is_one_line_not_a_traceback(tmp_path, capsys, mo
         " (ValueError); analysis 'artifact_map' reads it: run studies/stability_rig.yaml again")]
 
 
-def test_rattle_balance_needs_four_samples_per_harmonic(tmp_path, capsys):
-    """n_time 64 with 25 harmonics: validate said ok, and run ended in AFTBalance's ValueError
-    traceback ('n_time must be at least 4 * harmonics'). Now validate says it at the field."""
-    text = (ROOT / "studies" / "fig08_rattle_balance.yaml").read_text(encoding="utf-8")
-    assert "  n_time: 1024\n" in text and "  harmonics: 25\n" in text
-    study = tmp_path / "bal.yaml"
-    study.write_text(text.replace("  n_time: 1024\n", "  n_time: 99\n"), encoding="utf-8")
-    assert main(["validate", str(study)]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].endswith(
-        "analysis.n_time: 99 -- at least 4 samples per harmonic: 100 for the 25 harmonics (or at"
-        " most 24 harmonics)"), err
-    study.write_text(text.replace("  n_time: 1024\n", "  n_time: 100\n"), encoding="utf-8")
+def test_rattle_balance_needs_four_samples_per_harmonic(tmp_path, capsys, monkeypatch):
+    """n_time 99 with 25 harmonics: validate said ok, and run ended in AFTBalance's ValueError
+    traceback ('n_time must be at least 4 * harmonics'). Now both say it at the field."""
+    small = {**RATTLE, "sweep": {"speed": {"start": "7000 rpm", "stop": "8600 rpm", "num": 3}},
+             "solver": {**RATTLE["solver"], "transient_periods": 2}}
+    monkeypatch.chdir(tmp_path)  # validate and run read results/ (run's default output folder)
+    gearsweep.run(small, output=tmp_path / "results" / "small.nc")
+    study = tmp_path / "b.yaml"
+    text = ("type: analysis\ntitle: b\nanalysis:\n  kind: rattle_balance\n  result: small\n"
+            "  harmonics: 25\n  n_time: 99\n")
+    study.write_text(text, encoding="utf-8")
+    for argv in (["validate", str(study)], ["run", str(study)]):
+        assert main(argv) == 2
+        assert capsys.readouterr().err.splitlines() == [
+            (f"gearsweep: error: {study}:7: analysis.n_time: 99 -- at least 4 samples per"
+            " harmonic: 100 for the 25 harmonics (or at most 24 harmonics)")]
+    assert not (tmp_path / "results" / "b.nc").exists()
+    study.write_text(text.replace("n_time: 99", "n_time: 100"), encoding="utf-8")
     assert main(["validate", str(study)]) == 0  # the least AFTBalance takes
     from gearsweep.analysis.hb import AFT_SAMPLES_PER_HARMONIC, AFTBalance, MeshSystem
 

@@ -279,9 +279,15 @@ EQ15_SPEEDS = 100_000
 
 
 def _rattle_balance_input(o: RattleBalance, ds: xr.Dataset) -> None:
-    """``StudyError`` (field ``analysis.eq15_step``) when the step gives more than
+    """``StudyError`` (field ``analysis.n_time``) below ``hb.AFT_SAMPLES_PER_HARMONIC`` samples
+    per harmonic, and (field ``analysis.eq15_step``) when the step gives more than
     ``EQ15_SPEEDS`` speeds over the result's: 1e-300 rpm ended in numpy's 'Maximum allowed size
     exceeded', 1e-6 rpm in tens of GiB."""
+    k = hb.AFT_SAMPLES_PER_HARMONIC  # (AFTBalance's ValueError was a traceback after validate)
+    if o.n_time < k * o.harmonics:
+        raise StudyError("<study>", "analysis.n_time", o.n_time, (
+            f"at least {k} samples per harmonic: {k * o.harmonics} for the {o.harmonics}"
+            f" harmonics (or at most {o.n_time // k} harmonics)"))
     speed = ds["speed"].values if "speed" in ds.coords else np.zeros(0)
     if speed.size < 2:
         return  # (the analysis says what it needs of the result)

@@ -20,14 +20,7 @@ from __future__ import annotations
 import re
 from typing import Annotated, Literal
 
-from pydantic import (
-    AfterValidator,
-    BeforeValidator,
-    Field,
-    ValidationInfo,
-    field_validator,
-    model_validator,
-)
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
 from gearsweep.kernels.tableaux import KERNEL_METHODS
 from gearsweep.study.quantities import (
@@ -146,17 +139,6 @@ class RattleBalance(Strict):
     graphical: tuple[Real, Real, Real] = Field(
         (0.7, 0.5, 1.25), description="the three lines of Fig. 9: A at this x w_t, B at this x"
         " (w_t + w_n), C at this x w_n (w_t: the gap root appears, w_n: the linear resonance)")
-
-    @field_validator("n_time")
-    @classmethod
-    def _samples(cls, n_time: int, info: ValidationInfo) -> int:
-        from gearsweep.analysis.hb import AFT_SAMPLES_PER_HARMONIC as k  # (not at the CLI's start)
-
-        harmonics = info.data.get("harmonics")
-        if harmonics and n_time < k * harmonics:  # (validate said ok, run: a traceback)
-            raise ValueError(f"at least {k} samples per harmonic: {k * harmonics} for the"
-                             f" {harmonics} harmonics (or at most {n_time // k} harmonics)")
-        return n_time
 
     def inputs(self) -> list[str]:
         return [self.result]
