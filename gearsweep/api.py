@@ -261,8 +261,9 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         Also write the result to this netCDF file (checkpointed: a re-run after an interruption
         resumes). Without it nothing is written. An analysis study that reads other results
         opens them beside ``output`` (default: ``results/``).
-    progress : bool
-        Show a progress bar per chunk (stderr).
+    progress : bool or "log"
+        Show a progress bar per chunk (stderr); ``"log"``: plain lines at most every
+        ``execute.LOG_PROGRESS_SECONDS`` instead (for a log, not a terminal).
     chunk_cases : int, optional
         About this many cases per chunk (default: sized from the step count).
     yes : bool

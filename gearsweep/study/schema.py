@@ -136,7 +136,7 @@ def _ste_bound(v: float) -> float:
 
 class SteHarmonic(Strict):
     amplitude: Annotated[Displacement, AfterValidator(_ste_bound)] = Field(
-        ge=0, description="STE harmonic e_n (at most 1 mm)")
+        ge=0, description=f"STE harmonic e_n (at most {MAX_STE * 1e3:g} mm)")
     order: Order | None = Field(None, gt=0, allow_inf_nan=False,
                                description="mesh order (default: position + 1; once per list)")
     phase: Angle = Field(0.0, description="phase")
