@@ -403,3 +403,20 @@ def test_lane_values_walk_the_grid_in_c_order():
         np.testing.assert_array_equal(flat, np.ravel_multi_index([idx[0], idx[3]], (3, 4)))
     params, flat = lane_values([], 0, 1)
     assert params.shape == (0, 1) and flat.tolist() == [0]
+
+
+@pytest.mark.parametrize(("start", "amplitude"), [("initial_displacement: 0.0, ", 0.5),
+                                                  ("", math.sqrt(1.25))])
+def test_a_mathieu_start_of_zero_is_zero(start, amplitude):
+    """The Mathieu scene's default start is p = 1, but an explicit 0 was taken as "not given"
+    and started at 1 too (an adversarial review). p'' + p = 0 from (p0, v0): amplitude
+    sqrt(p0^2 + v0^2), here v0 = 0.5: 0.5 from p0 = 0, sqrt(1.25) from the default p0 = 1."""
+    from gearsweep.api import run_study
+
+    text = ("title: m\nscene: {kind: mathieu}\nsweep: {alpha: [1.0], beta: [0.0], gamma: [0.0]}\n"
+            "solver: {steps_per_period: 64, transient_periods: 1, record_periods: 7, "
+            f"{start}initial_velocity: 0.5}}\n")
+    ds = run_study(parse_study(text, "m.yaml"), text)
+    grid = (math.pi / 64) ** 2 / 2  # the extremes are taken on the step grid
+    assert float(ds.p_max.max()) == pytest.approx(amplitude, rel=grid)
+    assert float(ds.p_min.min()) == pytest.approx(-amplitude, rel=grid)

@@ -136,7 +136,7 @@ def _start(plan: Plan, params: dict[str, np.ndarray], n: int) -> float | np.ndar
     there, or past the back flank, and the case started with a flight across the backlash)."""
     s = plan.study.solver
     if s.initial_displacement != "static":
-        return s.initial_displacement if not plan.dimensionless or s.initial_displacement else 1.0
+        return s.initial_displacement  # (a Mathieu scene's default 1 is the schema's)
     if plan.dimensionless:
         raise ValueError("initial_displacement 'static' needs a gear scene, not Mathieu")
 

@@ -412,8 +412,12 @@ class Study(WholeStudy):
         number (p in units of its own scale), taken as is. One written with a unit is refused
         (``1 um`` ran as p0 = 1e-6, silently: found by a new-user test)."""
         if not (isinstance(data, dict) and isinstance(data.get("scene"), dict)
-                and data["scene"].get("kind") == "mathieu" and isinstance(data.get("solver"), dict)):
+                and data["scene"].get("kind") == "mathieu"
+                and isinstance(data.get("solver", {}), dict)):
             return data
+        if "initial_displacement" not in data.get("solver", {}):  # its default is 1, written
+            # here: the field's 0 was taken as "not given", so an explicit 0 became 1
+            data = dict(data, solver=dict(data.get("solver", {}), initial_displacement=1.0))
         starts = (("initial_displacement", "m", "p in units of its own scale, e.g. 1"),
                   ("initial_velocity", "m/s", "p' in its own units, e.g. 0"))
         for name, si, what in starts:
