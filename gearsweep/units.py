@@ -196,6 +196,11 @@ _SPLIT_NUMBER = re.compile(r"\d\s+\d+(?:\.\d*)?(?=\s|$|[A-Za-z_])")
 """Digits, a space, a number that is not the start of a unit (``2 000 rpm``, not ``50 1/s``)."""
 
 
+_ARITHMETIC = re.compile(r"\s[+-]|[+-]\s")
+"""A plus or minus with a space beside it: pint would add or subtract (a sign stands first, an
+exponent or a UDUNITS power, '1e-3', 'mm-1', has none)."""
+
+
 def _check_number_text(value: str) -> None:
     """Refuse the number spellings that pint would read as something else, silently: a decimal
     comma (``4,92 N s/mm``: a tuple, which came out as 0) and digit groups apart (``2 000 rpm``:
@@ -207,6 +212,9 @@ def _check_number_text(value: str) -> None:
         raise UnitParseError("a space inside a number; write it without (e.g. 2000)")
     if _LOOSE_UNDERSCORE.search(value):  # ('1__0 mm' read as 10 mm, '1_ mm' as 1 mm)
         raise UnitParseError("an underscore in a number stands between two digits (e.g. 10_000)")
+    if _ARITHMETIC.search(value.strip().lstrip("+-")):  # pint's sums: '1 um - m' was -0.999999 m
+        raise UnitParseError("a sum or difference in a quantity; write one number and its unit"
+                             " (e.g. '1 rpm', not '3 rpm - 2 rpm')")
 
 
 def to_si(value: object, kind: str) -> float:

@@ -336,3 +336,19 @@ def test_an_angle_unit_in_a_quantity_that_has_none_is_refused(text, kind):
         to_si(text, kind)
     assert to_si("30 deg", "angle") == pytest.approx(math.pi / 6)
     assert to_si("2 pi rad/s", "speed") == pytest.approx(60.0)
+
+
+@pytest.mark.parametrize(("text", "kind"), [("1 um - m", "length"), ("3 rpm - 2 rpm", "speed"),
+                                            ("5 N + 1 N", "force"), ("3 rpm -2 rpm", "speed")])
+def test_a_sum_or_difference_is_not_a_quantity(text, kind):
+    """pint added and subtracted: '1 um - m' was -0.999999 m, '3 rpm - 2 rpm' 1 rpm (an
+    adversarial review); a sign in front, an exponent and a UDUNITS power stay numbers."""
+    with pytest.raises(UnitParseError, match="a sum or difference in a quantity"):
+        to_si(text, kind)
+
+
+@pytest.mark.parametrize(("text", "kind", "si"), [("-5 N", "force", -5.0), ("+3 mm", "length", 3e-3),
+                                                  ("1e-3 m", "length", 1e-3),
+                                                  ("1073 kN mm-1", "stiffness", 1.073e9)])
+def test_signs_exponents_and_powers_are_not_sums(text, kind, si):
+    assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
