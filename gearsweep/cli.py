@@ -678,9 +678,7 @@ def _advice(plan, target: float):
         backlash = float(np.min(grids["backlash"])) if "backlash" in grids else model.backlash
     return advise(mass=mass, k0=k0, damping=damping, speed_rpm=grids["speed"], teeth=model.teeth,
                   k_harmonics=[(h.amplitude, h.order, h.phase) for h in model.stiffness_harmonics],
-                  highest_order=max([1.0, *(h.order for h in (*model.stiffness_harmonics,
-                                                              *model.ste_harmonics,
-                                                              *model.force_harmonics))]),
+                  highest_order=max(1.0, model.highest_order),
                   backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=target,
                   steps_per_period=s.steps_per_period,
                   periods=s.transient_periods + s.record_periods,

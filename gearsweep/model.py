@@ -82,6 +82,13 @@ class MeshModel:
     """Fluctuating force F_v [N] (torque fluctuation through Eq. (7))."""
 
     @property
+    def highest_order(self) -> float:
+        """The highest mesh order of its stiffness, STE and force harmonics (0 without any):
+        what a spectrum's sampling and the step advice's resonance orders must follow."""
+        return max((hm.order for hm in (*self.stiffness_harmonics, *self.ste_harmonics,
+                                        *self.force_harmonics)), default=0.0)
+
+    @property
     def cycle_periods(self) -> int:
         """Mesh periods in one cycle of every excitation (1 unless some order is fractional)."""
         p = 1

@@ -80,7 +80,7 @@ def shape(hw: float, r: float, n: float, p: float, knee: float) -> float:
 
 def highest_order(scene) -> float:
     """n of the model: the highest order of the scene's stiffness and forcing harmonics (>= 1)."""
-    return max([1.0, *(float(o) for _, o, _ in (*scene.k_harmonics, *scene.g_harmonics))])
+    return max(1.0, scene.model().highest_order)
 
 
 def calibrate(window: pr.Window) -> dict:

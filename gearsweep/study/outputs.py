@@ -260,10 +260,7 @@ class Spectrum:
         # lines far above 3 max_order. At 16 samples (max_order 4) they folded back: a 25/41
         # pair at 500-1500 rpm had its force_spectrum lines 1-3 1.3x-105x too large and order 4
         # of p 39 % off (an engineer new to the tool; tests/test_whine.py).
-        model = plan.model
-        top = max((h.order for h in (*model.stiffness_harmonics, *model.ste_harmonics,
-                                     *model.force_harmonics)), default=0.0) \
-            if isinstance(model, MeshModel) else 0.0
+        top = plan.model.highest_order if isinstance(plan.model, MeshModel) else 0.0
         for d in range(1, spp + 1):
             if spp % d == 0 and d >= 4 * max(o.max_order, top):
                 return d
