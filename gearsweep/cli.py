@@ -377,8 +377,11 @@ def cmd_run(args: argparse.Namespace) -> int:
                 return 0
             if not args.yes:
                 analysis_cost.check_limits(study, out.parent, name)
-        elif args.estimate:
-            print(f"{name}: {article(study.type)} study, computed in one piece: no estimate")
+        elif args.estimate:  # a mesh study: its memory, as validate says it (no time model)
+            from gearsweep.study.mesh import memory_bytes
+
+            print(f"{name}: a mesh study, computed in one piece: peak memory about"
+                  f" {_size(memory_bytes(study))} (its time is not estimated)")
             return 0
         from gearsweep.api import run_unchunked
         from gearsweep.study.dataset import write_netcdf

@@ -144,7 +144,7 @@ def fig72_methods() -> None:
         good = spps[out.reproduces_paper.loc[m].values.astype(bool)]
         print(f"  {m}: real interval {float(out.real_interval.loc[m]):.4f}, imaginary "
               f"{float(out.imaginary_interval.loc[m]):.4f}; reproduces the paper's shape "
-              f"for S = {list(good)}")
+              f"for S = {[int(s) for s in good]}")
 
     fig = plt.figure(figsize=(14, 8.4), layout="constrained")
     gs = fig.add_gridspec(2, 4)

@@ -1337,10 +1337,10 @@ def test_a_broken_sweep_entry_still_has_its_units_checked(entry, lines, tmp_path
 
 @pytest.mark.parametrize(("study", "said"), [
     ("method_stability.yaml", "analysis study 'method_stability', computed in one piece: about"),
-    ("mesh_tip_relief.yaml", "a mesh study, computed in one piece: no estimate\n")])
+    ("mesh_tip_relief.yaml", "a mesh study, computed in one piece: peak memory about")])
 def test_the_estimate_of_a_study_computed_in_one_piece_names_its_kind(study, said, capsys):
     """It said "a analysis study" (an analysis study's time is estimated now:
-    tests/test_analysis_cost.py)."""
+    tests/test_analysis_cost.py; a mesh study's memory, as validate says it)."""
     path = ROOT / "studies" / study
     assert main(["run", "--estimate", str(path)]) == 0
     assert capsys.readouterr().out.startswith(f"{path}: {said}")
