@@ -91,7 +91,9 @@ def draw_phase(results: Path, figures: Path) -> None:
     ax.legend(fontsize=7.5, ncols=2)
     ax.set_title(f"Fig. 5's order lines: phase behind the STE's same order; {damping_text(study)}"
                  f"\nsolid: the study; dashed: stiffness ripple off; dotted: 60 f_n / ({teeth} n),"
-                 " where a resonance of -m e'' passes -90 deg", fontsize=9)
+                 "\nwhere a resonance of a force in phase with e passes -90 deg"
+                 " (-m e'' or the ripple under F_m: not told apart)",
+                 fontsize=9)
     print(save(fig, figures / "fig05_phase.png", dpi=150))
 
 
