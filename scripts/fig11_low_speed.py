@@ -37,7 +37,7 @@ xlab = f"speed of the driven pinion ({DRIVEN_TEETH} teeth) [rpm]"
 base_title = ds.attrs["title"].rsplit(",", 1)[0]
 
 # --- Fig. 12 counterpart: rms of the doubly integrated pinion motion, three loads ------------
-fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12.5, 5.0), layout="constrained")
+fig, (ax, ax2) = plt.subplots(1, 2, figsize=(15.0, 5.0), layout="constrained")
 lines, per_load = [], []
 cmap = plt.get_cmap("viridis")
 for i, t in enumerate(loads):
@@ -49,7 +49,8 @@ for i, t in enumerate(loads):
 plot_lines(ax, n_driven, lines, xlabel=xlab, scale=1e6,
            ylabel="rms of r2 θ2, pinion motion at its base circle [µm]\n(θ2 rms [µrad] ="
                   f" this / {r2 * 1e3:.1f} mm)")
-ax.legend(fontsize=7)
+ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))  # beside: inside it hid
+# the 8.9 N m dashed curve (an outside reader)
 ax.set_title("rms of the doubly integrated tangential acceleration of the pinion", fontsize=9)
 plot_lines(ax2, n_driven, per_load, xlabel=xlab, scale=1e6,
            ylabel="the same divided by the load [µm / (N m)]")
