@@ -100,8 +100,8 @@ def test_mean_for_force_inverts_the_mean_balance():
 def test_eq15_roots_solve_the_equation_and_count_one_three_one():
     """Each root satisfies k f(p0) = F0 + m w^2 p0 and lies on its piece; the number of roots,
     counted independently by sign changes of the residual on a fine grid, is 1 below
-    w^2 = F0 / (m b), 3 up to w^2 = k / m and 1 above (the paper's Fig. 9 text says one/two/one;
-    the flat gap piece holds the third cut)."""
+    w^2 = F0 / (m b), 3 up to w^2 = k / m and 1 above (the paper's Fig. 9 text says one/two/one:
+    its count of responses, see the next test)."""
     w_t, w_n = np.sqrt(F0 / (M * B)), np.sqrt(K / M)
     omegas = np.array([0.6 * w_t, 0.5 * (w_t + w_n), 1.3 * w_n])
     roots = hb.eq15_roots(omegas, F0, K, M, B)
@@ -112,6 +112,30 @@ def test_eq15_roots_solve_the_equation_and_count_one_three_one():
         g = K * hb.dead_zone(p, B) - F0 - M * w**2 * p
         assert np.count_nonzero(np.sign(g[1:]) != np.sign(g[:-1])) == ok.size
     assert [np.isfinite(r).sum() for r in roots] == [1, 3, 1]
+
+
+def test_eq15_one_two_one_is_the_count_without_the_unstable_middle_cut():
+    """Whatever F0 < k b and wherever lines A < w_t < B < w_n < C are drawn: A cuts the in-phase
+    piece only, B all three pieces with |gap root| < |back-flank root| < in-phase root (the
+    back-flank cut is the middle, unstable one), C the gap piece only. So the paper's "one, two,
+    one" is the count without the middle cut (1, 2, 1); without the gap cut it would be 1, 2, 0.
+    With F0 > k b no line cuts more than once."""
+    for ratio in (0.05, 0.27, 0.6, 0.95):
+        f0 = ratio * K * B
+        w_t, w_n = np.sqrt(f0 / (M * B)), np.sqrt(K / M)
+        for fa, fb, fc in ((0.3, 0.01, 1.01), (0.99, 0.5, 1.5), (0.7, 0.99, 4.0)):
+            omegas = np.array([fa * w_t, w_t + fb * (w_n - w_t), fc * w_n])
+            a, b, c = hb.eq15_roots(omegas, f0, K, M, B)
+            assert np.isfinite(a).tolist() == [True, False, False]
+            assert np.isfinite(b).all()
+            assert abs(b[1]) < abs(b[2]) < b[0]
+            assert np.isfinite(c).tolist() == [False, True, False]
+            stable = [int(np.isfinite(r).sum()) - int(np.isfinite(r).sum() == 3) for r in (a, b, c)]
+            no_gap = [int(np.isfinite(r).sum()) - int(np.isfinite(r[1])) for r in (a, b, c)]
+            assert (stable, no_gap) == ([1, 2, 1], [1, 2, 0])
+    w = np.geomspace(1e-2, 1e2, 2001) * np.sqrt(K / M)
+    for ratio in (1.2, 1.5, 4.0):
+        assert np.isfinite(hb.eq15_roots(w, ratio * K * B, K, M, B)).sum(axis=-1).max() == 1
 
 
 # --------------------------------------------------------------------------------------------
