@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import re
+import unicodedata
 from dataclasses import dataclass
 from functools import cache
 
@@ -201,10 +202,20 @@ _ARITHMETIC = re.compile(r"\s[+-]|[+-]\s")
 exponent or a UDUNITS power, '1e-3', 'mm-1', has none)."""
 
 
+_PINT_SYMBOLS = frozenset("°¹²³⋅∙•·")
+"""The non-ASCII symbols pint reads (degree sign, superscript powers, product dots); ``µ``/``μ``
+are letters."""
+
+
 def _check_number_text(value: str) -> None:
     """Refuse the number spellings that pint would read as something else, silently: a decimal
     comma (``4,92 N s/mm``: a tuple, which came out as 0) and digit groups apart (``2 000 rpm``:
-    2 times 0 times rpm, also 0)."""
+    2 times 0 times rpm, also 0), and a symbol pint's tokenizer drops without a word (``㎜``,
+    the minus sign U+2212 of ``−3 mm``, which came out as +3 mm, is read as '-' by ``to_si``)."""
+    for ch in value:
+        if ord(ch) > 127 and ch not in _PINT_SYMBOLS and unicodedata.category(ch)[0] in "SP":
+            raise UnitParseError(f"the character {ch!r} (U+{ord(ch):04X}) in a quantity; write"
+                                 " the number and its unit in plain letters (e.g. '-3 mm')")
     if "," in value:
         raise UnitParseError("a comma in a quantity; write the decimal separator as '.' (e.g."
                              " 4.92) and no thousands separators")
@@ -229,6 +240,7 @@ def to_si(value: object, kind: str) -> float:
         With a message naming the expected kind and a unit to write.
     """
     if isinstance(value, str):
+        value = value.replace("\u2212", "-")  # the minus sign, which pint dropped (−3 mm: +3 mm)
         _check_number_text(value)
         text = normalise(value)
         m = _NUMBER.match(text)

@@ -352,3 +352,22 @@ def test_a_sum_or_difference_is_not_a_quantity(text, kind):
                                                   ("1073 kN mm-1", "stiffness", 1.073e9)])
 def test_signs_exponents_and_powers_are_not_sums(text, kind, si):
     assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
+
+
+@pytest.mark.parametrize(("text", "kind", "si"), [("\u22123 mm", "length", -3e-3),
+                                                  ("\u22125 N", "force", -5.0),
+                                                  ("30 \u00b0", "angle", math.pi / 6),
+                                                  ("3 N\u22c5m", "torque", 3.0)])
+def test_the_unicode_minus_sign_is_a_minus(text, kind, si):
+    """pint's tokenizer dropped U+2212: '\u22123 mm' was +3 mm (a fuzz find); the symbols pint
+    reads (degree sign, product dot) stay accepted."""
+    assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
+
+
+@pytest.mark.parametrize(("text", "kind", "match"), [
+    ("3 \u339c", "length", "U\\+339C"),  # the squared 'mm' symbol: read as a bare 3
+    ("3 \u339c", "speed", "U\\+339C"),  # (3 rpm, silently)
+    ("3 rpm \u2212 2 rpm", "speed", "a sum or difference")])
+def test_a_symbol_pint_drops_is_refused(text, kind, match):
+    with pytest.raises(UnitParseError, match=match):
+        to_si(text, kind)
