@@ -373,3 +373,49 @@ def test_rattle_balance_needs_four_samples_per_harmonic(tmp_path, capsys, monkey
     with pytest.raises(ValueError, match="at least 4"):
         AFTBalance(MeshSystem(mass=1.0, stiffness=1.0, damping=0.1, half_gap=None), harmonics=25,
                    n_time=99)
+
+
+MATHIEU = {"title": "m", "scene": {"kind": "mathieu"},
+           "sweep": {"alpha": [1.0], "beta": [0.1], "gamma": [0.0]},
+           "solver": {"steps_per_period": 16, "transient_periods": 2, "record_periods": 1}}
+
+
+@pytest.mark.parametrize(("analysis", "line"), [
+    ("{kind: rattle_budget, fitted: m, scenes: [m], names: [a], mesh: m}",
+     ":4: analysis.fitted: 'm' -- rattle_budget's fitted needs a gear scene's result with one"
+     " force harmonic; this result has none\n"),
+    ("{kind: rattle_budget, fitted: fit, scenes: [m], names: [a], mesh: m}",
+     ":4: analysis.scenes[0]: 'm' -- rattle_budget's scenes[0] needs a rattle result (backlash)"
+     " continued up and down over speed, with a damping sweep; this result has none\n"),
+    ("{kind: rattle_budget, fitted: fit, scenes: [fit], names: [a], mesh: m}",
+     ":4: analysis.mesh: 'm' -- rattle_budget's mesh needs a mesh study's result (ste_harmonic"
+     " of order 1); this result has none\n")])
+def test_a_rattle_budget_of_results_of_the_wrong_kind_is_refused_at_its_line(
+        tmp_path, monkeypatch, capsys, analysis, line):
+    """validate said ok of a rattle_budget whose mesh, fitted or scenes were results of another
+    kind, and run ended in a KeyError ('ste_harmonic', 'speed') or a ValueError (unpacking the
+    fitted force harmonics) traceback (a fuzz find); both now give the field's line, exit 2."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    gearsweep.run(MATHIEU, output=tmp_path / "results" / "m.nc")
+    fit = {**RATTLE, "sweep": {"speed": {"start": "7000 rpm", "stop": "8600 rpm", "num": 3},
+                               "damping": ["4.92 N s/mm"]},
+           "solver": {**RATTLE["solver"], "transient_periods": 5}}
+    gearsweep.run(fit, output=tmp_path / "results" / "fit.nc")
+    study = tmp_path / "b.yaml"
+    study.write_text(f"type: analysis\ntitle: t\n\nanalysis: {analysis}\n", encoding="utf-8")
+    assert main(["validate", str(study)]) == 2
+    assert capsys.readouterr().err == f"gearsweep: error: {study}{line}"
+    assert main(["run", str(study), "-o", str(tmp_path / "results" / "b.nc")]) == 2
+    assert capsys.readouterr().err == f"gearsweep: error: {study}{line}"
+
+
+def test_a_rattle_balance_of_a_mathieu_result_is_one_line(tmp_path, capsys):
+    """The Mathieu scene's model has no force harmonics: an AttributeError traceback (exit 1)."""
+    gearsweep.run(MATHIEU, output=tmp_path / "m.nc")
+    study = tmp_path / "rb.yaml"
+    study.write_text("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: m}\n",
+                     encoding="utf-8")
+    assert main(["run", str(study), "-o", str(tmp_path / "rb.nc")]) == 2
+    err = capsys.readouterr().err
+    assert err == "gearsweep: error: m: the result is of a MathieuModel, not of a gear pair's scene\n"

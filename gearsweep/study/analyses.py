@@ -259,7 +259,11 @@ def _settled(da: xr.DataArray, ds: xr.Dataset) -> xr.DataArray:
 def _model(ds: xr.Dataset, name: str) -> MeshModel:
     if "model" not in ds.attrs:
         raise ResultError(f"{name}: the result carries no resolved model (not a dynamic study)")
-    return model_from_record(json.loads(ds.attrs["model"]))
+    model = model_from_record(json.loads(ds.attrs["model"]))
+    if not isinstance(model, MeshModel):  # (a Mathieu scene's: an AttributeError traceback)
+        raise ResultError(f"{name}: the result is of a {type(model).__name__}, not of a gear"
+                          " pair's scene")
+    return model
 
 
 def _stat(f, values) -> float:
@@ -278,7 +282,7 @@ EQ15_SPEEDS = 100_000
 """The most speeds of the Eq. (15) points (the point counts of the analyses take as many)."""
 
 
-def _rattle_balance_input(o: RattleBalance, ds: xr.Dataset) -> None:
+def _rattle_balance_input(o: RattleBalance, ds: xr.Dataset, _name: str = "") -> None:
     """``StudyError`` (field ``analysis.n_time``) below ``hb.AFT_SAMPLES_PER_HARMONIC`` samples
     per harmonic, and (field ``analysis.eq15_step``) when the step gives more than
     ``EQ15_SPEEDS`` speeds over the result's: 1e-300 rpm ended in numpy's 'Maximum allowed size
@@ -495,8 +499,35 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     return data, coords, attrs, settings
 
 
+def _rattle_budget_input(o: RattleBudget, ds: xr.Dataset, name: str) -> None:
+    """``StudyError`` (the field of the role ``name`` plays) unless ``ds`` is what that role
+    needs: a mesh result whose ``ste_harmonic`` has order 1 for ``mesh``, a dynamic result of
+    one force harmonic for ``fitted``, a continued rattle sweep over speed and damping for each
+    of ``scenes`` (each was a KeyError or ValueError traceback after validate said ok)."""
+    def refuse(field: str, what: str) -> None:
+        raise StudyError("<study>", field, name, f"rattle_budget's {field.split('.')[-1]} needs"
+                         f" {what}; this result has none")
+
+    if name == o.fitted:
+        model = (model_from_record(json.loads(ds.attrs["model"])) if "model" in ds.attrs
+                 else None)
+        if not isinstance(model, MeshModel) or len(model.force_harmonics) != 1:
+            refuse("analysis.fitted", "a gear scene's result with one force harmonic")
+    for i, scene in enumerate(o.scenes):
+        if scene == name and not ("contact_loss_fraction" in ds and "model" in ds.attrs
+                                  and "damping" in ds.dims and "speed" in ds.dims
+                                  and _both_ways(ds)):
+            refuse(f"analysis.scenes[{i}]", "a rattle result (backlash) continued up and down"
+                   " over speed, with a damping sweep")
+    if name == o.mesh and ("ste_harmonic" not in ds or "harmonic" not in ds.coords
+                           or 1 not in ds["harmonic"].values):
+        refuse("analysis.mesh", "a mesh study's result (ste_harmonic of order 1)")
+
+
 def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict]:
     """Force budget of a fitted rattle scene against scenes with the pair's own STE."""
+    for name, ds in inputs.items():
+        _rattle_budget_input(o, ds, name)
     fit = inputs[o.fitted]
     m8 = _model(fit, o.fitted)
     (fh,) = m8.force_harmonics
@@ -587,7 +618,7 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
     return data, coords, attrs, {}
 
 
-def _jump_map_input(o: JumpMap, ds: xr.Dataset) -> None:
+def _jump_map_input(o: JumpMap, ds: xr.Dataset, _name: str = "") -> None:
     """``StudyError`` (its field ``analysis.result``, reported at the study file's line by the
     caller) unless ``ds`` is a result ``jump_map`` can read."""
     if "contact_loss_fraction" not in ds:
@@ -650,8 +681,10 @@ def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
     return inputs, prov
 
 
-INPUT_CHECKS = {"jump_map": _jump_map_input, "rattle_balance": _rattle_balance_input}
-"""Per analysis kind, the check of what it reads (``check_inputs``; the analysis runs it too)."""
+INPUT_CHECKS = {"jump_map": _jump_map_input, "rattle_balance": _rattle_balance_input,
+                "rattle_budget": _rattle_budget_input}
+"""Per analysis kind, the check of what it reads (``check_inputs``; the analysis runs it too):
+``check(analysis, dataset, name)``."""
 
 
 def _unreadable(study: AnalysisStudy, path: Path, name: str, exc: Exception) -> ResultError:
@@ -675,7 +708,7 @@ def check_inputs(study: AnalysisStudy, results: str | Path) -> None:
             raise _unreadable(study, path, name, exc) from None
         with ds:
             if check:
-                check(study.analysis, ds)
+                check(study.analysis, ds, name)
 
 
 def run_analysis_study(study: AnalysisStudy, text: str = "", results: str | Path = "results"):
