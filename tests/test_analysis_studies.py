@@ -382,14 +382,14 @@ MATHIEU = {"title": "m", "scene": {"kind": "mathieu"},
 
 @pytest.mark.parametrize(("analysis", "line"), [
     ("{kind: rattle_budget, fitted: m, scenes: [m], names: [a], mesh: m}",
-     ":4: analysis.fitted: 'm' -- rattle_budget's fitted needs a gear scene's result with one"
-     " force harmonic; this result has none\n"),
+     (":4: analysis.fitted: 'm' -- rattle_budget's fitted needs a gear scene's result with one"
+     " force harmonic; this result has none\n")),
     ("{kind: rattle_budget, fitted: fit, scenes: [m], names: [a], mesh: m}",
-     ":4: analysis.scenes[0]: 'm' -- rattle_budget's scenes[0] needs a rattle result (backlash)"
-     " continued up and down over speed, with a damping sweep; this result has none\n"),
+     (":4: analysis.scenes[0]: 'm' -- rattle_budget's scenes[0] needs a rattle result (backlash)"
+     " continued up and down over speed, with a damping sweep; this result has none\n")),
     ("{kind: rattle_budget, fitted: fit, scenes: [fit], names: [a], mesh: m}",
-     ":4: analysis.mesh: 'm' -- rattle_budget's mesh needs a mesh study's result (ste_harmonic"
-     " of order 1); this result has none\n")])
+     (":4: analysis.mesh: 'm' -- rattle_budget's mesh needs a mesh study's result (ste_harmonic"
+     " of order 1); this result has none\n"))])
 def test_a_rattle_budget_of_results_of_the_wrong_kind_is_refused_at_its_line(
         tmp_path, monkeypatch, capsys, analysis, line):
     """validate said ok of a rattle_budget whose mesh, fitted or scenes were results of another
