@@ -419,3 +419,16 @@ def test_a_rattle_balance_of_a_mathieu_result_is_one_line(tmp_path, capsys):
     assert main(["run", str(study), "-o", str(tmp_path / "rb.nc")]) == 2
     err = capsys.readouterr().err
     assert err == "gearsweep: error: m: the result is of a MathieuModel, not of a gear pair's scene\n"
+
+
+@pytest.mark.parametrize(("value", "match"), [("0", "greater than 0"), ("-1", "greater than 0"),
+                                              ("1e300", "less than or equal to 100")])
+def test_a_fig9_line_at_no_negative_or_overflowing_speed_is_refused(value, match):
+    """graphical: [0, ...] and [-1, ...] ran with status 0 (lines at no or a negative speed),
+    [1e300, ...] overflowed in the balance (a RuntimeWarning, status 0): a fuzz find."""
+    from gearsweep.study.schema import parse_study
+
+    text = ("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: r,"
+            f" graphical: [{value}, 0.5, 1.25]}}\n")
+    with pytest.raises(StudyError, match=rf"analysis.graphical\[0\]: .* -- Input should be {match}"):
+        parse_study(text, "s.yaml")

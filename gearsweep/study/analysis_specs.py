@@ -121,6 +121,11 @@ ResultName = Annotated[str, BeforeValidator(_result_name), Field(description=(
     "the name of another study's result: results/<name>.nc from studies/<name>.yaml"))]
 
 
+GraphicalLine = Annotated[Real, Field(gt=0, le=100)]
+"""A line of Fig. 9 as a multiple of its reference speed: above 0 (0 and below drew lines at
+no or negative speed with status 0) and at most 100 (1e300 overflowed in the balance)."""
+
+
 class RattleBalance(Strict):
     """Harmonic balance of a continued (up and down) rattle study's scene beside its integration:
     the describing-function curves (with the mean force and without), the AFT harmonic-balance
@@ -136,7 +141,7 @@ class RattleBalance(Strict):
     curve_top: Real = Field(3.0, gt=1, le=100,
                             description="describing-function curve up to this many b [1]")
     eq15_step: Speed = Field(50.0, gt=0, description="speed step of the Eq. (15) points [rpm]")
-    graphical: tuple[Real, Real, Real] = Field(
+    graphical: tuple[GraphicalLine, GraphicalLine, GraphicalLine] = Field(
         (0.7, 0.5, 1.25), description="the three lines of Fig. 9: A at this x w_t, B at this x"
         " (w_t + w_n), C at this x w_n (w_t: the gap root appears, w_n: the linear resonance)")
 
