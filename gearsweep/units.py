@@ -223,9 +223,28 @@ def _check_number_text(value: str) -> None:
         raise UnitParseError("a space inside a number; write it without (e.g. 2000)")
     if _LOOSE_UNDERSCORE.search(value):  # ('1__0 mm' read as 10 mm, '1_ mm' as 1 mm)
         raise UnitParseError("an underscore in a number stands between two digits (e.g. 10_000)")
-    if _ARITHMETIC.search(value.strip().lstrip("+-")):  # pint's sums: '1 um - m' was -0.999999 m
+    body = value.strip().lstrip("+-")
+    if _ARITHMETIC.search(body) or _sum_without_spaces(body):  # pint's sums: '1 um - m' was
         raise UnitParseError("a sum or difference in a quantity; write one number and its unit"
-                             " (e.g. '1 rpm', not '3 rpm - 2 rpm')")
+                             " (e.g. '1 rpm', not '3 rpm - 2 rpm')")  # -0.999999 m, '1um-m' too
+
+
+def _sum_without_spaces(body: str) -> bool:
+    """A plus or minus between two terms with no space beside it ('3rpm-2rpm' was 1 rpm,
+    '5N+1N' 6 N): not an exponent's ('1e-3'), a UDUNITS power's ('mm-1'), an operand's sign
+    ('m**-1', 'mm*-1') or a dash between units ('N-m', refused by ``_to_si_pint`` as such)."""
+    for m in re.finditer(r"[+-]", body):
+        i = m.start()
+        before, after = body[:i], body[i + 1:]
+        if before.rstrip().endswith(("*", "/", "(", "^")) or re.search(r"\d[eE]$", before):
+            continue
+        if re.search(r"[^\W\d_]$", before) and (re.match(r"\d+(?![\w.])", after) if m.group() == "-"
+                                                else False):
+            continue  # a UDUNITS power: kN mm-1
+        if m.group() == "-" and re.search(r"[^\W\d_]$", before) and re.match(r"[^\W\d_]", after):
+            continue  # 'N-m': refused by to_si as a dash between units
+        return True
+    return False
 
 
 def to_si(value: object, kind: str) -> float:
@@ -242,6 +261,8 @@ def to_si(value: object, kind: str) -> float:
     if isinstance(value, str):
         value = value.replace("\u2212", "-")  # the minus sign, which pint dropped (−3 mm: +3 mm)
         _check_number_text(value)
+        if _DASH.search(value):  # '1um-m' is um minus m to pint, a length (-0.999999 m)
+            raise _dash_refusal(value, kind)
         text = normalise(value)
         m = _NUMBER.match(text)
         unit = text[m.end():].strip() if m else ""
@@ -260,6 +281,18 @@ def to_si(value: object, kind: str) -> float:
                 if math.isfinite(result):
                     return result
     return _to_si_pint(value, kind)
+
+
+_DASH = re.compile(r"[^\W\d_]\s*-\s*[^\W\d_]")
+"""A minus between two units ('150 N-m', '1um-m')."""
+
+
+def _dash_refusal(value: str, kind: str) -> UnitParseError:
+    k = KINDS[kind]
+    dash = (" (a '-' between units is a minus: join units with a space, '*' or '.')"
+            if _DASH.search(value) else "")
+    return UnitParseError(f"cannot read {value!r} as {article(kind)}{dash}; write e.g."
+                          f" '1 {k.examples[0]}' ({', '.join(k.examples)})")
 
 
 def _to_si_pint(value: object, kind: str) -> float:
@@ -306,10 +339,7 @@ def _to_si_pint_checked(value: object, kind: str) -> float:
             raise UnitParseError(f"unknown unit {unknown}; {article(kind)} is written e.g."
                                  f" '1 {unit_hint}' ({', '.join(k.examples)})") from None
         # ('150 N-m' is N minus m to pint: its DimensionalityError's name was the message)
-        dash = (" (a '-' between units is a minus: join units with a space, '*' or '.')"
-                if re.search(r"[^\W\d_]\s*-\s*[^\W\d_]", value) else "")
-        raise UnitParseError(f"cannot read {value!r} as {article(kind)}{dash}; write e.g."
-                             f" '1 {unit_hint}' ({', '.join(k.examples)})") from None
+        raise _dash_refusal(value, kind) from None
     if not isinstance(q, pint.Quantity):
         return _bare(value, k, float(q))
     units = dict(q.unit_items())

@@ -371,3 +371,22 @@ def test_the_unicode_minus_sign_is_a_minus(text, kind, si):
 def test_a_symbol_pint_drops_is_refused(text, kind, match):
     with pytest.raises(UnitParseError, match=match):
         to_si(text, kind)
+
+
+@pytest.mark.parametrize(("text", "kind", "match"), [
+    ("3rpm-2rpm", "speed", "a sum or difference"), ("5N+1N", "force", "a sum or difference"),
+    ("1 mm-1um", "length", "a sum or difference"), ("3 rpm+2rpm", "speed", "a sum or difference"),
+    ("1um-m", "length", "a '-' between units is a minus")])
+def test_a_sum_or_difference_without_spaces_is_not_a_quantity(text, kind, match):
+    """The sum check looked for a space beside the sign: '3rpm-2rpm' was 1 rpm, '5N+1N' 6 N and
+    '1um-m' -0.999999 m (pint's arithmetic; a fuzz find)."""
+    with pytest.raises(UnitParseError, match=match):
+        to_si(text, kind)
+
+
+@pytest.mark.parametrize(("text", "kind", "si"), [("2e-3mm", "length", 2e-6),
+                                                  ("1E+3 mm", "length", 1.0),
+                                                  ("1 kg m-2 s-1 m2 s", "mass", 1.0),
+                                                  ("1 m**-1 m**2", "length", 1.0)])
+def test_exponents_and_powers_without_spaces_stay_numbers(text, kind, si):
+    assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
