@@ -432,3 +432,26 @@ def test_a_fig9_line_at_no_negative_or_overflowing_speed_is_refused(value, match
             f" graphical: [{value}, 0.5, 1.25]}}\n")
     with pytest.raises(StudyError, match=rf"analysis.graphical\[0\]: .* -- Input should be {match}"):
         parse_study(text, "s.yaml")
+
+
+@pytest.mark.parametrize("model", ["not json", "{}"])
+def test_an_input_whose_model_attribute_is_no_model_record_is_one_line(tmp_path, capsys, model,
+                                                                      monkeypatch):
+    """A netCDF file not written here (its model attribute not JSON, or without a kind): run
+    ended in a JSONDecodeError or KeyError traceback (a fuzz find); rattle_budget's validate too."""
+    import xarray as xr
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    xr.Dataset({"p_pp": (("speed",), np.zeros(3))}, coords={"speed": [1.0, 2.0, 3.0]},
+               attrs={"model": model}).to_netcdf(tmp_path / "results" / "x.nc")
+    study = tmp_path / "rb.yaml"
+    study.write_text("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: x}\n",
+                     encoding="utf-8")
+    assert main(["run", str(study), "-o", str(tmp_path / "results" / "rb.nc")]) == 2
+    assert capsys.readouterr().err == ("gearsweep: error: x: its model attribute is not a"
+                                       " gearsweep model record\n")
+    study.write_text("type: analysis\ntitle: t\nanalysis: {kind: rattle_budget, fitted: x,"
+                     " scenes: [x], names: [a], mesh: x}\n", encoding="utf-8")
+    assert main(["validate", str(study)]) == 2
+    assert "analysis.fitted: 'x' -- rattle_budget's fitted needs" in capsys.readouterr().err

@@ -259,7 +259,10 @@ def _settled(da: xr.DataArray, ds: xr.Dataset) -> xr.DataArray:
 def _model(ds: xr.Dataset, name: str) -> MeshModel:
     if "model" not in ds.attrs:
         raise ResultError(f"{name}: the result carries no resolved model (not a dynamic study)")
-    model = model_from_record(json.loads(ds.attrs["model"]))
+    try:
+        model = model_from_record(json.loads(ds.attrs["model"]))
+    except (ValueError, KeyError, TypeError, AttributeError):  # (a file not written here)
+        raise ResultError(f"{name}: its model attribute is not a gearsweep model record") from None
     if not isinstance(model, MeshModel):  # (a Mathieu scene's: an AttributeError traceback)
         raise ResultError(f"{name}: the result is of a {type(model).__name__}, not of a gear"
                           " pair's scene")
@@ -509,9 +512,11 @@ def _rattle_budget_input(o: RattleBudget, ds: xr.Dataset, name: str) -> None:
                          f" {what}; this result has none")
 
     if name == o.fitted:
-        model = (model_from_record(json.loads(ds.attrs["model"])) if "model" in ds.attrs
-                 else None)
-        if not isinstance(model, MeshModel) or len(model.force_harmonics) != 1:
+        try:
+            model = _model(ds, name)
+        except ResultError:
+            model = None
+        if model is None or len(model.force_harmonics) != 1:
             refuse("analysis.fitted", "a gear scene's result with one force harmonic")
     for i, scene in enumerate(o.scenes):
         if scene == name and not ("contact_loss_fraction" in ds and "model" in ds.attrs
@@ -621,7 +626,7 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
 def _jump_map_input(o: JumpMap, ds: xr.Dataset, _name: str = "") -> None:
     """``StudyError`` (its field ``analysis.result``, reported at the study file's line by the
     caller) unless ``ds`` is a result ``jump_map`` can read."""
-    if "contact_loss_fraction" not in ds:
+    if "contact_loss_fraction" not in ds or "p_pp" not in ds:
         raise StudyError("<study>", "analysis.result", o.result, "jump_map needs a result with"
                          " backlash (contact_loss_fraction); this one has none")
     if not _both_ways(ds):
