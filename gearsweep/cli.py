@@ -370,8 +370,13 @@ def cmd_run(args: argparse.Namespace) -> int:
             _check_mesh_memory(study, name, args.yes)
         if study.type == "analysis":  # what it will take, said (--estimate) or refused
             from gearsweep.study import analysis_cost
+            from gearsweep.study.analyses import check_inputs
 
-            if args.estimate:
+            if args.estimate:  # what validate and run refuse of its inputs, refused here too
+                try:  # (an n_time too small for its harmonics was estimated, exit 0)
+                    check_inputs(study, out.parent)
+                except StudyError as exc:
+                    raise _in_file(exc, text, args.study) from None
                 print(f"{name}: analysis study {study.analysis.kind!r}, computed in one piece:"
                       f" {analysis_cost.estimate(study, out.parent).line()}")
                 return 0

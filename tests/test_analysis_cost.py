@@ -262,3 +262,12 @@ def test_the_api_takes_yes_as_a_bool_for_an_analysis_study_too(tmp_path):
     with pytest.raises(StudyError, match=r"yes: 'no' -- True or False"):
         gearsweep.run(st, output=tmp_path / "b.nc", yes="no")
     assert not list(tmp_path.iterdir())
+
+
+def test_a_duration_without_bound_is_said_so():
+    """A work_precision at 1e-300 rpm was refused as 'about inf h' (a fuzz find)."""
+    from gearsweep.study.execute import _duration
+
+    assert _duration(math.inf) == "without bound"
+    assert _duration(7200.0) == "2.0 h"
+

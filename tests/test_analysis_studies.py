@@ -359,7 +359,8 @@ def test_rattle_balance_needs_four_samples_per_harmonic(tmp_path, capsys, monkey
     text = ("type: analysis\ntitle: b\nanalysis:\n  kind: rattle_balance\n  result: small\n"
             "  harmonics: 25\n  n_time: 99\n")
     study.write_text(text, encoding="utf-8")
-    for argv in (["validate", str(study)], ["run", str(study)]):
+    # (run --estimate printed an estimate, exit 0, of what validate and run refuse: a fuzz find)
+    for argv in (["validate", str(study)], ["run", str(study)], ["run", "--estimate", str(study)]):
         assert main(argv) == 2
         assert capsys.readouterr().err.splitlines() == [
             (f"gearsweep: error: {study}:7: analysis.n_time: 99 -- at least 4 samples per"

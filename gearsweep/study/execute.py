@@ -250,6 +250,8 @@ class Estimate:
 
 
 def _duration(s: float) -> str:
+    if not math.isfinite(s):  # (an analysis at 1e-300 rpm: 'about inf h')
+        return "without bound"
     if s < 90:
         return f"{s:.1f} s"
     if s < 5400:
