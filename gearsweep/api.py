@@ -30,7 +30,7 @@ import numpy as np
 import xarray as xr
 import yaml
 
-from gearsweep.errors import DICT_STUDY, NO_VALUE, ResultError, StudyError
+from gearsweep.errors import DICT_STUDY, NO_VALUE, ChunkSizeWarning, ResultError, StudyError
 from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, mean_mesh_force, model_from_record
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_cost import AnalysisEstimate
@@ -283,6 +283,9 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         Once, if cases use a step beyond the method's stability limit (``solver.step_guard:
         warn``; they are marked in ``beyond_step_limit``): the line the CLI prints, naming
         ``output`` or else the study.
+    ChunkSizeWarning
+        If ``chunk_cases`` is below one round of the kernel's blocks on all threads (mostly
+        empty work; the note the CLI prints for ``--chunk-size``).
     """
     if output is not None and not isinstance(output, str | Path):
         raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
@@ -318,7 +321,7 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         _within_limits(plan, chunk_cases, output is None, name if output is None else str(output))
     small = small_chunk_note(plan, chunk_cases)
     if small:  # the CLI's note for --chunk-size
-        warnings.warn(f"{name}: chunk_cases={chunk_cases}: {small}", stacklevel=2)
+        warnings.warn(f"{name}: chunk_cases={chunk_cases}: {small}", ChunkSizeWarning, stacklevel=2)
     if output is None:
         ds = run_plan(plan, backend=InProcess(), progress=progress, chunk_cases=chunk_cases)
     else:

@@ -134,6 +134,12 @@ class DeviceError(GearsweepError):
     feature that the device does not run (the kink-aware step on CUDA)."""
 
 
+class ChunkSizeWarning(UserWarning):
+    """``gearsweep.run(..., chunk_cases=N)`` with chunks smaller than one round of the kernel's
+    lanes on all threads: most of each chunk's work is empty (the CLI notes it for
+    ``--chunk-size``). Its own class so that a script can filter it without matching its text."""
+
+
 class StepLimitWarning(UserWarning):
     """Cases of a study run with ``solver.step_guard: warn`` (the default) whose step lies beyond
     the method's stability limit: the result marks them in ``beyond_step_limit`` and their

@@ -392,10 +392,11 @@ def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_
     CLI notes it; the default chunks and a study smaller than one round say nothing."""
     import warnings
 
+    from gearsweep.errors import ChunkSizeWarning
     from gearsweep.kernels import LANES
     from gearsweep.study.execute import kernel_threads
 
-    with pytest.warns(UserWarning, match=r"chunk_cases=2: chunks of 2 cases are 2 cases each,"
+    with pytest.warns(ChunkSizeWarning, match=r"chunk_cases=2: chunks of 2 cases are 2 cases each,"
                                          r" where the kernel computes \d+ at a time"):
         gearsweep.run(small_whine, chunk_cases=2)
     with warnings.catch_warnings():
