@@ -355,6 +355,10 @@ def _to_si_pint_checked(value: object, kind: str) -> float:
     if k.name not in ("angle", "speed") and any(u in _ANGLE_UNITS for u in roots):
         # pint takes an angle for a plain number: '0.5 mm/rad' was read as 0.5 mm, '5 deg*mm'
         # as 0.087 mm, '1 rad/s' as a frequency of 1 Hz (an outside tester's finding)
+        if k.name not in ("dimensionless", "frequency") and q.check("1/[time]"):
+            # '833 rpm' for a force is a shaft speed: not 'has an angle unit'
+            raise UnitParseError(f"{value!r} is a shaft speed (rpm), expected {article(kind)}"
+                                 f" (e.g. '1 {unit_hint}')")
         if k.name == "dimensionless":
             raise UnitParseError(f"{value!r} has an angle unit, which a plain number does not"
                                  " have; write the number alone, e.g. '2'")

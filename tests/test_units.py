@@ -338,6 +338,15 @@ def test_an_angle_unit_in_a_quantity_that_has_none_is_refused(text, kind):
     assert to_si("2 pi rad/s", "speed") == pytest.approx(60.0)
 
 
+@pytest.mark.parametrize(("text", "kind"), [("833 rpm", "force"), ("2 rad/s", "torque"),
+                                            ("3 krpm", "length")])
+def test_a_shaft_speed_where_another_quantity_belongs_is_named_a_speed(text, kind):
+    """'833 rpm' given for a mean force was 'has an angle unit' (rpm is no angle to a user);
+    it is named a shaft speed, as '1 m' for a mass is named a length."""
+    with pytest.raises(UnitParseError, match=rf"^'{text}' is a shaft speed \(rpm\), expected a"):
+        to_si(text, kind)
+
+
 @pytest.mark.parametrize(("text", "kind"), [("1 um - m", "length"), ("3 rpm - 2 rpm", "speed"),
                                             ("5 N + 1 N", "force"), ("3 rpm -2 rpm", "speed")])
 def test_a_sum_or_difference_is_not_a_quantity(text, kind):
