@@ -13,7 +13,12 @@ import pytest
 import yaml
 
 from gearsweep.gear import table1_consistent
-from gearsweep.model import PAPER_RIG, MeshModel
+from gearsweep.kernels import simulate
+from gearsweep.model import PAPER_RIG, MeshModel, kernel_inputs
+from gearsweep.study.execute import InProcess
+from gearsweep.study.outputs import OUTPUTS
+from gearsweep.study.plan import make_plan
+from gearsweep.study.schema import parse_study
 
 RIG = PAPER_RIG
 """The paper's rig (SI): m_eq, k0, k1, c, N1, F_m. Importable as ``from conftest import RIG``."""
@@ -97,3 +102,36 @@ def write_study(tmp_path: Path):
         return path
 
     return write
+
+
+class Crash(Exception):
+    """What ``CrashAfter`` raises."""
+
+
+class CrashAfter(InProcess):
+    """In-process backend that dies after ``k`` chunks (the checkpoints of those remain)."""
+
+    def __init__(self, k: int) -> None:
+        self.k = k
+
+    def run(self, plan, todo):
+        for i, item in enumerate(super().run(plan, todo)):
+            if i == self.k:
+                raise Crash
+            yield item
+
+
+def signal_and_spectrum(text: str):
+    """A study's recorded p of every case (one kernel call, all its speeds) and the spectrum
+    output computed from it: (plan, kernel result, spectrum output)."""
+    plan = make_plan(parse_study(text), text)
+    s = plan.study.solver
+    params = {"speed": plan.grids["speed"]}
+    n = len(params["speed"])
+    kin = kernel_inputs(plan.model, params, n, s.steps_per_period)
+    res = simulate(method=s.method, n_transient=s.transient_periods * s.steps_per_period,
+                   n_record=s.record_periods * s.steps_per_period,
+                   steps_per_period=s.steps_per_period,
+                   signal_stride=s.steps_per_period // plan.samples_per_period(), **kin)
+    return plan, res, OUTPUTS["spectrum"].compute(plan, params, res)
+

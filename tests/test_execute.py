@@ -20,7 +20,7 @@ import netCDF4
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import RATTLE_SCENE
+from conftest import RATTLE_SCENE, Crash, CrashAfter
 
 from gearsweep.cli import main
 from gearsweep.errors import ClusterError, LimitError, ResultError
@@ -33,7 +33,6 @@ from gearsweep.study.checkpoint import (
 )
 from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.execute import (
-    InProcess,
     Limits,
     check_limits,
     estimate,
@@ -91,23 +90,6 @@ def rattle_reference() -> xr.Dataset:
     ds = run_plan(plan, chunk_cases=plan.n_cases)
     assert ds.attrs["cases"] == 288
     return ds
-
-
-class Crash(Exception):
-    pass
-
-
-class CrashAfter(InProcess):
-    """In-process backend that dies after ``k`` chunks (the checkpoints of those remain)."""
-
-    def __init__(self, k: int) -> None:
-        self.k = k
-
-    def run(self, plan, todo):
-        for i, item in enumerate(super().run(plan, todo)):
-            if i == self.k:
-                raise Crash
-            yield item
 
 
 def read_log(path: Path) -> list[tuple[int, int]]:

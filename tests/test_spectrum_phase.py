@@ -22,15 +22,14 @@ from fractions import Fraction
 import numpy as np
 import pytest
 import xarray as xr
+from conftest import Crash, CrashAfter, signal_and_spectrum
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gearsweep.analysis.spectrum import line_phase, line_spectrum, wrap_phase
 from gearsweep.api import run_study
-from gearsweep.kernels import simulate
-from gearsweep.model import kernel_inputs
 from gearsweep.study import execute
-from gearsweep.study.execute import InProcess, run_plan
+from gearsweep.study.execute import run_plan
 from gearsweep.study.outputs import OUTPUTS, PHASE_FLOOR
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import parse_study
@@ -255,20 +254,6 @@ def test_reconstruction_matches_solve_ivp_between_the_samples(speed):
     assert np.max(np.abs(back - sol.y[0])) < 5e-9 * dyn
 
 
-def _signal_and_output(text: str):
-    """The recorded p of every case and the spectrum output computed from it."""
-    plan = make_plan(parse_study(text), text)
-    s = plan.study.solver
-    params = {"speed": plan.grids["speed"]}
-    n = len(params["speed"])
-    kin = kernel_inputs(plan.model, params, n, s.steps_per_period)
-    res = simulate(method=s.method, n_transient=s.transient_periods * s.steps_per_period,
-                   n_record=s.record_periods * s.steps_per_period,
-                   steps_per_period=s.steps_per_period,
-                   signal_stride=s.steps_per_period // plan.samples_per_period(), **kin)
-    return plan, res, OUTPUTS["spectrum"].compute(plan, params, res)
-
-
 def test_every_line_with_its_phase_gives_back_the_samples():
     """A response with content on every bin (k(t), STE, backlash, a transient still ringing
     after 7 periods, an offset of 7 periods that is no multiple of the record of 4, so orders
@@ -280,7 +265,7 @@ def test_every_line_with_its_phase_gives_back_the_samples():
                  kind="full",
                  excitation=STE + ", stiffness_harmonics: [{amplitude: 179 kN/mm}],"
                  " backlash: 20 um")
-    plan, res, out = _signal_and_output(text)
+    plan, res, out = signal_and_spectrum(text)
     sig = res.signal * 1e6
     amp, theta = out["spectrum"] * 1e6, out["spectrum_phase"]
     assert amp.shape == (3, 33) and sig.shape == (3, 64)  # every bin, Nyquist (order 8) too
@@ -330,7 +315,7 @@ def test_float32_samples_get_the_float32_floor():
     import dataclasses
 
     text = study([3000.0, N_RES, 25000.0], spp=64, excitation=STE)
-    plan, res, out = _signal_and_output(text)
+    plan, res, out = signal_and_spectrum(text)
     res32 = dataclasses.replace(res, signal=res.signal.astype(np.float32).astype(float))
     solver = plan.study.solver.model_copy(update={"precision": "float32", "device": "cuda"})
     plan32 = dataclasses.replace(plan, study=plan.study.model_copy(update={"solver": solver}))
@@ -359,23 +344,6 @@ continuation: [up, down]
 solver: {method: rk4, steps_per_period: 32, transient_periods: 13, record_periods: 4}
 outputs: [stats, {spectrum: {phase: true}}]
 """
-
-
-class Crash(Exception):
-    pass
-
-
-class CrashAfter(InProcess):
-    """In-process backend that dies after ``k`` chunks (their checkpoints remain)."""
-
-    def __init__(self, k: int) -> None:
-        self.k = k
-
-    def run(self, plan, todo):
-        for i, item in enumerate(super().run(plan, todo)):
-            if i == self.k:
-                raise Crash
-            yield item
 
 
 def _strip(ds: xr.Dataset) -> xr.Dataset:

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import signal_and_spectrum
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
@@ -23,10 +24,7 @@ from gearsweep.analysis.linear_response import periodic_response, ste_force
 from gearsweep.analysis.spectrum import line_spectrum, mean_square
 from gearsweep.api import run_study
 from gearsweep.errors import StudyError
-from gearsweep.kernels import simulate
-from gearsweep.model import kernel_inputs
 from gearsweep.study.dataset import write_netcdf
-from gearsweep.study.outputs import OUTPUTS
 from gearsweep.study.plan import CHUNK_SIGNAL_BYTES, make_plan
 from gearsweep.study.schema import parse_study
 from gearsweep.units import si_values
@@ -158,25 +156,10 @@ def test_force_spectrum_matches_force_balance():
     assert ds.force_spectrum.attrs["units"] == "N"
 
 
-def _signal_and_output(text: str):
-    """The recorded p of every case and the spectrum output computed from it."""
-    plan = make_plan(parse_study(text), text)
-    s = plan.study.solver
-    sps = plan.samples_per_period()
-    params = {"speed": plan.grids["speed"]}
-    n = len(params["speed"])
-    kin = kernel_inputs(plan.model, params, n, s.steps_per_period)
-    res = simulate(method=s.method, n_transient=s.transient_periods * s.steps_per_period,
-                   n_record=s.record_periods * s.steps_per_period,
-                   steps_per_period=s.steps_per_period,
-                   signal_stride=s.steps_per_period // sps, **kin)
-    return plan, res, OUTPUTS["spectrum"].compute(plan, params, res)
-
-
 def test_parseval_on_the_recorded_signal():
     """DC^2 + sum A_k^2 / 2 (+ A_Nyq^2) equals the mean square of the samples to 1e-10."""
     speeds = np.linspace(1000, 20000, 17)
-    plan, res, out = _signal_and_output(whine(speeds, spp=64, sps=16, max_order=8, record=5))
+    plan, res, out = signal_and_spectrum(whine(speeds, spp=64, sps=16, max_order=8, record=5))
     amp = out["spectrum"]
     sig = res.signal
     assert amp.shape == (17, 41) and sig.shape == (17, 80)  # all bins up to Nyquist = order 8
