@@ -45,6 +45,7 @@ from gearsweep.study.execute import (
     Estimate,
     InProcess,
     check_limits,
+    contact_lost_warning,
     run_plan,
     run_to_file,
     step_limit_warning,
@@ -175,16 +176,17 @@ def run_study(study: Study | MeshStudy | AnalysisStudy, text: str = "",
         return run_unchunked(study, text)
     plan = make_plan(study, text)
     ds = run_plan(plan, backend=InProcess(), progress=progress)
-    _warn_step_limit(plan, ds, "<study>")
+    _warn_result(plan, ds, "<study>")
     return ds
 
 
-def _warn_step_limit(plan, ds: xr.Dataset, where: str | Path) -> None:
-    """A ``StepLimitWarning`` (the line the CLI prints) if cases of ``ds`` are beyond the step
-    limit, pointing at the caller of ``run`` or ``run_study``."""
-    found = step_limit_warning(plan, ds, where)
-    if found is not None:
-        warnings.warn(found, stacklevel=3)
+def _warn_result(plan, ds: xr.Dataset, where: str | Path) -> None:
+    """A ``StepLimitWarning`` if cases of ``ds`` are beyond the step limit, a
+    ``ContactLossWarning`` if their teeth would separate (each the line the CLI prints),
+    pointing at the caller of ``run`` or ``run_study``."""
+    for found in (step_limit_warning(plan, ds, where), contact_lost_warning(plan, ds, where)):
+        if found is not None:
+            warnings.warn(found, stacklevel=3)
 
 
 def estimate(study: StudyLike, *, chunk_cases: int | None = None,
@@ -283,6 +285,9 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         Once, if cases use a step beyond the method's stability limit (``solver.step_guard:
         warn``; they are marked in ``beyond_step_limit``): the line the CLI prints, naming
         ``output`` or else the study.
+    ContactLossWarning
+        Once, if cases of a driven scene without backlash have p below 0 in the steady state
+        (marked in ``contact_lost``): their teeth would separate, which the scene does not model.
     ChunkSizeWarning
         If ``chunk_cases`` is below one round of the kernel's blocks on all threads (mostly
         empty work; the note the CLI prints for ``--chunk-size``).
@@ -329,7 +334,7 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
             check_partial(plan, output)
             with run_to_file(plan, output, chunk_cases=chunk_cases, progress=progress) as lazy:
                 ds = lazy.load()
-    _warn_step_limit(plan, ds, name if output is None else output)
+    _warn_result(plan, ds, name if output is None else output)
     return ds
 
 

@@ -54,6 +54,7 @@ from gearsweep.study.execute import (
     _size,
     check_limits,
     chunks_to_run,
+    contact_lost_text,
     cores,
     step_limit_text,
     stream_to_file,
@@ -496,9 +497,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         sys.unraisablehook = unraisable
         _STOP.clear()
     # Counted as the chunks were written: the file is not opened again to report them.
-    beyond = step_limit_text(plan, written.beyond, out)
-    if beyond is not None:  # the text gearsweep.run warns, as one line
-        print(f"gearsweep: warning: {beyond}", file=sys.stderr)
+    for line in (step_limit_text(plan, written.beyond, out),
+                 contact_lost_text(plan, written.contact_lost, out)):
+        if line is not None:  # the text gearsweep.run warns, as one line
+            print(f"gearsweep: warning: {line}", file=sys.stderr)
     if not args.quiet:
         # The file's elapsed_seconds is the chunk phase; the wall time adds the one-time
         # loading (or compiling) of the kernel and the writing of the file: say both.

@@ -145,3 +145,12 @@ class StepLimitWarning(UserWarning):
     the method's stability limit: the result marks them in ``beyond_step_limit`` and their
     values may be spoiled by the integrator. ``gearsweep.run`` warns it; the CLI prints the same
     line. Its text: ``gearsweep.study.execute.step_limit_warning``."""
+
+
+class ContactLossWarning(UserWarning):
+    """Cases of a driven scene without backlash whose p fell below 0 in the steady state: the
+    drive flanks part, and the scene's linear mesh force k(t) p puts the back flanks into contact
+    at once (a pair with no backlash), where a real pair's teeth would separate (the result marks
+    them in ``contact_lost``; a ``full`` or ``rattle`` scene with ``backlash`` models it).
+    ``gearsweep.run`` warns it; the CLI prints the same line. Its text:
+    ``gearsweep.study.execute.contact_lost_text``."""

@@ -185,6 +185,8 @@ def _fields(model: type[BaseModel]) -> list[str]:
 EXAMPLES = {
     "stats, no backlash": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
                           " speed: 1000 rpm}\noutputs: [stats]",
+    "stats, driven, no backlash": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8"
+                                  " N/m, mean_force: 100 N, speed: 1000 rpm}\noutputs: [stats]",
     "stats, with backlash": "scene: {kind: rattle, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
                             " backlash: 0.1 mm, speed: 1000 rpm}\noutputs: [stats]",
     "spectrum": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
@@ -212,7 +214,8 @@ def _variable_rows() -> list[str]:
             if name in seen:
                 continue
             seen.add(name)
-            output = "(step_guard: warn)" if name == "beyond_step_limit" else label.split(",")[0]
+            output = {"beyond_step_limit": "(step_guard: warn)",
+                      "contact_lost": "stats (driven, no backlash)"}.get(name, label.split(",")[0])
             rows.append(f"| {output} | `{name}` | {_cell(attrs.get('units', '1'))} |"
                         f" {', '.join(spec.extra_dims) or '-'} | {_cell(attrs.get('long_name', ''))} |")
     units, long_name = VARIABLES["status"]

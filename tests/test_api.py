@@ -392,7 +392,7 @@ def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_
     CLI notes it; the default chunks and a study smaller than one round say nothing."""
     import warnings
 
-    from gearsweep.errors import ChunkSizeWarning
+    from gearsweep.errors import ChunkSizeWarning, ContactLossWarning
     from gearsweep.kernels import LANES
     from gearsweep.study.execute import kernel_threads
 
@@ -401,6 +401,8 @@ def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_
         gearsweep.run(small_whine, chunk_cases=2)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
+        # (the small whine study leaves drive-flank contact at its top speeds: said, not this)
+        warnings.simplefilter("ignore", ContactLossWarning)
         gearsweep.run(small_whine)
         gearsweep.run(small_whine, chunk_cases=7)  # one chunk: all of the study
     path = write_study(small_whine)

@@ -46,7 +46,13 @@ from urllib.parse import urlparse
 
 import numpy as np
 
-from gearsweep.errors import ClusterError, LimitError, ResultError, StepLimitWarning
+from gearsweep.errors import (
+    ClusterError,
+    ContactLossWarning,
+    LimitError,
+    ResultError,
+    StepLimitWarning,
+)
 from gearsweep.files import check_replaceable
 from gearsweep.jit import cache_loads_without_set_up
 from gearsweep.kernels import LANES
@@ -1080,6 +1086,8 @@ class Written:
     """Cases whose ``status`` is not 0."""
     beyond: int
     """Cases beyond the step limit (``beyond_step_limit``; 0 where it is not stored)."""
+    contact_lost: int = 0
+    """Cases whose teeth would separate (``contact_lost``; 0 where it is not stored)."""
 
 
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
@@ -1150,7 +1158,7 @@ def stream_to_file(plan: Plan, output: str | Path, *,
         remove_checkpoints(output)  # which a run of the same study said it resumed (an
         # adversarial test): the run is done; the caller ends it as a run that finished
     return Written(path=Path(output), cases=plan.n_cases, elapsed=round(elapsed, 3),
-                   flagged=file.flagged, beyond=file.beyond)
+                   flagged=file.flagged, beyond=file.beyond, contact_lost=file.contact_lost)
 
 
 def step_limit_warning(plan: Plan, ds: xr.Dataset, where: str | Path) -> StepLimitWarning | None:
@@ -1161,6 +1169,26 @@ def step_limit_warning(plan: Plan, ds: xr.Dataset, where: str | Path) -> StepLim
     if "beyond_step_limit" not in ds:  # step_guard skip or off
         return None
     return step_limit_text(plan, int(ds["beyond_step_limit"].sum()), where)
+
+
+def contact_lost_warning(plan: Plan, ds: xr.Dataset, where: str | Path
+                         ) -> ContactLossWarning | None:
+    """The one line about the cases of the result ``ds`` whose teeth would separate (its
+    variable ``contact_lost``), as ``step_limit_warning``; ``None`` when there are none."""
+    if "contact_lost" not in ds:
+        return None
+    return contact_lost_text(plan, int(ds["contact_lost"].sum()), where)
+
+
+def contact_lost_text(plan: Plan, n: int, where: str | Path) -> ContactLossWarning | None:
+    """The line about ``n`` cases whose p fell below 0 (``None`` when ``n`` is 0)."""
+    if not n:
+        return None
+    return ContactLossWarning(
+        f"{where}: {n} of {plan.n_cases} case(s) leave drive-flank contact (p below 0 in the"
+        " steady state, variable 'contact_lost'): a scene without backlash takes the back flanks"
+        " into contact at once (a pair with no backlash), where a real pair's teeth would"
+        " separate; a full scene with scene.backlash models that")
 
 
 def step_limit_text(plan: Plan, n: int, where: str | Path, *, before: bool = False

@@ -74,6 +74,9 @@ VARIABLES = {
     "p_mean": (UM, "mean of p, steady state"),
     "contact_loss_fraction": ("1", "fraction of steady-state time with |p| < backlash/2"),
     "backside_contact_fraction": ("1", "fraction of steady-state time on the back flank"),
+    "contact_lost": ("1", ("p fell below 0 in the steady state (p_min < 0): the drive flanks"
+                           " part; without backlash the back flanks take the load at once, where"
+                           " a real pair's teeth would separate")),
     "impacts_per_period": ("1", "entries into contact from the gap per mesh period"),
     "settle_error": ("1", "change of the extremes of p between the halves of the window / p_pp"),
     "spectrum": (UM, "single-sided amplitude spectrum of p over whole mesh periods"),
@@ -559,6 +562,8 @@ class ResultFile:
         """Cases written so far whose ``status`` is not 0."""
         self.beyond = 0
         """Cases written so far that are beyond the step limit (``beyond_step_limit``)."""
+        self.contact_lost = 0
+        """Cases written so far whose teeth would separate (``contact_lost``)."""
         self.nc = netCDF4.Dataset(str(self.tmp), mode="w", format="NETCDF4")
         try:
             dims: dict[str, int] = {}
@@ -600,6 +605,8 @@ class ResultFile:
         self.flagged += int(np.count_nonzero(arrays["status"]))
         if "beyond_step_limit" in arrays:
             self.beyond += int(np.count_nonzero(arrays["beyond_step_limit"]))
+        if "contact_lost" in arrays:
+            self.contact_lost += int(np.count_nonzero(arrays["contact_lost"]))
         lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
         for lo, hi, box in boxes(lane0, lane1, lane_shape):
             for name, arr in arrays.items():
