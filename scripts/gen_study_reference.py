@@ -36,6 +36,7 @@ from gearsweep.study.measured import ExcitationSpec
 from gearsweep.study.mesh import _ATTRS as MESH_VARIABLES
 from gearsweep.study.outputs import OUTPUTS, STATUS_CODES
 from gearsweep.study.plan import make_plan
+from gearsweep.study.quantities import EachOnce
 from gearsweep.study.resultfile import COORDS, VARIABLES
 from gearsweep.study.schema import (
     SCENE_PARAMETERS,
@@ -131,6 +132,8 @@ def _bounds(field) -> str:
         if getattr(m, "min_length", None):
             what = "character(s)" if field.annotation is str else "value(s)"
             out.append(f"at least {m.min_length} {what}")
+        if isinstance(m, EachOnce):
+            out.append("each value once")
     return ", ".join(out)
 
 

@@ -76,7 +76,8 @@ def test_a_scipy_peer_costs_more_at_a_tighter_tolerance():
 
 
 def test_method_stability_counts_its_bisection_trials_in_blocks():
-    st, _ = _study("method_stability.yaml", methods=["rk4"], zeta=[0.1] * 33, steps=1_000_000)
+    st, _ = _study("method_stability.yaml", methods=["rk4"], zeta=[0.01 * i for i in range(33)],
+                   steps=1_000_000)
     # 33 ratios are two blocks of 32 lanes: on one thread two rounds, on two one round
     one = ac.estimate(st, threads=1).seconds
     two = ac.estimate(st, threads=2).seconds

@@ -1106,6 +1106,74 @@ def test_validate_names_an_analysis_field_and_its_line_in_one_line(tmp_path, cap
                                        f" True -- {WHOLE}\n")
 
 
+SAME = "each value once, or ds.sel() cannot tell them apart"
+
+
+@pytest.mark.parametrize(("study", "old", "new", "said"), [
+    ("method_stability.yaml", "methods: [rk4, rk5]", "methods: [rk4, rk4]",
+     (f"10: analysis.methods[1]: 'rk4' -- a value not already in the list (the same as"
+     f" analysis.methods[0], 'rk4'): {SAME}")),
+    ("method_stability.yaml", "zeta: [0.0, 0.02, 0.05,", "zeta: [0.0, 0.02, 0.020,",
+     (f"11: analysis.zeta[2]: 0.02 -- a value not already in the list (the same as"
+     f" analysis.zeta[1], 0.02): {SAME}")),
+    ("stability_artifact_map.yaml", "methods: [rk5, fehlberg5,", "methods: [rk5, rk5,",
+     (f"11: analysis.methods[1]: 'rk5' -- a value not already in the list (the same as"
+     f" analysis.methods[0], 'rk5'): {SAME}")),
+    ("stability_artifact_map.yaml", "[100, 120, 140,", "[100, 120, 120,",
+     (f"12: analysis.steps_per_period[2]: 120 -- a value not already in the list (the same as"
+     f" analysis.steps_per_period[1], 120): {SAME}")),
+    ("work_precision.yaml", "scenes: [whine, rattle]", "scenes: [rattle, rattle]",
+     (f"10: analysis.scenes[1]: 'rattle' -- a value not already in the list (the same as"
+     f" analysis.scenes[0], 'rattle'): {SAME}")),
+    ("work_precision.yaml", "[rk4, rk5, rk4-kink,", "[rk4, rk4, rk4-kink,",
+     (f"11: analysis.methods[1]: 'rk4' -- a value not already in the list (the same as"
+     f" analysis.methods[0], 'rk4'): {SAME}")),
+    ("work_precision.yaml", "[8, 16, 32, 64,", "[8, 16, 32, 32,",
+     (f"12: analysis.steps_per_period[3]: 32 -- a value not already in the list (the same as"
+     f" analysis.steps_per_period[2], 32): {SAME}")),
+    ("work_precision.yaml", "[RK45, DOP853, LSODA]", "[RK45, RK45, LSODA]",
+     (f"13: analysis.peers[1]: 'RK45' -- a value not already in the list (the same as"
+     f" analysis.peers[0], 'RK45'): {SAME}")),
+    ("work_precision.yaml", "[1.0e-3, 1.0e-4,", "[1.0e-3, 0.001,",
+     (f"14: analysis.rtol[1]: 0.001 -- a value not already in the list (the same as"
+     f" analysis.rtol[0], 0.001): {SAME}")),
+    ("fig08_rattle_budget.yaml", "[rattle_table1_pair, rattle_table1_ste_paper_k]",
+     "[rattle_table1_pair, rattle_table1_pair.nc]",
+     (f"14: analysis.scenes[1]: 'rattle_table1_pair.nc' -- a value not already in the list (the"
+     f" same as analysis.scenes[0], 'rattle_table1_pair'): {SAME}")),
+    ("fig08_rattle_budget.yaml", "names: [\"pair's k0\", \"paper's k\"]",
+     "names: [k0, k0]",
+     ("15: analysis.names[1]: 'k0' -- a value not already in the list (the same as"
+     " analysis.names[0], 'k0'): each value once, or the legends cannot tell the scenes apart")),
+    ("fig08_rattle_budget.yaml", "[7500 rpm, 8000 rpm]", "[7500 rpm, 125 Hz]",
+     (f"18: analysis.at_speeds[1]: '125 Hz' -- a value not already in the list (the same as"
+     f" analysis.at_speeds[0], '7500 rpm'): {SAME}")),
+])
+def test_an_analysis_list_takes_each_entry_once(study, old, new, said, tmp_path, capsys):
+    """A list of an analysis whose entries become a coordinate of the result or name what is
+    computed took an entry twice (``methods: [rk4, rk4]``, ``peers: [RK45, RK45]``, a step
+    count or a tolerance twice): validate said ok, the run computed it twice, into a coordinate
+    that ``ds.sel()`` could not tell apart (an outside tester's finding). Refused as a sweep's
+    repeated value is, by the same check, in any spelling (``125 Hz`` is ``7500 rpm``, a
+    result's name with ``.nc`` is the name)."""
+    text = (ROOT / "studies" / study).read_text(encoding="utf-8")
+    assert old in text
+    path = tmp_path / "a.yaml"
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == f"gearsweep: error: {path}:{said}\n"
+
+
+def test_the_lines_of_fig9_may_repeat_a_multiple():
+    """rattle_balance's ``graphical`` is three different lines (A at x w_t, B at x (w_t + w_n), C
+    at x w_n; the result's ``line`` coordinate is A, B, C whatever the numbers): one multiple
+    for two of them is two lines, and stays allowed (jump_map has no list)."""
+    text = (ROOT / "studies" / "fig08_rattle_balance.yaml").read_text(encoding="utf-8")
+    assert "graphical: [0.7, 0.5, 1.25]" in text
+    study = parse_study(text.replace("[0.7, 0.5, 1.25]", "[0.5, 0.5, 0.5]"), "a.yaml")
+    assert study.analysis.graphical == (0.5, 0.5, 0.5)
+
+
 def test_validate_says_true_is_not_a_whole_number_in_one_line(tmp_path, capsys):
     path = tmp_path / "t.yaml"
     path.write_text(GOOD.replace("teeth: 48", "teeth: true"), encoding="utf-8")

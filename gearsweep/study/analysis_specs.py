@@ -24,8 +24,10 @@ from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
 from gearsweep.kernels.tableaux import KERNEL_METHODS
 from gearsweep.study.quantities import (
+    EACH_ONCE,
     MAX_STEPS_PER_PERIOD,
     Count,
+    EachOnce,
     Real,
     Speed,
     Strict,
@@ -45,8 +47,9 @@ class MethodStability(Strict):
     ``zeta`` points."""
 
     kind: Literal["method_stability"]
-    methods: list[Method] = Field(default_factory=lambda: ["rk4", "rk5"], min_length=1)
-    zeta: list[Annotated[Real, Field(ge=0, le=10)]] = Field(
+    methods: Annotated[list[Method], EACH_ONCE] = Field(default_factory=lambda: ["rk4", "rk5"],
+                                                        min_length=1)
+    zeta: Annotated[list[Annotated[Real, Field(ge=0, le=10)]], EACH_ONCE] = Field(
         default_factory=lambda: [0.0, 0.02, 0.05, 0.1, 0.2, 0.215, 0.3, 0.45, 0.6, 0.8, 0.95,
                                  1.2, 1.6],
         min_length=1, description="damping ratios measured by integration [1]")
@@ -65,9 +68,10 @@ class ArtifactMap(Strict):
     kind: Literal["artifact_map"]
     rig: ResultName = Field(description="the rig's dynamic result (results/<name>.nc): its"
                             " resolved model and its speed and damping grids")
-    methods: list[Literal["rk5", "fehlberg5", "cashkarp5", "dopri5"]] = Field(
+    methods: Annotated[list[Literal["rk5", "fehlberg5", "cashkarp5", "dopri5"]], EACH_ONCE] = Field(
         default_factory=lambda: ["rk5", "fehlberg5", "cashkarp5", "dopri5"], min_length=1)
-    steps_per_period: list[Annotated[Count, Field(ge=4, le=MAX_STEPS_PER_PERIOD)]] = Field(
+    steps_per_period: Annotated[list[Annotated[Count, Field(ge=4, le=MAX_STEPS_PER_PERIOD)]],
+                                EACH_ONCE] = Field(
         default_factory=lambda: list(range(100, 421, 20)), min_length=1)
 
     def inputs(self) -> list[str]:
@@ -79,20 +83,20 @@ class WorkPrecision(Strict):
     and rattle scenes of ``gearsweep.analysis.precision`` against a reference solution."""
 
     kind: Literal["work_precision"]
-    scenes: list[Literal["whine", "rattle"]] = Field(
+    scenes: Annotated[list[Literal["whine", "rattle"]], EACH_ONCE] = Field(
         default_factory=lambda: ["whine", "rattle"], min_length=1)
     # at most MAX_SPEED as a scene's speed (1e300 rpm: an OverflowError traceback in validate)
     whine_speed: BoundSpeed = Field(6000.0, gt=0, description="speed of the whine scene [rpm]")
     rattle_speed: BoundSpeed = Field(9000.0, gt=0, description="speed of the rattle scene [rpm]")
-    methods: list[Literal["rk4", "rk5", "rk4-kink", "rk5-kink"]] = Field(
+    methods: Annotated[list[Literal["rk4", "rk5", "rk4-kink", "rk5-kink"]], EACH_ONCE] = Field(
         default_factory=lambda: ["rk4", "rk5", "rk4-kink", "rk5-kink"], min_length=1)
-    steps_per_period: list[Annotated[Count, Field(ge=8, le=MAX_STEPS_PER_PERIOD,
-                                                  multiple_of=8)]] = Field(
+    steps_per_period: Annotated[list[Annotated[Count, Field(ge=8, le=MAX_STEPS_PER_PERIOD,
+                                                            multiple_of=8)]], EACH_ONCE] = Field(
         default_factory=lambda: [8, 16, 32, 64, 128, 256, 512, 1024], min_length=3,
         description="multiples of 8 (the common sampling grid)")
-    peers: list[Literal["RK45", "DOP853", "LSODA"]] = Field(
+    peers: Annotated[list[Literal["RK45", "DOP853", "LSODA"]], EACH_ONCE] = Field(
         default_factory=lambda: ["RK45", "DOP853", "LSODA"])
-    rtol: list[Annotated[Real, Field(gt=0, lt=1)]] = Field(
+    rtol: Annotated[list[Annotated[Real, Field(gt=0, lt=1)]], EACH_ONCE] = Field(
         default_factory=lambda: [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10], min_length=1)
     transient_periods: Count = Field(40, ge=1, le=100_000)
     record_periods: Count = Field(20, ge=1, le=100_000)
@@ -157,11 +161,12 @@ class RattleBudget(Strict):
 
     kind: Literal["rattle_budget"]
     fitted: ResultName
-    scenes: list[ResultName] = Field(min_length=1)
-    names: list[str] = Field(min_length=1, description="a short name per scene (legends)")
+    scenes: Annotated[list[ResultName], EACH_ONCE] = Field(min_length=1)
+    names: Annotated[list[str], EachOnce("the legends cannot tell the scenes apart")] = Field(
+        min_length=1, description="a short name per scene (legends)")
     mesh: ResultName = Field(description="the pair's mesh study (its ste_harmonic gives e_1)")
     points: Count = Field(200, ge=2, le=100_000, description="speeds of the budget lines")
-    at_speeds: list[BoundSpeed] = Field(default_factory=lambda: [7500.0, 8000.0],
+    at_speeds: Annotated[list[BoundSpeed], EACH_ONCE] = Field(default_factory=lambda: [7500.0, 8000.0],
                                    description="speeds where m w^2 e_1 is reported [rpm]")
 
     @model_validator(mode="after")

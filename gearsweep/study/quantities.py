@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from functools import partial
 from typing import Annotated, Any
 
@@ -117,6 +118,23 @@ Flag = Annotated[bool, BeforeValidator(_flag)]
 """A yes/no field of a study (kink_aware, a spectrum's force and pinion): only YAML's ``true``
 and ``false`` (and ``yes``/``no``, which YAML reads as them); pydantic's lax mode took ``1``,
 ``0`` and the strings ``'true'``, ``'off'`` as well."""
+
+
+SEL_APART = "ds.sel() cannot tell them apart"
+"""Why a list whose entries become a result's coordinate takes each value once."""
+
+
+@dataclass(frozen=True)
+class EachOnce:
+    """Marks a list field of a study model whose entries become a coordinate of the result or
+    name what is computed: each value once (``schema.analysis_problems`` refuses a repeat, at
+    the repeat's line, as a sweep's; values compared as the result holds them, a quantity's in
+    its display unit, so '1 mm' and '1000 um' are one value). ``why``: what a repeat breaks."""
+
+    why: str = SEL_APART
+
+
+EACH_ONCE = EachOnce()
 
 
 class Strict(BaseModel):

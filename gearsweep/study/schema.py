@@ -76,12 +76,14 @@ from gearsweep.study.quantities import (
     MAX_SPEED,
     MAX_STE,
     MAX_STEPS_PER_PERIOD,
+    SEL_APART,
     SPEED_BEYOND,
     STE_BEYOND,
     Angle,
     Count,
     Damping,
     Displacement,
+    EachOnce,
     Flag,
     Force,
     Inertia,
@@ -694,6 +696,49 @@ def value_problems(name: str, items: list[tuple[str | int, Any]],
     return out, values
 
 
+def repeat_problem(where: str, written: list, values: list,
+                   why: str = SEL_APART) -> Problem | None:
+    """The first entry of the list ``where`` whose value equals an earlier entry's, as one
+    problem at that entry naming the earlier one (``None`` when each value is there once): a
+    sweep's list, an analysis' list (``analysis_problems``). ``values``: as the result holds them
+    (a quantity in its display unit, rounded as its coordinate), ``written``: as the file writes
+    them; ``why``: what a repeat breaks."""
+    seen: dict[Any, int] = {}
+    for i, val in enumerate(values):
+        if val in seen:
+            j = seen[val]
+            return Problem(f"{where}[{i}]", written[i], f"a value not already in the list (the"
+                           f" same as {where}[{j}], {written[j]!r}): each value once, or {why}")
+        seen[val] = i
+    return None
+
+
+def analysis_problems(study: AnalysisStudy, raw: Any = None) -> list[Problem]:
+    """An entry given twice in a list of the analysis whose entries become a coordinate of the
+    result or name what is computed (the fields marked ``EachOnce``): it ran the same thing
+    twice into a coordinate that ``ds.sel()`` could not tell apart (``methods: [rk4, rk4]``;
+    an outside tester's finding). A quantity's values are compared in its display unit, as
+    the result holds them: '7500 rpm' and '125 Hz' are one speed."""
+    o = study.analysis
+    out = []
+    for name, field in type(o).model_fields.items():
+        once = next((m for m in field.metadata if isinstance(m, EachOnce)), None)
+        if once is None:
+            continue
+        values = list(getattr(o, name))
+        kind = _quantity_kind(field)
+        if kind is not None:
+            values = [float(v) for v in decimal_coordinates(to_display(np.asarray(values), kind))]
+        where = f"analysis.{name}"
+        given = written_at(raw, where) if raw is not None else None
+        written = list(given) if isinstance(given, list) and len(given) == len(values) else \
+            list(getattr(o, name))
+        problem = repeat_problem(where, written, values, once.why)
+        if problem is not None:
+            out.append(problem)
+    return out
+
+
 def grid_problems(study, with_order: bool = True) -> list[Problem]:
     """Units and physical bounds of every sweep value; ranges in increasing order."""
     out: list[Problem] = []
@@ -711,15 +756,7 @@ def grid_problems(study, with_order: bool = True) -> list[Problem]:
         shown = [float(v) for v in decimal_coordinates(to_display(np.asarray(values), kind))] \
             if kind != "dimensionless" else values  # as the file's coordinate will hold them
         if not is_range and len(values) == len(raw) and len(set(shown)) < len(shown):
-            seen: dict[float, int] = {}
-            for key, val in zip((k for k, _ in raw), shown, strict=True):
-                if val in seen:
-                    out.append(Problem(f"sweep.{name}[{key}]", raw[key][1],
-                                       f"a value not already in the list (the same as"
-                                       f" sweep.{name}[{seen[val]}], {raw[seen[val]][1]!r}):"
-                                       " each value once, or ds.sel() cannot tell them apart"))
-                    break
-                seen[val] = key
+            out.append(repeat_problem(f"sweep.{name}", [v for _, v in raw], shown))
         if (with_order and not is_range and len(values) == len(raw)
                 and len(set(shown)) == len(shown)):  # (a value twice: said above, one line;
             # [3000 rpm, 50 Hz] was also 'out of order' on the same field)
@@ -1538,9 +1575,13 @@ def _parse_raw(raw: Any, file: str, base: str | None = None
         return parse_mesh_study(raw, file)
     if raw.get("type") == "analysis":
         try:
-            return AnalysisStudy.model_validate(raw)
+            study = AnalysisStudy.model_validate(raw)
         except ValidationError as exc:
             raise _first_error(exc, file, raw) from None
+        problems = analysis_problems(study, raw)
+        if problems:
+            raise _error(file, problems, raw)
+        return study
     problems: list[Problem] = []
     try:
         study = Study.model_validate(raw, context={"problems": problems, "file": file,
