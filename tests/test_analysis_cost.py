@@ -19,6 +19,7 @@ import pytest
 import yaml
 
 import gearsweep
+from gearsweep.analysis import precision as pr
 from gearsweep.cli import main
 from gearsweep.errors import LimitError
 from gearsweep.study import analysis_cost as ac
@@ -112,8 +113,8 @@ def test_validate_refuses_a_study_of_days_in_one_line(huge, capsys):
     assert main(["validate", str(huge)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
-    assert err[0].startswith(f"gearsweep: error: {huge}: refused (time > 10.0 min): analysis"
-                             " 'work_precision', about ")
+    assert err[0].startswith(f"gearsweep: error: {huge}: refused (time > 10.0 min, memory > 2 GB):"
+                             " analysis 'work_precision', about ")
     assert err[0].endswith("; run with --yes to go ahead")
     assert main(["validate", "--yes", str(huge)]) == 0
     assert " h at stated rates" in capsys.readouterr().out
@@ -123,7 +124,7 @@ def test_run_refuses_it_before_computing_anything(huge, tmp_path, capsys):
     t0 = time.perf_counter()
     assert main(["run", str(huge), "-o", str(tmp_path / "out.nc")]) == 2
     assert time.perf_counter() - t0 < 20  # nothing integrated (the run is priced at ~3000 h)
-    assert "refused (time > 10.0 min)" in capsys.readouterr().err
+    assert "refused (time > 10.0 min, memory > 2 GB)" in capsys.readouterr().err
     assert not (tmp_path / "out.nc").exists()
     assert main(["run", "--estimate", str(huge), "-o", str(tmp_path / "out.nc")]) == 0
     out = capsys.readouterr().out
@@ -131,12 +132,16 @@ def test_run_refuses_it_before_computing_anything(huge, tmp_path, capsys):
 
 
 def test_the_api_refuses_it_unless_confirmed_and_estimates_it(huge, tmp_path):
-    with pytest.raises(LimitError, match=r"refused \(time > 10.0 min\).*pass yes=True"):
+    with pytest.raises(LimitError, match=r"refused \(time > 10.0 min, memory > 2 GB\).*pass"
+                       " yes=True"):
         gearsweep.run(huge, output=tmp_path / "out.nc")
     est = gearsweep.estimate(huge)
-    assert est.seconds > 1e6 and est.over() == ["time > 10.0 min"]
-    assert est.memory_bytes == pytest.approx(
-        300e6 + 1e6 * 8 * (20 * 8 + 4 * 6 + 16), rel=1e-12)  # the signal of a million copies
+    assert est.seconds > 1e6 and est.over() == ["time > 10.0 min", "memory > 2 GB"]
+    window = pr.Window(100_000, 20)
+    assert est.memory_bytes == pytest.approx(  # the signal of a million copies, and the whine
+        300e6 + 1e6 * 8 * (20 * 8 + 4 * 6 + 16)  # scene's reference of 1.9 million radians
+        + ac.reference_bytes(pr.whine_scene(6000.0), window), rel=1e-12)
+    assert ac.reference_bytes(pr.whine_scene(6000.0), window) > 9e9
 
 
 def test_validate_says_the_estimate_of_a_study_within_the_limits(capsys):
@@ -226,13 +231,14 @@ def test_a_work_precision_speed_beyond_a_scenes_is_refused_in_one_line(tmp_path,
 
 def test_a_study_of_ages_is_said_in_a_few_digits(tmp_path, capsys):
     """whine_speed 1e-300 rpm: its reference solution was priced as a number of 300 digits
-    followed by ' h' in the refusal line."""
+    followed by ' h' in the refusal line (and its memory, counted since, as 'inf GB')."""
     _, text = _study("work_precision.yaml", whine_speed="1e-300 rpm")
     (tmp_path / "wp.yaml").write_text(text, encoding="utf-8")
     assert main(["validate", str(tmp_path / "wp.yaml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "refused (time > 10.0 min)" in err[0]
+    assert len(err) == 1 and "refused (time > 10.0 min, memory > 2 GB)" in err[0]
     assert "2 reference solutions 1.92e+300 h" in err[0]
+    assert "peak memory without bound; run with --yes" in err[0]
     assert max(len(w) for w in err[0].split("refused")[1].split()) < 20, err
 
 
@@ -254,6 +260,90 @@ def test_the_harmonic_balance_holds_its_matrices_in_the_memory_estimate():
         assert held <= est <= 2 * held, (harmonics, n_time, est, held)
 
 
+def _whine_only(**changes):
+    return _study("work_precision.yaml", scenes=["whine"], methods=["rk4"],
+                  steps_per_period=[8, 16, 32], peers=[], copies=1, repeat=1, **changes)
+
+
+def test_the_work_precision_reference_holds_its_dense_output_in_the_memory_estimate():
+    """The reference solution keeps DOP853's dense output, an interpolant per step, a step per
+    about 0.2 radian of the scene's fastest motion: the estimate counted the kernel's signal
+    alone (300 MB for 3,020 periods of the whine scene, 457 MB resident measured). It grows with
+    the periods integrated and with a lower speed (a mesh period of more radians), and is the
+    largest scene's, not the sum (one reference is held at a time)."""
+    def held(**changes) -> float:
+        return ac.estimate(_whine_only(**changes)[0]).memory_bytes - ac.BASELINE_MEMORY
+
+    scene = pr.whine_scene(6000.0)
+    per_period = (ac.REFERENCE_STEPS_PER_RADIAN * ac.DENSE_STEP_BYTES
+                  * scene.period * max(scene.omega_n, 3 * scene.omega))
+    assert held(transient_periods=3040) - held(transient_periods=40) == pytest.approx(
+        3000 * per_period, rel=1e-9)
+    assert held(transient_periods=3000) > 250e6  # 253,000 steps, 250 MB measured at the peak
+    assert held(whine_speed="600 rpm") > 5 * held()
+    both = ac.estimate(_study("work_precision.yaml", copies=1)[0]).memory_bytes
+    whine = ac.estimate(_study("work_precision.yaml", copies=1, scenes=["whine"])[0]).memory_bytes
+    rattle = ac.estimate(_study("work_precision.yaml", copies=1, scenes=["rattle"])[0]
+                         ).memory_bytes
+    assert both == max(whine, rattle) > ac.BASELINE_MEMORY + 1e6
+
+
+def test_a_reference_solution_holds_no_more_than_counted():
+    """What a reference solution holds at its peak (tracemalloc: the interpolants and the lists
+    of ``solve_ivp``; 754 B a step) and its steps (4.36 per radian at 6,000 rpm) are within
+    ``DENSE_STEP_BYTES`` and ``REFERENCE_STEPS_PER_RADIAN``, on both scenes (the rattle scene's
+    cross-check restarts at each of its crossings)."""
+    import gc
+    import tracemalloc
+
+    window = pr.Window(20, 10)
+    for scene in (pr.whine_scene(6000.0), pr.rattle_scene(9000.0)):
+        pr.reference(scene, pr.Window(1, 1), exact=False)  # scipy's imports, not counted
+        gc.collect()
+        tracemalloc.start()
+        try:
+            sol = pr.reference(scene, window, exact=False)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        steps = sum(len(piece.__closure__[0].cell_contents.interpolants) for piece in sol.pieces)
+        radians = ac._radians(scene, window)
+        assert 1.5 * radians < steps <= ac.REFERENCE_STEPS_PER_RADIAN * radians, (steps, radians)
+        assert 500 * steps < peak <= ac.DENSE_STEP_BYTES * steps, (peak, steps)
+        assert peak <= ac.reference_bytes(scene, window)
+
+
+PEAK = ("import atexit, resource, runpy, sys\n"
+        "out = sys.argv.pop()\n"
+        "atexit.register(lambda: open(out, 'w').write(str(\n"
+        "    resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)))\n"
+        "runpy.run_module('gearsweep', run_name='__main__', alter_sys=True)\n")
+"""``python -m gearsweep ARGS... FILE`` that writes its peak resident memory [bytes] to FILE."""
+
+
+@pytest.mark.slow
+def test_a_long_reference_peaks_below_the_estimate(tmp_path):
+    """3,020 mesh periods of the whine scene: 457-468 MB resident at the peak measured (its
+    reference 250 MB of it), priced at 300 MB before the reference counted; now 590 MB."""
+    import subprocess
+    import sys
+
+    from gearsweep.kernels.batch import precompile
+    from gearsweep.study.analyses import kernel_calls
+
+    st, text = _whine_only(transient_periods=3000)
+    precompile(kernel_calls(st), workers=1)  # a cold compile is not what is measured here
+    path = tmp_path / "wp.yaml"
+    path.write_text(text, encoding="utf-8")
+    subprocess.run([sys.executable, "-c", PEAK, "run", str(path), "-o", str(tmp_path / "wp.nc"),
+                    "-q", str(tmp_path / "peak")], check=True, cwd=tmp_path)
+    peak = int((tmp_path / "peak").read_text())
+    est = ac.estimate(st)
+    held = ac.reference_bytes(pr.whine_scene(6000.0), pr.Window(3000, 20))
+    print(f"peak {peak / 1e6:.0f} MB, estimate {est.memory_bytes / 1e6:.0f} MB")
+    assert est.memory_bytes - held < peak <= est.memory_bytes
+
+
 def test_the_api_takes_yes_as_a_bool_for_an_analysis_study_too(tmp_path):
     """``yes="no"`` is truthy: a mesh or analysis study skipped its limit check and ran (the
     check of ``yes`` came after their branch); here the analysis went on to read its input."""
@@ -267,8 +357,9 @@ def test_the_api_takes_yes_as_a_bool_for_an_analysis_study_too(tmp_path):
 
 def test_a_duration_without_bound_is_said_so():
     """A work_precision at 1e-300 rpm was refused as 'about inf h' (a fuzz find)."""
-    from gearsweep.study.execute import _duration
+    from gearsweep.study.execute import _duration, _size
 
     assert _duration(math.inf) == "without bound"
+    assert _size(math.inf) == "without bound"
     assert _duration(7200.0) == "2.0 h"
 

@@ -22,7 +22,10 @@ What is counted, per kind:
   every peer at every rtol (scipy's ``solve_ivp`` with a Python right-hand side: evaluations per
   radian of the scene's fastest motion, growing as rtol^-q), and every fixed-step method at
   every step count on ``copies`` cases, ``repeat`` times, at ``STATED_RATE`` (``KINK_COST`` for
-  the kink-aware step). Memory: the kernel's recorded signal of ``copies`` cases.
+  the kink-aware step). Memory: the kernel's recorded signal of ``copies`` cases, and the
+  largest scene's reference solution: DOP853's dense output keeps an interpolant per step
+  (``REFERENCE_STEPS_PER_RADIAN`` steps per radian of the scene's fastest motion over the
+  integrated time, ``DENSE_STEP_BYTES`` each: 250 MB at 3,020 periods of the whine scene).
 * ``rattle_balance``: the harmonic-balance branch, growing with its harmonics and time samples
   (1.6 s at its study's 25 and 1,024; 66.5 s at the schema's most, 200 and 65,536); memory: its
   matrices of harmonics x samples (about 1 GB at the most).
@@ -80,6 +83,20 @@ REFERENCE_SECONDS_PER_RADIAN = {"whine": 1e-3, "rattle": 1e-3}
 integrated time [s]: DOP853 at rtol 1e-12 with events 0.25-0.55 ms (whine), the exact solution
 0.03-0.22 ms plus its DOP853 cross-check 0.43 ms (rattle), on the idle machine; Python's speed
 varies more between machines than the kernel's, so about twice that is stated."""
+REFERENCE_STEPS_PER_RADIAN = 5.0
+"""Steps of the reference's DOP853 (rtol 1e-12) per radian of the scene's fastest motion
+(``_radians``) [1]: 1.75-4.36 measured (the whine scene at 500-100,000 rpm, the rattle scene's
+cross-check with its crossings as events at 3,000-30,000 rpm; 4.36 at the study's 6,000 rpm). An
+adaptive solver's steps are not known before it runs: stated above the most measured."""
+DENSE_STEP_BYTES = 1000
+"""Resident memory of one step of the reference's DOP853 solution with dense output [bytes],
+counted: the step's interpolant (``Dop853DenseOutput``: its object and attribute values, 160 B;
+its 7 x 2 coefficients F and its start state, two ndarrays of 96 B with data and shape blocks of
+128 + 48 and 32 + 32 B from malloc; its end time and step, numpy scalars of 32 B) and its slots
+in the solution's lists (16 B): 672 B held (759 B resident measured at 252,313 steps, 569 B
+traced: pymalloc's pools keep the holes of each step's temporaries); while ``solve_ivp`` ends,
+its list of states as 2-d views for ``np.vstack`` (136 B a step) and its arrays of times and
+states (24 B): 988 B a step at the peak measured (whine scene, 3,020 periods). Stated: 1,000."""
 PEER_RHS_PER_RADIAN = {"whine": {"RK45": 4.5, "DOP853": 4.4, "LSODA": 4.5},
                        "rattle": {"RK45": 6.6, "DOP853": 21.5, "LSODA": 8.8}}
 """Right-hand-side evaluations of each scipy peer per radian at rtol 1e-3, per scene (the dead
@@ -123,7 +140,8 @@ class AnalysisEstimate:
     def line(self) -> str:
         what = "; ".join(f"{w} {_duration(s)}" for w, s in self.parts if s >= 0.05)
         return (f"about {_duration(self.seconds)} at stated rates" + (f" ({what})" if what else "")
-                + f", peak memory about {_size(self.memory_bytes)}"
+                + (f", peak memory about {_size(self.memory_bytes)}"
+                   if math.isfinite(self.memory_bytes) else ", peak memory without bound")
                 + (f"; {self.note}" if self.note else ""))
 
     def over(self) -> list[str]:
@@ -183,14 +201,26 @@ def _radians(scene, window: pr.Window) -> float:
     return window.periods * scene.period * fastest
 
 
+def reference_bytes(scene, window: pr.Window) -> float:
+    """The memory of a scene's reference solution at its peak [bytes]: its dense output, an
+    interpolant per DOP853 step (``REFERENCE_STEPS_PER_RADIAN`` per radian of the scene's fastest
+    motion over the integrated time: longer with the periods, and with a lower speed, whose mesh
+    period holds more radians of the natural frequency), ``DENSE_STEP_BYTES`` each. The rattle
+    scene's exact solution (a closed form per crossing) is small beside its DOP853 cross-check,
+    counted here; ``analyses.work_precision`` keeps only the samples of one reference before the
+    next is computed."""
+    return REFERENCE_STEPS_PER_RADIAN * _radians(scene, window) * DENSE_STEP_BYTES
+
+
 def _work_precision(o: WorkPrecision, threads: int) -> AnalysisEstimate:
     window = pr.Window(o.transient_periods, o.record_periods)
     make = {"whine": pr.whine_scene, "rattle": pr.rattle_scene}
     speed = {"whine": o.whine_speed, "rattle": o.rattle_speed}
-    ref = peers = fixed = 0.0
+    ref = peers = fixed = held = 0.0
     for name in o.scenes:
         scene = make[name](speed[name])
         rad = _radians(scene, window)
+        held = max(held, reference_bytes(scene, window))
         ref += REFERENCE_SECONDS_PER_RADIAN[name] * rad
         peers += sum(PEER_RHS_PER_RADIAN[name][p] * (tol / 1e-3) ** -PEER_RTOL_EXPONENT[p] * rad
                      * PEER_RHS_SECONDS for p in o.peers for tol in o.rtol)
@@ -202,7 +232,7 @@ def _work_precision(o: WorkPrecision, threads: int) -> AnalysisEstimate:
                          for spp in o.steps_per_period)
     samples = window.record_periods * pr.SAMPLES_PER_PERIOD  # the recorded signal per case
     stages = max(rk.STAGES[rk.METHODS[m.split("-")[0]]] for m in o.methods)
-    memory = BASELINE_MEMORY + o.copies * 8 * (samples + 4 * stages + 16)
+    memory = BASELINE_MEMORY + o.copies * 8 * (samples + 4 * stages + 16) + held
     runs = len(o.scenes) * len(o.methods) * len(o.steps_per_period)
     return AnalysisEstimate(o.kind, ref + peers + fixed, memory, (
         (f"{len(o.scenes)} reference solutions", ref),

@@ -268,6 +268,8 @@ def _duration(s: float) -> str:
 
 
 def _size(b: float) -> str:
+    if not math.isfinite(b):  # (an analysis at 1e-300 rpm: its reference's 'inf GB')
+        return "without bound"
     for unit, f in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
         if b >= f:
             return f"{b / f:.3g} {unit}"
