@@ -73,7 +73,9 @@ SECTIONS: list[tuple[str, type[BaseModel], str]] = [
      f"Presets: {', '.join(f'`{p}`' for p in PRESETS)}."),
     ("scene.gear.tip_relief", TipReliefSpec, ""),
     ("sweep.NAME as a range", Range, ("Or a list of values, e.g. `[0.1 mm, 0.2 mm]`, each"
-                                    " once, in increasing or decreasing order.")),
+                                    " once, in increasing or decreasing order; or one value,"
+                                    " e.g. `0.1 mm`, the same as `[0.1 mm]` (a dim of length"
+                                    " 1).")),
     ("solver", Solver, ""),
     ("scene.excitation (STE and stiffness from a file)", ExcitationSpec,
      "Samples over a mesh cycle or a revolution, fitted to the Fourier series (docs/mesh.md)."),

@@ -988,8 +988,9 @@ def test_a_value_of_the_wrong_type_inside_a_sweep_says_what_that_value_is():
         "s.yaml:11: sweep.backlash[1]: '[...]' -- a length such as '1 mm'",
         "s.yaml:12: sweep.damping.stop: '{...}' -- a damping such as '1 N s/mm'",
         "s.yaml:13: sweep.mass.num: None -- Input should be a valid integer"]
-    assert _lines(GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "5000 rpm")) == [
-        "s.yaml:10: sweep.speed: '5000 rpm' -- a list of values or {start, stop, num}"]
+    # (a scalar is a one-value axis now: tests/test_study_input_findings.py; true is none)
+    assert _lines(GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}", "true")) == [
+        "s.yaml:10: sweep.speed: True -- a value, a list of values or {start, stop, num}"]
 
 
 @pytest.mark.parametrize("name", ["floquet", "stats", "period"])

@@ -332,6 +332,24 @@ class Range(Strict):
     spacing: Literal["linear", "log"] = "linear"
 
 
+def _one_value(v: Any) -> Any:
+    """A single value given for a sweep axis (``speed: 3000 rpm``) is a one-value axis, the
+    same as ``[3000 rpm]`` (a dim of length 1); YAML's true and false are no value (their own
+    line says what an axis is)."""
+    if isinstance(v, str | int | float) and not isinstance(v, bool):
+        return [v]
+    return v
+
+
+SweepAxis = Annotated[list[Real | str] | Range, BeforeValidator(_one_value)]
+"""One entry of ``sweep:``: a list of values, a ``{start, stop, num}`` range, or one value
+(``3000 rpm``: the list ``[3000 rpm]``)."""
+
+SWEEP_DESCRIPTION = ("each swept parameter: a list of values ([3000 rpm, 4000 rpm]), a range"
+                     " {start, stop, num}, or one value (3000 rpm: the same as [3000 rpm], a"
+                     " dim of length 1)")
+
+
 class Solver(Strict):
     method: Literal[KERNEL_METHODS] = "rk4"
     steps_per_period: Count = Field(64, ge=4, le=MAX_STEPS_PER_PERIOD,
@@ -401,7 +419,7 @@ class Study(WholeStudy):
     title: str = Field(min_length=1)
     description: str = ""
     scene: Scene
-    sweep: dict[str, list[Real | str] | Range] = Field(default_factory=dict)
+    sweep: dict[str, SweepAxis] = Field(default_factory=dict, description=SWEEP_DESCRIPTION)
     continuation: list[Literal["up", "down"]] = Field(default_factory=list)
     solver: Solver = Field(default_factory=Solver)
     outputs: list[Annotated[OutputRequest, BeforeValidator(_output_request)]] = Field(
@@ -939,8 +957,19 @@ def written_at(raw: Any, path: str) -> Any:
 
 
 def _error(file: str, problems: list[Problem], raw: Any = None) -> StudyError:
+    problems = [Problem(_as_file_writes(raw, p.path), p.value, p.message) for p in problems]
     return StudyError.many(file, [(line_of(raw, p.path), p.path, p.value, p.message)
                                   for p in problems])
+
+
+def _as_file_writes(raw: Any, path: str) -> str:
+    """``path`` as the file writes it: the one value of a sweep axis given as a scalar
+    (``speed: 3000``, validated as ``[3000]``) is ``sweep.speed``, not ``sweep.speed[0]``."""
+    m = re.fullmatch(r"(sweep\.[^.\[\]]+)\[0\]", path)
+    if m is None:
+        return path
+    written = _as_written(raw, _path_parts(m[1]))
+    return m[1] if written is not None and not isinstance(written, dict | list) else path
 
 
 def _path_of(root: Any, target: Any, prefix: str = "") -> str | None:
@@ -1281,7 +1310,7 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             if hint:
                 msg = hint.removeprefix(" -- ") + f" (allowed: {', '.join(allowed)})"
         elif t.endswith("_type") and len(path) == 2 and path[0] == "sweep":
-            msg = "a list of values or {start, stop, num}"
+            msg = "a value, a list of values or {start, stop, num}"
         elif (t.endswith("_type") and len(path) == 3 and path[0] == "sweep"
               and path[1] in SWEEPABLE and path[2] != "num"):  # a range's start or stop, an item
             kind = SWEEPABLE[path[1]]
@@ -1669,7 +1698,9 @@ class MeshStudy(WholeStudy):
     gear: GearField | None = None
     gears: dict[str, GearField] | None = Field(None, description="labelled variants")
     torque: Torque | None = Field(None, gt=0, description="driving torque T1 [N m]")
-    sweep: dict[Literal["torque"], list[Real | str] | Range] = Field(default_factory=dict)
+    sweep: dict[Literal["torque"], SweepAxis] = Field(default_factory=dict, description=(
+        "torque: a list of torques ([20 N*m, 50 N*m]), a range {start, stop, num}, or one"
+        " torque (50 N*m: the same as [50 N*m])"))
     positions: Count = Field(200, ge=8, le=100_000, description="positions per mesh cycle")
     harmonics: Count = Field(10, ge=1, description="Fourier harmonics kept")
 

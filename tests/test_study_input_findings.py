@@ -1,0 +1,94 @@
+"""Study input errors outside testers found writing their own YAML studies for ``gearsweep
+validate`` and ``gearsweep run``: each is one line ``FILE:LINE: FIELD: VALUE -- what is allowed``
+and exit code 2, and ``validate`` refuses what ``run`` would refuse of the file."""
+
+from __future__ import annotations
+
+import pytest
+import xarray as xr
+
+import gearsweep
+from gearsweep.errors import StudyError
+from gearsweep.model import SWEEPABLE
+from gearsweep.study.schema import SCENE_PARAMETERS, parse_study
+
+GOOD = """\
+title: t
+scene:
+  kind: rattle
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  backlash: 0.1 mm
+  mean_force: 100 N
+sweep:
+  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}
+solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}
+"""
+RANGE = "{start: 5000 rpm, stop: 6000 rpm, num: 3}"
+
+
+def _lines(text: str) -> list[str]:
+    with pytest.raises(StudyError) as err:
+        parse_study(text, "s.yaml")
+    return str(err.value).split("\n")
+
+
+# ------------------------------------------------------------ a scalar is a one-value sweep axis
+
+
+ONE_VALUE = {"speed": "3000 rpm", "mean_force": "200 N", "damping": "10 N*s/m",
+             "mass": "0.2 kg", "stiffness": "1000 kN/mm", "backlash": "0.2 mm",
+             "alpha": "0.5", "beta": "0.1", "gamma": "0.01"}
+"""A value of every sweepable parameter (torque: its own scene below, with a base radius)."""
+
+
+@pytest.mark.parametrize("name", sorted(SWEEPABLE))
+def test_a_scalar_for_a_sweep_axis_is_the_list_of_that_one_value(name):
+    """``sweep: {speed: 3000 rpm}`` was refused ("a list of values or {start, stop, num}"): a
+    scalar is the axis of that one value, ``[3000 rpm]``, for every sweepable field."""
+    if name in SCENE_PARAMETERS["mathieu"]:
+        text = f"title: t\nscene: {{kind: mathieu}}\nsweep:\n  {name}: VALUE\n"
+    else:
+        text = GOOD.replace("mean_force: 100 N", "mean_force: 100 N\n  base_radius: 50 mm")
+        if name == "torque":
+            text = text.replace("  mean_force: 100 N\n", "")
+        if name != "speed":
+            text = text.replace(RANGE, f"[5000 rpm, 6000 rpm]\n  {name}: VALUE")
+        else:
+            text = text.replace(RANGE, "VALUE")
+    value = ONE_VALUE.get(name, "5 N*m")
+    one = parse_study(text.replace("VALUE", value), "s.yaml")
+    listed = parse_study(text.replace("VALUE", f"[{value}]"), "s.yaml")
+    assert one.sweep[name] == listed.sweep[name] == [float(value) if name in ("alpha", "beta",
+                                                                                "gamma") else value]
+    assert list(one.grid(name)) == list(listed.grid(name)) and len(one.grid(name)) == 1
+
+
+def test_a_scalar_sweep_axis_runs_to_the_result_of_its_one_value_list():
+    """The result of ``speed: 3000 rpm`` is that of ``speed: [3000 rpm]``: a speed dim of
+    length 1 with the same values."""
+    one = gearsweep.run(GOOD.replace(RANGE, "3000 rpm"))
+    listed = gearsweep.run(GOOD.replace(RANGE, "[3000 rpm]"))
+    assert one.sizes["speed"] == 1 and dict(one.sizes) == dict(listed.sizes)
+    xr.testing.assert_equal(one, listed)
+
+
+def test_a_scalar_sweep_axis_gets_the_units_checks_of_a_list_on_its_own_line():
+    """A scalar axis is checked as a list's value is (unit, sign, bound), on the axis' line and
+    named as the file writes it (``sweep.speed``, not ``sweep.speed[0]``)."""
+    assert _lines(GOOD.replace(RANGE, "3000 mm")) == [
+        ("s.yaml:10: sweep.speed: '3000 mm' -- a speed: is a length (mm), expected speed"
+        " (e.g. '1 rpm')")]
+    assert _lines(GOOD.replace(RANGE, "-5 rpm")) == [
+        "s.yaml:10: sweep.speed: '-5 rpm' -- speed must be > 0"]
+    assert _lines(GOOD.replace(RANGE, "[5000 rpm]\n  backlash: 0.2")) == [
+        ("s.yaml:11: sweep.backlash: 0.2 has no unit; write e.g. '0.2 mm', or '0.2 m' if SI was"
+        " meant")]
+    assert _lines(GOOD.replace(RANGE, "true")) == [
+        "s.yaml:10: sweep.speed: True -- a value, a list of values or {start, stop, num}"]
+
+
+def test_a_scalar_torque_axis_of_a_mesh_study_is_one_torque():
+    mesh = parse_study("type: mesh\ntitle: t\ngear: table1_consistent\nsweep: {torque: 50 N*m}\n")
+    assert list(mesh.torques()) == [50.0]
