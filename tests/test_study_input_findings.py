@@ -8,6 +8,7 @@ import pytest
 import xarray as xr
 
 import gearsweep
+from gearsweep.cli import main
 from gearsweep.errors import StudyError
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.schema import SCENE_PARAMETERS, parse_study
@@ -92,3 +93,30 @@ def test_a_scalar_sweep_axis_gets_the_units_checks_of_a_list_on_its_own_line():
 def test_a_scalar_torque_axis_of_a_mesh_study_is_one_torque():
     mesh = parse_study("type: mesh\ntitle: t\ngear: table1_consistent\nsweep: {torque: 50 N*m}\n")
     assert list(mesh.torques()) == [50.0]
+
+
+# ------------------------------------------------------------ an unclosed '{' or '[' of YAML
+
+
+def test_an_unclosed_brace_says_where_it_was_opened(tmp_path, capsys):
+    """A range missing its '}' gave PyYAML's "expected ',' or '}', but got ':'" at the next line,
+    with no hint: the line says which bracket, opened on which line, is not closed."""
+    study = tmp_path / "s.yaml"
+    study.write_text(GOOD.replace(RANGE, RANGE.removesuffix("}")))
+    assert main(["validate", str(study)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        (f"gearsweep: error: {study}:11: (yaml): not valid YAML: expected ',' or '}}', but got ':'"
+        " (an unclosed '{' opened at line 10?)")]
+    assert _lines(GOOD.replace(RANGE, "[5000 rpm, 6000 rpm")) == [
+        ("s.yaml:11: (yaml): not valid YAML: expected ',' or ']', but got ':' (an unclosed '['"
+        " opened at line 10?)")]
+    assert _lines("title: t\nsweep:\n  speed: [1 rpm, 2 rpm\n") == [  # at the end of the file
+        ("s.yaml:4: (yaml): not valid YAML: expected ',' or ']', but got '<stream end>' (an"
+        " unclosed '[' opened at line 3?)")]
+
+
+def test_a_bracket_mismatch_on_its_own_line_keeps_yamls_message():
+    """Within one line (a '}' for a ']') nothing was left open on an earlier line: PyYAML's
+    words, as before."""
+    assert _lines("title: t\nsweep: {speed: [1 rpm, 2 rpm}\n") == [
+        "s.yaml:2: (yaml): not valid YAML: expected ',' or ']', but got '}'"]

@@ -988,6 +988,11 @@ def _path_of(root: Any, target: Any, prefix: str = "") -> str | None:
     return None
 
 
+FLOW_OPENERS = {"while parsing a flow mapping": "{", "while parsing a flow sequence": "["}
+"""PyYAML's context of an error inside a flow mapping or sequence, and the bracket that opened
+it."""
+
+
 def load_yaml(text: str, file: str, duplicates: list | None = None) -> Any:
     """The YAML text as Python objects with line marks; every way the loader can fail (syntax,
     tags, values it cannot construct, nesting, duplicate keys) raises one ``StudyError``. With a
@@ -1013,6 +1018,11 @@ def load_yaml(text: str, file: str, duplicates: list | None = None) -> Any:
                         " value: quote the value)")
         elif "'\\t' that cannot start any token" in problem:
             problem += " (a tab: YAML indents with spaces only)"
+        elif (exc.context in FLOW_OPENERS and exc.context_mark is not None and mark is not None
+              and mark.line > exc.context_mark.line):  # still inside a '{' of an earlier line:
+            # "expected ',' or '}', but got ':'" on the line after an unclosed one said nothing
+            problem += (f" (an unclosed '{FLOW_OPENERS[exc.context]}' opened at line"
+                        f" {exc.context_mark.line + 1}?)")  # of that (an outside tester's)
         raise StudyError(file, "(yaml)", NO_VALUE, f"not valid YAML: {problem}",
                          mark.line + 1 if mark is not None else None) from None
     except yaml.reader.ReaderError as exc:
