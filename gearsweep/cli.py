@@ -704,13 +704,15 @@ def cmd_advise(args: argparse.Namespace) -> int:
         raise StudyError(name, "--target", args.target,
                          "a relative error between 0 and 1 (e.g. 1e-4)")
     study, text = load_study(args.study)
-    if getattr(study, "type", None) in ("mesh", "analysis"):
+    if getattr(study, "type", None) in ("mesh", "analysis"):  # (at the field's line: had none)
         raise StudyError(name, "type", study.type,
-                         "a dynamic study (whine, rattle, full): nothing is integrated here")
+                         "a dynamic study (whine, rattle, full): nothing is integrated here",
+                         line_of(load_yaml(text, name), "type"))
     plan = _plan(study, text, args.study)
     if not isinstance(plan.model, MeshModel):
         raise StudyError(name, "scene.kind", study.scene.kind,
-                         "a gear scene (whine, rattle, full): the Mathieu scene has no accuracy model")
+                         "a gear scene (whine, rattle, full): the Mathieu scene has no accuracy"
+                         " model", line_of(load_yaml(text, name), "scene.kind"))
     a = _advice(plan, args.target)
     for n, how in ((a.steps_per_period, ""), (a.kink_steps_per_period, " kink-aware")):
         if n is not None and n > MAX_STEPS_PER_PERIOD:  # advice a study cannot take

@@ -218,9 +218,11 @@ def test_mesh_study_refuses_table1_as_printed(tmp_path, capsys):
     ("  torque: 50 N*m\n  base_radius: 56 mm\n", "typed-in base_radius"),
 ])
 def test_gear_with_typed_in_coefficients_is_refused(tmp_path, capsys, extra, message):
+    """At the typed-in field's line (line 8), the one to leave out (was the scene's, line 2)."""
     rc, _, err = _run_cli(tmp_path, capsys, whine("table1_consistent", extra))
     assert rc == 2 and err.count("\n") == 1
-    assert ": scene: " in err and message in err
+    field = extra.splitlines()[1].split(":")[0].strip()
+    assert f"study.yaml:8: scene.{field}: " in err and message in err
 
 
 def test_gear_without_a_load_is_refused(tmp_path, capsys):
@@ -405,7 +407,8 @@ def test_a_web_without_a_rim_is_refused():
 
     text = ("type: mesh\ntitle: w\ngear: {preset: table1_consistent, web_width1: 5 mm}\n"
             "torque: 50 N*m\n")
-    with pytest.raises(StudyError, match=r"s.yaml:3: gear: .* web_width1 needs rim_thickness1"):
+    with pytest.raises(StudyError, match=r"s.yaml:3: gear.web_width1: '5 mm' -- web_width1 needs"
+                       r" rim_thickness1"):  # (the field, no longer the gear)
         parse_study(text, "s.yaml")
     parse_study(text.replace("web_width1: 5 mm", "web_width1: 5 mm, rim_thickness1: 8 mm"),
                 "s.yaml")

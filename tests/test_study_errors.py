@@ -611,8 +611,8 @@ scene:
     assert m == pytest.approx(1 / (ex.base_radius_1**2 / 1e-3 + ex.base_radius_2**2 / 2e-3))
     no_gear = text.replace("  gear: table1_consistent\n", "  teeth: 48\n  stiffness: 1e9 N/m\n")
     assert _lines(no_gear) == [
-        ("s.yaml:2: scene: '{...}' -- 'drive.base_radius_1' and 'drive.base_radius_2' required (or"
-        " a 'gear', which gives the base radii)")]
+        ("s.yaml:7: scene.drive: '{...}' -- 'drive.base_radius_1' and 'drive.base_radius_2'"
+        " required (or a 'gear', which gives the base radii)")]  # (the drive's line: the scene's)
 
 
 def test_a_problem_found_when_planning_names_the_file_and_line(tmp_path, capsys):

@@ -4,6 +4,8 @@ and exit code 2, and ``validate`` refuses what ``run`` would refuse of the file.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 import xarray as xr
 
@@ -27,6 +29,7 @@ sweep:
 solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}
 """
 RANGE = "{start: 5000 rpm, stop: 6000 rpm, num: 3}"
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _lines(text: str) -> list[str]:
@@ -120,3 +123,71 @@ def test_a_bracket_mismatch_on_its_own_line_keeps_yamls_message():
     words, as before."""
     assert _lines("title: t\nsweep: {speed: [1 rpm, 2 rpm}\n") == [
         "s.yaml:2: (yaml): not valid YAML: expected ',' or ']', but got '}'"]
+
+
+# ------------------------------------------------------- a problem between fields, at its field
+
+DRIVE = ("  drive: {inertia_1: 1e-3 kg m^2, inertia_2: 2e-3 kg m^2, base_radius_1: 50 mm,"
+         " base_radius_2: 50 mm}\n")
+
+
+@pytest.mark.parametrize("text, line", [
+    (GOOD.replace("  teeth: 48\n", DRIVE + "  teeth: 48\n"),  # mass and drive: at the later
+     ("s.yaml:5: scene.drive: '{...}' -- give exactly one of 'mass' (m_eq) and 'drive'"
+     " (inertias, radii)")),
+    (GOOD.replace("  mass: 0.1527 kg\n", "  mass: 0.1527 kg\n  torque: 5 N*m\n  base_radius:"
+                  " 50 mm\n"),
+     "s.yaml:10: scene.mean_force: '100 N' -- give at most one of 'mean_force' and 'torque'"),
+    (GOOD.replace("  mass: 0.1527 kg\n", DRIVE + "  base_radius: 50 mm\n"),
+     ("s.yaml:5: scene.base_radius: '50 mm' -- with a 'drive', its 'base_radius_1' is the base"
+     " radius: leave out 'base_radius'")),
+    (GOOD.replace("  teeth: 48\n", "  teeth: 48\n  harmonics: 5\n"),
+     ("s.yaml:6: scene.harmonics: 5 -- 'harmonics' is the number of Fourier terms of a 'gear';"
+     " no gear")),
+    (GOOD.replace("  teeth: 48\n  stiffness: 1073 kN/mm\n", (
+        "  gear:\n    preset: table1_consistent\n    tip_relief: {amount: 10 um, start_radius:"
+        " 60 mm,\n      start_diameter: 120 mm}\n")),
+     ("s.yaml:8: scene.gear.tip_relief.start_diameter: '120 mm' -- give exactly one of start_at,"
+     " start_radius, start_diameter, start_roll_angle")),
+    (GOOD + "outputs:\n  - spectrum:\n      samples_per_period: 8\n      max_order: 6\n",
+     ("s.yaml:15: outputs[0].spectrum.max_order: 6 -- max_order 6 is above the Nyquist order"
+     " samples_per_period / 2 = 4")),
+    ("type: mesh\ntitle: t\ngear: table1_consistent\ntorque: 5 N*m\ngears: {a: table1_consistent}\n",
+     ("s.yaml:5: gears: '{...}' -- give exactly one of 'gear' (one pair) and 'gears' (labelled"
+     " variants)")),
+    (("type: analysis\ntitle: t\nanalysis:\n  kind: rattle_budget\n  fitted: a\n  scenes: [b, c]\n"
+     "  names: [x]\n  mesh: m\n"),
+     "s.yaml:7: analysis.names: '[...]' -- one name per scene: 2 names for the 2 scenes, not 1"),
+])
+def test_a_problem_between_two_fields_is_at_the_line_of_the_field_it_names(text, line):
+    """Checks that compare two fields reported every problem at the line of the scene (or the
+    gear, the relief, the output, the analysis, the file's first line): each is at the line of
+    the field the message names, the one written beside the other."""
+    assert _lines(text) == [line]
+
+
+def test_what_a_scene_lacks_stays_one_line_at_the_scene():
+    """A field that is not written has no line: what the scene lacks is said at its line, in
+    one line, beside a problem of a written field at that field's."""
+    text = "title: x\nscene:\n  kind: whine\n  harmonics: 5\n  speed: 3000 rpm\n"
+    assert _lines(text) == [
+        ("s.yaml:2: scene: '{...}' -- give exactly one of 'mass' (m_eq) and 'drive' (inertias,"
+         " radii); 'teeth' and 'stiffness' required (or a 'gear' that gives teeth, stiffness and"
+         " their harmonics)")]
+    text = GOOD.replace("  mass: 0.1527 kg\n", "").replace("  teeth: 48\n", (
+        "  teeth: 48\n  dampin: 1 N*s/m\n"))
+    assert _lines(text) == [
+        ("s.yaml:2: scene: '{...}' -- give exactly one of 'mass' (m_eq) and 'drive' (inertias,"
+         " radii)"),
+        ("s.yaml:5: scene.dampin: 'dampin' is not a field of a rattle scene -- did you mean"
+        " 'damping'?")]
+
+
+@pytest.mark.parametrize("study, line", [
+    ("stability_artifact_map.yaml", ":1: type: 'analysis' -- a dynamic study"),
+    ("strutt_mathieu.yaml", ":8: scene.kind: 'mathieu' -- a gear scene"),
+])
+def test_advise_names_the_line_of_what_it_cannot_advise_on(study, line, capsys):
+    path = ROOT / "studies" / study
+    assert main(["advise", str(path)]) == 2
+    assert capsys.readouterr().err.startswith(f"gearsweep: error: {path}{line}")

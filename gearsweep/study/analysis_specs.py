@@ -28,6 +28,7 @@ from gearsweep.study.quantities import (
     MAX_STEPS_PER_PERIOD,
     Count,
     EachOnce,
+    FieldProblems,
     Real,
     Speed,
     Strict,
@@ -171,8 +172,9 @@ class RattleBudget(Strict):
 
     @model_validator(mode="after")
     def _names(self) -> RattleBudget:
-        if len(self.names) != len(self.scenes):
-            raise ValueError("give one name per scene")
+        if len(self.names) != len(self.scenes):  # at names' line (was the analysis')
+            raise FieldProblems([(("names",), (f"one name per scene: {len(self.scenes)} names for"
+                                  f" the {len(self.scenes)} scenes, not {len(self.names)}"))])
         return self
 
     def inputs(self) -> list[str]:

@@ -42,7 +42,15 @@ from pydantic import BeforeValidator, Field, model_validator
 from gearsweep.errors import GeometryError
 from gearsweep.gear import GearPair, TipRelief, table1_as_printed, table1_consistent
 from gearsweep.gear.excitation import DEFAULT_HARMONICS, GearExcitation, gear_excitation
-from gearsweep.study.quantities import Angle, Count, Length, Pressure, Real, Strict
+from gearsweep.study.quantities import (
+    Angle,
+    Count,
+    FieldProblems,
+    Length,
+    Pressure,
+    Real,
+    Strict,
+)
 
 PRESETS = {"table1_consistent": table1_consistent, "table1_as_printed": table1_as_printed}
 """Named gear pairs a study can use as ``gear: NAME`` or ``gear: {preset: NAME, ...}``."""
@@ -61,10 +69,11 @@ class TipReliefSpec(Strict):
 
     @model_validator(mode="after")
     def _one_start(self) -> TipReliefSpec:
-        starts = (self.start_at, self.start_radius, self.start_diameter, self.start_roll_angle)
-        if sum(v is not None for v in starts) != 1:
-            raise ValueError("give exactly one of start_at, start_radius, start_diameter,"
-                             " start_roll_angle")
+        names = ("start_at", "start_radius", "start_diameter", "start_roll_angle")
+        given = tuple(n for n in names if getattr(self, n) is not None)
+        if len(given) != 1:  # two of them: at the line of the later (none: the relief's line)
+            raise FieldProblems([(given, ("give exactly one of start_at, start_radius,"
+                                  " start_diameter, start_roll_angle"))])
         return self
 
 
@@ -118,8 +127,9 @@ class GearSpec(Strict):
         for g in (1, 2):  # a web carries a rim: alone it was ignored (ISO's C_R needs both)
             if getattr(self, f"web_width{g}") is not None and getattr(self,
                                                                      f"rim_thickness{g}") is None:
-                raise ValueError(f"web_width{g} needs rim_thickness{g} (ISO 6336-1's rim factor"
-                                 " takes both; a solid gear has neither)")
+                raise FieldProblems([((f"web_width{g}",), (f"web_width{g} needs rim_thickness{g}"
+                                      " (ISO 6336-1's rim factor takes both; a solid gear has"
+                                      " neither)"))])
         return self
 
     def overrides(self) -> dict[str, Any]:

@@ -40,7 +40,14 @@ from gearsweep.kernels.floquet import (
     monodromy_call,
 )
 from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
-from gearsweep.study.quantities import MAX_STEPS_PER_PERIOD, Count, Flag, Real, Strict
+from gearsweep.study.quantities import (
+    MAX_STEPS_PER_PERIOD,
+    Count,
+    FieldProblems,
+    Flag,
+    Real,
+    Strict,
+)
 from gearsweep.units import KINDS, to_display
 
 STATUS_CODES = {
@@ -228,9 +235,11 @@ class SpectrumOptions(Strict):
     @model_validator(mode="after")
     def _nyquist(self) -> SpectrumOptions:
         sps = self.samples_per_period
-        if sps is not None and self.max_order > sps / 2:
-            raise ValueError(f"max_order {self.max_order:g} is above the Nyquist order"
-                             f" samples_per_period / 2 = {sps / 2:g}")
+        if sps is not None and self.max_order > sps / 2:  # at max_order's line if written, else
+            # at samples_per_period's (were the output's)
+            raise FieldProblems([(("max_order", "samples_per_period"), (
+                f"max_order {self.max_order:g} is above the Nyquist order samples_per_period / 2"
+                f" = {sps / 2:g}"))])
         return self
 
 
@@ -727,5 +736,12 @@ def configure(name: str, options: dict[str, Any], file: str = "<study>",
                 value = options
             if err["type"] == "extra_forbidden":
                 msg = f"unknown option; allowed: {', '.join(model.model_fields)}"
+            found = err.get("ctx", {}).get("error")
+            if isinstance(found, FieldProblems):  # at the first option it names that is written
+                for fields, m in found.problems:  # (its line: the caller's); none: the output
+                    at = next((f for f in fields if f in options), None)
+                    problems.append((None, f"{where}.{at}" if at else where,
+                                     options[at] if at else value, m))
+                continue
             problems.append((None, f"{where}.{loc}" if loc else where, value, msg))
         raise StudyError.many(file, problems) from None

@@ -137,6 +137,19 @@ class EachOnce:
 EACH_ONCE = EachOnce()
 
 
+class FieldProblems(ValueError):
+    """Problems a model's validator finds between fields of the model, each ``(fields,
+    message)``: ``fields`` (relative to the model: ``mass``, ``web_width1``) are those the message
+    is about. The study file's error is reported at the one of them the file writes on the latest
+    line (the one written beside the other, likely the one to change), not at the model's own
+    line; messages with none of their fields written (what is missing) are joined in one line at
+    the model's. Its text, every message joined, is the error of a model validated from Python."""
+
+    def __init__(self, problems: list[tuple[tuple[str, ...], str]]) -> None:
+        self.problems = [(tuple(fields), message) for fields, message in problems]
+        super().__init__("; ".join(message for _, message in self.problems))
+
+
 class Strict(BaseModel):
     """A study model: unknown keys and non-finite numbers are errors; frozen once validated.
 

@@ -84,6 +84,7 @@ from gearsweep.study.quantities import (
     Damping,
     Displacement,
     EachOnce,
+    FieldProblems,
     Flag,
     Force,
     Inertia,
@@ -185,31 +186,35 @@ class Fluctuation(Strict):
         return False
 
 
-def scene_presence(has, drive_has) -> str:
-    """The problems of which fields a whine, rattle or full scene gives, in one message ("" when
-    none): ``has(name)`` says whether the scene gives field ``name``, ``drive_has(name)`` the
+def scene_presence(has, drive_has) -> list[tuple[tuple[str, ...], str]]:
+    """The problems of which fields a whine, rattle or full scene gives, each ``(fields,
+    message)`` as ``FieldProblems`` takes them (the fields the message is about: a field given
+    beside another it excludes is reported on its own line; what is missing, on the scene's, in
+    one line): ``has(name)`` says whether the scene gives field ``name``, ``drive_has(name)`` the
     same of its ``drive``. Asked by the scene's validator, and, when other errors stop that
     validator, on the file's own keys (``_problems_beside_errors``), so that a bare scene's problems
     come in one run."""
     problems = []
     if has("mass") == has("drive"):
-        problems.append("give exactly one of 'mass' (m_eq) and 'drive' (inertias, radii)")
+        problems.append((("mass", "drive"), ("give exactly one of 'mass' (m_eq) and 'drive'"
+                         " (inertias, radii)")))
     if has("mean_force") and has("torque"):
-        problems.append("give at most one of 'mean_force' and 'torque'")
+        problems.append((("mean_force", "torque"), ("give at most one of 'mean_force' and"
+                         " 'torque'")))
     if has("drive") and has("base_radius"):
-        problems.append("with a 'drive', its 'base_radius_1' is the base radius: leave out"
-                        " 'base_radius'")
+        problems.append((("base_radius",), ("with a 'drive', its 'base_radius_1' is the base"
+                         " radius: leave out 'base_radius'")))
     if has("drive") and not has("gear"):
         missing = [f"'drive.{f}'" for f in ("base_radius_1", "base_radius_2") if not drive_has(f)]
         if missing:
-            problems.append(f"{' and '.join(missing)} required (or a 'gear', which gives"
-                            " the base radii)")
+            problems.append((("drive",), (f"{' and '.join(missing)} required (or a 'gear', which"
+                             " gives the base radii)")))
     if not has("gear") and not has("excitation"):
         missing = [f"'{f}'" for f in ("teeth", "stiffness") if not has(f)]
         if missing:
-            problems.append(f"{' and '.join(missing)} required (or a 'gear' that gives"
-                            " teeth, stiffness and their harmonics)")
-    return "; ".join(problems)
+            problems.append(((), (f"{' and '.join(missing)} required (or a 'gear' that gives"
+                             " teeth, stiffness and their harmonics)")))
+    return problems
 
 
 class _Driven(Strict):
@@ -236,26 +241,30 @@ class _Driven(Strict):
 
     @model_validator(mode="after")
     def _mass_and_force(self) -> _Driven:
-        # The independent problems of the scene at once, in one message (the file's line of
-        # the scene): a user fixing one at a time met them over several runs.
+        # The independent problems of the scene at once (a user fixing one at a time met them
+        # over several runs), each at the line of the field it names (they were all at the
+        # scene's line, an outside tester's finding), what is missing in one line at the scene's
         problems = scene_presence(lambda f: getattr(self, f, None) is not None,
                                   lambda f: getattr(self.drive, f, None) is not None)
         if problems:
-            raise ValueError(problems)
+            raise FieldProblems(problems)
         if self.excitation is not None:  # checked with the sweep (consistency_problems)
             return self
         if self.gear is None:
             if self.harmonics is not None:
-                raise ValueError("'harmonics' is the number of Fourier terms of a 'gear'; no gear")
+                raise FieldProblems([(("harmonics",), ("'harmonics' is the number of Fourier terms"
+                                      " of a 'gear'; no gear"))])
             return self
         typed = [f for f in ("teeth", "ste", "base_radius") if getattr(self, f, None)]
         if typed:
-            raise ValueError(f"give either 'gear' or typed-in {', '.join(typed)}, not both: the"
-                             " gear pair gives teeth, ste and base_radius (and stiffness and"
-                             " stiffness_harmonics, unless typed in to replace the pair's)")
+            raise FieldProblems([(tuple(typed), (f"give either 'gear' or typed-in"
+                                  f" {', '.join(typed)}, not both: the gear pair gives teeth, ste"
+                                  " and base_radius (and stiffness and stiffness_harmonics, unless"
+                                  " typed in to replace the pair's)"))])
         if getattr(self, "stiffness_harmonics", None) and self.stiffness is None:
-            raise ValueError("'stiffness_harmonics' beside a 'gear' need 'stiffness' too: a"
-                             " typed-in k(t) replaces the pair's as a whole")
+            raise FieldProblems([(("stiffness_harmonics",), ("'stiffness_harmonics' beside a"
+                                  " 'gear' need 'stiffness' too: a typed-in k(t) replaces the"
+                                  " pair's as a whole"))])
         return self
 
     @property
@@ -1282,6 +1291,9 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
         if isinstance(value, dict | list):
             value = "{...}" if isinstance(value, dict) else "[...]"
         t = e["type"]
+        if isinstance(e.get("ctx", {}).get("error"), FieldProblems):  # at the fields it names
+            out += [(path, p) for p in _field_problems(raw, parts, e["ctx"]["error"])]
+            continue
         if t == "extra_forbidden":
             key = parts[-1] if parts else value
             value = NO_VALUE
@@ -1346,6 +1358,32 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
     # 'ordr: 1' where 'order' is required is one mistake: its line says 'did you mean', and the
     # missing field's own line would only repeat it
     return [p for path, p in out if not (path in explained and by_path[path]["type"] == "missing")]
+
+
+def _field_problems(raw: Any, parts: list, err: FieldProblems) -> list[Problem]:
+    """The problems of ``err``, raised by the validator of the model at ``parts``: each at the
+    one of its fields the file writes on the latest line, with the value written there; those
+    with none of their fields written, joined in one line at the model's own."""
+    out, here = [], []
+    for fields, message in err.problems:
+        written = [parts + _path_parts(f) for f in fields]
+        written = [p for p in written if _as_written(raw, p) is not None]
+        if not written:
+            here.append(message)
+            continue
+        at = max(written, key=lambda p: line_of(raw, p) or 0)  # (the first of one line)
+        out.append(Problem(_loc(at), _shown_value(_as_written(raw, at)), message))
+    if here:
+        out.insert(0, Problem(_loc(parts), _shown_value(_as_written(raw, parts)), "; ".join(here)))
+    return out
+
+
+def _shown_value(value: Any) -> Any:
+    """A value as a problem's line shows it: a mapping ``{...}``, a list ``[...]`` (and a part
+    of the file that is not there, ``{...}``: a model's)."""
+    if value is None or isinstance(value, dict):
+        return "{...}"
+    return "[...]" if isinstance(value, list) else value
 
 
 @cache
@@ -1479,8 +1517,8 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
         given = scene_presence(lambda f: scene.get(f) is not None,  # a drive that is no mapping:
                                lambda f: not isinstance(drive, dict) or drive.get(f) is not None)
         # its own error says so, not that its fields are missing
-        if given:  # the same line as the scene's validator gives, where it ran
-            out.append(Problem("scene", "{...}", given))
+        if given:  # the same lines as the scene's validator gives, where it ran
+            out += _field_problems(raw, ["scene"], FieldProblems(given))
     if isinstance(sweep, dict):  # each entry on its own: a 'spacing: logg' in one range hides
         parsed = {}  # neither a missing unit of its start nor the problems of the other entries
         for name, spec in sweep.items():
@@ -1716,12 +1754,14 @@ class MeshStudy(WholeStudy):
 
     @model_validator(mode="after")
     def _consistent(self) -> MeshStudy:
-        if (self.gear is None) == (self.gears is None):
-            raise ValueError("give exactly one of 'gear' (one pair) and 'gears' (labelled variants)")
+        if (self.gear is None) == (self.gears is None):  # (both: at the later one's line)
+            raise FieldProblems([(("gear", "gears"), ("give exactly one of 'gear' (one pair) and"
+                                  " 'gears' (labelled variants)"))])
         if self.gears is not None and not self.gears:
-            raise ValueError("'gears' needs at least one labelled gear pair")
+            raise FieldProblems([(("gears",), "'gears' needs at least one labelled gear pair")])
         if (self.torque is None) == ("torque" not in self.sweep):
-            raise ValueError("give exactly one of 'torque' and 'sweep.torque'")
+            raise FieldProblems([(("torque", "sweep.torque"), ("give exactly one of 'torque' and"
+                                  " 'sweep.torque'"))])
         return self
 
     @property
