@@ -242,8 +242,13 @@ def test_validate_notes_a_result_the_analysis_reads_that_is_not_there(tmp_path, 
     import netCDF4  # a readable netCDF file (an empty one is refused as run refuses it)
 
     netCDF4.Dataset(tmp_path / "results" / "fig08_rattle.nc", "w").close()
-    assert main(["validate", str(study)]) == 0
-    assert capsys.readouterr().err == ""
+    # there: no note; and an empty file is no result rattle_balance reads, refused as run
+    # refuses it (validate said ok of it), at the line of analysis.result
+    assert main(["validate", str(study)]) == 2
+    assert capsys.readouterr().err == (
+        f"gearsweep: error: {study}:18: analysis.result: 'fig08_rattle' -- rattle_balance needs"
+        " a gear scene's dynamic result; the result carries no resolved model (not a dynamic"
+        " study)\n")
 
 
 def test_jump_analyses_of_a_run_up_only_result_are_one_line(tmp_path, capsys):
@@ -412,14 +417,17 @@ def test_a_rattle_budget_of_results_of_the_wrong_kind_is_refused_at_its_line(
 
 
 def test_a_rattle_balance_of_a_mathieu_result_is_one_line(tmp_path, capsys):
-    """The Mathieu scene's model has no force harmonics: an AttributeError traceback (exit 1)."""
+    """The Mathieu scene's model has no force harmonics: an AttributeError traceback (exit 1);
+    then a line of no file or field: now at analysis.result's line."""
     gearsweep.run(MATHIEU, output=tmp_path / "m.nc")
     study = tmp_path / "rb.yaml"
     study.write_text("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: m}\n",
                      encoding="utf-8")
     assert main(["run", str(study), "-o", str(tmp_path / "rb.nc")]) == 2
     err = capsys.readouterr().err
-    assert err == "gearsweep: error: m: the result is of a MathieuModel, not of a gear pair's scene\n"
+    assert err == (f"gearsweep: error: {study}:3: analysis.result: 'm' -- rattle_balance needs a"
+                   " gear scene's dynamic result; the result is of a MathieuModel, not of a gear"
+                   " pair's scene\n")
 
 
 @pytest.mark.parametrize(("value", "match"), [("0", "greater than 0"), ("-1", "greater than 0"),
@@ -450,8 +458,9 @@ def test_an_input_whose_model_attribute_is_no_model_record_is_one_line(tmp_path,
     study.write_text("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: x}\n",
                      encoding="utf-8")
     assert main(["run", str(study), "-o", str(tmp_path / "results" / "rb.nc")]) == 2
-    assert capsys.readouterr().err == ("gearsweep: error: x: its model attribute is not a"
-                                       " gearsweep model record\n")
+    assert capsys.readouterr().err == (f"gearsweep: error: {study}:3: analysis.result: 'x' --"
+                                       " rattle_balance needs a gear scene's dynamic result; its"
+                                       " model attribute is not a gearsweep model record\n")
     study.write_text("type: analysis\ntitle: t\nanalysis: {kind: rattle_budget, fitted: x,"
                      " scenes: [x], names: [a], mesh: x}\n", encoding="utf-8")
     assert main(["validate", str(study)]) == 2

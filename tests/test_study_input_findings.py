@@ -191,3 +191,51 @@ def test_advise_names_the_line_of_what_it_cannot_advise_on(study, line, capsys):
     path = ROOT / "studies" / study
     assert main(["advise", str(path)]) == 2
     assert capsys.readouterr().err.startswith(f"gearsweep: error: {path}{line}")
+
+
+# ------------------------------------------- an analysis' input that run refuses, validate too
+
+
+def _analysis(tmp_path, kind: str, field: str, name: str) -> Path:
+    study = tmp_path / f"{kind}.yaml"
+    study.write_text(f"type: analysis\ntitle: t\nanalysis:\n  kind: {kind}\n  {field}: {name}\n",
+                     encoding="utf-8")
+    return study
+
+
+def test_an_artifact_map_of_a_result_that_is_no_rig_is_refused_by_validate_at_its_line(
+        tmp_path, monkeypatch, capsys):
+    """An artifact_map whose rig is a result of the wrong kind (a rattle sweep: no stiffness
+    harmonic, no damping sweep) was 'ok' for validate; run refused it with 'flat: artifact_map
+    needs a rig ...', no file, line or field. Both now refuse it at analysis.rig's line."""
+    monkeypatch.chdir(tmp_path)  # validate and run without -o read results/
+    (tmp_path / "results").mkdir()
+    gearsweep.run(GOOD, output=tmp_path / "results" / "flat.nc")
+    study = _analysis(tmp_path, "artifact_map", "rig", "flat")
+    line = (f"gearsweep: error: {study}:5: analysis.rig: 'flat' -- artifact_map needs a rig: a"
+            " gear scene's result with a stiffness harmonic k1 that sweeps speed and damping"
+            " (e.g. studies/stability_rig.yaml); this one has no stiffness harmonic and no"
+            " damping sweep\n")
+    assert main(["validate", str(study)]) == 2
+    assert capsys.readouterr().err == line
+    assert main(["run", str(study)]) == 2
+    assert capsys.readouterr().err == line
+    rig = GOOD.replace("kind: rattle", "kind: whine").replace("  backlash: 0.1 mm\n", (
+        "  stiffness_harmonics: [{amplitude: 100 kN/mm}]\n")).replace(
+        RANGE, f"{RANGE}\n  damping: [1 N*s/mm, 5 N*s/mm]")
+    gearsweep.run(rig, output=tmp_path / "results" / "rig.nc")
+    assert main(["validate", str(_analysis(tmp_path, "artifact_map", "rig", "rig"))]) == 0
+
+
+def test_a_rattle_balance_of_a_result_it_cannot_balance_is_refused_by_validate(
+        tmp_path, monkeypatch, capsys):
+    """rattle_balance of a result that is not a constant-stiffness rattle sweep continued up and
+    down: validate said ok and run refused it in a line of no file or field."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    gearsweep.run(GOOD, output=tmp_path / "results" / "flat.nc")
+    study = _analysis(tmp_path, "rattle_balance", "result", "flat")
+    assert main(["validate", str(study)]) == 2
+    assert capsys.readouterr().err == (
+        f"gearsweep: error: {study}:5: analysis.result: 'flat' -- rattle_balance needs a"
+        " constant-stiffness scene with backlash and one force harmonic\n")

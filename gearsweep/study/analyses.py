@@ -85,13 +85,42 @@ def method_stability(o: MethodStability, inputs: dict | None = None
     return data, coords, attrs, {"steps": o.steps, "paper_rig_zeta": round(rig_zeta, 6)}
 
 
+def _input_model(ds: xr.Dataset, name: str, field: str, kind: str) -> MeshModel:
+    """The gear scene's model the input ``name`` carries; else ``StudyError`` at ``field`` (the
+    study file's line of the input, reported by the caller), saying why: a mesh or analysis
+    result has none, a Mathieu scene's is no gear pair's (``_model``'s words)."""
+    try:
+        return _model(ds, name)
+    except ResultError as exc:
+        why = str(exc).removeprefix(f"{name}: ")
+        raise StudyError("<study>", field, name, f"{kind} needs a gear scene's dynamic result;"
+                         f" {why}") from None
+
+
+ARTIFACT_RIG = ("artifact_map needs a rig: a gear scene's result with a stiffness harmonic k1"
+                " that sweeps speed and damping (e.g. studies/stability_rig.yaml)")
+
+
+def _artifact_map_input(o: ArtifactMap, ds: xr.Dataset, _name: str = "") -> None:
+    """``StudyError`` (field ``analysis.rig``) unless ``ds`` is a rig ``artifact_map`` can read:
+    a gear scene's result with a stiffness harmonic, swept over speed and damping. ``validate``
+    said ok of any other result and run refused it in a line of no file, line or field (an
+    outside tester's finding)."""
+    model = _input_model(ds, o.rig, "analysis.rig", "artifact_map")
+    lacks = [what for what, missing in (
+        ("a stiffness harmonic", not model.stiffness_harmonics),
+        ("a speed sweep", "speed" not in ds.dims), ("a damping sweep", "damping" not in ds.dims))
+        if missing]
+    if lacks:
+        raise StudyError("<study>", "analysis.rig", o.rig, f"{ARTIFACT_RIG}; this one has no"
+                         f" {' and no '.join(w.removeprefix('a ') for w in lacks)}")
+
+
 def artifact_map(o: ArtifactMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
     """The paper's criterion per tableau and step over the rig result's speed x damping grid."""
     rig = inputs[o.rig]
+    _artifact_map_input(o, rig)
     model = _model(rig, o.rig)
-    if not model.stiffness_harmonics or "damping" not in rig.dims:
-        raise ResultError(f"{o.rig}: artifact_map needs a rig with a stiffness harmonic k1 that"
-                          " sweeps speed and damping")
     speed = rig["speed"].values
     damping = from_display(rig["damping"].values, "damping")  # the file: display unit; here SI
     am = st.artifact_map(speed, damping, k0=model.stiffness,
@@ -296,6 +325,15 @@ def _rattle_balance_input(o: RattleBalance, ds: xr.Dataset, _name: str = "") -> 
         raise StudyError("<study>", "analysis.n_time", o.n_time, (
             f"at least {k} samples per harmonic: {k * o.harmonics} for the {o.harmonics}"
             f" harmonics (or at most {o.n_time // k} harmonics)"))
+    # What the result must be (validate said ok, run refused it in a line of no file or field)
+    model = _input_model(ds, o.result, "analysis.result", "rattle_balance")
+    if len(model.force_harmonics) != 1 or model.backlash is None or model.stiffness_harmonics:
+        raise StudyError("<study>", "analysis.result", o.result, "rattle_balance needs a"
+                         " constant-stiffness scene with backlash and one force harmonic")
+    if (not _both_ways(ds) or ds.sizes.get("speed", 0) < 2 or "p_pp" not in ds
+            or ds["p_pp"].ndim != 2):
+        raise StudyError("<study>", "analysis.result", o.result, "rattle_balance needs one case"
+                         " continued up and down over speed (continuation: [up, down])")
     speed = ds["speed"].values if "speed" in ds.coords else np.zeros(0)
     if speed.size < 2:
         return  # (the analysis says what it needs of the result)
@@ -312,12 +350,6 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     ds = inputs[o.result]
     _rattle_balance_input(o, ds)
     model = _model(ds, o.result)
-    if len(model.force_harmonics) != 1 or model.backlash is None or model.stiffness_harmonics:
-        raise ResultError(f"{o.result}: rattle_balance needs a constant-stiffness scene with"
-                          " backlash and one force harmonic")
-    if not _both_ways(ds) or ds.sizes.get("speed", 0) < 2 or ds["p_pp"].ndim != 2:
-        raise ResultError(f"{o.result}: rattle_balance needs one case continued up and down over"
-                          " speed (continuation: [up, down])")
     b = model.backlash / 2
     (fh,) = model.force_harmonics
     f0, m, k, c, fm = fh.amplitude, model.mass, model.stiffness, model.damping, model.mean_force
@@ -688,7 +720,7 @@ def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
 
 
 INPUT_CHECKS = {"jump_map": _jump_map_input, "rattle_balance": _rattle_balance_input,
-                "rattle_budget": _rattle_budget_input}
+                "rattle_budget": _rattle_budget_input, "artifact_map": _artifact_map_input}
 """Per analysis kind, the check of what it reads (``check_inputs``; the analysis runs it too):
 ``check(analysis, dataset, name)``."""
 
