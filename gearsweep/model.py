@@ -238,10 +238,13 @@ def kernel_inputs(model: MeshModel | MathieuModel, cases: dict[str, np.ndarray],
     backlash = _case(cases, "backlash", model.backlash, n)
     has_gap = "backlash" in cases or model.backlash > 0.0
     out["half_gap"] = backlash / 2.0 if has_gap else None
-    # Static scale of the response, for the divergence bound.
+    # Static scale of the response, for the divergence bound: with the start, |p0| and the swing
+    # |p'0| / omega_n of a start's velocity (without it, a free decay from 1 m/s under no load
+    # had a bound of 1 um and every case 'diverged' in its first mesh period)
     e_amp = sum(abs(hm.amplitude) * (1.0 + (hm.order * omega) ** 2 * mass / k0) for hm in eh)
     f_amp = sum(abs(hm.amplitude) for hm in fh)
-    scale = (np.abs(fm) + f_amp) / k0 + e_amp + backlash / 2.0 + abs(x0)
+    scale = ((np.abs(fm) + f_amp) / k0 + e_amp + backlash / 2.0 + np.abs(x0)
+             + np.abs(v0) * np.sqrt(mass / k0))
     out["bound"] = divergence_factor * np.maximum(scale, 1e-12)
     out["x0"] = x0
     out["v0"] = v0

@@ -239,3 +239,37 @@ def test_a_rattle_balance_of_a_result_it_cannot_balance_is_refused_by_validate(
     assert capsys.readouterr().err == (
         f"gearsweep: error: {study}:5: analysis.result: 'flat' -- rattle_balance needs a"
         " constant-stiffness scene with backlash and one force harmonic\n")
+
+
+# ------------------------------------------------------ a start beyond the divergence bound
+
+
+FREE = """\
+title: free vibration from a velocity
+scene: {kind: whine, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, damping: 100 N*s/m,
+        mean_force: 0 N}
+sweep:
+  speed: [3000 rpm, 4000 rpm]
+solver: {steps_per_period: 128, transient_periods: 4, record_periods: 4, initial_velocity: VALUE}
+"""
+
+
+def test_a_start_with_a_velocity_is_within_the_divergence_bound():
+    """The bound on |p| is divergence_factor x the static scale, which holds the start's |p0|
+    but not its velocity: with no load (scale 1e-12 m, bound 1 um) a free vibration from 1 m/s
+    (a swing of |p'0| / omega_n = 12 um) was 'diverged' (status 1, every statistic NaN) in
+    every case. The scale holds the swing |p'0| sqrt(m / k0) now, as it holds |p0|."""
+    swing = 1.0 * (0.1527 / 1073e6) ** 0.5  # [m]
+    ds = gearsweep.run(FREE.replace("VALUE", "1 m/s"))
+    assert (ds.status != 1).all() and ds.p_max.attrs["units"] == "um"
+    assert (ds.p_max > 0.1 * swing * 1e6).all() and (ds.p_max <= swing * 1e6).all()
+
+
+@pytest.mark.parametrize("start", ["initial_displacement: 100 m", "initial_displacement: -1 m",
+                                   "initial_displacement: static"])
+def test_a_start_far_from_rest_is_within_the_divergence_bound(start):
+    """A start's displacement is in the static scale: however far (100 m), it is no case that
+    diverges at its start (a tester's report that one was; it is within the bound by design)."""
+    ds = gearsweep.run(FREE.replace("initial_velocity: VALUE", start).replace(
+        "mean_force: 0 N", "mean_force: 100 N"))
+    assert (ds.status != 1).all()

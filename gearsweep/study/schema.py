@@ -372,7 +372,10 @@ class Solver(Strict):
     record_periods: Count = Field(50, ge=1, le=10**9, description="mesh periods recorded for statistics"
                                   " (a driven scene: two cycles of its excitation at least, 2"
                                   " for mesh orders, 96 for a shaft order of 48 teeth)")
-    divergence_factor: Real = Field(1e6, gt=1, description="|p| bound / static scale")
+    divergence_factor: Real = Field(1e6, gt=1, description=(
+        "|p| bound / static scale (of a gear scene: (|F_m| + the force amplitudes) / k0, the"
+        " STE, backlash / 2 and the start, |p0| + |p'0| sqrt(m / k0); of a Mathieu scene:"
+        " max(|p0|, |p'0|))"))
     settle_tolerance: Real = Field(1e-2, gt=0, description=(
         "settle_error above it: status 2 (extremes compared between the halves of the record;"
         " not a test of periodicity: an irregular motion may pass, docs/rattle.md)"))
