@@ -261,7 +261,8 @@ def test_bad_spectrum_options_name_the_field(option, field, allowed):
 def test_inconsistent_spectrum_settings_are_refused():
     with pytest.raises(StudyError, match="Nyquist") as exc:
         parse_study(whine([5000.0], spp=64, sps=4, max_order=4), "s.yaml")
-    assert exc.value.file == "s.yaml" and exc.value.field == "outputs[1].spectrum"
+    # at max_order, which the message names (was the output's, outputs[1].spectrum)
+    assert exc.value.file == "s.yaml" and exc.value.field == "outputs[1].spectrum.max_order"
     with pytest.raises(StudyError, match="multiple of 16"):
         make_plan(parse_study(whine([5000.0], spp=40, sps=16)))
     # A shaft-order torque fluctuation repeats every 48 mesh periods: record whole cycles.
