@@ -35,9 +35,10 @@ This module is the study file's side: the ``gear:`` models and their translation
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, Field, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
 from gearsweep.errors import GeometryError
 from gearsweep.gear import GearPair, TipRelief, table1_as_printed, table1_consistent
@@ -81,6 +82,15 @@ def _preset_name(value: Any) -> Any:
     return {"preset": value} if isinstance(value, str) else value
 
 
+def _below_45_deg(angle: float) -> float:
+    """A pressure angle below 45 deg, checked with the other fields (``GearPair.check`` said it
+    only once the rest of the study passed, at the gear's line: an outside tester's finding)."""
+    if not angle < math.pi / 4:
+        raise ValueError("a pressure angle below 45 deg (involute spur gears: 14.5-30 deg, 20 deg"
+                         " the standard)")
+    return angle
+
+
 class GearSpec(Strict):
     """A gear pair: a ``preset`` and/or the fields of :class:`gearsweep.gear.GearPair` with units."""
 
@@ -89,8 +99,9 @@ class GearSpec(Strict):
     z1: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driving gear 1")
     z2: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driven gear 2")
     face_width: Length | None = Field(None, gt=0, description="face width [m]")
-    pressure_angle: Angle | None = Field(None, gt=0, description=(
-        "reference pressure angle (unset: 20 deg) [rad]"))
+    pressure_angle: Annotated[Angle, AfterValidator(_below_45_deg)] | None = Field(
+        None, gt=0, description=(
+        "reference pressure angle, below 45 deg (unset: 20 deg) [rad]"))
     x1: Real | None = Field(None, description="profile shift coefficient of gear 1")
     x2: Real | None = Field(None, description="profile shift coefficient of gear 2")
     tip_radius1: Length | None = Field(None, gt=0, description=(
@@ -103,8 +114,9 @@ class GearSpec(Strict):
         "root fillet radius (unset: 0.38 module, which may not fit the tooth space at 25 deg) [m]"))
     centre_distance: Length | None = Field(None, gt=0)
     backlash: Length | None = Field(None, ge=0, description=(
-        "circumferential backlash at the pitch circle (the pair's geometry; a rattle or full"
-        " scene's dead zone is scene.backlash, on the line of action, not taken from here) [m]"))
+        "circumferential backlash at the pitch circle (the pair's geometry: it thins the teeth"
+        " for k(t) and e(t); a rattle or full scene's dead zone is scene.backlash or"
+        " sweep.backlash, on the line of action, not taken from here) [m]"))
     thickness1: Length | None = Field(None, gt=0, description="tooth thickness at r [m]")
     thickness2: Length | None = Field(None, gt=0)
     youngs_modulus: Pressure | None = Field(None, gt=0, description=(

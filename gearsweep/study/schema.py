@@ -548,10 +548,15 @@ def repeated_order_problems(scene) -> list[Problem]:
 def gear_backlash_problems(scene, swept: bool) -> list[Problem]:
     """A scene whose ``gear`` gives a backlash (``gear.backlash``, circumferential at the pitch
     circle) and whose dead zone (``scene.backlash``, on the line of action; 0 unless given in a
-    full scene) or swept backlash says otherwise: the gear's was ignored, with no word (0.2 mm
-    beside scene.backlash 0.3 mm; an outside tester's finding). Agreeing within 1 um is fine."""
+    full scene) says otherwise: the gear's was ignored, with no word (0.2 mm beside
+    scene.backlash 0.3 mm; an outside tester's finding). Agreeing within 1 um is fine; a swept
+    backlash is the dead zone beside the gear's (``swept``: nothing to refuse)."""
     gear = getattr(scene, "gear", None)
-    if gear is None or gear.backlash is None or scene.kind not in ("rattle", "full"):
+    if gear is None or gear.backlash is None or scene.kind not in ("rattle", "full") or swept:
+        # Swept: the sweep's values are the dead zone, the gear's backlash thins the pair's
+        # teeth (its k(t) and e(t)). Refused until 27 Nov 2026 with "leave gear.backlash out",
+        # which changed the pair's stiffness with no word (k0 421.9 -> 424.8 kN/mm for an
+        # outside tester's pair), and quoted the sweep as '(swept)'.
         return []
     try:
         loa = gear_pair(gear).backlash_loa
@@ -559,19 +564,17 @@ def gear_backlash_problems(scene, swept: bool) -> list[Problem]:
         return []
     if not swept and abs(scene.backlash - loa) <= 1e-6:
         return []
-    where = "sweep.backlash" if swept else "scene.backlash"
-    value = ("(swept)" if swept else f"{scene.backlash * 1e3:g} mm" if "backlash" in
-             scene.model_fields_set else f"(not given: {scene.backlash * 1e3:g} mm)")
+    where = "scene.backlash"
+    value = (f"{scene.backlash * 1e3:g} mm" if "backlash" in scene.model_fields_set
+             else f"(not given: {scene.backlash * 1e3:g} mm)")
     # The scene does not take its dead zone from the gear (docs/mesh.md): this line said "give
     # it ... or as gear.backlash", and a full scene with gear.backlash alone was then refused
     # with the scene's default 0 mm, which the file did not write (an outside tester's finding).
     return [Problem(where, value, f"the gear's backlash is {loa * 1e3:.4g} mm on the line of"
                     f" action (gear.backlash {gear.backlash * 1e3:g} mm at the pitch circle x"
                     " cos alpha_w), but the dynamic model's dead zone is"
-                    f" {where}, not taken from the gear: "
-                    + ("leave gear.backlash out (the swept values are on the line of action)"
-                       if swept else f"write scene.backlash: {loa * 1e3:.4g} mm (on the line of"
-                       " action), or leave gear.backlash out"))]
+                    f" {where}, not taken from the gear: write scene.backlash:"
+                    f" {loa * 1e3:.4g} mm (on the line of action), or leave gear.backlash out")]
 
 
 def consistency_problems(study: Study) -> list[Problem]:
