@@ -4,7 +4,9 @@ STE versus load and the effect of tip relief.
 Every function takes a matplotlib ``ax`` and plain arrays, a
 :class:`gearsweep.gear.mesh.MeshCycle`, or one mesh cycle of a mesh study's Dataset (``gearsweep
 run`` of a ``type: mesh`` study, selected down to one gear variant and one torque), draws on
-``ax`` and returns its figure. Arrays are in SI units; axes are labelled in engineering units
+``ax`` and returns its figure. Arrays are in SI units; a result's variable or coordinate
+(an xarray object with a ``units`` attribute: ``ds.ste`` in um, ``ds.torque`` in N m) is
+converted from its unit (``plot.common.si_array``). Axes are labelled in engineering units
 (um, mm, N m, kN).
 """
 
@@ -20,6 +22,7 @@ from matplotlib.figure import Figure
 
 from gearsweep.errors import ResultError
 from gearsweep.gear.mesh import MeshCycle
+from gearsweep.plot.common import si_array
 from gearsweep.units import si_data_vars
 
 __all__ = [
@@ -33,6 +36,8 @@ __all__ = [
 
 UM = 1e6  # m -> um
 MM = 1e3  # m -> mm
+SINGLE_PAIR = "single pair"
+"""Legend label of the shaded single-contact zone of ``plot_ste``."""
 
 
 @dataclass(frozen=True)
@@ -69,8 +74,11 @@ def _shade_single_contact(ax: Axes, phase: np.ndarray, n_pairs: np.ndarray, cycl
     dphi = phase[1] - phase[0]
     start = phase[single].min()
     stop = phase[single].max() + dphi
+    # one legend entry per axes: a plot_ste per torque on one axes gave one each
+    labelled = any(p.get_label() == SINGLE_PAIR for p in ax.patches)
     for c in range(cycles):
-        ax.axvspan(c + start, c + stop, color="0.9", zorder=0, label=None if c else "single pair")
+        ax.axvspan(c + start, c + stop, color="0.9", zorder=0,
+                   label=None if c or labelled else SINGLE_PAIR)
 
 
 def plot_ste(
@@ -91,7 +99,8 @@ def plot_ste(
         Mesh phase in [0, 1) [-], or a mesh cycle (then ``ste`` is taken from it and single
         contact is shaded).
     ste : ndarray, optional
-        Static transmission error along the line of action [m].
+        Static transmission error along the line of action [m] (or a result's ``ste``, read in
+        its unit).
     cycles : int
         Mesh cycles to show [-].
     label : str, optional
@@ -108,6 +117,8 @@ def plot_ste(
         _shade_single_contact(ax, phase, mc.in_contact.sum(axis=1), cycles)
         if label is None:
             label = f"T = {mc.torque:g} N m"
+    else:
+        phase, ste = np.asarray(phase, dtype=float), si_array(ste, "displacement", "ste")
     x = np.concatenate([phase + c for c in range(cycles)] + [[cycles]])
     y = np.concatenate([ste] * cycles + [ste[:1]]) * UM
     ax.plot(x, y, lw=1.5, label=label)
@@ -191,8 +202,12 @@ def plot_backlash_stiffness(
     Figure
         The figure of ``ax``.
     """
+    stiffness = float(si_array(stiffness, "stiffness", "stiffness"))
+    backlash = float(si_array(backlash, "length", "backlash"))
     b = 0.5 * backlash
-    p_max = 2.5 * b if p_max is None else p_max
+    p_max = 2.5 * b if p_max is None else float(si_array(p_max, "length", "p_max"))
+    if mean_force is not None:
+        mean_force = float(si_array(mean_force, "force", "mean_force"))
     p = np.array([-p_max, -b, b, p_max])
     f = np.where(p > b, p - b, np.where(p < -b, p + b, 0.0))
     ax.plot(p * MM, stiffness * f / 1e3, color="C0", lw=2.0, label="k f(p)")
@@ -242,7 +257,8 @@ def plot_ste_vs_load(
     torque : array_like
         Torque on the driving gear [N m].
     peak_to_peak, first_harmonic : array_like
-        STE peak-to-peak and amplitude of its first harmonic [m].
+        STE peak-to-peak and amplitude of its first harmonic [m]. A result's variables (with
+        their ``units``: um in a mesh study's file) are read in their unit.
     label : str
         Suffix for the legend entries (e.g. ``"no relief"``).
     design_torque : float, optional
@@ -253,10 +269,12 @@ def plot_ste_vs_load(
     Figure
         The figure of ``ax``.
     """
-    torque = np.asarray(torque)
-    (line,) = ax.plot(torque, np.asarray(peak_to_peak) * UM, lw=2.0, label=f"peak-to-peak {label}")
+    torque = si_array(torque, "torque", "torque")
+    peak_to_peak = si_array(peak_to_peak, "displacement", "peak_to_peak")
+    first_harmonic = si_array(first_harmonic, "displacement", "first_harmonic")
+    (line,) = ax.plot(torque, peak_to_peak * UM, lw=2.0, label=f"peak-to-peak {label}")
     ax.plot(
-        torque, np.asarray(first_harmonic) * UM, lw=1.5, ls="--", color=line.get_color(),
+        torque, first_harmonic * UM, lw=1.5, ls="--", color=line.get_color(),
         label=f"1st harmonic {label}",
     )  # fmt: skip
     if design_torque is not None and not any(ln.get_gid() == "design" for ln in ax.lines):
@@ -306,7 +324,8 @@ def plot_ste_harmonics(ax: Axes, amplitudes: Mapping[str, np.ndarray], *, orders
     ax : Axes
         Where to draw.
     amplitudes : mapping of label to ndarray
-        ``ste_harmonic`` of each variant (index 0 = mean, not drawn) [m].
+        ``ste_harmonic`` of each variant (index 0 = mean, not drawn) [m], or a result's
+        ``ste_harmonic`` (read in its unit).
     orders : int
         Highest mesh order shown [-].
 
@@ -319,7 +338,8 @@ def plot_ste_harmonics(ax: Axes, amplitudes: Mapping[str, np.ndarray], *, orders
     width = 0.8 / max(n, 1)
     k = np.arange(1, orders + 1)
     for i, (label, amp) in enumerate(amplitudes.items()):
-        ax.bar(k + (i - (n - 1) / 2) * width, np.asarray(amp)[1:orders + 1] * UM, width,
+        amp = si_array(amp, "displacement", f"ste_harmonic of {label!r}")
+        ax.bar(k + (i - (n - 1) / 2) * width, amp[1:orders + 1] * UM, width,
                label=label)
     ax.set_xticks(k)
     ax.set_xlabel("mesh order [-]")

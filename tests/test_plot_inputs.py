@@ -1,0 +1,99 @@
+"""What the plot functions do with what they are given (an outside tester's findings on a 23/61
+pair): a result's variables in their own unit, a variable that is no flag, repeated calls."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import pytest  # noqa: E402
+import xarray as xr  # noqa: E402
+from numpy.testing import assert_allclose  # noqa: E402
+
+import gearsweep  # noqa: E402
+from gearsweep.plot.mesh import (  # noqa: E402
+    plot_backlash_stiffness,
+    plot_ste,
+    plot_ste_harmonics,
+    plot_ste_vs_load,
+)
+
+MESH = """
+type: mesh
+title: plot inputs
+gear: {module: 3 mm, z1: 23, z2: 61, face_width: 20 mm, pressure_angle: 20 deg, x1: 0.3,
+       x2: -0.1, backlash: 0.08 mm}
+sweep:
+  torque: [30 N m, 120 N m, 180 N m]
+positions: 60
+harmonics: 4
+"""
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    out = gearsweep.run(MESH)
+    yield out
+    plt.close("all")
+
+
+def test_a_results_variables_are_drawn_in_their_unit_not_as_si(mesh):
+    """``plot_ste_vs_load(ax, ds.torque, pp, h1)`` with the result's DataArrays (STE in um) drew
+    the STE 1e6 times too large, 8e6 "um" (the function takes SI arrays): a DataArray with a
+    ``units`` attribute is read in that unit; the same numbers in m, or as a plain SI array,
+    give the same lines."""
+    assert mesh["ste"].attrs["units"] == "um"
+    pp = mesh["ste"].max("mesh_phase") - mesh["ste"].min("mesh_phase")
+    pp.attrs["units"] = "µm"  # as a reader would write it
+    h1 = mesh["ste_harmonic"].sel(harmonic=1)
+    expected_pp = pp.values  # um, as drawn
+    fig, ax = plt.subplots()
+    plot_ste_vs_load(ax, mesh["torque"], pp, h1)
+    assert_allclose(ax.lines[0].get_ydata(), expected_pp, rtol=1e-12)
+    assert_allclose(ax.lines[1].get_ydata(), h1.values, rtol=1e-12)
+    assert_allclose(ax.lines[0].get_xdata(), [30.0, 120.0, 180.0])
+    assert ax.get_ylim()[1] < 2 * expected_pp.max()  # was 8e6
+    in_m = xr.DataArray(pp.values * 1e-6, dims=pp.dims, attrs={"units": "m"})
+    fig, bx = plt.subplots()
+    plot_ste_vs_load(bx, mesh["torque"].values, in_m, h1.values * 1e-6)  # m, and plain SI
+    assert_allclose(bx.lines[0].get_ydata(), expected_pp, rtol=1e-12)
+    assert_allclose(bx.lines[1].get_ydata(), h1.values, rtol=1e-12)
+    # a torque in kN m is a torque, read as such; a length for a torque is refused, by name
+    fig, cx = plt.subplots()
+    plot_ste_vs_load(cx, xr.DataArray([0.03, 0.12, 0.18], attrs={"units": "kN m"}), in_m, in_m)
+    assert_allclose(cx.lines[0].get_xdata(), [30.0, 120.0, 180.0])
+    with pytest.raises(ValueError, match=r"torque is a torque, given in 'mm': that is a length"):
+        plot_ste_vs_load(cx, xr.DataArray([1.0, 2.0, 3.0], attrs={"units": "mm"}), in_m, in_m)
+
+
+def test_the_other_array_taking_mesh_plots_read_a_unit_too(mesh):
+    """plot_ste with arrays, plot_ste_harmonics and plot_backlash_stiffness took a result's
+    variables as SI as well (um as m, kN/mm as N/m, mm as m)."""
+    one = mesh.sel(torque=120.0)
+    fig, ax = plt.subplots()
+    plot_ste(ax, one["mesh_phase"].values, one["ste"], cycles=1)
+    assert_allclose(ax.lines[0].get_ydata()[:-1], one["ste"].values, rtol=1e-12)  # um
+    fig, ax = plt.subplots()
+    plot_ste_harmonics(ax, {"a": one["ste_harmonic"]}, orders=3)
+    heights = [p.get_height() for p in ax.patches]
+    assert_allclose(heights, one["ste_harmonic"].values[1:4], rtol=1e-12)
+    fig, ax = plt.subplots()
+    k = xr.DataArray(400.0, attrs={"units": "kN mm-1"})  # a result's stiffness: 4e8 N/m
+    b = xr.DataArray(0.4, attrs={"units": "mm"})
+    plot_backlash_stiffness(ax, k, b, mean_force=xr.DataArray(3.7, attrs={"units": "kN"}))
+    p, force = ax.lines[0].get_data()
+    assert_allclose(p, [-0.5, -0.2, 0.2, 0.5], rtol=1e-12)  # mm
+    assert_allclose(force, [-4e8 * 0.3e-3 / 1e3, 0.0, 0.0, 4e8 * 0.3e-3 / 1e3], rtol=1e-12)
+    assert ax.lines[-1].get_ydata()[0] == pytest.approx(3.7)  # kN
+
+
+def test_several_ste_curves_on_one_axes_have_one_single_pair_entry(mesh):
+    """Three plot_ste calls (three torques) on one axes gave three "single pair" legend entries:
+    one per axes, whatever the calls."""
+    fig, ax = plt.subplots()
+    for t in (30.0, 120.0, 180.0):
+        plot_ste(ax, mesh.sel(torque=t))
+    labels = [t.get_text() for t in ax.legend().get_texts()]
+    assert labels == ["single pair", "T = 30 N m", "T = 120 N m", "T = 180 N m"]
