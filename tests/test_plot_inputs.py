@@ -8,6 +8,7 @@ import matplotlib
 matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import xarray as xr  # noqa: E402
 from numpy.testing import assert_allclose  # noqa: E402
@@ -97,3 +98,61 @@ def test_several_ste_curves_on_one_axes_have_one_single_pair_entry(mesh):
         plot_ste(ax, mesh.sel(torque=t))
     labels = [t.get_text() for t in ax.legend().get_texts()]
     assert labels == ["single pair", "T = 30 N m", "T = 120 N m", "T = 180 N m"]
+
+
+def _stability_result() -> xr.Dataset:
+    """A result over speed x damping as a ``floquet`` study writes it (damping in N s/mm)."""
+    speed = xr.DataArray([5000.0, 10000.0, 20000.0, 40000.0], dims="speed",
+                         attrs={"units": "rpm"})
+    damping = xr.DataArray([0.05, 0.5, 5.0], dims="damping", attrs={"units": "N s mm-1"})
+    mu = xr.DataArray(np.array([[0.5, 0.9, 1.2], [0.6, 1.1, 0.7], [0.4, 0.8, 0.95],
+                                [1.05, 0.3, 0.2]]), dims=("speed", "damping"),
+                      coords={"speed": speed, "damping": damping}, attrs={"units": "1"})
+    ds = xr.Dataset({"floquet_multiplier": mu, "unstable": mu > 1 + 1e-6})
+    ds["status"] = (mu * 2).astype(np.int8)  # 0, 1 and 2: a code, not a flag
+    ds["bits"] = (mu > 1).astype(np.int64)  # integers 0 and 1: a flag
+    return ds
+
+
+def test_stability_map_refuses_a_variable_that_is_no_flag():
+    """``plot_stability_map(ds, "floquet_multiplier")`` drew the whole map red, "(480 of 480)":
+    the variable went through ``astype(bool)``. A yes/no map takes a flag (bool, or integers 0
+    and 1 only); anything else is one ValueError naming it, its dtype and range, and the flags
+    or a condition to give instead."""
+    from gearsweep.plot.stability import plot_stability_map
+
+    ds = _stability_result()
+    with pytest.raises(ValueError, match=r"plot_stability_map draws a yes/no flag \(unstable,"
+                       r" integrator_unstable.*ds.floquet_multiplier > 1.*\); 'floquet_multiplier'"
+                       r" is float64 with values 0.2 to 1.2, not a flag"):
+        plot_stability_map(ds, "floquet_multiplier")
+    with pytest.raises(ValueError, match=r"'status' is int8 with values 0 to 2, not a flag"):
+        plot_stability_map(ds, "status")
+    for var, label in (("unstable", "unstable (3 of 12)"), ("bits", "bits (3 of 12)"),
+                       (ds.floquet_multiplier > 1, "flagged (3 of 12)")):
+        ax = plot_stability_map(ds, var).axes[0]
+        assert [t.get_text() for t in ax.get_legend().get_texts()] == [label]
+        image = np.asarray(ax.collections[0].get_array()).reshape(3, 4)  # (damping, speed)
+        assert_allclose(image, (ds.floquet_multiplier.values > 1).T)
+    plt.close("all")
+
+
+def test_operating_map_reads_a_damping_coordinate_in_its_unit_and_refuses_a_non_flag():
+    """plot_operating_map takes SI arrays (damping in N s/m): the result's ``ds.damping`` (N s/mm)
+    given as it is was drawn 1000 times too low; it is read in its unit now. A float array is
+    no flag (was drawn as 0/1 clipped)."""
+    from gearsweep.plot.stability import plot_operating_map
+
+    ds = _stability_result()
+    flag = ds.unstable.transpose("damping", "speed").values
+    fig, ax = plt.subplots()
+    plot_operating_map(ds.speed, ds.damping, flag, ax=ax)
+    assert ax.get_ylim() == pytest.approx((0.05, 5.0))  # N s/mm, the axis' unit
+    fig, bx = plt.subplots()
+    plot_operating_map(ds.speed.values, ds.damping.values * 1e3, flag, ax=bx)  # plain SI
+    assert bx.get_ylim() == pytest.approx((0.05, 5.0))
+    with pytest.raises(ValueError, match=r"plot_operating_map draws a yes/no flag .* flag is"
+                                         r" float64 with values 0.2 to 1.2, not a flag"):
+        plot_operating_map(ds.speed.values, ds.damping.values * 1e3,
+                           ds.floquet_multiplier.transpose("damping", "speed").values)
+    plt.close("all")

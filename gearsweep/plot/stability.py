@@ -1,7 +1,9 @@
 """Stability charts: Strutt diagrams (Fig. 7.1), operating maps over speed and damping
 (Fig. 7.2), and the stability of the integrators themselves.
 
-Every function takes arrays (or a Dataset) and an ``ax`` and returns the figure.
+Every function takes arrays (or a Dataset) and an ``ax`` and returns the figure. Arrays are
+in SI (speeds in rpm); a result's coordinate or variable given as it is (``ds.damping``, in
+N s/mm) is read in its ``units`` (``plot.common.si_array``).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from gearsweep.plot.common import axes
+from gearsweep.plot.common import axes, si_array
 from gearsweep.units import si_values
 
 UNSTABLE_COLOR = "#c0392b"
@@ -100,13 +102,42 @@ def _log_ticks(lo: float, hi: float) -> list[float]:
     return inside if len(inside) >= 2 else [lo, hi]
 
 
+FLAGS = ("unstable, integrator_unstable, beyond_step_limit, or a condition such as"
+         " ds.floquet_multiplier > 1 or ds.status == 1")
+"""What a yes/no map draws (said where it is given something else)."""
+
+
+def _flag(values, name: str, what: str, draw_it: str) -> np.ndarray:
+    """``values`` as bool if they are a flag: bool, or integers that are all 0 or 1; else one
+    ``ValueError`` naming ``name``, its dtype and range, what ``what`` draws and how to draw the
+    values themselves (``draw_it``; a continuous
+    variable, floquet_multiplier, was drawn as ``astype(bool)``: all red, "480 of 480")."""
+    values = np.asarray(values)
+    if values.dtype == bool:
+        return values
+    if values.dtype.kind in "iu" and np.isin(values, (0, 1)).all():
+        return values.astype(bool)
+    finite = values[np.isfinite(values)] if values.dtype.kind in "fc" else values
+    span = (f"values {finite.min():g} to {finite.max():g}" if values.dtype.kind in "iuf"
+            and finite.size else "no finite values" if values.dtype.kind in "fc" else
+            f"values such as {values.flat[0]!r}" if values.size else "no values")
+    raise ValueError(f"{what} draws a yes/no flag ({FLAGS}); {name} is {values.dtype} with"
+                     f" {span}, not a flag: draw a condition on it, or the values themselves"
+                     f" ({draw_it})")
+
+
 def plot_stability_map(ds, var: str = "unstable", ax: Axes | None = None, title: str = "",
                        **kwargs) -> Figure:
     """``var`` of a result over its ``speed`` and ``damping`` (a study sweeping both, such as
     ``studies/stability_rig.yaml``; ``var``: ``unstable``, ``integrator_unstable`` of the
     ``floquet`` output, or a condition such as ``ds.status == 1`` given as a DataArray), drawn by
     ``plot_operating_map`` with the units and teeth the result carries. Other swept dims must be
-    selected first (``ds.sel(...)``)."""
+    selected first (``ds.sel(...)``).
+
+    The map is yes/no: ``var`` must be a flag (bool, or integers 0 and 1 only). A continuous
+    variable (``floquet_multiplier``, ``p_pp``) is refused with a ``ValueError`` naming it,
+    its dtype and range; draw a condition on it (``ds.floquet_multiplier > 1``) or the
+    variable itself with ``ds.floquet_multiplier.plot(x="speed")``."""
     flag = ds[var] if isinstance(var, str) else var
     extra = [d for d in flag.dims if d not in ("speed", "damping")]
     missing = [d for d in ("speed", "damping") if d not in flag.dims]
@@ -117,10 +148,12 @@ def plot_stability_map(ds, var: str = "unstable", ax: Axes | None = None, title:
     if extra:
         raise ValueError(f"a map over speed and damping: select the other dims first"
                          f" (ds.sel({', '.join(f'{d}=...' for d in extra)}))")
+    name = repr(var) if isinstance(var, str) else repr(flag.name) if flag.name else "it"
+    values = _flag(flag.transpose("damping", "speed").values, name, "plot_stability_map",
+                   f"ds.{var}.plot(x='speed')" if isinstance(var, str) else ".plot(x='speed')")
     teeth = json.loads(ds.attrs["model"]).get("teeth") if "model" in ds.attrs else None
     kwargs.setdefault("label", var if isinstance(var, str) else "flagged")
-    return plot_operating_map(flag["speed"].values, si_values(flag["damping"]),
-                              flag.transpose("damping", "speed").values.astype(bool), ax=ax,
+    return plot_operating_map(flag["speed"].values, si_values(flag["damping"]), values, ax=ax,
                               title=title, teeth=teeth, **kwargs)
 
 
@@ -138,8 +171,10 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
     speed : ndarray (ns,)
         Driving-gear speed [rpm].
     damping : ndarray (nc,)
-        Mesh viscous damping [N s/m], SI (a result stores N s/mm: ``units.si_values``).
+        Mesh viscous damping [N s/m], SI (a result stores N s/mm: given as ``ds.damping`` it
+        is read in that unit; its values, ``ds.damping.values``, would be taken as N s/m).
     flag : ndarray of bool (nc, ns)
+        Bool, or integers 0 and 1 only (anything else is refused: ``ValueError``).
     teeth : int, optional
         Teeth of the driving gear, named in the speed axis' label.
     limit_speed : ndarray (nc,), optional
@@ -147,6 +182,11 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
     log : bool
         Log speed axis and symmetric-log damping axis (linear below 0.01 N s/mm).
     """
+    speed = si_array(speed, "speed", "speed")
+    damping = si_array(damping, "damping", "damping")
+    if limit_speed is not None:
+        limit_speed = si_array(limit_speed, "speed", "limit_speed")
+    flag = _flag(flag, "flag", "plot_operating_map", "ax.pcolormesh")
     fig, ax = axes(ax)
     _mask_image(ax, speed, damping / 1e3, flag, color)
     handles = [Patch(color=color, label=f"{label} ({int(np.count_nonzero(flag))} of "
