@@ -156,3 +156,27 @@ def test_operating_map_reads_a_damping_coordinate_in_its_unit_and_refuses_a_non_
         plot_operating_map(ds.speed.values, ds.damping.values * 1e3,
                            ds.floquet_multiplier.transpose("damping", "speed").values)
     plt.close("all")
+
+
+def test_rattle_array_plots_read_a_results_units():
+    """plot_fig8 and plot_rattle_map take SI arrays; a result's variables and coordinates
+    (amplitude in um, backlash in mm, damping in N s/mm) given as they are were drawn as SI
+    (um as m: 1e6 too large in the amplitude's mm, the damping axis 1000 times too low)."""
+    from gearsweep.plot.rattle import plot_fig8, plot_rattle_map
+
+    speed = xr.DataArray([5000.0, 6000.0, 7000.0], dims="speed", attrs={"units": "rpm"})
+    up = xr.DataArray([100.0, 250.0, 40.0], dims="speed", attrs={"units": "um"})
+    fig, ax = plt.subplots()
+    plot_fig8(ax, speed, up, up.values * 1e-6, half_gap=xr.DataArray(0.1, attrs={"units": "mm"}))
+    assert_allclose(ax.lines[0].get_ydata(), [0.1, 0.25, 0.04])  # mm
+    assert_allclose(ax.lines[1].get_ydata(), [0.1, 0.25, 0.04])  # plain SI, as before
+    assert ax.lines[2].get_ydata()[0] == pytest.approx(0.1)  # backlash / 2 [mm]
+    damping = xr.DataArray([0.5, 5.0], dims="damping", attrs={"units": "N s mm-1"})
+    torque = xr.DataArray([10.0, 20.0, 30.0], dims="torque", attrs={"units": "N m"})
+    backlash = xr.DataArray([0.1, 0.2], dims="backlash", attrs={"units": "mm"})
+    share = np.linspace(0, 1, 12).reshape(2, 2, 3)
+    fig, axes = plt.subplots(2, 2)
+    plot_rattle_map(list(axes[0]), list(axes[1]), damping, torque, backlash, share, share * 100)
+    assert axes[0][0].get_ylim()[1] <= 10.0 and axes[0][0].get_ylim()[0] >= 0.1  # N s/mm
+    assert [a.get_title() for a in axes[0]] == ["backlash 0.1 mm", "backlash 0.2 mm"]
+    plt.close("all")

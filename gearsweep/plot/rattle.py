@@ -3,7 +3,9 @@
 The ``plot_rattle_*`` functions draw the Datasets of the rattle analysis studies
 (``studies/fig08_rattle_balance.yaml``: ``rattle_balance``; ``fig08_rattle_budget.yaml``:
 ``rattle_budget``) as ``plot_x(ax, ds, *, ...)``; nothing is computed here. The lower-level
-functions below them take arrays (SI units, speeds in rpm). Lengths are shown in mm, forces in kN.
+functions below them take arrays (SI units, speeds in rpm; a result's variable or coordinate given
+as it is, with its ``units`` attribute, is read in that unit: ``plot.common.si_array``). Lengths
+are shown in mm, forces in kN.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from gearsweep.plot.common import require
+from gearsweep.plot.common import require, si_array
 from gearsweep.plot.sweep import speed_label as _speed_label
 from gearsweep.units import si_data_vars
 
@@ -37,8 +39,8 @@ def _split_runs(mask: np.ndarray) -> list[slice]:
 def plot_branch(ax: Axes, speed, amplitude, stable, *, color: str, label: str,
                 lw: float = 1.6) -> None:
     """A response curve ordered along its arc: solid where stable, dashed where unstable."""
-    speed = np.asarray(speed)
-    amplitude = np.asarray(amplitude)
+    speed = si_array(speed, "speed", "speed")
+    amplitude = si_array(amplitude, "displacement", "amplitude")
     stable = np.asarray(stable, dtype=bool)
     first = {True: True, False: True}
     for run in _split_runs(stable):
@@ -74,15 +76,19 @@ def plot_fig8(ax: Axes, speed, amp_up, amp_down, *, half_gap: float,
     speed_label : str
         x-axis label (which shaft the speed is).
     """
-    ax.plot(speed, np.asarray(amp_up) * MM, "^", ms=4, color="tab:red", mew=0, alpha=0.6,
-            label="integration, run-up")
-    ax.plot(speed, np.asarray(amp_down) * MM, "v", ms=4, color="tab:blue", mew=0, alpha=0.6,
-            label="integration, run-down")
+    speed = si_array(speed, "speed", "speed")
+    half_gap = float(si_array(half_gap, "length", "half_gap"))
+    ax.plot(speed, si_array(amp_up, "displacement", "amp_up") * MM, "^", ms=4, color="tab:red",
+            mew=0, alpha=0.6, label="integration, run-up")
+    ax.plot(speed, si_array(amp_down, "displacement", "amp_down") * MM, "v", ms=4,
+            color="tab:blue", mew=0, alpha=0.6, label="integration, run-down")
     for c in curves:
         plot_branch(ax, c["speed"], c["amplitude"], c["stable"], color=c["color"],
                     label=c["label"], lw=c.get("lw", 1.6))
     if eq15 is not None:
-        ax.plot(eq15["speed"], np.asarray(eq15["amplitude"]) * MM, "o", mfc="none", ms=5,
+        ax.plot(si_array(eq15["speed"], "speed", "eq15 speed"),
+                si_array(eq15["amplitude"], "displacement", "eq15 amplitude") * MM, "o",
+                mfc="none", ms=5,
                 color="0.35", label=eq15.get("label", "Eq. (15), paper's method (o)"))
     ax.axhline(half_gap * MM, color="0.5", lw=0.8, ls=":")
     # at the left edge of the axes, whatever x limits the caller sets afterwards (placed at
@@ -142,6 +148,12 @@ def plot_fig9(ax: Axes, *, stiffness: float, mass: float, force_amp: float, half
     p_range : float
         Half-width of the p0 axis [m].
     """
+    stiffness = float(si_array(stiffness, "stiffness", "stiffness"))
+    mass = float(si_array(mass, "mass", "mass"))
+    force_amp = float(si_array(force_amp, "force", "force_amp"))
+    half_gap = float(si_array(half_gap, "length", "half_gap"))
+    p_range = float(si_array(p_range, "length", "p_range"))
+    roots = si_array(roots, "displacement", "roots")
     p = np.linspace(-p_range, p_range, 801)
     spring = stiffness * (p - np.clip(p, -half_gap, half_gap))
     ax.plot(p * MM, spring / 1e3, color="k", lw=2, label="spring k f(p0)")
@@ -217,7 +229,10 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
         hatched.
     """
     im = imh = None
-    c = np.asarray(damping) / 1e3
+    c = si_array(damping, "damping", "damping") / 1e3
+    torque = si_array(torque, "torque", "torque")
+    backlash = si_array(backlash, "length", "backlash")
+    hysteresis_width = si_array(hysteresis_width, "speed", "hysteresis_width")
     vmax = max(float(np.nanmax(hysteresis_width)), 1.0)
     opened = (np.zeros(np.shape(hysteresis_width), bool) if hysteresis_open is None
               else np.asarray(hysteresis_open) > 0)
