@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+import xarray as xr  # noqa: E402
 from numpy.testing import assert_allclose  # noqa: E402
 
 from gearsweep.api import run_study  # noqa: E402
@@ -78,7 +79,7 @@ def test_campbell_map_and_natural_frequency_curve(ds):
     one = ds.sel(torque=50.0)
     fig, ax = plt.subplots()
     f_n = natural_frequency(one)
-    plot_campbell(ax, one, natural_frequency_hz=f_n, floor=1e-3)
+    plot_campbell(ax, one, natural_frequency_hz=f_n, floor=1e-3, skip_mean=False)  # order 0 too
     mesh = ax.collections[0]
     assert_allclose(np.asarray(mesh.get_array()).reshape(17, 41),
                     np.clip(one.spectrum.values.T, 1e-3, None))  # um
@@ -89,6 +90,59 @@ def test_campbell_map_and_natural_frequency_curve(ds):
     for n, c in zip((1, 2, 3), circles, strict=True):
         assert c.get_xdata()[0] == pytest.approx(60 * f_n / (48 * n), rel=1e-9)
         assert c.get_ydata()[0] == n
+
+
+def test_campbell_leaves_out_the_mean_and_marks_the_results_own_natural_frequency(ds):
+    """plot_campbell drew no f_n curve unless ``natural_frequency_hz`` was given, though the
+    result carries k0 and m_eq (its resolved model), and drew order 0, the mean of p, as the
+    brightest row over the order lines (plot_waterfall leaves it out): by default now the
+    result's own f_n is drawn and order 0 is left out of the colours and their scale."""
+    one = ds.sel(torque=50.0)
+    fig, ax = plt.subplots()
+    plot_campbell(ax, one, floor=1e-3)
+    mesh = ax.collections[0]
+    image = np.asarray(mesh.get_array()).reshape(17, 41)
+    spectrum = np.clip(one.spectrum.values.T, 1e-3, None)  # um
+    assert (image[0] == 1e-3).all()  # order 0: the floor, drawn as nothing
+    assert_allclose(image[1:], spectrum[1:])
+    assert mesh.norm.vmax == pytest.approx(spectrum[1:].max())
+    f_n = math.sqrt(1.073e9 / 0.1527) / (2 * math.pi)
+    curve = ax.get_lines()[0]
+    assert_allclose(curve.get_ydata(), f_n / one.mesh_frequency.values, rtol=1e-12)
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        f"f_n / f_mesh, f_n = {f_n / 1e3:.2f} kHz"]
+    fig, ax = plt.subplots()
+    plot_campbell(ax, one, natural_frequency_hz=False)
+    assert not ax.get_lines() and ax.get_legend() is None
+
+
+def test_the_results_natural_frequency_where_it_sweeps_k0_or_m_eq(ds):
+    """A swept k0 or m_eq (``model_swept``) is read where ``ds`` has selected it: a scalar
+    ``stiffness`` or ``mass`` coordinate, or a gear scene's ``gear_stiffness`` at one load; not
+    selected, there is no one f_n (no curve; ``natural_frequency`` says so)."""
+    from gearsweep.plot.whine import result_natural_frequency
+
+    one = ds.sel(torque=50.0)
+    assert result_natural_frequency(one) == pytest.approx(natural_frequency(one), rel=1e-15)
+    swept = one.assign_attrs(model_swept="stiffness").assign_coords(
+        stiffness=xr.DataArray(2000.0, attrs={"units": "kN mm-1"}))
+    assert result_natural_frequency(swept) == pytest.approx(
+        math.sqrt(2e9 / 0.1527) / (2 * math.pi), rel=1e-12)
+    gear = one.assign_attrs(model_swept="mean_force stiffness")
+    gear["gear_stiffness"] = xr.DataArray(500.0, attrs={"units": "kN mm-1"})
+    assert result_natural_frequency(gear) == pytest.approx(
+        math.sqrt(5e8 / 0.1527) / (2 * math.pi), rel=1e-12)
+    fig, ax = plt.subplots()
+    plot_campbell(ax, gear)
+    assert_allclose(ax.get_lines()[0].get_ydata(),
+                    math.sqrt(5e8 / 0.1527) / (2 * math.pi) / one.mesh_frequency.values)
+    loads = ds.assign_attrs(model_swept="mean_force stiffness")
+    loads["gear_stiffness"] = xr.DataArray([500.0, 600.0], dims="torque",
+                                           attrs={"units": "kN mm-1"})
+    assert result_natural_frequency(loads) is None
+    with pytest.raises(ValueError, match=r"sweeps stiffness: select one case"):
+        natural_frequency(loads)
+    plt.close("all")
 
 
 def test_response_and_order_lines(ds):

@@ -34,6 +34,7 @@ __all__ = [
     "plot_order_lines",
     "plot_response_by_load",
     "plot_waterfall",
+    "result_natural_frequency",
 ]
 
 UM = 1e6  # m -> um
@@ -43,10 +44,46 @@ def natural_frequency(ds: xr.Dataset) -> float:
     """Undamped natural frequency f_n = sqrt(k0 / m_eq) / (2 pi) [Hz] of the study in ``ds``.
 
     Read from the resolved model the result file carries (``attrs["model"]``), so a figure
-    marks the frequency of the run that made it.
+    marks the frequency of the run that made it; where the study sweeps k0 or m_eq
+    (``attrs["model_swept"]``), from the value ``ds`` has selected (``result_natural_frequency``).
+    A ``ValueError`` where the result does not give one f_n.
     """
-    model = model_from_record(json.loads(ds.attrs["model"]))
-    return math.sqrt(model.stiffness / model.mass) / (2 * math.pi)
+    f_n = result_natural_frequency(ds)
+    if f_n is None:
+        swept = sorted({"stiffness", "mass"} & set(ds.attrs.get("model_swept", "").split()))
+        raise ValueError("natural_frequency: this result gives no one f_n" + (
+            f" (it sweeps {' and '.join(swept)}: select one case, ds.sel(...))" if swept else
+            " (no resolved model with a mass and stiffness: a dynamic study's result has one)"))
+    return f_n
+
+
+def result_natural_frequency(ds: xr.Dataset) -> float | None:
+    """f_n = sqrt(k0 / m_eq) / (2 pi) [Hz] from what a result carries, or None where it does not
+    give one: the resolved model (``attrs["model"]``: m_eq ``mass``, k0 ``stiffness``, SI); where
+    the study sweeps one of them (``attrs["model_swept"]``), the value ``ds`` has selected, a
+    scalar ``stiffness`` or ``mass`` coordinate, or a gear scene's ``gear_stiffness`` (k0 at the
+    load) of one load. None for a Mathieu scene, a result without a model (a mesh study) or a
+    swept k0 or m_eq not selected."""
+    if "model" not in ds.attrs:
+        return None
+    record = json.loads(ds.attrs["model"])
+    if record.get("kind") == "mathieu":
+        return None
+    swept = set(ds.attrs.get("model_swept", "").split())
+    k_m = []
+    for name in ("stiffness", "mass"):
+        if name not in swept:
+            k_m.append(float(record.get(name, math.nan)))
+        elif name in ds.coords and ds[name].ndim == 0:
+            k_m.append(float(si_values(ds[name])))
+        elif name == "stiffness" and "gear_stiffness" in ds and ds["gear_stiffness"].ndim == 0:
+            k_m.append(float(si_values(ds["gear_stiffness"])))
+        else:
+            return None
+    k0, mass = k_m
+    if not (math.isfinite(k0) and math.isfinite(mass) and k0 > 0 and mass > 0):
+        return None
+    return math.sqrt(k0 / mass) / (2 * math.pi)
 
 
 def damping_labels(ds: xr.Dataset) -> list[str]:
@@ -176,9 +213,10 @@ def plot_campbell(
     *,
     variable: str = "spectrum",
     orders: Sequence[int] = (1, 2, 3),
-    natural_frequency_hz: float | None = None,
+    natural_frequency_hz: float | bool | None = None,
     floor: float = 1e-3,
     driven_teeth: int | None = None,
+    skip_mean: bool = True,
 ) -> Figure:
     """Order/speed colour map of the spectrum (Campbell-style) with mesh orders and f_n marked.
 
@@ -193,13 +231,20 @@ def plot_campbell(
     orders : sequence of int
         Mesh orders labelled at the right edge [-] (no line over the data: the lines of the
         spectrum are one bin, 1 / record_periods, tall).
-    natural_frequency_hz : float, optional
+    natural_frequency_hz : float or False, optional
         f_n [Hz]: drawn as the curve order = f_n / f_mesh(speed); where it meets mesh order n
         (speed 60 f_n / (n N1)) order n resonates (a super-harmonic resonance for n > 1).
+        Default: the result's own, sqrt(k0 / m_eq) / (2 pi) (``result_natural_frequency``:
+        drawn where the result gives one); ``False``: no curve.
     floor : float
         Smallest amplitude coloured [um or N]; the bins between mesh orders hold only round-off.
     driven_teeth : int, optional
         Speed axis in the driven gear's speed.
+    skip_mean : bool
+        Leave out order 0 (drawn as ``floor``, and not in the colour scale): the mean of p,
+        about F_m / k0, is no vibration; drawn, it was a bright row under the order lines and,
+        where it is the largest amplitude, the top of the colour scale (as ``plot_waterfall``'s
+        ``skip_mean``).
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da = _on_speed_and_order(ds, variable, "plot_campbell")
@@ -208,6 +253,12 @@ def plot_campbell(
     speed, speed_label = _speed_axis(ds, driven_teeth)
     order = ds["order"].values
     amp = np.clip(da.transpose("order", "speed").values * scale, floor, None)
+    if skip_mean:
+        amp[order == 0, :] = floor
+    if natural_frequency_hz is None:
+        natural_frequency_hz = result_natural_frequency(ds)
+    elif natural_frequency_hz is False:
+        natural_frequency_hz = None
     mesh = ax.pcolormesh(_edges(speed), _edges(order), amp, norm=LogNorm(vmin=floor,
                          vmax=float(amp.max())), cmap="inferno", shading="flat",
                          rasterized=True)
