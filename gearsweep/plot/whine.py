@@ -44,17 +44,11 @@ def natural_frequency(ds: xr.Dataset) -> float:
     """Undamped natural frequency f_n = sqrt(k0 / m_eq) / (2 pi) [Hz] of the study in ``ds``.
 
     Read from the resolved model the result file carries (``attrs["model"]``), so a figure
-    marks the frequency of the run that made it; where the study sweeps k0 or m_eq
-    (``attrs["model_swept"]``), from the value ``ds`` has selected (``result_natural_frequency``).
-    A ``ValueError`` where the result does not give one f_n.
+    marks the frequency of the run that made it (a gear scene that sweeps its load: k0 at the
+    first load; ``result_natural_frequency`` reads the selected case's, or gives None).
     """
-    f_n = result_natural_frequency(ds)
-    if f_n is None:
-        swept = sorted({"stiffness", "mass"} & set(ds.attrs.get("model_swept", "").split()))
-        raise ValueError("natural_frequency: this result gives no one f_n" + (
-            f" (it sweeps {' and '.join(swept)}: select one case, ds.sel(...))" if swept else
-            " (no resolved model with a mass and stiffness: a dynamic study's result has one)"))
-    return f_n
+    model = model_from_record(json.loads(ds.attrs["model"]))
+    return math.sqrt(model.stiffness / model.mass) / (2 * math.pi)
 
 
 def result_natural_frequency(ds: xr.Dataset) -> float | None:
