@@ -180,3 +180,18 @@ def test_rattle_array_plots_read_a_results_units():
     assert axes[0][0].get_ylim()[1] <= 10.0 and axes[0][0].get_ylim()[0] >= 0.1  # N s/mm
     assert [a.get_title() for a in axes[0]] == ["backlash 0.1 mm", "backlash 0.2 mm"]
     plt.close("all")
+
+
+def test_ste_vs_load_says_which_line_is_which(mesh):
+    """plot_ste_vs_load drew a solid and a dashed line with no legend (the tester's figure:
+    two lines unexplained), and its labels ended in a space without ``label``."""
+    pp = mesh["ste"].max("mesh_phase") - mesh["ste"].min("mesh_phase")
+    h1 = mesh["ste_harmonic"].sel(harmonic=1)
+    fig, ax = plt.subplots()
+    plot_ste_vs_load(ax, mesh["torque"], pp, h1)
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["peak-to-peak",
+                                                                   "1st harmonic"]
+    plot_ste_vs_load(ax, mesh["torque"], pp * 0.5, h1 * 0.5, label="relief")
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "peak-to-peak", "1st harmonic", "peak-to-peak relief", "1st harmonic relief"]
+    plt.close(fig)

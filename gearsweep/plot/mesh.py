@@ -260,7 +260,8 @@ def plot_ste_vs_load(
         STE peak-to-peak and amplitude of its first harmonic [m]. A result's variables (with
         their ``units``: um in a mesh study's file) are read in their unit.
     label : str
-        Suffix for the legend entries (e.g. ``"no relief"``).
+        Suffix for the legend entries (e.g. ``"no relief"``); the legend is drawn (again at
+        each call: one entry per line).
     design_torque : float, optional
         Torque to mark with a vertical line [N m].
 
@@ -272,10 +273,10 @@ def plot_ste_vs_load(
     torque = si_array(torque, "torque", "torque")
     peak_to_peak = si_array(peak_to_peak, "displacement", "peak_to_peak")
     first_harmonic = si_array(first_harmonic, "displacement", "first_harmonic")
-    (line,) = ax.plot(torque, peak_to_peak * UM, lw=2.0, label=f"peak-to-peak {label}")
+    (line,) = ax.plot(torque, peak_to_peak * UM, lw=2.0, label=f"peak-to-peak {label}".strip())
     ax.plot(
         torque, first_harmonic * UM, lw=1.5, ls="--", color=line.get_color(),
-        label=f"1st harmonic {label}",
+        label=f"1st harmonic {label}".strip(),
     )  # fmt: skip
     if design_torque is not None and not any(ln.get_gid() == "design" for ln in ax.lines):
         ax.axvline(design_torque, color="0.4", ls=":", lw=0.8, gid="design")
@@ -288,6 +289,8 @@ def plot_ste_vs_load(
     ax.set_xlim(0, torque.max())
     ax.set_ylim(bottom=0)
     ax.grid(True, alpha=0.3)
+    # which line is which (solid, dashed): a user's figure had two unexplained lines
+    ax.legend(fontsize=8)
     return ax.figure
 
 
