@@ -390,7 +390,9 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
     swept = [d for d in ds.dims if d in SWEEPABLE and d != "speed"]
     if "speed" in case:  # swept, but no field of the model (it said "not a swept field")
         raise ResultError("speed is not a field of the model: a case's speed sets only its mesh"
-                          f" frequency; select among {', '.join(swept) or 'none'}")
+                          " frequency; " + (f"select among {', '.join(swept)}" if swept else
+                                            "the model is the same at every speed:"
+                                            " result_model(ds) alone gives it"))
     unknown = sorted(set(case) - set(swept))
     if unknown:
         raise ResultError(f"{', '.join(unknown)}: not a swept field of this result's model"

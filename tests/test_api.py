@@ -622,6 +622,10 @@ def test_result_model_gives_a_swept_field_only_where_it_is_selected(small_whine)
                                           r" sets only its mesh frequency; select among"
                                           r" mean_force, damping"):
         gearsweep.result_model(ds, speed=3000)
+    only_speed = gearsweep.run(small_whine | {"sweep": {"speed": small_whine["sweep"]["speed"]}})
+    with pytest.raises(ResultError, match=r"frequency; the model is the same at every speed:"
+                                          r" result_model\(ds\) alone gives it$"):
+        gearsweep.result_model(only_speed, speed=3000)  # (said "select among none")
     # a value with a unit, as the study writes it (was a bare ValueError)
     assert gearsweep.result_model(ds, mean_force="0.833 kN", damping="5500 N s/m") == picked
     with pytest.raises(ResultError, match=r"damping='5.5 kg': is a mass \(kg\), expected damping"):
