@@ -1794,3 +1794,17 @@ def test_a_pressure_angle_of_45_deg_or_more_is_said_with_the_other_fields():
         ("s.yaml:7: gear.pressure_angle: '90 deg' -- a pressure angle below 45 deg (involute spur"
          " gears: 14.5-30 deg, 20 deg the standard)")]
     parse_study(text.replace("z1: 2\n", "z1: 20\n").replace("90 deg", "25 deg"), "s.yaml")
+
+
+def test_a_misspelt_sweep_of_a_gear_scene_does_not_offer_the_stiffness():
+    """The list of sweepable fields offered ``stiffness`` to a gear scene, which refuses
+    sweeping it (its pair gives k(t); an outside tester's finding)."""
+    gear = ("  gear: {module: 2 mm, z1: 25, z2: 50, face_width: 20 mm}\n  torque: 5 N*m\n")
+    text = (GOOD.replace("  stiffness: 1073 kN/mm\n", "").replace("  teeth: 48\n", "")
+            .replace("  mean_force: 100 N\n", gear).replace("  speed:", "  sped:"))
+    line = _lines(text)[-1]  # (after: the speed given nowhere)
+    assert line.endswith("did you mean 'speed'? allowed: backlash, damping, mass, mean_force,"
+                         " speed, torque"), line
+    (line,) = _lines(text.replace("  sped:", "  stiffness: [1 kN/mm, 2 kN/mm]\n  speed:"))
+    assert "sweep.stiffness: a gear scene computes its stiffness from the gear pair" in line
+    assert "stiffness, torque" in _lines(GOOD.replace("  speed:", "  sped:"))[-1]  # no gear

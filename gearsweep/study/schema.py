@@ -581,7 +581,9 @@ def consistency_problems(study: Study) -> list[Problem]:
     """What the fields' own checks cannot see: sweep vs scene, outputs, continuation."""
     out: list[Problem] = []
     sc = study.scene
-    out += sweep_name_problems(sc.kind, list(study.sweep))
+    gear = getattr(sc, "gear", None) is not None  # (its swept stiffness: gear_load_problems)
+    out += sweep_name_problems(sc.kind, [n for n in study.sweep if not (gear and n == "stiffness")],
+                               gear)
     out += speed_problems(sc.kind, "speed" in study.sweep, getattr(sc, "speed", None) is not None,
                           study.continuation)
     out += repeated_order_problems(sc)
@@ -655,9 +657,11 @@ def gear_load_problems(swept: list, load_given: bool) -> list[Problem]:
     return out
 
 
-def sweep_name_problems(kind: str, names: list) -> list[Problem]:
-    """Entries of ``sweep:`` that the scene of ``kind`` cannot sweep (a misspelt ``sped``)."""
-    allowed = SCENE_PARAMETERS[kind]
+def sweep_name_problems(kind: str, names: list, gear: bool = False) -> list[Problem]:
+    """Entries of ``sweep:`` that the scene of ``kind`` cannot sweep (a misspelt ``sped``); a
+    scene with a ``gear`` does not list the stiffness, which its pair gives
+    (``gear_load_problems`` refuses sweeping it: the list offered it to a misspelling)."""
+    allowed = set(SCENE_PARAMETERS[kind]) - ({"stiffness"} if gear else set())
     out = []
     for name in names:
         if name not in allowed:
@@ -1496,7 +1500,9 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
         out += speed_problems(scene["kind"], isinstance(sweep, dict) and "speed" in sweep,
                               "speed" in scene, cont)
         if isinstance(sweep, dict):
-            out += sweep_name_problems(scene["kind"], [n for n in sweep if isinstance(n, str)])
+            gear = scene.get("gear") is not None  # (its swept stiffness: gear_load_problems)
+            out += sweep_name_problems(scene["kind"], [n for n in sweep if isinstance(n, str)
+                                                       and not (gear and n == "stiffness")], gear)
         if scene["kind"] != "mathieu" and scene.get("gear") is not None:  # a gear's own error
             out += gear_load_problems(list(sweep) if isinstance(sweep, dict) else [],  # hid these
                                       any(scene.get(n) is not None for n in ("torque", "mean_force")))
