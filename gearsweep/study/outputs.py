@@ -221,9 +221,11 @@ class SpectrumOptions(Strict):
         " of the two cannot alias into the kept bins)")
     force: Flag = Field(True, description="also the spectrum of the dynamic mesh force"
                         " k(t) f(p) + c p' (variable force_spectrum) [N]")
-    pinion: Flag = Field(False, description="also what the pinion's sensors see: its angular"
-                         " motion at the base circle r2 theta2 per line (pinion_spectrum) and its"
-                         " rms (pinion_rms) [um], from the mesh force by Eq. (4)"
+    pinion: Flag = Field(False, description="also what the sensors of gear 2, the driven gear"
+                         " (the paper's pinion: its rig drives the 48-tooth gear 1), see: its"
+                         " angular motion at the base circle r2 theta2 per line (pinion_spectrum)"
+                         " and its rms (pinion_rms) [um], from the mesh force by Eq. (4); where"
+                         " your pinion drives, it is gear 1 and this is the wheel's motion"
                          " (gearsweep.analysis.sensor); needs force and scene.drive")
     phase: Flag = Field(False, description="also the phase of each line, spectrum_phase (and"
                         " force_spectrum_phase with force) [rad] in (-pi, pi]: p ~ sum spectrum"
@@ -367,11 +369,11 @@ class Spectrum:
                         " phase_floor of its case's largest or force_spectrum is NaN")})
         if pinion:
             specs["pinion_spectrum"] = VarSpec(**common, kind="displacement", attrs={
-                "long_name": "pinion motion r2 theta2 per line: (r2^2 / I2)"
+                "long_name": "pinion (gear 2, driven) motion r2 theta2 per line: (r2^2 / I2)"
                 " |W_k| / (2 pi f_k)^2 of the mesh force W (Eq. 4); 0 at order 0"})
             specs["pinion_rms"] = VarSpec(kind="displacement", attrs={
                 "long_name": "rms of r2 theta2 over the kept lines: the doubly"
-                " integrated tangential acceleration of the pinion at its base circle"})
+                " integrated tangential acceleration of the pinion (gear 2, driven) at its base circle"})
         return specs
 
     def compute(self, plan: Plan, params: dict[str, np.ndarray],
