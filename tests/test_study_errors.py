@@ -1808,3 +1808,15 @@ def test_a_misspelt_sweep_of_a_gear_scene_does_not_offer_the_stiffness():
     (line,) = _lines(text.replace("  sped:", "  stiffness: [1 kN/mm, 2 kN/mm]\n  speed:"))
     assert "sweep.stiffness: a gear scene computes its stiffness from the gear pair" in line
     assert "stiffness, torque" in _lines(GOOD.replace("  speed:", "  sped:"))[-1]  # no gear
+
+
+@pytest.mark.parametrize("speed", ["3000 rpm", "[3000 rpm]", "{start: 3000 rpm, stop: 3000 rpm, num: 1}"])
+def test_a_continuation_over_one_speed_is_refused(speed):
+    """``continuation: [up, down]`` over one speed ran "up" and "down" as the same case, with no
+    word (an outside tester's finding): no state to carry from speed to speed."""
+    text = GOOD.replace("  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}", f"  speed: {speed}")
+    parse_study(text, "s.yaml")
+    assert _lines(text + "continuation: [up, down]\n") == [
+        ("s.yaml:12: continuation: ['up', 'down'] -- a continuation carries the state from speed"
+         " to speed: sweep.speed needs 2 or more values (it has one), or leave continuation out")]
+    parse_study(GOOD + "continuation: [up, down]\n", "s.yaml")

@@ -586,6 +586,14 @@ def consistency_problems(study: Study) -> list[Problem]:
                                gear)
     out += speed_problems(sc.kind, "speed" in study.sweep, getattr(sc, "speed", None) is not None,
                           study.continuation)
+    axis = study.sweep.get("speed")
+    if study.continuation and axis is not None and (
+            axis.num if isinstance(axis, Range) else len(axis)) < 2:
+        # one speed: "up" and "down" are the same run, no state carried (an outside tester's
+        # finding: accepted with no word)
+        out.append(Problem("continuation", list(study.continuation), "a continuation carries"
+                           " the state from speed to speed: sweep.speed needs 2 or more values"
+                           " (it has one), or leave continuation out"))
     out += repeated_order_problems(sc)
     out += gear_backlash_problems(sc, "backlash" in study.sweep)
     if "mass" in study.sweep and getattr(sc, "drive", None) is not None and any(
