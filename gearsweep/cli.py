@@ -503,14 +503,30 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"gearsweep: warning: {line}", file=sys.stderr)
     if not args.quiet:
         # The file's elapsed_seconds is the chunk phase; the wall time adds the one-time
-        # loading (or compiling) of the kernel and the writing of the file: say both.
-        resumed = (f" ({total - saved} of {total} chunks computed now, {saved} saved before)"
-                   if saved else "")  # (a resumed run said "1600000 cases in 55 s" of 96 chunks)
-        print(f"{out}: {written.cases} cases{resumed} in {time.perf_counter() - t0:.2f} s"
-              f" (computing the chunks: {written.elapsed:.2f} s, the file's elapsed_seconds)"
-              + (f"; {written.flagged} flagged in 'status' (see its 'codes' attribute)"
-                 if written.flagged else ""))
+        # loading (or compiling) of the kernel and the writing of the file: say both. A
+        # resumed run says what it used of the earlier runs: the file's elapsed_seconds is
+        # their chunk phases and this run's together (a resumed run said "1600000 cases in
+        # 55 s" of 96 chunks, then gave this run's 0.8 s as the file's elapsed_seconds).
+        w = written
+        if w.earlier_chunks:
+            runs = "an earlier run" if w.earlier_runs == 1 else f"{w.earlier_runs} earlier runs"
+            resumed = (f" (resumed: {w.earlier_chunks} of {w.chunks} chunks from {runs},"
+                       f" {w.chunks - w.earlier_chunks} computed now)")
+            phase = (f"computing the chunks: {w.run_elapsed:.2f} s now,"
+                     f" {_seconds(w.elapsed)} over the {w.earlier_runs + 1} runs, the file's"
+                     " elapsed_seconds")
+        else:
+            resumed, phase = "", f"computing the chunks: {w.elapsed:.2f} s, the file's elapsed_seconds"
+        print(f"{out}: {w.cases} cases{resumed} in {time.perf_counter() - t0:.2f} s ({phase})"
+              + (f"; {w.flagged} flagged in 'status' (see its 'codes' attribute)"
+                 if w.flagged else ""))
     return 0
+
+
+def _seconds(s: float) -> str:
+    """``1.23 s``, or where a total is unknown (an earlier run kept no record) ``an unknown
+    time``."""
+    return f"{s:.2f} s" if math.isfinite(s) else "an unknown time"
 
 
 SHOW_ESTIMATE_SECONDS = 30.0
@@ -601,7 +617,11 @@ def describe(path: str | Path) -> str:
                          " recorded periods"
                          + (f", on {ds.attrs['device']} in {ds.attrs.get('precision', '?')}"
                             if "device" in ds.attrs else ""))
-        lines.append(f"  history: {ds.attrs.get('history', '?')}")
+        history = str(ds.attrs.get("history", "?")).splitlines() or ["?"]
+        lines.append("  history: " + "\n           ".join(history))  # a line per run
+        resumed = _resumed_line(ds.attrs)
+        if resumed:
+            lines.append(f"  {resumed}")
         lines.append("  dimensions:")
         for d in ds.dims:
             c = ds[d] if d in ds.coords else None
@@ -635,6 +655,22 @@ def describe(path: str | Path) -> str:
             lines.append("  status: " + ", ".join(f"{n} x code {k}" for k, n in counts.items())
                          + f"  ({ds['status'].attrs.get('codes', '')})")
     return "\n".join(lines)
+
+
+def _resumed_line(attrs) -> str | None:
+    """What a resumed result says of its runs (``resultfile.run_attrs``), ``None`` for a result
+    made in one run: ``resumed: 10 of 14 chunks from an earlier run; chunk phase 2.10 s over
+    the 2 runs (elapsed_seconds), 0.82 s in the last``."""
+    if "run_chunks" not in attrs:
+        return None
+    chunks = np.atleast_1d(attrs["run_chunks"]).astype(int)
+    each = np.atleast_1d(attrs.get("run_elapsed_seconds", [np.nan])).astype(float)
+    n = len(chunks)
+    runs = "an earlier run" if n == 2 else f"{n - 1} earlier runs"
+    total = float(attrs.get("elapsed_seconds", np.nan))
+    return (f"resumed: {chunks[:-1].sum()} of {chunks.sum()} chunks from {runs}; chunk phase"
+            f" {_seconds(total)} over the {n} runs (elapsed_seconds), {_seconds(each[-1])} in"
+            " the last")
 
 
 def _looks_like_study(path: Path) -> bool:

@@ -23,7 +23,7 @@ import xarray as xr
 from test_execute import LONG, RATTLE, assert_same, plan_of  # the tests folder is on sys.path
 
 from gearsweep.study.checkpoint import chunk_folder
-from gearsweep.study.execute import run_plan
+from gearsweep.study.execute import chunks_to_run, run_plan
 
 pytestmark = pytest.mark.cluster
 
@@ -236,8 +236,16 @@ def test_ctrl_c_on_a_local_cluster_stops_cleanly(tmp_path):
     assert proc.returncode == 130, err
     assert err.strip().splitlines()[-1].startswith("gearsweep: interrupted: "), err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    saved = sum(1 for _ in folder.rglob("chunk_*.npys"))
     rc = _run_cli(args).wait(timeout=600)
     assert rc == 0 and out.exists()
+    # The result records both runs: the chunks the interrupted one left (those its workers
+    # saved after it stopped count as its own) and those the second computed.
+    with xr.open_dataset(out) as ds:
+        assert len(ds.attrs["history"].splitlines()) == 2
+        assert ds.attrs["run_chunks"][0] == saved and ds.attrs["run_chunks"].sum() == len(
+            chunks_to_run(plan_of(study.read_text(encoding="utf-8")), None, 20))
+        assert ds.attrs["elapsed_seconds"] == round(sum(ds.attrs["run_elapsed_seconds"]), 3)
 
 
 def test_unreachable_scheduler_is_one_line(tmp_path):

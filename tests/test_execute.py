@@ -70,17 +70,32 @@ def plan_of(text: str):
     return make_plan(parse_study(text), text)
 
 
-def strip(ds: xr.Dataset) -> xr.Dataset:
-    """The Dataset without the attributes that differ between runs (time stamp, elapsed time)."""
+EVERY_RUN = ("history", "elapsed_seconds", "kernel_seconds")
+"""Attributes that differ between any two runs of a study: the time stamp, the timings."""
+
+RESUMED = ("run_chunks", "run_elapsed_seconds", "run_kernel_seconds")
+"""Attributes that only a resumed result has (``resultfile.run_attrs``): each run's chunks and
+timings, one per line of its ``history`` (tested: ``test_a_resumed_result_records_every_run``)."""
+
+
+def strip(ds: xr.Dataset, resumed: bool = False) -> xr.Dataset:
+    """The Dataset without the attributes that differ between runs (``EVERY_RUN``) and, for a
+    ``resumed`` result, without those that only a resumed result has (``RESUMED``: each must
+    be there)."""
     ds = ds.copy()
-    for k in ("history", "elapsed_seconds", "kernel_seconds"):
+    for k in EVERY_RUN:
         ds.attrs.pop(k, None)
+    if resumed:
+        for k in RESUMED:
+            assert k in ds.attrs, k
+            del ds.attrs[k]
     return ds
 
 
-def assert_same(a: xr.Dataset, b: xr.Dataset) -> None:
-    """Bitwise-equal data, coordinates and attributes (NaN equal to NaN)."""
-    xr.testing.assert_identical(strip(a), strip(b))
+def assert_same(a: xr.Dataset, b: xr.Dataset, resumed: bool = False) -> None:
+    """Bitwise-equal data, coordinates and attributes (NaN equal to NaN); ``resumed``: ``a``
+    is a resumed result, ``b`` one made in one run (``strip``)."""
+    xr.testing.assert_identical(strip(a, resumed), strip(b))
 
 
 @pytest.fixture(scope="module")
@@ -130,9 +145,9 @@ def test_resume_after_crash_computes_only_missing_chunks(rattle_reference, tmp_p
     ds = execute.run_to_file(plan, out, chunk_cases=CHUNK)
     assert read_log(log) == chunks[3:]  # nothing computed twice
     assert not folder.exists()  # checkpoints removed once the file is written
-    assert_same(ds, rattle_reference)
+    assert_same(ds, rattle_reference, resumed=True)
     with xr.open_dataset(out) as back:
-        assert_same(back.load(), rattle_reference)
+        assert_same(back.load(), rattle_reference, resumed=True)
 
 
 def test_changed_study_does_not_reuse_chunks(tmp_path, monkeypatch):
@@ -167,7 +182,8 @@ def test_an_edit_that_changes_no_value_keeps_the_saved_chunks(tmp_path, monkeypa
     ds = execute.run_to_file(plan2, out, chunk_cases=CHUNK)
     assert read_log(log) == chunks[3:]  # the three saved chunks were used
     assert ds.attrs["study"].startswith("# the same study, commented")
-    assert_same(ds, run_plan(plan2))  # bitwise the uninterrupted run of the edited study
+    assert_same(ds, run_plan(plan2), resumed=True)  # bitwise the uninterrupted run of the
+    # edited study
 
 
 def test_device_auto_without_a_gpu_resumes_a_cpu_run_and_the_other_way(tmp_path, monkeypatch):
@@ -186,7 +202,8 @@ def test_device_auto_without_a_gpu_resumes_a_cpu_run_and_the_other_way(tmp_path,
     log.unlink()
     ds = execute.run_to_file(plan2, out, chunk_cases=CHUNK)
     assert read_log(log) == chunks[3:]  # the cpu run's three saved chunks were used
-    assert_same(ds, run_plan(plan2))  # bitwise the uninterrupted run of the auto study
+    assert_same(ds, run_plan(plan2), resumed=True)  # bitwise the uninterrupted run of the auto
+    # study
     monkeypatch.setattr(cuda, "gpu_present", lambda: True)
     assert plan_of(auto).study_key != plan.study_key
 
@@ -212,7 +229,8 @@ def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path,
     log.unlink()
     ds = run_plan(plan, checkpoint=out, chunk_cases=CHUNK)
     assert sorted(read_log(log)) == sorted([*chunks[:4], *chunks[5:]])  # chunks[4] reused
-    assert_same(ds, rattle_reference)
+    assert_same(ds, rattle_reference, resumed=True)
+    assert list(ds.attrs["run_chunks"]) == [1, 5]  # what each run computed of the result
 
 
 def test_a_resumed_run_keeps_the_saved_chunk_layout(rattle_reference, tmp_path, monkeypatch):
@@ -232,7 +250,7 @@ def test_a_resumed_run_keeps_the_saved_chunk_layout(rattle_reference, tmp_path, 
     log.unlink()
     ds = run_plan(plan, checkpoint=out, chunk_cases=96)
     assert read_log(log) == chunks[2:]  # the two saved chunks were used, in their layout
-    assert_same(ds, rattle_reference)
+    assert_same(ds, rattle_reference, resumed=True)
     remove_checkpoints(out)
     log.unlink()
     run_plan(plan, checkpoint=out, chunk_cases=96)
@@ -258,14 +276,14 @@ def test_the_cli_resumes_in_the_saved_chunks_and_says_so(rattle_reference, tmp_p
     cap = capsys.readouterr()
     err = cap.err
     n = len(chunks)  # the summary says what this run computed (it said all the cases' time)
-    assert cap.out.startswith(f"{out}: 288 cases ({n - 2} of {n} chunks computed now, 2 saved"
-                              " before) in ")
+    assert cap.out.startswith(f"{out}: 288 cases (resumed: 2 of {n} chunks from an earlier"
+                              f" run, {n - 2} computed now) in ")
     assert f"resuming in the interrupted run's {len(chunks)} chunks" in err
     assert "the chunks of --chunk-size apply to a fresh run" in err
     assert f"resuming: 2 of {len(chunks)} chunks already saved" in err
     assert read_log(log) == chunks[2:]
     with xr.open_dataset(out) as ds:
-        assert_same(ds.load(), rattle_reference)
+        assert_same(ds.load(), rattle_reference, resumed=True)
 
 
 @pytest.mark.parametrize("guard", ["warn", "off"])
@@ -291,6 +309,153 @@ def test_a_prepared_chunk_gives_run_chunk_s_arrays_bit_for_bit(guard):
         assert got[name].dtype == want[name].dtype, name
         np.testing.assert_array_equal(got[name], want[name], err_msg=name)
     assert prepare(plan_of(RATTLE), 0, 1) is None
+
+
+def _records(out: Path, plan) -> dict[str, dict]:
+    """What the runs recorded in the checkpoint folder (``checkpoint.RUNS``), by run in the
+    order they started: their history line, the chunks they saved, and their elapsed and
+    kernel seconds at their last saved chunk."""
+    import json
+
+    runs: dict[str, dict] = {}
+    path = chunk_folder(out) / plan.study_key / "runs.jsonl"
+    for line in path.read_text(encoding="utf-8").splitlines():
+        rec = json.loads(line)
+        run = runs.setdefault(rec["run"], {"chunks": []})
+        if "history" in rec:
+            run["history"] = rec["history"]
+        else:
+            run["chunks"].append(tuple(rec["chunk"]))
+            run["elapsed"], run["kernel"] = rec["elapsed"], rec["kernel"]
+    return runs
+
+
+def test_a_resumed_result_records_every_run(rattle_reference, tmp_path, monkeypatch, capsys):
+    """Interrupted twice, then completed: the result's ``history`` has a line per run, oldest
+    first (each run's command, from the record it kept in the checkpoint folder), its
+    ``elapsed_seconds`` and ``kernel_seconds`` are the totals over the runs (the interrupted
+    runs' as they recorded them at their last saved chunk), ``run_chunks``,
+    ``run_elapsed_seconds`` and ``run_kernel_seconds`` give each run's share, and ``inspect``
+    says it was resumed. The data are the uninterrupted run's, bit for bit. (A resumed file
+    said only the last command, and gave its 0.8 s as the study's elapsed_seconds.)"""
+    from gearsweep.cli import describe
+    from gearsweep.study.provenance import command
+
+    log = tmp_path / "chunks.log"
+    monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
+    out = tmp_path / "r.nc"
+    plan = plan_of(RATTLE)
+    chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
+    n = len(chunks)
+    for name, k in (("first", 2), ("second", 1)):
+        with command(["gearsweep", "run", f"{name}.yaml"]), pytest.raises(Crash):
+            execute.run_to_file(plan, out, backend=CrashAfter(k), chunk_cases=CHUNK)
+    runs = list(_records(out, plan).values())
+    assert [r["chunks"] for r in runs] == [chunks[:2], chunks[2:3]]
+    assert [r["history"].split(": ", 1)[1].split(" (")[0] for r in runs] == [
+        "gearsweep run first.yaml", "gearsweep run second.yaml"]
+    with command(["gearsweep", "run", "third.yaml"]):
+        written = execute.stream_to_file(plan, out, chunk_cases=CHUNK)
+    assert read_log(log) == chunks  # no chunk computed twice
+    with xr.open_dataset(out) as ds:
+        ds.load()
+    assert_same(ds, rattle_reference, resumed=True)
+    lines = ds.attrs["history"].split("\n")
+    assert lines[:2] == [r["history"] for r in runs]  # oldest first, as CF appends
+    assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ: gearsweep run third\.yaml \(.*\)",
+                        lines[2]), lines
+    assert list(ds.attrs["run_chunks"]) == [2, 1, n - 3]
+    each = list(ds.attrs["run_elapsed_seconds"])
+    assert each[:2] == [round(r["elapsed"], 3) for r in runs]  # as recorded, not guessed
+    assert ds.attrs["elapsed_seconds"] == round(sum(each), 3)
+    kernel = list(ds.attrs["run_kernel_seconds"])
+    assert kernel[:2] == [round(r["kernel"], 3) for r in runs]
+    assert ds.attrs["kernel_seconds"] == round(sum(kernel), 3)
+    assert all(0 < e for e in each) and all(0 <= k for k in kernel)
+    assert (written.elapsed, written.run_elapsed) == (ds.attrs["elapsed_seconds"], each[2])
+    assert (written.chunks, written.earlier_chunks, written.earlier_runs) == (n, 3, 2)
+    text = describe(out)
+    assert f"  history: {lines[0]}\n           {lines[1]}\n           {lines[2]}\n" in text
+    assert (f"  resumed: 3 of {n} chunks from 2 earlier runs; chunk phase"
+            f" {ds.attrs['elapsed_seconds']:.2f} s over the 3 runs (elapsed_seconds),"
+            f" {each[2]:.2f} s in the last\n") in text
+    # A result made in one run says nothing of the kind.
+    fresh = tmp_path / "fresh.nc"
+    with command(["gearsweep", "run", "fresh.yaml"]):
+        execute.stream_to_file(plan, fresh, chunk_cases=CHUNK)
+    with xr.open_dataset(fresh) as ds:
+        assert "\n" not in ds.attrs["history"] and not set(RESUMED) & set(ds.attrs)
+    assert "\n  resumed: " not in describe(fresh)
+
+
+@pytest.mark.filterwarnings("ignore::gearsweep.errors.ChunkSizeWarning")  # small chunks: many
+def test_gearsweep_run_with_an_output_resumes_with_every_run_recorded(tmp_path, monkeypatch):
+    """``gearsweep.run(study, output=...)`` interrupted (its in-process backend raising after two
+    chunks), then called again: the returned result has both runs' history lines and timings,
+    and the data of the uninterrupted run."""
+    import gearsweep
+
+    text = RATTLE.replace("continuation: [up, down]\n", "")
+    real = execute.InProcess.run
+
+    def crashing(self, plan, todo):
+        for i, item in enumerate(real(self, plan, todo)):
+            if i == 2:
+                raise Crash
+            yield item
+
+    out = tmp_path / "r.nc"
+    monkeypatch.setattr(execute.InProcess, "run", crashing)
+    with pytest.raises(Crash):
+        gearsweep.run(text, output=out, chunk_cases=24)
+    monkeypatch.setattr(execute.InProcess, "run", real)
+    plan = plan_of(text)
+    saved = _records(out, plan)
+    assert [len(r["chunks"]) for r in saved.values()] == [2]
+    ds = gearsweep.run(text, output=out, chunk_cases=24)
+    n = len(execute.chunks_to_run(plan, None, 24))
+    assert list(ds.attrs["run_chunks"]) == [2, n - 2]
+    assert len(ds.attrs["history"].splitlines()) == 2
+    assert ds.attrs["elapsed_seconds"] == round(sum(ds.attrs["run_elapsed_seconds"]), 3)
+    assert ds.attrs["run_elapsed_seconds"][0] == round(next(iter(saved.values()))["elapsed"], 3)
+    assert_same(ds.load(), gearsweep.run(text), resumed=True)
+
+
+def test_earlier_runs_are_read_from_what_they_recorded(tmp_path):
+    """``ChunkStore.earlier_runs``: a line cut short by a kill is skipped and the next run's lines
+    start on a line of their own; a chunk saved again by a later run counts as that run's; a
+    chunk saved without a record counts with the last run that saved any; a run none of whose
+    chunks is used is left out; with no record at all, the chunks are an unrecorded run's."""
+    from gearsweep.study.checkpoint import RUNS, RunLog
+    from gearsweep.study.resultfile import UNRECORDED, run_attrs
+
+    store = ChunkStore(tmp_path / "r.nc", "key", 8, [(0, 2), (2, 4), (4, 6), (6, 8)])
+    store.open()
+    gone = RunLog(store.folder, "t0: gone")  # its only chunk is not among the saved ones
+    gone.chunk(6, 8, 0.5, 0.25)
+    gone.close()
+    one = RunLog(store.folder, "t1: one")
+    one.chunk(0, 2, 1.0, 0.5)
+    one.chunk(2, 4, 2.0, 1.0)
+    one.close()
+    with open(store.folder / RUNS, "ab") as fh:
+        fh.write(b'{"run": "killed", "chunk": [4, ')  # cut short by a kill
+    two = RunLog(store.folder, "t2: two")
+    two.chunk(2, 4, 0.5, None)  # computed again (its file was unreadable, say)
+    two.close()
+    runs = store.earlier_runs([(0, 2), (2, 4), (4, 6)])  # (4, 6): saved, not recorded
+    assert [(r.history, r.chunks, r.elapsed, r.kernel) for r in runs] == [
+        ("t1: one", 1, 2.0, 1.0), ("t2: two", 2, 0.5, None)]
+    made = run_attrs("t3: three", 1.5, 1.0, runs, chunks=1)
+    assert made["history"] == "t1: one\nt2: two\nt3: three"
+    assert list(made["run_chunks"]) == [1, 2, 1]
+    assert made["elapsed_seconds"] == 4.0
+    assert np.isnan(made["run_kernel_seconds"][1]) and np.isnan(made["kernel_seconds"])
+    (store.folder / RUNS).unlink()
+    runs = store.earlier_runs([(0, 2)])
+    assert [(r.history, r.chunks) for r in runs] == [(None, 1)] and np.isnan(runs[0].elapsed)
+    assert run_attrs("t3: three", 1.5, 1.0, runs, 3)["history"] == f"{UNRECORDED}\nt3: three"
+    assert store.earlier_runs([]) == []
 
 
 def test_streamed_counts_equal_the_file_s_after_a_resumed_run(tmp_path):
@@ -379,7 +544,10 @@ def test_resume_after_sigkill(tmp_path):
     assert sorted(read_log(tmp_path / "run2.log")) == [c for c in chunks if c not in kept]
     assert not folder.exists()
     with xr.open_dataset(out) as resumed:
-        assert_same(resumed.load(), run_plan(plan))
+        assert_same(resumed.load(), run_plan(plan), resumed=True)
+        # the killed run's line and timings, from its record of the chunks it saved
+        assert len(resumed.attrs["history"].splitlines()) == 2
+        assert list(resumed.attrs["run_chunks"]) == [len(kept), len(chunks) - len(kept)]
 
 
 def test_estimate_matches_the_run(tmp_path):

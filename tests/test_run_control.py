@@ -7,6 +7,7 @@ import errno
 import json
 import os
 import re
+import shlex
 import signal
 import subprocess
 import sys
@@ -89,12 +90,31 @@ def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_pat
     assert rc.returncode == 0, rc.stderr
     assert f"resuming: {done} of 20 chunks already saved in" in rc.stderr, rc.stderr
     assert len(log.read_text().splitlines()) == 20
+    # The summary says what came from the interrupted run and the time of both runs, the
+    # file's elapsed_seconds (it gave the resumed part's alone as the study's).
+    found = re.fullmatch(rf"{re.escape(str(out))}: 10000 cases \(resumed: {done} of 20 chunks"
+                         rf" from an earlier run, {20 - done} computed now\) in [\d.]+ s"
+                         r" \(computing the chunks: ([\d.]+) s now, ([\d.]+) s over the 2 runs,"
+                         r" the file's elapsed_seconds\)\n", rc.stdout)
+    assert found, rc.stdout
     rc = subprocess.run(_cmd(study, ref), cwd=tmp_path, env=_env(), capture_output=True,
                         text=True, timeout=600)
     assert rc.returncode == 0, rc.stderr
     with xr.open_dataset(out) as a, xr.open_dataset(ref) as b:
         for name in b.variables:
             np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+        # Both commands in history, oldest first (the interrupted one had -q); each run's
+        # chunks and seconds, and their totals.
+        history = a.attrs["history"].splitlines()
+        assert [line.split(": ", 1)[1].split(" (gearsweep ")[0] for line in history] == [
+            shlex.join(["gearsweep", *_cmd(study, out)[3:]]),
+            shlex.join(["gearsweep", *resume[3:]])], history
+        assert list(a.attrs["run_chunks"]) == [done, 20 - done]
+        each = a.attrs["run_elapsed_seconds"]
+        assert a.attrs["elapsed_seconds"] == round(sum(each), 3)
+        assert (f"{each[1]:.2f}", f"{a.attrs['elapsed_seconds']:.2f}") == found.groups()
+        assert a.attrs["kernel_seconds"] == round(sum(a.attrs["run_kernel_seconds"]), 3)
+        assert "\n" not in b.attrs["history"] and "run_chunks" not in b.attrs
 
 
 def test_sigterm_saves_the_chunks_computed_and_exits_143(tmp_path):

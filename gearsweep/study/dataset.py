@@ -216,10 +216,12 @@ def store_chunk(results: dict[str, np.ndarray], plan: Any, lane0: int, lane1: in
 
 
 def assemble(plan: Any, results: dict[str, np.ndarray], elapsed: float | None = None,
-             kernel: float | None = None) -> xr.Dataset:
+             kernel: float | None = None, earlier: list | tuple = (), chunks: int = 0
+             ) -> xr.Dataset:
     """The Dataset of ``describe(plan)`` (docs/data-format.md), its results the lane-ordered arrays
-    ``results`` put on the study's dims."""
-    desc = describe(plan, elapsed, kernel)
+    ``results`` put on the study's dims (``earlier``, ``chunks``: a resumed run's, as
+    ``describe``)."""
+    desc = describe(plan, elapsed, kernel, earlier, chunks)
     lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
     variables = {}
     for name, var in desc.variables.items():

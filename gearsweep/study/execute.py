@@ -58,7 +58,7 @@ from gearsweep.jit import cache_loads_without_set_up
 from gearsweep.kernels import LANES
 from gearsweep.kernels.batch import compiled
 from gearsweep.model import MeshModel
-from gearsweep.study.checkpoint import ChunkStore, remove_checkpoints, saved_layout
+from gearsweep.study.checkpoint import ChunkStore, RunLog, remove_checkpoints, saved_layout
 from gearsweep.study.chunk import (
     KERNEL_CLOCK,
     Prepared,
@@ -71,7 +71,7 @@ from gearsweep.study.chunk import (
 from gearsweep.study.filelayout import output_bound
 from gearsweep.study.outputs import OUTPUTS
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
-from gearsweep.study.resultfile import ResultFile, result_layout
+from gearsweep.study.resultfile import ResultFile, history_line, result_layout
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -840,8 +840,13 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     one-time warm-up), the part of them spent in the kernel (``KERNEL_CLOCK`` in this process;
     under dask, summed over the workers) and the result file, every chunk written, to be closed
     by the caller (on an error it is removed here).
+
+    With a ``store``, each chunk saved is recorded there with the chunk phase's and the
+    kernel's seconds so far (``checkpoint.RunLog``, in the saver thread): what a resumed run
+    reads of this one (``ChunkStore.earlier_runs``), however this one ends.
     """
     per_lane = plan.cases_per_lane
+    runlog = RunLog(store.folder, history_line()) if store is not None else None
     bar = (_LogLines(plan, done_cases) if progress == "log"
            else _progress_bar(plan, done_cases) if progress else _NoBar())
     be = backend if backend is not None else InProcess()
@@ -861,10 +866,17 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
         if files:  # else the file could not be made: ``opened`` raises why
             order.add(files[0], a, b, arrays)
 
+    def kernel_now() -> float | None:
+        """The kernel's seconds in this run's chunk phase so far."""
+        return KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) \
+            else getattr(be, "kernel_seconds", None)
+
     def keep(a: int, b: int, arrays) -> Future | None:
-        """In the saver thread: the chunk's arrays, its checkpoint; the file's write handed to
-        the writer thread (returned: its future)."""
+        """In the saver thread: the chunk's arrays, its checkpoint and its record; the file's
+        write handed to the writer thread (returned: its future)."""
         if isinstance(arrays, SavedChunk):  # its dask worker saved it: read when needed
+            if runlog is not None:
+                runlog.chunk(a, b, time.perf_counter() - t0, kernel_now())
             if sink is not None:
                 sink(a, b, arrays.load())
             return writer.submit(write, a, b) if order is not None else None
@@ -874,6 +886,7 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
             sink(a, b, arrays)
         if store is not None:
             store.save(a, b, arrays)
+            runlog.chunk(a, b, time.perf_counter() - t0, kernel_now())
         return writer.submit(write, a, b, arrays) if order is not None else None
 
     def start() -> None:
@@ -924,15 +937,17 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
             saver.shutdown()
             writer.shutdown()
             bar.close()
+            if runlog is not None:
+                runlog.close()
             if files:
                 files[0].abort()
         raise
     saver.shutdown()
     writer.shutdown()
     bar.close()
-    kernel = KERNEL_CLOCK.seconds - k0 if isinstance(be, InProcess) \
-        else getattr(be, "kernel_seconds", None)
-    return elapsed, kernel, files[0] if files else None
+    if runlog is not None:
+        runlog.close()
+    return elapsed, kernel_now(), files[0] if files else None
 
 
 class InLaneOrder:
@@ -1058,7 +1073,9 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     The Dataset's ``elapsed_seconds`` is the chunk phase: computing the chunks and saving their
     checkpoints (in-process, after ``warm_up`` has loaded the compiled kernel); in-process, its
     ``kernel_seconds`` is the part of it spent in the kernel (``runner.KERNEL_CLOCK``), so their
-    ratio is the study's overhead over the bare kernel, measured in the same run.
+    ratio is the study's overhead over the bare kernel, measured in the same run. A resumed run
+    (saved chunks used) gives both summed over the runs that computed its chunks, a ``history``
+    line per run and each run's share (``resultfile.run_attrs``).
     """
     from gearsweep.study.dataset import assemble, empty_results, store_chunk
 
@@ -1068,11 +1085,12 @@ def run_plan(plan: Plan, *, backend: InProcess | DaskBackend | None = None,
     for a, b in done:
         store_chunk(results, plan, a, b, store.load(a, b))
     todo = [c for c in chunks if c not in done]
+    earlier = store.earlier_runs(done) if store is not None else []
     per_lane = plan.cases_per_lane
     elapsed, kernel, _ = _compute(
         plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
         sink=lambda a, b, arrays: store_chunk(results, plan, a, b, arrays))
-    return assemble(plan, results, elapsed, kernel)
+    return assemble(plan, results, elapsed, kernel, earlier, len(todo))
 
 
 @dataclass(frozen=True)
@@ -1083,13 +1101,22 @@ class Written:
     path: Path
     cases: int
     elapsed: float
-    """The chunk phase [s] (the file's ``elapsed_seconds``)."""
+    """The chunk phase [s] (the file's ``elapsed_seconds``): of a resumed run, summed over the
+    runs that computed its chunks (NaN where an earlier run's was not recorded)."""
     flagged: int
     """Cases whose ``status`` is not 0."""
     beyond: int
     """Cases beyond the step limit (``beyond_step_limit``; 0 where it is not stored)."""
     contact_lost: int = 0
     """Cases whose teeth would separate (``contact_lost``; 0 where it is not stored)."""
+    chunks: int = 0
+    """Chunks of the study."""
+    earlier_chunks: int = 0
+    """Of them, those saved by earlier runs (a resumed run's; 0: computed by this run alone)."""
+    earlier_runs: int = 0
+    """The earlier runs that saved them."""
+    run_elapsed: float = 0.0
+    """This run's own chunk phase [s] (``elapsed`` where it is not resumed)."""
 
 
 def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBackend | None = None,
@@ -1134,13 +1161,14 @@ def stream_to_file(plan: Plan, output: str | Path, *,
         raise ResultError(f"{output}: cannot write the result here"
                           f" ({exc.strerror or type(exc).__name__})") from None
     todo = [c for c in chunks if c not in done]
+    earlier = store.earlier_runs(done)
     per_lane = plan.cases_per_lane
     try:
         elapsed, kernel, file = _compute(
             plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
             open_file=lambda: _result_file(plan, output, store.folder / "writing.nc", codec),
             done=done)
-        file.close(elapsed, kernel)
+        file.close(elapsed, kernel, earlier, len(todo))
     except (OSError, ClusterError) as failed:  # a full disk, a folder gone or made read-only
         exc = failed if isinstance(failed, OSError) else failed.__cause__  # (on a dask worker)
         if not isinstance(exc, OSError):
@@ -1159,8 +1187,11 @@ def stream_to_file(plan: Plan, output: str | Path, *,
     except KeyboardInterrupt:  # a stop now reported a failed run and left half the chunks,
         remove_checkpoints(output)  # which a run of the same study said it resumed (an
         # adversarial test): the run is done; the caller ends it as a run that finished
-    return Written(path=Path(output), cases=plan.n_cases, elapsed=round(elapsed, 3),
-                   flagged=file.flagged, beyond=file.beyond, contact_lost=file.contact_lost)
+    return Written(path=Path(output), cases=plan.n_cases,
+                   elapsed=float(file.written["elapsed_seconds"]), flagged=file.flagged,
+                   beyond=file.beyond, contact_lost=file.contact_lost,
+                   chunks=len(chunks), earlier_chunks=len(done),
+                   earlier_runs=len(earlier), run_elapsed=round(elapsed, 3))
 
 
 def step_limit_warning(plan: Plan, ds: xr.Dataset, where: str | Path) -> StepLimitWarning | None:

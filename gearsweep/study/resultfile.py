@@ -116,17 +116,87 @@ def variable_attrs(name: str, table: dict, extra: dict | None = None, values=Non
     return values, a
 
 
+def history_line() -> str:
+    """This run's line of ``history``: the time stamp (UTC) and ``provenance()``."""
+    return f"{datetime.now(UTC).strftime('%Y-%m-%dT%H:%M:%SZ')}: {provenance()}"
+
+
 def global_attrs(title: str, study_text: str = "", settings: dict | None = None,
                  source: str = "gearsweep") -> dict[str, Any]:
     """A result's global attributes (docs/data-format.md): conventions, title, history (time stamp and
     ``provenance``), source, the study text as run with its sha256, then ``settings``."""
-    now = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     attrs: dict[str, Any] = {
-        "Conventions": "CF-1.10", "title": title, "history": f"{now}: {provenance()}",
+        "Conventions": "CF-1.10", "title": title, "history": history_line(),
         "source": source, "study": study_text,
         "study_sha256": hashlib.sha256(study_text.encode()).hexdigest()}
     attrs.update(settings or {})
     return attrs
+
+
+@dataclass(frozen=True)
+class EarlierRun:
+    """An earlier run of a study whose saved chunks a resumed run used
+    (``checkpoint.ChunkStore.earlier_runs``, from the records it kept per saved chunk)."""
+
+    history: str | None
+    """Its line of ``history`` (its start: time stamp and ``provenance()``); ``None``: not
+    recorded."""
+    chunks: int
+    """Its chunks that the resumed run used."""
+    elapsed: float
+    """Its chunk phase until its last saved chunk [s]; NaN: not recorded."""
+    kernel: float | None
+    """Its time in the kernel until then [s] (``kernel_seconds``); ``None``: not measured."""
+
+
+UNRECORDED = ("time unknown: an earlier run that saved chunks of this study but kept no record"
+              " of its command or timings")
+"""The line of ``history`` of an ``EarlierRun`` whose own line was not recorded."""
+
+
+def run_attrs(history: str, elapsed: float | None, kernel: float | None,
+              earlier: tuple[EarlierRun, ...] | list[EarlierRun] = (), chunks: int = 0
+              ) -> dict[str, Any]:
+    """The global attributes that say how a result was made: ``history``, ``elapsed_seconds``,
+    ``kernel_seconds`` (``None``: left out) of this run (its ``history`` line, its chunk phase
+    and kernel seconds) and, for a resumed run (``earlier``: the runs whose saved chunks it used,
+    oldest first; ``chunks``: those it computed itself), the same summed over the runs.
+
+    A resumed result's ``history`` has one line per run that contributed, oldest first (CF and
+    the netCDF User Guide: a program *appends* its line), ``elapsed_seconds`` and
+    ``kernel_seconds`` are the totals over those runs, and ``run_chunks``,
+    ``run_elapsed_seconds`` and ``run_kernel_seconds`` give each run's share, in the order of
+    the ``history`` lines (NaN where a run's was not recorded; then the total is NaN too). A
+    result made in one run has neither the extra lines nor the ``run_*`` attributes."""
+    if not earlier:
+        return {"history": history, "elapsed_seconds": None if elapsed is None else round(elapsed, 3),
+                "kernel_seconds": None if kernel is None else round(kernel, 3)}
+    nan = float("nan")
+    each_elapsed = [round(r.elapsed, 3) for r in earlier] + [
+        nan if elapsed is None else round(elapsed, 3)]
+    each_kernel = [nan if r.kernel is None else round(r.kernel, 3) for r in earlier] + [
+        nan if kernel is None else round(kernel, 3)]
+    return {
+        "history": "\n".join([*(r.history or UNRECORDED for r in earlier), history]),
+        "elapsed_seconds": None if elapsed is None else round(sum(each_elapsed), 3),
+        "kernel_seconds": None if kernel is None else round(sum(each_kernel), 3),
+        "run_chunks": np.array([*(r.chunks for r in earlier), chunks], dtype=np.int64),
+        "run_elapsed_seconds": np.array(each_elapsed),
+        "run_kernel_seconds": np.array(each_kernel)}
+
+
+def with_run_attrs(attrs: dict[str, Any], made: dict[str, Any]) -> dict[str, Any]:
+    """``attrs`` with those of ``run_attrs`` (``made``; ``None`` ones left out): ``history`` and
+    the timings where they were, the ``run_*`` ones right after the last timing."""
+    out = {k: made.get(k, v) for k, v in attrs.items() if not k.startswith("run_")}
+    out.update({k: v for k, v in made.items() if not k.startswith("run_")})
+    runs = {k: v for k, v in made.items() if k.startswith("run_")}
+    if runs:
+        keys = list(out)
+        at = max((keys.index(k) + 1 for k in ("elapsed_seconds", "kernel_seconds") if k in out),
+                 default=len(keys))
+        out = {**dict(list(out.items())[:at]), **runs, **dict(list(out.items())[at:])}
+    return {k: v for k, v in out.items() if v is not None}
 
 
 def display_coordinate(name: str, values: np.ndarray, attrs: dict) -> tuple[np.ndarray, dict]:
@@ -210,8 +280,11 @@ def result_dims(plan: Any, name: str) -> tuple[str, ...]:
     return (*(["direction"] if plan.continued else []), *plan.dims, *spec.extra_dims)
 
 
-def describe(plan: Any, elapsed: float | None = None, kernel: float | None = None) -> Description:
-    """Every variable and attribute of ``plan``'s result (docs/data-format.md), the results as shapes."""
+def describe(plan: Any, elapsed: float | None = None, kernel: float | None = None,
+             earlier: tuple[EarlierRun, ...] | list[EarlierRun] = (), chunks: int = 0
+             ) -> Description:
+    """Every variable and attribute of ``plan``'s result (docs/data-format.md), the results as
+    shapes; ``earlier`` and ``chunks``: a resumed run's (``run_attrs``)."""
     sizes = {d: len(plan.grids[d]) for d in plan.dims}
     if plan.continued:
         sizes["direction"] = len(plan.directions)
@@ -278,6 +351,9 @@ def describe(plan: Any, elapsed: float | None = None, kernel: float | None = Non
         # where the study's relative paths were read from: its result runs again from there
         # (``api.result_study``; it looked in the working folder: no such file)
         attrs["study_folder"] = plan.study._base_folder
+    if earlier:
+        attrs = with_run_attrs(attrs, run_attrs(attrs["history"], elapsed, kernel, earlier,
+                                                chunks))
     return Description(variables, attrs)
 
 
@@ -564,6 +640,8 @@ class ResultFile:
         """Cases written so far that are beyond the step limit (``beyond_step_limit``)."""
         self.contact_lost = 0
         """Cases written so far whose teeth would separate (``contact_lost``)."""
+        self.written: dict[str, Any] = {}
+        """The global attributes as ``close`` wrote them."""
         self.nc = netCDF4.Dataset(str(self.tmp), mode="w", format="NETCDF4")
         try:
             dims: dict[str, int] = {}
@@ -661,14 +739,14 @@ class ResultFile:
             os.close(self._sync_fd)
             self._sync_fd = None
 
-    def close(self, elapsed: float | None = None, kernel: float | None = None) -> Path:
-        """Write the global attributes with the run's timings, close, fsync and rename."""
-        attrs = dict(self.attrs)
-        for key, value in (("elapsed_seconds", elapsed), ("kernel_seconds", kernel)):
-            if value is None:
-                attrs.pop(key, None)
-            else:
-                attrs[key] = round(value, 3)
+    def close(self, elapsed: float | None = None, kernel: float | None = None,
+              earlier: tuple[EarlierRun, ...] | list[EarlierRun] = (), chunks: int = 0) -> Path:
+        """Write the global attributes with the run's timings (``run_attrs``: those of a
+        resumed run with its ``earlier`` runs' and the ``chunks`` it computed), close, fsync and
+        rename. ``written``: the global attributes as written."""
+        attrs = with_run_attrs(self.attrs, run_attrs(self.attrs["history"], elapsed, kernel,
+                                                     earlier, chunks))
+        self.written = attrs
         try:
             try:
                 for key, value in attrs.items():
