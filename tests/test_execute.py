@@ -431,16 +431,16 @@ def test_earlier_runs_are_read_from_what_they_recorded(tmp_path):
 
     store = ChunkStore(tmp_path / "r.nc", "key", 8, [(0, 2), (2, 4), (4, 6), (6, 8)])
     store.open()
-    gone = RunLog(store.folder, "t0: gone")  # its only chunk is not among the saved ones
+    gone = RunLog(store.folder, lambda: "t0: gone")  # its only chunk is not among the saved ones
     gone.chunk(6, 8, 0.5, 0.25)
     gone.close()
-    one = RunLog(store.folder, "t1: one")
+    one = RunLog(store.folder, lambda: "t1: one")
     one.chunk(0, 2, 1.0, 0.5)
     one.chunk(2, 4, 2.0, 1.0)
     one.close()
     with open(store.folder / RUNS, "ab") as fh:
         fh.write(b'{"run": "killed", "chunk": [4, ')  # cut short by a kill
-    two = RunLog(store.folder, "t2: two")
+    two = RunLog(store.folder, lambda: "t2: two")
     two.chunk(2, 4, 0.5, None)  # computed again (its file was unreadable, say)
     two.close()
     runs = store.earlier_runs([(0, 2), (2, 4), (4, 6)])  # (4, 6): saved, not recorded

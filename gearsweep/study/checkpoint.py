@@ -54,6 +54,7 @@ import math
 import os
 import secrets
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -284,10 +285,11 @@ class ChunkStore:
 class RunLog:
     """This run's record in a study's checkpoint folder (``RUNS``): one JSON line per chunk it
     saved, appended in one ``write`` (by the thread that saves the chunks), the first also
-    naming the run's ``history`` line. The file is opened at the first chunk: a run that
-    saves none leaves no record."""
+    naming the run's ``history`` line (``history()``, called then: its versions cost 10 ms the
+    first time in a process, not to be spent before the first kernel call). The file is opened
+    at the first chunk: a run that saves none leaves no record."""
 
-    def __init__(self, folder: Path, history: str) -> None:
+    def __init__(self, folder: Path, history: Callable[[], str]) -> None:
         self.path = Path(folder) / RUNS
         self.run = secrets.token_hex(8)
         self.history = history
@@ -307,7 +309,7 @@ class RunLog:
             except OSError:  # no file yet, or an empty one
                 cut = False
             self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
-            head = json.dumps({"run": self.run, "history": self.history}) + "\n"
+            head = json.dumps({"run": self.run, "history": self.history()}) + "\n"
             line = ("\n" if cut else "") + head + line
         os.write(self._fd, line.encode("utf-8"))
 

@@ -40,6 +40,7 @@ from collections import Counter
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 from urllib.parse import urlparse
@@ -846,7 +847,11 @@ def _compute(plan: Plan, todo: list[tuple[int, int]], done_cases: int,
     reads of this one (``ChunkStore.earlier_runs``), however this one ends.
     """
     per_lane = plan.cases_per_lane
-    runlog = RunLog(store.folder, history_line()) if store is not None else None
+    runlog = None
+    if store is not None:  # its history line: the run's start, with this thread's command
+        context, started = contextvars.copy_context(), datetime.now(UTC)  # (provenance), made
+        runlog = RunLog(store.folder, lambda: context.run(history_line, started))  # when the
+        # first chunk is saved, beside the next chunk's kernel
     bar = (_LogLines(plan, done_cases) if progress == "log"
            else _progress_bar(plan, done_cases) if progress else _NoBar())
     be = backend if backend is not None else InProcess()

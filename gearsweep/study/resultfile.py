@@ -116,9 +116,10 @@ def variable_attrs(name: str, table: dict, extra: dict | None = None, values=Non
     return values, a
 
 
-def history_line() -> str:
-    """This run's line of ``history``: the time stamp (UTC) and ``provenance()``."""
-    return f"{datetime.now(UTC).strftime('%Y-%m-%dT%H:%M:%SZ')}: {provenance()}"
+def history_line(when: datetime | None = None) -> str:
+    """This run's line of ``history``: the time stamp (UTC; ``when``, default now) and
+    ``provenance()``."""
+    return f"{(when or datetime.now(UTC)).strftime('%Y-%m-%dT%H:%M:%SZ')}: {provenance()}"
 
 
 def global_attrs(title: str, study_text: str = "", settings: dict | None = None,
