@@ -524,9 +524,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _seconds(s: float) -> str:
-    """``1.23 s``, or where a total is unknown (an earlier run kept no record) ``an unknown
-    time``."""
-    return f"{s:.2f} s" if math.isfinite(s) else "an unknown time"
+    """``1.23 s``, or where a total is unknown (NaN: an earlier run kept no record of its
+    time) ``unknown (an earlier run kept no record)``."""
+    return f"{s:.2f} s" if math.isfinite(s) else "unknown (an earlier run kept no record)"
 
 
 SHOW_ESTIMATE_SECONDS = 30.0

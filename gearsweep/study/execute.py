@@ -1139,7 +1139,8 @@ def run_to_file(plan: Plan, output: str | Path, *, backend: InProcess | DaskBack
     A run killed at any point leaves the chunks it finished (the half-written netCDF is not
     trusted: a re-run writes it afresh); running the same study to the same output again
     computes only the others, writes the saved ones into the new file while they compute, and
-    writes the same file.
+    writes the same data, bit for bit, with a ``history`` line per run and the timings summed
+    over the runs (``resultfile.run_attrs``, from each run's record in the checkpoint folder).
 
     Returns the written file opened lazily (``xr.open_dataset(output)``: each variable read
     when used; not dask arrays, whose first computation imports dask.distributed, 0.2-0.6 s).
