@@ -426,6 +426,7 @@ def test_earlier_runs_are_read_from_what_they_recorded(tmp_path):
     start on a line of their own; a chunk saved again by a later run counts as that run's; a
     chunk saved without a record counts with the last run that saved any; a run none of whose
     chunks is used is left out; with no record at all, the chunks are an unrecorded run's."""
+    from gearsweep.cli import _resumed_line
     from gearsweep.study.checkpoint import RUNS, RunLog
     from gearsweep.study.resultfile import UNRECORDED, run_attrs
 
@@ -454,7 +455,11 @@ def test_earlier_runs_are_read_from_what_they_recorded(tmp_path):
     (store.folder / RUNS).unlink()
     runs = store.earlier_runs([(0, 2)])
     assert [(r.history, r.chunks) for r in runs] == [(None, 1)] and np.isnan(runs[0].elapsed)
-    assert run_attrs("t3: three", 1.5, 1.0, runs, 3)["history"] == f"{UNRECORDED}\nt3: three"
+    made = run_attrs("t3: three", 1.5, 1.0, runs, 3)
+    assert made["history"] == f"{UNRECORDED}\nt3: three" and np.isnan(made["elapsed_seconds"])
+    assert _resumed_line(made) == (  # what inspect says of it
+        "resumed: 1 of 4 chunks from an earlier run; chunk phase unknown (an earlier run kept no"
+        " record) over the 2 runs (elapsed_seconds), 1.50 s in the last")
     assert store.earlier_runs([]) == []
 
 
