@@ -7,6 +7,12 @@ study's value (pint underneath) into an SI float; ``to_display`` converts SI val
 
 Rules (docs/study-reference.md, "Units"):
 
+* A quantity is written as one number (optionally signed, decimal or exponent form, ``_`` only
+  between digits; or a product or quotient of numbers, ``200*32/48 rpm``) followed by a unit
+  expression with no number in it but its powers (``kN/mm``, ``N*s/mm``, ``kg m^2``, ``kN
+  mm-1``, ``1/s``): pint's ``parse_units`` without a scaling factor. A unit with no number
+  (``mm``), a number inside or after the unit (``3 mm 2``, ``3mm/2``) and other arithmetic on
+  the number (``2**1000 mm``, ``(3) mm``, sums) are refused, each with its own message.
 * A bare number in a dimensioned field is refused (``module: 3`` -> ``3 has no unit; write e.g.
   '3 mm', or '3 m' if SI was meant``), except 0 (zero in any unit) and a shaft speed, which is read in rpm.
 * A frequency given for a shaft speed (``50 Hz``, ``3 kHz``) is read as revolutions per second:
@@ -78,8 +84,19 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
 _INTEGER = re.compile(r"(?<![\w.])(?<![eE][-+])(\d[\d_]*)(?![\w.])")
 """An integer literal on its own (not part of a float, an exponent or a name)."""
 
-_NUMBER = re.compile(r"^\s*[-+]?(?:\d[\d_]*\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+_DIGITS = r"\d+(?:_\d+)*"
+_NUM = rf"(?:{_DIGITS}(?:\.(?:{_DIGITS})?)?|\.{_DIGITS})(?:[eE][-+]?\d+)?"
+"""A number without its sign: decimal or exponent form, an underscore only between digits."""
+_NUMBER = re.compile(rf"^\s*[-+]?{_NUM}")
 """The number at the start of a quantity's text."""
+_PLAIN = re.compile(rf"\s*([-+]?{_NUM})\s*(\S.*?)\s*")
+"""A number and the text after it, as written (``to_si``'s fast path: the unit's kept factor)."""
+_LEAD = re.compile(rf"\s*[-+]?\s*(?:{_NUM}|(?:inf(?:inity)?|nan)(?![A-Za-z_]))"
+                   rf"(?:\s*[*/]\s*{_NUM})*", re.IGNORECASE)
+"""The numeric part of a quantity: one number, optionally signed, or a product or quotient of
+numbers (a gear ratio: ``200*32/48 rpm``)."""
+_EXPONENT = re.compile(r"(?:\*\*|\^)\s*\(?\s*[-+]?\s*(?:\d+(?:\.\d*)?|\.\d+)")
+"""A power of a unit (``m**2``, ``mm^-1``): the one place a unit expression has digits."""
 
 _WORD_ALIASES = {
     "RPM": "rpm", "Rpm": "rpm", "Nm": "N*m", "Nmm": "N*mm", "kNm": "kN*m", "kNmm": "kN*mm",
@@ -147,8 +164,8 @@ def _bare(value: object, kind: Kind, number: float) -> float:
     raise UnitParseError(f"{shown} has no unit; write e.g. {hint}")
 
 
-_UNIT_ONLY = re.compile(r"^[A-Za-z_]+(?:(?:\*\*|\^)-?\d+)?"
-                        r"(?:(?:\s*[*/]\s*|\s+)[A-Za-z_]+(?:(?:\*\*|\^)-?\d+)?)*$")
+_UNIT_ONLY = re.compile(r"^[A-Za-z][A-Za-z_]*(?:(?:\*\*|\^)-?\d+)?"
+                        r"(?:(?:\s*[*/]\s*|\s+)[A-Za-z][A-Za-z_]*(?:(?:\*\*|\^)-?\d+)?)*$")
 """A unit after the number that scales it linearly (``kN/mm``, ``N*s/mm``, ``kg*m**2``): its
 factor is the same for every number, so it can be kept (``to_si``'s cache)."""
 
@@ -197,11 +214,6 @@ _SPLIT_NUMBER = re.compile(r"\d\s+\d+(?:\.\d*)?(?=\s|$|[A-Za-z_])")
 """Digits, a space, a number that is not the start of a unit (``2 000 rpm``, not ``50 1/s``)."""
 
 
-_ARITHMETIC = re.compile(r"\s[+-]|[+-]\s")
-"""A plus or minus with a space beside it: pint would add or subtract (a sign stands first, an
-exponent or a UDUNITS power, '1e-3', 'mm-1', has none)."""
-
-
 _PINT_SYMBOLS = frozenset("°¹²³⋅∙•·")
 """The non-ASCII symbols pint reads (degree sign, superscript powers, product dots); ``µ``/``μ``
 are letters."""
@@ -223,35 +235,17 @@ def _check_number_text(value: str) -> None:
         raise UnitParseError("a space inside a number; write it without (e.g. 2000)")
     if _LOOSE_UNDERSCORE.search(value):  # ('1__0 mm' read as 10 mm, '1_ mm' as 1 mm)
         raise UnitParseError("an underscore in a number stands between two digits (e.g. 10_000)")
-    body = value.strip().lstrip("+-")
-    if _ARITHMETIC.search(body) or _sum_without_spaces(body):  # pint's sums: '1 um - m' was
-        raise UnitParseError("a sum or difference in a quantity; write one number and its unit"
-                             " (e.g. '1 rpm', not '3 rpm - 2 rpm')")  # -0.999999 m, '1um-m' too
-
-
-def _sum_without_spaces(body: str) -> bool:
-    """A plus or minus between two terms with no space beside it ('3rpm-2rpm' was 1 rpm,
-    '5N+1N' 6 N): not an exponent's ('1e-3'), a UDUNITS power's ('mm-1'), an operand's sign
-    ('m**-1', 'mm*-1') or a dash between units ('N-m', refused by ``_to_si_pint`` as such)."""
-    for m in re.finditer(r"[+-]", body):
-        i = m.start()
-        before, after = body[:i], body[i + 1:]
-        if before.rstrip().endswith(("*", "/", "(", "^")) or re.search(r"\d[eE]$", before):
-            continue
-        if re.search(r"[^\W\d_]$", before) and (re.match(r"\d+(?![\w.])", after) if m.group() == "-"
-                                                else False):
-            continue  # a UDUNITS power: kN mm-1
-        if m.group() == "-" and re.search(r"[^\W\d_]$", before) and re.match(r"[^\W\d_]", after):
-            continue  # 'N-m': refused by to_si as a dash between units
-        return True
-    return False
 
 
 def to_si(value: object, kind: str) -> float:
     """Parse ``value`` (a number or a string with units) into a float in the SI unit of ``kind``.
 
-    A number followed by a plain unit (``1073 kN/mm``) is its number times the unit's factor,
-    which pint computes once per unit and kind (``_factors``); anything else goes through pint.
+    A quantity's text is one number (optionally signed, decimal or exponent form, ``_`` between
+    digits; or a product or quotient of numbers, ``200*32/48 rpm``) followed by a unit
+    expression with no number in it but its powers (``kN/mm``, ``N*s/mm``, ``kg m^2``,
+    ``kN mm-1``, ``1/s``): ``_read_text``. A number followed by a unit whose factor is kept
+    (``1073 kN/mm``) is that number times the factor, which pint computes once per unit and
+    kind (``_factors``); anything else goes through pint.
 
     Raises
     ------
@@ -259,28 +253,100 @@ def to_si(value: object, kind: str) -> float:
         With a message naming the expected kind and a unit to write.
     """
     if isinstance(value, str):
-        value = value.replace("\u2212", "-")  # the minus sign, which pint dropped (−3 mm: +3 mm)
-        _check_number_text(value)
-        if _DASH.search(value):  # '1um-m' is um minus m to pint, a length (-0.999999 m)
-            raise _dash_refusal(value, kind)
-        text = normalise(value)
-        m = _NUMBER.match(text)
-        unit = text[m.end():].strip() if m else ""
-        if m and _UNIT_ONLY.match(unit):
-            key = f"{unit}|{kind}"
-            factor = _factors().get(key)
-            if factor is None:
-                try:
-                    factor = _to_si_pint(f"1 {unit}", kind)
-                except UnitParseError:
-                    factor = None  # the value itself goes through pint for its own message
-                else:
-                    _keep_factor(key, factor)
+        m = _PLAIN.fullmatch(value)
+        if m:  # the unit as written: its factor was kept once the text was read in full
+            factor = _factors().get(f"{m.group(2)}|{kind}")
             if factor is not None:
-                result = float(m.group(0).replace("_", "")) * factor
+                result = float(m.group(1)) * factor
                 if math.isfinite(result):
                     return result
+        return _read_text(value, kind)
     return _to_si_pint(value, kind)
+
+
+def _read_text(value: str, kind: str) -> float:
+    """``to_si`` of a string whose unit has no kept factor: the grammar checked, then the
+    unit's factor computed and kept, or the whole text read by pint."""
+    value = value.replace("\u2212", "-")  # the minus sign, which pint dropped (−3 mm: +3 mm)
+    _check_number_text(value)
+    unit = _unit_expression(value, kind)
+    m = _PLAIN.fullmatch(value)
+    if m and unit is not None and _UNIT_ONLY.match(unit) and normalise(m.group(2)) == unit:
+        key = f"{m.group(2)}|{kind}"
+        factor = _factors().get(key)
+        if factor is None:
+            try:
+                factor = _to_si_pint(f"1 {unit}", kind)
+            except UnitParseError:
+                factor = None  # the value itself goes through pint for its own message
+            else:
+                _keep_factor(key, factor)
+        if factor is not None:
+            result = float(m.group(1)) * factor
+            if math.isfinite(result):
+                return result
+    return _to_si_pint(value, kind)
+
+
+def _example(kind: str) -> str:
+    unit = KINDS[kind].examples[0]
+    return "'1'" if unit.startswith("(") else f"'1 {unit}'"
+
+
+def _unit_expression(value: str, kind: str) -> str | None:
+    """The unit expression after the number of ``value`` (pint's spelling; ``None`` where the
+    text is a number alone), or ``UnitParseError`` where the text is not one number followed by
+    a unit expression without a numeric scaling factor: a unit with no number (``mm``, read by
+    pint as 1 mm), a number inside or after the unit (``3 mm 2``, 6 mm; ``3mm/2``), arithmetic
+    on the number (``2**1000 mm``, ``(3) mm``)."""
+    example = _example(kind)
+    lead = _LEAD.match(value)
+    if lead is None:
+        text = normalise(value)
+        if re.search(r"\d", _EXPONENT.sub("", text)):
+            if re.match(r"\s*[-+]?\s*[^\W\d]", value):  # 'mm 2': the unit, then a number
+                raise _number_in_unit(value.strip(), example)
+            raise UnitParseError(_ARITHMETIC_REFUSED.format(example))  # '(3) mm', '+-3 mm'
+        try:
+            registry().parse_units(text.lstrip(" +-"))
+        except Exception as exc:  # noqa: BLE001 -- pint raises many kinds of errors
+            if getattr(exc, "unit_names", None):  # an unknown unit: pint's message names it
+                return text
+        raise UnitParseError(f"a number is missing: write e.g. {example}")
+    written = value[lead.end():].strip()
+    rest = normalise(written)
+    if not rest:
+        return None
+    if rest.startswith(("**", "^")):  # '2**1000 mm'
+        raise UnitParseError(_ARITHMETIC_REFUSED.format(example))
+    unit = rest[1:].lstrip() if rest.startswith("*") else rest  # '3*mm'
+    unit = "1" + unit if unit.startswith("/") else unit  # '10/s': 10 (1/s)
+    bare = _EXPONENT.sub("", re.sub(r"^1\s*(?=/)", "", unit))  # its words and operators
+    if re.search(r"(?<![*/(\s])\s*[-+]", bare):  # (not an operand's sign, 'mm*-1') pint's sums:
+        # '1 um - m' was -0.999999 m, '3rpm-2rpm' 1 rpm, '5N+1N' 6 N
+        if _DASH.search(written) and not re.search(r"\s[+-]|[+-]\s", written):
+            raise _dash_refusal(value, kind)  # 'N-m', '1um-m': a dash meant to join units
+        raise UnitParseError("a sum or difference in a quantity; write one number and its unit"
+                             " (e.g. '1 rpm', not '3 rpm - 2 rpm')")
+    refusal = _number_in_unit(written, example)
+    if re.search(r"\d", bare):
+        raise refusal
+    try:  # pint's own rule, for any scaling factor the digits above did not show
+        registry().parse_units(unit)
+    except ValueError as exc:
+        if "scaling factor" in str(exc):
+            raise refusal from None
+    except Exception:  # noqa: BLE001,S110 -- an unknown unit: pint's message names it, later
+        pass
+    return unit
+
+
+def _number_in_unit(written: str, example: str) -> UnitParseError:
+    return UnitParseError(f"a number inside or after the unit ({written!r}): write one number,"
+                          f" then its unit, e.g. {example}")
+
+
+_ARITHMETIC_REFUSED = "arithmetic on the number: write the number it comes to, then its unit, e.g. {}"
 
 
 _DASH = re.compile(r"[^\W\d_]\s*-\s*[^\W\d_]")

@@ -399,3 +399,74 @@ def test_a_sum_or_difference_without_spaces_is_not_a_quantity(text, kind, match)
                                                   ("1 m**-1 m**2", "length", 1.0)])
 def test_exponents_and_powers_without_spaces_stay_numbers(text, kind, si):
     assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
+
+
+MISSING = "a number is missing: write e.g. {}"
+IN_UNIT = "a number inside or after the unit ({!r}): write one number, then its unit, e.g. {}"
+ARITHMETIC = "arithmetic on the number: write the number it comes to, then its unit, e.g. {}"
+
+
+@pytest.mark.parametrize(("text", "kind", "message"), [
+    ("mm", "length", MISSING.format("'1 mm'")),  # was 1 mm
+    ("kN/mm", "stiffness", MISSING.format("'1 kN/mm'")),
+    ("rpm", "speed", MISSING.format("'1 rpm'")),
+    ("-mm", "length", MISSING.format("'1 mm'")),  # was -1 mm
+    ("kg m2", "inertia", MISSING.format("'1 kg m^2'")),
+    ("", "length", MISSING.format("'1 mm'")),
+    ("mm", "dimensionless", MISSING.format("'1'")),
+    ("3 mm 2", "length", IN_UNIT.format("mm 2", "'1 mm'")),  # was 6 mm
+    ("3 mm 2", "speed", IN_UNIT.format("mm 2", "'1 rpm'")),  # was 'is a length'
+    ("3mm/2", "length", IN_UNIT.format("mm/2", "'1 mm'")),  # was 1.5 mm
+    ("3 mm*2", "length", IN_UNIT.format("mm*2", "'1 mm'")),
+    ("3 mm 1", "length", IN_UNIT.format("mm 1", "'1 mm'")),  # harmless to pint, still a typo
+    ("3 mm*-1", "length", IN_UNIT.format("mm*-1", "'1 mm'")),  # was -3 mm
+    ("3 (2) mm", "length", IN_UNIT.format("(2) mm", "'1 mm'")),
+    ("1.5.3 mm", "length", IN_UNIT.format(".3 mm", "'1 mm'")),  # was 0.45 mm
+    ("mm 2", "length", IN_UNIT.format("mm 2", "'1 mm'")),  # was 2 mm
+    ("1073 kN/mm 2", "stiffness", IN_UNIT.format("kN/mm 2", "'1 kN/mm'")),
+    ("4.92 N*s/mm*10", "damping", IN_UNIT.format("N*s/mm*10", "'1 N s/mm'")),
+    ("2**1000 mm", "length", ARITHMETIC.format("'1 mm'")),  # was 1.07e298 m
+    ("2^3 mm", "length", ARITHMETIC.format("'1 mm'")),
+    ("(3) mm", "length", ARITHMETIC.format("'1 mm'")),
+    ("-(3) mm", "length", ARITHMETIC.format("'1 mm'")),
+    ("(3 mm)", "length", ARITHMETIC.format("'1 mm'")),
+    ("+-3 mm", "length", ARITHMETIC.format("'1 mm'")),
+    ("2**3", "dimensionless", ARITHMETIC.format("'1'")),  # was 8
+    ("(3000)", "speed", ARITHMETIC.format("'1 rpm'")),  # was 3000 rpm
+])
+def test_a_quantity_is_one_number_and_a_unit_expression(text, kind, message):
+    """A quantity's text is one number followed by a unit expression without a numeric scaling
+    factor: pint read the rest as arithmetic, silently ('3 mm 2' was 6 mm, 'mm' 1 mm, '3mm/2'
+    1.5 mm; outside testers). Refused the same way when the unit's factor is kept."""
+    if kind != "dimensionless":
+        to_si(f"1 {KINDS[kind].examples[0]}", kind)  # the kind's unit read (its factor kept)
+    for _ in range(2):
+        with pytest.raises(UnitParseError) as err:
+            to_si(text, kind)
+        assert str(err.value) == message
+
+
+@pytest.mark.parametrize(("text", "kind", "si"), [
+    ("3 m*m/m", "length", 3.0), ("3 (mm)", "length", 3e-3), ("3 mm^1", "length", 3e-3),
+    ("3 mm**1", "length", 3e-3), ("3*mm", "length", 3e-3), ("-3 mm", "length", -3e-3),
+    ("- 3 mm", "length", -3e-3), ("+3 mm", "length", 3e-3), ("1e-3 m", "length", 1e-3),
+    ("2e-3mm", "length", 2e-6), (".5 mm", "length", 5e-4), ("3. mm", "length", 3e-3),
+    ("1_000 mm", "length", 1.0), ("1_0.2_5 mm", "length", 10.25e-3),
+    ("1073 kN/mm", "stiffness", 1.073e9),
+    ("1073 kN mm-1", "stiffness", 1.073e9), ("1073 kN mm**-1", "stiffness", 1.073e9),
+    ("1073 kN*mm^-1", "stiffness", 1.073e9), ("1 kN/mm/rad*rad", "stiffness", 1e6),
+    ("0.1 mm", "length", 1e-4), ("50 N*m", "torque", 50.0), ("4.92 N*s/mm", "damping", 4920.0),
+    ("4.92 N s mm-1", "damping", 4920.0), ("2 kg m**2", "inertia", 2.0),
+    ("2 kg*m^2", "inertia", 2.0), ("5 µm", "displacement", 5e-6), ("3000 rpm", "speed", 3000.0),
+    ("2000 rpm", "speed", 2000.0), ("50 Hz", "speed", 3000.0), ("50 1/s", "speed", 3000.0),
+    ("10/s", "speed", 600.0), ("100 rad/s", "speed", 100 * 60 / (2 * math.pi)),
+    ("200*32/48 rpm", "speed", 200 * 32 / 48), ("3/2 mm", "length", 1.5e-3),
+    ("2 pi rad/s", "speed", 60.0), ("30 deg", "angle", math.pi / 6), ("5 %", "dimensionless", 0.05),
+    ("1e3 N m-2", "pressure", 1e3), ("210 GPa", "pressure", 2.1e11), ("3000", "speed", 3000.0),
+    ("0.25", "dimensionless", 0.25), ("0", "length", 0.0),
+])
+def test_a_number_and_a_unit_expression_is_read(text, kind, si):
+    """Every 'number unit-expression' that was read stays read, to the same value (twice: the
+    unit's factor computed, then kept)."""
+    assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
+    assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
