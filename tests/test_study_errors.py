@@ -631,6 +631,35 @@ scene:
         " required (or a 'gear', which gives the base radii)")]  # (the drive's line: the scene's)
 
 
+def test_validate_refuses_a_number_after_the_unit_in_one_line(tmp_path):
+    """``backlash: 3 mm 2`` validated and ran with a backlash of 6 mm (pint multiplied; an
+    outside tester's finding): ``gearsweep validate`` exits 2 with one line naming the file,
+    line, field and value."""
+    path = tmp_path / "b.yaml"
+    path.write_text(GOOD.replace("backlash: 0.1 mm", "backlash: 3 mm 2"), encoding="utf-8")
+    proc = subprocess.run([sys.executable, "-m", "gearsweep", "validate", str(path)],
+                          capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr == (f"gearsweep: error: {path}:7: scene.backlash: '3 mm 2' -- a number"
+                           " inside or after the unit ('mm 2'): write one number, then its"
+                           " unit, e.g. '1 mm'\n")
+
+
+def test_a_swept_list_and_range_follow_the_quantity_grammar():
+    """The values of a list and the ends of a range are read as the scene's quantities are."""
+    text = GOOD.replace("speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                        "speed: {start: rpm, stop: 6000 rpm 2, num: 3}\n"
+                        "  backlash: [0.1 mm, 2**10 mm, 3mm/2]")
+    assert _lines(text) == [
+        "s.yaml:10: sweep.speed.start: 'rpm' -- a speed: a number is missing: write e.g. '1 rpm'",
+        ("s.yaml:10: sweep.speed.stop: '6000 rpm 2' -- a speed: a number inside or after the unit"
+         " ('rpm 2'): write one number, then its unit, e.g. '1 rpm'"),
+        ("s.yaml:11: sweep.backlash[1]: '2**10 mm' -- a length: arithmetic on the number: write the"
+         " number it comes to, then its unit, e.g. '1 mm'"),
+        ("s.yaml:11: sweep.backlash[2]: '3mm/2' -- a length: a number inside or after the unit"
+         " ('mm/2'): write one number, then its unit, e.g. '1 mm'")]
+
+
 def test_a_problem_found_when_planning_names_the_file_and_line(tmp_path, capsys):
     """Not '<study>': the planner's checks (steps per period versus the outputs' sampling)
     are reported like the schema's."""
