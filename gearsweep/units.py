@@ -453,7 +453,7 @@ def display_factor(kind: str) -> float:
     k = KINDS[kind]
     if k.si == k.display:
         return 1.0
-    key = f"display|{kind}"
+    key = f"display:{kind}"  # no "|": never the key of a unit ("3 display")
     factor = _factors().get(key)
     if factor is None:
         factor = float(registry().Quantity(1.0, k.si).to(k.display).magnitude)

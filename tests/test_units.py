@@ -470,3 +470,11 @@ def test_a_number_and_a_unit_expression_is_read(text, kind, si):
     unit's factor computed, then kept)."""
     assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
     assert to_si(text, kind) == pytest.approx(si, rel=1e-12)
+
+
+def test_the_kept_display_factors_are_no_unit():
+    """The display factors are kept in the unit factors' table: '3 display' for a length was
+    read with the key 'display|length' as 3000 m (an m -> mm factor taken for a unit)."""
+    display_factor("length")
+    with pytest.raises(UnitParseError, match="unknown unit 'display'"):
+        to_si("3 display", "length")
