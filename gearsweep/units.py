@@ -331,6 +331,8 @@ def _unit_expression(value: str, kind: str) -> str | None:
     refusal = _number_in_unit(written, example)
     if re.search(r"\d", bare):
         raise refusal
+    if _UNIT_ONLY.match(unit):  # words and powers: no scaling factor (and no pint to say so)
+        return unit
     try:  # pint's own rule, for any scaling factor the digits above did not show
         registry().parse_units(unit)
     except ValueError as exc:
