@@ -317,7 +317,7 @@ def _unit_expression(value: str, kind: str) -> str | None:
     rest = normalise(written)
     if not rest:
         return None
-    if rest.startswith(("**", "^")):  # '2**1000 mm'
+    if rest.startswith(("**", "^")) or re.match(r"[*/]\s*[-+]", rest):  # '2**1000 mm', '3*-1 mm'
         raise UnitParseError(_ARITHMETIC_REFUSED.format(example))
     unit = rest[1:].lstrip() if rest.startswith("*") else rest  # '3*mm'
     unit = "1" + unit if unit.startswith("/") else unit  # '10/s': 10 (1/s)

@@ -431,6 +431,7 @@ ARITHMETIC = "arithmetic on the number: write the number it comes to, then its u
     ("-(3) mm", "length", ARITHMETIC.format("'1 mm'")),
     ("(3 mm)", "length", ARITHMETIC.format("'1 mm'")),
     ("+-3 mm", "length", ARITHMETIC.format("'1 mm'")),
+    ("6/-2 mm", "length", ARITHMETIC.format("'1 mm'")),  # was -3 mm
     ("2**3", "dimensionless", ARITHMETIC.format("'1'")),  # was 8
     ("(3000)", "speed", ARITHMETIC.format("'1 rpm'")),  # was 3000 rpm
 ])
