@@ -298,7 +298,7 @@ def _unit_expression(value: str, kind: str) -> str | None:
     text is a number alone), or ``UnitParseError`` where the text is not one number followed by
     a unit expression without a numeric scaling factor: a unit with no number (``mm``, read by
     pint as 1 mm), a number inside or after the unit (``3 mm 2``, 6 mm; ``3mm/2``), arithmetic
-    on the number (``2**1000 mm``, ``(3) mm``)."""
+    on the number (``2**1000 mm``, ``(3) mm``), a sign in the unit (``3 rpm - 2 rpm``, ``N-m``)."""
     example = _example(kind)
     lead = _LEAD.match(value)
     if lead is None:
