@@ -456,9 +456,10 @@ def test_run_from_python_refuses_a_mesh_study_beyond_the_memory_limit_unless_yes
 @pytest.mark.parametrize("continued", [False, True])
 def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continued):
     """step_guard: skip with a gear scene that sweeps its load, the first speed beyond the step
-    limit of 16 RK4 steps per mesh period: its cases are skipped (status 3), the others run.
+    limit of 40 RK4 steps per mesh period: its cases are skipped (status 3), the others run.
     Before, the warm-up's one case (skipped: no loads left to merge) ended in an IndexError
-    traceback."""
+    traceback. (Posed at 16 steps, 1000 and 10000 rpm until a gear's 10 harmonics were held to
+    4 steps each, plan.STEPS_PER_HARMONIC: 40 steps at 400 and 4000 rpm are the same steps.)"""
     import gearsweep
 
     study = {
@@ -467,18 +468,18 @@ def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continue
                   "drive": {"inertia_1": "1.5981e-3 kg*m^2", "inertia_2": "3.1567e-4 kg*m^2",
                             "base_radius_1": "56.3816 mm", "base_radius_2": "37.5877 mm"},
                   "backlash": "0.4698 mm", "damping": "5.5 N*s/mm"},
-        "sweep": {"torque": ["2 N*m", "8.9 N*m"], "speed": ["1000 rpm", "10000 rpm"]},
-        "solver": {"method": "rk4", "steps_per_period": 16, "step_guard": "skip",
+        "sweep": {"torque": ["2 N*m", "8.9 N*m"], "speed": ["400 rpm", "4000 rpm"]},
+        "solver": {"method": "rk4", "steps_per_period": 40, "step_guard": "skip",
                    "transient_periods": 4, "record_periods": 4},
     }
     if continued:
         study["continuation"] = ["up"]
     ds = gearsweep.run(study)
     status = ds.status.squeeze(drop=True)
-    assert (status.sel(speed=1000.0) == 3).all()  # 16 steps per period: beyond RK4's limit
-    assert (status.sel(speed=10000.0) != 3).all()
-    assert ds.p_rms.sel(speed=1000.0).isnull().all()
-    assert ds.p_rms.sel(speed=10000.0).notnull().all()
+    assert (status.sel(speed=400.0) == 3).all()  # 40 steps per period: beyond RK4's limit
+    assert (status.sel(speed=4000.0) != 3).all()
+    assert ds.p_rms.sel(speed=400.0).isnull().all()
+    assert ds.p_rms.sel(speed=4000.0).notnull().all()
 
 
 def test_step_guard_of_a_swept_load_judges_each_load_by_its_own_stiffness():
@@ -486,7 +487,9 @@ def test_step_guard_of_a_swept_load_judges_each_load_by_its_own_stiffness():
     at 16 RK5 steps per period the step limit falls at 1034 rpm for one and 1119 rpm for the
     other. The guard judged every case by the first listed load's k(t): at 1080 rpm the 100 N m
     case was within the limit after 12.5 N m and the 12.5 N m case beyond it after 100 N m.
-    Truth: each load in a study of its own; the counts of validate agree."""
+    Truth: each load in a study of its own; the counts of validate agree. (Posed at 40 steps
+    and 0.4 x those speeds since a gear's 10 harmonics are held to 4 steps each,
+    plan.STEPS_PER_HARMONIC: the same steps, the same verdicts.)"""
     import gearsweep
     from gearsweep.study.plan import cases_beyond_step_limit, make_plan
 
@@ -501,9 +504,9 @@ def test_step_guard_of_a_swept_load_judges_each_load_by_its_own_stiffness():
               mass: 0.1527 kg
               damping: 5.5 N*s/mm
             sweep:
-              speed: [1000 rpm, 1080 rpm, 1200 rpm]
+              speed: [400 rpm, 432 rpm, 480 rpm]
               torque: {torques}
-            solver: {{method: rk5, steps_per_period: 16, transient_periods: 0,
+            solver: {{method: rk5, steps_per_period: 40, transient_periods: 0,
                       record_periods: 2}}
             """)
 

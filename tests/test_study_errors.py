@@ -1687,6 +1687,41 @@ def test_a_harmonic_faster_than_the_steps_can_follow_is_refused():
     assert plan.model.force_harmonics[0].order == 8
 
 
+GEAR_WHINE_STEPS = """title: a gear whine
+scene:
+  kind: whine
+  gear: {{module: 3 mm, z1: 23, z2: 61, face_width: 20 mm, x1: 0.3, x2: -0.1}}
+  {harmonics}
+  torque: 120 N m
+  drive: {{inertia_1: 3.49e-4 kg m^2, inertia_2: 0.01729 kg m^2}}
+  damping: 1.1 N s/mm
+sweep:
+  speed: {{start: 500 rpm, stop: 9000 rpm, num: 4}}
+solver: {{method: rk4, steps_per_period: {spp}, transient_periods: 20, record_periods: 4}}
+outputs: [stats, {{spectrum: {{max_order: 4}}}}]
+"""
+
+
+@pytest.mark.parametrize(("harmonics", "top"), [("harmonics: 10", 10), ("", 10),
+                                                ("harmonics: 12", 12)])
+def test_a_gear_is_held_to_the_steps_of_its_highest_harmonic(tmp_path, capsys, harmonics, top):
+    """A gear's k(t) and e(t) have harmonics 1..`harmonics` (10 when not given), known before
+    the mesh is computed: a gear whine of 10 harmonics at 32 steps per period was accepted
+    (exit 0) where typed harmonics of order 10 at 32 steps were refused, and its spectrum sampled
+    32 times per period (an outside tester). The same rule, on the same field: at least
+    4 x harmonics steps; exactly that many is accepted."""
+    path = tmp_path / "gear.yaml"
+    path.write_text(GEAR_WHINE_STEPS.format(harmonics=harmonics, spp=4 * top - 8),
+                    encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    (line,) = capsys.readouterr().err.strip().split("\n")
+    assert f"gear.yaml:11: solver.steps_per_period: {4 * top - 8} -- at least {4 * top}" in line
+    assert f"mesh order {top}, the gear's harmonics: {top}" in line
+    path.write_text(GEAR_WHINE_STEPS.format(harmonics=harmonics, spp=4 * top), encoding="utf-8")
+    plan = make_plan(parse_study(path.read_text(encoding="utf-8"), str(path)))
+    assert plan.model.highest_order == top  # the gear's, as the check took it
+
+
 def test_validate_notes_a_transient_too_short_for_light_damping(tmp_path, capsys):
     """A free vibration decays as exp(-c t / (2 m)): with c = 25.6 N s/m (zeta 0.001), m_eq
     0.1527 kg and 300 transient mesh periods, at 18,500 rpm of 48 teeth exp(-0.5 (c/m) 300 T)
