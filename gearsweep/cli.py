@@ -239,6 +239,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
                   f" amplitude at the lowest speed ({study.solver.method}; the step advisor's"
                   " bound, which can overestimate far below resonance: docs/precision.md);"
                   f" `gearsweep advise {name}` gives the steps a target needs", file=sys.stderr)
+    _aliasing_warning(plan, name)
     left = transient_residual(plan)
     if left is not None:
         residual, speed, need = left
@@ -463,6 +464,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         est, _ = before_refusing(plan, est, chunk, threads)
         check_limits(est, name)
     _long_sweep_note(plan, args)
+    _aliasing_warning(plan, name)  # (as validate: a spectrum that folds its lines, said first)
     progress = False if args.quiet else (True if sys.stderr.isatty() else "log")  # a log: lines
     # The handlers are ours from the first chunk until the backend is closed (a local cluster
     # takes 0.5-1 s to close: a signal then, with Python's handlers back, ended in a bare
@@ -684,6 +686,16 @@ def _looks_like_study(path: Path) -> bool:
         return False
     return any(line.split(":")[0].strip() in ("title", "scene", "type", "sweep")
                for line in text.splitlines() if ":" in line)
+
+
+def _aliasing_warning(plan, name: str) -> None:
+    """Print validate's and run's warning of a spectrum whose samples fold the orders where the
+    response has weight onto its kept lines (``Spectrum.aliasing``), if there is one."""
+    from gearsweep.study.outputs import OUTPUTS
+
+    text = OUTPUTS["spectrum"].aliasing(plan) if "spectrum" in plan.outputs else None
+    if text is not None:
+        print(f"gearsweep: warning: {name}: {text}", file=sys.stderr)
 
 
 def _steps_multiple(plan) -> int:

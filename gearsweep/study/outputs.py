@@ -216,9 +216,11 @@ class SpectrumOptions(Strict):
     max_order: Real = Field(4.0, gt=0, description="highest mesh order kept [-]")
     samples_per_period: Count | None = Field(
         None, ge=2, le=MAX_STEPS_PER_PERIOD, description="samples of p per mesh period (a divisor"
-        " of steps_per_period; default: the smallest divisor >= 4 max_order and >= 4 x the"
-        " highest order of the scene's excitation, a gear's included: orders below 3 x the larger"
-        " of the two cannot alias into the kept bins)")
+        " of steps_per_period; default: the smallest divisor >= 4 max_order, >= 4 x the highest"
+        " order H of the scene's excitation, a gear's included, and, where k(t) varies or there"
+        " is backlash, > r_n + H + max_order, r_n = f_n / f_mesh at the lowest speed: no order up"
+        " to r_n + H, where the resonance spreads, folds onto a kept one; all steps where no"
+        " divisor is enough; validate warns of a samples_per_period below that)")
     force: Flag = Field(True, description="also the spectrum of the dynamic mesh force"
                         " k(t) f(p) + c p' (variable force_spectrum) [N]")
     pinion: Flag = Field(False, description="also what the sensors of gear 2, the driven gear"
@@ -243,6 +245,27 @@ class SpectrumOptions(Strict):
                 f"max_order {self.max_order:g} is above the Nyquist order samples_per_period / 2"
                 f" = {sps / 2:g}"))])
         return self
+
+
+def resonant_order(plan: Plan) -> tuple[float, float] | None:
+    """The natural frequency's mesh order r_n = f_n / f_mesh at the sweep's lowest speed, where
+    it is largest (f_n = sqrt(k0 / m) / 2 pi with the largest k0 and least m of the sweep; a
+    gear sweeping its load: see below), and that speed
+    [rpm]. ``None`` where the steady response has only the excitation's orders (constant
+    stiffness and no backlash: a linear time-invariant scene) and for a Mathieu chart. A gear
+    sweeping its load: its stiffest load's k0 (each load's k(t) is computed once per plan,
+    as the step guard and the advice need them too)."""
+    m = plan.model
+    if not isinstance(m, MeshModel) or not (m.stiffness_harmonics or plan.has_backlash):
+        return None
+    g = plan.grids
+    k = float(np.max(g["stiffness"])) if "stiffness" in g else m.stiffness
+    if plan.gear_load_swept and "stiffness" not in g:
+        loads = plan.case_torques({d: g[d] for d in ("torque", "mean_force") if d in g})
+        k = max(k, *(plan.model_for_load(float(t)).stiffness for t in np.unique(loads)))
+    mass = float(np.min(g["mass"])) if "mass" in g else m.mass
+    speed = float(np.min(g["speed"]))
+    return math.sqrt(k / mass) / (2.0 * math.pi) / float(mesh_frequency(speed, m.teeth)), speed
 
 
 class Spectrum:
@@ -282,17 +305,60 @@ class Spectrum:
         o = self._opts(plan)
         if o.samples_per_period is not None:
             return o.samples_per_period
+        return self.samples_needed(plan)[0]
+
+    def samples_needed(self, plan: Plan) -> tuple[int, int, float, tuple[float, float] | None]:
+        """The default samples_per_period (the one rule), the least number that the folding
+        rule asks (it may not divide steps_per_period, or exceed it), the highest order ``band``
+        the response carries with weight, and (r_n, its speed [rpm]) or ``None``.
+
+        * At least 4 samples per period of ``max_order`` and of the excitation's highest order
+          H: a gear pair's k(t) (10 harmonics, steps where one pair takes over from two) gives p
+          and k(t) f(p) lines far above 3 max_order. At 16 samples (max_order 4) they folded
+          back: a 25/41 pair at 500-1500 rpm had its force_spectrum lines 1-3 1.3x-105x too
+          large and order 4 of p 39 % off (an engineer new to the tool; tests/test_whine.py).
+        * More than band + max_order, band = r_n + H where k(t) varies or there is backlash
+          (``resonant_order``; else band = H), so that no order up to band folds onto a kept
+          one (order q folds onto S - q): the steady response of such a scene has every order,
+          amplified near r_n and spread from there by the harmonics. At 40 samples (4 x H) a
+          23/61 pair's force_spectrum lines 1-3 at 500 rpm (r_n = 31.6) were 14-25 % off m (2 pi
+          n f_mesh)^2 times those of p, which Eq. (9) with e = 0 makes them equal (an outside
+          tester; tests/test_whine.py).
+        """
+        o = self._opts(plan)
         spp = plan.study.solver.steps_per_period
-        # At least 4 samples per period of the excitation's highest order too: a gear pair's
-        # k(t) (10 harmonics, steps where one pair takes over from two) gives p and k(t) f(p)
-        # lines far above 3 max_order. At 16 samples (max_order 4) they folded back: a 25/41
-        # pair at 500-1500 rpm had its force_spectrum lines 1-3 1.3x-105x too large and order 4
-        # of p 39 % off (an engineer new to the tool; tests/test_whine.py).
         top = plan.model.highest_order if isinstance(plan.model, MeshModel) else 0.0
-        for d in range(1, spp + 1):
-            if spp % d == 0 and d >= 4 * max(o.max_order, top):
-                return d
-        return spp
+        res = resonant_order(plan)
+        band = top + res[0] if res is not None else top
+        least = max(math.ceil(4 * max(o.max_order, top)), math.floor(band + o.max_order) + 1)
+        for d in range(least, spp + 1):
+            if spp % d == 0:
+                return d, least, band, res
+        return spp, least, band, res
+
+    def aliasing(self, plan: Plan) -> str | None:
+        """What validate and run warn of where the spectrum's samples let orders up to the band
+        of ``samples_needed`` fold onto the kept ones (a samples_per_period written in the
+        study, or steps_per_period too few for any): ``None`` where they do not."""
+        o = self._opts(plan)
+        sps = self.signal_samples_per_period(plan)
+        default, least, band, res = self.samples_needed(plan)
+        if sps - o.max_order > band:
+            return None
+        spp = plan.study.solver.steps_per_period
+        why = (f"r_n = f_n / f_mesh = {res[0]:.3g} at {res[1]:g} rpm, spread by the excitation's"
+               f" harmonics up to order {band - res[0]:g}" if res is not None
+               else "the excitation's highest order")
+        written = o.samples_per_period is not None
+        if least > spp:  # no divisor of the steps is enough: more steps
+            fix = (f"steps_per_period {spp} has no divisor of {least} or more: {least} or more"
+                   " steps per period give one")
+        else:
+            fix = (f"at least {least} avoid it (a divisor of steps_per_period {spp}; left out,"
+                   f" the default takes {default})")
+        return (f"the spectrum's samples_per_period {sps}{'' if written else ' (all the steps)'}:"
+                f" mesh orders up to {band:.3g} ({why}) fold onto the kept orders 0-"
+                f"{o.max_order:g}, whose lines may be off; {fix}")
 
     def _force(self, plan: Plan) -> bool:
         return self._opts(plan).force and isinstance(plan.model, MeshModel)
