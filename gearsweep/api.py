@@ -30,7 +30,14 @@ import numpy as np
 import xarray as xr
 import yaml
 
-from gearsweep.errors import DICT_STUDY, NO_VALUE, ChunkSizeWarning, ResultError, StudyError
+from gearsweep.errors import (
+    DICT_STUDY,
+    NO_VALUE,
+    ChunkSizeWarning,
+    ResultError,
+    SpectrumAliasingWarning,
+    StudyError,
+)
 from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, mean_mesh_force, model_from_record
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_cost import AnalysisEstimate
@@ -51,6 +58,7 @@ from gearsweep.study.execute import (
     step_limit_warning,
 )
 from gearsweep.study.mesh import check_memory, run_mesh_study
+from gearsweep.study.outputs import spectrum_aliasing
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study, study_text
 from gearsweep.study.workspace import OutputLock, check_partial, output_path, reads_output
@@ -291,6 +299,10 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     ChunkSizeWarning
         If ``chunk_cases`` is below one round of the kernel's blocks on all threads (mostly
         empty work; the note the CLI prints for ``--chunk-size``).
+    SpectrumAliasingWarning
+        Before running, if the spectrum's ``samples_per_period`` (written in the study, or all
+        the steps) folds the orders up to the natural frequency's plus the excitation's highest
+        onto the kept lines: the line the CLI prints.
     """
     if output is not None and not isinstance(output, str | Path):
         raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
@@ -327,6 +339,9 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     small = small_chunk_note(plan, chunk_cases)
     if small:  # the CLI's note for --chunk-size
         warnings.warn(f"{name}: chunk_cases={chunk_cases}: {small}", ChunkSizeWarning, stacklevel=2)
+    aliased = spectrum_aliasing(plan)
+    if aliased:  # the line the CLI prints
+        warnings.warn(f"{name}: {aliased}", SpectrumAliasingWarning, stacklevel=2)
     if output is None:
         ds = run_plan(plan, backend=InProcess(), progress=progress, chunk_cases=chunk_cases)
     else:

@@ -59,6 +59,7 @@ from gearsweep.study.execute import (
     step_limit_text,
     stream_to_file,
 )
+from gearsweep.study.outputs import spectrum_aliasing
 from gearsweep.study.plan import (
     SETTLED_RESIDUAL,
     cases_beyond_step_limit,
@@ -690,10 +691,8 @@ def _looks_like_study(path: Path) -> bool:
 
 def _aliasing_warning(plan, name: str) -> None:
     """Print validate's and run's warning of a spectrum whose samples fold the orders where the
-    response has weight onto its kept lines (``Spectrum.aliasing``), if there is one."""
-    from gearsweep.study.outputs import OUTPUTS
-
-    text = OUTPUTS["spectrum"].aliasing(plan) if "spectrum" in plan.outputs else None
+    response has weight onto its kept lines (``outputs.spectrum_aliasing``), if there is one."""
+    text = spectrum_aliasing(plan)
     if text is not None:
         print(f"gearsweep: warning: {name}: {text}", file=sys.stderr)
 

@@ -154,3 +154,10 @@ class ContactLossWarning(UserWarning):
     them in ``contact_lost``; a ``full`` or ``rattle`` scene with ``backlash`` models it).
     ``gearsweep.run`` warns it; the CLI prints the same line. Its text:
     ``gearsweep.study.execute.contact_lost_text``."""
+
+
+class SpectrumAliasingWarning(UserWarning):
+    """A study's ``spectrum`` sampled so few times per mesh period that the orders where the
+    response has weight (up to the natural frequency's order plus the excitation's highest)
+    fold onto its kept lines: ``gearsweep.run`` warns it before running; ``gearsweep validate``
+    and ``run`` print the same line. Its text: ``gearsweep.study.outputs.spectrum_aliasing``."""

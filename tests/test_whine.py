@@ -514,7 +514,8 @@ def test_the_default_sampling_keeps_the_resonance_off_the_kept_lines():
 
 def test_validate_warns_of_samples_that_fold_the_resonance_onto_the_kept_lines(tmp_path, capsys):
     """A samples_per_period written in the study is taken as it is, but where it folds orders up
-    to r_n + H (31.6 + 10 at 500 rpm here) onto the kept ones, validate and run say so, with the
+    to r_n + H (31.6 + 10 at 500 rpm here) onto the kept ones, validate, run and gearsweep.run
+    (a SpectrumAliasingWarning) say so, with the
     least number that does not (more than r_n + H + max_order = 45.6: 46) and the default's
     choice (64 of 640's divisors). The default itself, and 64 written in, are not warned of."""
     from gearsweep.cli import main
@@ -533,3 +534,9 @@ def test_validate_warns_of_samples_that_fold_the_resonance_onto_the_kept_lines(t
         if warned:
             assert f"at least {math.ceil(r_n + 10 + 4)} avoid it" in err
             assert "the default takes 64" in err and err.count("\n") == 1
+    import gearsweep
+    from gearsweep.errors import SpectrumAliasingWarning
+
+    with pytest.warns(SpectrumAliasingWarning, match=r"samples_per_period 40: mesh orders up to"
+                      r" 41\.6 .*the default takes 64"):  # gearsweep.run: the same line
+        gearsweep.run(E0_WHINE.replace("phase: true", "phase: true, samples_per_period: 40"))

@@ -526,6 +526,12 @@ class Spectrum:
         return c_spring + per_case("damping", model.damping)[:, None] * dp, k_t * f_p
 
 
+def spectrum_aliasing(plan: Plan) -> str | None:
+    """The warning of a study whose spectrum's samples fold the resonance's orders onto its
+    kept lines (``Spectrum.aliasing``), ``None`` when it has none or no spectrum."""
+    return OUTPUTS["spectrum"].aliasing(plan) if "spectrum" in plan.outputs else None
+
+
 class PeriodOptions(Strict):
     """Options of the ``period`` output."""
 
