@@ -540,3 +540,34 @@ def test_validate_warns_of_samples_that_fold_the_resonance_onto_the_kept_lines(t
     with pytest.warns(SpectrumAliasingWarning, match=r"samples_per_period 40: mesh orders up to"
                       r" 41\.6 .*the default takes 64"):  # gearsweep.run: the same line
         gearsweep.run(E0_WHINE.replace("phase: true", "phase: true, samples_per_period: 40"))
+
+
+def test_the_resonant_order_of_a_load_sweep_is_its_stiffest_loads():
+    """A relieved pair's k0 grows with the load (163 kN/mm at 12.5 N m, 219 at 100 N m): the
+    default sampling takes r_n of the stiffest load, whichever load the sweep lists first.
+    Truth: the 100 N m load in a study of its own; r_n = sqrt(k0 / m) / (2 pi 48 x 300 / 60)."""
+    from gearsweep.study.outputs import resonant_order
+
+    base = """title: relieved pair
+scene:
+  kind: whine
+  gear: {preset: table1_consistent,
+         tip_relief: {amount: 6 um, shape: linear, start_at: single_contact}}
+  mass: 0.1527 kg
+  damping: 5.5 N*s/mm
+sweep:
+  speed: [300 rpm, 600 rpm]
+  torque: TORQUES
+solver: {method: rk4, steps_per_period: 640, transient_periods: 10, record_periods: 2}
+outputs: [stats, spectrum]
+"""
+    alone = make_plan(parse_study(base.replace("TORQUES", "[100 N*m]")))
+    k0 = alone.model.stiffness
+    r_n = math.sqrt(k0 / 0.1527) / (2 * math.pi * 48 * 300 / 60)
+    assert_allclose(resonant_order(alone), (r_n, 300.0), rtol=1e-12)
+    for torques in ("[12.5 N*m, 100 N*m]", "[100 N*m, 12.5 N*m]"):
+        plan = make_plan(parse_study(base.replace("TORQUES", torques)))
+        assert_allclose(resonant_order(plan), (r_n, 300.0), rtol=1e-12)
+        assert plan.samples_per_period() == alone.samples_per_period()
+    light = make_plan(parse_study(base.replace("TORQUES", "[12.5 N*m]")))
+    assert light.model.stiffness < 0.8 * k0 and resonant_order(light)[0] < 0.9 * r_n

@@ -249,12 +249,11 @@ class SpectrumOptions(Strict):
 
 def resonant_order(plan: Plan) -> tuple[float, float] | None:
     """The natural frequency's mesh order r_n = f_n / f_mesh at the sweep's lowest speed, where
-    it is largest (f_n = sqrt(k0 / m) / 2 pi with the largest k0 and least m of the sweep; a
-    gear sweeping its load: see below), and that speed
-    [rpm]. ``None`` where the steady response has only the excitation's orders (constant
-    stiffness and no backlash: a linear time-invariant scene) and for a Mathieu chart. A gear
-    sweeping its load: its stiffest load's k0 (each load's k(t) is computed once per plan,
-    as the step guard and the advice need them too)."""
+    it is largest, and that speed [rpm]: f_n = sqrt(k0 / m) / 2 pi with the largest k0 and the
+    least m of the sweep (a gear sweeping its load: its stiffest load's k0; each load's k(t) is
+    computed once per plan, the step guard and the advice need them too). ``None`` where the
+    steady response has only the excitation's orders (constant stiffness and no backlash: a
+    linear time-invariant scene) and for a Mathieu chart."""
     m = plan.model
     if not isinstance(m, MeshModel) or not (m.stiffness_harmonics or plan.has_backlash):
         return None
@@ -346,9 +345,10 @@ class Spectrum:
         if sps - o.max_order > band:
             return None
         spp = plan.study.solver.steps_per_period
-        why = (f"r_n = f_n / f_mesh = {res[0]:.3g} at {res[1]:g} rpm, spread by the excitation's"
-               f" harmonics up to order {band - res[0]:g}" if res is not None
-               else "the excitation's highest order")
+        top = band - res[0] if res is not None else band
+        why = (f"r_n = f_n / f_mesh = {res[0]:.3g} at {res[1]:g} rpm" + (
+            f", spread by the excitation's harmonics up to order {top:g}" if top else "")
+            if res is not None else "the excitation's highest order")
         written = o.samples_per_period is not None
         if least > spp:  # no divisor of the steps is enough: more steps
             fix = (f"steps_per_period {spp} has no divisor of {least} or more: {least} or more"
