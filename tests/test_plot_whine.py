@@ -293,3 +293,26 @@ def test_the_phase_lag_behind_the_ste_passes_a_quarter_period_at_the_natural_fre
     plt.close(fig)
     assert math.isnan(first_crossing([0.0, 1.0], [0.0, 1.0], -1.0))
     assert first_crossing([0.0, 1.0, 2.0], [0.0, -1.0, -3.0], -2.0) == 1.5
+
+
+def test_order_lines_shade_the_speeds_where_contact_is_lost(ds):
+    """The speeds where some case's p fell below 0 (``contact_lost``: the linear scene answers
+    for a pair with no backlash there) are grey spans with one legend entry; a result with none
+    gets none."""
+    one = ds.sel(torque=25.0)
+    lost = one.contact_lost.values
+    assert lost.any() and not lost.all()  # the fixture: 5 um of STE at 25 N m parts the teeth
+    fig, ax = plt.subplots()
+    plot_order_lines(ax, one)
+    spans = [p for p in ax.patches]
+    assert [t.get_text() for t in ax.get_legend().get_texts()][0] == (
+        "p < 0: teeth would part (contact_lost)")
+    speed = ds.speed.values
+    covered = np.zeros(speed.size, bool)
+    for p in spans:
+        x0, x1 = p.get_x(), p.get_x() + p.get_width()
+        covered |= (speed >= x0) & (speed <= x1)  # (edges: midpoints, and the ends)
+    assert np.array_equal(covered, lost)
+    fig, ax = plt.subplots()
+    plot_order_lines(ax, one.assign(contact_lost=one.contact_lost & False))
+    assert not ax.patches

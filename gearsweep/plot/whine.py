@@ -345,6 +345,23 @@ def plot_response_by_load(
     return ax.figure
 
 
+def _shade_contact_lost(ax: Axes, ds: xr.Dataset, driven_teeth: int | None) -> None:
+    """Grey spans over the speeds where any case of ``ds`` has ``contact_lost``, one legend
+    entry (none where no case has)."""
+    if "contact_lost" not in ds:
+        return
+    lost = ds["contact_lost"].astype(bool)
+    lost = lost.any([d for d in lost.dims if d != "speed"]).values if lost.dims else lost.values
+    if not lost.any():
+        return
+    speed, _ = _speed_axis(ds, driven_teeth)
+    edges = np.concatenate([[speed[0]], (speed[1:] + speed[:-1]) / 2, [speed[-1]]])
+    change = np.flatnonzero(np.diff(np.concatenate([[0], lost.astype(int), [0]])))
+    for k, (i, j) in enumerate(zip(change[::2], change[1::2], strict=True)):
+        ax.axvspan(edges[i], edges[j], color="0.88", zorder=0, lw=0,
+                   label=None if k else "p < 0: teeth would part (contact_lost)")
+
+
 def plot_order_lines(
     ax: Axes,
     ds: xr.Dataset,
@@ -370,9 +387,14 @@ def plot_order_lines(
         Speed axis in the driven gear's speed.
     log : bool
         Logarithmic amplitude axis.
+
+    Speeds where the result marks ``contact_lost`` (a whine scene's p below 0 in some case at
+    that speed: the drive flanks part, and the linear scene stands for a pair with no backlash)
+    are shaded grey and named in the legend.
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     _known_orders(ds, orders, "plot_order_lines")  # (was xarray's KeyError)
+    _shade_contact_lost(ax, ds, driven_teeth)
     speed, speed_label = _speed_axis(ds, driven_teeth)
     scale, unit, what = {0: (UM, "µm", "displacement"), 1: (1e3, "mm/s", "velocity"),
                          2: (1.0, "m/s^2", "acceleration")}[derivative]
