@@ -639,3 +639,18 @@ def test_a_missing_file_of_a_study_without_a_file_names_where_it_was_looked_for(
         gearsweep.run(yaml.safe_load(study(text)))
     (line,) = str(e.value).splitlines()
     assert str(tmp_path / "data" / "nothere.csv") in line and "working folder" in line, line
+
+
+def test_a_fit_is_held_to_the_steps_of_its_highest_harmonic(tmp_path):
+    """An excitation file fitted to ``harmonics: 20`` at 64 steps per period ran with 3.2
+    steps per period of its top order, where typed harmonics and a gear's are refused below 4
+    (``STEPS_PER_HARMONIC``): now said the same way, at steps_per_period's line."""
+    path = whine_files(tmp_path)
+    text = study(typed_whine(f"  excitation: {{file: {path.name}, harmonics: 20}}\n"))
+    (tmp_path / "s.yaml").write_text(text)
+    with pytest.raises(StudyError, match=r"solver.steps_per_period: 64 -- at least 80 \(4 steps"
+                                         r" per period of the highest excitation harmonic, mesh"
+                                         r" order 20, scene.excitation.harmonics: 20;"):
+        gearsweep.run(tmp_path / "s.yaml")
+    (tmp_path / "s.yaml").write_text(text.replace("harmonics: 20", "harmonics: 16"))
+    gearsweep.run(tmp_path / "s.yaml")  # 64 = 4 x 16

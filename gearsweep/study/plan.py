@@ -400,9 +400,14 @@ def _make_plan(study: Study, text: str) -> Plan:
     if getattr(study.scene, "gear", None) is not None:
         gear = study.scene.harmonics if study.scene.harmonics is not None else DEFAULT_HARMONICS
         orders.append(gear)
+    fitted = None  # an excitation file's fit: its highest mesh order, the number asked for
+    if getattr(study.scene, "excitation", None) is not None:
+        fitted = study.scene.excitation.harmonics
+        orders.append(fitted)
     if orders and spp < STEPS_PER_HARMONIC * max(orders):  # (order 64 at 32 steps: p_rms
         top = max(orders)  # 8.8e-14 um against 3.56 um at 1024 steps, status 0)
-        whose = f", the gear's harmonics: {gear}" if gear == top else ""
+        whose = (f", the gear's harmonics: {gear}" if gear == top else
+                 f", scene.excitation.harmonics: {fitted}" if fitted == top else "")
         problems.append(StudyError("<study>", "solver.steps_per_period", spp, (
             f"at least {math.ceil(STEPS_PER_HARMONIC * top)} ({STEPS_PER_HARMONIC} steps per"
             f" period of the highest excitation harmonic, mesh order {top:g}{whose}; fewer"

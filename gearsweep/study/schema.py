@@ -364,7 +364,7 @@ class Solver(Strict):
     steps_per_period: Count = Field(64, ge=4, le=MAX_STEPS_PER_PERIOD,
                                     description="steps per mesh period (at least 4 per period"
                                     " of the highest harmonic the scene lists, a gear's"
-                                    " harmonics included)")
+                                    " harmonics and an excitation file's fit included)")
     kink_aware: Flag = Field(
         False, description="redo steps that cross the backlash boundaries in pieces that end on "
         "them (gearsweep.kernels.kink): keeps the method's order 4/5 with backlash, where the "
