@@ -241,6 +241,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
                   " bound, which can overestimate far below resonance: docs/precision.md);"
                   f" `gearsweep advise {name}` gives the steps a target needs", file=sys.stderr)
     _aliasing_warning(plan, name)
+    fast = _pitch_line_note(plan)
+    if fast is not None:
+        print(f"gearsweep: note: {name}: {fast}", file=sys.stderr)
     left = transient_residual(plan)
     if left is not None:
         residual, speed, need = left
@@ -711,6 +714,31 @@ def _steps_multiple(plan) -> int:
             if sps:
                 multiple = math.lcm(multiple, int(sps))
     return multiple
+
+
+PITCH_LINE_NOTE = 200.0
+"""A driving gear's base-circle speed [m/s] above which ``validate`` notes the speed: spur gears
+run at up to about 100 m/s; far beyond is likely a unit mistaken (a mesh frequency written in
+Hz, which the speed reads as shaft revolutions per second: an outside tester's 190-3450 Hz became
+11,400-207,000 rpm, 750 m/s, with no word)."""
+
+
+def _pitch_line_note(plan) -> str | None:
+    """The note on a study whose fastest case moves the driving gear's base circle faster than
+    ``PITCH_LINE_NOTE`` (``None`` below it, or where no base radius is known)."""
+    r1 = getattr(plan.model, "base_radius", None)
+    if not isinstance(plan.model, MeshModel) or not r1:
+        return None
+    rpm = float(np.max(plan.grids["speed"])) if "speed" in plan.grids else None
+    if rpm is None:
+        return None
+    v = rpm * 2 * math.pi / 60 * r1
+    if v <= PITCH_LINE_NOTE:
+        return None
+    return (f"{rpm:,.0f} rpm of the driving gear moves its base circle (r1 = {r1 * 1e3:.4g} mm) at"
+            f" {v:,.0f} m/s, beyond any spur gear (up to about 100 m/s): the speed is the shaft's"
+            " (a speed in Hz is revolutions per second, 50 Hz = 3000 rpm; the mesh frequency is"
+            " teeth x that)")
 
 
 def _advice(plan, target: float):

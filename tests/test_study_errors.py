@@ -1885,3 +1885,22 @@ def test_a_continuation_over_one_speed_is_refused(speed):
         ("s.yaml:12: continuation: ['up', 'down'] -- a continuation carries the state from speed"
          " to speed: sweep.speed needs 2 or more values (it has one), or leave continuation out")]
     parse_study(GOOD + "continuation: [up, down]\n", "s.yaml")
+
+
+def test_a_speed_that_no_spur_gear_runs_at_is_noted(tmp_path, capsys):
+    """A mesh frequency written as the speed in Hz (190-3450 Hz read as 11,400-207,000 rpm of
+    the shaft: 703 m/s at a 32 mm base circle) validated with no word (an outside tester's
+    finding). A note, not a refusal: the study is valid, its speed unlikely. At 12,000 rpm
+    (38 m/s) nothing is said."""
+    path = tmp_path / "s.yaml"
+    hz = GOOD.replace("  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                      "  speed: {start: 190 Hz, stop: 3450 Hz, num: 3}")
+    path.write_text(hz.replace("  mean_force: 100 N", "  mean_force: 100 N\n  base_radius: 32 mm"))
+    assert main(["validate", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert ("207,000 rpm of the driving gear moves its base circle (r1 = 32 mm) at 694 m/s,"
+            " beyond any spur gear") in err  # 207000 x 2 pi / 60 x 0.032 = 693.7
+    path.write_text(GOOD.replace("stop: 6000 rpm", "stop: 12000 rpm").replace(
+        "  mean_force: 100 N", "  mean_force: 100 N\n  base_radius: 30 mm"))
+    assert main(["validate", str(path)]) == 0
+    assert "base circle" not in capsys.readouterr().err
