@@ -244,6 +244,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
     fast = _pitch_line_note(plan)
     if fast is not None:
         print(f"gearsweep: note: {name}: {fast}", file=sys.stderr)
+    rigid = _rigid_driven_gear_note(study)
+    if rigid is not None:
+        print(f"gearsweep: note: {name}: {rigid}", file=sys.stderr)
     left = transient_residual(plan)
     if left is not None:
         residual, speed, need = left
@@ -714,6 +717,25 @@ def _steps_multiple(plan) -> int:
             if sps:
                 multiple = math.lcm(multiple, int(sps))
     return multiple
+
+
+def _rigid_driven_gear_note(study) -> str | None:
+    """The note on a torque fluctuation beside a typed mass (no ``scene.drive``): its force is
+    F = T / r1, the limit of a driven gear much heavier than the driving one, which a typed m_eq
+    of two finite inertias contradicts; Eq. (7) with the drive's inertias gives m_eq r1 T / I1,
+    less by the factor m_eq r1^2 / I1 (an outside tester's pair: 274.65 N against 191.28 N, with
+    nothing said)."""
+    sc = study.scene
+    if getattr(sc, "drive", None) is not None or getattr(sc, "r1", None) is None:
+        return None
+    torques = [i for i, f in enumerate(getattr(sc, "fluctuation", [])) if f.is_torque]
+    if not torques:
+        return None
+    i = torques[0]
+    return (f"scene.fluctuation[{i}]: a torque amplitude beside a typed mass is the force"
+            f" T / r1 (r1 = {sc.r1 * 1e3:.4g} mm), the limit of a driven gear much heavier than"
+            " the driving one; with scene.drive's inertias instead of the mass it is Eq. (7)'s"
+            " m_eq r1 T / I1, less by m_eq r1^2 / I1 (a force amplitude in N is taken as written)")
 
 
 PITCH_LINE_NOTE = 200.0

@@ -1904,3 +1904,20 @@ def test_a_speed_that_no_spur_gear_runs_at_is_noted(tmp_path, capsys):
         "  mean_force: 100 N", "  mean_force: 100 N\n  base_radius: 30 mm"))
     assert main(["validate", str(path)]) == 0
     assert "base circle" not in capsys.readouterr().err
+
+
+def test_a_torque_fluctuation_beside_a_typed_mass_is_noted(tmp_path, capsys):
+    """A torque amplitude beside ``mass`` and ``base_radius`` is F = T / r1 (a driven gear much
+    heavier than the driving one); beside ``scene.drive`` it is Eq. (7)'s m_eq r1 T / I1: the
+    same pair written both ways differed by 44 % in force with no word (an outside tester's
+    finding). Now validate says which, and a force amplitude gets no note."""
+    path = tmp_path / "s.yaml"
+    torque = GOOD.replace("  mean_force: 100 N", "  mean_force: 100 N\n  base_radius: 36 mm\n"
+                          "  fluctuation: [{amplitude: 10 N*m, order: 1}]")
+    path.write_text(torque)
+    assert main(["validate", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert "scene.fluctuation[0]: a torque amplitude beside a typed mass is the force T / r1" in err
+    path.write_text(torque.replace("10 N*m", "300 N"))
+    assert main(["validate", str(path)]) == 0
+    assert "typed mass" not in capsys.readouterr().err

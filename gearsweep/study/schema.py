@@ -151,7 +151,10 @@ AMPLITUDE = "expected a force (e.g. '300 N') or a torque (e.g. '5 N*m')"
 class Fluctuation(Strict):
     """A harmonic of the driving-torque fluctuation: a force [N] or a torque [N m] (Eq. 7)."""
 
-    amplitude: Real | str = Field(description="force [N] or driving torque [N m] amplitude")
+    amplitude: Real | str = Field(description=(
+        "force [N] or driving torque [N m] amplitude; a torque is the force m_eq r1 T / I1 of"
+        " Eq. (7) with scene.drive, or T / r1 beside a typed mass (a driven gear much heavier"
+        " than the driving one: validate notes it)"))
     order: Order = Field(gt=0, allow_inf_nan=False,
                         description="mesh order (1 = mesh frequency; 1/teeth, e.g. 1/48, = shaft;"
                         " once per list)")
