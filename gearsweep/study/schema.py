@@ -394,7 +394,9 @@ class Solver(Strict):
         "cpu", description="where the kernel runs: cpu, cuda (a CUDA GPU, docs/gpu.md) or auto"
         " (cuda where a GPU is present)")
     precision: Literal[tuple(PRECISIONS)] = Field(
-        "float64", description="float32: the state in single precision (device cuda only)")
+        "float64", description="float32: the state in single precision (device cuda only; its"
+        " error is about 6e-8 of |p|, so large against a response small beside the mean"
+        " deflection: docs/gpu.md)")
     step_guard: Annotated[Literal["warn", "skip", "off"], BeforeValidator(_guard_word)] = Field(
         "warn", description="cases whose step is beyond the method's stability limit: flag them"
         " (warn), do not integrate them (skip, status 3), or do not check (off)")
