@@ -611,7 +611,9 @@ TOL = UNSTABLE_TOL
 
 
 class Floquet:
-    """Floquet multipliers, integrator stability and the step guard rail (docs/data-format.md names).
+    """Floquet multipliers, integrator stability and the step guard rail (docs/data-format.md
+    names), of the linear equation with the teeth in contact: backlash and forcing left out, so a
+    rattle scene's multiplier is the same for every backlash and load.
 
     For every case the homogeneous equation with the teeth in contact (f(p) = p, no forcing),
 

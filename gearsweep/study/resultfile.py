@@ -80,7 +80,8 @@ VARIABLES = {
     "impacts_per_period": ("1", "entries into contact from the gap per mesh period"),
     "settle_error": ("1", "change of the extremes of p between the halves of the window / p_pp"),
     "spectrum": (UM, "single-sided amplitude spectrum of p over whole mesh periods"),
-    "floquet_multiplier": ("1", "largest |mu| of the monodromy matrix"),
+    "floquet_multiplier": ("1", ("largest |mu| of the monodromy matrix of the linear equation,"
+                                 " teeth in contact (no backlash, no forcing)")),
     "unstable": ("1", ("the equation is unstable (floquet_multiplier above the variable's threshold"
                       " attribute; false also where floquet_multiplier is NaN: not computed)")),
     "integrator_unstable": ("1", ("the method and step diverge where the equation does not (false"
