@@ -327,7 +327,8 @@ def _unit_expression(value: str, kind: str) -> str | None:
         if _DASH.search(written) and not re.search(r"\s[+-]|[+-]\s", written):
             raise _dash_refusal(value, kind)  # 'N-m', '1um-m': a dash meant to join units
         raise UnitParseError("a sum or difference in a quantity; write one number and its unit"
-                             " (e.g. '1 rpm', not '3 rpm - 2 rpm')")
+                             " (e.g. '1 rpm', not '3 rpm - 2 rpm'; a range of a sweep is"
+                             " {start: 600 rpm, stop: 4000 rpm, num: 8})")
     refusal = _number_in_unit(written, example)
     if re.search(r"\d", bare):
         raise refusal

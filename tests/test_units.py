@@ -356,6 +356,20 @@ def test_a_sum_or_difference_is_not_a_quantity(text, kind):
         to_si(text, kind)
 
 
+def test_a_range_written_as_a_difference_is_shown_the_sweeps_range():
+    """``speed: '600-4000 rpm'`` meant a range: the line now shows {start, stop, num} (it said
+    only "a sum or difference"; an outside tester), and 'RK4' is matched to 'rk4'."""
+    with pytest.raises(UnitParseError, match=r"a range of a sweep is \{start: 600 rpm, stop:"):
+        to_si("600-4000 rpm", "speed")
+    from gearsweep.errors import StudyError
+    from gearsweep.study.schema import parse_study
+
+    text = ("title: t\nscene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm,"
+            " backlash: 0.1 mm, speed: 3000 rpm}\nsolver: {method: RK4}\n")
+    with pytest.raises(StudyError, match=r"solver.method: 'RK4' -- did you mean 'rk4'\?"):
+        parse_study(text, "s.yaml")
+
+
 @pytest.mark.parametrize(("text", "kind", "si"), [("-5 N", "force", -5.0), ("+3 mm", "length", 3e-3),
                                                   ("1e-3 m", "length", 1e-3),
                                                   ("1073 kN mm-1", "stiffness", 1.073e9)])

@@ -1267,6 +1267,9 @@ def _closest(word: Any, choices) -> str | None:
     meant = SYNONYMS.get(str(word).strip().lower())
     if meant in names:
         return meant
+    same = [n for n in names if n.lower() == str(word).strip().lower() and n != str(word)]
+    if same:  # 'RK4' for 'rk4': said "Input should be 'rk4' or 'rk5'" (an outside tester)
+        return same[0]
     close = difflib.get_close_matches(str(word), names, n=1, cutoff=0.6)
     return close[0] if close and close[0] != str(word) else None  # (never itself)
 
