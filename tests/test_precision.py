@@ -608,3 +608,24 @@ def test_every_study_here_is_below_the_accuracy_note_as_the_docs_say():
     assert f"below 1 % ({most} the most, `{name}`" in doc, (name, most)
     source = " ".join(Path(adv.__file__).read_text(encoding="utf-8").split())
     assert f"below 1 % ({most} the most, studies/{name};" in source, (name, most)
+
+
+def test_the_advice_names_the_grid_error_of_the_ringing_after_impacts():
+    """p_pp is taken on the step grid; with backlash the impacts ring at omega_n, order
+    q = omega_n / Omega of the mesh, and where that ringing sets the extremes the grid misses up
+    to 1 - cos(pi q / N) <= (pi q / N)^2 / 2 of its amplitude, not the (pi / N)^2 / 2 of a line at
+    the mesh order the report said alone (an outside tester measured 1.85e-4 at N = 256 against
+    7.5e-5 said, ringing at order 19)."""
+    adv = advise(mass=0.22, k0=3.0e8, damping=810.0, speed_rpm=[600.0], teeth=31,
+                 backlash=1e-4, method="rk4", target=1e-4)
+    q = math.sqrt(3.0e8 / 0.22) / (31 * 600.0 * 2 * math.pi / 60)
+    n = adv.steps_per_period
+    worst = 1 - math.cos(math.pi * q / n)  # a sampled cosine's peak, half a step off
+    said = (math.pi * q / n) ** 2 / 2
+    assert worst <= said < 1.01 * worst + 1e-12
+    text = " ".join(adv.report().split())
+    assert f"at order q = omega_n / Omega = {q:.3g}" in text
+    assert f"(pi q/N)^2/2 = {said:.1e} of the ringing's own amplitude" in text
+    smooth = advise(mass=0.22, k0=3.0e8, damping=810.0, speed_rpm=[600.0], teeth=31,
+                    method="rk4", target=1e-4)
+    assert "ringing" not in smooth.report()
