@@ -465,3 +465,20 @@ def test_an_input_whose_model_attribute_is_no_model_record_is_one_line(tmp_path,
                      " scenes: [x], names: [a], mesh: x}\n", encoding="utf-8")
     assert main(["validate", str(study)]) == 2
     assert "analysis.fitted: 'x' -- rattle_budget's fitted needs" in capsys.readouterr().err
+
+
+def test_run_names_every_input_it_lacks_where_it_looks(tmp_path):
+    """``run`` of an analysis lacking its inputs said the first alone, as 'run
+    studies/NAME.yaml first', though it looks beside its output (an outside tester's study in
+    their own folder): now every missing one, in the folder the run reads."""
+    from gearsweep.errors import ResultError
+
+    study = {"type": "analysis", "title": "budget",
+             "analysis": {"kind": "rattle_budget", "fitted": "r4", "scenes": ["g1"],
+                          "names": ["gear"], "mesh": "nomesh"}}
+    with pytest.raises(ResultError) as err:
+        gearsweep.run(study, output=tmp_path / "bud.nc")
+    assert str(err.value) == (
+        f"{tmp_path}: no r4.nc, g1.nc, nomesh.nc; analysis 'rattle_budget' reads them from the"
+        " folder of its output: run the studies that make them there first (gearsweep run"
+        f" r4.yaml -o {tmp_path / 'r4.nc'})")

@@ -703,12 +703,18 @@ COMPUTE = {"method_stability": method_stability, "work_precision": work_precisio
 def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
     """The results an analysis reads, and their provenance (study sha256 per input)."""
     names = study.analysis.inputs() if hasattr(study.analysis, "inputs") else []
+    missing = [n for n in dict.fromkeys(names) if not (Path(results) / f"{n}.nc").exists()]
+    if missing:  # all at once, where the run looks (it said 'studies/NAME.yaml' of the first)
+        shown = ", ".join(f"{n}.nc" for n in missing)
+        raise ResultError(f"{Path(results)}: no {shown}; analysis {study.analysis.kind!r} reads"
+                          f" {'them' if len(missing) > 1 else 'it'} from the folder of its output:"
+                          f" run the stud{'ies' if len(missing) > 1 else 'y'} that"
+                          f" make{'' if len(missing) > 1 else 's'} {'them' if len(missing) > 1 else 'it'}"
+                          f" there first (gearsweep run {missing[0]}.yaml -o"
+                          f" {Path(results) / missing[0]}.nc)")
     inputs, prov = {}, {}
     for name in names:
         path = Path(results) / f"{name}.nc"
-        if not path.exists():
-            raise ResultError(f"{path}: no such result; analysis {study.analysis.kind!r} reads"
-                              f" it: run studies/{name}.yaml first")
         try:
             ds = xr.load_dataset(path)
         except (OSError, ValueError) as exc:  # (a file that is no netCDF: xarray's traceback)
