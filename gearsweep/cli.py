@@ -249,11 +249,15 @@ def cmd_validate(args: argparse.Namespace) -> int:
         print(f"gearsweep: note: {name}: {rigid}", file=sys.stderr)
     left = transient_residual(plan)
     if left is not None:
-        residual, speed, need = left
+        residual, speed, need, mu = left
+        how = ("exp(-c / (2 m) periods x T) at {:g} rpm, the least damped case" if mu is None
+               else f"|mu|^periods, the fixed-step map's largest Floquet multiplier {mu:.4g} per"
+               " mesh period (k(t) varies strongly), at {:g} rpm, the slowest to decay")
+        shown = f"{residual:.{0 if residual >= 0.1 else 1}%}"
         print(f"gearsweep: note: {name}: solver.transient_periods"
-              f" {study.solver.transient_periods} leave up to {residual:.0%} of the start's free"
-              f" vibration (exp(-c / (2 m) periods x T) at {speed:g} rpm, the least damped"
-              f" case); a beat slower than the record can pass as settled (status 0): {need}"
+              f" {study.solver.transient_periods} leave up to {shown} of the start's free"
+              f" vibration ({how.format(speed)}); a beat slower than the record can pass as"
+              f" settled (status 0): {need}"
               f" transient periods leave {SETTLED_RESIDUAL:.0%}", file=sys.stderr)
     return 0
 

@@ -28,7 +28,12 @@ from pydantic import BaseModel, Field, ValidationError, model_validator
 from gearsweep.analysis.period import motion_period
 from gearsweep.analysis.sensor import pinion_displacement, spectrum_rms
 from gearsweep.analysis.spectrum import kept_bins, line_phase, line_spectrum
-from gearsweep.analysis.stability import check_step
+from gearsweep.analysis.stability import (
+    STRONG_VARIATION,
+    check_step,
+    map_step_limit,
+    variation_ratio,
+)
 from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import (
@@ -628,7 +633,9 @@ class Floquet:
       study's own method and steps_per_period; ``integrator_unstable`` where that fixed-step map has
       a multiplier > 1 and the equation does not;
     * ``min_steps_per_period``: the guard rail's fewest stable steps per mesh period of the study's
-      method (stability polynomial at the largest stiffness, ``gearsweep.analysis.stability``).
+      method (stability polynomial at the largest stiffness, ``gearsweep.analysis.stability``;
+      where the stiffness varies strongly, the first step count from there whose fixed-step map
+      does not diverge where the equation decays: the step guard's monodromy check).
 
     For the rattle and full scenes these describe the contact (linear) phase only: with backlash the
     motion is piecewise linear and its stability is not a Floquet question.
@@ -682,7 +689,8 @@ class Floquet:
             "integrator_unstable": VarSpec(dtype="bool", attrs={"threshold": f"1 + {TOL:g}"}),
             "min_steps_per_period": VarSpec(attrs={
                 "units": "1", "long_name": "fewest steps per mesh period for which the study's "
-                "method is stable (stability polynomial at the largest stiffness)"}),
+                "method is stable (stability polynomial at the largest stiffness; where k(t) "
+                "varies strongly, the fixed-step map's monodromy too)"}),
         }
 
     @staticmethod
@@ -709,8 +717,7 @@ class Floquet:
             fl_mu, fl_err, disc = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
             if ok.any():
                 fl_mu[ok], fl_err[ok], disc[ok] = _multipliers(a[ok], b[ok], g[ok], harm, s)
-            _, limit = check_step(s.method, s.steps_per_period, period, kmax, cm)
-            limit = np.broadcast_to(limit, (n,)).astype(float)
+            limit = _step_limit(s, harm, ok, a, b, g, kmax, cm, period)
         else:
             fl_mu, fl_err, disc, limit = _shared(memo.setdefault(repr(harm), {}), s, harm, ok,
                                                  a, b, g, kmax, cm, period)
@@ -753,6 +760,23 @@ def _multipliers(a, b, g, harm, solver) -> tuple[np.ndarray, np.ndarray, np.ndar
     return fl.multiplier, fl.error, largest_multiplier(M)
 
 
+def _step_limit(solver, harm, ok, a, b, g, kmax, cm, period) -> np.ndarray:
+    """``min_steps_per_period`` of the cases: the frozen-coefficient limit (``check_step``), and
+    where the stiffness varies strongly (``STRONG_VARIATION``, the step guard's rule) the first
+    step count from it on whose map passes the guard's monodromy check (``map_step_limit``)."""
+    n = np.size(a)
+    _, limit = check_step(solver.method, solver.steps_per_period, period, kmax, cm)
+    limit = np.array(np.broadcast_to(limit, (n,)), dtype=float)
+    with np.errstate(invalid="ignore"):
+        strong = np.flatnonzero(ok & (variation_ratio(a, b, harm) > STRONG_VARIATION))
+    if strong.size:
+        with np.errstate(over="ignore", invalid="ignore"):
+            limit[strong] = map_step_limit(a[strong], b[strong], g[strong],
+                                           limit[strong].astype(np.int64),
+                                           method=solver.method, harmonics=harm)
+    return limit
+
+
 def _shared(table: dict, solver, harm, ok, a, b, g, kmax, cm, period) -> tuple:
     """``Floquet.compute``'s per-case arrays (multiplier, error, discrete multiplier, step limit)
     from ``table``, the cases not yet in it computed (each once) and added."""
@@ -772,9 +796,8 @@ def _shared(table: dict, solver, harm, ok, a, b, g, kmax, cm, period) -> tuple:
         if good.any():
             j = idx[good]
             fl_mu[good], fl_err[good], disc[good] = _multipliers(a[j], b[j], g[j], harm, solver)
-        _, limit = check_step(solver.method, solver.steps_per_period, period[idx], kmax[idx],
-                              cm[idx])
-        limit = np.broadcast_to(limit, (m,)).astype(float)
+        limit = _step_limit(solver, harm, ok[idx], a[idx], b[idx], g[idx], kmax[idx], cm[idx],
+                            period[idx])
         for key, *vals in zip(todo, fl_mu, fl_err, disc, limit, strict=True):
             table[key] = vals
     out = np.array([table[key] for key in keys], dtype=float).reshape(n, 4)

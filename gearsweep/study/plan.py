@@ -20,7 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from gearsweep.analysis.stability import ray_limit, stability_polynomial, step_limit_hw
+from gearsweep.analysis.stability import (
+    STRONG_VARIATION,
+    map_step_check,
+    ray_limit,
+    stability_polynomial,
+    step_limit_hw,
+    variation_ratio,
+)
 from gearsweep.errors import NO_VALUE, StudyError
 from gearsweep.files import atomic_write, cache_folder
 from gearsweep.gear.excitation import DEFAULT_HARMONICS
@@ -528,13 +535,58 @@ def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
 
 
 def _model_step_ok(plan: Plan, model, params: dict[str, np.ndarray], n: int) -> np.ndarray:
-    """``_step_ok`` of cases that share the model ``model``."""
+    """``_step_ok`` of cases that share the model ``model``: the frozen-coefficient rule, and
+    where the stiffness varies strongly (``analysis.stability.STRONG_VARIATION``) the map's
+    monodromy (``_map_multipliers``)."""
+    a, b, g, harm, kmax, cm, period = hill_parameters(model, params, n)
+    ok = _frozen_ok(plan, kmax, cm, period, n)
+    if not np.any(b):  # constant stiffness: nothing more to check, at no cost
+        return ok
+    beyond, _ = _map_multipliers(plan, model, a, b, g, harm, ok)
+    return ok & ~beyond
+
+
+def _frozen_ok(plan: Plan, kmax, cm, period, n: int) -> np.ndarray:
+    """The frozen-coefficient rule: steps per period >= T / h* at the largest stiffness."""
     s = plan.study.solver
-    *_, kmax, cm, period = hill_parameters(model, params, n)
     h_star = _stable_steps(s.method, kmax, cm)
     with np.errstate(divide="ignore", invalid="ignore"):
         need = np.ceil(np.asarray(period, float) / h_star)
     return np.broadcast_to(~(need > s.steps_per_period), (n,))
+
+
+def _map_multipliers(plan: Plan, model, a, b, g, harm, ok) -> tuple[np.ndarray, np.ndarray]:
+    """(beyond, the map's largest |mu|) per case: ``analysis.stability.map_step_check`` at the
+    study's method and steps for the cases that pass the frozen rule (``ok``) with stiffness
+    variation above ``STRONG_VARIATION`` (False and NaN elsewhere). Each distinct (alpha, beta,
+    gamma) of a model is computed once per study (``plan.memo``): a continued sweep asks again
+    at every speed of every chunk."""
+    n = np.size(a)
+    beyond, disc = np.zeros(n, bool), np.full(n, np.nan)
+    a, b, g, ok = (np.broadcast_to(np.asarray(x), (n,)) for x in (a, b, g, ok))
+    with np.errstate(invalid="ignore"):
+        strong = ok & np.isfinite(a) & (variation_ratio(a, b, harm) > STRONG_VARIATION)
+    if not strong.any():
+        return beyond, disc
+    idx = np.flatnonzero(strong)
+    rows, inverse = np.unique(np.stack([a[idx], b[idx], g[idx]], axis=1), axis=0,
+                              return_inverse=True)
+    s = plan.study.solver
+    table = plan.memo.setdefault("map_multipliers", {}).setdefault(
+        (id(model), repr(harm), s.method, s.steps_per_period), {})
+    keys = [tuple(r) for r in rows.tolist()]
+    todo = [i for i, k in enumerate(keys) if k not in table]
+    if todo:
+        t = rows[todo]
+        with np.errstate(over="ignore", invalid="ignore"):
+            f, d = map_step_check(t[:, 0], t[:, 1], t[:, 2], s.steps_per_period,
+                                  method=s.method, harmonics=harm)
+        table.update(zip((keys[i] for i in todo), zip(f.tolist(), d.tolist(), strict=True),
+                         strict=True))
+    got = np.array([table[k] for k in keys], dtype=float).reshape(-1, 2)
+    beyond[idx] = got[np.ravel(inverse), 0] > 0
+    disc[idx] = got[np.ravel(inverse), 1]
+    return beyond, disc
 
 
 GUARD_PARAMS = ("alpha", "beta", "gamma", "speed", "mass", "stiffness", "damping")
@@ -582,30 +634,47 @@ SETTLED_RESIDUAL = 0.01
 ``gearsweep validate`` notes it: the ``status`` check compares the halves of the record and
 misses a beat slower than the record (an outside check, 27 Nov 2026: zeta = 0.001, 300
 transient and 20 recorded periods, status 0 with p_pp 10-17 % off, where this estimate gives
-15 %)."""
+15 %). Where the stiffness varies strongly the slowest mode decays by the fixed-step map's
+largest multiplier per period instead, |mu|^N_t (``transient_residual``)."""
 
 
-def transient_residual(plan: Plan) -> tuple[float, float, int] | None:
+def transient_residual(plan: Plan) -> tuple[float, float, int, float | None] | None:
     """The largest share of a free vibration the transient leaves among the cases of ``plan``
-    with damping (exp(-c / (2 m) N_t T_mesh), on the grid of the swept dims it depends on), the
-    speed where it is largest [rpm], and the transient periods that bring it to
-    ``SETTLED_RESIDUAL``; ``None`` when it is below that, for a Mathieu chart (a stability
-    study), or when the grid is larger than ``_GUARD_TABLE_MAX``."""
+    (on the grid of the swept dims it depends on), the speed where it is largest [rpm], the
+    transient periods that bring it to ``SETTLED_RESIDUAL``, and the map's multiplier where it
+    decided (else ``None``: damping did); ``None`` when it is below that, for
+    a Mathieu chart (a stability study), or when the grid is larger than ``_GUARD_TABLE_MAX``.
+
+    A case's free vibration decays per mesh period by exp(-c / (2 m) T) (its damping), or, where
+    the stiffness varies strongly (``STRONG_VARIATION``, where the step guard computes it), by
+    the largest |mu| of the fixed-step map at the study's method and step when that is larger:
+    a parametric mode can decay far slower than damping says (an outside check: mu = 0.979
+    against exp(-c T / 2 m) = 0.62; 200 transient periods left 1.4 %, status 0 with the
+    statistics 1 % off). Cases whose map diverges are the step guard's."""
     swept = None if isinstance(plan.model, MathieuModel) else _swept_grid(plan, GUARD_PARAMS)
     if swept is None or "speed" not in swept[0]:
         return None
     params, m = swept
-    *_, cm, period = hill_parameters(plan.model, params, m)
-    damped = np.broadcast_to(cm, (m,)) > 0
-    if not damped.any():
+    a, b, g, harm, kmax, cm, period = hill_parameters(plan.model, params, m)
+    cm, period = np.broadcast_to(cm, (m,)), np.broadcast_to(period, (m,))
+    decay = np.where(cm > 0, 0.5 * cm * period, 0.0)  # per mesh period
+    if np.any(b):
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            ok = _frozen_ok(plan, kmax, cm, period, m)
+            _, disc = _map_multipliers(plan, plan.model, a, b, g, harm, ok)
+            slow = np.isfinite(disc) & (disc > 0) & (disc < 1)
+            decay = np.where(slow, np.minimum(decay, -np.log(np.where(slow, disc, 1.0))), decay)
+    known = decay > 0
+    if not known.any():
         return None
-    decay = 0.5 * np.broadcast_to(cm, (m,))[damped] * period[damped]  # per mesh period
-    worst = int(np.argmin(decay))
+    worst = int(np.argmin(np.where(known, decay, np.inf)))
     residual = math.exp(-decay[worst] * plan.study.solver.transient_periods)
     if residual <= SETTLED_RESIDUAL:
         return None
-    return (residual, float(params["speed"][damped][worst]),
-            math.ceil(math.log(1 / SETTLED_RESIDUAL) / decay[worst]))
+    mu = float(disc[worst]) if np.any(b) and slow[worst] and -math.log(disc[worst]) <= (
+        decay[worst]) else None
+    return (residual, float(params["speed"][worst]),
+            math.ceil(math.log(1 / SETTLED_RESIDUAL) / decay[worst]), mu)
 
 
 def _guard_table(plan: Plan) -> tuple[list[int], tuple[int, ...], np.ndarray] | None:

@@ -1,0 +1,208 @@
+"""The step guard where k(t) varies strongly: the fixed-step map's monodromy, not only the
+frozen-coefficient check at k0 + sum|k_n| (docs/stability.md, "The step guard").
+
+The truth here is independent of the package: the map's monodromy is built in NumPy from the
+tableaux written out below (Butcher's RK5 of ``kernels/rk.py`` and the classical RK4), the
+equation's multiplier from scipy's DOP853 at rtol 1e-12.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+import yaml
+from scipy.integrate import solve_ivp
+
+import gearsweep
+from gearsweep.analysis import stability as st
+from gearsweep.cli import main
+from gearsweep.errors import StepLimitWarning
+from gearsweep.study import plan as plan_mod
+from gearsweep.study.plan import (
+    _guard_table,
+    _step_ok,
+    cases_beyond_step_limit,
+    make_plan,
+    transient_residual,
+)
+from gearsweep.study.schema import parse_study
+
+TABLEAU = {  # (c, A rows, b), written here from Butcher (1964) and Kutta (1901)
+    "rk5": ((0, 1 / 4, 1 / 4, 1 / 2, 3 / 4, 1),
+            ((), (1 / 4,), (1 / 8, 1 / 8), (0, -1 / 2, 1), (3 / 16, 0, 0, 9 / 16),
+             (-3 / 7, 2 / 7, 12 / 7, -12 / 7, 8 / 7)),
+            (7 / 90, 0, 32 / 90, 12 / 90, 32 / 90, 7 / 90)),
+    "rk4": ((0, 1 / 2, 1 / 2, 1), ((), (1 / 2,), (0, 1 / 2), (0, 0, 1)),
+            (1 / 6, 1 / 3, 1 / 3, 1 / 6)),
+}
+TOL = 1e-6
+
+
+def own_map(method: str, alpha: float, beta: float, gamma: float, steps: int) -> float:
+    """Largest |mu| of the fixed-step map of p'' + gamma p' + (alpha + beta cos t) p = 0."""
+    c, A, b = TABLEAU[method]
+    h = 2 * math.pi / steps
+
+    def J(t):
+        return np.array([[0.0, 1.0], [-(alpha + beta * math.cos(t)), -gamma]])
+
+    M = np.eye(2)
+    for n in range(steps):
+        K = []
+        for i in range(len(c)):
+            Y = np.eye(2) + h * sum((A[i][j] * K[j] for j in range(i)), np.zeros((2, 2)))
+            K.append(J(n * h + c[i] * h) @ Y)
+        M = (np.eye(2) + h * sum(bi * Ki for bi, Ki in zip(b, K, strict=True))) @ M
+    return float(np.max(np.abs(np.linalg.eigvals(M))))
+
+
+def own_equation(alpha: float, beta: float, gamma: float) -> float:
+    """The equation's largest |mu| (scipy, DOP853)."""
+
+    def f(t, y):
+        return [y[1], -gamma * y[1] - (alpha + beta * math.cos(t)) * y[0]]
+
+    cols = [solve_ivp(f, (0, 2 * math.pi), y0, method="DOP853", rtol=1e-12, atol=1e-14).y[:, -1]
+            for y0 in ([1.0, 0.0], [0.0, 1.0])]
+    return float(np.max(np.abs(np.linalg.eigvals(np.array(cols).T))))
+
+
+# The analyst's Mathieu example, and the whine scene it comes from (guard_whine.yaml).
+MATHIEU = (58.29, 57.07, 0.1527)
+K0, K1, MASS, C, RPM, TEETH = 1073e6, 1050e6, 0.1527, 256.0, 2184.4, 48
+
+
+def whine_abg() -> tuple[float, float, float]:
+    w = TEETH * RPM / 60 * 2 * math.pi
+    return K0 / (MASS * w * w), K1 / (MASS * w * w), C / (MASS * w)
+
+
+def whine(spp: int, outputs=("stats",), transient: int = 200, guard: str = "warn") -> dict:
+    return {"title": "strong k(t)", "outputs": list(outputs), "scene": {
+        "kind": "whine", "mass": "0.1527 kg", "teeth": TEETH, "stiffness": "1073 kN/mm",
+        "damping": "256 N*s/m", "mean_force": "833 N",
+        "stiffness_harmonics": [{"amplitude": "1050 kN/mm"}], "ste": [{"amplitude": "5 um"}]},
+        "sweep": {"speed": [f"{RPM} rpm"]},
+        "solver": {"method": "rk5", "steps_per_period": spp, "transient_periods": transient,
+                   "record_periods": 20, "step_guard": guard}}
+
+
+def plan_of(study: dict):
+    return make_plan(parse_study(yaml.safe_dump(study)))
+
+
+def test_the_mathieu_example_diverges_where_the_frozen_check_passes():
+    """alpha = 58.29, beta = 57.07, gamma = 0.1527, RK5 at 38 steps: the frozen check at
+    alpha + beta passes, the map's multiplier is 1.19, the equation's 0.98."""
+    a, b, g = MATHIEU
+    mu_map, mu_eq = own_map("rk5", a, b, g, 38), own_equation(a, b, g)
+    assert mu_map == pytest.approx(1.19, abs=0.01) and mu_eq == pytest.approx(0.98, abs=0.005)
+    ok, limit = st.check_step("rk5", 38, 2 * math.pi, a + b, g)
+    assert ok and limit == 38  # the frozen rule alone passes it
+    beyond, disc = st.map_step_check([a], [b], [g], 38, method="rk5")
+    assert beyond[0] and disc[0] == pytest.approx(mu_map, rel=1e-9)
+    # the same in a Mathieu study: its guard flags the case
+    study = {"title": "m", "scene": {"kind": "mathieu", "alpha": a, "beta": b, "gamma": g},
+             "outputs": ["floquet"],
+             "solver": {"method": "rk5", "steps_per_period": 38, "transient_periods": 20,
+                        "record_periods": 1}}
+    assert cases_beyond_step_limit(plan_of(study)) == 1
+    first = next(S for S in range(38, 200) if own_map("rk5", a, b, g, S) <= 1 + TOL)
+    assert st.map_step_limit([a], [b], [g], [38], method="rk5")[0] == first
+    study["solver"]["steps_per_period"] = first
+    assert cases_beyond_step_limit(plan_of(study)) == 0
+
+
+@pytest.mark.parametrize("spp", [38, 40, 44, 48, 52, 55, 56, 60, 64, 72])
+def test_the_whine_study_is_beyond_the_step_limit_where_its_map_diverges(spp):
+    """The whine scene (k1 = 0.979 k0, zeta 0.007, 2184.4 rpm, RK5): the frozen rule asks for
+    38 steps; the map diverges up to 55 and not from 56 (own monodromy), and so does the guard."""
+    a, b, g = whine_abg()
+    plan = plan_of(whine(spp))
+    diverges = own_map("rk5", a, b, g, spp) > 1 + TOL and own_equation(a, b, g) <= 1 + TOL
+    assert diverges == (spp <= 55)
+    assert cases_beyond_step_limit(plan) == int(diverges)
+    assert bool(~_guard_table(plan)[2][0]) == diverges
+
+
+def test_the_whine_study_warns_and_skips_and_names_the_steps_that_pass():
+    """At 40 steps the run warns (StepLimitWarning, beyond_step_limit) or skips it (status 3); the
+    floquet output's min_steps_per_period is the first count whose map passes (56, own
+    monodromy), not the frozen rule's 38."""
+    a, b, g = whine_abg()
+    first = next(S for S in range(38, 200) if own_map("rk5", a, b, g, S) <= 1 + TOL)
+    assert first == 56
+    with pytest.warns(StepLimitWarning):
+        ds = gearsweep.run(whine(40, ("stats", "floquet")))
+    assert bool(ds.beyond_step_limit.values.ravel()[0])
+    assert int(ds.min_steps_per_period.values.ravel()[0]) == first
+    ds = gearsweep.run(whine(40, guard="skip"))
+    assert int(ds.status.values.ravel()[0]) == 3  # skipped
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (contact loss: the scene's light load)
+        ds = gearsweep.run(whine(first, ("stats", "floquet")))
+    assert not bool(ds.beyond_step_limit.values.ravel()[0])
+    assert int(ds.min_steps_per_period.values.ravel()[0]) == first
+
+
+def test_weak_variation_costs_no_monodromy_and_strong_one_each_combination_once(monkeypatch):
+    """Below STRONG_VARIATION (the rig's k1/k0 = 0.167) and with constant stiffness the guard
+    computes no monodromy; above it, one per distinct (alpha, beta, gamma), kept for the study."""
+    calls = []
+    real = plan_mod.map_step_check
+
+    def counted(a, *args, **kw):
+        calls.append(np.size(a))
+        return real(a, *args, **kw)
+
+    monkeypatch.setattr(plan_mod, "map_step_check", counted)
+    sweep = {"speed": {"start": "1500 rpm", "stop": "2500 rpm", "num": 5},
+             "damping": ["256 N*s/m", "512 N*s/m", "1 N*s/mm"],
+             "mean_force": ["800 N", "900 N"]}
+    for k1 in ("179 kN/mm", None):
+        study = whine(64)
+        study["sweep"] = sweep
+        if k1 is None:
+            del study["scene"]["stiffness_harmonics"]
+        else:
+            study["scene"]["stiffness_harmonics"] = [{"amplitude": k1}]
+        plan = plan_of(study)
+        _guard_table(plan)
+        cases_beyond_step_limit(plan)
+        assert calls == []
+    study = whine(64)
+    study["sweep"] = sweep
+    plan = plan_of(study)
+    _guard_table(plan)
+    assert calls == [15]  # 5 speeds x 3 dampings (the load is not the guard's)
+    cases_beyond_step_limit(plan)
+    speeds = np.repeat(plan.grids["speed"], 3)
+    _step_ok(plan, {"speed": speeds, "damping": np.tile(plan.grids["damping"], 5)}, 15)
+    assert calls == [15]
+
+
+def test_validate_notes_a_slow_parametric_transient(tmp_path, capsys):
+    """The whine scene at 400 steps: damping alone leaves exp(-c T / 2m)^200 = 1e-42 of the
+    start's free vibration, the slowest mode (own map's multiplier 0.979 a period) 1.4 %;
+    validate notes it, with the periods that leave 1 %. At 64 steps the map decays slower
+    still (0.9875: 8 %)."""
+    a, b, g = whine_abg()
+    for spp, transient in ((400, 200), (64, 200)):
+        mu = own_map("rk5", a, b, g, spp)
+        assert math.exp(-math.pi * g) ** transient < 1e-30  # damping alone: nothing left
+        left, need = mu**transient, math.ceil(math.log(100) / -math.log(mu))
+        assert left > 0.01
+        plan = plan_of(whine(spp, transient=transient))
+        residual, speed, periods, at = transient_residual(plan)
+        assert residual == pytest.approx(left, rel=1e-6) and periods == need
+        assert at == pytest.approx(mu, rel=1e-9) and speed == pytest.approx(RPM)
+        path = tmp_path / "s.yaml"
+        path.write_text(yaml.safe_dump(whine(spp, transient=transient)), encoding="utf-8")
+        assert main(["validate", str(path)]) == 0
+        err = capsys.readouterr().err
+        shown = f"{left:.{0 if left >= 0.1 else 1}%}"
+        assert f"leave up to {shown}" in err and f"{need} transient periods leave 1%" in err
+    assert transient_residual(plan_of(whine(400, transient=need + 5))) is None
