@@ -94,6 +94,12 @@ def plan_of(study: dict):
     return make_plan(parse_study(yaml.safe_dump(study)))
 
 
+def mathieu_study(a: float, b: float, g: float, spp: int, method: str) -> dict:
+    return {"title": "m", "scene": {"kind": "mathieu", "alpha": a, "beta": b, "gamma": g},
+            "solver": {"method": method, "steps_per_period": spp, "transient_periods": 20,
+                       "record_periods": 1}}
+
+
 def test_the_mathieu_example_diverges_where_the_frozen_check_passes():
     """alpha = 58.29, beta = 57.07, gamma = 0.1527, RK5 at 38 steps: the frozen check at
     alpha + beta passes, the map's multiplier is 1.19, the equation's 0.98."""
@@ -105,15 +111,29 @@ def test_the_mathieu_example_diverges_where_the_frozen_check_passes():
     beyond, disc = st.map_step_check([a], [b], [g], 38, method="rk5")
     assert beyond[0] and disc[0] == pytest.approx(mu_map, rel=1e-9)
     # the same in a Mathieu study: its guard flags the case
-    study = {"title": "m", "scene": {"kind": "mathieu", "alpha": a, "beta": b, "gamma": g},
-             "outputs": ["floquet"],
-             "solver": {"method": "rk5", "steps_per_period": 38, "transient_periods": 20,
-                        "record_periods": 1}}
+    study = mathieu_study(a, b, g, 38, "rk5")
     assert cases_beyond_step_limit(plan_of(study)) == 1
     first = next(S for S in range(38, 200) if own_map("rk5", a, b, g, S) <= 1 + TOL)
     assert st.map_step_limit([a], [b], [g], [38], method="rk5")[0] == first
     study["solver"]["steps_per_period"] = first
     assert cases_beyond_step_limit(plan_of(study)) == 0
+
+
+def test_weak_variation_at_coarse_steps_is_checked_too():
+    """beta / alpha = 0.15 (below STRONG_VARIATION) near the principal tongue, zeta 0.002, RK4
+    at 6 steps per period (the frozen rule asks for 2): the map's multiplier 1.012, the
+    equation's 0.9935; below COARSE_STEPS the guard checks the map and flags it. At 32 steps
+    the map decays as the equation does, and nothing is computed."""
+    a, g = 0.2701, 0.0020788458336298055
+    b = 0.15 * a
+    mu_map, mu_eq = own_map("rk4", a, b, g, 6), own_equation(a, b, g)
+    assert mu_map == pytest.approx(1.0116, abs=1e-3) and mu_eq == pytest.approx(0.9935, abs=1e-3)
+    assert st.check_step("rk4", 6, 2 * math.pi, a + b, g)[0]
+    assert b / a < st.STRONG_VARIATION and 6 < st.COARSE_STEPS
+    assert cases_beyond_step_limit(plan_of(mathieu_study(a, b, g, 6, "rk4"))) == 1
+    assert own_map("rk4", a, b, g, st.COARSE_STEPS) < 1
+    assert not st.needs_map_check(a, b, None, st.COARSE_STEPS)
+    assert cases_beyond_step_limit(plan_of(mathieu_study(a, b, g, st.COARSE_STEPS, "rk4"))) == 0
 
 
 @pytest.mark.parametrize("spp", [38, 40, 44, 48, 52, 55, 56, 60, 64, 72])

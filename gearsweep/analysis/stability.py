@@ -83,7 +83,9 @@ __all__ = [
     "require_stable_step",
     "stability_polynomial",
     "step_limit_hw",
+    "COARSE_STEPS",
     "STRONG_VARIATION",
+    "needs_map_check",
     "variation_ratio",
 ]
 
@@ -357,12 +359,29 @@ def integrator_unstable(alpha, beta, gamma, steps_per_period: int, *, method: st
 STRONG_VARIATION = 0.2
 """Stiffness variation sum|k_n| / k0 (beta sum|r_n| / alpha) above which the frozen-coefficient
 check (``check_step`` at k0 + sum|k_n|) is not conservative and the step guard also checks the
-fixed-step map's monodromy (``map_step_check``). Scans of RK4 and RK5 at the guard's fewest steps
-and up to twice as many (alpha 0.3-2000, zeta 0-0.2, 28,000 random cases a method, 27 Nov 2026):
-no case whose map diverges while the equation decays below sum|k_n| / k0 = 0.218 (RK5, zeta
-0.005, near the second tongue at 5 steps per period); above it they appear at every damping up
-to 0.2, e.g. alpha = 58.29, beta = 57.07, gamma = 0.1527 (beta / alpha = 0.979), RK5 at 38
-steps per period: the map's multiplier 1.19, the equation's 0.978 (docs/stability.md)."""
+fixed-step map's monodromy (``map_step_check``; ``needs_map_check``). Scans of RK4 and RK5 from
+the guard's fewest steps to twice as many (alpha 0.3-2000, zeta 0-0.2, 28,000 random cases a
+method, 27 Nov 2026): cases whose map diverges while the equation decays appear at every damping
+up to 0.2 above it, e.g. alpha = 58.29, beta = 57.07, gamma = 0.1527 (beta / alpha = 0.979), RK5
+at 38 steps per period: the map's multiplier 1.19, the equation's 0.978 (docs/stability.md).
+Below it they appear only at fewer than ``COARSE_STEPS`` steps per period."""
+COARSE_STEPS = 32
+"""Below this many steps per period the map's phase error moves a parametric tongue of Eq. (11)
+off the equation's even for weak variation, and the step guard checks the map's monodromy
+wherever k(t) varies at all. A scan of 60,000 cases a method with sum|k_n| / k0 < 0.2 (alpha
+0.1-30, zeta 0-0.05, each step count from the frozen limit on): RK4 diverges where the equation
+decays by more than 1e-3 a period up to 24 steps per period (alpha near 1/4 and 1, the first
+two tongues), RK5 up to 6; from 32 steps on, none by more than 1e-3 (RK4 near alpha = 4 by
+less, where the equation's multiplier is 1 to 1e-6)."""
+
+
+def needs_map_check(alpha, beta, harmonics, steps_per_period: int) -> np.ndarray:
+    """Where the step guard checks the fixed-step map's monodromy besides the frozen rule:
+    stiffness variation above ``STRONG_VARIATION``, or any variation at fewer than
+    ``COARSE_STEPS`` steps per period."""
+    ratio = variation_ratio(alpha, beta, harmonics)
+    with np.errstate(invalid="ignore"):
+        return (ratio > STRONG_VARIATION) | ((ratio > 0) & (int(steps_per_period) < COARSE_STEPS))
 
 
 def variation_ratio(alpha, beta, harmonics=None) -> np.ndarray:

@@ -28,12 +28,7 @@ from pydantic import BaseModel, Field, ValidationError, model_validator
 from gearsweep.analysis.period import motion_period
 from gearsweep.analysis.sensor import pinion_displacement, spectrum_rms
 from gearsweep.analysis.spectrum import kept_bins, line_phase, line_spectrum
-from gearsweep.analysis.stability import (
-    STRONG_VARIATION,
-    check_step,
-    map_step_limit,
-    variation_ratio,
-)
+from gearsweep.analysis.stability import check_step, map_step_limit, needs_map_check
 from gearsweep.errors import StudyError
 from gearsweep.kernels import BatchResult
 from gearsweep.kernels.floquet import (
@@ -762,13 +757,12 @@ def _multipliers(a, b, g, harm, solver) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 def _step_limit(solver, harm, ok, a, b, g, kmax, cm, period) -> np.ndarray:
     """``min_steps_per_period`` of the cases: the frozen-coefficient limit (``check_step``), and
-    where the stiffness varies strongly (``STRONG_VARIATION``, the step guard's rule) the first
+    where the stiffness varies strongly (``needs_map_check``, the step guard's rule) the first
     step count from it on whose map passes the guard's monodromy check (``map_step_limit``)."""
     n = np.size(a)
     _, limit = check_step(solver.method, solver.steps_per_period, period, kmax, cm)
     limit = np.array(np.broadcast_to(limit, (n,)), dtype=float)
-    with np.errstate(invalid="ignore"):
-        strong = np.flatnonzero(ok & (variation_ratio(a, b, harm) > STRONG_VARIATION))
+    strong = np.flatnonzero(ok & needs_map_check(a, b, harm, solver.steps_per_period))
     if strong.size:
         with np.errstate(over="ignore", invalid="ignore"):
             limit[strong] = map_step_limit(a[strong], b[strong], g[strong],

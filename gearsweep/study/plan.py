@@ -21,12 +21,11 @@ from typing import Any
 import numpy as np
 
 from gearsweep.analysis.stability import (
-    STRONG_VARIATION,
     map_step_check,
+    needs_map_check,
     ray_limit,
     stability_polynomial,
     step_limit_hw,
-    variation_ratio,
 )
 from gearsweep.errors import NO_VALUE, StudyError
 from gearsweep.files import atomic_write, cache_folder
@@ -536,7 +535,7 @@ def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
 
 def _model_step_ok(plan: Plan, model, params: dict[str, np.ndarray], n: int) -> np.ndarray:
     """``_step_ok`` of cases that share the model ``model``: the frozen-coefficient rule, and
-    where the stiffness varies strongly (``analysis.stability.STRONG_VARIATION``) the map's
+    where the stiffness varies strongly (``analysis.stability.needs_map_check``) the map's
     monodromy (``_map_multipliers``)."""
     a, b, g, harm, kmax, cm, period = hill_parameters(model, params, n)
     ok = _frozen_ok(plan, kmax, cm, period, n)
@@ -557,21 +556,20 @@ def _frozen_ok(plan: Plan, kmax, cm, period, n: int) -> np.ndarray:
 
 def _map_multipliers(plan: Plan, model, a, b, g, harm, ok) -> tuple[np.ndarray, np.ndarray]:
     """(beyond, the map's largest |mu|) per case: ``analysis.stability.map_step_check`` at the
-    study's method and steps for the cases that pass the frozen rule (``ok``) with stiffness
-    variation above ``STRONG_VARIATION`` (False and NaN elsewhere). Each distinct (alpha, beta,
+    study's method and steps for the cases that pass the frozen rule (``ok``) where
+    ``analysis.stability.needs_map_check`` asks for it (False and NaN elsewhere). Each distinct (alpha, beta,
     gamma) of a model is computed once per study (``plan.memo``): a continued sweep asks again
     at every speed of every chunk."""
     n = np.size(a)
     beyond, disc = np.zeros(n, bool), np.full(n, np.nan)
     a, b, g, ok = (np.broadcast_to(np.asarray(x), (n,)) for x in (a, b, g, ok))
-    with np.errstate(invalid="ignore"):
-        strong = ok & np.isfinite(a) & (variation_ratio(a, b, harm) > STRONG_VARIATION)
+    s = plan.study.solver
+    strong = ok & np.isfinite(a) & needs_map_check(a, b, harm, s.steps_per_period)
     if not strong.any():
         return beyond, disc
     idx = np.flatnonzero(strong)
     rows, inverse = np.unique(np.stack([a[idx], b[idx], g[idx]], axis=1), axis=0,
                               return_inverse=True)
-    s = plan.study.solver
     table = plan.memo.setdefault("map_multipliers", {}).setdefault(
         (id(model), repr(harm), s.method, s.steps_per_period), {})
     keys = [tuple(r) for r in rows.tolist()]
@@ -646,7 +644,7 @@ def transient_residual(plan: Plan) -> tuple[float, float, int, float | None] | N
     a Mathieu chart (a stability study), or when the grid is larger than ``_GUARD_TABLE_MAX``.
 
     A case's free vibration decays per mesh period by exp(-c / (2 m) T) (its damping), or, where
-    the stiffness varies strongly (``STRONG_VARIATION``, where the step guard computes it), by
+    the stiffness varies strongly (``needs_map_check``, where the step guard computes it), by
     the largest |mu| of the fixed-step map at the study's method and step when that is larger:
     a parametric mode can decay far slower than damping says (an outside check: mu = 0.979
     against exp(-c T / 2 m) = 0.62; 200 transient periods left 1.4 %, status 0 with the
@@ -658,12 +656,15 @@ def transient_residual(plan: Plan) -> tuple[float, float, int, float | None] | N
     a, b, g, harm, kmax, cm, period = hill_parameters(plan.model, params, m)
     cm, period = np.broadcast_to(cm, (m,)), np.broadcast_to(period, (m,))
     decay = np.where(cm > 0, 0.5 * cm * period, 0.0)  # per mesh period
+    by_map = np.zeros(m, bool)
     if np.any(b):
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             ok = _frozen_ok(plan, kmax, cm, period, m)
             _, disc = _map_multipliers(plan, plan.model, a, b, g, harm, ok)
             slow = np.isfinite(disc) & (disc > 0) & (disc < 1)
-            decay = np.where(slow, np.minimum(decay, -np.log(np.where(slow, disc, 1.0))), decay)
+            mu_decay = -np.log(np.where(slow, disc, 1.0))
+            by_map = slow & ((mu_decay < decay) | (decay <= 0))
+            decay = np.where(by_map, mu_decay, decay)
     known = decay > 0
     if not known.any():
         return None
@@ -671,8 +672,7 @@ def transient_residual(plan: Plan) -> tuple[float, float, int, float | None] | N
     residual = math.exp(-decay[worst] * plan.study.solver.transient_periods)
     if residual <= SETTLED_RESIDUAL:
         return None
-    mu = float(disc[worst]) if np.any(b) and slow[worst] and -math.log(disc[worst]) <= (
-        decay[worst]) else None
+    mu = float(disc[worst]) if by_map[worst] else None
     return (residual, float(params["speed"][worst]),
             math.ceil(math.log(1 / SETTLED_RESIDUAL) / decay[worst]), mu)
 
