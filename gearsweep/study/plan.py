@@ -568,22 +568,29 @@ def _map_multipliers(plan: Plan, model, a, b, g, harm, ok) -> tuple[np.ndarray, 
     if not strong.any():
         return beyond, disc
     idx = np.flatnonzero(strong)
-    rows, inverse = np.unique(np.stack([a[idx], b[idx], g[idx]], axis=1), axis=0,
-                              return_inverse=True)
-    table = plan.memo.setdefault("map_multipliers", {}).setdefault(
-        (id(model), repr(harm), s.method, s.steps_per_period), {})
-    keys = [tuple(r) for r in rows.tolist()]
-    todo = [i for i, k in enumerate(keys) if k not in table]
-    if todo:
-        t = rows[todo]
+    # Rows (alpha, beta, gamma) as 24-byte keys: one sort, no Python loop over cases (a dict of
+    # tuples took 4 s of 1e6 combinations, against 0.13 s of the frozen rule).
+    rows = np.ascontiguousarray(np.stack([a[idx], b[idx], g[idx]], axis=1), dtype=float)
+    keys = rows.view(np.dtype((np.void, 24))).ravel()
+    uniq, inverse = np.unique(keys, return_inverse=True)
+    memo = plan.memo.setdefault("map_multipliers", {})
+    name = (id(model), repr(harm), s.method, s.steps_per_period)
+    known, kb, kd = memo.get(name, (uniq[:0], np.zeros(0, bool), np.zeros(0)))
+    pos = np.minimum(np.searchsorted(known, uniq), max(known.size - 1, 0))
+    have = (known.size > 0) & (known[pos] == uniq) if known.size else np.zeros(uniq.size, bool)
+    if not have.all():
+        t = uniq[~have].view(np.float64).reshape(-1, 3)
         with np.errstate(over="ignore", invalid="ignore"):
             f, d = map_step_check(t[:, 0], t[:, 1], t[:, 2], s.steps_per_period,
                                   method=s.method, harmonics=harm)
-        table.update(zip((keys[i] for i in todo), zip(f.tolist(), d.tolist(), strict=True),
-                         strict=True))
-    got = np.array([table[k] for k in keys], dtype=float).reshape(-1, 2)
-    beyond[idx] = got[np.ravel(inverse), 0] > 0
-    disc[idx] = got[np.ravel(inverse), 1]
+        known, kb, kd = (np.concatenate(x) for x in ((known, uniq[~have]), (kb, f), (kd, d)))
+        order = np.argsort(known, kind="stable")
+        known, kb, kd = known[order], kb[order], kd[order]
+        memo[name] = (known, kb, kd)
+        pos = np.searchsorted(known, uniq)
+    inverse = np.ravel(inverse)
+    beyond[idx] = kb[pos][inverse]
+    disc[idx] = kd[pos][inverse]
     return beyond, disc
 
 
