@@ -549,6 +549,55 @@ def test_a_loop_open_at_the_top_of_the_sweep_has_its_width():
     assert (jp.band_high, jp.open_high) == (4.0, True)
 
 
+def test_a_step_without_settled_points_of_both_branches_is_no_jump():
+    """An outside engineer's sweep (j1.yaml: 170 of 200 case-speeds not settled, chaotic by
+    scipy) had a run-down "jump" at one isolated settled point (7.9 um between 17.5 and 19 um)
+    and a run-up step from unsettled points, and jump_summary reported a 515 rpm band that moved
+    with the step size. The same pattern here: each sweep has a step meeting the criterion but
+    none with two settled, agreeing points on each side, so neither jumps and the band cannot
+    be judged (NaN), and both are marked unsupported; with every point settled the isolated
+    point is still no jump, while the run-up's step, now seen on both sides, is one."""
+    speed = np.arange(12.0)
+    up = np.array([7.0, 6.7, 6.6, 6.6, 9.2, 8.4, 9.5, 9.4, 9.5, 9.6, 9.1, 9.1])
+    down = np.array([9.0, 9.1, 9.1, 9.2, 9.2, 9.1, 9.4, 9.6, 4.0, 8.8, 9.3, 9.3])
+    s_up = np.array([0, 2, 2, 2, 0, 0, 2, 2, 2, 0, 0, 2]) == 0
+    s_down = np.array([0, 0, 0, 0, 0, 2, 2, 2, 0, 0, 2, 2]) == 0
+    jp = jumps.find_jumps(speed, up, down, settled_up=s_up, settled_down=s_down)
+    assert np.isnan(jp.up_speed) and np.isnan(jp.down_speed)
+    assert jp.up_unsupported and jp.down_unsupported
+    assert np.isnan(jp.band_low) and np.isnan(jp.band_high) and np.isnan(jp.width)
+    assert not jp.open_low and not jp.open_high
+    jp = jumps.find_jumps(speed, up, down)  # all settled
+    assert jp.up_speed == 3.5 and not jp.up_unsupported
+    assert np.isnan(jp.down_speed) and jp.down_unsupported and np.isnan(jp.width)
+
+
+def test_jump_map_marks_a_sweep_whose_jumps_cannot_be_judged():
+    """jump_summary and jump_map of the sweep above: no jump speeds, band NaN,
+    jump_unsupported 3 (both sweeps), and jump_map's settings say so in one note."""
+    import xarray as xr
+
+    from gearsweep.study.analyses import jump_map
+    from gearsweep.study.analysis_specs import JumpMap
+    from gearsweep.study.jumps import jump_summary
+
+    up = [7.0, 6.7, 6.6, 6.6, 9.2, 8.4, 9.5, 9.4, 9.5, 9.6, 9.1, 9.1]
+    down = [9.0, 9.1, 9.1, 9.2, 9.2, 9.1, 9.4, 9.6, 4.0, 8.8, 9.3, 9.3]
+    status = [[0, 2, 2, 2, 0, 0, 2, 2, 2, 0, 0, 2], [0, 0, 0, 0, 0, 2, 2, 2, 0, 0, 2, 2]]
+    dr = ("direction", "speed")
+    ds = xr.Dataset({"p_pp": (dr, 2 * np.array([up, down])),
+                     "status": (dr, np.array(status, np.int8)),
+                     "contact_loss_fraction": (dr, np.full((2, 12), 0.3))},
+                    coords={"direction": ["up", "down"], "speed": 2500.0 + 15.0 * np.arange(12)})
+    js = jump_summary(ds)
+    assert int(js["jump_unsupported"]) == 3 and np.isnan(float(js["hysteresis_width"]))
+    assert np.isnan(float(js["jump_down_speed"])) and int(js["hysteresis_open"]) == 0
+    data, _, attrs, settings = jump_map(JumpMap(kind="jump_map", result="j1"), {"j1": ds})
+    assert int(data["jump_unsupported"][1]) == 3 and np.isnan(data["hysteresis_width"][1])
+    assert "jump_unsupported" in attrs and settings["jump_unsupported_cases"] == 1
+    assert "cannot be judged" in settings["jump_note"] and "\n" not in settings["jump_note"]
+
+
 def test_find_jumps_rejects_decreasing_speeds():
     with pytest.raises(ValueError, match="increase"):
         jumps.find_jumps([2.0, 1.0], [1.0, 1.0], [1.0, 1.0])

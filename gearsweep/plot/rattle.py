@@ -13,6 +13,7 @@ from __future__ import annotations
 import textwrap
 from collections.abc import Sequence
 
+import matplotlib
 import numpy as np
 import xarray as xr
 from matplotlib.axes import Axes
@@ -223,7 +224,7 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     rattle_fraction : array_like (n_b, n_c, n_t)
         Share of swept speeds at which either sweep loses contact [1].
     hysteresis_width : array_like (n_b, n_c, n_t)
-        Width of the jump hysteresis band [rpm].
+        Width of the jump hysteresis band [rpm] (NaN: cannot be judged, grey).
     hysteresis_open : array_like (n_b, n_c, n_t) or None
         Non-zero where the band reaches an end of the swept speeds (its width a lower bound):
         hatched.
@@ -233,14 +234,17 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     torque = si_array(torque, "torque", "torque")
     backlash = si_array(backlash, "length", "backlash")
     hysteresis_width = si_array(hysteresis_width, "speed", "hysteresis_width")
-    vmax = max(float(np.nanmax(hysteresis_width)), 1.0)
+    unjudged = np.isnan(hysteresis_width)  # (jump_unsupported: the sweeps cannot say)
+    vmax = max(float(np.nanmax(hysteresis_width)) if not unjudged.all() else 0.0, 1.0)
+    cmap = matplotlib.colormaps["viridis"].copy()
+    cmap.set_bad("0.6")
     opened = (np.zeros(np.shape(hysteresis_width), bool) if hysteresis_open is None
               else np.asarray(hysteresis_open) > 0)
     for ax, axh, bl, frac, width, op in zip(axes, axes_hyst, backlash, rattle_fraction,
                                             hysteresis_width, opened, strict=True):
         im = ax.pcolormesh(torque, c, frac, vmin=0, vmax=1, cmap="magma", shading="nearest")
         ax.contour(torque, c, frac, [0.01], colors="cyan", linewidths=1.0)
-        imh = axh.pcolormesh(torque, c, width, vmin=0, vmax=vmax, cmap="viridis",
+        imh = axh.pcolormesh(torque, c, width, vmin=0, vmax=vmax, cmap=cmap,
                              shading="nearest")
         if op.any():
             axh.pcolor(torque, c, np.ma.masked_where(~op, op), shading="nearest", hatch="////",
@@ -256,7 +260,9 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     cb.set_label("share of speeds with contact loss [1]\n(cyan: rattle-free boundary)")
     cbh = fig.colorbar(imh, ax=list(axes_hyst), shrink=0.9)
     cbh.set_label("hysteresis band width [rpm]" + ("\n(hatched: open at an end of the sweep,"
-                                                   " at least this wide)" if opened.any() else ""))
+                                                   " at least this wide)" if opened.any() else "")
+                  + ("\n(grey: cannot be judged, no jump with settled points of both"
+                     " branches)" if unjudged.any() else ""))
     return fig
 
 

@@ -687,10 +687,19 @@ def jump_map(o: JumpMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
              "not_settled_share": {"units": "1", "long_name": "share of the result's"
                                    " case-speeds with status 2 (not settled)"},
              **{d: dict(ds[d].attrs) for d in dims}}
+    unsupported = int((js["jump_unsupported"] > 0).sum())
     settings = {"speed_from": float(ds["speed"].values[0]),
                 "speed_to": float(ds["speed"].values[-1]),
                 "input_cases": int(ds.attrs.get("cases", ds["status"].size)),
-                "input_elapsed_seconds": ds.attrs.get("elapsed_seconds", "nan")}
+                "input_elapsed_seconds": ds.attrs.get("elapsed_seconds", "nan"),
+                "jump_unsupported_cases": unsupported}
+    if unsupported:  # (the result's sweeps scatter: a band there would be read off noise)
+        settings["jump_note"] = (
+            f"{unsupported} of {js['jump_unsupported'].size} cases: a step meets the jump"
+            " criterion but no jump has settled points of both branches beside it (jump speeds"
+            " and hysteresis band NaN, jump_unsupported > 0): whether they jump cannot be judged"
+            f" from this result ({float((ds['status'] == 2).mean()):.0%} of its case-speeds did"
+            " not settle)")
     return data, coords, attrs, settings
 
 

@@ -2,8 +2,9 @@
 
 ``jump_summary(ds)`` applies ``gearsweep.analysis.jumps.find_jumps`` (the criterion is stated in
 its module docstring) to the amplitude ``p_pp / 2`` of the ``up`` and ``down`` sweeps of every
-case (a case-speed that did not settle, ``status`` != 0, is no end of a jump) and returns the
-speeds where each sweep jumps and the hysteresis band between them, on the study's other dims.
+case (a case-speed that did not settle, ``status`` != 0, is no end of a jump, nor support of
+one) and returns the speeds where each sweep jumps and the hysteresis band between them, on the
+study's other dims; ``jump_unsupported`` marks the sweeps whose jumps cannot be judged.
 """
 
 from __future__ import annotations
@@ -20,10 +21,15 @@ JUMP_VARIABLES = {
     "jump_down_size": ("1", "relative amplitude change of the run-down jump, towards lower speed"),
     "hysteresis_low": ("rpm", "lower end of the jump hysteresis band"),
     "hysteresis_high": ("rpm", "upper end of the jump hysteresis band"),
-    "hysteresis_width": ("rpm", "width of the jump hysteresis band (0: none)"),
+    "hysteresis_width": ("rpm", ("width of the jump hysteresis band (0: none; NaN: cannot be"
+                              " judged, see jump_unsupported)")),
     "hysteresis_open": ("1", ("the hysteresis band reaches an end of the swept speeds still"
                               " two-valued, its width a lower bound (0: no, 1: the lowest speed,"
                               " 2: the highest, 3: both)")),
+    "jump_unsupported": ("1", ("a sweep has steps that meet the jump criterion but none with"
+                               " settled points of both branches beside it: whether it jumps,"
+                               " and the hysteresis band, cannot be judged (0: judged, 1: the"
+                               " run-up, 2: the run-down, 3: both)")),
 }
 
 
@@ -61,7 +67,9 @@ def jump_summary(ds: xr.Dataset, threshold: float = 0.25) -> xr.Dataset:
               "hysteresis_low": js.band_low, "hysteresis_high": js.band_high,
               "hysteresis_width": js.width,
               "hysteresis_open": (np.asarray(js.open_low, np.int8)
-                                  + 2 * np.asarray(js.open_high, np.int8))}
+                                  + 2 * np.asarray(js.open_high, np.int8)),
+              "jump_unsupported": (np.asarray(js.up_unsupported, np.int8)
+                                   + 2 * np.asarray(js.down_unsupported, np.int8))}
     for name, (units, long_name) in JUMP_VARIABLES.items():
         out[name] = xr.DataArray(np.asarray(values[name]), dims=other, coords=coords,
                                  attrs={"units": units, "long_name": long_name})
