@@ -236,8 +236,7 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     hysteresis_width = si_array(hysteresis_width, "speed", "hysteresis_width")
     unjudged = np.isnan(hysteresis_width)  # (jump_unsupported: the sweeps cannot say)
     vmax = max(float(np.nanmax(hysteresis_width)) if not unjudged.all() else 0.0, 1.0)
-    cmap = matplotlib.colormaps["viridis"].copy()
-    cmap.set_bad("0.6")
+    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="0.6")
     opened = (np.zeros(np.shape(hysteresis_width), bool) if hysteresis_open is None
               else np.asarray(hysteresis_open) > 0)
     for ax, axh, bl, frac, width, op in zip(axes, axes_hyst, backlash, rattle_fraction,
