@@ -411,6 +411,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             except StudyError as exc:
                 raise _in_file(exc, text, args.study) from None
             write_netcdf(ds, out, codec=args.codec)
+        for key in sorted(k for k in ds.attrs if k.endswith("_note")):  # (what is NaN, why)
+            print(f"gearsweep: note: {name}: {ds.attrs[key]}", file=sys.stderr)
         if not args.quiet:
             print(f"{out}: {study.type} study in {time.perf_counter() - t0:.2f} s")
         return 0

@@ -482,3 +482,38 @@ def test_run_names_every_input_it_lacks_where_it_looks(tmp_path):
         f"{tmp_path}: no r4.nc, g1.nc, nomesh.nc; analysis 'rattle_budget' reads them from the"
         " folder of its output: run the studies that make them there first (gearsweep run"
         f" r4.yaml -o {tmp_path / 'r4.nc'})")
+
+
+def test_rattle_balance_keeps_the_rest_where_harmonic_balance_does_not_converge(tmp_path,
+                                                                               capsys):
+    """An outside engineer's idle-stage scene (31 teeth, 0.22 kg, c = 0.81 N s/mm, backlash
+    0.1 mm, 2 N m, a 10 N m torque fluctuation at order 2/31, up and down from 600 rpm) made
+    rattle_balance end in 'RuntimeError: harmonic balance did not converge at omega = 125.664
+    rad/s', a traceback, exit 1, after validate said ok. Now the AFT branch, its turning points
+    and the flip speed are NaN, the integration and Eq. (15) are kept, and one note says so."""
+    import xarray as xr
+
+    from gearsweep.cli import main
+
+    scene = ("title: idle\nscene:\n  kind: rattle\n  mass: 0.22 kg\n  teeth: 31\n"
+             "  stiffness: 300 kN/mm\n  damping: 0.81 N s/mm\n  backlash: 0.1 mm\n"
+             "  torque: 2 N m\n  base_radius: 36.41 mm\n"
+             "  fluctuation:\n    - {amplitude: 10 N m, order: 2/31}\n"
+             "sweep:\n  speed: {start: 600 rpm, stop: 900 rpm, num: 4}\n"
+             "continuation: [up, down]\n"
+             "solver: {method: rk4, steps_per_period: 64, transient_periods: 62,"
+             " record_periods: 62}\n")
+    (tmp_path / "idle.yaml").write_text(scene, encoding="utf-8")
+    assert main(["run", str(tmp_path / "idle.yaml"), "-o", str(tmp_path / "idle.nc"), "-q"]) == 0
+    study = tmp_path / "rb.yaml"
+    study.write_text("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: idle}\n",
+                     encoding="utf-8")
+    capsys.readouterr()
+    assert main(["run", str(study), "-o", str(tmp_path / "rb.nc"), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "did not converge at the lowest speed, 600 rpm" in err, err
+    ds = xr.load_dataset(tmp_path / "rb.nc")
+    assert ds["aft_amplitude"].isnull().all() and np.isnan(float(ds["flip_speed"]))
+    assert ds["turning_point"].sel(curve="aft").isnull().all()
+    assert np.isfinite(ds["amplitude"].values).any() and ds["eq15_root"].notnull().any()
+    assert "did not converge" in ds.attrs["aft_note"]

@@ -364,15 +364,26 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     system = hb.MeshSystem(mass=m, stiffness=k, damping=c, half_gap=b, force_mean=fm,
                            force_harmonics=(f0,))
     t0 = time.perf_counter()
-    aft = hb.aft_continuation(system, speed[0] * w_per_rpm, speed[-1] * w_per_rpm,
-                              harmonics=o.harmonics, n_time=o.n_time)
+    aft_note = ""
+    try:
+        aft = hb.aft_continuation(system, speed[0] * w_per_rpm, speed[-1] * w_per_rpm,
+                                  harmonics=o.harmonics, n_time=o.n_time)
+    except RuntimeError:  # Newton found no solution at the first speed (a traceback, exit 1)
+        nan = np.full(1, np.nan)
+        aft = hb.HBBranch(omega=nan, coefficients=np.full((1, 2 * o.harmonics + 1), np.nan),
+                          p_max=nan, p_min=nan, multiplier=nan, stable=np.zeros(1, bool),
+                          ended="no_start")
+        aft_note = (f"harmonic balance ({o.harmonics} harmonics, n_time {o.n_time}) did not"
+                    f" converge at the lowest speed, {speed[0]:g} rpm: the AFT branch, its"
+                    " turning points and the flip speed are NaN; the integration, the describing"
+                    " function and Eq. (15) are kept; try other harmonics or n_time")
     t_aft = time.perf_counter() - t0
-    if not aft.complete:  # the flip and the turning points would be those of part of the branch
-        why = ("after its most points" if aft.ended == "max_points"
+    if not aft.complete and not aft_note:  # its flip and turning points would be those of part
+        why = ("after its most points" if aft.ended == "max_points"  # of the branch: NaN
                else "its corrector failed at the smallest step")
-        raise ResultError(f"{o.result}: the harmonic-balance branch stopped at"
-                          f" {aft.omega[-1] / w_per_rpm:.0f} rpm of {speed[0]:.0f}-{speed[-1]:.0f}"
-                          f" rpm ({why}); try other harmonics or n_time")
+        aft_note = (f"the harmonic-balance branch stopped at {aft.omega[-1] / w_per_rpm:.0f} rpm"
+                    f" of {speed[0]:.0f}-{speed[-1]:.0f} rpm ({why}): its points are kept, its"
+                    " turning points and the flip speed are NaN; try other harmonics or n_time")
     js = jump_summary(ds)
     up_jump, down_jump = float(js.jump_up_speed), float(js.jump_down_speed)
     # the paper's (o): Eq. (15), undamped, no mean force, every root, on a grid of speeds
@@ -386,13 +397,13 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     # where the lower branch loses period-1 stability (a multiplier through -1)
     turns = np.nonzero(np.diff(np.sign(np.diff(aft.omega))))[0] + 1
     flip = np.nan
-    if turns.size == 2:
+    if turns.size == 2 and aft.complete:
         after = np.nonzero(~aft.stable[turns[1] + 2:])[0]
         if after.size:
             flip = aft.omega[turns[1] + 2 + after[0]] / w_per_rpm
     curves = {"df": df, "df0": df0, "aft": aft}
     tps = {n: np.sort(hb.turning_points(cv.omega, cv.amplitude)) / w_per_rpm
-           for n, cv in curves.items()}
+           if n != "aft" or aft.complete else np.zeros(0) for n, cv in curves.items()}
     width = max(1, max(t.size for t in tps.values()))
     tp = np.array([np.r_[t, np.full(width - t.size, np.nan)] for t in tps.values()])
     loss = _settled(ds["contact_loss_fraction"], ds).transpose("direction", "speed")
@@ -530,8 +541,10 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "speed": dict(ds["speed"].attrs),
     }
     settings = {"balanced_title": ds.attrs.get("title", o.result), "aft_seconds": round(t_aft, 1),
-                "aft_points": int(aft.omega.size), "aft_harmonics": o.harmonics,
+                "aft_points": int(np.isfinite(aft.omega).sum()), "aft_harmonics": o.harmonics,
                 "aft_ended": aft.ended}
+    if aft_note:
+        settings["aft_note"] = aft_note
     return data, coords, attrs, settings
 
 
