@@ -23,11 +23,10 @@ from gearsweep.units import from_display
 
 
 def fig8(bal, figures):
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 8), sharex=True,
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(11, 8), sharex=True, layout="constrained",
                                   gridspec_kw={"height_ratios": [3, 1.2]})
-    rplot.plot_rattle_balance(ax, bal)
+    rplot.plot_rattle_balance(ax, bal)  # (legends and the Eq. (15) box beside the axes)
     rplot.plot_rattle_contact(ax2, bal)
-    fig.tight_layout()
     print(save(fig, figures / "fig08_rattle.png"))
     tp = bal["turning_point"]
 
@@ -135,9 +134,8 @@ def fig8_out_of_sample(ds8, results, budget, figures):
 
 
 def fig9(bal, figures):
-    fig, ax = plt.subplots(figsize=(7, 5.5))
-    rplot.plot_rattle_graphical(ax, bal, p_range=0.75e-3)
-    fig.tight_layout()
+    fig, ax = plt.subplots(figsize=(9.5, 5.5), layout="constrained")  # (its legend beside
+    rplot.plot_rattle_graphical(ax, bal, p_range=0.75e-3)  # the axes)
     print(save(fig, figures / "fig09_graphical.png"))
 
 

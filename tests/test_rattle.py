@@ -778,3 +778,51 @@ def test_fig8_labels_its_backlash_line_inside_the_axes():
     assert frame.x0 <= box.x0 < box.x1 <= frame.x1
     assert frame.y0 <= box.y0 < box.y1 <= frame.y1
     plt.close(fig)
+
+
+def test_rattle_balance_plots_of_a_users_scene_say_what_its_result_says(tmp_path):
+    """An outside engineer's scene (F0 = 20 kN > k b = 15 kN: Eq. (15) has one root at every
+    speed; no jump) drawn by the rattle_balance plots said 'FITTED: F0 = 20 kN', 'F0 = 20 kN
+    as fitted for Fig. 8', '3 roots between 13135 and 11375 rpm' (reversed, and false), and
+    'integration nan', 'median nan%', 'apart nan%-nan%'. Now 'fitted' only where the study
+    says so (fitted: true), the root count from Eq. (15)'s own roots, no NaN text, and the
+    legends beside the axes (they covered the data)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gearsweep.cli import main
+    from gearsweep.plot import rattle as pr
+    from gearsweep.study.analyses import run_analysis_study
+    from gearsweep.study.schema import parse_study
+
+    scene = ("title: user\nscene:\n  kind: rattle\n  mass: 0.22 kg\n  teeth: 31\n"
+             "  stiffness: 300 kN/mm\n  damping: 4 N s/mm\n  backlash: 0.1 mm\n"
+             "  torque: 2 N m\n  base_radius: 36.41 mm\n"
+             "  fluctuation: [{amplitude: 20 kN, order: 1}]\n"
+             "sweep:\n  speed: {start: 5000 rpm, stop: 14000 rpm, num: 10}\n"
+             "continuation: [up, down]\n"
+             "solver: {steps_per_period: 64, transient_periods: 40, record_periods: 10}\n")
+    (tmp_path / "user.yaml").write_text(scene, encoding="utf-8")
+    assert main(["run", str(tmp_path / "user.yaml"), "-o", str(tmp_path / "user.nc"), "-q"]) == 0
+    texts = {}
+    for fitted in (False, True):
+        text = ("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: user,"
+                f" harmonics: 5, n_time: 64, fitted: {str(fitted).lower()}}}\n")
+        ds = run_analysis_study(parse_study(text), text, tmp_path)
+        assert np.isnan(float(ds.eq15_rise_speed)) and np.isnan(float(ds.eq15_drop_speed))
+        out = []
+        for f in (pr.plot_rattle_balance, pr.plot_rattle_contact, pr.plot_rattle_graphical):
+            fig, ax = plt.subplots()
+            f(ax, ds)
+            out += [ax.get_title()] + [t.get_text() for t in ax.texts + ax.figure.texts]
+            legend = ax.get_legend()
+            if legend is not None:  # beside the axes, not on them
+                assert legend.get_bbox_to_anchor().x0 >= ax.get_window_extent().x1
+            plt.close(fig)
+        texts[fitted] = " ".join(" ".join(out).split())  # (titles are wrapped)
+    user, paper = texts[False], texts[True]
+    assert "nan" not in user.lower() and "fitted" not in user.lower(), user
+    assert "1 root at every speed from 5000 to 14000 rpm" in user and "3 roots" not in user
+    assert "FITTED: F0 = 20 kN" in paper and "as fitted for Fig. 8" in paper

@@ -98,7 +98,8 @@ def plot_fig8(ax: Axes, speed, amp_up, amp_down, *, half_gap: float,
                 xytext=(4, 3), textcoords="offset points", fontsize=8, color="0.4")
     ax.set_xlabel(speed_label)
     ax.set_ylabel("amplitude of p, (p_max - p_min)/2 [mm]")
-    ax.legend(fontsize=7.5, loc="lower left")
+    # beside the axes, not on the data or the backlash / 2 label (it covered both)
+    ax.legend(fontsize=7.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
     return ax.figure
 
@@ -123,7 +124,7 @@ def plot_contact(ax: Axes, speed, loss_up, loss_down, back_up, back_down, *,
     ax.set_ylabel("fraction of time [1]")
     ax.set_xlabel(speed_label)
     ax.set_ylim(-0.02, 1.02)
-    ax.legend(fontsize=7, ncol=2, loc="lower right", bbox_to_anchor=(1.0, 0.1))
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
     return ax.figure
 
@@ -173,7 +174,7 @@ def plot_fig9(ax: Axes, *, stiffness: float, mass: float, force_amp: float, half
     ax.set_ylabel("force [kN]")
     top = stiffness * (p_range - half_gap) / 1e3
     ax.set_ylim(-1.1 * top, 1.1 * top)
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     ax.grid(alpha=0.3)
     return ax.figure
 
@@ -306,24 +307,54 @@ def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float = 0.6,
                                  if int(ds.get("no_period", -1)) >= 0 else ")"),
                     (flip, float(ds.flip_amplitude) * MM), xytext=note_at,
                     fontsize=7.5, arrowprops={"arrowstyle": "->", "color": "0.3"})
-    ax.text(0.99, 0.99, "Eq. (15) against the integration:\n"
-            f"run-down rise {float(ds.eq15_rise_speed):.0f} rpm (integration"
-            f" {float(ds.jump_down_speed):.0f})\n"
-            f"run-up drop {float(ds.eq15_drop_speed):.0f} rpm (integration"
-            f" {float(ds.jump_up_speed):.0f})\n"
-            f"amplitude, rattling branch: median {float(ds.eq15_distance_rattling_median):.1%},"
-            f" max {float(ds.eq15_distance_rattling_max):.1%}\n"
-            f"amplitude, free-flight branch: median"
-            f" {float(ds.eq15_distance_free_flight_median):.1%}",
-            transform=ax.transAxes, ha="right", va="top", fontsize=7.5,
-            bbox={"fc": "white", "ec": "0.7", "alpha": 0.9})
+    lines = _eq15_lines(ds)
+    if lines:  # beside the axes, below the legend (on the axes it covered Eq. (15)'s points)
+        ax.text(1.01, 0.0, "Eq. (15) against the integration:\n" + "\n".join(lines),
+                transform=ax.transAxes, ha="left", va="bottom", fontsize=7.5,
+                bbox={"fc": "white", "ec": "0.7", "alpha": 0.9})
     k, m, c = float(ds.stiffness), float(ds.mass), float(ds.damping)
-    ax.set_title(f"{ds.attrs['balanced_title']}\nk = {k / 1e6:g} kN/mm, m_eq = "
-                 f"{m:g} kg, backlash {float(ds.backlash) * 1e3:.4g} mm (line of action);"
-                 f" FITTED: F0 = {float(ds.force_amplitude) / 1e3:g} kN at mesh order"
-                 f" {float(ds.force_order):g},\nc = {c / 1e3:g} N s/mm (ζ = {float(ds.zeta):.3f});"
-                 f" F_m = {float(ds.mean_force):.0f} N", fontsize=8.5)
+    fitted = "FITTED: " if _fitted(ds) else ""
+    title = (f"{ds.attrs['balanced_title']}\nk = {k / 1e6:g} kN/mm, m_eq = "
+             f"{m:g} kg, backlash {float(ds.backlash) * 1e3:.4g} mm (line of action);"
+             f" {fitted}F0 = {float(ds.force_amplitude) / 1e3:g} kN at mesh order"
+             f" {float(ds.force_order):g}, c = {c / 1e3:g} N s/mm (ζ = {float(ds.zeta):.3f});"
+             f" F_m = {float(ds.mean_force):.0f} N")
+    ax.set_title("\n".join(textwrap.fill(t, 62) for t in title.split("\n")), fontsize=8.5)
+    # (wrapped: beside the legend the axes are narrower, and a fixed line was clipped)
     return ax.figure
+
+
+def _fitted(ds: xr.Dataset) -> bool:
+    """Does the ``rattle_balance`` result say its force is a fit (its study's ``fitted``)?"""
+    return bool(int(ds.attrs.get("force_fitted", 0)))
+
+
+def _eq15_lines(ds: xr.Dataset) -> list[str]:
+    """The lines of Eq. (15) against the integration that the result has numbers for (a NaN,
+    e.g. no jump or no three-root band, leaves its part out: it printed 'integration nan')."""
+    def f(name: str) -> float:
+        return float(ds[name])
+
+    def pair(what: str, eq: str, jump: str) -> str | None:
+        a, b = f(eq), f(jump)
+        if np.isfinite(a) and np.isfinite(b):
+            return f"{what} {a:.0f} rpm (integration {b:.0f})"
+        if np.isfinite(a):
+            return f"{what} {a:.0f} rpm (the integration has no such jump)"
+        if np.isfinite(b):
+            return f"integration's {what} at {b:.0f} rpm (Eq. (15) has none: F0 >= k b)"
+        return None
+
+    out = [pair("run-down rise", "eq15_rise_speed", "jump_down_speed"),
+           pair("run-up drop", "eq15_drop_speed", "jump_up_speed")]
+    med, top = f("eq15_distance_rattling_median"), f("eq15_distance_rattling_max")
+    if np.isfinite(med):
+        out.append(f"amplitude, rattling branch: median {med:.1%}"
+                   + (f", max {top:.1%}" if np.isfinite(top) else ""))
+    free = f("eq15_distance_free_flight_median")
+    if np.isfinite(free):
+        out.append(f"amplitude, free-flight branch: median {free:.1%}")
+    return [line for line in out if line]
 
 
 def plot_rattle_contact(ax: Axes, ds: xr.Dataset) -> Figure:
@@ -336,10 +367,11 @@ def plot_rattle_contact(ax: Axes, ds: xr.Dataset) -> Figure:
     plot_contact(ax, ds["speed"].values, loss.sel(direction="up"), loss.sel(direction="down"),
                  back.sel(direction="up"), back.sel(direction="down"),
                  speed_label=_speed_label(ds["speed"]))
-    ax.annotate(f"above the run-up drop: apart {float(ds.contact_loss_above_drop_min):.0%}-"
-                f"{float(ds.contact_loss_above_drop_max):.0%} of the time\n(free flight,"
-                " drive-flank impacts only)", (0.72, 0.55), xycoords="axes fraction",
-                fontsize=7.5, ha="center")
+    lo, hi = float(ds.contact_loss_above_drop_min), float(ds.contact_loss_above_drop_max)
+    if np.isfinite(lo) and np.isfinite(hi):  # (no run-up drop: it printed 'apart nan%-nan%')
+        ax.annotate(f"above the run-up drop: apart {lo:.0%}-{hi:.0%} of the time\n(free"
+                    " flight, drive-flank impacts only)", (0.72, 0.55),
+                    xycoords="axes fraction", fontsize=7.5, ha="center")
     return ax.figure
 
 
@@ -357,11 +389,25 @@ def plot_rattle_graphical(ax: Axes, ds: xr.Dataset, *, p_range: float = 0.75e-3)
               omegas=speeds * per_rpm, labels=labels, roots=roots, p_range=p_range)
     counts = np.isfinite(roots).sum(axis=1)
     shaft = ds["speed"].attrs.get("gear", "driving gear")
-    title = ("Fig. 9: Eq. (15), k f(p0) = F0 + m ω² p0 (undamped; F0 = "
-             f"{f0 / 1e3:g} kN as fitted for Fig. 8, b = {b * 1e3:.4g} mm); intersections "
-             f"A: {counts[0]}, B: {counts[1]}, C: {counts[2]} (3 roots between "
-             f"{float(ds.eq15_rise_speed):.0f} and {float(ds.eq15_drop_speed):.0f} rpm of"
-             f" the {shaft})")
+    # where Eq. (15) has three roots, counted on its own grid (the title took the paper's
+    # w_t < w_n for granted: "3 roots between 13135 and 11375 rpm" where it has one everywhere)
+    grid, n15 = ds["eq15_speed"].values, np.isfinite(ds["eq15_root"].values).sum(axis=1)
+    three = grid[n15 >= 3]
+    rise, drop = float(ds.eq15_rise_speed), float(ds.eq15_drop_speed)
+    if np.isfinite(rise) and np.isfinite(drop) and rise < drop:  # w_t < w < w_n: F0 < k b
+        band = f"3 roots between {rise:.0f} and {drop:.0f} rpm of the {shaft}"
+    elif three.size:
+        band = (f"3 roots between {three.min():.0f} and {three.max():.0f} rpm of the {shaft}"
+                + ("" if three.size == np.ptp(np.nonzero(n15 >= 3)[0]) + 1 else
+                   f", at {three.size} of the grid's speeds there"))
+    else:
+        band = (f"1 root at every speed from {grid[0]:.0f} to {grid[-1]:.0f} rpm of the {shaft}"
+                + (": F0 > k b" if f0 > float(ds.stiffness) * b else ""))
+    fit = " as fitted for Fig. 8" if _fitted(ds) else ""
+    title = (("Fig. 9: " if fit else "The graphical solution of ")  # (the paper's figure
+             + "Eq. (15), k f(p0) = F0 + m ω² p0 (undamped; F0 = "  # only where it is its fit)
+             f"{f0 / 1e3:g} kN{fit}, b = {b * 1e3:.4g} mm); intersections "
+             f"A: {counts[0]}, B: {counts[1]}, C: {counts[2]} ({band})")
     ax.set_title(textwrap.fill(title, 80), fontsize=9)  # (two fixed lines were clipped on
     # both sides at matplotlib's default figure size; an API test)
     return ax.figure

@@ -439,7 +439,10 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "jump_up_speed": ((), up_jump), "jump_down_speed": ((), down_jump),
         "jump_up_size": ((), float(js.jump_up_size)),
         "jump_down_size": ((), float(js.jump_down_size)),
-        "eq15_rise_speed": ((), dist["up"].rise_eq15), "eq15_drop_speed": ((), dist["up"].drop_eq15),
+        # Eq. (15) has three roots between w_t and w_n only where F0 < k b (the paper's order);
+        # otherwise one root at every speed: no rise or drop of its to compare
+        "eq15_rise_speed": ((), dist["up"].rise_eq15 if f0 < k * b else np.nan),
+        "eq15_drop_speed": ((), dist["up"].drop_eq15 if f0 < k * b else np.nan),
         "eq15_distance_rattling_median": ((), _stat(np.median, upper)),
         "eq15_distance_rattling_max": ((), _stat(np.max, upper)),
         "eq15_distance_free_flight_median": ((), _stat(np.median, lower)),
@@ -503,9 +506,10 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "jump_down_speed": {**rpm, "long_name": "integration: run-down jump"},
         "jump_up_size": {"units": "1", "long_name": "relative size of the run-up jump"},
         "jump_down_size": {"units": "1", "long_name": "relative size of the run-down jump"},
-        "eq15_rise_speed": {**rpm, "long_name": "Eq. (15): its gap root appears (run-down rise)"},
+        "eq15_rise_speed": {**rpm, "long_name": "Eq. (15): its gap root appears (run-down rise;"
+                            " NaN: F0 >= k b, one root at every speed)"},
         "eq15_drop_speed": {**rpm, "long_name": "Eq. (15): its in-phase root leaves to infinity"
-                            " (linear resonance, run-up drop)"},
+                            " (linear resonance, run-up drop; NaN: F0 >= k b)"},
         "eq15_distance_rattling_median": {"units": "1", "long_name": "eq15_distance, run-up,"
                                           " below the run-down jump: median"},
         "eq15_distance_rattling_max": {"units": "1", "long_name": "eq15_distance, run-up, below"
@@ -542,7 +546,7 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
     }
     settings = {"balanced_title": ds.attrs.get("title", o.result), "aft_seconds": round(t_aft, 1),
                 "aft_points": int(np.isfinite(aft.omega).sum()), "aft_harmonics": o.harmonics,
-                "aft_ended": aft.ended}
+                "aft_ended": aft.ended, "force_fitted": int(o.fitted)}
     if aft_note:
         settings["aft_note"] = aft_note
     return data, coords, attrs, settings
