@@ -572,6 +572,33 @@ def test_a_step_without_settled_points_of_both_branches_is_no_jump():
     assert np.isnan(jp.down_speed) and jp.down_unsupported and np.isnan(jp.width)
 
 
+def test_a_jump_beside_a_steep_branch_or_an_outlier_beyond_it_keeps_its_support():
+    """Support is a chain of settled points from the step outwards, each within the threshold
+    of the one before: a steep smooth branch (23% steps) beside the jump is a branch, and an
+    outlier two points beyond the step does not take its support away (the paper-k Table 1
+    scene at c = 0.492 N s/mm: 3.16, 3.00, then 13.2 um below its run-up jump)."""
+    speed = np.arange(7.0)
+    down = np.full(7, 20.0)
+    up = np.array([0.5, 0.65, 0.85, 1.1, 20.0, 20.0, 20.0])
+    jp = jumps.find_jumps(speed, up, down)
+    assert jp.up_speed == 3.5 and not jp.up_unsupported
+    up = np.array([3.0, 13.2, 3.0, 3.16, 20.9, 19.7, 19.7])
+    jp = jumps.find_jumps(speed, up, down)
+    assert jp.up_speed == 3.5 and not jp.up_unsupported
+
+
+def test_a_jump_across_unsettled_speeds_larger_than_one_between_neighbours_is_the_jump():
+    """The run-up of that scene: supported 28% and 38% steps between neighbours in a scatter, and
+    its real jump, 3.2 -> 20.9 um, across two unsettled speeds: the larger, supported, is the
+    jump, at the midpoint of its settled neighbours."""
+    speed = np.arange(10.0)
+    up = np.array([3.8, 3.9, 5.4, 5.3, 3.3, 3.2, 14.8, 14.0, 20.9, 19.7])
+    settled = np.array([1, 1, 1, 1, 1, 1, 0, 0, 1, 1], bool)
+    down = np.full(10, 25.0)
+    jp = jumps.find_jumps(speed, up, down, settled_up=settled)
+    assert jp.up_speed == 6.5 and jp.up_size == pytest.approx((20.9 - 3.2) / 20.9)
+
+
 def test_jump_map_marks_a_sweep_whose_jumps_cannot_be_judged():
     """jump_summary and jump_map of the sweep above: no jump speeds, band NaN,
     jump_unsupported 3 (both sweeps), and jump_map's settings say so in one note."""

@@ -25,32 +25,32 @@ run-up reached, and jumps within the range while the run-up never does), the loo
 beyond the sweep: the band ends at the last speed where both are known, and it is *open* there
 (``open_low`` / ``open_high``; its width is a lower bound).
 
-A sweep with no such step between neighbours is searched once more with the speeds where it
-did not settle left out (``settled_up`` / ``settled_down`` False): a drop spread over two grid
-steps by a transient caught between them (each step under the threshold, the whole drop over
-it) is then one jump, at the midpoint of its settled neighbours. Only then: a sweep that did
-not settle may also be on another branch in a motion that does not repeat (the speed where it
-left its branch is the first step), and whether the two sweeps differ is judged on every
-finite amplitude. A NaN amplitude (a diverged case) is no point of either sweep. All functions
-take the speed along the last axis and broadcast over any leading axes (sweeps of a parameter
-study).
+Each sweep is also searched with the speeds where it did not settle left out (``settled_up`` /
+``settled_down`` False): a drop spread over two grid steps by a transient caught between them
+(each step under the threshold, the whole drop over it) is then one jump, at the midpoint of
+its settled neighbours. Whether the two sweeps differ is judged on every finite amplitude. A
+NaN amplitude (a diverged case) is no point of either sweep. All functions take the speed
+along the last axis and broadcast over any leading axes (sweeps of a parameter study).
 
 Support
 -------
 A step that meets 1 and 2 is a jump only where both branches it joins are seen: on each side,
-among the end of the step and the two grid points beyond it (``SUPPORT_WINDOW``), at least two
-settled points (where the sweep's end leaves fewer grid points there, every one of them settled)
-that agree with each other within ``threshold``, and the mean of one side's differs from the
-other's by more than ``threshold``. A jump to or from one isolated point, or between speeds
-where the motion does not settle (a chaotic response, whose amplitude scatters from speed to
-speed by more than the threshold), is no jump: an outside engineer's run-down "jump" at one
-settled point of a sweep 85% of whose case-speeds did not settle (7.9 um between 17.5 and 19 um,
-period 1 there, chaotic by scipy) made a hysteresis band of 515 rpm that moved with the step
-size. The largest supported step is the sweep's jump; where steps meet 1 and 2 but none is
-supported, the sweep has no jump and is marked *unsupported* (``up_unsupported`` /
-``down_unsupported``): whether it jumps cannot be judged from the sweep, and neither can the
-hysteresis band (NaN, width NaN). The Fig. 8 sweeps' jumps have three settled points on each
-side.
+among the end of the step and the two grid points beyond it (``SUPPORT_WINDOW``), a chain of at
+least two settled points, from the one nearest the step outwards, each within ``threshold`` of
+the one before (a steep smooth branch is one; where the sweep's end leaves fewer grid points
+there, every one of them settled and chained), and the two sides' nearest settled points more
+than ``threshold`` apart. A jump to or from one isolated point, or between speeds where the
+motion does not settle (a chaotic response, whose amplitude scatters from speed to speed by
+more than the threshold), is no jump: an outside engineer's run-down "jump" at one settled
+point of a sweep 85% of whose case-speeds did not settle (7.9 um between 17.5 and 19 um, period
+1 there, chaotic by scipy) made a hysteresis band of 515 rpm that moved with the step size.
+
+The sweep's jump is its largest supported step, between neighbours or across unsettled speeds;
+one across unsettled speeds that holds a supported step between neighbours is located by that
+step (the finer: the Fig. 8 run-up drop, 8,030 rpm, across one unsettled speed). Where steps
+meet 1 and 2 but none is supported, the sweep has no jump and is marked *unsupported*
+(``up_unsupported`` / ``down_unsupported``): whether it jumps cannot be judged from the sweep,
+and neither can the hysteresis band (NaN, width NaN).
 """
 
 from __future__ import annotations
@@ -125,22 +125,31 @@ class JumpSummary:
 
 
 def _side(settled_amp, idx, threshold):
-    """Per step, the mean of one side's settled amplitudes and whether that side shows a branch
-    (module docstring, Support): ``idx`` (k, ..., n) the grid indices of the side's points for
-    each step (out of range: no grid point)."""
+    """Per step, one side's settled amplitude nearest the step and whether that side shows a
+    branch (module docstring, Support): ``idx`` (k, ..., n) the grid indices of the side's
+    points for each step, nearest first (out of range: no grid point). The branch is the chain
+    of settled points from the nearest outwards, each within ``threshold`` of the one before
+    (a steep smooth branch is one; an isolated point or a scatter is not)."""
     n = settled_amp.shape[-1]
     inside = (idx >= 0) & (idx < n)
-    vals = np.stack([np.where(ok, np.take_along_axis(settled_amp, np.clip(i, 0, n - 1), axis=-1),
-                              np.nan) for i, ok in zip(idx, inside, strict=True)])
-    known = np.isfinite(vals)
-    count, need = known.sum(axis=0), np.minimum(2, inside.sum(axis=0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        hi = np.max(np.where(known, np.abs(vals), -np.inf), axis=0)
-        lo = np.min(np.where(known, np.abs(vals), np.inf), axis=0)
-        agree = (hi - lo) <= threshold * hi
-        mean = np.where(count > 0, np.nansum(np.where(known, vals, 0.0), axis=0)
-                        / np.maximum(count, 1), np.nan)
-    return mean, (count >= need) & (count > 0) & agree
+    nearest = np.full(idx.shape[1:], np.nan)
+    last = nearest.copy()
+    count = np.zeros(idx.shape[1:], int)
+    alive = np.ones(idx.shape[1:], bool)
+    for i, ok in zip(idx, inside, strict=True):
+        v = np.where(ok, np.take_along_axis(settled_amp, np.clip(i, 0, n - 1), axis=-1), np.nan)
+        known = np.isfinite(v)
+        first = known & np.isnan(last)
+        with np.errstate(invalid="ignore"):
+            agrees = known & ~first & (np.abs(v - last)
+                                       <= threshold * np.maximum(np.abs(v), np.abs(last)))
+        step = alive & (first | agrees)
+        count += step
+        alive &= ~(known & ~first & ~agrees)
+        nearest = np.where(first, v, nearest)
+        last = np.where(step, v, last)
+    need = np.minimum(2, inside.sum(axis=0))
+    return nearest, (count >= need) & (count > 0)
 
 
 def _supported(settled_amp, prev, threshold):
@@ -156,22 +165,16 @@ def _supported(settled_amp, prev, threshold):
     return low_ok & high_ok & apart & (prev >= 0)
 
 
-def _largest_jump(speed, steps, prev, differs, threshold, support=None):
-    """Speed and size of the largest qualifying step (``_known_steps``) along the last axis
-    (with ``support``: of the largest supported one), and whether any step qualified."""
+def _scores(steps, prev, differs, threshold, support):
+    """Per step (``_known_steps``): ``|step|`` where it meets the criterion and is supported,
+    else -1; and whether any step meets the criterion, supported or not."""
     two_valued = differs | np.take_along_axis(differs, np.maximum(prev, 0), axis=-1)
     ok = (np.abs(np.nan_to_num(steps)) > threshold) & two_valued & (prev >= 0)
-    any_ok = ok.any(axis=-1)
-    if support is not None:
-        ok = ok & support
-    score = np.where(ok, np.abs(np.nan_to_num(steps)), -1.0)
-    i = np.argmax(score, axis=-1)[..., None]
-    found = np.take_along_axis(score, i, axis=-1)[..., 0] > 0
-    at = 0.5 * (np.take_along_axis(speed, i, axis=-1)
-                + np.take_along_axis(speed, np.take_along_axis(np.maximum(prev, 0), i, axis=-1),
-                                     axis=-1))[..., 0]
-    size = np.take_along_axis(steps, i, axis=-1)[..., 0]
-    return np.where(found, at, np.nan), np.where(found, size, np.nan), any_ok
+    return np.where(ok & support, np.abs(np.nan_to_num(steps)), -1.0), ok.any(axis=-1)
+
+
+def _take(a, i):
+    return np.take_along_axis(a, i[..., None], axis=-1)[..., 0]
 
 
 def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25, settled_up=True,
@@ -202,18 +205,31 @@ def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25, settled_up=True
     differs = both & (rel > threshold)
 
     def largest(a, settled, sign):
-        """The sweep's largest jump between neighbours; where it has none, across the speeds
-        where it did not settle (``sign`` -1: the run-down, measured towards lower speeds)."""
+        """The sweep's largest supported jump, between neighbours or across the speeds where it
+        did not settle, whichever is larger; a jump across unsettled speeds that holds a
+        supported jump between neighbours is located by that one (the finer). ``sign`` -1: the
+        run-down, measured towards lower speeds."""
         kept = np.where(settled, a, np.nan)
-        step, prev = _known_steps(a)
-        at, size, seen = _largest_jump(s, sign * step, prev, differs, threshold,
-                                       _supported(kept, prev, threshold))
-        step, prev = _known_steps(kept)
-        at2, size2, seen2 = _largest_jump(s, sign * step, prev, differs, threshold,
-                                          _supported(kept, prev, threshold))
-        none = np.isnan(at)
-        at, size = np.where(none, at2, at), np.where(none, size2, size)
-        return at, size, np.isnan(at) & (seen | seen2)
+        step1, prev1 = _known_steps(a)
+        step1 = sign * step1
+        sc1, seen1 = _scores(step1, prev1, differs, threshold, _supported(kept, prev1, threshold))
+        step2, prev2 = _known_steps(kept)
+        step2 = sign * step2
+        sc2, seen2 = _scores(step2, prev2, differs, threshold, _supported(kept, prev2, threshold))
+        i1, i2 = np.argmax(sc1, axis=-1), np.argmax(sc2, axis=-1)
+        best1, best2 = _take(sc1, i1), _take(sc2, i2)
+        idx = np.arange(a.shape[-1])
+        within = ((idx <= i2[..., None]) & (prev1 >= _take(prev2, i2)[..., None]) & (sc1 > 0))
+        sc_in = np.where(within, sc1, -1.0)
+        j = np.argmax(sc_in, axis=-1)
+        across = (best2 > best1) & ~(_take(sc_in, j) > 0)  # the jump across unsettled speeds
+        i = np.where(across, i2, np.where(best2 > best1, j, i1))
+        prev = np.where(across, _take(prev2, i2), _take(prev1, i))
+        size = np.where(across, _take(step2, i2), _take(step1, i))
+        found = np.maximum(best1, best2) > 0
+        at = 0.5 * (_take(s, i) + _take(s, np.maximum(prev, 0)))
+        return (np.where(found, at, np.nan), np.where(found, size, np.nan),
+                ~found & (seen1 | seen2))
 
     settled_up, settled_down = (np.broadcast_to(np.asarray(x, bool), up.shape)
                                 for x in (settled_up, settled_down))
