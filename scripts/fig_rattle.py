@@ -25,7 +25,7 @@ from gearsweep.units import from_display
 def fig8(bal, figures):
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(11, 8), sharex=True, layout="constrained",
                                   gridspec_kw={"height_ratios": [3, 1.2]})
-    rplot.plot_rattle_balance(ax, bal)  # (legends and the Eq. (15) box beside the axes)
+    rplot.plot_rattle_balance(ax, bal, ymax=0.6)  # (legends and the Eq. (15) box beside the axes)
     rplot.plot_rattle_contact(ax2, bal)
     print(save(fig, figures / "fig08_rattle.png"))
     tp = bal["turning_point"]

@@ -517,3 +517,18 @@ def test_rattle_balance_keeps_the_rest_where_harmonic_balance_does_not_converge(
     assert ds["turning_point"].sel(curve="aft").isnull().all()
     assert np.isfinite(ds["amplitude"].values).any() and ds["eq15_root"].notnull().any()
     assert "did not converge" in ds.attrs["aft_note"]
+    # its plot: no legend entry for the branch that is not there, and axes that show the
+    # response (0.6 mm, Fig. 8's top, left a 0.05 mm response on the floor)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gearsweep.plot.rattle import plot_rattle_balance
+
+    fig, ax = plt.subplots()
+    plot_rattle_balance(ax, ds)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert not any("AFT" in t for t in labels), labels
+    assert ax.get_ylim()[1] < 2.0 * float(ds["amplitude"].max()) / 1e3  # um -> mm
+    plt.close(fig)

@@ -43,6 +43,8 @@ def plot_branch(ax: Axes, speed, amplitude, stable, *, color: str, label: str,
     speed = si_array(speed, "speed", "speed")
     amplitude = si_array(amplitude, "displacement", "amplitude")
     stable = np.asarray(stable, dtype=bool)
+    if not np.isfinite(amplitude).any():  # (a branch harmonic balance did not find: no legend
+        return  # entry for a line that is not there)
     first = {True: True, False: True}
     for run in _split_runs(stable):
         st = bool(stable[run.start])
@@ -266,12 +268,13 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     return fig
 
 
-def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float = 0.6,
+def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float | None = None,
                         note_at: tuple[float, float] = (8300.0, 0.03)) -> Figure:
     """Fig. 8 from a ``rattle_balance`` Dataset: the integration's run-up and run-down, the
     describing-function curves, the AFT branch, the paper's Eq. (15) points, where the lower
     branch flips, and Eq. (15) against the integration; titled with the scene's numbers.
-    ``ymax`` [mm]; ``note_at`` (rpm, mm): where the flip note is written."""
+    ``ymax`` [mm] (default: 1.6 times the integration's largest amplitude; Fig. 8 gives 0.6);
+    ``note_at`` (rpm, mm): where the flip note is written."""
     require(ds, ("amplitude", "aft_speed", "eq15_root"), "plot_rattle_balance", BALANCE)
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     speed = ds["speed"].values
@@ -295,6 +298,9 @@ def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float = 0.6,
               half_gap=float(ds.half_gap), curves=curves, eq15=eq15,
               speed_label=_speed_label(ds["speed"]))
     ax.set_xlim(speed[0], speed[-1])
+    if ymax is None:  # (0.6 mm, Fig. 8's, hid a user's 0.05 mm response on its floor)
+        top = np.nanmax(np.r_[amp.values.ravel(), float(ds.half_gap), 0.0]) * MM
+        ymax = 1.6 * top if top > 0 else 1.0
     ax.set_ylim(0, ymax)
     flip = float(ds.flip_speed)
     if np.isfinite(flip):
