@@ -532,3 +532,27 @@ def test_rattle_balance_keeps_the_rest_where_harmonic_balance_does_not_converge(
     assert not any("AFT" in t for t in labels), labels
     assert ax.get_ylim()[1] < 2.0 * float(ds["amplitude"].max()) / 1e3  # um -> mm
     plt.close(fig)
+
+
+def test_rattle_balance_keeps_a_branch_that_stops_short_with_a_note(tmp_path, monkeypatch):
+    """A harmonic-balance branch that stops short of the result's top speed (here: after 5
+    points) was refused as a whole (the integration, describing function and Eq. (15) lost
+    with it); now its points are kept, its turning points and flip speed are NaN (they would
+    be those of part of the branch), and aft_note says why."""
+    from gearsweep.study import analyses
+    from gearsweep.study.schema import parse_study
+
+    real = analyses.hb.aft_continuation
+    monkeypatch.setattr(analyses.hb, "aft_continuation",
+                        lambda *a, **k: real(*a, **{**k, "max_points": 5}))
+    small = {**RATTLE, "sweep": {"speed": {"start": "7000 rpm", "stop": "8600 rpm", "num": 5}},
+             "solver": {**RATTLE["solver"], "transient_periods": 5}}
+    gearsweep.run(small, output=tmp_path / "small.nc")
+    text = ("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: small,"
+            " harmonics: 5, n_time: 64}\n")
+    ds = analyses.run_analysis_study(parse_study(text), text, tmp_path)
+    assert "stopped at" in ds.attrs["aft_note"] and "after its most points" in ds.attrs["aft_note"]
+    assert int(np.isfinite(ds["aft_amplitude"]).sum()) == 5
+    assert ds["turning_point"].sel(curve="aft").isnull().all()
+    assert ds["turning_point"].sel(curve="describing_function").notnull().any()
+    assert np.isnan(float(ds["flip_speed"])) and ds["amplitude"].notnull().any()
