@@ -29,6 +29,7 @@ from gearsweep.study.quantities import (
     Count,
     EachOnce,
     FieldProblems,
+    Flag,
     Real,
     Speed,
     Strict,
@@ -149,7 +150,7 @@ class RattleBalance(Strict):
     graphical: tuple[GraphicalLine, GraphicalLine, GraphicalLine] = Field(
         (0.7, 0.5, 1.25), description="the three lines of Fig. 9: A at this x w_t, B at this x"
         " (w_t + w_n), C at this x w_n (w_t: the gap root appears, w_n: the linear resonance)")
-    fitted: bool = Field(False, description="the scene's force amplitude is a fit (the paper's"
+    fitted: Flag = Field(False, description="the scene's force amplitude is a fit (the paper's"
                          " Fig. 8: F0 and c fitted to its jump speeds); titles and plots say"
                          " 'fitted' only then")
 
