@@ -822,10 +822,35 @@ def cmd_advise(args: argparse.Namespace) -> int:
             a.warnings.append(f"the{how} target needs {n} steps per mesh period, beyond the"
                               f" {MAX_STEPS_PER_PERIOD} a study takes (solver.steps_per_period):"
                               " out of reach here; ask for a larger target")
+    a.warnings.extend(_map_check_warnings(study, text, args.study, a))
     scene = f"{study.scene.kind} scene" + (" with backlash" if plan.has_backlash else "")
     print(f"{name}:")
     print(textwrap.indent(a.report(scene), "  "))
     return 0
+
+
+def _map_check_warnings(study, text: str, path: str, a) -> list[str]:
+    """What the step guard's map check (strongly varying k(t): the fixed-step map's monodromy,
+    ``analysis.stability.needs_map_check``) finds at the advised steps, which the advisor's frozen
+    rule does not see: an outside analyst's whine scene (k1 = 1050 of k0 = 1073 kN/mm, zeta
+    0.007, RK5) was told 40 steps were stable, where the map diverges up to 55."""
+    out = []
+    for n, what in ((a.steps_per_period, "the advised"),):
+        if n is None or n > MAX_STEPS_PER_PERIOD:
+            continue
+        solver = study.solver.model_copy(update={"steps_per_period": int(n)})
+        try:
+            beyond = cases_beyond_step_limit(_plan(study.model_copy(update={"solver": solver}),
+                                                   text, path))
+        except StudyError:  # (a step count the outputs' samples do not divide: not judged here)
+            continue
+        if beyond:
+            out.append(f"at {what} {n} steps per mesh period the step guard finds {beyond}"
+                       " case(s) beyond the method's stability limit: k(t) varies strongly and"
+                       " the fixed-step map diverges where the equation decays, which the"
+                       " frozen-coefficient limit above does not see (docs/stability.md); take"
+                       " more steps (`gearsweep validate` with them says how many cases remain)")
+    return out
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:

@@ -226,3 +226,23 @@ def test_validate_notes_a_slow_parametric_transient(tmp_path, capsys):
         shown = f"{left:.{0 if left >= 0.1 else 1}%}"
         assert f"leave up to {shown}" in err and f"{need} transient periods leave 1%" in err
     assert transient_residual(plan_of(whine(400, transient=need + 5))) is None
+
+
+def test_advise_warns_where_its_advised_steps_fail_the_map_check(tmp_path, capsys):
+    """``gearsweep advise`` judged stability by the frozen rule alone: for the whine scene it
+    advised 48 steps for a 1e-2 target, where this test's own map of RK5 diverges (|mu| > 1)
+    and the equation decays; it now says so from the step guard's map check. At the 56 steps
+    a 1e-4 target takes, the map is stable: no such warning."""
+    a, b, g = whine_abg()
+    assert own_equation(a, b, g) < 1
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(whine(40)), encoding="utf-8")
+    for target in ("1e-2", "1e-4"):
+        assert main(["advise", str(path), "--target", target]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        n = int(text.split("For a target of ")[1].split(": ")[1].split(" steps")[0])
+        diverges = own_map("rk5", a, b, g, n) > 1 + TOL
+        assert diverges == (target == "1e-2"), (target, n)
+        said = (f"at the advised {n} steps per mesh period the step guard finds 1 case(s) beyond"
+                " the method's stability limit")
+        assert (said in text) == diverges, text
