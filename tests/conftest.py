@@ -70,6 +70,22 @@ scene:
 stiffness harmonic, the paper's damping, 1000 N."""
 
 
+GOOD_RATTLE = """\
+title: t
+scene:
+  kind: rattle
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  backlash: 0.1 mm
+  mean_force: 100 N
+sweep:
+  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}
+solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}
+"""
+"""A valid rattle study (YAML) of three speeds and a short window, that the error tests change one
+field of at a time."""
+
 SMALL_WHINE = {
     "title": "small whine study (tests)",
     "scene": {"kind": "whine", "mass": f"{RIG.mass} kg", "teeth": RIG.teeth,

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import WHINE_SCENE
+from conftest import GOOD_RATTLE, WHINE_SCENE
 
 from gearsweep.cli import main
 from gearsweep.errors import StudyError
@@ -22,19 +22,7 @@ from gearsweep.units import decimal_coordinates
 
 ROOT = Path(__file__).resolve().parents[1]
 
-GOOD = """\
-title: t
-scene:
-  kind: rattle
-  mass: 0.1527 kg
-  teeth: 48
-  stiffness: 1073 kN/mm
-  backlash: 0.1 mm
-  mean_force: 100 N
-sweep:
-  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}
-solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}
-"""
+GOOD = GOOD_RATTLE
 
 
 WHINE_GOOD = "title: t\n" + WHINE_SCENE + "sweep:\n  speed: [3000 rpm, 4000 rpm]\n"

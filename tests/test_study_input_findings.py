@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 import xarray as xr
+from conftest import GOOD_RATTLE
 
 import gearsweep
 from gearsweep.cli import main
@@ -15,19 +16,7 @@ from gearsweep.errors import StudyError
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.schema import SCENE_PARAMETERS, parse_study
 
-GOOD = """\
-title: t
-scene:
-  kind: rattle
-  mass: 0.1527 kg
-  teeth: 48
-  stiffness: 1073 kN/mm
-  backlash: 0.1 mm
-  mean_force: 100 N
-sweep:
-  speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}
-solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}
-"""
+GOOD = GOOD_RATTLE
 RANGE = "{start: 5000 rpm, stop: 6000 rpm, num: 3}"
 ROOT = Path(__file__).resolve().parents[1]
 
