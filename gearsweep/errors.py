@@ -114,7 +114,22 @@ def _rebuilt(cls: type, args: tuple, state: dict) -> GearsweepError:
 
 
 class GeometryError(GearsweepError):
-    """A gear pair that cannot exist (interference, pointed teeth, contact ratio below 1, ...)."""
+    """A gear pair that cannot exist (interference, pointed teeth, contact ratio below 1, ...).
+
+    ``faults``: each problem as ``(message, fields)``, ``fields`` the names of the pair's fields
+    that set what is wrong (``tip_radius1``, ``tip_relief.amount``), the most responsible first:
+    a study reports each problem at the line of the first of them it writes (``schema``).
+    """
+
+    def __init__(self, message: str, faults: list[tuple[str, tuple[str, ...]]] | None = None
+                 ) -> None:
+        super().__init__(message)
+        self.faults = list(faults or [])
+
+
+class GearStudyError(StudyError, GeometryError):
+    """A study's gear pair that cannot exist: each problem at the line of the field it is about
+    (a ``StudyError``, and a ``GeometryError`` as it was before it named the field)."""
 
 
 class ResultError(GearsweepError):

@@ -199,6 +199,28 @@ def test_inconsistent_geometry_names_the_problem(kwargs, text):
     assert text in str(err.value)
 
 
+def test_each_problem_carries_the_fields_that_set_it_and_what_fits():
+    """``GeometryError.faults``: each problem with the fields that set it, the given one first
+    (a standard tip follows x1), and the largest tip radius beside the mate's root, a - rf2
+    (here 60 - (40 - 1.25 x 2) mm), rounded down to 0.01 mm; the pickled error keeps them."""
+    import pickle
+
+    given = {"module": 2e-3, "z1": 20, "z2": 40, "face_width": 20e-3, "tip_radius1": 23.5e-3}
+    with pytest.raises(GeometryError) as err:
+        GearPair(**given).check()
+    message, fields = err.value.faults[0]
+    assert fields[0] == "tip_radius1" and "root_radius2" not in fields  # (standard: x2, z2, m)
+    assert message.startswith("tip-root interference") and message.endswith(
+        f"at most {math.floor((60e-3 - (40e-3 - 2.5e-3)) * 1e5) / 100:g} mm fits (tip_radius1)")
+    assert pickle.loads(pickle.dumps(err.value)).faults == err.value.faults
+    # x1 1.2 at 61 mm: both tips meet the mate's root (24.4 + 37.5 and 42 + 19.9 mm); gear 2's
+    # tip is standard (x2 0, not given), gear 1's root the shifted one: x2, then x1, before z2
+    shifted = GearPair(module=2e-3, z1=20, z2=40, face_width=20e-3, x1=1.2, centre_distance=61e-3)
+    (_, one), (_, two), (thin, _) = shifted.faults()
+    assert one[:3] == ("x1", "x2", "centre_distance") and two[:3] == ("x2", "x1", "centre_distance")
+    assert one[3:] == ("z1", "module", "z2") and thin.startswith("tooth thicknesses")
+
+
 def test_nearly_pointed_teeth_warn():
     pair = GearPair(module=2e-3, z1=14, z2=40, face_width=10e-3, x1=0.8)
     with pytest.warns(GeometryWarning, match="below 0.2 m"):

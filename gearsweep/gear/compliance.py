@@ -155,10 +155,9 @@ def tooth_profile(pair: GearPair, gear: int, n: int = 2000) -> ToothProfile:
     parts_y.append(rr * np.cos(psi))
     px, py = np.concatenate(parts_x), np.concatenate(parts_y)
     if np.any(np.diff(py) <= 0):
-        raise GeometryError(
-            f"{pair.name}: gear {gear} tooth outline is not single-valued along its centre line "
-            "(fillet or flank turns back); check fillet radius and profile shift"
-        )
+        why = (f"gear {gear} tooth outline is not single-valued along its centre line (fillet or"
+               " flank turns back); check fillet radius and profile shift")
+        raise GeometryError(f"{pair.name}: {why}", [(why, ("fillet_radius", f"x{gear}"))])
     y0 = float(py[0])
     eta = np.linspace(0.0, float(py[-1]) - y0, n)
     x = np.interp(eta + y0, py, px)
@@ -268,10 +267,10 @@ def tooth_compliance(
     # Sainsot et al. (2004) foundation.
     rint = pair.bore_radius[gear - 1]
     if not rint < prof.root_radius:
-        raise GeometryError(
-            f"{pair.name}: gear {gear} bore radius {rint * 1e3:.4g} mm is not below its root "
-            f"radius {prof.root_radius * 1e3:.4g} mm"
-        )
+        why = (f"gear {gear} bore radius {rint * 1e3:.4g} mm is not below its root radius"
+               f" {prof.root_radius * 1e3:.4g} mm")
+        raise GeometryError(f"{pair.name}: {why}",
+                            [(why, (f"bore_radius{gear}", *pair.sets("root", gear)))])
     h = prof.root_radius / rint
     th = prof.theta_f
     terms = np.array([1.0 / th**2, h**2, h / th, 1.0 / th, h, 1.0])

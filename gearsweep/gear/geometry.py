@@ -51,7 +51,30 @@ module in um, a face in inches written as mm)."""
 
 
 class GeometryWarning(UserWarning):
-    """A gear pair that can exist but is poor practice (e.g. nearly pointed teeth)."""
+    """A gear pair that can exist but is poor practice (e.g. nearly pointed teeth). ``fields``:
+    those that set what it warns of, the most responsible first (as ``GeometryError.faults``)."""
+
+    def __init__(self, message: str, fields: tuple[str, ...] = ()) -> None:
+        super().__init__(message)
+        self.fields = tuple(fields)
+
+
+def _ranked(fields: tuple[str, ...]) -> tuple[str, ...]:
+    """``fields`` once each, teeth and module (which set every radius) after the others: a
+    standard tip of gear 2 beside a shifted gear 1's root is said at ``x1``, not at ``z2``."""
+    once = tuple(dict.fromkeys(fields))
+    return (*(f for f in once if f not in ("z1", "z2", "module")),
+            *(f for f in once if f in ("z1", "z2", "module")))
+
+
+def _mm_down(length: float) -> str:
+    """``length`` [m] in mm, rounded down to 0.01 mm: a bound 'at most' that itself fits."""
+    return f"{math.floor(length * 1e5) / 100:g}"
+
+
+def _mm_up(length: float) -> str:
+    """``length`` [m] in mm, rounded up to 0.01 mm: a bound 'at least' that itself fits."""
+    return f"{math.ceil(length * 1e5) / 100:g}"
 
 
 def involute(alpha: float | np.ndarray) -> float | np.ndarray:
@@ -84,9 +107,9 @@ def inverse_involute(value: float) -> float:
         Pressure angle [rad].
     """
     if not (0.0 <= value < involute(1.5)):
-        raise GeometryError(f"gear pair: involute value {value:.6g} rad is outside [0, "
-                            f"{involute(1.5):.3g}): the profile shifts give no valid operating "
-                            "pressure angle")
+        why = (f"involute value {value:.6g} rad is outside [0, {involute(1.5):.3g}): the profile"
+               " shifts give no valid operating pressure angle")
+        raise GeometryError(f"gear pair: {why}", [(why, ("x1", "x2"))])
     if value == 0.0:
         return 0.0
     from scipy.optimize import brentq  # here: scipy.optimize takes 0.35 s to import
@@ -290,10 +313,9 @@ class GearPair:
             rb_sum = self.base_radius1 + self.base_radius2
             c = rb_sum / self.centre_distance
             if c >= 1.0:
-                raise GeometryError(
-                    f"{self.name}: centre distance {self.centre_distance * 1e3:.4g} mm is not "
-                    f"more than the sum of base radii {rb_sum * 1e3:.4g} mm"
-                )
+                why = (f"centre distance {self.centre_distance * 1e3:.4g} mm is not more than"
+                       f" the sum of base radii {rb_sum * 1e3:.4g} mm")
+                raise GeometryError(f"{self.name}: {why}", [(why, ("centre_distance",))])
             return math.acos(c)
         a = self.pressure_angle
         inv_w = involute(a) + 2.0 * math.tan(a) * (self.x1 + self.x2) / (self.z1 + self.z2)
@@ -494,18 +516,79 @@ class GearPair:
         Returns
         -------
         list of str
+            Empty for a consistent pair (the messages of :meth:`faults`).
+        """
+        return [message for message, _ in self.faults()]
+
+    def sets(self, quantity: str, g: int = 0) -> tuple[str, ...]:
+        """The fields that set the pair's ``quantity`` (``tip`` or ``root`` radius of gear ``g``,
+        ``centre`` distance, ``thickness`` of gear ``g``): the field itself where it is given,
+        else those it follows (a standard tip ``r + m (1 + x)``: ``x1``, ``z1``, ``module``; the
+        centre distance of the shifts: the larger shift first)."""
+        own = {"tip": f"tip_radius{g}", "root": f"root_radius{g}", "centre": "centre_distance",
+               "thickness": f"thickness{g}"}[quantity]
+        if getattr(self, own) is not None:
+            return (own,)
+        if quantity == "centre":
+            return tuple(sorted(("x1", "x2"), key=lambda f: -getattr(self, f)))
+        return (f"x{g}", f"z{g}", "module")
+
+    def _interference_sets(self, g: int) -> tuple[str, ...]:
+        """The fields that set the involute interference of gear ``g``'s tip with its mate's
+        flank below the base circle: its tip radius where given, else the mate's shift and teeth
+        (a small mate's short line of action; a positive shift of it the usual cure), then its
+        own, the centre distance."""
+        mate = 3 - g
+        own = (f"tip_radius{g}",) if getattr(self, f"tip_radius{g}") is not None else ()
+        return tuple(dict.fromkeys((*own, f"x{mate}", f"z{mate}", *self.sets("tip", g),
+                                    *self.sets("centre"))))
+
+    def _path_blame(self, shorter: bool) -> tuple[str, ...]:
+        """The fields that set the path of contact, those of the quantity (a tip radius, the
+        centre distance) that shortens it most (``shorter``; else lengthens it most) against a
+        standard pair's (tips ``r + m``, centre distance ``r1 + r2``) first: each alone."""
+        m = self.module
+        rb1, rb2 = self.base_radius1, self.base_radius2
+
+        def reach(ra: float, rb: float) -> float:  # a tip's part of the path
+            return math.sqrt(max(ra**2 - rb**2, 0.0))
+
+        def loa(a: float) -> float:  # T1 T2 at centre distance a
+            return math.sqrt(max(a**2 - (rb1 + rb2) ** 2, 0.0))
+
+        ra1, ra2 = self.tip_radius
+        shortening = {
+            ("tip", 1): reach(self.pitch_radius1 + m, rb1) - reach(ra1, rb1),
+            ("tip", 2): reach(self.pitch_radius2 + m, rb2) - reach(ra2, rb2),
+            ("centre", 0): loa(self.operating_centre_distance) - loa(self.standard_centre_distance),
+        }
+        order = sorted(shortening, key=lambda q: -shortening[q] if shorter else shortening[q])
+        return tuple(dict.fromkeys(f for q in order for f in self.sets(*q)))
+
+    def faults(self) -> list[tuple[str, tuple[str, ...]]]:
+        """Every reason this pair cannot exist as specified, each with its numbers and what would
+        fit, as ``(message, fields)``: ``fields`` those that set it, the most responsible first
+        (teeth and module, which set every radius, after the others).
+
+        Returns
+        -------
+        list of tuple
             Empty for a consistent pair.
         """
-        out: list[str] = []
+        return [(message, _ranked(fields)) for message, fields in self._faults()]
+
+    def _faults(self) -> list[tuple[str, tuple[str, ...]]]:
+        out: list[tuple[str, tuple[str, ...]]] = []
         mm = 1e3
         width = self.face_width / self.module
         if not 0.5 <= width <= MAX_FACE_MODULES:  # a unit slip ('module: 2 um' beside a 20 mm
-            out.append(  # face ran, 1000x the tooth depth of STE; an outside tester's finding)
-                f"face width {self.face_width * mm:.4g} mm is"
+            out.append((  # face ran, 1000x the tooth depth of STE; an outside tester's finding)
+                (f"face width {self.face_width * mm:.4g} mm is"
                 f" {f'{width:,.0f}' if width >= 10 else f'{width:.2g}'} modules of"
                 f" {self.module * mm:.4g} mm: a spur gear's is 0.5 to {MAX_FACE_MODULES:g}"
-                " modules (a unit slip?)"
-            )
+                f" modules ({0.5 * self.module * mm:.4g} to"
+                f" {MAX_FACE_MODULES * self.module * mm:.4g} mm; a unit slip?)"),
+                ("face_width", "module")))
         a = self.operating_centre_distance
         ra1, ra2 = self.tip_radius
         rf1, rf2 = self.root_radius
@@ -513,86 +596,87 @@ class GearPair:
         for g, (ra, rf_mate) in enumerate(((ra1, rf2), (ra2, rf1)), start=1):
             overlap = ra + rf_mate - a
             if overlap > 1e-9:
-                out.append(
-                    f"tip-root interference: tip radius of gear {g} ({ra * mm:.4g} mm) + root "
+                out.append((
+                    (f"tip-root interference: tip radius of gear {g} ({ra * mm:.4g} mm) + root "
                     f"radius of gear {3 - g} ({rf_mate * mm:.4g} mm) exceeds the centre distance "
-                    f"{a * mm:.4g} mm by {overlap * mm:.3g} mm"
-                )
-        basic: list[str] = []
+                    f"{a * mm:.4g} mm by {overlap * mm:.3g} mm; a tip radius of gear {g} of at"
+                    f" most {_mm_down(a - rf_mate)} mm fits (tip_radius{g})"),
+                    (*self.sets("tip", g), *self.sets("root", 3 - g), *self.sets("centre"))))
+        basic: list[tuple[str, tuple[str, ...]]] = []
         for g in (1, 2):
             ra, rf = self.tip_radius[g - 1], self.root_radius[g - 1]
             if not rf < ra:
-                basic.append(
-                    f"gear {g}: root radius {rf * mm:.4g} mm is not below tip radius "
-                    f"{ra * mm:.4g} mm"
-                )
+                basic.append((
+                    (f"gear {g}: root radius {rf * mm:.4g} mm is not below tip radius "
+                    f"{ra * mm:.4g} mm"), (*self.sets("root", g), *self.sets("tip", g))))
             if ra <= rb[g - 1]:
-                basic.append(
-                    f"gear {g}: tip radius {ra * mm:.4g} mm is not above base radius "
-                    f"{rb[g - 1] * mm:.4g} mm"
-                )
+                basic.append((
+                    (f"gear {g}: tip radius {ra * mm:.4g} mm is not above base radius "
+                    f"{rb[g - 1] * mm:.4g} mm"), (*self.sets("tip", g), "pressure_angle")))
         if basic:
-            return out + basic + self._thickness_problems()
+            return out + basic + self._thickness_faults()
         # Undercut in generation by a rack whose tip radius equals the fillet radius.
         for g in (1, 2):
             r = self.pitch_radius1 if g == 1 else self.pitch_radius2
             x = self.x1 if g == 1 else self.x2
             # Rack tip line sits r - r_f inside the rolling (reference) circle.
-            h_straight = (r - self.root_radius[g - 1]) - self.fillet * (
-                1.0 - math.sin(self.pressure_angle)
-            )
+            lift = self.fillet * (1.0 - math.sin(self.pressure_angle))
+            h_straight = (r - self.root_radius[g - 1]) - lift
             limit = r * math.sin(self.pressure_angle) ** 2
             if h_straight > limit + 1e-12:
                 # the root follows the shift (m (1.25 - x) below r) unless it is given: then a
                 # shift of x + (h - limit) / m brings the rack's flank back to the limit
                 given = getattr(self, f"root_radius{g}") is not None
-                cure = "" if given else (
+                cure = (f"; a root radius of at least {_mm_up(r - limit - lift)} mm avoids it"
+                        f" (root_radius{g})") if given else (
                     f"; a profile shift x{g} >= {x + (h_straight - limit) / self.module:.3g}"
                     " avoids it")
-                out.append(
-                    f"undercut: gear {g} (z = {self.z1 if g == 1 else self.z2}, x = {x:.3g}) is "
+                out.append((
+                    (f"undercut: gear {g} (z = {self.z1 if g == 1 else self.z2}, x = {x:.3g}) is "
                     f"undercut by the generating rack: straight rack flank reaches "
                     f"{h_straight * mm:.3g} mm inside the reference circle, more than "
-                    f"r sin^2(alpha) = {limit * mm:.3g} mm{cure}"
-                )
+                    f"r sin^2(alpha) = {limit * mm:.3g} mm{cure}"), self.sets("root", g)))
         # Involute interference: contact outside the segment T1 T2.
+        length = self.line_of_action_length
         if self.s_start < 0:
-            out.append(
-                f"involute interference: the tip of gear 2 meets gear 1 below its base circle "
-                f"(start of contact {-self.s_start * mm:.3g} mm before T1)"
-            )
-        if self.s_end > self.line_of_action_length:
-            out.append(
-                f"involute interference: the tip of gear 1 meets gear 2 below its base circle "
-                f"(end of contact {(self.s_end - self.line_of_action_length) * mm:.3g} mm past T2)"
-            )
+            out.append((
+                (f"involute interference: the tip of gear 2 meets gear 1 below its base circle "
+                f"(start of contact {-self.s_start * mm:.3g} mm before T1); a tip radius of gear"
+                f" 2 of at most {_mm_down(math.hypot(rb[1], length))} mm fits (tip_radius2)"),
+                self._interference_sets(2)))
+        if self.s_end > length:
+            out.append((
+                (f"involute interference: the tip of gear 1 meets gear 2 below its base circle "
+                f"(end of contact {(self.s_end - length) * mm:.3g} mm past T2); a tip radius of"
+                f" gear 1 of at most {_mm_down(math.hypot(rb[0], length))} mm fits"
+                " (tip_radius1)"), self._interference_sets(1)))
         eps = self.contact_ratio
-        ra1, ra2 = self.tip_radius
-        a = self.operating_centre_distance
         if ra1 + ra2 <= a:  # said as "contact ratio -1.916" (an outside tester's finding)
-            out.append(
-                f"the teeth do not reach each other: tip radii {ra1 * mm:.4g} + {ra2 * mm:.4g} mm"
-                f" = {(ra1 + ra2) * mm:.4g} mm, not more than the centre distance {a * mm:.4g} mm"
-            )
+            out.append((
+                (f"the teeth do not reach each other: tip radii {ra1 * mm:.4g} + {ra2 * mm:.4g} mm"
+                f" = {(ra1 + ra2) * mm:.4g} mm, not more than the centre distance {a * mm:.4g} mm"),
+                self._path_blame(shorter=True)))
         elif eps < 1.0:
-            out.append(
-                f"contact ratio {eps:.3f} is below 1: path of contact "
+            out.append((
+                (f"contact ratio {eps:.3f} is below 1: path of contact "
                 f"{self.path_of_contact * mm:.4g} mm is shorter than the base pitch "
-                f"{self.base_pitch * mm:.4g} mm"
-            )
+                f"{self.base_pitch * mm:.4g} mm{self._contact_ratio_cure()}"),
+                self._path_blame(shorter=True)))
         if self.contact_ratio_range is not None:
             lo, hi = self.contact_ratio_range
             if not (lo <= eps <= hi):
-                out.append(f"contact ratio {eps:.3f} is outside the stated range [{lo:g}, {hi:g}]")
-        out += self._thickness_problems()
+                out.append((f"contact ratio {eps:.3f} is outside the stated range [{lo:g}, {hi:g}]",
+                            self._path_blame(shorter=eps < lo)))
+        out += self._thickness_faults()
         for g in (1, 2):
             sa = self.tip_thickness(g)
             if sa <= 0:
-                out.append(
-                    f"pointed teeth: gear {g} tip thickness {sa * mm:.3g} mm <= 0 at tip radius "
-                    f"{self.tip_radius[g - 1] * mm:.4g} mm"
-                )
-        if any(p.startswith(("pointed", "tooth", "tip-root")) for p in out):
+                out.append((
+                    (f"pointed teeth: gear {g} tip thickness {sa * mm:.3g} mm <= 0 at tip radius "
+                    f"{self.tip_radius[g - 1] * mm:.4g} mm; its flanks meet at radius"
+                    f" {self.pointed_radius(g) * mm:.4g} mm: a tip radius below it fits"
+                    f" (tip_radius{g})"), self._tip_thickness_sets(g)))
+        if any(p.startswith(("pointed", "tooth", "tip-root")) for p, _ in out):
             return out
         # Fillet: must fit in the tooth space and stay below the active profile.
         s_low = (self.s_start, self.line_of_action_length - self.s_end)
@@ -601,21 +685,55 @@ class GearPair:
             theta_f, r_tan, _ = self.fillet_geometry(g)
             if theta_f > math.pi / z:
                 default = " (the default, 0.38 module)" if self.fillet_radius is None else ""
-                out.append(
-                    f"fillet radius {self.fillet * mm:.4g} mm{default} does not fit the tooth"
+                out.append((
+                    (f"fillet radius {self.fillet * mm:.4g} mm{default} does not fit the tooth"
                     f" space of gear {g} at its root circle: fillet centre at"
                     f" {math.degrees(theta_f):.3g} deg from the tooth centre line, beyond the"
                     f" space centre at {180.0 / z:.3g} deg; at most"
-                    f" {self._largest_fillet(g) * mm:.3g} mm fits (fillet_radius)"
-                )
+                    f" {self._largest_fillet(g) * mm:.3g} mm fits (fillet_radius)"),
+                    ("fillet_radius", *self.sets("root", g))))
                 continue
             r_low = math.hypot(rb[g - 1], s_low[g - 1])
             if r_tan > r_low + 1e-12:
-                out.append(
-                    f"tip-fillet interference: gear {g} fillet reaches radius {r_tan * mm:.4g} mm, "
-                    f"above the lowest contact point at {r_low * mm:.4g} mm"
-                )
+                out.append((
+                    (f"tip-fillet interference: gear {g} fillet reaches radius {r_tan * mm:.4g} mm, "
+                    f"above the lowest contact point at {r_low * mm:.4g} mm"),
+                    ("fillet_radius", *self.sets("root", g), *self.sets("tip", 3 - g))))
         return out
+
+    def _contact_ratio_cure(self) -> str:
+        """What alone gives a contact ratio of 1: the tip radius or the centre distance that
+        shortens the path of contact most (:meth:`_path_blame`), the others kept."""
+        rb1, rb2 = self.base_radius1, self.base_radius2
+        ra1, ra2 = self.tip_radius
+        reach2 = math.sqrt(ra2**2 - rb2**2)
+        lead = self._path_blame(shorter=True)[0]
+        if lead in self.sets("tip", 1):
+            return (f"; a tip radius of gear 1 of at least"
+                    f" {_mm_up(math.hypot(rb1, self.s_start + self.base_pitch))} mm gives 1"
+                    " (tip_radius1)")
+        if lead in self.sets("tip", 2):
+            need = self.line_of_action_length - self.s_end + self.base_pitch
+            return (f"; a tip radius of gear 2 of at least {_mm_up(math.hypot(rb2, need))} mm"
+                    " gives 1 (tip_radius2)")
+        length = self.s_end + reach2 - self.base_pitch  # T1 T2 that gives a path of p_b
+        if length <= 0:
+            return ""
+        return (f"; a centre distance of at most {_mm_down(math.hypot(rb1 + rb2, length))} mm"
+                " gives 1 (centre_distance)")
+
+    def _tip_thickness_sets(self, g: int) -> tuple[str, ...]:
+        """The fields that set the tip thickness of gear ``g``: its tip radius where given, its
+        shift, its given thickness, the backlash that thins it, then teeth and module."""
+        own = tuple(f for f in (f"tip_radius{g}", f"x{g}", f"thickness{g}")
+                    if getattr(self, f) is not None)
+        return tuple(dict.fromkeys((*own, "backlash", *self.sets("tip", g))))
+
+    def pointed_radius(self, g: int) -> float:
+        """The radius where the flanks of gear ``g``'s tooth meet (its tip thickness 0) [m]."""
+        rb = self.base_radius1 if g == 1 else self.base_radius2
+        psi_b = float(self.half_angle(rb, g))  # = inv(alpha_r) where the flanks meet
+        return rb / math.cos(inverse_involute(psi_b)) if psi_b > 0 else rb  # (at the base circle)
 
     def _largest_fillet(self, g: int) -> float:
         """The largest fillet radius whose centre lies within gear ``g``'s tooth space at its
@@ -629,8 +747,8 @@ class GearPair:
             lo, hi = (mid, hi) if theta <= math.pi / z else (lo, mid)
         return math.floor(lo * 1e5) / 1e5
 
-    def _thickness_problems(self) -> list[str]:
-        out: list[str] = []
+    def _thickness_faults(self) -> list[tuple[str, tuple[str, ...]]]:
+        out: list[tuple[str, tuple[str, ...]]] = []
         mm = 1e3
         s1, s2 = self.thickness
         j = self.circumferential_backlash
@@ -639,19 +757,27 @@ class GearPair:
             self.thickness1 is not None or self.thickness2 is not None
         ):
             if abs(j - self.backlash) > _TOL_BACKLASH:
-                out.append(
-                    f"tooth thickness and backlash cannot coexist at centre distance "
+                out.append((
+                    (f"tooth thickness and backlash cannot coexist at centre distance "
                     f"{self.operating_centre_distance * mm:.4g} mm: thicknesses {s1 * mm:.4g} + "
                     f"{s2 * mm:.4g} mm leave a backlash of {j * mm:.4g} mm (circular pitch "
-                    f"{p_w * mm:.4g} mm), not the given {self.backlash * mm:.4g} mm"
-                )
+                    f"{p_w * mm:.4g} mm), not the given {self.backlash * mm:.4g} mm"),
+                    ("backlash", "thickness1", "thickness2", *self.sets("centre"))))
                 return out
         if j < -1e-12:  # [m] round-off of a zero-backlash pair
-            out.append(
-                f"tooth thicknesses {s1 * mm:.4g} + {s2 * mm:.4g} mm do not fit the circular pitch "
+            given = [g for g in (1, 2) if getattr(self, f"thickness{g}") is not None]
+            # a thinning ds at the reference circle is ds cos(alpha) / cos(alpha_w) at the
+            # operating pitch circle, where the backlash is
+            ratio = math.cos(self.operating_pressure_angle) / math.cos(self.pressure_angle)
+            cure = "".join(f"; a thickness{g} of at most"
+                           f" {_mm_down(self.thickness[g - 1] + j * ratio)} mm fits"
+                           for g in given[:1])
+            out.append((
+                (f"tooth thicknesses {s1 * mm:.4g} + {s2 * mm:.4g} mm do not fit the circular pitch "
                 f"{p_w * mm:.4g} mm at centre distance "
                 f"{self.operating_centre_distance * mm:.4g} mm (backlash would be {j * mm:.4g} mm)"
-            )
+                f"{cure}"),
+                (*(f"thickness{g}" for g in given), *self.sets("centre"))))
         return out
 
     def check(self) -> GearPair:
@@ -667,19 +793,35 @@ class GearPair:
         GeometryError
             If :meth:`problems` is not empty; the message lists all of them.
         """
-        found = self.problems()
+        found = self.faults()
         if found:
-            raise GeometryError(f"{self.name}: " + "; ".join(found))
-        for g in (1, 2):
-            sa = self.tip_thickness(g)
-            if sa < 0.2 * self.module:
-                warnings.warn(
-                    f"{self.name}: gear {g} tip thickness {sa * 1e3:.3g} mm is below 0.2 m = "
-                    f"{0.2 * self.module * 1e3:.3g} mm (nearly pointed teeth)",
-                    GeometryWarning,
-                    stacklevel=2,
-                )
+            raise GeometryError(f"{self.name}: " + "; ".join(m for m, _ in found), found)
+        for message, fields in self.cautions():
+            warnings.warn(GeometryWarning(f"{self.name}: {message}", fields), stacklevel=2)
         return self
+
+    def cautions(self) -> list[tuple[str, tuple[str, ...]]]:
+        """What :meth:`check` warns of, as ``(message, fields)`` (as :meth:`faults`): a tip
+        thickness below 0.2 module (nearly pointed teeth), with the tip radius that gives it."""
+        out = []
+        for g in (1, 2):
+            sa, keep = self.tip_thickness(g), 0.2 * self.module
+            if sa < keep:
+                from scipy.optimize import brentq
+
+                rb = self.base_radius1 if g == 1 else self.base_radius2
+
+                def excess(r: float, g: int = g, keep: float = keep) -> float:
+                    return 2.0 * r * float(self.half_angle(r, g)) - keep
+
+                cure = "" if excess(rb) <= 0 else (  # (thinner than that at the base circle)
+                    f"; a tip radius of gear {g} of at most"
+                    f" {_mm_down(brentq(excess, rb, self.pointed_radius(g), xtol=1e-12))} mm"
+                    f" keeps 0.2 m (tip_radius{g})")
+                out.append(((f"gear {g} tip thickness {sa * 1e3:.3g} mm is below 0.2 m ="
+                            f" {keep * 1e3:.3g} mm (nearly pointed teeth){cure}"),
+                            _ranked(self._tip_thickness_sets(g))))
+        return out
 
 
 def table1_as_printed() -> GearPair:

@@ -47,6 +47,11 @@ __all__ = [
     "mesh_cycles",
 ]
 
+RELIEF_STARTS = ("tip_relief.start_radius", "tip_relief.start_diameter",
+                 "tip_relief.start_roll_angle", "tip_relief.start_at")
+"""The fields of a study's gear (``gearscene.TipReliefSpec``) that place a tip relief's start:
+a start the flank does not have is reported at the one the study writes."""
+
 
 @dataclass(frozen=True)
 class TipRelief:
@@ -109,17 +114,15 @@ class TipRelief:
         else:
             r_s = self.start_radius if self.start_radius is not None else 0.5 * self.start_diameter
             if not (rb <= r_s < ra):
-                raise GeometryError(
-                    f"tip relief start radius {r_s * 1e3:.4g} mm of gear {gear} "
-                    f"must lie between base {rb * 1e3:.4g} mm and tip {ra * 1e3:.4g} mm"
-                )
+                why = (f"tip relief start radius {r_s * 1e3:.4g} mm of gear {gear} must lie"
+                       f" between base {rb * 1e3:.4g} mm and tip {ra * 1e3:.4g} mm")
+                raise GeometryError(why, [(why, RELIEF_STARTS)])
             xi_s = math.sqrt(r_s**2 - rb**2) / rb
         xi_a = math.sqrt(ra**2 - rb**2) / rb
         if not xi_s < xi_a:
-            raise GeometryError(
-                f"tip relief start roll angle {xi_s:.4g} rad of gear {gear} is not below the tip "
-                f"roll angle {xi_a:.4g} rad"
-            )
+            why = (f"tip relief start roll angle {xi_s:.4g} rad of gear {gear} is not below the"
+                   f" tip roll angle {xi_a:.4g} rad")
+            raise GeometryError(why, [(why, RELIEF_STARTS)])
         xi = np.sqrt(np.maximum(r**2 - rb**2, 0.0)) / rb
         u = np.clip((xi - xi_s) / (xi_a - xi_s), 0.0, None)
         return self.amount * (u if self.shape == "linear" else u**2)
