@@ -16,6 +16,7 @@ import tempfile
 import textwrap
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,7 @@ from gearsweep.errors import (
     article,
 )
 from gearsweep.files import replace_problem
+from gearsweep.gear import GeometryWarning
 from gearsweep.jit import set_up_runtime_in_background
 from gearsweep.kernels.cuda import kernel_for
 from gearsweep.model import MeshModel
@@ -928,7 +930,9 @@ def _main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     args.debug = debug
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _geometry_lines(warnings.showwarning)
+            return args.func(args)
     except GearsweepError as exc:
         if debug:
             raise
@@ -957,6 +961,23 @@ def _main(argv: list[str]) -> int:
     except BrokenPipeError:  # `gearsweep inspect r.nc | head`: the reader left; say nothing
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141  # 128 + SIGPIPE, as a shell reports it
+
+
+def _geometry_lines(shown):
+    """Python's ``showwarning`` ``shown``, but a ``GeometryWarning`` (a study's nearly pointed
+    teeth, at its field's line) as one ``gearsweep: warning:`` line (it showed a source line),
+    once (``run`` validates the study twice)."""
+    said: set[str] = set()
+
+    def show(message, category, *where, **kw) -> None:
+        if issubclass(category, GeometryWarning):
+            if str(message) not in said:
+                said.add(str(message))
+                print(f"gearsweep: warning: {message}", file=sys.stderr)
+        else:
+            shown(message, category, *where, **kw)
+
+    return show
 
 
 def entry() -> None:

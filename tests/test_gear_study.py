@@ -164,50 +164,59 @@ def _run_cli(tmp_path, capsys, text: str, command: str = "validate") -> tuple[in
     return rc, out, err
 
 
-BAD_GEARS = {
+BAD_GEARS = {  # the gear (flow style, on line 4), the field each problem is at, what it says
     "table1_as_printed": ("table1_as_printed",
-                          ["tip-root interference", ("contact ratio 2.429 is outside the stated "
-                           "range [1, 2]"), "thickness and backlash cannot coexist"]),
+                          [("scene.gear", "Table 1 as printed: tip-root interference"),
+                           ("scene.gear", ("Table 1 as printed: contact ratio 2.429 is outside the"
+                            " stated range [1, 2]")),
+                           ("scene.gear", "thickness and backlash cannot coexist")]),
     "tip_root": ("{module: 2 mm, z1: 20, z2: 40, face_width: 20 mm, tip_radius1: 23.5 mm}",
-                 ["tip-root interference: tip radius of gear 1 (23.5 mm)"]),
-    "undercut": ("{module: 2 mm, z1: 8, z2: 40, face_width: 20 mm}", ["undercut: gear 1 (z = 8"]),
+                 [("scene.gear.tip_radius1: '23.5 mm'",
+                   "tip-root interference: tip radius of gear 1 (23.5 mm)")]),
+    "undercut": ("{module: 2 mm, z1: 8, z2: 40, face_width: 20 mm}",
+                 [("scene.gear.z1: 8", "undercut: gear 1 (z = 8")]),
     "pointed": ("{module: 2 mm, z1: 12, z2: 40, face_width: 20 mm, x1: 1.2}",
-                ["pointed teeth: gear 1"]),
+                [("scene.gear.x1: 1.2", "pointed teeth: gear 1")]),
     "thickness": (("{module: 2 mm, z1: 20, z2: 40, face_width: 20 mm, thickness1: 4 mm,"
-                  " thickness2: 3 mm, backlash: 0.1 mm}"), ["cannot coexist"]),
+                  " thickness2: 3 mm, backlash: 0.1 mm}"),
+                  [("scene.gear.backlash: '0.1 mm'", "cannot coexist")]),
     "contact_ratio": (("{module: 2 mm, z1: 20, z2: 40, face_width: 20 mm, tip_radius1: 20.6 mm,"
-                      " tip_radius2: 40.6 mm}"), ["contact ratio 0.552 is below 1"]),
+                      " tip_radius2: 40.6 mm}"),
+                      [("scene.gear.tip_radius2: '40.6 mm'", "contact ratio 0.552 is below 1")]),
     "relief": ("{preset: table1_consistent, tip_relief: {amount: 5 um, start_radius: 10 mm}}",
-               ["tip relief start radius 10 mm of gear 1 must lie between base"]),
+               [("scene.gear.tip_relief.start_radius: '10 mm'",
+                 "tip relief start radius 10 mm of gear 1 must lie between base")]),
 }
 
 
 @pytest.mark.parametrize("name", list(BAD_GEARS))
-def test_bad_geometry_is_one_line_and_exit_2(tmp_path, capsys, name):
-    """``gearsweep validate`` (not only ``run``) refuses every inconsistent geometry in one line
-    naming the file, the field and each problem."""
-    gear, fragments = BAD_GEARS[name]
+def test_bad_geometry_is_one_line_a_problem_at_its_field_and_exit_2(tmp_path, capsys, name):
+    """``gearsweep validate`` (not only ``run``) refuses every inconsistent geometry, one line a
+    problem, each naming the file, the field it is about (the gear where the file writes none of
+    those: a preset's) and the problem."""
+    gear, expected = BAD_GEARS[name]
     rc, out, err = _run_cli(tmp_path, capsys, whine(gear, "  torque: 50 N*m\n"))
     assert rc == 2 and out == ""
-    assert err.endswith("\n") and err.count("\n") == 1
-    where = re.escape(str(tmp_path / "study.yaml"))
-    assert re.match(rf"gearsweep: error: {where}:\d+: scene.gear: ", err), err
-    for fragment in fragments:
-        assert fragment in err
+    lines = err.splitlines()
+    where = str(tmp_path / "study.yaml")
+    assert all(line.startswith(f"gearsweep: error: {where}:4: scene.gear") for line in lines), err
+    for field, fragment in expected:
+        assert any(line.startswith(f"gearsweep: error: {where}:4: {field}") and fragment in line
+                   for line in lines), (field, fragment, err)
 
 
 def test_run_refuses_table1_as_printed_before_computing(tmp_path, capsys):
     rc, _, err = _run_cli(tmp_path, capsys, whine("table1_as_printed", "  torque: 50 N*m\n"),
                           command="run")
-    assert rc == 2 and "tip-root interference" in err and err.count("\n") == 1
+    assert rc == 2 and "tip-root interference" in err and err.count("\n") == 4  # one a problem
     assert not (tmp_path / "out.nc").exists()
 
 
 def test_mesh_study_refuses_table1_as_printed(tmp_path, capsys):
     text = "type: mesh\ntitle: t\ngears:\n  printed: table1_as_printed\ntorque: 50 N*m\n"
     rc, _, err = _run_cli(tmp_path, capsys, text)
-    assert rc == 2 and err.count("\n") == 1
-    assert ": gears.printed: Table 1 as printed: tip-root interference" in err
+    assert rc == 2 and err.count("\n") == 4
+    assert ":4: gears.printed: Table 1 as printed: tip-root interference" in err
 
 
 @pytest.mark.parametrize("extra, message", [
@@ -270,8 +279,14 @@ def test_drive_radii_must_match_the_gear():
 
 
 def test_geometry_error_is_a_gearsweep_error_raised_by_parse_study():
-    with pytest.raises(GeometryError, match=r"^<study>:\d+: scene.gear: Table 1 as printed: "):
-        parse_study(whine("table1_as_printed", "  torque: 50 N*m\n"))
+    """A study's impossible gear pair is a ``StudyError`` (its problems at their lines) and still
+    the ``GeometryError`` it was, for code that catches that."""
+    for text in (whine("table1_as_printed", "  torque: 50 N*m\n"),
+                 "type: mesh\ntitle: t\ngear: table1_as_printed\ntorque: 50 N*m\n"):
+        with pytest.raises(GeometryError, match=r"^<study>:\d+: (scene.)?gear: Table 1 as"
+                           r" printed: ") as err:
+            parse_study(text)
+        assert isinstance(err.value, StudyError) and len(err.value.lines) == 4
 
 
 # --------------------------------------------------------------------------- mesh studies

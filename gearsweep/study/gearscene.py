@@ -36,12 +36,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
 from gearsweep.errors import GeometryError
-from gearsweep.gear import GearPair, TipRelief, table1_as_printed, table1_consistent
+from gearsweep.gear import (
+    GearPair,
+    GeometryWarning,
+    TipRelief,
+    table1_as_printed,
+    table1_consistent,
+)
 from gearsweep.gear.excitation import DEFAULT_HARMONICS, GearExcitation, gear_excitation
 from gearsweep.study.quantities import (
     Angle,
@@ -154,6 +163,16 @@ GearField = Annotated[GearSpec, BeforeValidator(_preset_name)]
 """A scene's ``gear:``: a preset name or a mapping (see :class:`GearSpec`)."""
 
 
+@contextmanager
+def warned_once() -> Iterator[None]:
+    """A study's gear pair computed without its ``GeometryWarning`` (nearly pointed teeth): the
+    study's validation warned it once, at the line of the field (``schema.gear_refusals``); each
+    ``check`` of the computing after it said it again, at no field."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", GeometryWarning)
+        yield
+
+
 def gear_pair(spec: GearSpec) -> GearPair:
     """The :class:`gearsweep.gear.GearPair` of a spec (not yet checked; see ``GearPair.check``)."""
     fields = spec.overrides()
@@ -176,10 +195,10 @@ def tip_reliefs(spec: GearSpec, pair: GearPair) -> tuple[TipRelief | None, TipRe
     if r is None:
         return None, None
     if r.amount > MAX_RELIEF_MODULES * pair.module:  # ('10 m' for '10 um': an STE of 2.5 km)
-        raise GeometryError(
-            f"tip_relief.amount {r.amount * 1e6:.6g} um is {r.amount / pair.module:.3g} modules;"
-            f" a tip relief is at most {MAX_RELIEF_MODULES:g} module"
-            f" ({MAX_RELIEF_MODULES * pair.module * 1e6:.4g} um here): a unit slip?")
+        why = (f"{r.amount * 1e6:.6g} um is {r.amount / pair.module:.3g} modules; a tip relief"
+               f" is at most {MAX_RELIEF_MODULES:g} module"
+               f" ({MAX_RELIEF_MODULES * pair.module * 1e6:.4g} um here): a unit slip?")
+        raise GeometryError(f"tip_relief.amount {why}", [(why, ("tip_relief.amount",))])
     out: list[TipRelief | None] = []
     for g, side in ((1, "driving"), (2, "driven")):
         if r.gears not in ("both", side):
@@ -202,7 +221,8 @@ def tip_reliefs(spec: GearSpec, pair: GearPair) -> tuple[TipRelief | None, TipRe
 
 def reliefs(spec: GearSpec) -> tuple[TipRelief | None, TipRelief | None]:
     """The tip reliefs of a spec on its (checked) pair."""
-    return tip_reliefs(spec, gear_pair(spec).check())
+    with warned_once():
+        return tip_reliefs(spec, gear_pair(spec).check())
 
 
 def scene_excitation(scene: Any, torque: float | None = None) -> GearExcitation:
@@ -217,4 +237,5 @@ def scene_excitation(scene: Any, torque: float | None = None) -> GearExcitation:
     if torque is None:
         torque = scene.mean_force * pair.base_radius1
     harmonics = scene.harmonics if scene.harmonics is not None else DEFAULT_HARMONICS
-    return gear_excitation(pair, torque, reliefs(scene.gear), harmonics)
+    with warned_once():
+        return gear_excitation(pair, torque, reliefs(scene.gear), harmonics)

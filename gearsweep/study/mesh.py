@@ -30,7 +30,7 @@ from gearsweep.errors import LimitError
 from gearsweep.gear import iso6336_stiffness, mesh_cycles
 from gearsweep.study.dataset import build_dataset
 from gearsweep.study.execute import LIMITS, _size
-from gearsweep.study.gearscene import gear_pair, tip_reliefs
+from gearsweep.study.gearscene import gear_pair, tip_reliefs, warned_once
 from gearsweep.study.schema import MeshStudy, summary
 from gearsweep.units import KINDS
 
@@ -102,8 +102,10 @@ def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
     per: list[dict[str, np.ndarray]] = []
     described = []
     for label, spec in variants.items():
-        pair = gear_pair(spec).check()
-        cycles = mesh_cycles(pair, torques, n=study.positions, tip_relief=tip_reliefs(spec, pair))
+        with warned_once():
+            pair = gear_pair(spec).check()
+            cycles = mesh_cycles(pair, torques, n=study.positions,
+                                 tip_relief=tip_reliefs(spec, pair))
         arrays = [c.as_arrays(h) for c in cycles]
         c_prime, c_gamma = iso6336_stiffness(pair)
         rec = {k: np.stack([a[k] for a in arrays]) for k in

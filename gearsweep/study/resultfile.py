@@ -34,7 +34,7 @@ import numpy as np
 
 from gearsweep.model import SWEEPABLE, MeshModel, mesh_frequency, model_record
 from gearsweep.study.filelayout import file_chunks
-from gearsweep.study.gearscene import gear_pair
+from gearsweep.study.gearscene import gear_pair, warned_once
 from gearsweep.study.measured import scene_measured
 from gearsweep.study.outputs import VarSpec, status_attrs
 from gearsweep.study.provenance import provenance
@@ -385,7 +385,8 @@ def gear_variables(plan: Any) -> dict[str, Var]:
     def amplitudes(harmonics) -> list[float]:
         return [h.amplitude for h in harmonics] + [0.0] * (nh - len(harmonics))
 
-    pair = gear_pair(plan.study.scene.gear).check()  # geometry: the same at every load
+    with warned_once():
+        pair = gear_pair(plan.study.scene.gear).check()  # geometry: the same at every load
     return {
         "gear_contact_ratio": Var((), pair.contact_ratio, {
             "units": "1", "long_name": "transverse contact ratio of the gear pair",

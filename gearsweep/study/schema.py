@@ -35,6 +35,8 @@ import difflib
 import math
 import re
 import typing
+import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -55,7 +57,15 @@ from pydantic import (
     model_validator,
 )
 
-from gearsweep.errors import NO_VALUE, GeometryError, StudyError, article
+from gearsweep.errors import (
+    NO_VALUE,
+    GearStudyError,
+    GeometryError,
+    StudyError,
+    article,
+    problem_line,
+)
+from gearsweep.gear import GeometryWarning
 from gearsweep.gear.excitation import static_mesh
 from gearsweep.kernels.cuda import DEVICES, PRECISIONS
 from gearsweep.kernels.tableaux import KERNEL_METHODS
@@ -69,6 +79,7 @@ from gearsweep.study.gearscene import (
     gear_pair,
     scene_excitation,
     tip_reliefs,
+    warned_once,
 )
 from gearsweep.study.measured import ExcitationSpec, excitation_problems
 from gearsweep.study.outputs import OUTPUTS, configure
@@ -989,10 +1000,11 @@ def written_at(raw: Any, path: str) -> Any:
     return _as_written(raw, _path_parts(path))
 
 
-def _error(file: str, problems: list[Problem], raw: Any = None) -> StudyError:
+def _error(file: str, problems: list[Problem], raw: Any = None,
+           kind: type[StudyError] = StudyError) -> StudyError:
     problems = [Problem(_as_file_writes(raw, p.path), p.value, p.message) for p in problems]
-    return StudyError.many(file, [(line_of(raw, p.path), p.path, p.value, p.message)
-                                  for p in problems])
+    return kind.many(file, [(line_of(raw, p.path), p.path, p.value, p.message)
+                            for p in problems])
 
 
 def _as_file_writes(raw: Any, path: str) -> str:
@@ -1747,11 +1759,12 @@ def _check_gear(study: Study, file: str, raw=None) -> None:
                                     or getattr(sc, name), GEAR_LOAD))
     if problems:
         raise _error(file, problems, raw)
-    try:
-        ex = scene_excitation(sc, first_load(study))
-    except GeometryError as exc:
-        line = line_of(raw, "scene.gear")
-        raise GeometryError(f"{file}{f':{line}' if line else ''}: scene.gear: {exc}") from None
+    found: list = []
+    problems = gear_refusals(sc.gear, lambda: found.append(scene_excitation(sc, first_load(study))),
+                             file, raw, "scene.gear")
+    if problems:
+        raise _error(file, problems, raw, GearStudyError)
+    ex = found[0]
     if sc.drive is not None:
         for g, given, gear in ((1, sc.drive.base_radius_1, ex.base_radius_1),
                                (2, sc.drive.base_radius_2, ex.base_radius_2)):
@@ -1842,14 +1855,59 @@ def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
                                    else "") if study.swept_torque else "torque")
         raise _error(file, [Problem(where, written_at(raw, where) if raw else float(torques[bad[0]]),
                                     "a positive torque (it loads the mesh)")], raw)
+    problems = []  # of every variant at once, each at its field's line (were at the gear's)
     for label, spec in study.variants.items():
-        where = f"gears.{label}" if label else "gear"
-        try:
+
+        def computed(spec=spec) -> None:
             pair = gear_pair(spec).check()
             static_mesh(pair, float(torques[0]), tip_reliefs(spec, pair), n=study.positions)
-        except GeometryError as exc:  # on the gear's line, as one line (was none)
-            raise StudyError(file, where, NO_VALUE, str(exc), line_of(raw, where)) from None
+
+        problems += gear_refusals(spec, computed, file, raw, f"gears.{label}" if label else "gear")
+    if problems:
+        raise _error(file, problems, raw, GearStudyError)
     return study
+
+
+def gear_refusals(spec: GearSpec, compute: Callable[[], Any], file: str, raw: Any,
+                  where: str) -> list[Problem]:
+    """The problems of the gear pair of ``spec``, written at ``where`` (``gear``, ``gears.NAME``,
+    ``scene.gear``), that ``compute`` (its check and mesh) raises, each at the line of the first
+    of the fields it names (``GeometryError.faults``, the most responsible first) that the file
+    writes there, with the value written (a standard tip radius follows x1: at x1's line); at
+    ``where``'s line when it writes none of them (a preset's). Its ``GeometryWarning`` (nearly
+    pointed teeth) is warned the same way, once, when there is no problem."""
+    try:
+        pair = gear_pair(spec)
+        with warned_once():
+            compute()
+    except GeometryError as exc:  # (pair: set, raised after it)
+        if not exc.faults:  # what the messages of no field say: at the gear's line, as it was
+            return [Problem(where, NO_VALUE, str(exc))]
+        return _at_gear_fields(exc.faults, pair.name, raw, where)
+    for p in _at_gear_fields(pair.cautions(), pair.name, raw, where):
+        text = problem_line(file, line_of(raw, p.path), p.path, p.value, p.message)
+        warnings.warn(GeometryWarning(text), stacklevel=3)
+    return []
+
+
+def _at_gear_fields(faults: list[tuple[str, tuple[str, ...]]], name: str, raw: Any,
+                    where: str) -> list[Problem]:
+    """``(message, fields)`` of the pair ``name`` as problems of the gear at ``where``: each at
+    the first of its fields the file writes there, naming the others it writes that share the
+    blame (not teeth and module, which set every radius), else at ``where``, with the pair's
+    name."""
+    out = []
+    for message, fields in faults:
+        written = [f for f in fields if written_at(raw, f"{where}.{f}") is not None]
+        if not written:
+            out.append(Problem(where, NO_VALUE, f"{name}: {message}"))
+            continue
+        at, *others = written
+        shared = ", ".join(f"{f}: {written_at(raw, f'{where}.{f}')}" for f in others
+                           if f not in ("z1", "z2", "module"))
+        out.append(Problem(f"{where}.{at}", _shown_value(written_at(raw, f"{where}.{at}")),
+                           message + (f"; also set by {shared}" if shared else "")))
+    return out
 
 
 def summary(study: MeshStudy) -> str:

@@ -1,0 +1,198 @@
+"""A study's impossible gear pair is refused at the line of the field at fault, with the value as
+written and what would fit; the bounds against closed forms of involute geometry (ISO 21771),
+not against the code's own numbers."""
+
+import math
+import re
+import warnings
+from pathlib import Path
+
+import pytest
+from scipy.optimize import brentq
+
+from gearsweep.cli import main
+from gearsweep.gear import GeometryWarning
+from gearsweep.study.schema import parse_study
+
+STUDIES = Path(__file__).resolve().parent.parent / "studies"
+M = 1e-3  # [m] per mm
+ALPHA = math.radians(20.0)
+
+
+def inv(a: float) -> float:
+    return math.tan(a) - a
+
+
+def operating(m: float, z1: int, z2: int, x1: float, x2: float) -> tuple[float, float]:
+    """Centre distance [m] and operating pressure angle of a zero-backlash shifted pair."""
+    target = inv(ALPHA) + 2.0 * math.tan(ALPHA) * (x1 + x2) / (z1 + z2)
+    aw = brentq(lambda a: inv(a) - target, 1e-9, 1.4, xtol=1e-15)
+    return 0.5 * m * (z1 + z2) * math.cos(ALPHA) / math.cos(aw), aw
+
+
+def floor_mm(length: float) -> float:
+    """``length`` [m] in mm, rounded down to 0.01 mm."""
+    return math.floor(length / M * 100.0) / 100.0
+
+
+def line_no(text: str, key: str) -> int:
+    """The 1-based line of ``text`` where ``key:`` is written (the first)."""
+    return next(i for i, line in enumerate(text.splitlines(), 1) if line.strip().startswith(key))
+
+
+def refused(tmp_path, capsys, text: str) -> tuple[str, list[str]]:
+    """(the file's path, the error lines without 'gearsweep: error: ') of ``validate``."""
+    path = tmp_path / "s.yaml"
+    path.write_text(text)
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    return str(path), [line.removeprefix("gearsweep: error: ") for line in err.splitlines()]
+
+
+def test_a_tip_radius_that_does_not_fit_is_refused_at_its_line_with_what_fits(tmp_path, capsys):
+    """studies/table1_profile_shift.yaml with tip_radius1 70 mm: tip-root interference, involute
+    interference and pointed teeth, each at tip_radius1's line (was the gear's, line 15, in one
+    line), with the largest tip radius each allows: ra1 + rf2 <= a and ra1 <= sqrt(rb1^2 + (a
+    sin alpha_w)^2), a and alpha_w of inv(alpha_w) of the shifts 0.48 / 0.52."""
+    text = (STUDIES / "table1_profile_shift.yaml").read_text().replace(
+        "tip_radius1: 63.7 mm", "tip_radius1: 70 mm")
+    path, lines = refused(tmp_path, capsys, text)
+    at = f"{path}:{line_no(text, 'tip_radius1')}: gear.tip_radius1: '70 mm' -- "
+    assert len(lines) == 3 and all(line.startswith(at) for line in lines), lines
+    m, z1, z2 = 2.5 * M, 48, 32
+    a, aw = operating(m, z1, z2, 0.48, 0.52)
+    assert a / M == pytest.approx(102.31, abs=0.005)  # the study's own comment
+    tip_root = floor_mm(a - 37.8 * M)
+    rb1 = 0.5 * m * z1 * math.cos(ALPHA)
+    involute_limit = floor_mm(math.hypot(rb1, a * math.sin(aw)))
+    assert "tip-root interference" in lines[0] and (
+        f"a tip radius of gear 1 of at most {tip_root:g} mm fits (tip_radius1)" in lines[0])
+    assert tip_root == 64.51
+    assert "; also set by root_radius2: 37.8 mm, x2: 0.52, x1: 0.48" in lines[0]  # (a: shifts)
+    assert "involute interference" in lines[1] and (
+        f"of at most {involute_limit:g} mm fits (tip_radius1)" in lines[1])
+    assert "pointed teeth: gear 1" in lines[2]
+
+
+def test_a_shift_that_leaves_contact_ratio_below_1_is_refused_at_the_shift(tmp_path, capsys):
+    """x1 2.5 beside the printed tip radii: the shifts' centre distance shortens the path of
+    contact to 0.33 base pitches; said at x1's line (the tips are the printed ones), with the
+    largest centre distance that gives 1: sqrt(ra1^2 - rb1^2) + sqrt(ra2^2 - rb2^2) - sqrt(a^2 -
+    (rb1 + rb2)^2) = p_b. The fillet that no longer fits, at fillet_radius's line."""
+    text = (STUDIES / "table1_profile_shift.yaml").read_text().replace("x1: 0.48", "x1: 2.5")
+    path, lines = refused(tmp_path, capsys, text)
+    m, z1, z2 = 2.5 * M, 48, 32
+    rb1, rb2 = 0.5 * m * z1 * math.cos(ALPHA), 0.5 * m * z2 * math.cos(ALPHA)
+    pb = math.pi * m * math.cos(ALPHA)
+    reach = math.sqrt((63.7 * M) ** 2 - rb1**2) + math.sqrt((43.8 * M) ** 2 - rb2**2)
+
+    def eps(a: float) -> float:
+        return (reach - math.sqrt(a**2 - (rb1 + rb2) ** 2)) / pb
+
+    a_max = floor_mm(math.hypot(rb1 + rb2, reach - pb))
+    assert eps(a_max * M) >= 1.0 > eps((a_max + 0.01) * M)
+    assert eps(operating(m, z1, z2, 2.5, 0.52)[0]) == pytest.approx(0.330, abs=5e-4)
+    x1 = f"{path}:{line_no(text, 'x1')}: gear.x1: 2.5 -- contact ratio 0.330 is below 1"
+    assert any(line.startswith(x1) and f"a centre distance of at most {a_max:g} mm gives 1"
+               " (centre_distance); also set by x2: 0.52, tip_radius2: 43.8 mm, tip_radius1:"
+               " 63.7 mm" in line for line in lines), lines
+    fillet = f"{path}:{line_no(text, 'fillet_radius')}: gear.fillet_radius: '1.2 mm' -- fillet"
+    assert any(line.startswith(fillet) for line in lines), lines
+    assert len(lines) == 2
+
+
+def test_pointed_teeth_of_a_standard_tip_are_said_at_the_shift(tmp_path, capsys):
+    """No tip radius written: the standard tip r + m (1 + x1) follows x1, the line said is x1's;
+    the radius where the flanks meet solves inv(alpha_r) = s / (2 r) + inv(alpha), s = m (pi / 2
+    + 2 x1 tan(alpha))."""
+    text = ("type: mesh\ntitle: t\ngear:\n  module: 2 mm\n  z1: 12\n  z2: 40\n"
+            "  face_width: 20 mm\n  x1: 1.2\ntorque: 50 N*m\n")
+    path, lines = refused(tmp_path, capsys, text)
+    m, z, x = 2 * M, 12, 1.2
+    r, rb = 0.5 * m * z, 0.5 * m * z * math.cos(ALPHA)
+    s = m * (0.5 * math.pi + 2.0 * x * math.tan(ALPHA))
+    alpha_r = brentq(lambda a: inv(a) - (s / (2.0 * r) + inv(ALPHA)), 1e-9, 1.5, xtol=1e-15)
+    meet = rb / math.cos(alpha_r)
+    said = (f"{path}:8: gear.x1: 1.2 -- pointed teeth: gear 1 tip thickness -0.813 mm <= 0 at tip"
+            f" radius 16.4 mm; its flanks meet at radius {meet / M:.4g} mm: a tip radius below it"
+            " fits (tip_radius1)")
+    assert lines == [said]
+
+
+def test_undercut_interference_and_thickness_bounds_at_their_fields(tmp_path, capsys):
+    """A given root radius too deep for z1 = 8: undercut at root_radius1's line, at least r -
+    r sin^2(alpha) - rho (1 - sin(alpha)) (rho = 0.38 m, the rack's tip); gear 2's tip meeting
+    gear 1 below its base circle at z1's line (no shift written), at most sqrt(rb2^2 + (a
+    sin(alpha))^2) at the standard centre distance; thickness1 beyond the circular pitch, at
+    most pi m - pi m / 2 there (gear 2 standard, no backlash)."""
+    text = ("type: mesh\ntitle: t\ngear:\n  module: 2 mm\n  z1: 8\n  z2: 40\n  face_width: 20 mm\n"
+            "  root_radius1: 5 mm\n  thickness1: 4 mm\ntorque: 50 N*m\n")
+    path, lines = refused(tmp_path, capsys, text)
+    m = 2 * M
+    r1, rb2, a = 8 * M, 40 * M * math.cos(ALPHA), 48 * M
+    root_min = math.ceil((r1 - r1 * math.sin(ALPHA) ** 2 - 0.38 * m * (1 - math.sin(ALPHA)))
+                         / M * 100) / 100
+    tip2_max = floor_mm(math.hypot(rb2, a * math.sin(ALPHA)))
+    expected = {
+        (f"{path}:8: gear.root_radius1: '5 mm' -- undercut: gear 1 (z = 8",
+         f"a root radius of at least {root_min:g} mm avoids it (root_radius1)"),
+        (f"{path}:5: gear.z1: 8 -- involute interference: the tip of gear 2",
+         f"of at most {tip2_max:g} mm fits (tip_radius2)"),
+        (f"{path}:9: gear.thickness1: '4 mm' -- tooth thicknesses 4 + 3.142 mm do not fit",
+         f"a thickness1 of at most {floor_mm(0.5 * math.pi * m):g} mm fits"),
+    }
+    for start, bound in expected:
+        assert any(line.startswith(start) and bound in line for line in lines), (start, lines)
+
+
+def test_every_variant_of_a_mesh_study_at_its_own_fields(tmp_path, capsys):
+    """Two refused variants in one run: a preset changed by a written tip radius, at that line
+    (at most a - rf2 = 100 - (40 - 1.25 x 2.5) mm); a preset as it is, at its own line."""
+    text = ("type: mesh\ntitle: t\ngears:\n  longer:\n    preset: table1_consistent\n"
+            "    tip_radius1: 63.7 mm\n  printed: table1_as_printed\ntorque: 50 N*m\n")
+    path, lines = refused(tmp_path, capsys, text)
+    assert lines[0] == (
+        f"{path}:6: gears.longer.tip_radius1: '63.7 mm' -- tip-root interference: tip radius of"
+        " gear 1 (63.7 mm) + root radius of gear 2 (36.88 mm) exceeds the centre distance 100 mm"
+        f" by 0.575 mm; a tip radius of gear 1 of at most {floor_mm(100 * M - 36.875 * M):g} mm"
+        " fits (tip_radius1)")
+    assert all(line.startswith(f"{path}:7: gears.printed: Table 1 as printed: ")
+               for line in lines[-4:]) and len(lines) >= 5
+
+
+NEARLY_POINTED = ("type: mesh\ntitle: t\npositions: 16\nharmonics: 4\ngear:\n  module: 2 mm\n"
+                  "  z1: 12\n  z2: 40\n  face_width: 20 mm\n  x1: 0.75\ntorque: 50 N*m\n")
+
+
+def test_nearly_pointed_teeth_warn_once_at_the_field(tmp_path, capsys):
+    """The warning (tip thickness below 0.2 m) at x1's line, one ``gearsweep: warning:`` line from
+    validate and from run (was Python's warning with a source line, three times, at no field),
+    with the tip radius that keeps 0.2 m: 2 r (s / (2 r_p) + inv(alpha) - inv(alpha_r)) = 0.2 m."""
+    m, z, x = 2 * M, 12, 0.75
+    rp, rb = 0.5 * m * z, 0.5 * m * z * math.cos(ALPHA)
+    s = m * (0.5 * math.pi + 2.0 * x * math.tan(ALPHA))
+
+    def thickness(r: float) -> float:
+        return 2.0 * r * (s / (2.0 * rp) + inv(ALPHA) - inv(math.acos(rb / r)))
+
+    keep = floor_mm(brentq(lambda r: thickness(r) - 0.2 * m, rb, rp + 2 * m, xtol=1e-15))
+    assert thickness(keep * M) >= 0.2 * m > thickness((keep + 0.01) * M)
+    path = tmp_path / "s.yaml"
+    path.write_text(NEARLY_POINTED)
+    said = (f"gearsweep: warning: {path}:10: gear.x1: 0.75 -- gear 1 tip thickness"
+            f" {thickness(rp + m * (1 + x)) / M:.3g} mm is below 0.2 m = 0.4 mm (nearly pointed"
+            f" teeth); a tip radius of gear 1 of at most {keep:g} mm keeps 0.2 m (tip_radius1)\n")
+    for command in (["validate", str(path)], ["run", str(path), "-o", str(tmp_path / "r.nc")]):
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", GeometryWarning)  # as outside pytest: shown, not raised
+            assert main(command) == 0
+        assert capsys.readouterr().err == said
+    with pytest.warns(GeometryWarning, match=re.escape(said[len("gearsweep: warning: "):-1])):
+        parse_study(NEARLY_POINTED.replace("x1: 0.75", "x1: 0.75  # shifted"), str(path))
+
+
+def test_a_good_gear_says_nothing():
+    """The paper's profile-shift study: no problem, no warning."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse_study((STUDIES / "table1_profile_shift.yaml").read_text(), "s.yaml")
