@@ -246,3 +246,18 @@ def test_advise_warns_where_its_advised_steps_fail_the_map_check(tmp_path, capsy
         said = (f"at the advised {n} steps per mesh period the step guard finds 1 case(s) beyond"
                 " the method's stability limit")
         assert (said in text) == diverges, text
+
+
+def test_the_transient_note_does_not_judge_undamped_cases_by_the_integrators_damping():
+    """Undamped, the equation's monodromy has det 1, so |mu| >= 1: its free vibration does not
+    decay at all. A fixed-step map that decays there (RK5 at 200 steps: 1 - 1.1e-5 a period)
+    decays by the integrator's own damping; the transient note took that for the slowest decay
+    (99.9 %, 415,369 periods) over the damped cases'. It now comes from the damped case alone:
+    exp(-c T / 2m) per period at c = 10 N s/m, 2000 rpm."""
+    study = whine(200, transient=100)
+    study["scene"]["stiffness_harmonics"] = [{"amplitude": "300 kN/mm"}]  # k1/k0 = 0.28
+    study["sweep"] = {"speed": ["2000 rpm"], "damping": ["0 N*s/m", "10 N*s/m"]}
+    per_period = 0.5 * 10.0 / MASS * 60.0 / (TEETH * 2000.0)
+    residual, speed, periods, at = transient_residual(plan_of(study))
+    assert residual == pytest.approx(math.exp(-100 * per_period), rel=1e-9)
+    assert periods == math.ceil(math.log(100) / per_period) and at is None
