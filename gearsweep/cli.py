@@ -254,7 +254,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         residual, speed, need, mu = left
         how = ("exp(-c / (2 m) periods x T) at {:g} rpm, the least damped case" if mu is None
                else f"|mu|^periods, the fixed-step map's largest Floquet multiplier {mu:.4g} per"
-               " mesh period (k(t) varies strongly), at {:g} rpm, the slowest to decay")
+               " mesh period (the step guard's map check), at {:g} rpm, the slowest to decay")
         shown = f"{residual:.{0 if residual >= 0.1 else 1}%}"
         print(f"gearsweep: note: {name}: solver.transient_periods"
               f" {study.solver.transient_periods} leave up to {shown} of the start's free"
@@ -832,10 +832,11 @@ def cmd_advise(args: argparse.Namespace) -> int:
 
 
 def _map_check_warnings(study, text: str, path: str, a) -> list[str]:
-    """What the step guard's map check (strongly varying k(t): the fixed-step map's monodromy,
-    ``analysis.stability.needs_map_check``) finds at the advised steps, which the advisor's frozen
-    rule does not see: an outside analyst's whine scene (k1 = 1050 of k0 = 1073 kN/mm, zeta
-    0.007, RK5) was told 40 steps were stable, where the map diverges up to 55."""
+    """What the step guard's map check (the fixed-step map's monodromy where k(t) varies strongly,
+    the step is coarse or a parametric tongue is open: ``analysis.stability.needs_map_check``)
+    finds at the advised steps, which the advisor's frozen rule does not see: an outside
+    analyst's whine scene (k1 = 1050 of k0 = 1073 kN/mm, zeta 0.007, RK5) was told 40 steps were
+    stable, where the map diverges up to 55."""
     out = []
     for n, what in ((a.steps_per_period, "the advised"),):
         if n is None or n > MAX_STEPS_PER_PERIOD:
@@ -848,8 +849,8 @@ def _map_check_warnings(study, text: str, path: str, a) -> list[str]:
             continue
         if beyond:
             out.append(f"at {what} {n} steps per mesh period the step guard finds {beyond}"
-                       " case(s) beyond the method's stability limit: k(t) varies strongly and"
-                       " the fixed-step map diverges where the equation decays, which the"
+                       " case(s) beyond the method's stability limit: k(t) varies and the"
+                       " fixed-step map diverges where the equation does not, which the"
                        " frozen-coefficient limit above does not see (docs/stability.md); take"
                        " more steps (`gearsweep validate` with them says how many cases remain)")
     return out

@@ -1,5 +1,6 @@
-"""The step guard where k(t) varies strongly: the fixed-step map's monodromy, not only the
-frozen-coefficient check at k0 + sum|k_n| (docs/stability.md, "The step guard").
+"""The step guard where k(t) varies strongly, the step is coarse or a parametric tongue is open
+near the case: the fixed-step map's monodromy, not only the frozen-coefficient check at
+k0 + sum|k_n| (docs/stability.md, "The step guard").
 
 The truth here is independent of the package: the map's monodromy is built in NumPy from the
 tableaux written out below (Butcher's RK5 of ``kernels/rk.py`` and the classical RK4), the
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -123,7 +125,9 @@ def test_weak_variation_at_coarse_steps_is_checked_too():
     """beta / alpha = 0.15 (below STRONG_VARIATION) near the principal tongue, zeta 0.002, RK4
     at 6 steps per period (the frozen rule asks for 2): the map's multiplier 1.012, the
     equation's 0.9935; below COARSE_STEPS the guard checks the map and flags it. At 32 steps
-    the map decays as the equation does, and nothing is computed."""
+    the map decays as the equation does and the guard passes it (it still checks it: the first
+    tongue is open at this damping); with zeta 0.1, where no tongue is, it checks the map at 6
+    steps and not at 32."""
     a, g = 0.2701, 0.0020788458336298055
     b = 0.15 * a
     mu_map, mu_eq = own_map("rk4", a, b, g, 6), own_equation(a, b, g)
@@ -132,8 +136,10 @@ def test_weak_variation_at_coarse_steps_is_checked_too():
     assert b / a < st.STRONG_VARIATION and 6 < st.COARSE_STEPS
     assert cases_beyond_step_limit(plan_of(mathieu_study(a, b, g, 6, "rk4"))) == 1
     assert own_map("rk4", a, b, g, st.COARSE_STEPS) < 1
-    assert not st.needs_map_check(a, b, None, st.COARSE_STEPS)
     assert cases_beyond_step_limit(plan_of(mathieu_study(a, b, g, st.COARSE_STEPS, "rk4"))) == 0
+    damped = 2 * 0.1 * math.sqrt(a)
+    assert st.needs_map_check(a, b, damped, None, 6)
+    assert not st.needs_map_check(a, b, damped, None, st.COARSE_STEPS)
 
 
 @pytest.mark.parametrize("spp", [38, 40, 44, 48, 52, 55, 56, 60, 64, 72])
@@ -261,3 +267,113 @@ def test_the_transient_note_does_not_judge_undamped_cases_by_the_integrators_dam
     residual, speed, periods, at = transient_residual(plan_of(study))
     assert residual == pytest.approx(math.exp(-100 * per_period), rel=1e-9)
     assert periods == math.ceil(math.log(100) / per_period) and at is None
+
+
+# An undamped case just outside the upper edge of the second tongue (alpha = 1 + 5 beta^2 / 12
+# to first order: 1.00938 at beta / alpha = 0.15), where RK4's tongue, O(h^4) beside the
+# equation's, still reaches at 32 steps per period.
+EDGE = (1.00945, 0.15 * 1.00945, 0.0)
+
+
+def test_an_undamped_case_at_a_tongues_edge_is_beyond_the_step_limit():
+    """beta / alpha = 0.15 (below STRONG_VARIATION), 32 steps (not below COARSE_STEPS), RK4,
+    undamped: the equation's multipliers lie on the unit circle (|mu| = 1 to 1e-9, scipy), the
+    map's largest is 1.0013 a period. The guard checked the map only for strong variation or
+    coarse steps and passed it; it now checks every undamped case with varying stiffness and
+    flags it. The floquet output's min_steps_per_period is the first count whose map passes."""
+    a, b, g = EDGE
+    assert own_equation(a, b, g) == pytest.approx(1.0, abs=1e-9)
+    assert own_map("rk4", a, b, g, 32) == pytest.approx(1.0013, abs=1e-4)
+    assert st.check_step("rk4", 32, 2 * math.pi, a + b, g)[0]
+    assert b / a < st.STRONG_VARIATION and 32 >= st.COARSE_STEPS
+    study = mathieu_study(a, b, g, 32, "rk4")
+    assert cases_beyond_step_limit(plan_of(study)) == 1
+    frozen = int(st.check_step("rk4", 32, 2 * math.pi, a + b, g)[1])
+    first = next(S for S in range(frozen, 400) if own_map("rk4", a, b, g, S) <= 1 + TOL)
+    study["outputs"] = ["stats", "floquet"]
+    with pytest.warns(StepLimitWarning):
+        ds = gearsweep.run(study)
+    assert bool(ds.beyond_step_limit.values.ravel()[0])
+    assert int(ds.min_steps_per_period.values.ravel()[0]) == first
+    assert own_map("rk4", a, b, g, 48) < 1  # RK4's tongue has moved back inside the equation's
+    assert cases_beyond_step_limit(plan_of(mathieu_study(a, b, g, 48, "rk4"))) == 0
+
+
+def _largest_near_tongue(n: int, r: float, zeta: float) -> float:
+    """The equation's largest |mu| (scipy) near tongue n of p'' + 2 zeta sqrt(alpha) p' +
+    alpha (1 + r cos t) p = 0, maximised over alpha around n^2 / 4 (bounded Brent)."""
+    from scipy.optimize import minimize_scalar
+
+    def mu(alpha):
+        return own_equation(alpha, r * alpha, 2 * zeta * math.sqrt(alpha))
+
+    # the tongue's middle, Mathieu's a_n, b_n to second order in q = 2 beta
+    mid = n * n / 4 + ((r / 8) if n == 1 else (r * n * n / 4) ** 2 / (2 * (n * n - 1)))
+    half = 2 * (r * n * n / 8) ** n / math.factorial(n - 1) ** 2
+    best = minimize_scalar(lambda x: -mu(x), bounds=(mid - half, mid + half), method="bounded",
+                           options={"xatol": 1e-4 * half})
+    return -best.fun
+
+
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_tongue_damping_is_where_the_equations_tongue_closes(n):
+    """``tongue_damping`` (2 (r n^2 / 8)^n / (n!)^2 at beta / alpha = r) against the equation
+    (scipy): at r = 0.2 tongue n is open at 0.97 times it and closed at 1.03 times it."""
+    r = 0.2
+    alpha = n * n / 4
+    zn = float(st.tongue_damping(alpha, r * alpha))
+    assert zn == pytest.approx((r / 4, r**2 / 8, 81 * r**3 / 1024)[n - 1], rel=1e-12)
+    assert _largest_near_tongue(n, r, 0.97 * zn) > 1
+    assert _largest_near_tongue(n, r, 1.03 * zn) < 1
+
+
+def test_the_rig_checks_the_map_of_its_undamped_row_only(monkeypatch):
+    """The rig of Fig. 7.2 (studies/stability_rig.yaml: k1 / k0 = 0.167, RK5 at 200 steps, 96
+    speeds x 8 dampings): its damped rows (zeta 3.9e-4 to 0.39, alpha 70-28,000, far from the
+    few tongues a damping that small leaves open) cost no monodromy; its undamped row costs one
+    per speed that the frozen rule passes: h w_max = 2 pi sqrt((k0 + k1) / m) / (N w) / 200 at
+    most RK5's undamped limit, the first root of |R(iy)|^2 = 1 (0.852)."""
+    calls = []
+    real = plan_mod.map_step_check
+    monkeypatch.setattr(plan_mod, "map_step_check",
+                        lambda a, *args, **kw: calls.append(np.size(a)) or real(a, *args, **kw))
+    study = yaml.safe_load((Path(__file__).parents[1] / "studies/stability_rig.yaml")
+                           .read_text(encoding="utf-8"))
+    y = np.roots([1 / 409600, 0, -7 / 115200, 0, 1 / 1920, 0, -1 / 2880])  # |R(iy)|^2 - 1 / y^6
+    limit = min(v.real for v in y if abs(v.imag) < 1e-12 and v.real > 0)
+    assert limit == pytest.approx(0.852, abs=1e-3)
+    speeds = np.geomspace(100, 2000, 96)
+    hw = 2 * np.pi * math.sqrt((1073e6 + 179e6) / 0.1527) / (48 * speeds / 60 * 2 * np.pi) / 200
+    cases_beyond_step_limit(plan_of(study))
+    assert calls == [int(np.count_nonzero(hw <= limit))] == [35]
+    calls.clear()
+    study["sweep"]["damping"] = study["sweep"]["damping"][1:]  # without 0 N s/m
+    cases_beyond_step_limit(plan_of(study))
+    assert calls == []
+
+
+def test_advise_warns_where_its_advised_steps_put_an_undamped_case_in_the_maps_tongue(tmp_path,
+                                                                                       capsys):
+    """``EDGE`` as a whine scene (k1 = 0.15 k0, no damping, RK4, the speed where alpha =
+    1.00945): for a 3e-4 target advise takes 32 steps, where this test's own map has |mu| =
+    1.0013 and the equation 1, and says so (it did not: the guard checked the map only for
+    strong variation or coarse steps); at the 40 steps of a 1e-4 target the map is stable."""
+    a, b, g = EDGE
+    rpm = math.sqrt(K0 / (MASS * a)) / TEETH * 60 / (2 * math.pi)
+    study = whine(32)
+    study["scene"].update(damping="0 N*s/m", stiffness_harmonics=[{"amplitude": "160.95 kN/mm"}])
+    study["solver"]["method"] = "rk4"
+    study["sweep"] = {"speed": [f"{rpm!r} rpm"]}
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(study), encoding="utf-8")
+    seen = {}
+    for target in ("3e-4", "1e-4"):
+        assert main(["advise", str(path), "--target", target]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        n = int(text.split("For a target of ")[1].split(": ")[1].split(" steps")[0])
+        diverges = own_map("rk4", a, b, g, n) > 1 + TOL
+        said = (f"at the advised {n} steps per mesh period the step guard finds 1 case(s) beyond"
+                " the method's stability limit")
+        assert (said in text) == diverges, text
+        seen[n] = diverges
+    assert seen == {32: True, 40: False}

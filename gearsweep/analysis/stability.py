@@ -86,6 +86,8 @@ __all__ = [
     "COARSE_STEPS",
     "STRONG_VARIATION",
     "needs_map_check",
+    "TONGUE_MARGIN",
+    "tongue_damping",
     "variation_ratio",
 ]
 
@@ -372,16 +374,68 @@ wherever k(t) varies at all. A scan of 60,000 cases a method with sum|k_n| / k0 
 0.1-30, zeta 0-0.05, each step count from the frozen limit on): RK4 diverges where the equation
 decays by more than 1e-3 a period up to 24 steps per period (alpha near 1/4 and 1, the first
 two tongues), RK5 up to 6; from 32 steps on, none by more than 1e-3 (RK4 near alpha = 4 by
-less, where the equation's multiplier is 1 to 1e-6)."""
+less, where the equation's multiplier is 1 to 1e-6: a tongue's edge, ``TONGUE_MARGIN``'s)."""
 
 
-def needs_map_check(alpha, beta, harmonics, steps_per_period: int) -> np.ndarray:
-    """Where the step guard checks the fixed-step map's monodromy besides the frozen rule:
-    stiffness variation above ``STRONG_VARIATION``, or any variation at fewer than
-    ``COARSE_STEPS`` steps per period."""
+TONGUE_MARGIN = 2.0
+"""Where the stiffness varies weakly, the step guard also checks the map's monodromy where the
+case's damping ratio is at most this many times ``tongue_damping`` (the damping that closes the
+parametric tongue nearest the case): the map's tongue sits O(h^p) beside the equation's, and at
+a tongue's edge the map diverges where the equation does not. Scans of RK4 and RK5 at 16-256
+steps per period (beta / alpha 0.05-0.2, tongues 1-6, 27 Nov 2026): the equation's tongue n
+closes at 0.98-1.006 times ``tongue_damping``, and at 1.01, 1.1 and 1.5 times it the map's
+largest |mu| stays below 1 + 1e-6 near the tongue at every one of those steps
+(docs/stability.md)."""
+
+
+def tongue_damping(alpha, beta, harmonics=None) -> np.ndarray:
+    """The damping ratio above which the Hill equation p'' + gamma p' + (alpha + beta s(tau)) p = 0
+    has no parametric tongue near ``alpha``.
+
+    One stiffness harmonic r cos(o tau + a) (``variation_ratio`` r): the tongue nearest alpha is
+    j = round(2 sqrt(alpha) / o) >= 1, at alpha = (o j)^2 / 4, and it closes at zeta =
+    Delta_j / j^2 with Delta_j = 2 (r j^2 / 8)^j / (j!)^2, the first-order width of Mathieu's
+    tongue j (a_j - b_j = q^j / (2^(2j-3) ((j-1)!)^2) in Mathieu's form, q = 2 beta):
+    zeta_1 = r / 4, zeta_2 = r^2 / 8, zeta_3 = 81 r^3 / 1024, ... Several harmonics: r / 4, as
+    if one harmonic carried the whole variation (harmonic o closes its own first-order tongue
+    at r_o / 4; tongues of higher order are narrower by factors of order r). The damping ratio
+    is zeta = gamma / (2 sqrt(alpha)).
+
+    Returns
+    -------
+    ndarray
+        zeta_n [-] (0 where the stiffness is constant; ``inf`` where alpha <= 0).
+    """
+    amps, orders, _ = harmonics if harmonics is not None else fq.MATHIEU
+    amps = np.atleast_1d(np.asarray(amps, float))
+    orders = np.atleast_1d(np.asarray(orders, float))
+    r = variation_ratio(alpha, beta, harmonics)
+    a = np.asarray(alpha, float)
+    if np.count_nonzero(amps) != 1:
+        return r / 4.0
+    o = float(orders[np.flatnonzero(amps)[0]])
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        j = np.maximum(np.round(2.0 * np.sqrt(np.where(a > 0, a, 0.0)) / o), 1.0)
+        uniq, inverse = np.unique(j, return_inverse=True)  # (a study has few tongues)
+        log_fact = np.array([math.lgamma(x + 1.0) for x in uniq.ravel()])[inverse].reshape(j.shape)
+        log_z = math.log(2.0) + j * np.log(r * j * j / 8.0) - 2.0 * log_fact
+        z = np.where(r > 0, np.exp(log_z), 0.0)
+    return np.where(np.isfinite(r), z, np.inf)
+
+
+def needs_map_check(alpha, beta, gamma, harmonics, steps_per_period: int) -> np.ndarray:
+    """Where the step guard checks the fixed-step map's monodromy besides the frozen rule: where
+    the stiffness varies (``variation_ratio`` > 0) and it varies by more than
+    ``STRONG_VARIATION``, or the step is coarser than ``COARSE_STEPS`` per period, or the case's
+    damping ratio gamma / (2 sqrt(alpha)) is at most ``TONGUE_MARGIN`` x ``tongue_damping`` (a
+    parametric tongue near the case is open: every undamped case)."""
     ratio = variation_ratio(alpha, beta, harmonics)
-    with np.errstate(invalid="ignore"):
-        return (ratio > STRONG_VARIATION) | ((ratio > 0) & (int(steps_per_period) < COARSE_STEPS))
+    a = np.asarray(alpha, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zeta = np.abs(np.asarray(gamma, float)) / (2.0 * np.sqrt(np.where(a > 0, a, np.nan)))
+        near_tongue = ~(zeta > TONGUE_MARGIN * tongue_damping(alpha, beta, harmonics))
+        return (ratio > STRONG_VARIATION) | ((ratio > 0) & (
+            (int(steps_per_period) < COARSE_STEPS) | near_tongue))
 
 
 def variation_ratio(alpha, beta, harmonics=None) -> np.ndarray:
@@ -396,7 +450,7 @@ def variation_ratio(alpha, beta, harmonics=None) -> np.ndarray:
 
 def map_step_check(alpha, beta, gamma, steps_per_period: int, *, method: str,
                    harmonics=None, tol: float = UNSTABLE_TOL) -> tuple[np.ndarray, np.ndarray]:
-    """The step guard's check of the fixed-step map, for strongly varying stiffness.
+    """The step guard's check of the fixed-step map, where ``needs_map_check`` asks for it.
 
     Parameters
     ----------

@@ -629,8 +629,9 @@ class Floquet:
       a multiplier > 1 and the equation does not;
     * ``min_steps_per_period``: the guard rail's fewest stable steps per mesh period of the study's
       method (stability polynomial at the largest stiffness, ``gearsweep.analysis.stability``;
-      where the stiffness varies strongly, the first step count from there whose fixed-step map
-      does not diverge where the equation decays: the step guard's monodromy check).
+      where the step guard checks the fixed-step map (``needs_map_check``: k(t) varies strongly,
+      the step is coarse, or a parametric tongue is open near the case), the first step count
+      from there whose map does not diverge where the equation does not).
 
     For the rattle and full scenes these describe the contact (linear) phase only: with backlash the
     motion is piecewise linear and its stability is not a Floquet question.
@@ -684,8 +685,8 @@ class Floquet:
             "integrator_unstable": VarSpec(dtype="bool", attrs={"threshold": f"1 + {TOL:g}"}),
             "min_steps_per_period": VarSpec(attrs={
                 "units": "1", "long_name": "fewest steps per mesh period for which the study's "
-                "method is stable (stability polynomial at the largest stiffness; where k(t) "
-                "varies strongly, the fixed-step map's monodromy too)"}),
+                "method is stable (stability polynomial at the largest stiffness; where the step "
+                "guard checks it, the fixed-step map's monodromy too)"}),
         }
 
     @staticmethod
@@ -757,12 +758,12 @@ def _multipliers(a, b, g, harm, solver) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 def _step_limit(solver, harm, ok, a, b, g, kmax, cm, period) -> np.ndarray:
     """``min_steps_per_period`` of the cases: the frozen-coefficient limit (``check_step``), and
-    where the stiffness varies strongly (``needs_map_check``, the step guard's rule) the first
+    where the step guard checks the map (``needs_map_check``, the step guard's rule) the first
     step count from it on whose map passes the guard's monodromy check (``map_step_limit``)."""
     n = np.size(a)
     _, limit = check_step(solver.method, solver.steps_per_period, period, kmax, cm)
     limit = np.array(np.broadcast_to(limit, (n,)), dtype=float)
-    strong = np.flatnonzero(ok & needs_map_check(a, b, harm, solver.steps_per_period))
+    strong = np.flatnonzero(ok & needs_map_check(a, b, g, harm, solver.steps_per_period))
     if strong.size:
         with np.errstate(over="ignore", invalid="ignore"):
             limit[strong] = map_step_limit(a[strong], b[strong], g[strong],

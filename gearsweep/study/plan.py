@@ -535,7 +535,7 @@ def _step_ok(plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
 
 def _model_step_ok(plan: Plan, model, params: dict[str, np.ndarray], n: int) -> np.ndarray:
     """``_step_ok`` of cases that share the model ``model``: the frozen-coefficient rule, and
-    where the stiffness varies strongly (``analysis.stability.needs_map_check``) the map's
+    where the step guard checks it (``analysis.stability.needs_map_check``) the map's
     monodromy (``_map_multipliers``)."""
     a, b, g, harm, kmax, cm, period = hill_parameters(model, params, n)
     ok = _frozen_ok(plan, kmax, cm, period, n)
@@ -564,7 +564,7 @@ def _map_multipliers(plan: Plan, model, a, b, g, harm, ok) -> tuple[np.ndarray, 
     beyond, disc = np.zeros(n, bool), np.full(n, np.nan)
     a, b, g, ok = (np.broadcast_to(np.asarray(x), (n,)) for x in (a, b, g, ok))
     s = plan.study.solver
-    strong = ok & np.isfinite(a) & needs_map_check(a, b, harm, s.steps_per_period)
+    strong = ok & np.isfinite(a) & needs_map_check(a, b, g, harm, s.steps_per_period)
     if not strong.any():
         return beyond, disc
     idx = np.flatnonzero(strong)
@@ -639,7 +639,7 @@ SETTLED_RESIDUAL = 0.01
 ``gearsweep validate`` notes it: the ``status`` check compares the halves of the record and
 misses a beat slower than the record (an outside check, 27 Nov 2026: zeta = 0.001, 300
 transient and 20 recorded periods, status 0 with p_pp 10-17 % off, where this estimate gives
-15 %). Where the stiffness varies strongly the slowest mode decays by the fixed-step map's
+15 %). Where the step guard checks the map the slowest mode decays by the fixed-step map's
 largest multiplier per period instead, |mu|^N_t (``transient_residual``)."""
 
 
@@ -651,8 +651,8 @@ def transient_residual(plan: Plan) -> tuple[float, float, int, float | None] | N
     a Mathieu chart (a stability study), or when the grid is larger than ``_GUARD_TABLE_MAX``.
 
     A case's free vibration decays per mesh period by exp(-c / (2 m) T) (its damping), or, where
-    the stiffness varies strongly (``needs_map_check``, where the step guard computes it), by
-    the largest |mu| of the fixed-step map at the study's method and step when that is larger:
+    the step guard computes the map's multiplier (``needs_map_check``), by the largest |mu| of
+    the fixed-step map at the study's method and step when that is larger:
     a parametric mode can decay far slower than damping says (an outside check: mu = 0.979
     against exp(-c T / 2 m) = 0.62; 200 transient periods left 1.4 %, status 0 with the
     statistics 1 % off). Cases whose map diverges are the step guard's; undamped cases, whose
