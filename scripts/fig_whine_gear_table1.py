@@ -1,8 +1,9 @@
 """Whine response versus speed with k(t) from the Table 1 gear pair (studies/whine_gear_table1.yaml).
 
 Reads results/whine_gear_table1.nc; writes whine_gear_table1.png. Only settled cases are drawn:
-a case whose rms still grows at the end of its window (status 2, the parametric instability near
-twice the natural frequency at low damping) has no steady value; those are masked and counted.
+a case not settled at the end of its window (status 2: at low damping the parametric instability
+near twice the natural frequency, and the slowly decaying cases at its edges) has no steady value;
+those are masked and counted.
 """
 
 from _common import open_result, parse
@@ -21,6 +22,6 @@ ax = fig.axes[0]
 ax.set_yscale("log")
 bad = int((ds["status"] != 0).sum())
 ax.set_title(f"{ds.attrs['title']}\nk0 = {k0 / 1e6:.0f} kN/mm (from the pair), m_eq = {m:g} kg;"
-             f" {bad} of {ds['status'].size} cases not settled, masked\n(still growing at the"
-             " end of the window: no steady value)", fontsize=9)
+             f" {bad} of {ds['status'].size} cases not settled, masked\n(the parametric"
+             " tongue near twice f_n and its slow edges: no steady value)", fontsize=9)
 print(save(fig, args.figures / "whine_gear_table1.png", dpi=150))
