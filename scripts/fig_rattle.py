@@ -11,6 +11,8 @@ distance of Eq. (15) from the integration. Nothing is computed here. The Fig. 12
 ``scripts/fig11_low_speed.py``.
 """
 
+import textwrap
+
 import numpy as np
 import xarray as xr
 from _common import open_result, parse
@@ -77,13 +79,14 @@ def fig8_out_of_sample(ds8, results, budget, figures):
         loss, _, _ = settled(ds["contact_loss_fraction"], ds)
         for i, c in enumerate(ds["damping"].values):
             k = float(b.scene_stiffness.sel(damping=c))
-            lab = (f"{name} {k / 1e6:.0f} kN/mm, own STE, c = {c:g} N s/mm"
+            lab = (f"{name} {k / 1e6:.0f} kN/mm, c = {c:g} N s/mm"  # (own STE: the title)
                    f" (ζ = {float(b.zeta.sel(damping=c)):.3f})")
             for d, ls in (("up", "-"), ("down", "--")):
                 kw = {"color": colors[j], "ls": ls, "lw": 1.6 if i == 0 else 0.9}
+                jump = rplot.budget_jump(b.sel(damping=c), d)  # (or: cannot be judged)
                 lines.append({"x": ds["speed"].values,
                               "y": a.sel(damping=c, direction=d).values,
-                              "label": lab + (" (run-up)" if d == "up" else " (run-down)"), **kw})
+                              "label": f"{lab}, run-{d}: {jump}", **kw})
                 loss_lines.append({"x": ds["speed"].values,
                                    "y": loss.sel(damping=c, direction=d).values,
                                    "label": None, **kw})
@@ -97,10 +100,10 @@ def fig8_out_of_sample(ds8, results, budget, figures):
     outside = {"fontsize": 6.5, "loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
     ax.legend(**outside)  # beside the panel: inside it the legends hid lines
     ax.set_title("Fig. 8 out of sample: the same Eq. (13) driven by the Table 1 pair's own STE"
-                 " (no fitted force)\n(no case reaches the back flank: backside contact 0"
-                 " everywhere; not settled, masked: "
-                 + ", ".join([f"Fig. 8 scene {nb8} of {na8}"] + masked) + " case-speeds)",
-                 fontsize=9)
+                 " (no fitted force)\n" + textwrap.fill(
+                     "(no case reaches the back flank: backside contact 0 everywhere; not"
+                     " settled, masked: " + ", ".join([f"Fig. 8 scene {nb8} of {na8}"] + masked)
+                     + " case-speeds)", 95), fontsize=9)  # (beside a wide legend: wrapped)
     loss8, _, _ = settled(ds8["contact_loss_fraction"], ds8)
     loss_lines.insert(0, {"x": ds8["speed"].values, "y": loss8.sel(direction="up").values,
                           "color": "0.55", "lw": 2.0, "label": None})
@@ -119,10 +122,12 @@ def fig8_out_of_sample(ds8, results, budget, figures):
                 continue
             lo, hi = float(s.contact_loss_from), float(s.contact_loss_to)
             span = f"{lo}-{hi}" if np.isfinite(lo) else "none"
-            print(f"{str(b.scene_title.values)[:60]}: c = {c:g}: jumps up"
-                  f" {float(s.jump_up_speed):.0f} down {float(s.jump_down_speed):.0f} rpm;"
+            print(f"{str(b.scene_title.values)[:60]}: c = {c:g}: run-up"
+                  f" {rplot.budget_jump(s, 'up')}, run-down {rplot.budget_jump(s, 'down')};"
                   f" contact loss at {span} rpm, max p_pp {float(s.p_pp_max) * 1e6:.2f} µm,"
                   f" backside {float(s.backside_contact_max):.3f}")
+    if "jump_note" in budget.attrs:
+        print(f"jumps: {budget.attrs['jump_note']}")
     at = budget.inertia_force_at.values
     thr = [(str(b.scene_name.values), round(float(t)))
            for sc in budget["scene"].values for b in [budget.sel(scene=sc)]

@@ -556,3 +556,59 @@ def test_rattle_balance_keeps_a_branch_that_stops_short_with_a_note(tmp_path, mo
     assert ds["turning_point"].sel(curve="aft").isnull().all()
     assert ds["turning_point"].sel(curve="describing_function").notnull().any()
     assert np.isnan(float(ds["flip_speed"])) and ds["amplitude"].notnull().any()
+
+
+def test_rattle_budget_marks_a_scene_whose_jumps_cannot_be_judged(tmp_path):
+    """rattle_budget gave each scene's jump speeds, NaN both where a sweep has no jump and where
+    the jump criterion cannot judge it (steps that meet it, none with settled points of both
+    branches beside it: jump_unsupported of the scene's jump summary), so fig08_out_of_sample
+    and its printed summary read the latter as "no jump". A scene whose sweeps at c = 4.92 N s/mm
+    are the unsettled pattern of test_rattle's j1 sweep (a step onto unsettled points on the
+    run-up, an isolated settled point on the run-down) and at c = 0.492 N s/mm the same run-up
+    all settled (one step of 28% between 6.6 and 9.2 um, two-valued against the run-down) over
+    a smooth run-down: jump_unsupported 3 at the first (both sweeps), 0 at the second, whose
+    run-up jumps at the midpoint of that step's speeds; the settings say which in one note."""
+    import xarray as xr
+
+    from gearsweep.plot.rattle import budget_jump
+
+    xr.Dataset({"ste_harmonic": ("harmonic", [4.3, 1.33], {"units": "um"})},
+               coords={"harmonic": [0, 1]}).to_netcdf(tmp_path / "m.nc")
+    scene = {**RATTLE, "sweep": {"speed": {"start": "7000 rpm", "stop": "7165 rpm", "num": 12},
+                                 "damping": ["4.92 N s/mm", "0.492 N s/mm"]},
+             "solver": {**RATTLE["solver"], "transient_periods": 2, "record_periods": 2}}
+    gearsweep.run(scene, output=tmp_path / "s.nc")
+    ds = xr.load_dataset(tmp_path / "s.nc")
+    up = [7.0, 6.7, 6.6, 6.6, 9.2, 8.4, 9.5, 9.4, 9.5, 9.6, 9.1, 9.1]
+    down = [9.0, 9.1, 9.1, 9.2, 9.2, 9.1, 9.4, 9.6, 4.0, 8.8, 9.3, 9.3]
+    smooth = [9.0, 9.1, 9.1, 9.2, 9.2, 9.1, 9.4, 9.6, 9.5, 8.8, 9.3, 9.3]
+    unsettled = {"up": [0, 2, 2, 2, 0, 0, 2, 2, 2, 0, 0, 2],
+                 "down": [0, 0, 0, 0, 0, 2, 2, 2, 0, 0, 2, 2]}
+    c_bad, c_good = ds["damping"].values
+    for c, d, amp, status in ((c_bad, "up", up, unsettled["up"]),
+                              (c_bad, "down", down, unsettled["down"]),
+                              (c_good, "up", up, [0] * 12), (c_good, "down", smooth, [0] * 12)):
+        at = {"damping": c, "direction": d}
+        ds["p_pp"].loc[at] = 2 * np.array(amp)
+        ds["status"].loc[at] = status
+    ds.to_netcdf(tmp_path / "j.nc")
+    budget = gearsweep.run({"type": "analysis", "title": "b", "analysis": {
+        "kind": "rattle_budget", "fitted": "s", "scenes": ["j"], "names": ["j1"], "mesh": "m"}},
+        output=tmp_path / "b.nc")
+    b = xr.load_dataset(tmp_path / "b.nc").sel(scene="j")
+    assert int(b.jump_unsupported.sel(damping=c_bad)) == 3
+    assert int(b.jump_unsupported.sel(damping=c_good)) == 0
+    speed = ds["speed"].values
+    assert np.isnan(float(b.jump_up_speed.sel(damping=c_bad)))
+    assert float(b.jump_up_speed.sel(damping=c_good)) == pytest.approx(0.5 * (speed[3] + speed[4]))
+    assert np.isnan(float(b.jump_down_speed.sel(damping=c_good)))
+    assert b.jump_unsupported.attrs["units"] == "1"
+    assert "cannot be judged" in b.jump_unsupported.attrs["long_name"]
+    assert "jump_unsupported" in b.jump_up_speed.attrs["long_name"]
+    assert budget.attrs["jump_unsupported_cases"] == 1
+    assert "j1 c = 4.92" in budget.attrs["jump_note"] and "0.492" not in budget.attrs["jump_note"]
+    assert "cannot be judged" in budget.attrs["jump_note"]
+    assert [budget_jump(b.sel(damping=c_bad), d) for d in ("up", "down")] == [
+        "jump cannot be judged"] * 2
+    assert [budget_jump(b.sel(damping=c_good), d) for d in ("up", "down")] == [
+        f"jump at {0.5 * (speed[3] + speed[4]):.0f} rpm", "no jump"]

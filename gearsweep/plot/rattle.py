@@ -451,3 +451,14 @@ def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | Non
                ylabel="force amplitude at mesh order 1 [N]")
     ax.legend(fontsize=6.5, loc="lower right")
     return ax.figure
+
+
+def budget_jump(s: xr.Dataset, direction: str) -> str:
+    """The jump of one sweep (``direction`` "up" or "down") of one scene and damping ``s`` of a
+    ``rattle_budget`` Dataset, in words: "jump at 6500 rpm", "no jump", or "jump cannot be
+    judged" where the jump criterion could not judge it (``jump_unsupported``; its jump speed is
+    NaN as where there is none)."""
+    if int(s.jump_unsupported) & (1 if direction == "up" else 2):
+        return "jump cannot be judged"
+    speed = float(s[f"jump_{direction}_speed"])
+    return "no jump" if np.isnan(speed) else f"jump at {speed:.0f} rpm"

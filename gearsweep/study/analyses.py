@@ -595,7 +595,7 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
     ns, nc = len(o.scenes), len(dampings)
     per = {v: np.full((ns, nc), np.nan) for v in (
         "stiffness", "zeta", "threshold", "jump_up", "jump_down", "open_low", "open_high",
-        "p_pp_max", "backside_max")}
+        "p_pp_max", "backside_max", "unsupported")}
     per["not_settled"] = np.zeros(ns, int)
     for i, name in enumerate(o.scenes):
         ds = inputs[name]
@@ -613,6 +613,7 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
                 force_mean=model.mean_force)
             per["jump_up"][i, j] = float(js.jump_up_speed.sel(damping=c))
             per["jump_down"][i, j] = float(js.jump_down_speed.sel(damping=c))
+            per["unsupported"][i, j] = int(js.jump_unsupported.sel(damping=c))
             opened = ds["speed"].values[(loss.sel(damping=c) > 0).values]
             if opened.size:
                 per["open_low"][i, j], per["open_high"][i, j] = opened.min(), opened.max()
@@ -630,7 +631,8 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         "scene_stiffness": (sc, per["stiffness"]), "zeta": (sc, per["zeta"]),
         "k_e1": (sc, per["stiffness"] * e1),
         "threshold": (sc, per["threshold"]), "jump_up_speed": (sc, per["jump_up"]),
-        "jump_down_speed": (sc, per["jump_down"]), "contact_loss_from": (sc, per["open_low"]),
+        "jump_down_speed": (sc, per["jump_down"]),
+        "jump_unsupported": (sc, per["unsupported"]), "contact_loss_from": (sc, per["open_low"]),
         "contact_loss_to": (sc, per["open_high"]), "p_pp_max": (sc, per["p_pp_max"]),
         "backside_contact_max": (sc, per["backside_max"]),
         "not_settled": (("scene",), per["not_settled"]),
@@ -658,8 +660,13 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         "k_e1": {"units": "N", "long_name": "k e_1 at the scene's k"},
         "threshold": {"units": "N", "long_name": "least force amplitude that opens the mesh"
                       " (linear response)"},
-        "jump_up_speed": {**rpm, "long_name": "run-up jump (NaN: none)"},
-        "jump_down_speed": {**rpm, "long_name": "run-down jump (NaN: none)"},
+        "jump_up_speed": {**rpm, "long_name": "run-up jump (NaN: none, or cannot be judged:"
+                          " see jump_unsupported)"},
+        "jump_down_speed": {**rpm, "long_name": "run-down jump (NaN: none, or cannot be"
+                            " judged: see jump_unsupported)"},
+        "jump_unsupported": {"units": JUMP_VARIABLES["jump_unsupported"][0], "long_name":
+                             JUMP_VARIABLES["jump_unsupported"][1] + " (NaN: the scene has no"
+                             " such damping)"},
         "contact_loss_from": {**rpm, "long_name": "lowest speed with contact loss (either"
                               " sweep; NaN: none)"},
         "contact_loss_to": {**rpm, "long_name": "highest speed with contact loss"},
@@ -670,7 +677,16 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         "at_speed": rpm,
         "budget_speed": dict(inputs[o.scenes[0]]["speed"].attrs),
     }
-    return data, coords, attrs, {}
+    unjudged = [f"{n} c = {c:g}" for n, row in zip(o.names, per["unsupported"], strict=True)
+                for c, u in zip(dampings, row, strict=True) if u > 0]
+    settings = {"jump_unsupported_cases": len(unjudged)}
+    if unjudged:  # (their jump speeds are NaN as where there is no jump)
+        settings["jump_note"] = (
+            f"{len(unjudged)} of {int(np.isfinite(per['unsupported']).sum())} scene dampings"
+            f" ({', '.join(unjudged)}): a step meets the jump criterion but no jump has settled"
+            " points of both branches beside it (jump speeds NaN, jump_unsupported > 0): whether"
+            " they jump cannot be judged from these results")
+    return data, coords, attrs, settings
 
 
 def _jump_map_input(o: JumpMap, ds: xr.Dataset, _name: str = "") -> None:
