@@ -1,13 +1,16 @@
 """Seconds of compiling in the first run of a study on a cold Numba cache (issue 23's target:
-<= 10 s on 2 cores), per compiled function, from Numba's own compile events.
+<= 10 s on 2 cores), per compiled function, from Numba's own compile events, and the peak
+resident memory of that run against a second, warm one.
 
     PYTHONPATH=. python scripts/bench_compile.py studies/rattle_kink_aware.yaml
     PYTHONPATH=. python scripts/bench_compile.py studies/whine_speed_sweep.yaml --top 5
 
 Runs ``gearsweep run STUDY`` in a child process with a fresh, empty ``NUMBA_CACHE_DIR`` (so the
 development cache is untouched) and prints one JSON line: the run's wall time, the seconds spent
-compiling (the outermost compilations; nested ones are inside them) and the costliest functions
-(each with the compilations nested in it).
+compiling (the outermost compilations; nested ones are inside them), the costliest functions
+(each with the compilations nested in it), and the peak resident memory of that cold run and of
+a second run of the study on the cache the first filled (``peak_rss_mb``, ``warm_peak_rss_mb``:
+what compiling adds to a run's memory, ``batch.COLD_COMPILE_BYTES``).
 """
 
 from __future__ import annotations
@@ -43,7 +46,10 @@ t0 = time.perf_counter()
 from gearsweep.cli import main
 code = main(sys.argv[1:])
 wall = time.perf_counter() - t0
+rss = int(next(ln for ln in open("/proc/self/status") if ln.startswith("VmHWM:")).split()[1]) / 1024
+# (VmHWM, this process's own peak: getrusage's ru_maxrss keeps the forking parent's across exec)
 print(json.dumps({"rc": code, "wall_s": round(wall, 2), "compile_s": round(outer[0], 2),
+                  "peak_rss_mb": round(rss),
                   "functions": {k: round(v, 2) for k, v in sorted(own.items(),
                                                                   key=lambda kv: -kv[1])}}))
 """
@@ -58,12 +64,16 @@ def main(argv: list[str] | None = None) -> int:
         env = dict(os.environ, NUMBA_CACHE_DIR=str(Path(tmp) / "numba"),
                    PYTHONPATH=os.pathsep.join(x for x in (str(ROOT), os.environ.get(
                        "PYTHONPATH", "")) if x))
-        r = subprocess.run([sys.executable, "-c", CHILD, "run", args.study, "-q", "-o",
-                            str(Path(tmp) / "out.nc")], env=env, capture_output=True, text=True)
-    if r.returncode != 0 or not r.stdout.strip():
-        print(r.stderr[-2000:], file=sys.stderr)
-        return 1
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+        runs = []
+        for out in ("cold.nc", "warm.nc"):
+            r = subprocess.run([sys.executable, "-c", CHILD, "run", args.study, "-q", "-o",
+                                str(Path(tmp) / out)], env=env, capture_output=True, text=True)
+            if r.returncode != 0 or not r.stdout.strip():
+                print(r.stderr[-2000:], file=sys.stderr)
+                return 1
+            runs.append(json.loads(r.stdout.strip().splitlines()[-1]))
+    out, warm = runs
+    out["warm_peak_rss_mb"] = warm["peak_rss_mb"]
     out["functions"] = dict(list(out["functions"].items())[:args.top])
     print(json.dumps({"study": args.study, "load": " ".join(f"{x:.2f}" for x in os.getloadavg()),
                       **out}))

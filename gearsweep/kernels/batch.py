@@ -256,6 +256,16 @@ specialisation; ``compile_cost`` orders the main job's compiles by it. The earli
 15/25/68/97 s predate the memoized inlining and the per-combination drivers, and 6/7/18/22 s
 the threaded drivers."""
 
+COLD_COMPILE_BYTES = {("rk4", False): 100e6, ("rk5", False): 100e6, ("rk4", True): 250e6,
+                      ("rk5", True): 450e6}
+"""Resident memory the one-time compile of one specialisation adds to a run's peak on a cold
+cache [bytes] (LLVM's), rounded up from the measured (this 2-core machine, 27 Nov 2026,
+``scripts/bench_compile.py``: a run's peak resident memory on a fresh cache against a second run
+on the cache it filled, 168 MB; plain RK4 and RK5 +76 and +77 MB, kink-aware RK4 +206 MB,
+kink-aware RK5 +422 MB). Two in one run add about the larger (``studies/stability_rig.yaml``,
+two plain RK5: +91 MB): the estimate adds the largest where the cache lacks the study's
+specialisations (``estimate.compile_bytes``)."""
+
 
 def specialisation(call: dict) -> tuple:
     """Which compiled function (``rk.Specialised``) a ``simulate`` call of these keyword arguments

@@ -3,8 +3,9 @@
 ``quick_estimate`` gives the same ``Estimate`` as ``execute.estimate`` (stated kernel rate; on
 the CPU: ``execute.estimate`` knows no GPU) for any number of cases in microseconds: the chunks
 are counted, not listed, and nothing is compiled. When the kernel this study needs is not yet in
-Numba's disk cache, its one-time compile time is added (``compile_seconds``), so that
-``--estimate`` and ``validate`` state the wait a first run really has.
+Numba's disk cache, its one-time compile time is added (``compile_seconds``), and the memory
+the compile adds to the peak (``compile_bytes``), so that ``--estimate`` and ``validate`` state
+the wait and the memory a first run really has.
 """
 
 from __future__ import annotations
@@ -12,7 +13,12 @@ from __future__ import annotations
 import math
 
 from gearsweep.kernels import LANES, cuda
-from gearsweep.kernels.batch import COLD_COMPILE_SECONDS, compiled, specialisation
+from gearsweep.kernels.batch import (
+    COLD_COMPILE_BYTES,
+    COLD_COMPILE_SECONDS,
+    compiled,
+    specialisation,
+)
 from gearsweep.study import execute
 from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
@@ -50,14 +56,31 @@ def compile_seconds(plan: Plan, ask_cache: bool = True) -> float:
     method was cached said "no compile" for a study of other terms, which then compiled for
     seconds.) A GPU run compiles its CUDA kernel in every process instead, for a time not
     measured yet (``Estimate.line`` says so): 0 here."""
+    return sum(COLD_COMPILE_SECONDS[key[:2]] for key in _not_compiled(plan, ask_cache))
+
+
+def compile_bytes(plan: Plan, ask_cache: bool = True) -> float:
+    """The memory the one-time compile of the kernel specialisations a CPU run of ``plan``
+    calls adds to the run's peak [bytes]: of those not compiled (as ``compile_seconds`` asks),
+    the largest ``COLD_COMPILE_BYTES`` (two compiled in one run add about the larger); 0 when
+    all are compiled, and on a GPU (``cuda.HOST_MEMORY_BYTES`` counts its process). It is
+    counted on top of the chunks': the compile comes first, in the warm-up, and what LLVM frees
+    is not all given back to the system."""
+    return max((COLD_COMPILE_BYTES[key[:2]] for key in _not_compiled(plan, ask_cache)),
+               default=0.0)
+
+
+def _not_compiled(plan: Plan, ask_cache: bool) -> set[tuple]:
+    """The ``specialisation`` keys of the kernel calls of a CPU run of ``plan`` that are
+    neither in Numba's cache nor compiled in this process (every one: ``ask_cache=False``)."""
     if plan.device == "cuda":
-        return 0.0
-    seconds: dict[tuple, float] = {}
+        return set()
+    keys: dict[tuple, bool] = {}
     for call in kernel_calls(plan):
         key = specialisation(call)
-        if key not in seconds:
-            seconds[key] = 0.0 if ask_cache and compiled(call) else COLD_COMPILE_SECONDS[key[:2]]
-    return sum(seconds.values())
+        if key not in keys:
+            keys[key] = not (ask_cache and compiled(call))
+    return {key for key, cold in keys.items() if cold}
 
 
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,
@@ -88,10 +111,11 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     per_case = _case_bytes(plan)
     output = float(output_bound(plan))
     compile_s = compile_seconds(plan, ask_cache)
+    compile_b = compile_bytes(plan, ask_cache)
     seconds = kernel_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
-    memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal
+    memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal + compile_b
     if plan.device == "cuda":
         memory += cuda.HOST_MEMORY_BYTES
     count = full + (1 if rest else 0)
@@ -103,7 +127,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
                    chunks=count, threads=threads, rate=rate,
                    rate_source=source, seconds=seconds + outputs_s, memory_bytes=memory,
                    output_bytes=output, device=plan.device, compile_seconds=compile_s,
-                   output_seconds=outputs_s)
+                   compile_bytes=compile_b, output_seconds=outputs_s)
     return est, compile_s
 
 

@@ -227,6 +227,8 @@ class Estimate:
     compile_seconds: float = 0.0
     """Of ``seconds``, the one-time compile of kernel specialisations not yet compiled
     (``estimate.compile_seconds``)."""
+    compile_bytes: float = 0.0
+    """Of ``memory_bytes``, what that compile adds to the peak (``estimate.compile_bytes``)."""
     output_seconds: float = 0.0
     """Of ``seconds``, the outputs' own work beyond the kernel (``output_seconds``)."""
 
@@ -240,8 +242,9 @@ class Estimate:
         cold = (f"; includes about {self.compile_seconds:.0f} s to compile the kernel once"
                 " (cold cache)" if self.compile_seconds else "")
         return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
-                f" {_duration(self.seconds)} {where}, peak memory {_size(self.memory_bytes)},"
-                f" output at most {_size(self.output_bytes)}{cold}")
+                f" {_duration(self.seconds)} {where}, peak memory {_size(self.memory_bytes)}"
+                + (f" ({_size(self.compile_bytes)} of it compiling)" if self.compile_bytes else "")
+                + f", output at most {_size(self.output_bytes)}{cold}")
 
     def over(self, limits: Limits | None = None) -> list[str]:
         """The limits this estimate exceeds, in words (empty if none)."""
