@@ -629,3 +629,71 @@ def test_the_advice_names_the_grid_error_of_the_ringing_after_impacts():
     smooth = advise(mass=0.22, k0=3.0e8, damping=810.0, speed_rpm=[600.0], teeth=31,
                     method="rk4", target=1e-4)
     assert "ringing" not in smooth.report()
+
+
+def _strong_variation(ratio, zeta, rpm):
+    """The whine scene with one stiffness harmonic k1 = ratio k0 (order 1) and the first STE
+    harmonic only (n = 1), damped for the damping ratio zeta at k0 + k1 (as ``advise`` takes
+    it): an outside analyst's case."""
+    from gearsweep.model import gear_scene, mesh_frequency
+
+    k1 = ratio * pr.K0
+    c = zeta * 2 * math.sqrt((pr.K0 + k1) * pr.MASS)
+    scene = gear_scene(mass=pr.MASS, damping=c, k0=pr.K0, k_harmonics=((k1, 1, 0.0),),
+                       mesh_frequency=float(mesh_frequency(rpm, pr.TEETH)),
+                       ste_harmonics=pr.STE_HARMONICS[:1], force=pr.FORCE)
+    return scene, dict(mass=pr.MASS, k0=pr.K0, damping=c, teeth=pr.TEETH,
+                       k_harmonics=((k1, 1, 0.0),))
+
+
+@pytest.mark.parametrize(("rpm", "method", "target"), [
+    (4000.0, "rk5", 1e-2),   # r = 0.18: the analyst's case
+    (3500.0, "rk4", 1e-4),   # r = 0.16
+    (28250.0, "rk4", 1e-4),  # r = 1.30, at the edge of the principal tongue: |mu| = 0.9955
+])
+def test_strong_stiffness_variation_stays_within_the_advice_and_its_warning(rpm, method, target):
+    """k1 = 0.7 k0, zeta = 0.078 (an outside analyst). The varying stiffness carries the
+    response to orders 2, 3, ... (each resonating at r = 1/j) that the error model's n = 1 left
+    out: at 4000 rpm the advised RK5 step for 1e-2 gave 26 times the expected error, 10.6 times
+    the light-damping warning's bound zeta_cal / zeta = 2.5 (RK4 at 3500 rpm: 12.9 times, 5.2
+    times the bound); n_eff = 1 + 4 x 0.7 = 3.8 now (``advise.effective_order``). Near the
+    principal tongue the free vibration hardly decays (Floquet multiplier 0.9955 per period at
+    28,250 rpm) although c is unchanged: 4.9 times the expected error, 2.0 times the bound; the
+    warning now takes the damping ratio of that decay (factor 209). Measured against DOP853
+    (rtol 1e-12): the error is within what the warning says (0.48, 0.55 and 0.024 of it now)."""
+    from gearsweep.analysis import advise as adv_mod
+
+    scene, kw = _strong_variation(0.7, 0.078, rpm)
+    adv = advise(speed_rpm=[rpm], highest_order=1, method=method, target=target, **kw)
+    assert adv.highest_order == pytest.approx(3.8)
+    zeta_cal = adv_mod.load_constants()["calibration_damping_ratio"]["whine"]
+    (warning,) = [w for w in adv.warnings if "far below the calibration" in w]
+    factor = zeta_cal / adv.decay_zeta
+    assert f"up to about {factor:.0f} times" in warning
+    err = _trajectory_error(scene, method, adv.steps_per_period, False)
+    assert err <= adv.expected_error * factor, (err, adv.expected_error, factor)
+
+
+def test_free_decay_agrees_with_the_kernels_floquet_multipliers_and_names_the_tongue():
+    """``advise.free_decay`` (an RK5 map in numpy at h omega_n <= 0.25) against
+    ``kernels.floquet`` (the batch kernel, step refined until converged): the same largest
+    multiplier within 1e-5, exp(-zeta omega_n T) away from the tongues; at speeds inside the
+    principal tongue (k1 = 0.7 k0, zeta = 0.078: 28,300-37,600 rpm) advise says that the
+    equation itself is unstable there."""
+    from gearsweep.analysis.advise import free_decay
+    from gearsweep.kernels.floquet import floquet, mathieu_parameters
+    from gearsweep.model import mesh_frequency
+
+    rpm = np.array([3000.0, 16000.0, 21744.0, 28250.0, 30000.0, 37000.0, 40000.0])
+    _, kw = _strong_variation(0.7, 0.078, 10000.0)
+    f = mesh_frequency(rpm, pr.TEETH)
+    k1 = kw["k_harmonics"][0][0]
+    exact = floquet(*mathieu_parameters(pr.K0, k1, pr.MASS, kw["damping"], f)).multiplier
+    mine = free_decay(pr.MASS, pr.K0, kw["damping"], kw["k_harmonics"], 2 * math.pi * f)
+    assert mine == pytest.approx(exact, rel=1e-5)  # (2.8e-6 at 3000 rpm: the map's h^5)
+    wn = math.sqrt((pr.K0 + k1) / pr.MASS)
+    assert exact[0] == pytest.approx(math.exp(-0.078 * wn / f[0]), rel=1e-6)  # complex pair
+    adv = advise(speed_rpm=rpm, method="rk4", target=1e-4, **kw)
+    assert exact[4] > 1 and exact[5] > 1 and exact[3] < 1
+    assert any("at 2 of the 7 speeds (30000-37000 rpm) k(t) makes the equation itself unstable"
+               in " ".join(w.split()) for w in adv.warnings), adv.warnings

@@ -24,7 +24,12 @@ step count:
 
     steps_per_period >= 2 pi max(1, 1/r) (SAFETY C s / target)^(1/p),  s = min(1, (n r/knee)^2)
 
-at the lowest speed, rounded up to a multiple of 8 (SAFETY = 2). Stability: the step must also
+at the lowest speed, rounded up to a multiple of 8 (SAFETY = 2). A varying stiffness adds
+response orders beyond the excitation's: n is raised to ``effective_order``. Below half the
+calibration's damping ratio a warning bounds the error by zeta_cal / zeta times the expected one,
+with zeta the damping ratio of the slowest free decay among the speeds (``free_decay``: near a
+parametric resonance of k(t) it decays slower than c gives); speeds where k(t) makes the
+equation unstable are named. Stability: the step must also
 satisfy h omega_n below the limit of the method's stability polynomial on the ray of the
 eigenvalues omega_n (-zeta +- i sqrt(1 - zeta^2)), zeta = c / (2 m omega_n).
 """
@@ -40,8 +45,9 @@ from pathlib import Path
 
 import numpy as np
 
-from gearsweep.analysis.stability import step_limit_hw
+from gearsweep.analysis.stability import largest_multiplier, step_limit_hw, tableau_monodromy
 from gearsweep.kernels import tableaux
+from gearsweep.kernels.floquet import UNSTABLE_TOL
 
 CONSTANTS_FILE = Path(__file__).parent / "data" / "error_constants.json"
 SAFETY = 2.0
@@ -59,7 +65,8 @@ error, RK5 1.9 times, both within the warning's bound zeta_cal / zeta = 19.5; at
 7.3 and 4.1 times at zeta = 0.01, 113 at 0.001.) Far below the resonance the error hardly
 depends on zeta (the linear oscillator's, closed form: within a factor of about 2 from zeta = 0.01 to
 0.2 at r = 0.05), but the harmonics' resonances at r = 1/n are resonances too, so the warning
-does not depend on the speeds."""
+does not depend on the speeds, except through the decay near a parametric resonance of k(t)
+(``free_decay``: zeta is then the damping ratio of the slowest decay)."""
 ACCURACY_NOTE = 0.05
 """``gearsweep validate`` notes a study whose own steps give an expected trajectory error
 (this model's bound, at the lowest speed) above this fraction of the amplitude: RK4 at 8 steps
@@ -67,6 +74,16 @@ per mesh period was 20-40 % off without a word (an outside tester). Every study 
 below 1 % (0.75 % the most, studies/rattle_table1_pair.yaml; tests/test_precision.py); the
 bound can overestimate far
 below resonance (docs/precision.md), which the note says."""
+PARAMETRIC_REACH = 4.0
+"""A varying stiffness k(t) = k0 + sum k_j cos(...) multiplies the response, so the response
+carries orders beyond the excitation's (order 1 forcing: 2, 3, ... at about (eps / 2)^(j - 1) of
+it, eps = sum |k_j| / k0), and each resonates at r = 1 / j. The error model takes as its highest
+order n_eff = max(n, 1 + PARAMETRIC_REACH eps). Fitted (27 Nov 2026) on a whine scene with one
+stiffness harmonic of order 1 and one STE harmonic (n = 1): k1 / k0 = 0.1-0.8, zeta 0.195 and
+0.078, 2000-27000 rpm every 1000 and 40000, 44000 rpm, RK4 and RK5 at the advised steps for
+targets 1e-2 to 1e-8; 3 left a case at 1.33 times the bound, 4 all within 0.97 of it. Without it
+(n = 1) the measured error reached 26 times the expected one (k1 = 0.7 k0, zeta 0.078, 4000 rpm,
+RK5, target 1e-2): 10.6 times the light-damping bound (docs/precision.md)."""
 KINK_COST = 1.5
 """Wall time of a kink-aware step over a plain one on a rattle batch: 1.43-1.53 on benchmark B2
 (``scripts/bench_kink.py``, docs/precision.md); fewer crossings per step cost less."""
@@ -89,6 +106,61 @@ def stability_limit(method: str, zeta: float) -> float:
         raise ValueError(f"damping ratio must lie in [0, 1), got {zeta}")
     stability_polynomial(method)  # the method check
     return float(step_limit_hw(method, zeta))
+
+
+def effective_order(k0: float, k_harmonics, highest_order: float) -> float:
+    """n_eff = max(n, 1 + PARAMETRIC_REACH sum |k_j| / k0): the highest order the error model
+    takes, ``highest_order`` n (at least 1) raised for the orders a varying stiffness adds."""
+    variation = sum(abs(a) for a, _, _ in k_harmonics) / k0
+    return max(1.0, float(highest_order), 1.0 + PARAMETRIC_REACH * variation)
+
+
+FLOQUET_HW = 0.25
+"""Step (h omega_n) of the RK5 map whose monodromy gives ``free_decay``'s multipliers; speeds
+that would need more than ``FLOQUET_STEPS`` steps per cycle for it are left out."""
+FLOQUET_STEPS = 4096
+DECAY_MARGIN = 0.99
+"""The light-damping warning takes the decay that ``free_decay`` finds where it is below this
+fraction of zeta (the RK5 map's own error, relative 1e-5 or less against the converged
+multipliers of ``kernels.floquet``, does not move it)."""
+
+
+def free_decay(mass: float, k0: float, damping: float, k_harmonics, omega) -> np.ndarray:
+    """Largest Floquet multiplier |mu| per mesh period [1] of the free equation
+    m p'' + c p' + k(t) p = 0 at each mesh angular frequency ``omega`` [rad/s] (k(t) = k0 +
+    sum k_j cos(j Omega t + phi_j): the equation in contact), from the monodromy of an RK5 map
+    at h omega_n <= ``FLOQUET_HW`` over the cycle of the stiffness orders; NaN where that would
+    take more than ``FLOQUET_STEPS`` steps. |mu| = exp(-zeta omega_n T) without a parametric
+    resonance (complex multipliers, det M = exp(-c T / m)); larger near and in a tongue."""
+    from fractions import Fraction
+
+    omega = np.atleast_1d(np.asarray(omega, dtype=float))
+    cycle = math.lcm(*(Fraction(float(o)).limit_denominator(1000).denominator
+                       for _, o, _ in k_harmonics))
+    k_ref = max(abs(a) for a, _, _ in k_harmonics)
+    k_max = k0 + sum(abs(a) for a, _, _ in k_harmonics)
+    w = omega / cycle  # Mathieu time: one cycle is 2 pi
+    out = np.full(omega.shape, np.nan)
+    ok = 2.0 * math.pi * math.sqrt(k_max / mass) / w <= FLOQUET_HW * FLOQUET_STEPS
+    if not ok.any():
+        return out
+    steps = math.ceil(2.0 * math.pi * math.sqrt(k_max / mass) / (w[ok].min() * FLOQUET_HW))
+    harmonics = ([a / k_ref for a, _, _ in k_harmonics],
+                 [round(float(o) * cycle) for _, o, _ in k_harmonics],
+                 [ph for _, _, ph in k_harmonics])
+    wk = w[ok]
+    M = tableau_monodromy(k0 / (mass * wk**2), k_ref / (mass * wk**2), damping / (mass * wk),
+                          steps, "rk5", harmonics)
+    out[ok] = largest_multiplier(M) ** (1.0 / cycle)
+    return out
+
+
+@cache
+def _free_decay(mass, k0, damping, k_harmonics: tuple, omega: tuple) -> np.ndarray:
+    """``free_decay`` once per scene (``advise`` calls itself for the kink-aware step)."""
+    mu = free_decay(mass, k0, damping, k_harmonics, omega)
+    mu.flags.writeable = False  # (shared by the callers of the cache)
+    return mu
 
 
 def load_constants(path: Path = CONSTANTS_FILE) -> dict:
@@ -130,7 +202,8 @@ class Advice:
     knee: float | None = None
     """The error model's knee in n r (None: none)."""
     highest_order: float = 1.0
-    """n: the highest harmonic order of the scene's excitation (at least 1)."""
+    """n_eff: the highest harmonic order of the scene's excitation (at least 1), raised for
+    the orders a varying stiffness adds (``effective_order``)."""
     chosen: int | None = None
     chosen_error: float | None = None
     kink_steps_per_period: int | None = None
@@ -138,6 +211,10 @@ class Advice:
     for the same target (None otherwise)."""
     kink_msteps: float | None = None
     warnings: list[str] = field(default_factory=list)
+    decay_zeta: float = math.nan
+    """The damping ratio that the slowest free decay among the speeds corresponds to (zeta
+    itself unless k(t) slows it, near a parametric resonance: ``free_decay``); the light-damping
+    warning compares this one with the calibration's."""
 
     def _knee_text(self) -> str:
         return (f" min(1, ({self.highest_order:g} r / {self.knee:g})^2)" if self.knee
@@ -262,7 +339,7 @@ def advise(
     r = omega_min / wn
     if highest_order is None:
         highest_order = max((float(o) for _, o, _ in k_harmonics), default=1.0)
-    n = max(1.0, float(highest_order))
+    n = effective_order(k0, k_harmonics, highest_order)
     hw_target = (target / (SAFETY * model_error(C, p, knee, 1.0, r, n))) ** (1.0 / p)
     limit = stability_limit(method, min(zeta, 0.999))
     warnings = []
@@ -284,13 +361,37 @@ def advise(
                 f"{steps_per_period} steps per period miss the target ({chosen_err:.1e} > "
                 f"{target:.1e}).")
     zeta_cal = (constants or load_constants()).get("calibration_damping_ratio", {}).get(kind)
-    if zeta_cal and zeta < LIGHT_DAMPING * zeta_cal:
-        bound = (f"up to about {zeta_cal / zeta:.0f} times the expected error" if zeta > 0
+    decay, unstable = zeta, ""
+    if k_harmonics:
+        # near a parametric tongue the free vibration decays slower than c alone gives
+        rpm = np.unique(speeds)
+        mu = _free_decay(mass, k0, damping, tuple(map(tuple, k_harmonics)),
+                         tuple(2.0 * math.pi * teeth * rpm / 60.0))
+        bad = mu > 1.0 + UNSTABLE_TOL
+        if bad.any():
+            unstable = (f"at {bad.sum()} of the {rpm.size} speeds ({rpm[bad].min():.0f}-"
+                        f"{rpm[bad].max():.0f} rpm) k(t) makes the equation itself unstable"
+                        f" (Floquet multiplier up to {np.nanmax(mu):.4g} per mesh period, a"
+                        " parametric resonance): there the response in contact grows without"
+                        " bound and the error model does not hold")
+        stable = np.isfinite(mu) & ~bad
+        if stable.any():
+            w = 2.0 * math.pi * teeth * rpm[stable] / 60.0
+            slowest = -np.log(np.maximum(mu[stable], 1e-300)) * w / (2.0 * math.pi * wn)
+            if slowest.min() < DECAY_MARGIN * zeta:
+                decay = float(slowest.min())
+                at = float(rpm[stable][np.argmin(slowest)])
+    if zeta_cal and decay < LIGHT_DAMPING * zeta_cal:
+        bound = (f"up to about {zeta_cal / decay:.0f} times the expected error" if decay > 0
                  else "without bound (undamped)")
+        what = (f"damping ratio {zeta:.3g} is" if decay == zeta else
+                f"the free vibration decays at {at:.0f} rpm as at damping ratio {decay:.3g}"
+                f" (near a parametric resonance of k(t); damping ratio {zeta:.3g}),")
         warnings.append(
-            f"damping ratio {zeta:.3g} is far below the calibration's {zeta_cal:.2f}: near a"
-            f" resonance the error grows about as 1 / zeta, {bound}; check with a run at twice"
-            " the steps.")
+            f"{what} far below the calibration's {zeta_cal:.2f}: near a resonance the error"
+            f" grows about as 1 / zeta, {bound}; check with a run at twice the steps.")
+    if unstable:
+        warnings.append(unstable + ".")
     kink_spp = kink_msteps = None
     if kind == "rattle" and not kink_aware:
         alt = advise(mass=mass, k0=k0, damping=damping, speed_rpm=speeds, teeth=teeth,
@@ -306,4 +407,4 @@ def advise(
             f"about {KINK_COST:g} times a plain one.")
     return Advice(method, kink_aware, kind, target, spp, hw_adv,
                   model_error(C, p, knee, hw_adv, r, n), limit, msteps, p, C, wn, zeta, r, knee, n,
-                  steps_per_period, chosen_err, kink_spp, kink_msteps, warnings)
+                  steps_per_period, chosen_err, kink_spp, kink_msteps, warnings, decay)
