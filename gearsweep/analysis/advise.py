@@ -379,7 +379,7 @@ def advise(
             w = 2.0 * math.pi * teeth * rpm[stable] / 60.0
             slowest = -np.log(np.maximum(mu[stable], 1e-300)) * w / (2.0 * math.pi * wn)
             if slowest.min() < DECAY_MARGIN * zeta:
-                decay = float(slowest.min())
+                decay = max(0.0, float(slowest.min()))  # (|mu| within 1 + UNSTABLE_TOL)
                 at = float(rpm[stable][np.argmin(slowest)])
     if zeta_cal and decay < LIGHT_DAMPING * zeta_cal:
         bound = (f"up to about {zeta_cal / decay:.0f} times the expected error" if decay > 0
