@@ -234,7 +234,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
                   " run checks every case and says how many are beyond the step limit",
                   file=sys.stderr)
     if isinstance(plan.model, MeshModel):  # what the steps as written cost in accuracy
-        a = _advice(plan, ACCURACY_NOTE)
+        a = _advice(plan, ACCURACY_NOTE, free_vibration=False)  # (the note reads the steps' error)
         if a.chosen_error is not None and a.chosen_error > ACCURACY_NOTE and not any(
                 "stability limit" in w for w in a.warnings):  # (the step guard says that)
             print(f"gearsweep: note: {name}: {study.solver.steps_per_period} steps per mesh"
@@ -771,10 +771,10 @@ def _pitch_line_note(plan) -> str | None:
             " teeth x that)")
 
 
-def _advice(plan, target: float):
+def _advice(plan, target: float, free_vibration: bool = True):
     """``advise`` for a gear scene's plan: its lowest mass and damping, its stiffest load and
     stiffness, its smallest backlash, the steps it has (``Advice.chosen_error``: the expected
-    error of those)."""
+    error of those); ``free_vibration``: see ``advise``."""
     study = plan.study
     model = plan.model
     s = study.solver
@@ -798,6 +798,7 @@ def _advice(plan, target: float):
                   steps_per_period=s.steps_per_period,
                   periods=s.transient_periods + s.record_periods,
                   cases_per_speed=plan.n_cases / len(grids["speed"]),  # priced as --estimate
+                  free_vibration=free_vibration,
                   multiple=_steps_multiple(plan))
 
 

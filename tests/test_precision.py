@@ -697,3 +697,28 @@ def test_free_decay_agrees_with_the_kernels_floquet_multipliers_and_names_the_to
     assert exact[4] > 1 and exact[5] > 1 and exact[3] < 1
     assert any("at 2 of the 7 speeds (30000-37000 rpm) k(t) makes the equation itself unstable"
                in " ".join(w.split()) for w in adv.warnings), adv.warnings
+
+
+def test_validate_s_accuracy_note_does_not_pay_for_the_free_vibration_scan(monkeypatch):
+    """``validate`` reads only the steps' expected error from the advisor: the monodromy per
+    speed of ``free_decay`` (1.4 s for the rig's 56 stiffness harmonics; validate of
+    rig_low_speed.yaml went from 3.0 to 5.3 s) is for ``advise``'s warnings alone."""
+    from gearsweep import cli
+    from gearsweep.analysis import advise as adv
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import load_study
+
+    calls = []
+    monkeypatch.setattr(adv, "free_decay",
+                        lambda *a: calls.append(a) or np.full(len(a[-1]), np.nan))
+    adv._free_decay.cache_clear()
+    path = ROOT / "studies" / "whine_gear_table1.yaml"
+    study, text = load_study(path)
+    plan = make_plan(study, text, str(path))
+    a = cli._advice(plan, cli.ACCURACY_NOTE, free_vibration=False)
+    assert a.chosen_error is not None and calls == []
+    cli._advice(plan, cli.ACCURACY_NOTE)  # advise's own path does scan
+    assert len(calls) == 1
+    adv._free_decay.cache_clear()
+    assert cli.main(["validate", str(path)]) == 0
+    assert len(calls) == 1  # validate did not

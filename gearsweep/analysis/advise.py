@@ -276,6 +276,7 @@ def advise(
     constants: dict | None = None,
     cases_per_speed: float = 1.0,
     multiple: int = 8,
+    free_vibration: bool = True,
 ) -> Advice:
     """Steps per mesh period for a target accuracy, the cost, and stability warnings.
 
@@ -317,6 +318,11 @@ def advise(
     multiple : int
         The advised steps per period is a multiple of this (8; a study whose outputs sample p
         at a fixed number of points per period needs a multiple of that too).
+    free_vibration : bool
+        Look for speeds where k(t) slows the free vibration's decay or makes it grow
+        (``free_decay``: a monodromy per speed, about 1.4 s for a scene of 56 stiffness
+        harmonics), for the light-damping and instability warnings. False: only the steps and
+        errors (the warnings assume the damping's own decay), as ``validate``'s accuracy note.
 
     Returns
     -------
@@ -362,7 +368,7 @@ def advise(
                 f"{target:.1e}).")
     zeta_cal = (constants or load_constants()).get("calibration_damping_ratio", {}).get(kind)
     decay, unstable = zeta, ""
-    if k_harmonics:
+    if k_harmonics and free_vibration:
         # near a parametric tongue the free vibration decays slower than c alone gives
         rpm = np.unique(speeds)
         mu = _free_decay(mass, k0, damping, tuple(map(tuple, k_harmonics)),
@@ -398,7 +404,8 @@ def advise(
                      k_harmonics=k_harmonics, highest_order=n, backlash=backlash,
                      method=method, kink_aware=True,
                      target=target, periods=periods, constants=constants,
-                     cases_per_speed=cases_per_speed, multiple=multiple)
+                     cases_per_speed=cases_per_speed, multiple=multiple,
+                     free_vibration=free_vibration)
         kink_spp, kink_msteps = alt.steps_per_period, alt.msteps
         warnings.append(
             f"with backlash the plain step converges only as h^2; kink-aware stepping "
