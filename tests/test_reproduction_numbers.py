@@ -193,3 +193,31 @@ def test_no_number_is_both_a_result_and_a_non_result():
                 if any(s <= a and b <= e and _same(value, v) for s, e, v in claim_spans):
                     both.append(f"{value:g} in {n['quote']!r}")
     assert not both, "listed as not a result, but checked as one: " + "; ".join(both)
+
+
+SYMBOL_VALUE = re.compile(r"([^\W\d]\w*)\s+(?:=|is)\s+(" + cc.NUMBER.pattern + ")", re.IGNORECASE)
+"""A "symbol = number" or "symbol is number" of the page (ζ = 0.475, e = 0, α is 6,953)."""
+
+
+def symbol_values(text: str) -> list[tuple[str, float]]:
+    """(symbol, value) of each "symbol = number" or "symbol is number" of ``text`` (outside
+    code and file names)."""
+    return [(m.group(1), float(m.group(2).replace(",", "").replace("−", "-")))
+            for m in SYMBOL_VALUE.finditer(_masked(text))]
+
+
+def test_symbol_values():
+    assert symbol_values("(ζ = 0.475 at k0 = 1,073 kN/mm), teeth (e = 0), α is 6,953") == [
+        ("ζ", 0.475), ("k0", 1073.0), ("e", 0.0), ("α", 6953.0)]
+
+
+def test_no_symbol_value_is_a_result_here_and_a_non_result_there():
+    """A "symbol = number" that a claim checks as a result somewhere on the page (e = 0 of the
+    computed e(t) of unmodified teeth, a ζ from the computed k0) states the same fact wherever
+    the page writes it: another occurrence needs a claim too, not a not-result entry."""
+    results = {(s, v) for c in reproduction_claims() for s, v in symbol_values(c["quote"])
+               if _same(v, float(c["value"]))}
+    both = [f"{s} = {v:g} in {n['quote']!r} ({n['why']})" for n in not_results()
+            for s, v in symbol_values(n["quote"])
+            if any(s == s2 and _same(v, v2) for s2, v2 in results)]
+    assert not both, "a claim checks these as results, not_results.yaml lists them: " + "; ".join(both)
