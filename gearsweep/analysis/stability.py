@@ -363,28 +363,30 @@ STRONG_VARIATION = 0.2
 check (``check_step`` at k0 + sum|k_n|) is not conservative and the step guard also checks the
 fixed-step map's monodromy (``map_step_check``; ``needs_map_check``). Scans of RK4 and RK5 from
 the guard's fewest steps to twice as many (alpha 0.3-2000, zeta 0-0.2, 28,000 random cases a
-method, 27 Nov 2026): cases whose map diverges while the equation decays appear at every damping
-up to 0.2 above it, e.g. alpha = 58.29, beta = 57.07, gamma = 0.1527 (beta / alpha = 0.979), RK5
-at 38 steps per period: the map's multiplier 1.19, the equation's 0.978 (docs/stability.md).
-Below it they appear only at fewer than ``COARSE_STEPS`` steps per period."""
+method; ``scripts/scan_step_guard.py random``): cases beyond the limit appear at dampings up to
+0.2 above it (the smallest ratio among them 0.269) and none at or below it, e.g. alpha = 58.29,
+beta = 57.07, gamma = 0.1527 (beta / alpha = 0.979), RK5 at 38 steps per period: the map's
+multiplier 1.19, the equation's 0.978 (docs/stability.md). Below it they appear only at fewer
+than ``COARSE_STEPS`` steps per period."""
 COARSE_STEPS = 32
 """Below this many steps per period the map's phase error moves a parametric tongue of Eq. (11)
 off the equation's even for weak variation, and the step guard checks the map's monodromy
 wherever k(t) varies at all. A scan of 60,000 cases a method with sum|k_n| / k0 < 0.2 (alpha
-0.1-30, zeta 0-0.05, each step count from the frozen limit on): RK4 diverges where the equation
-decays by more than 1e-3 a period up to 24 steps per period (alpha near 1/4 and 1, the first
-two tongues), RK5 up to 6; from 32 steps on, none by more than 1e-3 (RK4 near alpha = 4 by
-less, where the equation's multiplier is 1 to 1e-6: a tongue's edge, ``TONGUE_MARGIN``'s)."""
+0.1-30, zeta 0-0.05, each step count from the frozen limit to twice it or 64;
+``scripts/scan_step_guard.py weak``): RK4 diverges where the equation decays by more than 1e-3 a
+period up to 14 steps per period (alpha near 1/4 and 1, the first two tongues), RK5 up to 9;
+from 32 steps on, none beyond the limit (at a tongue's edge the map still can be:
+``TONGUE_MARGIN``'s)."""
 
 
 TONGUE_MARGIN = 2.0
 """Where the stiffness varies weakly, the step guard also checks the map's monodromy where the
 case's damping ratio is at most this many times ``tongue_damping`` (the damping that closes the
-parametric tongue nearest the case): the map's tongue sits O(h^p) beside the equation's, and at
-a tongue's edge the map diverges where the equation does not. Scans of RK4 and RK5 at 16-256
-steps per period (beta / alpha 0.05-0.2, tongues 1-6, 27 Nov 2026): the equation's tongue n
-closes at 0.98-1.006 times ``tongue_damping``, and at 1.01, 1.1 and 1.5 times it the map's
-largest |mu| stays below 1 + 1e-6 near the tongue at every one of those steps
+parametric tongue nearest the case): the map's tongue sits O(h^p) beside the equation's, and at a
+tongue's edge the map diverges where the equation does not. Scans of RK4 and RK5 at 16-256 steps
+per period (beta / alpha 0.05-0.2, tongues 1-6; ``scripts/scan_step_guard.py close above``): the
+equation's tongue n closes at 0.98-1.006 times ``tongue_damping``, and at 1.01, 1.1 and 1.5 times
+it the map's largest |mu| stays below 1 + 1e-6 near the tongue at every one of those steps
 (docs/stability.md)."""
 
 
@@ -394,8 +396,9 @@ def tongue_damping(alpha, beta, harmonics=None) -> np.ndarray:
 
     One stiffness harmonic r cos(o tau + a) (``variation_ratio`` r): the tongue nearest alpha is
     j = round(2 sqrt(alpha) / o) >= 1, at alpha = (o j)^2 / 4, and it closes at zeta =
-    Delta_j / j^2 with Delta_j = 2 (r j^2 / 8)^j / (j!)^2, the first-order width of Mathieu's
-    tongue j (a_j - b_j = q^j / (2^(2j-3) ((j-1)!)^2) in Mathieu's form, q = 2 beta):
+    Delta_j / j^2 = 2 (r j^2 / 8)^j / (j!)^2 with Delta_j = 2 (r j^2 / 8)^j / ((j-1)!)^2, the
+    first-order width in alpha of Mathieu's tongue j (a_j - b_j = q^j / (2^(2j-3) ((j-1)!)^2)
+    in Mathieu's form y'' + (a - 2 q cos 2t) y = 0, a = 4 alpha, q = 2 beta):
     zeta_1 = r / 4, zeta_2 = r^2 / 8, zeta_3 = 81 r^3 / 1024, ... Several harmonics: r / 4, as
     if one harmonic carried the whole variation (harmonic o closes its own first-order tongue
     at r_o / 4; tongues of higher order are narrower by factors of order r). The damping ratio
