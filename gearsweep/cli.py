@@ -214,9 +214,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
                       " holds that result)", file=sys.stderr)
         return 0
     plan = _plan(study, text, args.study)
-    est, _ = quick_estimate(plan)
+    chunk, _ = chunk_cases(plan, None)  # the chunks `run` cuts (the default ones, without the
+    # runner's cap, were 3 where `run --estimate` said 4, and another memory)
+    est, _ = quick_estimate(plan, chunk)
     if not args.yes:  # validate refuses what run refuses (without --yes)
-        est, _ = before_refusing(plan, est)
+        est, _ = before_refusing(plan, est, chunk)
         check_limits(est, name)
     print(f"{name}: ok -- {_summary(study, plan, est.line())}")
     try:  # the study may be meant for another machine's GPU: said, not refused
