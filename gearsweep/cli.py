@@ -43,6 +43,7 @@ from gearsweep.study.checkpoint import SUFFIX, chunk_folder, remove_checkpoints,
 from gearsweep.study.estimate import (
     CHUNK_SECONDS,
     PROGRESS_CHUNKS,
+    SHORTEST_CAP_SECONDS,
     before_refusing,
     chunk_cases,
     quick_estimate,
@@ -450,8 +451,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"gearsweep: note: {name}: --chunk-size {args.chunk_size}: {small}", file=sys.stderr)
     if capped and args.chunk_size is not None and not args.quiet:
         print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than the"
-              f" runner's (at most {CHUNK_SECONDS:.0f} s, and at least {PROGRESS_CHUNKS} chunks"
-              f" where the study allows, for progress); using {chunk} cases per chunk",
+              f" runner's (about 1/{PROGRESS_CHUNKS} of the study's kernel time, for"
+              f" progress, but at least {SHORTEST_CAP_SECONDS:.0f} s and at most"
+              f" {CHUNK_SECONDS:.0f} s); using {chunk} cases per chunk",
               file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once). Whether the
     # kernel is compiled already (Numba's cache asked: 7-8 ms the first time in a process, of

@@ -23,6 +23,7 @@ from gearsweep.study import execute
 from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
     BASELINE_MEMORY,
+    CHUNK_OVERHEAD_SECONDS,
     FIXED_SECONDS,
     STATED_RATE,
     WRITE_RATE,
@@ -124,10 +125,10 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     count += len(with_short_ends(plan, ends, threads)) - len(ends)  # as chunks_to_run cuts them
     outputs_s = output_seconds(plan, count)
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
-                   chunks=count, threads=threads, rate=rate,
-                   rate_source=source, seconds=seconds + outputs_s, memory_bytes=memory,
-                   output_bytes=output, device=plan.device, compile_seconds=compile_s,
-                   compile_bytes=compile_b, output_seconds=outputs_s)
+                   chunks=count, threads=threads, rate=rate, rate_source=source,
+                   seconds=seconds + count * CHUNK_OVERHEAD_SECONDS + outputs_s,
+                   memory_bytes=memory, output_bytes=output, device=plan.device,
+                   compile_seconds=compile_s, compile_bytes=compile_b, output_seconds=outputs_s)
     return est, compile_s
 
 
@@ -154,7 +155,7 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
         return est, est.compile_seconds  # within the limits, refused for memory or output
         # whatever the rate, or on the GPU (the CPU kernel's rate says nothing of it)
     kernel = (est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE - est.compile_seconds
-              - est.output_seconds)
+              - est.output_seconds - est.chunks * CHUNK_OVERHEAD_SECONDS)
     if kernel / MAX_SPEEDUP > execute.LIMITS.seconds:
         return est, est.compile_seconds  # no machine is that much faster: refused at once,
         # nothing compiled
@@ -167,8 +168,18 @@ CHUNK_SECONDS = 30.0
 loses at most this much work."""
 
 PROGRESS_CHUNKS = 10
-"""A study of more than ``PROGRESS_CHUNKS`` seconds is cut into at least about this many chunks
-(where its lanes allow), so that progress is shown while it runs."""
+"""A chunk is capped at about ``1 / PROGRESS_CHUNKS`` of the study's kernel time (but not below
+``SHORTEST_CAP_SECONDS``): a study of more than ``PROGRESS_CHUNKS x SHORTEST_CAP_SECONDS``
+seconds is cut into at least about this many chunks (where its lanes allow), so that progress
+is shown while it runs."""
+
+SHORTEST_CAP_SECONDS = 1.0
+"""The cap of ``PROGRESS_CHUNKS`` goes no lower than this [s]: a chunk this long pays its
+``CHUNK_OVERHEAD_SECONDS`` under 1% of its time."""
+
+OVERHEAD_SHARE = 0.1
+"""``small_chunk_note`` speaks of a requested chunk size whose ``CHUNK_OVERHEAD_SECONDS`` is
+more than this share of the chunk's kernel time (at the stated rate)."""
 
 
 def shortest_chunk_seconds(plan: Plan) -> float:
@@ -191,24 +202,34 @@ per task (milliseconds) and the work around each kernel call stay small beside i
 
 def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = None
                      ) -> str | None:
-    """What a requested chunk size below one round of kernel blocks costs, in words (``None``
-    when it does not): the kernel computes ``LANES`` lanes a block on each core, so a chunk of
-    fewer lane-sweeps runs mostly empty blocks. A continued 1e6-case study in chunks of 2,000
-    cases (2 lanes of 1,000 speeds) took 58 s against 5.5 s by default (an outside tester)."""
+    """What a requested chunk size too small for its cost costs, in words (``None`` when it
+    is not): each chunk costs ``CHUNK_OVERHEAD_SECONDS`` beyond its kernel, and the kernel
+    computes ``LANES`` lanes a block on each core, so a chunk of fewer lane-sweeps runs mostly
+    empty blocks. The size it advises keeps the overhead under ``OVERHEAD_SHARE`` of a chunk's
+    kernel time. (It advised one round of blocks, 64 cases on 2 cores: the 300,000-case cut
+    of the 1e6-case study took 34.5 s in chunks of 64 cases, 4,688 of them, where its 4 runner's
+    chunks take 5-6 s; an outside tester. A continued 1e6-case study in chunks of 2,000 cases,
+    2 lanes of 1,000 speeds, took 58 s against 5.5 s by default.)"""
     if requested is None or plan.device != "cpu":
         return None
     threads = threads or kernel_threads()  # the kernel's (cores() warned of a round of blocks
     # on every core where NUMBA_NUM_THREADS=1 runs one)
     ways = max(len(plan.directions), 1)
     round_lanes = max(LANES * threads // ways, 1)
+    rounds = math.ceil(CHUNK_OVERHEAD_SECONDS / (OVERHEAD_SHARE * shortest_chunk_seconds(plan)))
+    enough = min(round_lanes * rounds, plan.n_lanes)
     lanes = lanes_per_chunk(plan, requested)
-    if lanes >= round_lanes or lanes >= plan.n_lanes:
+    if lanes >= enough:
         return None
     what = "continued sweeps" if plan.continued else "cases"
-    return (f"chunks of {requested} cases are {lanes} {what} each, where the kernel computes"
-            f" {round_lanes} at a time on {threads} core{'s' if threads != 1 else ''}: most of"
-            f" each chunk's work is empty (up to {round_lanes / lanes:.0f}x the time); at least"
-            f" {round_lanes * plan.cases_per_lane} cases per chunk avoid it")
+    empty = (f" are {lanes} {what} each, where the kernel computes {round_lanes} at a time on"
+             f" {threads} core{'s' if threads != 1 else ''}: most of each chunk's work is empty"
+             f" (up to {round_lanes / lanes:.0f}x the time); and" if lanes < round_lanes else ":")
+    return (f"chunks of {requested} cases{empty} each chunk costs about"
+            f" {CHUNK_OVERHEAD_SECONDS * 1e3:.0f} ms beyond its kernel (the call, its checkpoint"
+            f" file, its part of the result file); at least {enough * plan.cases_per_lane} cases"
+            f" per chunk keep that under {OVERHEAD_SHARE:.0%} of the time (or leave the chunk"
+            " size to the runner)")
 
 
 def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
@@ -242,7 +263,7 @@ def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
     round_s = shortest_chunk_seconds(plan)  # one round of blocks [s]
     round_lanes = max(LANES * threads // ways, 1)
     total_s = math.ceil(plan.n_lanes / round_lanes) * round_s
-    target = min(seconds, max(total_s / PROGRESS_CHUNKS, 1.0))
+    target = min(seconds, max(total_s / PROGRESS_CHUNKS, SHORTEST_CAP_SECONDS))
     lanes_max = max(int(target // round_s), 1) * round_lanes
     lanes = (lanes_per_chunk(plan, requested) if requested is not None
              else plan.default_lanes_per_chunk())

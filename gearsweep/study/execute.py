@@ -124,6 +124,15 @@ to exit on the 2-core VM (``scripts/bench_startup.py``, 26 Nov 2026); 1 s allows
 disk or CPU. (It was 3 s, from before the start was made fast: a 3-case study was estimated at
 3.0 s and ran in 0.4 s.)"""
 
+CHUNK_OVERHEAD_SECONDS = 8e-3
+"""Wall time each chunk costs beyond its kernel rounds [s]: the kernel call's set-up, its
+arrays made, its checkpoint file written and, after the run, removed (an unlink of a 4 kB to
+1 MB file took 2.8 ms on this VM's ext4), its line in ``runs.jsonl`` and its part of the result
+file. Negligible for the runner's chunks (about a second each), it is all of the time of
+small ones: the 300,000-case cut of the 1e6-case study in chunks of 64 cases (4,688 chunks)
+took 34.5 s where 4 chunks take 5-6 s. Measured on this 2-core VM (27 Nov 2026, docs/scale.md:
+7-8 ms a chunk over chunk sizes of 1 to 1,024 cases)."""
+
 WRITE_RATE = 100e6
 """Bytes of results written per second [bytes/s], counted as if the writing were not overlapped
 with the kernel (conservative: with zstd the writer thread writes about 250 MB/s here,
@@ -368,13 +377,14 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     Notes
     -----
     Time: every kernel call advances ``ceil(blocks / threads)`` rounds of ``LANES`` lanes (a
-    partly filled block costs a full one), at ``rate`` per core; plus ``FIXED_SECONDS`` and the
-    writing of the file at ``WRITE_RATE``. Memory (of ``gearsweep run``, which streams the
-    results to disk, ``run_to_file``): ``chunks_held`` chunks' worth and the interpreter's
-    baseline, whatever the number of chunks; ``run_plan``,
-    which returns the results in memory, needs the full result arrays on top. Output: an upper
-    bound of the file's size (``filelayout.output_bound``: the variables uncompressed, their
-    attributes and HDF5's own structures; a codec makes the file smaller).
+    partly filled block costs a full one), at ``rate`` per core; plus ``FIXED_SECONDS``,
+    ``CHUNK_OVERHEAD_SECONDS`` per chunk and the writing of the file at ``WRITE_RATE``.
+    Memory (of ``gearsweep run``, which streams the results to disk, ``run_to_file``):
+    ``chunks_held`` chunks' worth and the interpreter's baseline, whatever the number of
+    chunks; ``run_plan``, which returns the results in memory, needs the full result arrays
+    on top. Output: an upper bound of the file's size (``filelayout.output_bound``: the
+    variables uncompressed, their attributes and HDF5's own structures; a codec makes the file
+    smaller).
     """
     threads = threads or cores()
     source = "stated" if rate is None else "measured"
@@ -384,7 +394,7 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     output = float(output_bound(plan))
     outputs_s = output_seconds(plan, len(chunks))
     seconds = (_lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS
-               + output / WRITE_RATE + outputs_s)
+               + len(chunks) * CHUNK_OVERHEAD_SECONDS + output / WRITE_RATE + outputs_s)
     biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
