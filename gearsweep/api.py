@@ -201,10 +201,11 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None,
              in_memory: bool = False) -> Estimate | AnalysisEstimate:
     """What running a dynamic study in this process would take, before anything runs: the
     estimate ``gearsweep run --estimate`` prints (``.line()``: its text; ``.seconds``,
-    ``.memory_bytes``, ``.output_bytes``: wall time with any one-time compile, peak memory,
-    and the file's upper bound; ``.over()``: the limits it passes). ``in_memory``: of ``run``
-    without ``output``, whose result's arrays are held in memory (the peak counts them), the
-    estimate ``run`` checks against the limits.
+    ``.memory_bytes``, ``.output_bytes``, ``.disk_bytes``: wall time with any one-time
+    compile, peak memory, the file's upper bound and the disk the run needs at its peak, the
+    file with the chunks' checkpoints beside it; ``.over()``: the limits it passes).
+    ``in_memory``: of ``run`` without ``output``, whose result's arrays are held in memory (the
+    peak counts them, and it needs no disk), the estimate ``run`` checks against the limits.
 
     An analysis study gives an ``AnalysisEstimate`` (``.line()``, ``.seconds``,
     ``.memory_bytes``, ``.over()``; its inputs read from ``results/``), the one ``gearsweep
@@ -229,8 +230,9 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None,
 
 def _held(est: Estimate) -> Estimate:
     """``est`` of a run whose result is held in memory: its arrays (their file's upper bound)
-    on top of the peak memory."""
-    return dataclasses.replace(est, memory_bytes=est.memory_bytes + est.output_bytes)
+    on top of the peak memory, and no disk (no file, no checkpoints)."""
+    return dataclasses.replace(est, memory_bytes=est.memory_bytes + est.output_bytes,
+                               disk_bytes=0.0)
 
 
 def _chunk_cases(chunk_cases) -> int | None:

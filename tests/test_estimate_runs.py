@@ -1,6 +1,6 @@
-"""The estimate against what really happens: the time of a run in chunks of 1 case up to the
-runner's own size, and ``validate`` and ``run --estimate`` saying one estimate of the same
-study (an outside tester's findings, 27 Nov 2026)."""
+"""The estimate against runs that really happen: the time of a run in chunks of 1 case up to
+the runner's own size, the disk it needs at its peak, and ``validate`` and ``run --estimate``
+saying one estimate of the same study (an outside tester's findings, 27 Nov 2026)."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ import pytest
 
 from gearsweep.cli import main
 from gearsweep.study import execute
+from gearsweep.study.checkpoint import chunk_folder
 from gearsweep.study.estimate import (
     PROGRESS_CHUNKS,
     SHORTEST_CAP_SECONDS,
@@ -81,6 +82,36 @@ def test_the_time_estimate_holds_from_chunks_of_one_case_to_the_runner_s(tmp_pat
         est = _estimate(plan, requested)
         took = wall(*(["--chunk-size", str(requested)] if requested else []))
         assert took / FACTOR < est.seconds < FACTOR * took, (requested, est.line(), took)
+
+
+def _blocks(path: Path) -> int:
+    """Disk the files under ``path`` take [bytes] (their blocks, as df counts them)."""
+    files = [path] if path.is_file() else [p for p in path.rglob("*") if p.is_file()]
+    return sum(p.stat().st_blocks * 512 for p in files)
+
+
+@pytest.mark.parametrize("requested", [256, None])
+def test_the_disk_a_run_needs_is_said_and_holds(tmp_path, monkeypatch, requested):
+    """``output at most 28.6 MB`` was all the estimate said of disk, and a 30 MB disk ran out
+    for the 300,000-case cut (a 14.8 MB file): the chunk checkpoints (22 MB) sit beside the
+    result file until the run ends. Measured here where the run is about to remove them, the
+    peak: at most the estimate's disk, and not under half of it."""
+    text = _cut(SCALE, 3, 10)  # 30,000 cases
+    plan = _plan(text)
+    est = _estimate(plan, requested)
+    out = tmp_path / "s.nc"
+    peak = []
+    remove = execute.remove_checkpoints
+
+    def measured(output):
+        peak.append(_blocks(chunk_folder(output)) + _blocks(Path(output)))
+        remove(output)
+
+    monkeypatch.setattr(execute, "remove_checkpoints", measured)
+    execute.stream_to_file(plan, out, chunk_cases=chunk_cases(plan, requested)[0])
+    assert peak[0] > est.output_bytes  # the output alone is not what the disk must hold
+    assert est.disk_bytes / 2 < peak[0] <= est.disk_bytes, (peak, est.line())
+    assert f"disk at most {execute._size(est.disk_bytes)} while it runs" in est.line()
 
 
 @pytest.mark.parametrize("text", [S300, SCALE], ids=["300k", "1e6"])

@@ -49,6 +49,7 @@ tests use it to check that a resumed run computes no chunk twice.
 from __future__ import annotations
 
 import copy
+import io
 import json
 import math
 import os
@@ -107,6 +108,32 @@ def saved_layout(output: str | Path, study_key: str, n_lanes: int
     if not any(folder.glob(f"chunk_*{SUFFIX}")):
         return None
     return chunks
+
+
+def _write_names(fh, names) -> None:
+    """A chunk file's first record: the names of its arrays."""
+    fmt.write_array(fh, np.array(list(names), dtype=str), allow_pickle=False)
+
+
+def _write_header(fh, shape: tuple[int, ...], dtype: np.dtype) -> None:
+    """NumPy's header of a C-ordered array (``fmt.write_array``'s, without its copies)."""
+    header = {"descr": fmt.dtype_to_descr(np.dtype(dtype)), "fortran_order": False,
+              "shape": tuple(shape)}
+    try:
+        fmt.write_array_header_1_0(fh, header)
+    except ValueError:  # a header over 64 KiB: NumPy's own choice, version 2.0
+        fmt.write_array_header_2_0(fh, header)
+
+
+def header_bytes(layout: dict[str, tuple[tuple[int, ...], np.dtype]]) -> int:
+    """Bytes of a chunk file beyond its arrays' data, for arrays of ``layout`` (name: (shape,
+    dtype), ``resultfile.result_layout``): the names' record and each array's header, as
+    ``ChunkStore.save`` writes them."""
+    fh = io.BytesIO()
+    _write_names(fh, layout)
+    for shape, dtype in layout.values():
+        _write_header(fh, shape, dtype)
+    return fh.tell()
 
 
 class ChunkStore:
@@ -175,14 +202,10 @@ class ChunkStore:
         ``direct``: past the page cache where that is cheaper (``files.DirectFile``: for a file
         read again only by a resumed run; not for one read back at once)."""
         def write(fh) -> None:  # the bytes of ``fmt.write_array`` per array, without its copies
-            fmt.write_array(fh, np.array(list(arrays), dtype=str), allow_pickle=False)
+            _write_names(fh, arrays)
             for arr in arrays.values():
                 arr = np.ascontiguousarray(arr)
-                header = fmt.header_data_from_array_1_0(arr)
-                try:
-                    fmt.write_array_header_1_0(fh, header)
-                except ValueError:  # a header over 64 KiB: NumPy's own choice, version 2.0
-                    fmt.write_array_header_2_0(fh, header)
+                _write_header(fh, arr.shape, arr.dtype)
                 fh.write(arr)
 
         atomic_write(self.path(lane0, lane1), write, durable=False, direct=direct)  # no fsync:

@@ -31,6 +31,7 @@ from gearsweep.study.execute import (
     _case_bytes,
     chunks_held,
     cores,
+    disk_bytes,
     kernel_threads,
     lanes_per_chunk,
     measure_rate,
@@ -128,7 +129,8 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
                    chunks=count, threads=threads, rate=rate, rate_source=source,
                    seconds=seconds + count * CHUNK_OVERHEAD_SECONDS + outputs_s,
                    memory_bytes=memory, output_bytes=output, device=plan.device,
-                   compile_seconds=compile_s, compile_bytes=compile_b, output_seconds=outputs_s)
+                   compile_seconds=compile_s, compile_bytes=compile_b, output_seconds=outputs_s,
+                   disk_bytes=disk_bytes(plan, count))
     return est, compile_s
 
 

@@ -59,7 +59,13 @@ from gearsweep.jit import cache_loads_without_set_up
 from gearsweep.kernels import LANES
 from gearsweep.kernels.batch import compiled
 from gearsweep.model import MeshModel
-from gearsweep.study.checkpoint import ChunkStore, RunLog, remove_checkpoints, saved_layout
+from gearsweep.study.checkpoint import (
+    ChunkStore,
+    RunLog,
+    header_bytes,
+    remove_checkpoints,
+    saved_layout,
+)
 from gearsweep.study.chunk import (
     KERNEL_CLOCK,
     Prepared,
@@ -132,6 +138,10 @@ file. Negligible for the runner's chunks (about a second each), it is all of the
 small ones: the 300,000-case cut of the 1e6-case study in chunks of 64 cases (4,688 chunks)
 took 34.5 s where 4 chunks take 5-6 s. Measured on this 2-core VM (27 Nov 2026, docs/scale.md:
 7-8 ms a chunk over chunk sizes of 1 to 1,024 cases)."""
+
+CHUNK_FILE_BYTES = 4096 + 128
+"""Disk a checkpoint file takes beyond its arrays and their headers [bytes], at most: the file
+system's last, partly filled block (4 kB) and the chunk's line in ``runs.jsonl``."""
 
 WRITE_RATE = 100e6
 """Bytes of results written per second [bytes/s], counted as if the writing were not overlapped
@@ -240,6 +250,9 @@ class Estimate:
     """Of ``memory_bytes``, what that compile adds to the peak (``estimate.compile_bytes``)."""
     output_seconds: float = 0.0
     """Of ``seconds``, the outputs' own work beyond the kernel (``output_seconds``)."""
+    disk_bytes: float = 0.0
+    """Disk the run needs at its peak [bytes] (``disk_bytes``): the checkpoint files beside
+    the result file, just before the checkpoints are removed."""
 
     def line(self) -> str:
         """The estimate in one line, saying when it includes compiling the kernel."""
@@ -253,7 +266,9 @@ class Estimate:
         return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
                 f" {_duration(self.seconds)} {where}, peak memory {_size(self.memory_bytes)}"
                 + (f" ({_size(self.compile_bytes)} of it compiling)" if self.compile_bytes else "")
-                + f", output at most {_size(self.output_bytes)}{cold}")
+                + f", output at most {_size(self.output_bytes)}"
+                + (f" (disk at most {_size(self.disk_bytes)} while it runs, its checkpoints"
+                   " beside it)" if self.disk_bytes > self.output_bytes else "") + cold)
 
     def over(self, limits: Limits | None = None) -> list[str]:
         """The limits this estimate exceeds, in words (empty if none)."""
@@ -296,6 +311,17 @@ def _case_bytes(plan: Plan) -> int:
         extra = math.prod(len(spec.extra_coords[d]) for d in spec.extra_dims)
         total += extra * np.dtype(spec.dtype).itemsize
     return total
+
+
+def disk_bytes(plan: Plan, chunks: int) -> float:
+    """Disk a run of ``plan`` in ``chunks`` chunks needs at its peak [bytes]: every chunk's
+    checkpoint file (the arrays uncompressed, their headers and ``CHUNK_FILE_BYTES``) and the
+    result file (``output_bound``), side by side from the last chunk's write until the
+    checkpoints are removed. The 300,000-case cut of the 1e6-case study (a 14.8 MB file, 22 MB
+    of checkpoints) ran out of room on a 30 MB disk that its 28.6 MB output bound fitted."""
+    per_file = header_bytes(result_layout(plan, plan.n_lanes)) + CHUNK_FILE_BYTES  # (the
+    # widest shapes: the longest headers)
+    return plan.n_cases * _case_bytes(plan) + chunks * per_file + output_bound(plan)
 
 
 def _lane_steps(plan: Plan, chunks: list[tuple[int, int]], threads: int) -> float:
@@ -384,7 +410,7 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     chunks; ``run_plan``, which returns the results in memory, needs the full result arrays
     on top. Output: an upper bound of the file's size (``filelayout.output_bound``: the
     variables uncompressed, their attributes and HDF5's own structures; a codec makes the file
-    smaller).
+    smaller); disk: with the checkpoints beside it (``disk_bytes``).
     """
     threads = threads or cores()
     source = "stated" if rate is None else "measured"
@@ -402,7 +428,8 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
               + table_bytes(plan, several=len(chunks) > 1))
     return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
-                    memory_bytes=memory, output_bytes=output, output_seconds=outputs_s)
+                    memory_bytes=memory, output_bytes=output, output_seconds=outputs_s,
+                    disk_bytes=disk_bytes(plan, len(chunks)))
 
 
 def check_limits(est: Estimate, where: str, limits: Limits | None = None,
