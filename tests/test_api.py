@@ -394,7 +394,7 @@ def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_
 
     from gearsweep.errors import ChunkSizeWarning, ContactLossWarning
 
-    with pytest.warns(ChunkSizeWarning, match=r"chunk_cases=2: chunks of 2 cases are 2 cases each,"
+    with pytest.warns(ChunkSizeWarning, match=r"chunk_cases=2: chunks of 2 cases hold 2 cases each,"
                                          r" where the kernel computes \d+ at a time"):
         gearsweep.run(small_whine, chunk_cases=2)
     with warnings.catch_warnings():
@@ -406,7 +406,7 @@ def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_
     path = write_study(small_whine)
     assert cli(["run", str(path), "-o", str(path.with_suffix(".nc")), "--chunk-size", "3"]) == 0
     err = capsys.readouterr().err
-    assert "--chunk-size 3: chunks of 3 cases are 3 cases each" in err
+    assert "--chunk-size 3: chunks of 3 cases hold 3 cases each" in err
     assert "each chunk costs about 8 ms beyond its kernel" in err
     assert "at least 7 cases per chunk keep that under 10% of the time" in err  # all 7 speeds
 
@@ -814,3 +814,13 @@ def test_the_analysis_plots_name_the_result_they_draw(small_whine):
 def _without_transient_note(err: str) -> str:
     """``err`` without validate's note of a short transient (tests/test_study_errors.py)."""
     return "".join(line for line in err.splitlines(True) if "solver.transient_periods" not in line)
+
+
+def test_the_small_chunk_note_counts_one_case_in_the_singular(small_whine):
+    """'chunks of 1 cases are 1 cases each' (an outside tester's reading of the note)."""
+    from gearsweep.study.estimate import small_chunk_note
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import Study
+
+    note = small_chunk_note(make_plan(Study.model_validate(small_whine)), 1, threads=2)
+    assert note.startswith("chunks of 1 case hold 1 case each, where"), note

@@ -224,10 +224,14 @@ def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = No
     if lanes >= enough:
         return None
     what = "continued sweeps" if plan.continued else "cases"
-    empty = (f" are {lanes} {what} each, where the kernel computes {round_lanes} at a time on"
+
+    def count(n: int, noun: str) -> str:
+        return f"{n} {noun if n != 1 else noun[:-1]}"
+
+    empty = (f" hold {count(lanes, what)} each, where the kernel computes {round_lanes} at a time on"
              f" {threads} core{'s' if threads != 1 else ''}: most of each chunk's work is empty"
              f" (up to {round_lanes / lanes:.0f}x the time); and" if lanes < round_lanes else ":")
-    return (f"chunks of {requested} cases{empty} each chunk costs about"
+    return (f"chunks of {count(requested, 'cases')}{empty} each chunk costs about"
             f" {CHUNK_OVERHEAD_SECONDS * 1e3:.0f} ms beyond its kernel (the call, its checkpoint"
             f" file, its part of the result file); at least {enough * plan.cases_per_lane} cases"
             f" per chunk keep that under {OVERHEAD_SHARE:.0%} of the time (or leave the chunk"
