@@ -29,7 +29,6 @@ import gc
 import os
 import signal
 import sys
-import threading
 
 
 def _interrupted() -> None:
@@ -41,25 +40,19 @@ def _interrupted() -> None:
 
 def entry() -> None:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy's import (module docstring)
-    held: list[int] = []
-    ours = threading.current_thread() is threading.main_thread()  # else signals cannot be set
-    if ours:
-        previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    from gearsweep.errors import signals_held  # (gearsweep's __init__ imports nothing heavy)
+
     collecting = gc.isenabled()
     gc.disable()  # the imports make long-lived objects only: nothing for the collector to find
     try:
-        from gearsweep.cli import entry as cli_entry
-    except KeyboardInterrupt:  # where the handler could not be ours
+        with signals_held(signal.SIGINT):
+            from gearsweep.cli import entry as cli_entry
+    except KeyboardInterrupt:  # held until the import was done, or where it could not be held
         _interrupted()
     finally:
         gc.freeze()  # modules, classes, Numba's types: never traversed again
         if collecting:
             gc.enable()
-        if ours:  # (None: a handler not set from Python; Python's own then)
-            signal.signal(signal.SIGINT, signal.default_int_handler if previous is None
-                          else previous)
-    if held:
-        _interrupted()
     try:
         cli_entry()
     except KeyboardInterrupt:  # before cli.main's own handler, or a second Ctrl-C after it

@@ -34,6 +34,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import signal
 import typing
 import warnings
 from collections.abc import Callable
@@ -64,6 +65,7 @@ from gearsweep.errors import (
     StudyError,
     article,
     problem_line,
+    signals_held,
 )
 from gearsweep.gear import GeometryWarning
 from gearsweep.gear.excitation import static_mesh
@@ -1620,8 +1622,9 @@ def parse_study(text: str, file: str = "<study>", base: str | Path | None = None
     if base is None:
         base = Path(file).parent if file and not file.startswith("<") else Path.cwd()
     base = str(Path(base).resolve())
-    try:
-        study = _parse_raw(raw, file, base)
+    try:  # a Ctrl-C held to the end: pydantic turned one raised while it built a model's
+        with signals_held(signal.SIGINT):  # validator (the first study parsed) into a
+            study = _parse_raw(raw, file, base)  # SchemaError (``errors.signals_held``)
     except StudyError as exc:
         if not duplicates:
             raise
