@@ -289,12 +289,17 @@ _STOP = threading.Event()
 """Set by the first SIGINT of ``gearsweep run``: stop after the chunk being computed."""
 
 
+_COMPUTING = threading.Event()
+"""Set while ``gearsweep run`` computes its chunks (a Ctrl-C before stops before the first)."""
+
+
 def _on_sigint(signum, frame) -> None:
     if _STOP.is_set():  # a second Ctrl-C: stop now (the chunks saved so far are kept)
         raise KeyboardInterrupt
     _STOP.set()
-    print("gearsweep: stopping after the chunk being computed, which is kept (Ctrl-C again to"
-          " stop at once)", file=sys.stderr)  # (a chunk may last up to CHUNK_SECONDS)
+    if _COMPUTING.is_set():
+        print("gearsweep: stopping after the chunk being computed, which is kept (Ctrl-C again"
+              " to stop at once)", file=sys.stderr)  # (a chunk may last up to CHUNK_SECONDS)
 
 
 _TERMINATED = threading.Event()
@@ -485,12 +490,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     _long_sweep_note(plan, args)
     _aliasing_warning(plan, name)  # (as validate: a spectrum that folds its lines, said first)
     progress = False if args.quiet else (True if sys.stderr.isatty() else "log")  # a log: lines
-    # The handlers are ours from the first chunk until the backend is closed (a local cluster
+    # The handlers are ours from before the backend starts until it is closed (a local cluster
     # takes 0.5-1 s to close: a signal then, with Python's handlers back, ended in a bare
-    # "interrupted" or SIGTERM's default action, the lock files left; an adversarial test).
+    # "interrupted" or SIGTERM's default action, the lock files left; an adversarial test). A
+    # signal while a local cluster starts is held until its workers are up, then handled here
+    # (``execute._starting_workers``; SIGTERM then ended the run without a word), and the run
+    # stops before its first chunk.
     ours = threading.current_thread() is threading.main_thread()
     previous, unraisable, written = None, sys.unraisablehook, None
     try:
+        if ours:
+            previous = (signal.signal(signal.SIGINT, _on_sigint),
+                        signal.signal(signal.SIGTERM, _on_sigterm))
+            sys.unraisablehook = _quiet_once_stopping(unraisable)
         with OutputLock(out), _backend(args) as backend:
             check_partial(plan, out)
             if not args.quiet and est.seconds > SHOW_ESTIMATE_SECONDS:
@@ -500,10 +512,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                 print(f"{out}: resuming: {saved} of {total} chunks already saved in"
                       f" {out}.chunks, computing the others", file=sys.stderr)
             t0 = time.perf_counter()
-            if ours:
-                previous = (signal.signal(signal.SIGINT, _on_sigint),
-                            signal.signal(signal.SIGTERM, _on_sigterm))
-                sys.unraisablehook = _quiet_once_stopping(unraisable)
+            if _STOP.is_set():  # a Ctrl-C before the first chunk
+                raise KeyboardInterrupt
+            _COMPUTING.set()
             written = stream_to_file(plan, out, backend=_stoppable(backend),
                                      chunk_cases=chunk, progress=progress, codec=args.codec)
     except (KeyboardInterrupt, SystemError) as exc:
@@ -517,6 +528,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGTERM, previous[1])
         sys.unraisablehook = unraisable
         _STOP.clear()
+        _COMPUTING.clear()
     # Counted as the chunks were written: the file is not opened again to report them.
     for line in (step_limit_text(plan, written.beyond, out),
                  contact_lost_text(plan, written.contact_lost, out)):

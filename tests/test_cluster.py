@@ -248,6 +248,51 @@ def test_ctrl_c_on_a_local_cluster_stops_cleanly(tmp_path):
         assert ds.attrs["elapsed_seconds"] == round(sum(ds.attrs["run_elapsed_seconds"]), 3)
 
 
+def _children(pid: int) -> list[int]:
+    """The processes ``pid`` started, from any of its threads (dask's start its workers)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            found += [int(c) for c in (task / "children").read_text().split()]
+        except OSError:  # a thread that ended meanwhile
+            pass
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="/proc (Linux)")
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_while_the_local_cluster_starts_stops_the_run(tmp_path, sig):
+    """Ctrl-C (to the process group, as a terminal sends it) or SIGTERM (to the run alone)
+    once the local cluster's first worker process exists, while the cluster starts: SIGINT was
+    ignored then, the run went on to its end, exit 0 (an outside tester: 3 of 6 tries at
+    1.0 s); SIGTERM ended it without a word (exit 143). Now one line, exit 130 or 143."""
+    study = tmp_path / "long.yaml"
+    study.write_text(LONG, encoding="utf-8")
+    out = tmp_path / "long.nc"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o",
+                             str(out), "--workers", "2", "-q"], env=env, cwd=ROOT,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not _children(proc.pid):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.002)
+    if sig == signal.SIGINT:
+        os.killpg(proc.pid, sig)
+    else:
+        proc.send_signal(sig)
+    try:
+        _, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        raise AssertionError("the run did not stop within 120 s of the signal") from None
+    how = "interrupted" if sig == signal.SIGINT else "terminated (SIGTERM)"
+    assert proc.returncode == 128 + sig, err
+    assert err.strip().splitlines()[-1].startswith(f"gearsweep: {how}"), err
+    assert len(err.strip().splitlines()) == 1, err
+    assert not out.exists()
+
+
 def test_unreachable_scheduler_is_one_line(tmp_path):
     study = tmp_path / "rattle.yaml"
     study.write_text(RATTLE, encoding="utf-8")

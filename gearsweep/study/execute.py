@@ -53,6 +53,7 @@ from gearsweep.errors import (
     LimitError,
     ResultError,
     StepLimitWarning,
+    signals_held,
 )
 from gearsweep.files import check_replaceable
 from gearsweep.jit import cache_loads_without_set_up
@@ -645,22 +646,60 @@ def _start_method(config) -> str:
     return "fork"
 
 
+_STARTING_WORKERS = False
+"""True while a local cluster starts its worker processes (``_starting_workers``): in this
+process, and in a worker forked meanwhile, which has a copy."""
+
+
+def _worker_forked() -> None:
+    """In a process forked while a local cluster starts (a worker): SIGINT ignored, SIGTERM's
+    default action; it had this process's handlers of the start, which hold both (a worker
+    then outlived its nanny's SIGTERM at the cluster's close)."""
+    if _STARTING_WORKERS:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_worker_forked)
+
+
 @contextlib.contextmanager
-def _workers_ignore_sigint():
-    """SIGINT ignored while a local cluster starts its worker processes, which keep that (forked
-    or spawned, an ignored signal stays ignored): a Ctrl-C in a terminal goes to the whole
-    process group, and workers that died of it left the run waiting for their chunks for good
-    (2 of 4 tries with ``--workers 2``); now only this process hears it and stops cleanly after
-    the chunks in flight (the CLI's handler). Outside the main thread signals cannot be set:
-    nothing is changed there."""
+def _starting_workers(method: str):
+    """While a local cluster starts its worker processes: SIGINT and SIGTERM held in this
+    process (``errors.signals_held``: given to its handlers once the workers are up), SIGINT
+    blocked in this thread, and so in the threads started meanwhile (dask's) and in the
+    processes they start, forked or spawned (a signal mask is inherited, across ``exec`` too);
+    a forked one ignores SIGINT and has SIGTERM's default action (``_worker_forked``). Where
+    they are not forked (``method``), multiprocessing's resource tracker is started first: its
+    start unblocks SIGINT in the thread that starts it, which then spawned a worker that died of
+    a Ctrl-C (a test).
+
+    A Ctrl-C in a terminal goes to the whole process group: workers that died of it left the
+    run waiting for their chunks for good (2 of 4 tries with ``--workers 2``), so the workers
+    never hear it; this process stops cleanly after the chunks in flight (the CLI's handler).
+    SIGINT was ignored here too during the start, where a Ctrl-C was lost and the run went on
+    to its end, exit 0 (an outside tester: 3 in 6 Ctrl-C 1 s after the start), and SIGTERM
+    ended the process without a word. Outside the main thread signals cannot be set: nothing
+    is changed there."""
+    global _STARTING_WORKERS
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
+    masks = hasattr(signal, "pthread_sigmask")  # (not on Windows)
+    if masks and method != "fork":
+        from multiprocessing import resource_tracker
+
+        resource_tracker.ensure_running()
+    with signals_held(signal.SIGINT, signal.SIGTERM):
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if masks else None
+        _STARTING_WORKERS = True
+        try:
+            yield
+        finally:
+            _STARTING_WORKERS = False
+            if masks:  # (a SIGINT pending is held now)
+                signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 class DaskBackend:
@@ -695,8 +734,9 @@ class DaskBackend:
         where = self.scheduler or f"a local cluster of {self.workers} workers"
         try:
             if self.workers is not None:
-                with dask.config.set({"distributed.worker.multiprocessing-method":
-                                      _start_method(dask.config)}), _workers_ignore_sigint():
+                method = _start_method(dask.config)
+                with dask.config.set({"distributed.worker.multiprocessing-method": method}), \
+                        _starting_workers(method):
                     # CRITICAL: closing a cluster of 16 workers (16-core machine, 26 Nov 2026)
                     # stops the scheduler before the workers, whose heartbeats then logged a
                     # traceback each at ERROR; a chunk that fails reaches the user as one
@@ -720,6 +760,9 @@ class DaskBackend:
             raise ClusterError(f"{where}: cannot use the dask cluster ({type(exc).__name__}:"
                                f" {str(exc).splitlines()[0] if str(exc) else 'no reason given'})"
                                ) from None
+        except BaseException:  # a stop (KeyboardInterrupt): the cluster started is closed
+            self.__exit__()  # (``with`` calls ``__exit__`` only after ``__enter__`` returned)
+            raise
         return self
 
     def __exit__(self, *exc: object) -> None:
