@@ -9,6 +9,7 @@ the study still completes with identical results.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import socket
@@ -50,7 +51,8 @@ def _stop(proc: subprocess.Popen) -> None:
 @contextmanager
 def dask_cluster(tmp: Path, n_workers: int = 2, nthreads: int = 1):
     """Start ``dask scheduler`` and ``n_workers`` x ``dask worker`` (no nanny, so that killing a
-    worker's process kills the worker); yield the address and the worker processes."""
+    worker's process kills the worker); yield the address, the worker processes and the
+    scheduler's."""
     if DASK is None:
         pytest.fail("the 'dask' command is not installed next to the Python interpreter")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -86,7 +88,7 @@ def dask_cluster(tmp: Path, n_workers: int = 2, nthreads: int = 1):
                 if time.monotonic() > deadline:
                     raise
                 time.sleep(0.5)
-        yield address, workers
+        yield address, workers, procs[0]
     finally:
         for p in reversed(procs):
             _stop(p)
@@ -110,7 +112,7 @@ def test_scheduler_identical_to_in_process(tmp_path, rattle_reference):
     worker processes with two dask threads each: bitwise identical to one in-process chunk."""
     study = tmp_path / "rattle.yaml"
     study.write_text(RATTLE, encoding="utf-8")
-    with dask_cluster(tmp_path, n_workers=2, nthreads=2) as (address, _):
+    with dask_cluster(tmp_path, n_workers=2, nthreads=2) as (address, _, _):
         out = tmp_path / "sched.nc"
         proc = _run_cli([str(study), "-o", str(out), "--scheduler", address, "--chunk-size", "48"])
         assert proc.wait(timeout=600) == 0
@@ -173,7 +175,7 @@ def test_workers_of_a_scheduler_save_their_chunks_where_they_see_the_folder(
         save(self, a, b, arrays)
 
     monkeypatch.setattr(ChunkStore, "save", count)  # this process only: the workers are others
-    with dask_cluster(tmp_path, n_workers=2, nthreads=1) as (address, _):
+    with dask_cluster(tmp_path, n_workers=2, nthreads=1) as (address, _, _):
         with execute.DaskBackend(scheduler=address) as backend:
             shared = tmp_path / "shared.nc"
             execute.stream_to_file(plan, shared, backend=backend, chunk_cases=48)
@@ -304,6 +306,35 @@ def test_unreachable_scheduler_is_one_line(tmp_path):
     assert err.count("\n") == 1 and "cannot use the dask cluster" in err, err
 
 
+def test_a_lost_scheduler_is_one_line_with_the_chunks_saved(tmp_path):
+    """SIGKILL the scheduler once a chunk is saved: one line naming the lost scheduler and the
+    chunks saved, exit 2 (23-31 lines of distributed's tracebacks came first, and the line
+    said only that a chunk failed; an outside tester)."""
+    study = tmp_path / "long.yaml"
+    study.write_text(LONG, encoding="utf-8")
+    out = tmp_path / "long.nc"
+    with dask_cluster(tmp_path, n_workers=1) as (address, _, scheduler):
+        proc = _run_cli([str(study), "-o", str(out), "--scheduler", address, "--chunk-size",
+                         "100"], stderr=subprocess.PIPE, text=True)
+        folder = chunk_folder(out)
+        deadline = time.monotonic() + 300
+        try:
+            while not list(folder.glob("*/chunk_*.npys")):
+                assert proc.poll() is None, "the run ended before the scheduler could be killed"
+                assert time.monotonic() < deadline
+                time.sleep(0.01)
+            scheduler.send_signal(signal.SIGKILL)
+            _, err = proc.communicate(timeout=300)
+        finally:
+            _stop(proc)
+    saved = len(list(folder.glob("*/chunk_*.npys")))
+    assert proc.returncode == 2, err
+    assert re.fullmatch(
+        rf"gearsweep: error: {re.escape(address)}: lost the connection to the dask scheduler"
+        rf" \(.*\); {saved} of 20 chunks saved in {re.escape(str(folder.absolute()))}: run the"
+        r" same command to continue\n", err), err
+
+
 @pytest.mark.slow
 def test_killed_worker_chunks_are_rerun(tmp_path):
     """SIGKILL one of two workers once the first chunks are saved: the scheduler re-runs its
@@ -311,7 +342,7 @@ def test_killed_worker_chunks_are_rerun(tmp_path):
     study = tmp_path / "long.yaml"
     study.write_text(LONG, encoding="utf-8")
     out = tmp_path / "long.nc"
-    with dask_cluster(tmp_path, n_workers=2) as (address, workers):
+    with dask_cluster(tmp_path, n_workers=2) as (address, workers, _):
         proc = _run_cli([str(study), "-o", str(out), "--scheduler", address, "--chunk-size",
                          "100"])
         folder = chunk_folder(out)

@@ -35,6 +35,7 @@ from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.execute import (
     Limits,
     check_limits,
+    chunks_to_run,
     estimate,
     run_plan,
     run_to_file,
@@ -1071,6 +1072,35 @@ def test_a_dask_worker_s_full_disk_is_said_with_the_chunks_saved(tmp_path, monke
     monkeypatch.setattr(execute, "_compute", failing(ValueError("a bug")))
     with pytest.raises(ClusterError, match="chunk of lanes 0-10 failed"):
         execute.stream_to_file(plan, tmp_path / "r.nc", chunk_cases=100)
+
+
+def test_a_cluster_failure_says_the_chunks_saved_and_how_to_continue(tmp_path):
+    """A run that loses its dask scheduler after some chunks (their files saved) says so in one
+    line with the chunks saved and how to continue, as a full disk does; it said only that a
+    chunk failed (an outside tester: a plain rerun then finished, identical)."""
+    from distributed.client import FutureCancelledError
+
+    plan = plan_of(LONG.replace("transient_periods: 3000, record_periods: 1000",
+                                "transient_periods: 30, record_periods: 10"))
+
+    class LosesItsScheduler(CrashAfter):
+        def run(self, plan, todo):
+            try:
+                yield from super().run(plan, todo)
+            except Crash:
+                raise ClusterError("tcp://127.0.0.1:8786: lost the connection to the dask"
+                                   " scheduler") from FutureCancelledError(
+                                       "k", "scheduler-connection-lost")
+
+    out = tmp_path / "r.nc"
+    with pytest.raises(ClusterError) as err:
+        execute.stream_to_file(plan, out, backend=LosesItsScheduler(3), chunk_cases=100)
+    saved = len(list(chunk_folder(out).glob("*/chunk_*.npys")))
+    total = len(chunks_to_run(plan, None, 100))
+    assert saved >= 3 and str(err.value) == (
+        "tcp://127.0.0.1:8786: lost the connection to the dask scheduler;"
+        f" {saved} of {total} chunks saved in {chunk_folder(out)}: run the same command to"
+        " continue")
 
 
 @pytest.mark.parametrize("chunk_cases", [None, 1, 5, 48, 100, 1000])

@@ -723,6 +723,7 @@ class DaskBackend:
         self.scheduler, self.workers, self.timeout = scheduler, workers, timeout
         self.cluster = None
         self.client = None
+        self._quiet = contextlib.ExitStack()
         self.kernel_seconds = 0.0
         """Seconds the workers spent in the kernel for the chunks of the last ``run``, summed
         over the workers (so up to workers x the wall time of the chunk phase)."""
@@ -730,6 +731,7 @@ class DaskBackend:
     def __enter__(self) -> DaskBackend:
         import dask
         from distributed import Client, LocalCluster
+        from distributed.utils import silence_logging_cmgr
 
         where = self.scheduler or f"a local cluster of {self.workers} workers"
         try:
@@ -752,7 +754,9 @@ class DaskBackend:
                                                                       "127.0.0.1:0"},
                                                 silence_logs=logging.CRITICAL)
                 self.client = Client(self.cluster)
-            else:
+            else:  # the client's logs quiet, as a local cluster's (``silence_logs``): a lost
+                # scheduler logged 23-31 lines of tracebacks before the run's one line
+                self._quiet.enter_context(silence_logging_cmgr(logging.CRITICAL))
                 self.client = Client(self.scheduler, timeout=f"{min(self.timeout, 10.0)}s")
             self.client.wait_for_workers(1, timeout=self.timeout)
         except (OSError, TimeoutError, ValueError, TypeError) as exc:  # ValueError: an address without
@@ -772,6 +776,7 @@ class DaskBackend:
         if self.cluster is not None:
             self.cluster.close()
             self.cluster = None
+        self._quiet.close()
 
     def _procs_per_host(self) -> dict[str, int]:
         info = self.client.scheduler_info(n_workers=-1)["workers"]
@@ -845,6 +850,12 @@ class DaskBackend:
                 arrays, seconds = fut.result()
             except Exception as exc:
                 msg = str(exc).splitlines()[0] if str(exc) else ""
+                if fut.status != "error":  # the chunk did not fail: the client lost the
+                    # scheduler (its futures cancelled, "scheduler-connection-lost", or an
+                    # OSError of its own connection, said as a worker's failing disk)
+                    why = getattr(exc, "reason", None) or f"{type(exc).__name__}: {msg}"
+                    raise ClusterError(f"{self.scheduler or 'local cluster'}: lost the"
+                                       f" connection to the dask scheduler ({why})") from None
                 raise ClusterError(f"{self.scheduler or 'local cluster'}: chunk of lanes {a}-{b}"
                                    f" failed: {type(exc).__name__}: {msg}") from exc
             fut.release()
@@ -1260,9 +1271,10 @@ def stream_to_file(plan: Plan, output: str | Path, *,
         file.close(elapsed, kernel, earlier, len(todo))
     except (OSError, ClusterError) as failed:  # a full disk, a folder gone or made read-only
         exc = failed if isinstance(failed, OSError) else failed.__cause__  # (on a dask worker)
-        if not isinstance(exc, OSError):
-            raise
         saved = sum(1 for c in chunks if store.path(*c).is_file())
+        if not isinstance(exc, OSError):  # a chunk's error, a lost scheduler: what is kept
+            raise ClusterError(f"{failed}; {saved} of {len(chunks)} chunks saved in"
+                               f" {store.root}: run the same command to continue") from failed
         where = f" {exc.filename}" if exc.filename else ""
         what = f"cannot write{where}" if exc is failed else \
             f"a dask worker failed{' on' if where else ''}{where}"
