@@ -1103,6 +1103,30 @@ def test_a_cluster_failure_says_the_chunks_saved_and_how_to_continue(tmp_path):
         " continue")
 
 
+def test_an_interrupted_run_to_a_file_says_the_chunks_saved(tmp_path):
+    """Ctrl-C in a run to a file from Python (``gearsweep.run(..., output=...)``, a notebook):
+    the ``KeyboardInterrupt`` says the chunks saved and how to continue (its message was empty;
+    an outside tester)."""
+    plan = plan_of(LONG.replace("transient_periods: 3000, record_periods: 1000",
+                                "transient_periods: 30, record_periods: 10"))
+
+    class CtrlC(CrashAfter):
+        def run(self, plan, todo):
+            try:
+                yield from super().run(plan, todo)
+            except Crash:
+                raise KeyboardInterrupt from None
+
+    out = tmp_path / "r.nc"
+    with pytest.raises(KeyboardInterrupt) as err:
+        execute.stream_to_file(plan, out, backend=CtrlC(3), chunk_cases=100)
+    saved = len(list(chunk_folder(out).glob("*/chunk_*.npys")))
+    total = len(chunks_to_run(plan, None, 100))
+    assert saved >= 3 and str(err.value) == (
+        f"{out}: interrupted: {saved} of {total} chunks saved in {chunk_folder(out)}; the same"
+        " study run to the same output continues")
+
+
 @pytest.mark.parametrize("chunk_cases", [None, 1, 5, 48, 100, 1000])
 def test_the_estimate_counts_the_chunks_the_run_cuts(chunk_cases):
     """``--estimate`` said 16 chunks for a run that cut 18 (the short first and last chunks,

@@ -1269,6 +1269,11 @@ def stream_to_file(plan: Plan, output: str | Path, *,
             open_file=lambda: _result_file(plan, output, store.folder / "writing.nc", codec),
             done=done)
         file.close(elapsed, kernel, earlier, len(todo))
+    except KeyboardInterrupt as stop:  # (the chunks computed are saved by now: ``_compute``)
+        saved = sum(1 for c in chunks if store.path(*c).is_file())
+        raise KeyboardInterrupt(  # what a caller of the Python API sees (it was empty; the
+            f"{output}: interrupted: {saved} of {len(chunks)} chunks saved in {store.root};"
+            " the same study run to the same output continues") from stop  # CLI says its own)
     except (OSError, ClusterError) as failed:  # a full disk, a folder gone or made read-only
         exc = failed if isinstance(failed, OSError) else failed.__cause__  # (on a dask worker)
         saved = sum(1 for c in chunks if store.path(*c).is_file())
