@@ -308,8 +308,8 @@ def render() -> str:
               "| 1 | a bug: a traceback (please report it with the study) |",
               (f"| {EXIT_USAGE} | refused or failed with a reason, one line per problem: input"
                " that cannot be run (nothing computed), an output that cannot be written, a full"
-               " disk or no more memory (the chunks computed so far are kept; the same command"
-               " continues) |"),
+               " disk, no more memory, a lost dask scheduler or a failed chunk (the chunks"
+               " computed so far are kept; the same command continues) |"),
               (f"| {EXIT_INTERRUPTED} | interrupted (Ctrl-C): the chunks computed so far are kept;"
                " the same command continues |"),
               (f"| {EXIT_TERMINATED} | terminated (SIGTERM: `kill`, a batch system's time limit):"
