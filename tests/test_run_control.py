@@ -199,6 +199,62 @@ def test_an_unwritable_output_is_refused_before_computing(tmp_path, capsys):
     assert time.perf_counter() - t0 < 5
 
 
+def _without_dac_override() -> list[str] | None:
+    """A command prefix under which the folder permissions apply (root passes them, with
+    CAP_DAC_OVERRIDE): none for another user, ``setpriv`` dropping the capabilities for root;
+    ``None`` where that cannot be done."""
+    if os.geteuid() != 0:
+        return []
+    prefix = ["setpriv", "--bounding-set=-dac_override,-dac_read_search,-fowner"]
+    try:
+        subprocess.run([*prefix, "true"], check=True, capture_output=True, timeout=30)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return prefix
+
+
+READ_ONLY_AT_THE_END = """
+import os, sys
+from gearsweep.study import resultfile
+real = resultfile.finish
+def finish(tmp, path):  # the output's folder made read-only before the result goes there
+    os.chmod(path.parent, 0o555)
+    real(tmp, path)
+resultfile.finish = finish
+from gearsweep.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_an_output_folder_made_read_only_during_the_run_is_one_line(tmp_path):
+    """The output's folder made read-only while the run computes (``chmod 555``, an outside
+    tester's finding): one line naming the rename that failed (the finished file onto the
+    output) and the chunks saved, exit 2. Was a traceback, exit 1: the lock's files could not
+    be removed, and that error hid the run's line, which named the wrong file (writing.nc,
+    which was written)."""
+    prefix = _without_dac_override()
+    if prefix is None:
+        pytest.skip("cannot drop CAP_DAC_OVERRIDE (setpriv) to make a folder read-only for root")
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "400"), encoding="utf-8")
+    folder = tmp_path / "w"
+    folder.mkdir()
+    out = folder / "a.nc"
+    args = ["run", str(study), "-o", str(out), "-q", "--chunk-size", "100"]
+    try:
+        r = subprocess.run([*prefix, sys.executable, "-c", READ_ONLY_AT_THE_END, *args],
+                           env=_env(), capture_output=True, text=True, timeout=300)
+    finally:
+        folder.chmod(0o755)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    o = re.escape(str(out))
+    assert re.fullmatch(rf"gearsweep: error: {o}: cannot rename {o}\.chunks/\w+/writing\.nc to"
+                        rf" {o}: Permission denied; (\d+) of \1 chunks saved in {o}\.chunks:"
+                        " fix that and run the same command to continue\n", r.stderr), r.stderr
+    assert not out.exists()
+    assert main(args) == 0 and out.is_file() and not chunk_folder(out).exists()
+
+
 CONTINUED_6E6 = """\
 title: continuation, six million cases
 scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, backlash: 0.1 mm,

@@ -1281,8 +1281,10 @@ def stream_to_file(plan: Plan, output: str | Path, *,
             raise ClusterError(f"{failed}; {saved} of {len(chunks)} chunks saved in"
                                f" {store.root}: run the same command to continue") from failed
         where = f" {exc.filename}" if exc.filename else ""
-        what = f"cannot write{where}" if exc is failed else \
-            f"a dask worker failed{' on' if where else ''}{where}"
+        if exc.filename2:  # a rename (the finished file onto the output): both its ends
+            where = f" {exc.filename} to {exc.filename2}"
+        what = (f"cannot {'rename' if exc.filename2 else 'write'}{where}" if exc is failed
+                else f"a dask worker failed{' on' if where else ''}{where}")
         raise ResultError(
             f"{output}: {what}: {exc.strerror or exc}; {saved} of"
             f" {len(chunks)} chunks saved in {store.root}:"
