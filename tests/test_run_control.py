@@ -255,6 +255,42 @@ def test_an_output_folder_made_read_only_during_the_run_is_one_line(tmp_path):
     assert main(args) == 0 and out.is_file() and not chunk_folder(out).exists()
 
 
+RATTLE_40K = """\
+title: a file past the file-size limit
+scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, base_radius: 30 mm,
+        backlash: 0.1 mm, torque: 10 N*m, damping: 100 N*s/m,
+        fluctuation: [{amplitude: 300 N, order: 1}]}
+sweep:
+  speed: {start: 2000 rpm, stop: 12000 rpm, num: 400}
+  backlash: {start: 0.02 mm, stop: 0.5 mm, num: 100}
+solver: {method: rk4, steps_per_period: 32, transient_periods: 60, record_periods: 20}
+outputs: [stats]
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="RLIMIT_FSIZE")
+def test_a_result_file_past_the_file_size_limit_says_that_limit(tmp_path):
+    """``ulimit -f`` below the result file's size (about 2 MB here; each chunk file 0.3 MB,
+    below it): the one line says the file-size limit, not a failure of the netCDF library on
+    a disk with room (an outside tester's finding); the same command without the limit
+    finishes the file."""
+    limit = 1_500_000
+    limited = ("import resource, sys; from gearsweep.cli import main;"
+               f" resource.setrlimit(resource.RLIMIT_FSIZE, ({limit},"
+               " resource.getrlimit(resource.RLIMIT_FSIZE)[1])); sys.exit(main(sys.argv[1:]))")
+    study = tmp_path / "s.yaml"
+    study.write_text(RATTLE_40K, encoding="utf-8")
+    out = tmp_path / "a.nc"
+    args = ["run", str(study), "-o", str(out), "-q", "--chunk-size", "4000"]
+    r = subprocess.run([sys.executable, "-c", limited, *args], env=_env(), capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "writing.nc: this process's file-size limit (1.5 MB, ulimit -f) is reached at" in r.stderr
+    assert r.stderr.endswith(": raise the file-size limit (ulimit -f) and run the same command"
+                             " to continue\n"), r.stderr
+    assert main(args) == 0 and out.stat().st_size > limit
+
+
 CONTINUED_6E6 = """\
 title: continuation, six million cases
 scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, backlash: 0.1 mm,

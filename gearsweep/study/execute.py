@@ -1288,8 +1288,7 @@ def stream_to_file(plan: Plan, output: str | Path, *,
         raise ResultError(
             f"{output}: {what}: {exc.strerror or exc}; {saved} of"
             f" {len(chunks)} chunks saved in {store.root}:"
-            f" {'make room' if exc.errno in (errno.ENOSPC, errno.EDQUOT) else 'fix that'}"
-            " and run the same command to continue") from failed
+            f" {_remedy(exc.errno)} and run the same command to continue") from failed
     try:  # the result is in place: what follows only tidies up
         remove_checkpoints(output)
     except KeyboardInterrupt:  # a stop now reported a failed run and left half the chunks,
@@ -1300,6 +1299,15 @@ def stream_to_file(plan: Plan, output: str | Path, *,
                    beyond=file.beyond, contact_lost=file.contact_lost,
                    chunks=len(chunks), earlier_chunks=len(done),
                    earlier_runs=len(earlier), run_elapsed=round(elapsed, 3))
+
+
+def _remedy(code: int | None) -> str:
+    """What to do about a file that could not be written (its ``errno``)."""
+    if code in (errno.ENOSPC, errno.EDQUOT):
+        return "make room"
+    if code == errno.EFBIG:  # a file past this process's file-size limit
+        return "raise the file-size limit (ulimit -f)"
+    return "fix that"
 
 
 def step_limit_warning(plan: Plan, ds: xr.Dataset, where: str | Path) -> StepLimitWarning | None:

@@ -40,6 +40,11 @@ from gearsweep.study.outputs import VarSpec, status_attrs
 from gearsweep.study.provenance import provenance
 from gearsweep.units import KINDS, decimal_coordinates, to_display
 
+try:
+    import resource
+except ImportError:  # Windows: no file-size limit to read
+    resource = None
+
 UM = KINDS["displacement"].cf
 """The unit of p (and of every displacement) in a result: um."""
 
@@ -609,6 +614,11 @@ def boxes(a: int, b: int, shape: list[int]) -> list[tuple[int, int, tuple[tuple[
     return out
 
 
+METADATA_BYTES = 1 << 20
+"""Bytes a write of a result file may add beyond its data (HDF5's metadata, the global
+attributes): the margin within which a failed write is put down to the file-size limit."""
+
+
 class ResultFile:
     """The netCDF file of a plan's results, written chunk by chunk as the chunks finish.
 
@@ -646,6 +656,7 @@ class ResultFile:
         self.written: dict[str, Any] = {}
         """The global attributes as ``close`` wrote them."""
         self.nc = netCDF4.Dataset(str(self.tmp), mode="w", format="NETCDF4")
+        coordinates = 0  # bytes written so far
         try:
             dims: dict[str, int] = {}
             for var in desc.variables.values():
@@ -658,6 +669,7 @@ class ResultFile:
                 var.setncatts(attrs)
                 var.set_auto_maskandscale(False)
                 if values is not None:
+                    coordinates += np.asarray(values).nbytes
                     var[...] = values
                 elif name in self.dims:
                     self.vars[name] = var
@@ -672,7 +684,7 @@ class ResultFile:
                         size = int(np.prod(chunking)) * var.dtype.itemsize
                         var.set_var_chunk_cache(size=max(size, 1 << 20))
         except RuntimeError as exc:  # writing the coordinates failed (a full disk, say)
-            error = self._write_error(exc)
+            error = self._write_error(exc, coordinates)
             self.abort()
             raise error from exc
         except BaseException:
@@ -710,12 +722,26 @@ class ResultFile:
                 try:
                     var[index] = np.ascontiguousarray(piece, dtype=var.dtype)
                 except RuntimeError as exc:  # netCDF4's every failure; HDF5's cause is not kept
-                    raise self._write_error(exc) from exc
+                    raise self._write_error(exc, sum(a.nbytes for a in arrays.values())) from exc
         self._sync()
 
-    def _write_error(self, exc: RuntimeError) -> OSError:
-        """The ``OSError`` of a failed netCDF write (``NetCDF: HDF error`` alone, a full disk
-        being the usual cause), with the room left on the file's disk."""
+    def _write_error(self, exc: RuntimeError, pending: int = 0) -> OSError:
+        """The ``OSError`` of a failed netCDF write (``NetCDF: HDF error`` alone), ``pending``
+        bytes at most being written (uncompressed): where the file and they reach this
+        process's file-size limit (``ulimit -f``; a write past it fails with EFBIG), that limit;
+        else the room left on the file's disk, a full disk being the usual cause. (A limit
+        reached was said as a failure of the netCDF library with 36 GB free on the disk, and
+        told to fix that; an outside tester's finding.)"""
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0] if resource else None
+        if limit is not None and limit != resource.RLIM_INFINITY:
+            try:
+                size = os.stat(self.tmp).st_size
+            except OSError:
+                size = limit
+            if size + pending + METADATA_BYTES >= limit:
+                return OSError(errno.EFBIG, f"this process's file-size limit ({limit / 1e6:.1f}"
+                               f" MB, ulimit -f) is reached at {size / 1e6:.1f} MB of the file"
+                               f" (the netCDF library failed: {exc})", str(self.tmp))
         try:
             free = shutil.disk_usage(self.tmp.parent).free
         except OSError:
@@ -755,8 +781,9 @@ class ResultFile:
                 for key, value in attrs.items():
                     _set_attribute(self.nc, key, value)
                 self.nc.close()  # HDF5 writes what it holds: the last file chunks, metadata
-            except RuntimeError as exc:
-                raise self._write_error(exc) from exc
+            except RuntimeError as exc:  # (what HDF5 held: at most its chunk caches)
+                held = sum(v.get_var_chunk_cache()[0] for v in self.vars.values())
+                raise self._write_error(exc, held) from exc
             self._release()
             finish(self.tmp, self.path)
         except BaseException:
