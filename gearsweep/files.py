@@ -34,6 +34,26 @@ def cache_folder(module_file: str | Path) -> Path:
     return Path(module_file).parent / "__pycache__"
 
 
+def ordinary_mode() -> int:
+    """The permissions of an ordinary new file: ``0o666`` less the process's umask. The files
+    written through a temporary one (``tempfile.mkstemp``: ``0o600``, private) get it before
+    they are renamed into place: chunk checkpoints were ``0o600`` beside a ``runs.jsonl`` of
+    ``0o644``, and a colleague sharing a group's folder could not resume the run (an outside
+    tester's finding). The umask is read, on Linux, not set: ``os.umask``'s set and restore
+    would give a file made meanwhile by another thread (the writer's, the saver's) the mode set
+    in between; elsewhere that mode is ``0o077``'s, private, never wider."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return 0o666 & ~int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    umask = os.umask(0o077)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: bool = True,
                  direct: bool = False) -> None:
     """Call ``write(file_object)`` on a temporary file next to ``path``, then rename it to
@@ -44,7 +64,8 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: b
     checkpoints) skip it. ``direct``: write past the page cache where the file system allows it
     (``DirectFile``: large files written once and read rarely, the chunk checkpoints; ``write``
     may then only call ``file_object.write``). On any error the temporary file is removed and
-    the error raised (an ``OSError`` that names no file, as ``os.write``'s, names ``path``)."""
+    the error raised (an ``OSError`` that names no file, as ``os.write``'s, names ``path``).
+    The file gets the permissions of an ordinary new one (``ordinary_mode``)."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:
         if direct and DirectFile.usable(tmp):
@@ -64,6 +85,7 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: b
                 if durable:
                     fh.flush()
                     os.fsync(fh.fileno())
+        os.chmod(tmp, ordinary_mode())
         os.replace(tmp, path)
     except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)

@@ -220,3 +220,25 @@ def test_an_output_in_a_loop_of_symbolic_links_is_refused(tmp_path):
     for name in ("a.nc", "self.nc"):
         assert "loop of symbolic links" in replace_problem(output_path(tmp_path / name))
     assert replace_problem(output_path(tmp_path / "dangling.nc")) is None
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")
+@pytest.mark.parametrize("umask", [0o022, 0o002, 0o027])
+@pytest.mark.parametrize("direct", [True, False])
+def test_checkpoint_files_have_the_mode_of_ordinary_files(tmp_path, monkeypatch, umask, direct):
+    """A chunk checkpoint and the folder's manifest get the mode the umask gives an ordinary
+    new file, as ``runs.jsonl`` beside them (made by ``open``): they were ``0o600`` (the
+    temporary file's), and a colleague sharing a group's folder could not resume the run (an
+    outside tester's finding)."""
+    monkeypatch.setenv("GEARSWEEP_DIRECT_IO", "1" if direct else "0")
+    old = os.umask(umask)
+    try:
+        store = _store(tmp_path)
+        store.save(0, 10, {"status": np.zeros(10, np.int8)})
+        ordinary = tmp_path / "ordinary"
+        ordinary.write_bytes(b"")
+    finally:
+        os.umask(old)
+    assert ordinary.stat().st_mode & 0o777 == 0o666 & ~umask
+    for f in (store.path(0, 10), store.folder / "manifest.json"):
+        assert f.stat().st_mode & 0o777 == 0o666 & ~umask, f

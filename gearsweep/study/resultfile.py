@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from gearsweep.files import ordinary_mode
 from gearsweep.model import SWEEPABLE, MeshModel, mesh_frequency, model_record
 from gearsweep.study.filelayout import file_chunks
 from gearsweep.study.gearscene import gear_pair, warned_once
@@ -579,9 +580,7 @@ def finish(tmp: Path, path: Path) -> None:
     """fsync ``tmp``, give it ordinary permissions and rename it to ``path``."""
     with open(tmp, "rb+") as fh:
         os.fsync(fh.fileno())
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp made it private (0600); a result file is not
+    os.chmod(tmp, ordinary_mode())  # mkstemp made it private (0600); a result file is not
     os.replace(tmp, path)
 
 
