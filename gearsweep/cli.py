@@ -17,6 +17,7 @@ import textwrap
 import threading
 import time
 import warnings
+from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
 import numpy as np
@@ -430,8 +431,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         study = study.model_copy(update={"solver": study.solver.model_copy(
             update={"device": args.device})})
     plan = _plan(study, text, args.study)
-    if args.chunk_size is not None and args.chunk_size < 1:
-        raise StudyError(name, "--chunk-size", args.chunk_size, "a positive number of cases")
+    if args.chunk_size is not None and (isinstance(args.chunk_size, str) or args.chunk_size < 1):
+        raise StudyError(name, "--chunk-size", args.chunk_size, "a positive whole number of cases"
+                         f" up to 1e{MAX_DIGITS} (100000, or 1e5)")
     if args.workers is not None and args.workers < 1:
         raise StudyError(name, "--workers", args.workers, "a positive number of workers")
     if args.workers is not None and args.workers > cores():  # each a process of the machine
@@ -883,6 +885,24 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+MAX_DIGITS = 18
+"""``--chunk-size`` is at most ``10**MAX_DIGITS`` cases (far beyond any study: a chunk holds
+at most a study's cases; ``1e999999999`` as a whole number took minutes to make)."""
+
+
+def _whole_number(text: str) -> int | str:
+    """A command line's whole number, written as ``100000`` or ``1e5`` (the help itself writes
+    '1e9 steps'; argparse's ``int`` refused ``1e5``); anything else, ``1.5e0`` say, as written:
+    the command refuses it in one line naming the flag."""
+    try:
+        value = Decimal(text.strip())
+    except InvalidOperation:
+        return text
+    if not value.is_finite() or value != value.to_integral_value() or value > 10 ** MAX_DIGITS:
+        return text
+    return int(value)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="gearsweep",
@@ -909,8 +929,8 @@ def build_parser() -> argparse.ArgumentParser:
                         f" {LIMITS.output_bytes / 1e9:g} GB of output)")
     r.add_argument("--device", choices=("cpu", "cuda", "auto"),
                    help="where the kernel runs (overrides solver.device; docs/gpu.md)")
-    r.add_argument("--chunk-size", type=int, metavar="CASES",
-                   help="about this many cases per chunk (checkpoint and progress unit;"
+    r.add_argument("--chunk-size", type=_whole_number, metavar="CASES",
+                   help="about this many cases per chunk (100000 or 1e5; checkpoint and progress unit;"
                         " default about 1e9 steps, 3 chunks per worker with --workers, 4e9 steps"
                         " on a GPU; a resumed run keeps its first run's chunks)")
     r.add_argument("--codec", choices=("zstd", "zlib", "none"),

@@ -1602,6 +1602,28 @@ def test_options_that_do_not_apply_to_a_study_in_one_piece_are_noted(tmp_path, c
         " --workers, --chunk-size do not apply\n")
 
 
+def test_chunk_size_takes_a_whole_number_written_as_1e5(tmp_path, capsys):
+    """``--chunk-size 1e5`` was refused by argparse ('invalid int value', with the usage), though
+    the flag's help writes '1e9 steps': a whole number written so is taken as written in
+    digits; a number that is not whole is refused in one line naming the flag, exit 2."""
+    path = tmp_path / "s.yaml"
+    path.write_text(GOOD, encoding="utf-8")
+
+    def run(size: str) -> tuple[int, str, str]:
+        code = main(["run", str(path), "--estimate", f"--chunk-size={size}"])
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    for written, digits in (("1e5", "100000"), ("2E0", "2"), ("3.0", "3"), ("1e18", "1" + "0" * 18)):
+        assert run(written) == run(digits), written
+    assert run("2e0")[0] == 0
+    for bad in ("1.5e0", "0.5", "abc", "nan", "1e19", "0", "-1e3"):
+        code, out, err = run(bad)
+        assert code == 2 and not out and err.count("\n") == 1, (bad, err)
+        assert err.startswith(f"gearsweep: error: {path}: --chunk-size: ") and (
+            "-- a positive whole number of cases up to 1e18 (100000, or 1e5)\n") in err, err
+
+
 def test_record_periods_rules_for_one_period_a_spectrum_and_a_ratio_beyond_the_teeth(tmp_path,
                                                                                    capsys):
     """A review found: one recorded period of a driven scene flagged settled cases 'not settled'
