@@ -61,7 +61,13 @@ from gearsweep.study.mesh import check_memory, run_mesh_study
 from gearsweep.study.outputs import spectrum_aliasing
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study, study_text
-from gearsweep.study.workspace import OutputLock, check_partial, output_path, reads_output
+from gearsweep.study.workspace import (
+    OutputLock,
+    check_partial,
+    check_replaces,
+    output_path,
+    reads_output,
+)
 from gearsweep.units import UnitParseError, si_values, to_display, to_si
 
 StudyLike = str | Path | dict | Study | MeshStudy | AnalysisStudy
@@ -262,7 +268,8 @@ def _within_limits(plan, chunk_cases: int | None, in_memory: bool, where: str) -
 
 
 def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = False,
-        chunk_cases: int | None = None, yes: bool = False) -> xr.Dataset:
+        chunk_cases: int | None = None, yes: bool = False, overwrite: bool = False
+        ) -> xr.Dataset:
     """Validate and run a study in this process; return its Dataset.
 
     Parameters
@@ -283,6 +290,11 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         ``estimate``); without it such a study raises ``LimitError`` before anything runs, as
         ``gearsweep run`` without ``--yes`` refuses it. Without ``output`` the result's arrays
         count in the memory.
+    overwrite : bool
+        Replace an ``output`` that holds another study's result (or a netCDF file that is not a
+        gearsweep result); without it that raises ``ResultError`` before anything runs, as
+        ``gearsweep run`` without ``--overwrite`` refuses it. The same study's result (the same
+        values; comments, spacing and device aside) is replaced without it.
 
     Returns
     -------
@@ -311,12 +323,16 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     if output is not None:
         output = output_path(_user_path(output))
     chunk_cases = _chunk_cases(chunk_cases)
-    if not isinstance(yes, bool):  # yes="no" went ahead (a mesh or analysis study: unchecked)
-        raise StudyError("<study>", "yes", yes, "True or False")
+    for flag, value in (("yes", yes), ("overwrite", overwrite)):  # yes="no" went ahead
+        if not isinstance(value, bool):
+            raise StudyError("<study>", flag, value, "True or False")
     st, text, name = _load(study)
     if output is not None and (read := reads_output(st, output)) is not None:
         raise ResultError(f"{output}: not a place for the result: it is {read.name}, which the"
                           " study reads (the result would replace it)")
+    if output is not None and not overwrite:
+        check_replaces(st, output, "choose another output, or pass overwrite=True"
+                                          " to replace it")
     # With an output, the run holds it as the CLI does (``OutputLock``: one run at a time; a
     # second, from Python or the shell, is refused naming the first) and refuses another
     # study's saved chunks there (``check_partial``): without them a call beside a running

@@ -86,6 +86,7 @@ from gearsweep.study.workspace import (
     BusyError,
     OutputLock,
     check_partial,
+    check_replaces,
     output_path,
     reads_output,
     saved_chunks,
@@ -382,6 +383,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = output_path(args.output if args.output else _default_output(args.study))
     if not args.estimate:
         _check_writable(out, args.study, study)
+        if not args.overwrite:
+            check_replaces(study, out, "choose another -o, or pass --overwrite to replace it")
     if getattr(study, "type", None) in ("mesh", "analysis"):  # computed in one piece, no chunks
 
         unused = [o for o, v in (("--workers", args.workers), ("--chunk-size", args.chunk_size),
@@ -933,6 +936,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="about this many cases per chunk (100000 or 1e5; checkpoint and progress unit;"
                         " default about 1e9 steps, 3 chunks per worker with --workers, 4e9 steps"
                         " on a GPU; a resumed run keeps its first run's chunks)")
+    r.add_argument("--overwrite", action="store_true",
+                   help="replace an existing output that holds another study's result (the"
+                        " same study's result is replaced without it)")
     r.add_argument("--codec", choices=("zstd", "zlib", "none"),
                    help="compression of the result (default zstd, fastest to write; zlib for"
                         " readers whose HDF5 lacks the zstd filter, docs/data-format.md)")

@@ -298,6 +298,7 @@ def main() -> None:
             return
         for size in sizes:
             study = study_file(size, tmp)
+            (tmp / "out.nc").unlink(missing_ok=True)  # another size's: another study's result
             base = None
             for t in threads:
                 row = measure(study, size, args.repeats, t, None, tmp, not args.no_warm_up,

@@ -47,7 +47,9 @@ def run_study(study: Path, out: Path) -> tuple[int, float]:
     from gearsweep.cli import main as gearsweep
 
     t0 = time.perf_counter()
-    code = gearsweep(["run", str(study), "-o", str(out), "-q"])
+    # --overwrite: results/STUDY.nc is this job's result of studies/STUDY.yaml, brought up to
+    # date with the study's values (a run refuses to replace another study's result without it)
+    code = gearsweep(["run", str(study), "-o", str(out), "-q", "--overwrite"])
     return code, time.perf_counter() - t0
 
 

@@ -255,6 +255,56 @@ def test_an_output_folder_made_read_only_during_the_run_is_one_line(tmp_path):
     assert main(args) == 0 and out.is_file() and not chunk_folder(out).exists()
 
 
+def test_a_result_of_another_study_is_not_replaced_without_overwrite(tmp_path, capsys):
+    """An existing result of another study at ``-o`` was replaced silently (an outside tester's
+    finding; nothing already computed is to be lost): refused in one line, exit 2, the file
+    untouched, unless ``--overwrite`` (``overwrite=True``); the same study's result, its file
+    edited in comments, spacing or key order, is replaced by its rerun; a netCDF file that is
+    not a gearsweep result is another study's too."""
+    import netCDF4
+
+    import gearsweep
+    from gearsweep.errors import ResultError
+
+    a, b, edited = tmp_path / "a.yaml", tmp_path / "b.yaml", tmp_path / "a2.yaml"
+    a.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    b.write_text(STUDY.replace("NUM", "30"), encoding="utf-8")
+    lines = STUDY.replace("NUM", "20").splitlines()
+    edited.write_text("\n".join(["# the same values", lines[-1], *lines[:-1]]).replace(": ", ":  "),
+                      encoding="utf-8")
+    out = tmp_path / "r.nc"
+
+    def run(study, *more) -> tuple[int, str]:
+        code = main(["run", str(study), "-o", str(out), "-q", *more])
+        return code, capsys.readouterr().err
+
+    def speeds() -> int:
+        with netCDF4.Dataset(out) as nc:
+            return nc.dimensions["speed"].size
+
+    assert run(a) == (0, "")
+    before = out.read_bytes()
+    code, err = run(b)
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(f"gearsweep: error: {out}: holds the result of another study"
+                          " ('interruptible', written 20"), err
+    assert err.endswith("which this result would replace: choose another -o, or pass"
+                        " --overwrite to replace it\n"), err
+    assert out.read_bytes() == before
+    assert run(edited) == (0, "") and run(a, "--device", "cpu") == (0, "") and speeds() == 20
+    with pytest.raises(ResultError, match="another study .*overwrite=True to replace it"):
+        gearsweep.run(str(b), output=out)
+    assert speeds() == 20
+    assert run(b, "--overwrite") == (0, "") and speeds() == 30
+    assert gearsweep.run(str(a), output=out, overwrite=True).sizes["speed"] == speeds() == 20
+
+    with netCDF4.Dataset(out, "w") as nc:  # someone's own netCDF file
+        nc.createDimension("x", 3)
+    code, err = run(a)
+    assert code == 2 and "holds a netCDF file that is not a gearsweep result" in err, err
+    assert run(a, "--overwrite") == (0, "") and speeds() == 20
+
+
 RATTLE_40K = """\
 title: a file past the file-size limit
 scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, base_radius: 30 mm,

@@ -8,17 +8,23 @@
   interrupted run of another study to the same path) are refused, never mixed or silently
   deleted.
 * ``saved_chunks``: how many of a study's chunks are on disk (for the interruption message).
+* ``check_replaces(study, out)``: an existing result of *another* study at ``out`` (or a netCDF
+  file that is not a gearsweep result) is refused, never replaced silently, unless the caller
+  says so (``--overwrite``); the same study's result is replaced by its rerun.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
+import warnings
 from pathlib import Path
 
 from gearsweep.errors import GearsweepError, ResultError
 from gearsweep.study.checkpoint import SUFFIX, chunk_folder
 from gearsweep.study.execute import chunks_to_run
+from gearsweep.study.schema import parse_study
 
 
 class BusyError(GearsweepError):
@@ -147,3 +153,56 @@ def saved_chunks(plan, out: str | Path, chunk_cases: int | None = None) -> tuple
     folder = chunk_folder(out) / _sha(plan)
     done = sum(1 for a, b in chunks if (folder / f"chunk_{a}_{b}{SUFFIX}").is_file())
     return done, len(chunks)
+
+
+def replaced_result(study, out: str | Path) -> str | None:
+    """What the file at ``out`` holds that a result of ``study`` would replace and lose: the
+    result of another study, or a netCDF file that is not a gearsweep result. ``None``: no file,
+    an empty one, one that netCDF cannot read (``files.replace_problem`` judges those), or a
+    result of this same study: the same values as validated (its comments, spacing and key
+    order aside, and the device it ran on), which its rerun computes again."""
+    out = Path(out)
+    try:
+        if not out.is_file() or out.stat().st_size == 0:
+            return None
+    except OSError:
+        return None
+    import netCDF4
+
+    try:
+        with netCDF4.Dataset(out) as nc:
+            attrs = {k: nc.getncattr(k) for k in nc.ncattrs()
+                     if k in ("study", "study_folder", "title", "history")}
+    except (OSError, RuntimeError):
+        return None
+    if not isinstance(attrs.get("study"), str):
+        return "a netCDF file that is not a gearsweep result (no 'study' attribute)"
+    try:
+        with warnings.catch_warnings():  # (its geometry's warnings are not this run's)
+            warnings.simplefilter("ignore")
+            held = parse_study(attrs["study"], "<result>", base=attrs.get("study_folder"))
+    except GearsweepError:  # a study this version no longer takes: another study
+        held = None
+    if held is not None and _values(held) == _values(study):
+        return None
+    when = re.findall(r"^(\d{4}-\d\d-\d\dT[\d:]+Z): ", str(attrs.get("history", "")), re.M)
+    return (f"the result of another study ({str(attrs.get('title', ''))!r}"
+            + (f", written {when[-1]})" if when else ")"))
+
+
+def _values(study) -> dict:
+    """A study's values as validated, without the device it runs on."""
+    values = study.model_dump(mode="json")
+    if isinstance(values.get("solver"), dict):
+        values["solver"].pop("device", None)
+    return values
+
+
+def check_replaces(study, out: str | Path, ahead: str) -> None:
+    """Raise ``ResultError`` where a result of ``study`` at ``out`` would replace another
+    study's result (``replaced_result``): "nothing already computed is lost" (a run of one
+    study replaced a file holding another's results, silently; an outside tester's finding).
+    ``ahead``: how to go ahead anyway (``--overwrite``, ``overwrite=True``)."""
+    held = replaced_result(study, out)
+    if held is not None:
+        raise ResultError(f"{out}: holds {held}, which this result would replace: {ahead}")
