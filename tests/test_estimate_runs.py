@@ -48,7 +48,7 @@ SMALL = _cut(SCALE, 2, 2).replace("torque: {start: 2 N*m, stop: 20 N*m, num: 10}
 FACTOR = 3.0
 """The estimate is within this factor of the measured wall time, either way: it takes the
 kernel at the stated rate (about half of this machine's) and each chunk at
-``CHUNK_OVERHEAD_SECONDS`` (6-8 ms measured here); 3 leaves room for a loaded shared machine,
+``CHUNK_OVERHEAD_SECONDS`` (2 ms measured here quiet, 6-8 ms at load 7); 3 leaves room for both,
 not for an estimate that leaves out a cost of every chunk (5x off in chunks of 1 case)."""
 
 

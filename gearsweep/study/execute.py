@@ -131,14 +131,16 @@ to exit on the 2-core VM (``scripts/bench_startup.py``, 26 Nov 2026); 1 s allows
 disk or CPU. (It was 3 s, from before the start was made fast: a 3-case study was estimated at
 3.0 s and ran in 0.4 s.)"""
 
-CHUNK_OVERHEAD_SECONDS = 8e-3
+CHUNK_OVERHEAD_SECONDS = 4e-3
 """Wall time each chunk costs beyond its kernel rounds [s]: the kernel call's set-up, its
 arrays made, its checkpoint file written and, after the run, removed (an unlink of a 4 kB to
-1 MB file took 2.8 ms on this VM's ext4), its line in ``runs.jsonl`` and its part of the result
-file. Negligible for the runner's chunks (about a second each), it is all of the time of
-small ones: the 300,000-case cut of the 1e6-case study in chunks of 64 cases (4,688 chunks)
-took 34.5 s where 4 chunks take 5-6 s. Measured on this 2-core VM (27 Nov 2026, docs/scale.md:
-7-8 ms a chunk over chunk sizes of 1 to 1,024 cases)."""
+1 MB file took 2.8 ms on this VM's ext4 under load), its line in ``runs.jsonl`` and its part of
+the result file. Negligible for the runner's chunks (about a second each), it is all of the
+time of small ones: the 300,000-case cut of the 1e6-case study in chunks of 64 cases (4,688
+chunks) took 34.5 s where 4 chunks take 5-6 s. Measured on this 2-core VM (27 Nov 2026,
+docs/scale.md): 6-8 ms a chunk over chunk sizes of 1 to 1,024 cases with the machine at load
+7 (other jobs beside), 2.0 ms quiet (600 chunks of one case: 1.53-1.69 s against 0.42 s in the
+runner's chunks); 4 ms lies within a factor 2 of both."""
 
 CHUNK_FILE_BYTES = 4096 + 128
 """Disk a checkpoint file takes beyond its arrays and their headers [bytes], at most: the file
