@@ -107,8 +107,8 @@ def fig72() -> None:
          f"(c) paper's criterion, RK5 at {spp_f} steps per mesh period",
          "the fine step is stable at every speed", "grows 1000x in 100 periods"),
         (coarse, grid(coarse, "integrator_unstable"), "#e67e22",
-         (f"(d) in this run the integrator is the cause: its map at {spp_c} steps "
-          "diverges, the equation is stable"), "", "integrator_unstable"),
+         (f"(d) this run's cause, the integrator: map at {spp_c} steps diverges, "
+          "equation stable"), "", "integrator_unstable"),
     ]
     fig, axs = plt.subplots(2, 2, figsize=(11, 8), layout="constrained", sharex=True, sharey=True)
     limit = _limit_speed(coarse)
