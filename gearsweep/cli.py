@@ -437,8 +437,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.chunk_size is not None and (isinstance(args.chunk_size, str) or args.chunk_size < 1):
         raise StudyError(name, "--chunk-size", args.chunk_size, "a positive whole number of cases"
                          f" up to 1e{MAX_DIGITS} (100000, or 1e5)")
-    if args.workers is not None and args.workers < 1:
-        raise StudyError(name, "--workers", args.workers, "a positive number of workers")
+    if args.workers is not None and (isinstance(args.workers, str) or args.workers < 1):
+        raise StudyError(name, "--workers", args.workers, "a positive whole number of workers")
     if args.workers is not None and args.workers > cores():  # each a process of the machine
         raise StudyError(name, "--workers", args.workers, (  # (10000 would start them all)
             f"at most this machine's {cores()} cores (a local worker is a process with its share"
@@ -922,7 +922,7 @@ def build_parser() -> argparse.ArgumentParser:
     where = r.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                        help="run the chunks on this existing dask.distributed cluster")
-    where.add_argument("--workers", type=int, metavar="N",
+    where.add_argument("--workers", type=_whole_number, metavar="N",
                        help="run the chunks on a local dask cluster of N worker processes")
     r.add_argument("--estimate", action="store_true",
                    help="print the estimated time, memory and output size; do not run")

@@ -1624,6 +1624,25 @@ def test_chunk_size_takes_a_whole_number_written_as_1e5(tmp_path, capsys):
             "-- a positive whole number of cases up to 1e18 (100000, or 1e5)\n") in err, err
 
 
+def test_workers_takes_a_whole_number_and_refuses_the_rest_in_one_line(tmp_path, capsys):
+    """``--workers abc`` printed argparse's usage and 'invalid int value' (several lines), and
+    ``--workers 1e0`` was refused though ``--chunk-size`` takes 1e5 (an outside tester)."""
+    path = tmp_path / "s.yaml"
+    path.write_text(GOOD, encoding="utf-8")
+
+    def run(workers: str) -> tuple[int, str, str]:
+        code = main(["run", str(path), "--estimate", f"--workers={workers}"])
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    assert run("1e0") == run("1") and run("1")[0] == 0
+    for bad in ("abc", "1.5", "0", "-2"):
+        code, out, err = run(bad)
+        assert code == 2 and not out and err.count("\n") == 1, (bad, err)
+        assert err.startswith(f"gearsweep: error: {path}: --workers: ") and (
+            "-- a positive whole number of workers\n") in err, err
+
+
 def test_record_periods_rules_for_one_period_a_spectrum_and_a_ratio_beyond_the_teeth(tmp_path,
                                                                                    capsys):
     """A review found: one recorded period of a driven scene flagged settled cases 'not settled'
