@@ -89,6 +89,7 @@ from gearsweep.study.workspace import (
     check_replaces,
     output_path,
     reads_output,
+    replaced_result,
     saved_chunks,
 )
 
@@ -486,6 +487,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             check_partial(plan, out)
         except BusyError as exc:
             print(f"{name}: note: a run to this output would be refused: {exc}")
+        held = None if args.overwrite else replaced_result(study, out)
+        if held is not None:  # (it said nothing of this refusal either; an outside tester)
+            print(f"{name}: note: a run to this output would be refused: {out} holds {held};"
+                  " choose another -o, or pass --overwrite to replace it")
         _long_sweep_note(plan, args)
         return 0
     _check_device(study, text, args)  # no GPU: one line, exit 2, now

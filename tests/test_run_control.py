@@ -291,6 +291,11 @@ def test_a_result_of_another_study_is_not_replaced_without_overwrite(tmp_path, c
     assert err.endswith("which this result would replace: choose another -o, or pass"
                         " --overwrite to replace it\n"), err
     assert out.read_bytes() == before
+    main(["run", str(b), "-o", str(out), "--estimate"])  # says the refusal it would meet
+    said = capsys.readouterr().out
+    assert "note: a run to this output would be refused: " in said and "--overwrite" in said
+    main(["run", str(b), "-o", str(out), "--estimate", "--overwrite"])
+    assert "refused" not in capsys.readouterr().out
     assert run(edited) == (0, "") and run(a, "--device", "cpu") == (0, "") and speeds() == 20
     with pytest.raises(ResultError, match="another study .*overwrite=True to replace it"):
         gearsweep.run(str(b), output=out)
