@@ -1149,7 +1149,7 @@ def test_workers_beyond_the_machine_s_cores_are_refused(tmp_path, capsys, monkey
     monkeypatch.setattr("gearsweep.cli.cores", lambda: 4)
     study = tmp_path / "r.yaml"
     study.write_text(RATTLE, encoding="utf-8")
-    for n, says in (("5", "at most this machine's 4 cores"), ("0", "a positive number")):
+    for n, says in (("5", "at most this machine's 4 cores"), ("0", "a positive whole number")):
         assert main(["run", str(study), "-o", str(tmp_path / "r.nc"), "--workers", n]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and f"--workers: {n} -- {says}" in err, err
