@@ -1602,45 +1602,39 @@ def test_options_that_do_not_apply_to_a_study_in_one_piece_are_noted(tmp_path, c
         " --workers, --chunk-size do not apply\n")
 
 
-def test_chunk_size_takes_a_whole_number_written_as_1e5(tmp_path, capsys):
+WHOLE_NUMBER_FLAGS = [
+    ("--chunk-size", (("1e5", "100000"), ("2E0", "2"), ("3.0", "3"), ("1e18", "1" + "0" * 18)),
+     "2e0", ("1.5e0", "0.5", "abc", "nan", "1e19", "0", "-1e3"),
+     "a positive whole number of cases up to 1e18 (100000, or 1e5)"),
+    ("--workers", (("1e0", "1"),), "1", ("abc", "1.5", "0", "-2"),
+     "a positive whole number of workers"),
+]
+
+
+@pytest.mark.parametrize("flag, same, runs, bads, allowed", WHOLE_NUMBER_FLAGS,
+                         ids=[f[0] for f in WHOLE_NUMBER_FLAGS])
+def test_a_whole_number_flag_takes_1e5_and_refuses_the_rest_in_one_line(tmp_path, capsys, flag,
+                                                                       same, runs, bads, allowed):
     """``--chunk-size 1e5`` was refused by argparse ('invalid int value', with the usage), though
-    the flag's help writes '1e9 steps': a whole number written so is taken as written in
-    digits; a number that is not whole is refused in one line naming the flag, exit 2."""
+    the flag's help writes '1e9 steps', and ``--workers abc`` printed the usage too (an outside
+    tester): a whole number written so is taken as written in digits; anything else is refused
+    in one line naming the flag, exit 2."""
     path = tmp_path / "s.yaml"
     path.write_text(GOOD, encoding="utf-8")
 
-    def run(size: str) -> tuple[int, str, str]:
-        code = main(["run", str(path), "--estimate", f"--chunk-size={size}"])
+    def run(value: str) -> tuple[int, str, str]:
+        code = main(["run", str(path), "--estimate", f"{flag}={value}"])
         out, err = capsys.readouterr()
         return code, out, err
 
-    for written, digits in (("1e5", "100000"), ("2E0", "2"), ("3.0", "3"), ("1e18", "1" + "0" * 18)):
+    for written, digits in same:
         assert run(written) == run(digits), written
-    assert run("2e0")[0] == 0
-    for bad in ("1.5e0", "0.5", "abc", "nan", "1e19", "0", "-1e3"):
+    assert run(runs)[0] == 0
+    for bad in bads:
         code, out, err = run(bad)
         assert code == 2 and not out and err.count("\n") == 1, (bad, err)
-        assert err.startswith(f"gearsweep: error: {path}: --chunk-size: ") and (
-            "-- a positive whole number of cases up to 1e18 (100000, or 1e5)\n") in err, err
-
-
-def test_workers_takes_a_whole_number_and_refuses_the_rest_in_one_line(tmp_path, capsys):
-    """``--workers abc`` printed argparse's usage and 'invalid int value' (several lines), and
-    ``--workers 1e0`` was refused though ``--chunk-size`` takes 1e5 (an outside tester)."""
-    path = tmp_path / "s.yaml"
-    path.write_text(GOOD, encoding="utf-8")
-
-    def run(workers: str) -> tuple[int, str, str]:
-        code = main(["run", str(path), "--estimate", f"--workers={workers}"])
-        out, err = capsys.readouterr()
-        return code, out, err
-
-    assert run("1e0") == run("1") and run("1")[0] == 0
-    for bad in ("abc", "1.5", "0", "-2"):
-        code, out, err = run(bad)
-        assert code == 2 and not out and err.count("\n") == 1, (bad, err)
-        assert err.startswith(f"gearsweep: error: {path}: --workers: ") and (
-            "-- a positive whole number of workers\n") in err, err
+        assert err.startswith(f"gearsweep: error: {path}: {flag}: ") and (
+            f"-- {allowed}\n") in err, err
 
 
 def test_record_periods_rules_for_one_period_a_spectrum_and_a_ratio_beyond_the_teeth(tmp_path,
