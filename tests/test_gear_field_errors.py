@@ -196,3 +196,38 @@ def test_a_good_gear_says_nothing():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         parse_study((STUDIES / "table1_profile_shift.yaml").read_text(), "s.yaml")
+
+
+def test_teeth_thinned_to_below_the_base_circle_are_told_the_backlash_that_leaves_a_tooth(
+        tmp_path, capsys):
+    """9 mm of backlash thins the shifted 12-tooth pinion's teeth (x1 0.3) so far that its flanks
+    would meet below the base circle: no tip radius fits (was 'a tip radius below it fits'); the
+    largest backlash that leaves a tooth to the tip, at backlash's line, from the involute
+    tooth thickness s(r) = r (s_p / r_p + 2 (inv(alpha) - inv(alpha_r))) = 0 at the tip radius
+    r_a = r_p + m (1 + x1); s_p = m (pi / 2 + 2 x1 tan(alpha)) - (j / 2) cos(alpha_w) /
+    cos(alpha), half the backlash j (at the operating pitch circle, r_w = r_p cos(alpha) /
+    cos(alpha_w)) taken off each tooth there."""
+    text = ("type: mesh\ntitle: t\ngear:\n  module: 2 mm\n  z1: 12\n  z2: 40\n"
+            "  face_width: 20 mm\n  x1: 0.3\n  x2: 0.8\n  backlash: 9 mm\ntorque: 50 N*m\n")
+    path, lines = refused(tmp_path, capsys, text)
+    m, z, x = 2 * M, 12, 0.3
+    _, aw = operating(m, 12, 40, 0.3, 0.8)
+    rp, ra = 0.5 * m * z, 0.5 * m * z + m * (1 + x)
+    rb = rp * math.cos(ALPHA)
+
+    def s_p(j: float) -> float:
+        return m * (0.5 * math.pi + 2.0 * x * math.tan(ALPHA)) - 0.5 * j * math.cos(aw) / math.cos(
+            ALPHA)
+
+    def s(r: float, j: float) -> float:
+        return r * (s_p(j) / rp + 2.0 * (inv(ALPHA) - inv(math.acos(rb / r))))
+
+    assert s(rb, 9 * M) < 0  # the flanks meet below the base circle: no tip radius fits
+    most = floor_mm(brentq(lambda j: s(ra, j), 0.0, 9 * M, xtol=1e-15))
+    assert s(ra, most * M) >= 0 > s(ra, (most + 0.01) * M) and most == 1.48
+    said = (f"{path}:10: gear.backlash: '9 mm' -- pointed teeth: gear 1 tip thickness"
+            f" {s(ra, 9 * M) / M:.3g} mm <= 0 at tip radius {ra / M:.4g} mm; its flanks meet at or"
+            f" below its base circle ({rb / M:.4g} mm), so no tip radius fits; a backlash of at"
+            f" most {most:g} mm leaves it a tooth to its tip (backlash); also set by x1: 0.3")
+    assert said in lines, lines
+

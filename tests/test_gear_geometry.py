@@ -235,3 +235,22 @@ def test_bad_numbers_rejected_at_construction(kwargs):
     args = {"module": 2e-3, "z1": 20, "z2": 40, "face_width": 10e-3} | kwargs
     with pytest.raises(GeometryError):
         GearPair(**args)
+
+
+def test_teeth_too_thin_at_the_base_circle_without_backlash_are_told_the_thickness():
+    """x1 -2.5 leaves the 12-tooth pinion a negative thickness at the reference circle,
+    m (pi / 2 + 2 x tan(alpha)) < -2 r inv(alpha): its flanks meet below the base circle, no
+    tip radius fits (was 'a tip radius below it fits'), and no backlash thins it. The least
+    thickness that reaches the 13 mm tip: s(r_a) = r_a (s / r + 2 (inv(alpha) - inv(alpha_a)))
+    = 0, rounded up to 0.01 mm."""
+    a = math.radians(20.0)
+    r, ra = 12e-3, 13e-3
+    assert 2e-3 * (0.5 * math.pi + 2.0 * -2.5 * math.tan(a)) < -2.0 * r * involute(a)
+    pair = GearPair(module=2e-3, z1=12, z2=40, face_width=20e-3, x1=-2.5, x2=2.5,
+                    tip_radius1=ra)
+    line = next(p for p in pair.problems() if p.startswith("pointed teeth: gear 1"))
+    least = math.ceil(2.0 * r * (involute(math.acos(r * math.cos(a) / ra)) - involute(a))
+                      * 1e5) / 100
+    assert line.endswith(f"its flanks meet at or below its base circle (11.28 mm), so no tip"
+                         f" radius fits; a thickness1 of at least {least:g} mm does (thickness1)")
+    assert least == 0.92

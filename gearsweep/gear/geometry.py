@@ -671,11 +671,11 @@ class GearPair:
         for g in (1, 2):
             sa = self.tip_thickness(g)
             if sa <= 0:
+                cure, fields = self._pointed_cure(g)
                 out.append((
                     (f"pointed teeth: gear {g} tip thickness {sa * mm:.3g} mm <= 0 at tip radius "
-                    f"{self.tip_radius[g - 1] * mm:.4g} mm; its flanks meet at radius"
-                    f" {self.pointed_radius(g) * mm:.4g} mm: a tip radius below it fits"
-                    f" (tip_radius{g})"), self._tip_thickness_sets(g)))
+                    f"{self.tip_radius[g - 1] * mm:.4g} mm; {cure}"),
+                    tuple(dict.fromkeys((*fields, *self._tip_thickness_sets(g))))))
         if any(p.startswith(("pointed", "tooth", "tip-root")) for p, _ in out):
             return out
         # Fillet: must fit in the tooth space and stay below the active profile.
@@ -728,6 +728,37 @@ class GearPair:
         own = tuple(f for f in (f"tip_radius{g}", f"x{g}", f"thickness{g}")
                     if getattr(self, f) is not None)
         return tuple(dict.fromkeys((*own, "backlash", *self.sets("tip", g))))
+
+    def _pointed_cure(self, g: int) -> tuple[str, tuple[str, ...]]:
+        """What gives gear ``g``'s pointed tooth a tip, and the field it names first: a tip radius
+        below the radius where its flanks meet; where they meet at or below the base circle
+        (heavy thinning for backlash) no tip radius fits, but a smaller backlash, else a thicker
+        tooth, does."""
+        rb = self.base_radius1 if g == 1 else self.base_radius2
+        meet = self.pointed_radius(g)
+        if meet > rb:
+            return (f"its flanks meet at radius {meet * 1e3:.4g} mm: a tip radius below it fits"
+                    f" (tip_radius{g})"), ()
+        said = (f"its flanks meet at or below its base circle ({rb * 1e3:.4g} mm), so no tip"
+                " radius fits")
+        most = self._backlash_leaving(g, 0.0)
+        if most is not None and most >= 0:
+            return (f"{said}; a backlash of at most {_mm_down(most)} mm leaves it a tooth to its"
+                    " tip (backlash)"), ("backlash",)
+        ra, rp = self.tip_radius[g - 1], self.pitch_radius1 if g == 1 else self.pitch_radius2
+        least = self.thickness[g - 1] - self.tip_thickness(g) * rp / ra  # (its angle at r_p)
+        return (f"{said}; a thickness{g} of at least {_mm_up(least)} mm does"
+                f" (thickness{g})"), (f"thickness{g}",)
+
+    def _backlash_leaving(self, g: int, tip: float) -> float | None:
+        """The backlash that leaves gear ``g`` a tip thickness ``tip`` [m], where the backlash
+        thins the teeth (given without thicknesses; else ``None``): less backlash thickens
+        each tooth by half the difference at the operating pitch circle ``r_w``, by that
+        angle at the tip radius ``r_a``."""
+        if self.backlash is None or self.thickness1 is not None or self.thickness2 is not None:
+            return None
+        ra, rw = self.tip_radius[g - 1], self.operating_pitch_radius[g - 1]
+        return self.backlash - 2.0 * (tip - self.tip_thickness(g)) * rw / ra
 
     def pointed_radius(self, g: int) -> float:
         """The radius where the flanks of gear ``g``'s tooth meet (its tip thickness 0) [m]."""
