@@ -231,3 +231,33 @@ def test_teeth_thinned_to_below_the_base_circle_are_told_the_backlash_that_leave
             f" most {most:g} mm leaves it a tooth to its tip (backlash); also set by x1: 0.3")
     assert said in lines, lines
 
+
+def test_tip_fillet_interference_is_told_the_largest_mating_tip_that_fits(tmp_path, capsys):
+    """A 1 mm fillet on the 30-tooth gear 1 (x1 0.3) and gear 2's tip at 52.6 mm: the mate's tip
+    reaches into the fillet (was said with no bound). The fillet, tangent to the root circle r_f
+    and to the involute, whose normal is tangent to the base circle, leaves the involute at the
+    form radius r_F = sqrt(r_b1^2 + u^2), u = sqrt((r_f + rho)^2 - r_b1^2) - rho; contact on
+    gear 1 starts at ISO 21771's active root radius r_Nf1 = sqrt(r_b1^2 + (a sin(alpha_w) -
+    sqrt(r_a2^2 - r_b2^2))^2), at least r_F for r_a2 up to sqrt(r_b2^2 + (a sin(alpha_w) -
+    u)^2); said at tip_radius2's line."""
+    text = ("type: mesh\ntitle: t\ngear:\n  module: 2 mm\n  z1: 30\n  z2: 50\n  face_width: 20 mm\n"
+            "  x1: 0.3\n  x2: 0.1\n  tip_radius2: 52.6 mm\n  fillet_radius: 1 mm\n"
+            "torque: 50 N*m\n")
+    path, lines = refused(tmp_path, capsys, text)
+    m, rho = 2 * M, 1 * M
+    a, aw = operating(m, 30, 50, 0.3, 0.1)
+    rb1, rb2 = 15 * m * math.cos(ALPHA), 25 * m * math.cos(ALPHA)
+    rf1 = 15 * m - m * (1.25 - 0.3)
+    u = math.sqrt((rf1 + rho) ** 2 - rb1**2) - rho
+    form = math.hypot(rb1, u)
+
+    def active_root(ra2: float) -> float:
+        return math.hypot(rb1, a * math.sin(aw) - math.sqrt(ra2**2 - rb2**2))
+
+    most = floor_mm(math.hypot(rb2, a * math.sin(aw) - u))
+    assert active_root(most * M) >= form > active_root((most + 0.01) * M) and most == 52.45
+    said = (f"{path}:10: gear.tip_radius2: '52.6 mm' -- tip-fillet interference: gear 1 fillet"
+            f" reaches radius {form / M:.4g} mm, above the lowest contact point at"
+            f" {active_root(52.6 * M) / M:.4g} mm; a tip radius of gear 2 of at most {most:g} mm"
+            " fits (tip_radius2); also set by fillet_radius: 1 mm, x1: 0.3")
+    assert lines == [said]

@@ -695,10 +695,18 @@ class GearPair:
                 continue
             r_low = math.hypot(rb[g - 1], s_low[g - 1])
             if r_tan > r_low + 1e-12:
+                # ISO 21771's active root radius r_Nf = sqrt(r_b^2 + (a sin(alpha_w) - sqrt(r_a'^2
+                # - r_b'^2))^2), the mate's (') tip at r_a', is at least the fillet's r_tan for
+                # r_a' up to sqrt(r_b'^2 + (a sin(alpha_w) - sqrt(r_tan^2 - r_b^2))^2)
+                mate = 3 - g
+                reach = length - math.sqrt(r_tan**2 - rb[g - 1] ** 2)
+                cure = (f"; a tip radius of gear {mate} of at most"
+                        f" {_mm_down(math.hypot(rb[mate - 1], reach))} mm fits (tip_radius{mate})"
+                        if reach > 0 else f"; no tip radius of gear {mate} fits")
                 out.append((
                     (f"tip-fillet interference: gear {g} fillet reaches radius {r_tan * mm:.4g} mm, "
-                    f"above the lowest contact point at {r_low * mm:.4g} mm"),
-                    ("fillet_radius", *self.sets("root", g), *self.sets("tip", 3 - g))))
+                    f"above the lowest contact point at {r_low * mm:.4g} mm{cure}"),
+                    (*self.sets("tip", mate), "fillet_radius", *self.sets("root", g))))
         return out
 
     def _contact_ratio_cure(self) -> str:
