@@ -509,6 +509,66 @@ class GearPair:
             return theta, float(rr[k]), float(psi[k])
         return theta_radial, r_tan_radial, psi_b
 
+    def active_root_radius(self, g: int) -> float:
+        """Radius of gear ``g``'s lowest contact point, ISO 21771's start of active profile
+        ``r_Nf = sqrt(r_b^2 + (a sin(alpha_w) - sqrt(r_a'^2 - r_b'^2))^2)`` (the mate's tip at
+        ``r_a'`` cuts the line of action there) [m]."""
+        rb = self.base_radius1 if g == 1 else self.base_radius2
+        return math.hypot(rb, self._lowest_contact(g))
+
+    def _rack_flank_depth(self, g: int) -> tuple[float, float]:
+        """Depth below gear ``g``'s reference circle of the generating rack's tip line and of
+        the end of its straight flank [m]: a rack whose tip is rounded by the fillet radius and
+        reaches the root circle."""
+        r = self.pitch_radius1 if g == 1 else self.pitch_radius2
+        depth = r - self.root_radius[g - 1]
+        return depth, depth - self.fillet * (1.0 - math.sin(self.pressure_angle))
+
+    def undercut_radius(self, g: int) -> float | None:
+        """Radius up to which the generating rack's rounded tip cuts gear ``g``'s involute
+        (``None``: no undercut, the straight rack flank ends within ``r sin^2(alpha)`` of the
+        reference line) [m].
+
+        The rack rolls on the reference circle ``r``: at rolling angle ``t`` its flank makes the
+        involute point at radius ``r sqrt(1 + 2 t sin(a) cos(a) + t^2 cos^2(a))`` (``t =
+        -tan(a)``: the base circle), and the centre of its tip round (radius ``rho``) traces a
+        trochoid; the involute is cut where it comes within ``rho`` of that trochoid, from the
+        base circle up to the root (Brent on ``t``) of that clearance.
+        """
+        r = self.pitch_radius1 if g == 1 else self.pitch_radius2
+        a, rho = self.pressure_angle, self.fillet
+        sa, ca = math.sin(a), math.cos(a)
+        depth, straight = self._rack_flank_depth(g)
+        if straight <= r * sa**2 + 1e-12:
+            return None
+        # rack frame: reference line y = r, the flank through (0, r) with the tooth at x < 0
+        cx, cy = -straight * math.tan(a) - rho * ca, r - depth + rho  # tip round's centre
+        near = np.linspace(-1.0, 1.0, 2001) * min(4.0 * depth / r, 1.0)  # positions near it
+
+        def clearance(t: float) -> float:  # of the involute point made at t, to the round
+            vx, vy = -r * t * ca**2, r * (1.0 + t * sa * ca)  # its place while being made
+
+            def gap(phi: np.ndarray) -> np.ndarray:  # with the rack at rolling angle phi
+                d = phi - t
+                x = r * phi + np.cos(d) * vx - np.sin(d) * vy
+                return np.hypot(x - cx, np.sin(d) * vx + np.cos(d) * vy - cy) - rho
+
+            phi = t + near
+            k = int(np.argmin(gap(phi)))
+            from scipy.optimize import minimize_scalar
+
+            lo, hi = phi[max(k - 1, 0)], phi[min(k + 1, phi.size - 1)]
+            return float(minimize_scalar(lambda p: float(gap(np.array(p))), bounds=(lo, hi),
+                                         method="bounded", options={"xatol": 1e-14}).fun)
+
+        base = -math.tan(a)
+        t = base
+        if clearance(base) < 0:
+            from scipy.optimize import brentq
+
+            t = brentq(clearance, base, 0.0, xtol=1e-14)
+        return r * math.sqrt(1.0 + 2.0 * t * sa * ca + (t * ca) ** 2)
+
     # ---------------------------------------------------------- checks
     def problems(self) -> list[str]:
         """Every reason this pair cannot exist as specified, each with its numbers.
@@ -615,27 +675,15 @@ class GearPair:
                     f"{rb[g - 1] * mm:.4g} mm"), (*self.sets("tip", g), "pressure_angle")))
         if basic:
             return out + basic + self._thickness_faults()
-        # Undercut in generation by a rack whose tip radius equals the fillet radius.
+        # Undercut in generation by a rack whose tip radius equals the fillet radius: refused
+        # where it reaches the active profile (contact on a flank the model's involute is not)
         for g in (1, 2):
-            r = self.pitch_radius1 if g == 1 else self.pitch_radius2
-            x = self.x1 if g == 1 else self.x2
-            # Rack tip line sits r - r_f inside the rolling (reference) circle.
-            lift = self.fillet * (1.0 - math.sin(self.pressure_angle))
-            h_straight = (r - self.root_radius[g - 1]) - lift
-            limit = r * math.sin(self.pressure_angle) ** 2
-            if h_straight > limit + 1e-12:
-                # the root follows the shift (m (1.25 - x) below r) unless it is given: then a
-                # shift of x + (h - limit) / m brings the rack's flank back to the limit
-                given = getattr(self, f"root_radius{g}") is not None
-                cure = (f"; a root radius of at least {_mm_up(r - limit - lift)} mm avoids it"
-                        f" (root_radius{g})") if given else (
-                    f"; a profile shift x{g} >= {x + (h_straight - limit) / self.module:.3g}"
-                    " avoids it")
+            top = self.undercut_radius(g)
+            if top is not None and self._contact_on_cut(g, top):
                 out.append((
-                    (f"undercut: gear {g} (z = {self.z1 if g == 1 else self.z2}, x = {x:.3g}) is "
-                    f"undercut by the generating rack: straight rack flank reaches "
-                    f"{h_straight * mm:.3g} mm inside the reference circle, more than "
-                    f"r sin^2(alpha) = {limit * mm:.3g} mm{cure}"), self.sets("root", g)))
+                    (f"undercut: {self._undercut_said(g, top)}, on the cut flank, which the"
+                    f" model's involute is not{self._mate_tip_cure(g, top)}"
+                    f"{self._undercut_cure(g)}"), self.sets("root", g)))
         # Involute interference: contact outside the segment T1 T2.
         length = self.line_of_action_length
         if self.s_start < 0:
@@ -679,7 +727,6 @@ class GearPair:
         if any(p.startswith(("pointed", "tooth", "tip-root")) for p, _ in out):
             return out
         # Fillet: must fit in the tooth space and stay below the active profile.
-        s_low = (self.s_start, self.line_of_action_length - self.s_end)
         for g in (1, 2):
             z = self.z1 if g == 1 else self.z2
             theta_f, r_tan, _ = self.fillet_geometry(g)
@@ -693,21 +740,67 @@ class GearPair:
                     f" {self._largest_fillet(g) * mm:.3g} mm fits (fillet_radius)"),
                     ("fillet_radius", *self.sets("root", g))))
                 continue
-            r_low = math.hypot(rb[g - 1], s_low[g - 1])
+            r_low = self.active_root_radius(g)
             if r_tan > r_low + 1e-12:
-                # ISO 21771's active root radius r_Nf = sqrt(r_b^2 + (a sin(alpha_w) - sqrt(r_a'^2
-                # - r_b'^2))^2), the mate's (') tip at r_a', is at least the fillet's r_tan for
-                # r_a' up to sqrt(r_b'^2 + (a sin(alpha_w) - sqrt(r_tan^2 - r_b^2))^2)
-                mate = 3 - g
-                reach = length - math.sqrt(r_tan**2 - rb[g - 1] ** 2)
-                cure = (f"; a tip radius of gear {mate} of at most"
-                        f" {_mm_down(math.hypot(rb[mate - 1], reach))} mm fits (tip_radius{mate})"
-                        if reach > 0 else f"; no tip radius of gear {mate} fits")
                 out.append((
                     (f"tip-fillet interference: gear {g} fillet reaches radius {r_tan * mm:.4g} mm, "
-                    f"above the lowest contact point at {r_low * mm:.4g} mm{cure}"),
-                    (*self.sets("tip", mate), "fillet_radius", *self.sets("root", g))))
+                    f"above the lowest contact point at {r_low * mm:.4g} mm"
+                    f"{self._mate_tip_cure(g, r_tan)}"),
+                    (*self.sets("tip", 3 - g), "fillet_radius", *self.sets("root", g))))
         return out
+
+    def _lowest_contact(self, g: int) -> float:
+        """Where contact starts on gear ``g``'s flank, on the line of action from its base
+        tangency point (``<= 0``: at or below its base circle) [m]."""
+        return self.s_start if g == 1 else self.line_of_action_length - self.s_end
+
+    def _contact_on_cut(self, g: int, top: float) -> bool:
+        """Whether gear ``g``'s contact starts at or below ``top``, the radius its undercut
+        reaches (:meth:`undercut_radius`): on a flank that the model's involute is not."""
+        return self._lowest_contact(g) <= 0 or self.active_root_radius(g) <= top
+
+    def _undercut_said(self, g: int, top: float) -> str:
+        """What undercuts gear ``g``: the rack's straight flank past ``r sin^2(alpha)``, which
+        cuts its involute from the base circle up to radius ``top`` (:meth:`undercut_radius`);
+        and where its contact starts (:meth:`active_root_radius`), as heights above the base
+        circle [um]."""
+        r = self.pitch_radius1 if g == 1 else self.pitch_radius2
+        rb = self.base_radius1 if g == 1 else self.base_radius2
+        low = ("below it" if self._lowest_contact(g) <= 0 else
+               f"{(self.active_root_radius(g) - rb) * 1e6:.3g} um above it")
+        return (f"gear {g} (z = {self.z1 if g == 1 else self.z2},"
+                f" x = {self.x1 if g == 1 else self.x2:.3g}) is undercut by the generating rack:"
+                f" straight rack flank reaches {self._rack_flank_depth(g)[1] * 1e3:.3g} mm inside"
+                f" the reference circle, more than r sin^2(alpha) ="
+                f" {r * math.sin(self.pressure_angle) ** 2 * 1e3:.3g} mm; its involute is cut up"
+                f" to {(top - rb) * 1e6:.3g} um above its base circle ({rb * 1e3:.5g} mm) and"
+                f" contact starts {low}")
+
+    def _undercut_cure(self, g: int) -> str:
+        """What keeps gear ``g`` uncut: the root follows the shift (``m (1.25 - x)`` below
+        ``r``) unless it is given; a shift ``x + (h - limit) / m`` (or that root radius) brings
+        the rack's straight flank back to ``r sin^2(alpha)``."""
+        r = self.pitch_radius1 if g == 1 else self.pitch_radius2
+        x = self.x1 if g == 1 else self.x2
+        limit = r * math.sin(self.pressure_angle) ** 2
+        depth, straight = self._rack_flank_depth(g)
+        if getattr(self, f"root_radius{g}") is not None:
+            return (f"; a root radius of at least {_mm_up(r - limit - (depth - straight))} mm"
+                    f" avoids it (root_radius{g})")
+        return f"; a profile shift x{g} >= {x + (straight - limit) / self.module:.3g} avoids it"
+
+    def _mate_tip_cure(self, g: int, radius: float) -> str:
+        """The largest tip radius of gear ``g``'s mate whose contact starts on gear ``g`` above
+        ``radius`` (ISO 21771's ``r_Nf`` at least ``radius``: the mate's tip at most
+        ``sqrt(r_b'^2 + (a sin(alpha_w) - sqrt(radius^2 - r_b^2))^2)``), or that none does."""
+        mate = 3 - g
+        rb = self.base_radius1 if g == 1 else self.base_radius2
+        rb_mate = self.base_radius2 if g == 1 else self.base_radius1
+        reach = self.line_of_action_length - math.sqrt(max(radius**2 - rb**2, 0.0))
+        if reach <= 0:
+            return f"; no tip radius of gear {mate} fits"
+        return (f"; a tip radius of gear {mate} of at most {_mm_down(math.hypot(rb_mate, reach))}"
+                f" mm fits (tip_radius{mate})")
 
     def _contact_ratio_cure(self) -> str:
         """What alone gives a contact ratio of 1: the tip radius or the centre distance that
@@ -840,9 +933,17 @@ class GearPair:
         return self
 
     def cautions(self) -> list[tuple[str, tuple[str, ...]]]:
-        """What :meth:`check` warns of, as ``(message, fields)`` (as :meth:`faults`): a tip
-        thickness below 0.2 module (nearly pointed teeth), with the tip radius that gives it."""
+        """What :meth:`check` warns of, as ``(message, fields)`` (as :meth:`faults`): an undercut
+        below the active profile (contact stays on the involute; the model's tooth is the
+        uncut one), with the shift that avoids it; a tip thickness below 0.2 module (nearly
+        pointed teeth), with the tip radius that gives it."""
         out = []
+        for g in (1, 2):
+            top = self.undercut_radius(g)
+            if top is not None and not self._contact_on_cut(g, top):
+                out.append(((f"slight undercut: {self._undercut_said(g, top)}, on the involute"
+                             f" (the model's tooth is the uncut one){self._undercut_cure(g)}"),
+                            self.sets("root", g)))
         for g in (1, 2):
             sa, keep = self.tip_thickness(g), 0.2 * self.module
             if sa < keep:
