@@ -145,6 +145,19 @@ def test_undercut_interference_and_thickness_bounds_at_their_fields(tmp_path, ca
         assert any(line.startswith(start) and bound in line for line in lines), (start, lines)
 
 
+def test_a_bore_radius_outside_sainsot_s_range_is_refused_at_its_line(tmp_path, capsys):
+    """bore_radius2 45 mm under a 48.125 mm root (r_f / r_int = 1.07) made gear 2 stiffer than
+    solid and validate said nothing: refused at its line, with the bore radii Sainsot et al.'s
+    1.4 <= r_f / r_int <= 7 allows."""
+    text = ("type: mesh\ntitle: t\ngear:\n  module: 2.5 mm\n  z1: 27\n  z2: 41\n"
+            "  face_width: 18 mm\n  bore_radius2: 45 mm\ntorque: 50 N*m\n")
+    path, lines = refused(tmp_path, capsys, text)
+    rf = 2.5 * M * (41 / 2 - 1.25)
+    assert len(lines) == 1 and lines[0].startswith(f"{path}:8: gear.bore_radius2: '45 mm' -- ")
+    assert (f"a bore radius of {math.ceil(rf / 7 / M * 100) / 100:g} to {floor_mm(rf / 1.4):g}"
+            " mm fits") in lines[0]
+
+
 def test_every_variant_of_a_mesh_study_at_its_own_fields(tmp_path, capsys):
     """Two refused variants in one run: a preset changed by a written tip radius, at that line
     (at most a - rf2 = 100 - (40 - 1.25 x 2.5) mm); a preset as it is, at its own line."""

@@ -143,6 +143,27 @@ def test_thinner_rim_lowers_stiffness():
     assert all(a > b for a, b in zip(means, means[1:], strict=False)), means
 
 
+def test_a_bore_radius_is_taken_within_sainsot_s_range_and_refused_outside_it():
+    """A 27/41 pair (module 2.5 mm, face 18 mm) with bore_radius2 45 mm (root radius 48.1 mm)
+    gave 401.5 kN/mm, 48 mm (a 0.125 mm rim) 402.7, the solid gear 382.0: a thinner rim
+    stiffer, unsaid (an outside gear engineer's finding). Sainsot et al. (2004) fitted their
+    body term for 1.4 <= r_f / r_int <= 7: within it the mean stiffness falls as the rigid
+    clamp closes in on the centre (more body to deform); outside it the bore is refused at
+    bore_radius2, naming the bore radii that fit (r_f / 7 up, r_f / 1.4 down, to 0.01 mm)."""
+    base = GearPair(module=2.5e-3, z1=27, z2=41, face_width=18e-3)
+    rf = 2.5e-3 * (41 / 2 - 1.25)  # the standard root radius, 48.125 mm
+    means = [mesh_cycle(dataclasses.replace(base, bore_radius2=rf / h), 50.0).mesh_stiffness.mean()
+             for h in (1.4, 2.0, 3.5, 5.0, 7.0)]
+    assert all(a > b for a, b in zip(means, means[1:], strict=False)), means
+    fits = (f"a bore radius of {math.ceil(rf / 7 * 1e5) / 100:g} to"
+            f" {math.floor(rf / 1.4 * 1e5) / 100:g} mm fits (bore_radius2")
+    for bore in (45e-3, 48e-3, rf / 1.39, rf / 7.01):
+        with pytest.raises(GeometryError) as err:
+            mesh_cycle(dataclasses.replace(base, bore_radius2=bore), 50.0)
+        (message, fields), = err.value.faults
+        assert fields[0] == "bore_radius2" and fits in message, message
+
+
 def test_tooth_profile_root_section():
     pair = table1_consistent()
     prof = tooth_profile(pair, 2)

@@ -33,7 +33,8 @@ contact point) per unit load [m/N]:
   ``1/k_h = 4 (1 - nu^2) / (pi E b)``.
 
 Rim: Sainsot's fits are for a solid body clamped at ``r_int``; in them a larger ``r_int``
-(thinner annulus clamped on a rigid shaft) is *stiffer*. A thin rim on a narrow web is softer;
+(thinner annulus clamped on a rigid shaft) is *stiffer*, and they hold for ``r_f / r_int`` in
+:data:`SAINSOT_BORE_RATIO` (refused outside). A thin rim on a narrow web is softer;
 for that the tooth-and-foundation stiffness is multiplied by ISO 6336-1's empirical rim factor
 ``C_R = 1 + ln(b_s/b) / (5 exp(s_R / (5 m)))`` (``C_R = 1`` for a solid gear).
 
@@ -49,9 +50,10 @@ from functools import lru_cache
 import numpy as np
 
 from gearsweep.errors import GeometryError
-from gearsweep.gear.geometry import GearPair
+from gearsweep.gear.geometry import GearPair, _mm_down, _mm_up
 
 __all__ = [
+    "SAINSOT_BORE_RATIO",
     "SAINSOT_COEFFICIENTS",
     "ToothCompliance",
     "ToothProfile",
@@ -71,6 +73,14 @@ SAINSOT_COEFFICIENTS = np.array(
     ]
 )
 """Sainsot, Velex & Duverger (2004) polynomial coefficients, rows L*, M*, P*, Q*."""
+
+SAINSOT_BORE_RATIO = (1.4, 7.0)
+"""Root radius over the radius where the body is clamped, ``h_fi = r_f / r_int``, for which
+Sainsot et al. (2004) fitted their gear-body term [-] (the range the paper states, as public
+gear-mesh codes that carry its Table 1 quote it: find_string "1.4 <= h <= 7"). The fit's body
+is clamped rigidly at ``r_int``: within it a larger ``r_int`` is stiffer; towards ``h_fi = 1``
+(a thin rim on a rigid shaft) it stays stiffer than a solid gear, and beyond 7 its
+quadratic in ``h_fi`` softens the gear below ISO 6336's ``c_gamma``."""
 
 SHEAR_FACTOR = 1.2
 """Shear correction of a rectangular section [-]."""
@@ -265,13 +275,19 @@ def tooth_compliance(
     shear = SHEAR_FACTOR * cb**2 * ja / (g_mod * b)
     axial = sb**2 * ja / (e * b)
     # Sainsot et al. (2004) foundation.
-    rint = pair.bore_radius[gear - 1]
-    if not rint < prof.root_radius:
-        why = (f"gear {gear} bore radius {rint * 1e3:.4g} mm is not below its root radius"
-               f" {prof.root_radius * 1e3:.4g} mm")
+    rint, rf = pair.bore_radius[gear - 1], prof.root_radius
+    h = rf / rint
+    lo, hi = SAINSOT_BORE_RATIO
+    if not lo <= h <= hi:  # (1.07 gave a gear 5 % stiffer than solid: an outside engineer's)
+        why = (f"gear {gear} bore radius {rint * 1e3:.4g} mm gives a root-to-bore ratio r_f /"
+               f" r_int = {h:.3f} (root radius {rf * 1e3:.4g} mm), outside {lo:g} to {hi:g},"
+               " where Sainsot et al.'s gear-body fit holds ("
+               + ("nearer 1 it makes a thinner rim stiffer" if h < lo else
+                  "beyond it softens the gear without bound")
+               + f"); a bore radius of {_mm_up(rf / hi)} to {_mm_down(rf / lo)} mm fits"
+               f" (bore_radius{gear}; a thin rim is rim_thickness{gear})")
         raise GeometryError(f"{pair.name}: {why}",
                             [(why, (f"bore_radius{gear}", *pair.sets("root", gear)))])
-    h = prof.root_radius / rint
     th = prof.theta_f
     terms = np.array([1.0 / th**2, h**2, h / th, 1.0 / th, h, 1.0])
     lstar, mstar, pstar, qstar = SAINSOT_COEFFICIENTS @ terms

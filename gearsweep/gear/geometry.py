@@ -152,8 +152,10 @@ class GearPair:
     poisson : float
         Poisson's ratio [-].
     bore_radius1, bore_radius2 : float or None
-        Radius where the gear body is clamped to its shaft [m] (Sainsot's ``r_int``); default
-        half the root radius.
+        Radius where the gear body is clamped to a rigid shaft [m] (Sainsot's ``r_int``);
+        default half the root radius. Root radius over it within
+        ``compliance.SAINSOT_BORE_RATIO`` (else the compliance refuses it); a larger one is
+        stiffer: a thin rim is ``rim_thickness``.
     rim_thickness1, rim_thickness2 : float or None
         Rim thickness below the root circle of a webbed gear [m]; ``None`` for a solid body.
     web_width1, web_width2 : float or None

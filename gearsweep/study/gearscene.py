@@ -51,6 +51,7 @@ from gearsweep.gear import (
     table1_as_printed,
     table1_consistent,
 )
+from gearsweep.gear.compliance import SAINSOT_BORE_RATIO
 from gearsweep.gear.excitation import DEFAULT_HARMONICS, GearExcitation, gear_excitation
 from gearsweep.study.quantities import (
     Angle,
@@ -131,11 +132,19 @@ class GearSpec(Strict):
     youngs_modulus: Pressure | None = Field(None, gt=0, description=(
         "Young's modulus (unset: 206 GPa) [Pa]"))
     poisson: Real | None = Field(None, ge=0, lt=0.5, description="Poisson's ratio (unset: 0.3)")
-    bore_radius1: Length | None = Field(None, gt=0)
+    bore_radius1: Length | None = Field(None, gt=0, description=(
+        "radius where the gear body is clamped to a rigid shaft, Sainsot et al.'s r_int (unset:"
+        " half the root radius): root radius / bore radius from"
+        f" {SAINSOT_BORE_RATIO[0]:g} to {SAINSOT_BORE_RATIO[1]:g}, where their fit holds; a"
+        " larger one is stiffer (the rigid clamp nearer the teeth), so a thin rim is"
+        " rim_thickness1, not this [m]"))
     bore_radius2: Length | None = Field(None, gt=0)
-    rim_thickness1: Length | None = Field(None, gt=0)
+    rim_thickness1: Length | None = Field(None, gt=0, description=(
+        "rim thickness below the root circle of a webbed gear, for ISO 6336-1's rim factor C_R,"
+        " which softens the tooth (unset: a solid gear) [m]"))
     rim_thickness2: Length | None = Field(None, gt=0)
-    web_width1: Length | None = Field(None, gt=0)
+    web_width1: Length | None = Field(None, gt=0, description=(
+        "web width of a webbed gear, with rim_thickness1 (unset: the face width) [m]"))
     web_width2: Length | None = Field(None, gt=0)
     tip_relief: TipReliefSpec | None = None
 
