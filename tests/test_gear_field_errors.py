@@ -211,6 +211,23 @@ def test_a_good_gear_says_nothing():
         parse_study((STUDIES / "table1_profile_shift.yaml").read_text(), "s.yaml")
 
 
+SHIFTED_PINION = ("type: mesh\ntitle: t\ngear:\n  module: 2 mm\n  z1: 12\n  z2: 40\n"
+                  "  face_width: 20 mm\n  x1: 0.3\n  x2: 0.8\n  backlash: {backlash}\n"
+                  "torque: 50 N*m\n")
+PINION_RADII = (6 * 2 * M * math.cos(ALPHA), 6 * 2 * M + 2 * M * 1.3)  # base, standard tip
+
+
+def pinion_thickness(r: float, j: float) -> float:
+    """Tooth thickness at radius ``r`` [m] of SHIFTED_PINION's gear 1 with backlash ``j`` [m]:
+    s(r) = r (s_p / r_p + 2 (inv(alpha) - inv(alpha_r))), s_p = m (pi / 2 + 2 x1 tan(alpha)) -
+    (j / 2) cos(alpha_w) / cos(alpha) (half the backlash, at the operating pitch circle r_w =
+    r_p cos(alpha) / cos(alpha_w), taken off each tooth)."""
+    m, rp, x = 2 * M, 12 * M, 0.3
+    _, aw = operating(m, 12, 40, 0.3, 0.8)
+    s_p = m * (0.5 * math.pi + 2.0 * x * math.tan(ALPHA)) - 0.5 * j * math.cos(aw) / math.cos(ALPHA)
+    return r * (s_p / rp + 2.0 * (inv(ALPHA) - inv(math.acos(PINION_RADII[0] / r))))
+
+
 def test_teeth_thinned_to_below_the_base_circle_are_told_the_backlash_that_leaves_a_tooth(
         tmp_path, capsys):
     """9 mm of backlash thins the shifted 12-tooth pinion's teeth (x1 0.3) so far that its flanks
@@ -220,21 +237,8 @@ def test_teeth_thinned_to_below_the_base_circle_are_told_the_backlash_that_leave
     r_a = r_p + m (1 + x1); s_p = m (pi / 2 + 2 x1 tan(alpha)) - (j / 2) cos(alpha_w) /
     cos(alpha), half the backlash j (at the operating pitch circle, r_w = r_p cos(alpha) /
     cos(alpha_w)) taken off each tooth there."""
-    text = ("type: mesh\ntitle: t\ngear:\n  module: 2 mm\n  z1: 12\n  z2: 40\n"
-            "  face_width: 20 mm\n  x1: 0.3\n  x2: 0.8\n  backlash: 9 mm\ntorque: 50 N*m\n")
-    path, lines = refused(tmp_path, capsys, text)
-    m, z, x = 2 * M, 12, 0.3
-    _, aw = operating(m, 12, 40, 0.3, 0.8)
-    rp, ra = 0.5 * m * z, 0.5 * m * z + m * (1 + x)
-    rb = rp * math.cos(ALPHA)
-
-    def s_p(j: float) -> float:
-        return m * (0.5 * math.pi + 2.0 * x * math.tan(ALPHA)) - 0.5 * j * math.cos(aw) / math.cos(
-            ALPHA)
-
-    def s(r: float, j: float) -> float:
-        return r * (s_p(j) / rp + 2.0 * (inv(ALPHA) - inv(math.acos(rb / r))))
-
+    path, lines = refused(tmp_path, capsys, SHIFTED_PINION.format(backlash="9 mm"))
+    s, rb, ra = pinion_thickness, *PINION_RADII
     assert s(rb, 9 * M) < 0  # the flanks meet below the base circle: no tip radius fits
     most = floor_mm(brentq(lambda j: s(ra, j), 0.0, 9 * M, xtol=1e-15))
     assert s(ra, most * M) >= 0 > s(ra, (most + 0.01) * M) and most == 1.48
@@ -274,3 +278,27 @@ def test_tip_fillet_interference_is_told_the_largest_mating_tip_that_fits(tmp_pa
             f" {active_root(52.6 * M) / M:.4g} mm; a tip radius of gear 2 of at most {most:g} mm"
             " fits (tip_radius2); also set by fillet_radius: 1 mm, x1: 0.3")
     assert lines == [said]
+
+
+def test_teeth_whose_flanks_meet_too_low_for_a_contact_ratio_are_told_the_backlash(tmp_path,
+                                                                                   capsys):
+    """8 mm of backlash: the pinion's flanks meet just above its base circle (11.54 mm), and
+    'a tip radius below it fits' was true but useless: with its tip there the path of contact,
+    sqrt(r_m^2 - r_b1^2) - (a sin(alpha_w) - sqrt(r_a2^2 - r_b2^2)), is under a base pitch. The
+    largest backlash that leaves it a tooth to its tip is said instead (closed forms as above)."""
+    path, lines = refused(tmp_path, capsys, SHIFTED_PINION.format(backlash="8 mm"))
+    s, rb, ra = pinion_thickness, *PINION_RADII
+    meet = brentq(lambda r: s(r, 8 * M), rb, ra, xtol=1e-15)
+    a, aw = operating(2 * M, 12, 40, 0.3, 0.8)
+    rb2, ra2 = 40 * M * math.cos(ALPHA), 40 * M + 2 * M * 1.8
+    eps = (math.sqrt(meet**2 - rb**2) - (a * math.sin(aw) - math.sqrt(ra2**2 - rb2**2))) / (
+        math.pi * 2 * M * math.cos(ALPHA))
+    assert rb < meet and eps < 1
+    most = floor_mm(brentq(lambda j: s(ra, j), 0.0, 8 * M, xtol=1e-15))
+    assert s(ra, most * M) >= 0 > s(ra, (most + 0.01) * M)
+    said = (f"{path}:10: gear.backlash: '8 mm' -- pointed teeth: gear 1 tip thickness"
+            f" {s(ra, 8 * M) / M:.3g} mm <= 0 at tip radius {ra / M:.4g} mm; its flanks meet at"
+            f" radius {meet / M:.4g} mm, and a tip there leaves a contact ratio of {eps:.3f},"
+            f" below 1; a backlash of at most {most:g} mm leaves it a tooth to its tip"
+            " (backlash)")
+    assert any(line.startswith(said) for line in lines), lines

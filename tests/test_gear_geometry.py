@@ -313,3 +313,17 @@ def test_teeth_too_thin_at_the_base_circle_without_backlash_are_told_the_thickne
     assert line.endswith(f"its flanks meet at or below its base circle (11.28 mm), so no tip"
                          f" radius fits; a thickness1 of at least {least:g} mm does (thickness1)")
     assert least == 0.92
+
+
+def test_a_thickness_bound_that_cannot_fit_is_not_offered():
+    """thickness1 0.92 mm beside the x2 = 2.5 gear's standard tooth, m (pi / 2 + 2 x2 tan(a)) =
+    6.78 mm, was told 'a thickness1 of at most -0.5 mm fits'. The shifts sum to 0, so the pair
+    runs at the reference circles (alpha_w = alpha): a thickness1 of 0 leaves a backlash of
+    pi m - 6.78 mm < 0, and no thickness1 fits."""
+    m, a = 2e-3, math.radians(20.0)
+    pair = GearPair(module=m, z1=12, z2=40, face_width=20e-3, x1=-2.5, x2=2.5,
+                    tip_radius1=13e-3, thickness1=0.92e-3)
+    line = next(p for p in pair.problems() if p.startswith("tooth thicknesses"))
+    left = math.pi * m - m * (0.5 * math.pi + 2.0 * 2.5 * math.tan(a))
+    assert left < 0 and "at most -" not in line
+    assert line.endswith(f"; no thickness1 fits: one of 0 leaves a backlash of {left * 1e3:.4g} mm")

@@ -840,10 +840,15 @@ class GearPair:
         rb = self.base_radius1 if g == 1 else self.base_radius2
         meet = self.pointed_radius(g)
         if meet > rb:
-            return (f"its flanks meet at radius {meet * 1e3:.4g} mm: a tip radius below it fits"
-                    f" (tip_radius{g})"), ()
-        said = (f"its flanks meet at or below its base circle ({rb * 1e3:.4g} mm), so no tip"
-                " radius fits")
+            eps = dataclasses.replace(self, **{f"tip_radius{g}": meet}).contact_ratio
+            if eps >= 1.0:
+                return (f"its flanks meet at radius {meet * 1e3:.4g} mm: a tip radius below it"
+                        f" fits (tip_radius{g})"), ()
+            said = (f"its flanks meet at radius {meet * 1e3:.4g} mm, and a tip there leaves a"
+                    f" contact ratio of {eps:.3f}, below 1")
+        else:
+            said = (f"its flanks meet at or below its base circle ({rb * 1e3:.4g} mm), so no"
+                    " tip radius fits")
         most = self._backlash_leaving(g, 0.0)
         if most is not None and most >= 0:
             return (f"{said}; a backlash of at most {_mm_down(most)} mm leaves it a tooth to its"
@@ -903,9 +908,13 @@ class GearPair:
             # a thinning ds at the reference circle is ds cos(alpha) / cos(alpha_w) at the
             # operating pitch circle, where the backlash is
             ratio = math.cos(self.operating_pressure_angle) / math.cos(self.pressure_angle)
-            cure = "".join(f"; a thickness{g} of at most"
-                           f" {_mm_down(self.thickness[g - 1] + j * ratio)} mm fits"
-                           for g in given[:1])
+            most = {g: self.thickness[g - 1] + j * ratio for g in given}
+            fit = [g for g in given if math.floor(most[g] * 1e5) > 0]  # (0.01 mm and up)
+            left = {1: self._backlash_from(0.0, s2), 2: self._backlash_from(s1, 0.0)}
+            cure = "".join(f"; a thickness{g} of at most {_mm_down(most[g])} mm fits"
+                           for g in fit[:1]) or "".join(
+                f"; no thickness{g} fits: one of 0 leaves a backlash of {left[g] * mm:.4g} mm"
+                for g in given)
             out.append((
                 (f"tooth thicknesses {s1 * mm:.4g} + {s2 * mm:.4g} mm do not fit the circular pitch "
                 f"{p_w * mm:.4g} mm at centre distance "
