@@ -48,7 +48,7 @@ from gearsweep.study.dataset import write_netcdf
 from gearsweep.study.estimate import before_refusing, quick_estimate, small_chunk_note
 from gearsweep.study.estimate import chunk_cases as chunk_size
 from gearsweep.study.execute import (
-    LIMITS,
+    WRITE_RATE,
     Estimate,
     InProcess,
     check_limits,
@@ -211,7 +211,8 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None,
     compile, peak memory, the file's upper bound and the disk the run needs at its peak, the
     file with the chunks' checkpoints beside it; ``.over()``: the limits it passes).
     ``in_memory``: of ``run`` without ``output``, whose result's arrays are held in memory (the
-    peak counts them, and it needs no disk), the estimate ``run`` checks against the limits.
+    peak counts them; no file: ``output_bytes`` and ``disk_bytes`` 0, ``.in_memory``), the
+    estimate ``run`` checks against the limits.
 
     An analysis study gives an ``AnalysisEstimate`` (``.line()``, ``.seconds``,
     ``.memory_bytes``, ``.over()``; its inputs read from ``results/``), the one ``gearsweep
@@ -236,9 +237,11 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None,
 
 def _held(est: Estimate) -> Estimate:
     """``est`` of a run whose result is held in memory: its arrays (their file's upper bound)
-    on top of the peak memory, and no disk (no file, no checkpoints)."""
+    on top of the peak memory, no file (no output bound, no time writing it: it stated the
+    file's bound and write time of a run that writes none) and no disk (no checkpoints)."""
     return dataclasses.replace(est, memory_bytes=est.memory_bytes + est.output_bytes,
-                               disk_bytes=0.0)
+                               seconds=est.seconds - est.output_bytes / WRITE_RATE,
+                               output_bytes=0.0, disk_bytes=0.0, in_memory=True)
 
 
 def _chunk_cases(chunk_cases) -> int | None:
@@ -258,13 +261,12 @@ def _within_limits(plan, chunk_cases: int | None, in_memory: bool, where: str) -
     MemoryError for 7.45 GiB after 0.6 s; an outside tester's finding). A result held in memory
     (no ``output``) counts its arrays in the peak memory, and has no file to limit."""
     chunk = chunk_size(plan, chunk_cases)[0]
-    limits = dataclasses.replace(LIMITS, output_bytes=math.inf) if in_memory else LIMITS
     held = _held if in_memory else (lambda e: e)
     est = quick_estimate(plan, chunk, ask_cache=False)[0]  # as the CLI: Numba's cache is asked
-    if not held(est).over(limits):  # (1.3 ms a call) only where the answer can matter
+    if not held(est).over():  # (1.3 ms a call) only where the answer can matter
         return
     est, _ = before_refusing(plan, quick_estimate(plan, chunk)[0], chunk)
-    check_limits(held(est), where, limits, ahead="pass yes=True to go ahead")
+    check_limits(held(est), where, ahead="pass yes=True to go ahead")
 
 
 def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = False,

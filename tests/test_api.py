@@ -385,6 +385,25 @@ def test_run_refuses_what_the_cli_refuses_unless_yes():
         _within_limits(plan, None, True, name)
 
 
+def test_an_estimate_in_memory_states_no_file(small_whine, tmp_path, monkeypatch):
+    """``estimate(in_memory=True)``, of ``run`` without ``output``, which writes nothing: it
+    stated "output at most 66.1 kB" (this study) and the time to write it, for a run that writes no file.
+    Now no output bound, no disk and no write time; the result's arrays in the memory."""
+    from gearsweep.study.execute import WRITE_RATE
+
+    monkeypatch.chdir(tmp_path)
+    gearsweep.run(small_whine)
+    assert list(tmp_path.rglob("*")) == []  # what the estimate is of: no file, no folder
+    on_file = gearsweep.estimate(small_whine)
+    held = gearsweep.estimate(small_whine, in_memory=True)
+    assert on_file.output_bytes > 0 and "output at most" in on_file.line()
+    assert held.output_bytes == 0 and held.disk_bytes == 0
+    assert "output at most" not in held.line()
+    assert ", the result held in memory (no file)" in held.line()
+    assert held.memory_bytes == on_file.memory_bytes + on_file.output_bytes
+    assert held.seconds == pytest.approx(on_file.seconds - on_file.output_bytes / WRITE_RATE)
+
+
 def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_study, capsys):
     """The kernel computes LANES lanes a block on each core: chunks of fewer run mostly empty
     blocks (a continued 1e6-case study in chunks of 2,000 cases took 58 s against 5.5 s by

@@ -256,6 +256,9 @@ class Estimate:
     disk_bytes: float = 0.0
     """Disk the run needs at its peak [bytes] (``disk_bytes``): the checkpoint files beside
     the result file, just before the checkpoints are removed."""
+    in_memory: bool = False
+    """A run that writes no file (``gearsweep.run`` without ``output``): its result's arrays
+    counted in ``memory_bytes``, and no output or disk (``api.estimate(in_memory=True)``)."""
 
     def line(self) -> str:
         """The estimate in one line, saying when it includes compiling the kernel."""
@@ -269,7 +272,8 @@ class Estimate:
         return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
                 f" {_duration(self.seconds)} {where}, peak memory {_size(self.memory_bytes)}"
                 + (f" ({_size(self.compile_bytes)} of it compiling)" if self.compile_bytes else "")
-                + f", output at most {_size(self.output_bytes)}"
+                + (", the result held in memory (no file)" if self.in_memory else
+                   f", output at most {_size(self.output_bytes)}")
                 + (f" (disk at most {_size(self.disk_bytes)} while it runs, its checkpoints"
                    " beside it)" if self.disk_bytes > self.output_bytes else "") + cold)
 
