@@ -10,7 +10,9 @@ development cache is untouched) and prints one JSON line: the run's wall time, t
 compiling (the outermost compilations; nested ones are inside them), the costliest functions
 (each with the compilations nested in it), and the peak resident memory of that cold run and of
 a second run of the study on the cache the first filled (``peak_rss_mb``, ``warm_peak_rss_mb``:
-what compiling adds to a run's memory, ``batch.COLD_COMPILE_BYTES``).
+what compiling adds to a run's memory, ``batch.COLD_COMPILE_BYTES``). An analysis study reads
+its inputs beside its output: the results in ``--results`` (default ``results/``) are linked into
+the temporary folder the two runs write to.
 """
 
 from __future__ import annotations
@@ -59,8 +61,12 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("study")
     p.add_argument("--top", type=int, default=3, help="functions to list (default 3)")
+    p.add_argument("--results", default="results",
+                   help="folder of the results an analysis study reads (default results/)")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
+        for f in Path(args.results).glob("*.nc"):
+            (Path(tmp) / f.name).symlink_to(f.resolve())
         env = dict(os.environ, NUMBA_CACHE_DIR=str(Path(tmp) / "numba"),
                    PYTHONPATH=os.pathsep.join(x for x in (str(ROOT), os.environ.get(
                        "PYTHONPATH", "")) if x))
