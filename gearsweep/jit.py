@@ -13,6 +13,7 @@ import contextlib
 import copy
 import importlib.util
 import os
+import pickle
 import sys
 import threading
 import types
@@ -117,6 +118,29 @@ _save_overload_or_skip()
 
 jit = _cached(**OPTIONS)
 """Decorator for scalar kernels and helpers."""
+
+
+def ready(dispatcher, args: tuple) -> bool:
+    """Whether ``dispatcher`` (a Numba function kept in its disk cache) runs ``args`` without
+    compiling: compiled for their types in this process already, or in Numba's disk cache for
+    this machine and this source.
+
+    Asks Numba's cache what the dispatcher asks before compiling (``Cache.load_overload``: the
+    index entry of the call's type signature and this machine's code generator, valid while the
+    source file's stamp is the index's) without loading or compiling anything. ``False`` where
+    the cache cannot be read the way this Numba version keeps it (an estimate then counts the
+    compile)."""
+    sig = tuple(dispatcher.typeof_pyval(a) for a in args)
+    if sig in dispatcher.overloads:
+        return True
+    try:
+        cache = dispatcher._cache
+        key = cache._index_key(sig, dispatcher.targetctx.codegen())
+        name = cache._cache_file._load_index().get(key)
+        folder = cache.cache_path
+    except (AttributeError, TypeError, ValueError, EOFError, OSError, pickle.UnpicklingError):
+        return False  # another Numba's cache
+    return name is not None and os.path.isfile(os.path.join(folder, name))
 
 jit_helper = numba.njit(**{**OPTIONS, "cache": False})
 """Decorator for the helpers of the kernels (right-hand sides, dead zone, lane loops, fix-ups).

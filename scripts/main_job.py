@@ -59,7 +59,7 @@ def compile_tasks(studies: list[Path]) -> list[tuple[float, Path, list[int]]]:
     workers compile different specialisations side by side
     (``gearsweep.kernels.batch.specialisation``, ``compile_cost``)."""
     from gearsweep.kernels.batch import compile_cost, specialisation
-    from gearsweep.study.analyses import kernel_calls
+    from gearsweep.study.analysis_cost import kernel_calls
     from gearsweep.study.schema import load_study
 
     tasks = []
@@ -73,9 +73,9 @@ def compile_tasks(studies: list[Path]) -> list[tuple[float, Path, list[int]]]:
 
 def compile_for(study: Path, indices: list[int]) -> tuple[int, float]:
     """Compile (into the disk cache) the kernel calls ``indices`` of an analysis study
-    (``gearsweep.study.analyses.kernel_calls``): (0, seconds)."""
+    (``gearsweep.study.analysis_cost.kernel_calls``): (0, seconds)."""
     from gearsweep.kernels.batch import precompile
-    from gearsweep.study.analyses import kernel_calls
+    from gearsweep.study.analysis_cost import kernel_calls
     from gearsweep.study.schema import load_study
 
     t0 = time.perf_counter()

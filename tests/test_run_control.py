@@ -523,11 +523,11 @@ def test_run_asks_the_kernel_cache_only_where_the_answer_can_change_what_it_says
     small study runs without asking, and with the compile time counted as the most it can be
     it is still under both. A long one asks, and prints the estimate with the cache's answer."""
     from gearsweep import cli
-    from gearsweep.study import estimate as est_mod
+    from gearsweep.kernels import batch
 
     asked = []
-    real = est_mod.compiled
-    monkeypatch.setattr(est_mod, "compiled", lambda call: asked.append(1) or real(call))
+    real = batch.compiled  # what the estimate asks (``batch.not_compiled``)
+    monkeypatch.setattr(batch, "compiled", lambda call: asked.append(1) or real(call))
     study = write_study(small_whine)
     assert main(["run", str(study), "-o", str(tmp_path / "a.nc"), "-q"]) == 0
     assert asked == []

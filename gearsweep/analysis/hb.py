@@ -598,6 +598,22 @@ def _expm_companion(kappa, gamma, t, out):
     out[1, 1] = e * (ch + (-gamma - s) * sh)
 
 
+MONODROMY_COLD_COMPILE_SECONDS = 5.0
+"""One-time compile of ``_monodromy`` (the Floquet multipliers of a branch point) on a cold
+Numba cache [s]: 3.6-4.1 s in a process that only compiles it, 3.9 s of the first run of
+studies/fig08_rattle_balance.yaml (``scripts/bench_compile.py``; this 2-core machine beside other
+jobs, load 5, 27 Nov 2026). ``analysis_cost`` adds it where the cache lacks it."""
+
+MONODROMY_COLD_COMPILE_BYTES = 100e6
+"""... and what it adds to the peak resident memory [bytes]: +90 MB in a process that only
+compiles it (101 -> 191 MB), +51 MB on the study's run (308 MB on a fresh cache, 257 MB on the
+cache it filled)."""
+
+MONODROMY_CALL = (np.zeros(2), np.zeros(1), 0.0, 0.0, 1.0)
+"""Arguments of ``_monodromy`` of the types ``MeshSystem.floquet_multipliers`` passes (what
+``analysis_cost`` asks Numba's cache for)."""
+
+
 @jit
 def _monodromy(p, kappa, gamma, b, dt):
     """Product of the exact transfer matrices of the pieces of every grid interval."""

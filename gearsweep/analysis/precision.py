@@ -81,6 +81,17 @@ class Run:
     """Right-hand-side evaluations per case."""
 
 
+def fixed_call(scene: Scene, method: str, steps_per_period: int, kink_aware: bool = False,
+               copies: int = 64) -> dict:
+    """The ``simulate`` keyword arguments (without step counts) of ``run_fixed``'s call:
+    ``copies`` cases of ``scene``, a sample recorded every ``steps_per_period /
+    SAMPLES_PER_PERIOD`` steps (what ``analysis_cost`` asks Numba's cache for)."""
+    kw = scene.kernel_kwargs(int(steps_per_period))
+    kw["h"] = np.repeat(kw["h"], copies)
+    return dict(kw, method=method, kink_aware=kink_aware,
+                signal_stride=int(steps_per_period) // SAMPLES_PER_PERIOD)
+
+
 def run_fixed(scene: Scene, method: str, steps_per_period: int, window: Window, p_ref: np.ndarray,
               *, kink_aware: bool = False, copies: int = 64, repeat: int = 3) -> Run:
     """Integrate ``copies`` identical cases with the batch kernel and measure error and cost.
@@ -91,17 +102,15 @@ def run_fixed(scene: Scene, method: str, steps_per_period: int, window: Window, 
     """
     spp = int(steps_per_period)
     stride = spp // SAMPLES_PER_PERIOD
-    kw = scene.kernel_kwargs(spp)
-    kw["h"] = np.repeat(kw["h"], copies)
+    kw = fixed_call(scene, method, spp, kink_aware, copies)
     n_tr = window.transient_periods * spp
     best = math.inf
     res = None
     for _ in range(repeat):
         t0 = time.perf_counter()
         # record from the step that ends at the first sampling instant of the window
-        res = simulate(method=method, n_transient=n_tr + stride - 1,
-                       n_record=window.record_periods * spp - stride + 1, signal_stride=stride,
-                       kink_aware=kink_aware, **kw)
+        res = simulate(n_transient=n_tr + stride - 1,
+                       n_record=window.record_periods * spp - stride + 1, **kw)
         best = min(best, time.perf_counter() - t0)
     p = res.signal[0]
     e_traj, e_amp = errors(p, p_ref)

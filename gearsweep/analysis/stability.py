@@ -555,6 +555,14 @@ def integrator_edge(speeds_rpm: tuple[float, float], *, k0: float, k1: float, ma
     return float(brentq(excess, lo, hi, xtol=1e-9))
 
 
+def trial_call(method: str, h: np.ndarray, zeta: np.ndarray, bound: float = 10.0) -> dict:
+    """The ``simulate`` keyword arguments (without step counts) of a trial of
+    ``measured_step_limit``: the oscillator from (1, 1) at steps ``h`` [1] per case (what
+    ``analysis_cost`` asks Numba's cache for)."""
+    return dict(h=h, method=_method(method), damping=2.0 * zeta, k_mean=1.0, bound=bound, x0=1.0,
+                v0=1.0, steps_per_period=1000)
+
+
 def measured_step_limit(method: str, zeta, n_steps: int = 2_000_000, bound: float = 10.0,
                         lo: float = 0.05, hi: float = 6.0, iterations: int = 22) -> np.ndarray:
     """Largest h omega_n at which an integration of the oscillator does not blow up.
@@ -590,9 +598,8 @@ def measured_step_limit(method: str, zeta, n_steps: int = 2_000_000, bound: floa
     b = np.full(zeta.shape, hi)
     for _ in range(iterations):
         mid = 0.5 * (a + b)
-        res = simulate(mid, method=_method(method), damping=2.0 * zeta, k_mean=1.0, bound=bound,
-                       x0=1.0, v0=1.0, n_transient=int(n_steps), n_record=0,
-                       steps_per_period=1000)
+        res = simulate(**trial_call(method, mid, zeta, bound), n_transient=int(n_steps),
+                       n_record=0)
         bad = res.status == STATUS_DIVERGED
         b = np.where(bad, mid, b)
         a = np.where(bad, a, mid)

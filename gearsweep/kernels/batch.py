@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import os
-import pickle
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -16,6 +15,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from gearsweep.jit import ready
 from gearsweep.kernels import kink, rk
 
 
@@ -223,27 +223,10 @@ def dispatcher(call: dict) -> tuple[numba.core.dispatcher.Dispatcher, tuple]:
 
 def compiled(call: dict) -> bool:
     """Whether the compiled function that a ``simulate`` call of these keyword arguments uses
-    (``dispatcher``) is ready without compiling: in this process already, or in Numba's disk
-    cache for this machine and this source.
-
-    Asks Numba's cache what its dispatcher asks before compiling (``Cache.load_overload``: the
-    index entry of the call's type signature and this machine's code generator, valid while the
-    source file's stamp is the index's) without loading or compiling anything: about 10 ms, most
-    of it typing the arguments. ``False`` where the cache cannot be read the way this Numba
-    version keeps it (the estimate then counts the compile).
-    """
-    d, args = dispatcher(call)
-    sig = tuple(d.typeof_pyval(a) for a in args)
-    if sig in d.overloads:
-        return True
-    try:
-        cache = d._cache
-        key = cache._index_key(sig, d.targetctx.codegen())
-        name = cache._cache_file._load_index().get(key)
-        folder = cache.cache_path
-    except (AttributeError, TypeError, ValueError, EOFError, OSError, pickle.UnpicklingError):
-        return False  # another Numba's cache
-    return name is not None and os.path.isfile(os.path.join(folder, name))
+    (``dispatcher``) is ready without compiling (``jit.ready``: in this process already, or in
+    Numba's disk cache for this machine and this source): about 10 ms, most of it typing the
+    arguments."""
+    return ready(*dispatcher(call))
 
 
 COLD_COMPILE_SECONDS = {("rk4", False): 4.0, ("rk5", False): 4.5, ("rk4", True): 11.0,
@@ -277,6 +260,17 @@ def specialisation(call: dict) -> tuple:
             *(call.get(k) is not None for k in ("k_scale", "k_table", "ste_table", "fluct_table",
                                                 "half_gap")),
             int(call.get("signal_stride") or 0) > 0)
+
+
+def not_compiled(calls: list[dict], ask_cache: bool = True) -> set[tuple]:
+    """The ``specialisation`` keys of ``simulate`` calls (keyword arguments) that are neither
+    in Numba's cache nor compiled in this process (every one: ``ask_cache=False``)."""
+    keys: dict[tuple, bool] = {}
+    for call in calls:
+        key = specialisation(call)
+        if key not in keys:
+            keys[key] = not (ask_cache and compiled(call))
+    return {key for key, cold in keys.items() if cold}
 
 
 def compile_cost(key: tuple) -> float:

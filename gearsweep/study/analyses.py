@@ -173,26 +173,6 @@ def artifact_map(o: ArtifactMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
     return data, coords, attrs, {"rig_result": o.rig}
 
 
-def kernel_calls(study: AnalysisStudy) -> list[dict]:
-    """The ``simulate`` calls (keyword arguments without the step counts, as
-    ``gearsweep.kernels.batch.precompile`` takes them) of the kernel specialisations an analysis
-    study will use, so that they can be compiled beforehand, elsewhere (scripts/main_job.py
-    compiles work_precision's while the other studies run; its own run then times integration,
-    not compilation). Empty where not known beforehand."""
-    o = study.analysis
-    if o.kind != "work_precision":
-        return []
-    make = {"whine": pr.whine_scene, "rattle": pr.rattle_scene}
-    speed = {"whine": o.whine_speed, "rattle": o.rattle_speed}
-    calls = []
-    for name in o.scenes:
-        kw = make[name](speed[name]).kernel_kwargs(int(o.steps_per_period[0]))
-        for m in o.methods:  # as run_fixed calls it: a signal is recorded
-            calls.append(dict(kw, method=m.split("-")[0], kink_aware=m.endswith("-kink"),
-                              signal_stride=1))
-    return calls
-
-
 def work_precision(o: WorkPrecision, inputs: dict | None = None) -> tuple[dict, dict, dict, dict]:
     """Errors and costs of every fixed-step method and scipy peer on each scene."""
     window = pr.Window(o.transient_periods, o.record_periods)

@@ -31,6 +31,12 @@ What is counted, per kind:
   matrices of harmonics x samples (about 1 GB at the most).
 * ``rattle_budget``, ``jump_map``: a fixed time (they read results and integrate nothing).
 
+Compiling, every kind: where Numba's disk cache lacks what the study compiles (the batch kernel's
+specialisations of ``method_stability`` and ``work_precision``, ``rattle_balance``'s Floquet
+monodromy ``hb._monodromy``), the one-time compile's time and memory, as for a dynamic study
+(``compile_cost``): the first run of studies/work_precision.yaml compiled for 56 s and peaked at
+806 MB resident against 283 MB on the cache it filled, and was estimated at 13.7 s and 306 MB.
+
 Memory, every kind: the results it reads are loaded whole, counted from their files' headers
 (``input_bytes``).
 """
@@ -44,10 +50,18 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
+from gearsweep.analysis import hb
 from gearsweep.analysis import precision as pr
+from gearsweep.analysis import stability as st
 from gearsweep.analysis.advise import KINK_COST
 from gearsweep.errors import LimitError
+from gearsweep.jit import ready
 from gearsweep.kernels import LANES, rk
+from gearsweep.kernels.batch import (
+    COLD_COMPILE_BYTES,
+    COLD_COMPILE_SECONDS,
+    not_compiled,
+)
 from gearsweep.study.analysis_specs import (
     AnalysisStudy,
     ArtifactMap,
@@ -136,12 +150,20 @@ class AnalysisEstimate:
     parts: tuple[tuple[str, float], ...] = ()
     """(what, seconds) of the larger contributions, in words."""
     note: str = ""
+    compile_seconds: float = 0.0
+    """Of ``seconds``, the one-time compile of what it calls that Numba's cache lacks
+    (``compile_cost``)."""
+    compile_bytes: float = 0.0
+    """Of ``memory_bytes``, what that compile adds to the peak."""
 
     def line(self) -> str:
         what = "; ".join(f"{w} {_duration(s)}" for w, s in self.parts if s >= 0.05)
         return (f"about {_duration(self.seconds)} at stated rates" + (f" ({what})" if what else "")
                 + (f", peak memory about {_size(self.memory_bytes)}"
                    if math.isfinite(self.memory_bytes) else ", peak memory without bound")
+                + (f" ({_size(self.compile_bytes)} of it compiling)" if self.compile_bytes else "")
+                + (f"; includes about {self.compile_seconds:.0f} s to compile once (cold cache)"
+                   if self.compile_seconds else "")
                 + (f"; {self.note}" if self.note else ""))
 
     def over(self) -> list[str]:
@@ -240,6 +262,40 @@ def _work_precision(o: WorkPrecision, threads: int) -> AnalysisEstimate:
         (f"{runs} fixed-step runs of {o.copies:,} cases x {o.repeat}", fixed)))
 
 
+def kernel_calls(study: AnalysisStudy) -> list[dict]:
+    """The ``simulate`` calls (keyword arguments without the step counts, as
+    ``gearsweep.kernels.batch.precompile`` takes them) of the batch kernel specialisations an
+    analysis study calls: ``method_stability``'s trials, ``work_precision``'s fixed-step runs
+    (the others call none). ``compile_cost`` asks Numba's cache for them; scripts/main_job.py
+    compiles them beforehand, while the other studies run, so that work_precision's run times
+    integration, not compilation."""
+    o = study.analysis
+    if isinstance(o, MethodStability):
+        return [st.trial_call(m, np.ones(1), np.zeros(1)) for m in o.methods]
+    if isinstance(o, WorkPrecision):
+        make = {"whine": pr.whine_scene, "rattle": pr.rattle_scene}
+        speed = {"whine": o.whine_speed, "rattle": o.rattle_speed}
+        scenes = [make[name](speed[name]) for name in o.scenes]
+        return [pr.fixed_call(scene, m.split("-")[0], o.steps_per_period[0], m.endswith("-kink"),
+                              copies=1) for scene in scenes for m in o.methods]
+    return []
+
+
+def compile_cost(study: AnalysisStudy) -> tuple[float, float]:
+    """(seconds, bytes) the one-time compile of what the study calls that Numba's disk cache
+    lacks adds to its time and peak memory (0, 0 when the cache has it all): the batch
+    kernel's specialisations (``kernel_calls``) at ``batch.COLD_COMPILE_SECONDS`` and
+    ``COLD_COMPILE_BYTES``, ``rattle_balance``'s ``hb._monodromy`` at its own; their bytes
+    together the largest (as ``estimate.compile_bytes``). The other kinds compile nothing (a first run of
+    artifact_map, rattle_budget and jump_map compiled 0 s)."""
+    costs = [(COLD_COMPILE_SECONDS[key[:2]], COLD_COMPILE_BYTES[key[:2]])
+             for key in not_compiled(kernel_calls(study))]
+    if isinstance(study.analysis, RattleBalance) and not ready(hb._monodromy,
+                                                               hb.MONODROMY_CALL):
+        costs.append((hb.MONODROMY_COLD_COMPILE_SECONDS, hb.MONODROMY_COLD_COMPILE_BYTES))
+    return sum(s for s, _ in costs), max((b for _, b in costs), default=0.0)
+
+
 def input_bytes(study: AnalysisStudy, results: Path | None) -> float:
     """The bytes of the results an analysis reads, as it holds them: each is loaded whole
     (``analyses._open_inputs``: ``xr.load_dataset``), every variable at its shape and type (a
@@ -267,10 +323,14 @@ def estimate(study: AnalysisStudy, results: str | Path | None = None,
              threads: int | None = None) -> AnalysisEstimate:
     """The predicted time and memory of an analysis study; ``results``: the folder its inputs
     are read from (an artifact map's grid is its rig result's; the results it reads are held
-    in memory whole: ``input_bytes``)."""
+    in memory whole: ``input_bytes``); with the one-time compile of what Numba's cache lacks
+    (``compile_cost``)."""
     est = _estimate(study, None if results is None else Path(results), threads)
     held = input_bytes(study, None if results is None else Path(results))
-    return replace(est, memory_bytes=est.memory_bytes + held) if held else est
+    seconds, compiling = compile_cost(study)
+    return replace(est, seconds=est.seconds + seconds,
+                   memory_bytes=est.memory_bytes + held + compiling, compile_seconds=seconds,
+                   compile_bytes=compiling)
 
 
 def _estimate(study: AnalysisStudy, results: Path | None,

@@ -16,8 +16,7 @@ from gearsweep.kernels import LANES, cuda
 from gearsweep.kernels.batch import (
     COLD_COMPILE_BYTES,
     COLD_COMPILE_SECONDS,
-    compiled,
-    specialisation,
+    not_compiled,
 )
 from gearsweep.study import execute
 from gearsweep.study.chunk import kernel_calls
@@ -75,14 +74,7 @@ def compile_bytes(plan: Plan, ask_cache: bool = True) -> float:
 def _not_compiled(plan: Plan, ask_cache: bool) -> set[tuple]:
     """The ``specialisation`` keys of the kernel calls of a CPU run of ``plan`` that are
     neither in Numba's cache nor compiled in this process (every one: ``ask_cache=False``)."""
-    if plan.device == "cuda":
-        return set()
-    keys: dict[tuple, bool] = {}
-    for call in kernel_calls(plan):
-        key = specialisation(call)
-        if key not in keys:
-            keys[key] = not (ask_cache and compiled(call))
-    return {key for key, cold in keys.items() if cold}
+    return set() if plan.device == "cuda" else not_compiled(kernel_calls(plan), ask_cache)
 
 
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,
