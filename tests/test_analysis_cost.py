@@ -450,3 +450,16 @@ def _counts_its_cold_compile(tmp_path: Path, env: dict, name: str, analysis: dic
     assert not warm["compiled"] and warm["compile_s"] == warm["compile"] == 0, (name, runs)
     assert cold["peak"] <= cold["memory"] and warm["peak"] <= warm["memory"], (name, runs)
     assert cold["peak"] - warm["peak"] <= cold["compile"], (name, runs)
+
+
+@pytest.mark.slow
+def test_several_compiles_in_one_run_add_more_than_the_largest(tmp_path):
+    """studies/work_precision.yaml compiles six kernel specialisations, the kink-aware RK5
+    (450 MB alone) last: its first run peaked 523 MB above its second, and on this cheap grid
+    551 MB (847 against 296 MB), where the estimate counted the largest alone, 450 MB, and said
+    750 MB of the cold run (``batch.compile_peak``). Checked as
+    ``test_an_analysis_estimate_counts_its_cold_compile`` checks the others (1-2 minutes)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), PYTHONPATH=str(ROOT))
+    _counts_its_cold_compile(tmp_path, env, "precision", {
+        "kind": "work_precision", "steps_per_period": [8, 16, 32], "peers": [], "rtol": [1e-3],
+        "transient_periods": 2, "record_periods": 2, "copies": 1, "repeat": 1})

@@ -245,9 +245,8 @@ COLD_COMPILE_BYTES = {("rk4", False): 100e6, ("rk5", False): 100e6, ("rk4", True
 cache [bytes] (LLVM's), rounded up from the measured (this 2-core machine, 27 Nov 2026,
 ``scripts/bench_compile.py``: a run's peak resident memory on a fresh cache against a second run
 on the cache it filled, 168 MB; plain RK4 and RK5 +76 and +77 MB, kink-aware RK4 +206 MB,
-kink-aware RK5 +422 MB). Two in one run add about the larger (``studies/stability_rig.yaml``,
-two plain RK5: +91 MB): the estimate adds the largest where the cache lacks the study's
-specialisations (``estimate.compile_bytes``)."""
+kink-aware RK5 +422 MB). Several in one run add more than the largest, less than their sum
+(``compile_peak``), where the cache lacks them (``estimate.compile_bytes``)."""
 
 
 def specialisation(call: dict) -> tuple:
@@ -271,6 +270,25 @@ def not_compiled(calls: list[dict], ask_cache: bool = True) -> set[tuple]:
         if key not in keys:
             keys[key] = not (ask_cache and compiled(call))
     return {key for key, cold in keys.items() if cold}
+
+
+COMPILE_REST_SHARE = 0.5
+"""What each compile but the largest adds to a process's peak, as a share of its own
+``COLD_COMPILE_BYTES`` (``compile_peak``)."""
+
+
+def compile_peak(each: list[float]) -> float:
+    """What several one-time compiles in one process add to its peak resident memory [bytes],
+    from what each adds alone: the largest, and ``COMPILE_REST_SHARE`` of each other. LLVM's
+    memory freed after a compile is partly reused by the next and partly kept: two plain RK5 in
+    one run add +91 MB against +77 MB for one (``studies/stability_rig.yaml``); the six of
+    studies/work_precision.yaml (stated 100, 100, 100, 100, 250 and 450 MB) add +410 MB
+    compiled one after another with the kink-aware RK5 first, +541 MB in the order the study
+    compiles them, the largest last; its first run peaked 523 MB above its second (806 against
+    283 MB, ``scripts/bench_compile.py``), and on a cheap grid 551 MB (847 against 296 MB,
+    ``tests/test_analysis_cost.py``; 27 Nov 2026): more than the largest alone (450 MB, which
+    the estimate said), 775 MB here. 0 for none."""
+    return max(each, default=0.0) + COMPILE_REST_SHARE * (sum(each) - max(each, default=0.0))
 
 
 def compile_cost(key: tuple) -> float:

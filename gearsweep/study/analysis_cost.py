@@ -60,6 +60,7 @@ from gearsweep.kernels import LANES, rk
 from gearsweep.kernels.batch import (
     COLD_COMPILE_BYTES,
     COLD_COMPILE_SECONDS,
+    compile_peak,
     not_compiled,
 )
 from gearsweep.study.analysis_specs import (
@@ -286,14 +287,14 @@ def compile_cost(study: AnalysisStudy) -> tuple[float, float]:
     lacks adds to its time and peak memory (0, 0 when the cache has it all): the batch
     kernel's specialisations (``kernel_calls``) at ``batch.COLD_COMPILE_SECONDS`` and
     ``COLD_COMPILE_BYTES``, ``rattle_balance``'s ``hb._monodromy`` at its own; their bytes
-    together the largest (as ``estimate.compile_bytes``). The other kinds compile nothing (a first run of
+    together as ``batch.compile_peak``. The other kinds compile nothing (a first run of
     artifact_map, rattle_budget and jump_map compiled 0 s)."""
     costs = [(COLD_COMPILE_SECONDS[key[:2]], COLD_COMPILE_BYTES[key[:2]])
              for key in not_compiled(kernel_calls(study))]
     if isinstance(study.analysis, RattleBalance) and not ready(hb._monodromy,
                                                                hb.MONODROMY_CALL):
         costs.append((hb.MONODROMY_COLD_COMPILE_SECONDS, hb.MONODROMY_COLD_COMPILE_BYTES))
-    return sum(s for s, _ in costs), max((b for _, b in costs), default=0.0)
+    return sum(s for s, _ in costs), compile_peak([b for _, b in costs])
 
 
 def input_bytes(study: AnalysisStudy, results: Path | None) -> float:

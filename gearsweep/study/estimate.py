@@ -16,6 +16,7 @@ from gearsweep.kernels import LANES, cuda
 from gearsweep.kernels.batch import (
     COLD_COMPILE_BYTES,
     COLD_COMPILE_SECONDS,
+    compile_peak,
     not_compiled,
 )
 from gearsweep.study import execute
@@ -62,13 +63,12 @@ def compile_seconds(plan: Plan, ask_cache: bool = True) -> float:
 
 def compile_bytes(plan: Plan, ask_cache: bool = True) -> float:
     """The memory the one-time compile of the kernel specialisations a CPU run of ``plan``
-    calls adds to the run's peak [bytes]: of those not compiled (as ``compile_seconds`` asks),
-    the largest ``COLD_COMPILE_BYTES`` (two compiled in one run add about the larger); 0 when
-    all are compiled, and on a GPU (``cuda.HOST_MEMORY_BYTES`` counts its process). It is
-    counted on top of the chunks': the compile comes first, in the warm-up, and what LLVM frees
-    is not all given back to the system."""
-    return max((COLD_COMPILE_BYTES[key[:2]] for key in _not_compiled(plan, ask_cache)),
-               default=0.0)
+    calls adds to the run's peak [bytes]: ``batch.compile_peak`` of the ``COLD_COMPILE_BYTES`` of
+    those not compiled (as ``compile_seconds`` asks); 0 when all are compiled, and on a GPU
+    (``cuda.HOST_MEMORY_BYTES`` counts its process). It is counted on top of the chunks': the
+    compile comes first, in the warm-up, and what LLVM frees is not all given back to the
+    system."""
+    return compile_peak([COLD_COMPILE_BYTES[key[:2]] for key in _not_compiled(plan, ask_cache)])
 
 
 def _not_compiled(plan: Plan, ask_cache: bool) -> set[tuple]:
