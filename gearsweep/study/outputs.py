@@ -235,6 +235,13 @@ class SpectrumOptions(Strict):
                         f" NaN where the line is at most phase_floor ({PHASE_FLOOR['float64']:g};"
                         f" float32: {PHASE_FLOOR['float32']:g}) of its case's largest or spectrum"
                         " is NaN (docs/data-format.md)")
+    dte: Flag = Field(False, description="also the spectrum of the dynamic transmission error"
+                      " p + e = r1 theta1 - r2 theta2 (Eq. 5) per line, dte_spectrum [um] (and"
+                      " dte_spectrum_phase with phase): what an angle or transmission-error"
+                      " measurement sees; p is the dynamic minus the static transmission error"
+                      " e(t), so p alone hides whatever e(t) cancels (tip relief); from p's"
+                      " lines and e(t)'s harmonics; NaN at order 0, a mean the model leaves out;"
+                      " not for the Mathieu scene")
 
     @model_validator(mode="after")
     def _nyquist(self) -> SpectrumOptions:
@@ -376,6 +383,15 @@ class Spectrum:
                              " the drive's inertias, which a swept mass contradicts")
         return True
 
+    def _dte(self, plan: Plan) -> bool:
+        if not self._opts(plan).dte:
+            return False
+        if not isinstance(plan.model, MeshModel):
+            raise StudyError("<study>", "outputs.spectrum.dte", True,
+                             "a scene of the gear drive: the Mathieu scene has no transmission"
+                             " error")
+        return True
+
     def variables(self, plan: Plan) -> dict[str, VarSpec]:
         o = self._opts(plan)
         sps = self.signal_samples_per_period(plan)
@@ -391,8 +407,13 @@ class Spectrum:
                              record_periods_needed(cycle, True, plan.model) if plan.driven else
                              f"a multiple of {cycle} mesh periods (the cycle of the excitation)"
                              " for a spectrum without leakage"))
+        pinion = dte = False
         try:
             pinion = self._pinion(plan)
+        except StudyError as exc:
+            problems += exc.problems
+        try:
+            dte = self._dte(plan)
         except StudyError as exc:
             problems += exc.problems
         lines = kept_bins(rec * sps, rec, o.max_order)
@@ -433,6 +454,19 @@ class Spectrum:
                         " force_spectrum cos(2 pi order phi + force_spectrum_phase), phi the mesh"
                         " phase (0 at t = 0), in (-pi, pi]; NaN where the line is at most"
                         " phase_floor of its case's largest or force_spectrum is NaN")})
+        if dte:
+            specs["dte_spectrum"] = VarSpec(**common, kind="displacement", attrs={
+                "long_name": "single-sided amplitude spectrum of the dynamic transmission error"
+                " p + e = r1 theta1 - r2 theta2 (Eq. 5) over whole mesh periods, from the lines"
+                " of p and the harmonics of the scene's e(t); NaN at order 0 (e(t) enters Eq. 6"
+                " only as e'': its mean is not in the model)"})
+            if o.phase:
+                specs["dte_spectrum_phase"] = VarSpec(**common, attrs={
+                    **phase_attrs, "long_name": (
+                        "phase of each line of dte_spectrum: p + e ~ sum dte_spectrum cos(2 pi"
+                        " order phi + dte_spectrum_phase), phi the mesh phase (0 at t = 0), in"
+                        " (-pi, pi]; NaN where the line is at most phase_floor of its case's"
+                        " largest or dte_spectrum is NaN")})
         if pinion:
             specs["pinion_spectrum"] = VarSpec(**common, kind="displacement", attrs={
                 "long_name": "pinion (gear 2, driven) motion r2 theta2 per line: (r2^2 / I2)"
@@ -462,6 +496,14 @@ class Spectrum:
             if o.phase:
                 out["force_spectrum_phase"] = self._phase(
                     plan, force, np.max(np.abs(spring), axis=1), bad)
+        if self._dte(plan):
+            dte = c + self._ste_lines(plan, len(order))[None, :]
+            dte[:, 0] = np.nan  # the mean of e(t) is not in the model
+            out["dte_spectrum"] = np.abs(dte)
+            out["dte_spectrum"][bad] = np.nan
+            if o.phase:
+                out["dte_spectrum_phase"] = self._phase(
+                    plan, dte, np.max(np.abs(sig), axis=1), bad)
         if self._pinion(plan):
             scene = plan.study.scene  # r2: the drive's, or the gear pair's where it omits it
             _, r2 = scene.drive_radii()  # (drive.base_radius_2 was None: a TypeError traceback)
@@ -494,6 +536,23 @@ class Spectrum:
         theta[bad] = np.nan
         theta[~np.isfinite(amp)] = np.nan
         return theta
+
+    def _ste_lines(self, plan: Plan, lines: int) -> np.ndarray:
+        """The harmonics of the model's e(t) as complex lines in the frame of ``line_spectrum``
+        of the recorded samples (sample 0 after ``_first_sample``), on the bins 0 .. lines - 1
+        [m]: e_n cos(2 pi r phi + b_n) is ``e_n exp(i (b_n + 2 pi r phi_0))`` at bin r x
+        record_periods (a whole bin: record_periods is a multiple of the excitation's cycle),
+        phi_0 the mesh phase of sample 0. Orders above the kept ones are left out."""
+        s = plan.study.solver
+        whole, step = self._first_sample(plan)
+        to_samples = np.exp(-1j * line_phase(np.ones(lines, complex), s.record_periods, whole,
+                                             step / s.steps_per_period))
+        e = np.zeros(lines, complex)
+        for hm in plan.model.ste_harmonics:
+            k = round(hm.order * s.record_periods)
+            if k < lines:
+                e[k] += hm.amplitude * np.exp(1j * hm.phase) * to_samples[k]
+        return e
 
     def _force_spectrum(self, plan: Plan, params: dict[str, np.ndarray], sig: np.ndarray,
                         order: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
