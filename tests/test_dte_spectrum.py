@@ -81,6 +81,10 @@ def test_quasi_static_dte_is_the_loaded_ste_where_p_is_not():
     at = ds.sel(torque=150.0, order=1.0)
     assert at.spectrum > 20 * at.dte_spectrum  # p is the mesh deflection, not the DTE
     assert ds.dte_spectrum.attrs["units"] == "um"
+    for name in ("spectrum", "dte_spectrum"):  # what the file says p is: not the DTE
+        comment = ds[name].attrs["comment"]
+        assert "r1 theta1 - r2 theta2 - e(t)" in comment
+        assert "the dynamic transmission error is p + e" in comment
     assert np.isnan(ds.dte_spectrum.sel(order=0.0)).all()  # e(t)'s mean is not in the model
 
 

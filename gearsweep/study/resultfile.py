@@ -95,10 +95,12 @@ VARIABLES = {
     "status": ("1", "0 ok; nonzero flags a diverged, unsettled or skipped case"),
 }
 
-P_MEANING = ("p: the dynamic transmission error, the relative displacement of the two gears along"
-             " the line of action, Eq. (5) of Choi, Lee & Shin (1997); dimensionless in the"
+P_MEANING = ("p = r1 theta1 - r2 theta2 - e(t), Eq. (5) of Choi, Lee & Shin (1997): the dynamic"
+             " minus the static transmission error, the mesh deflection on the line of action;"
+             " the dynamic transmission error is p + e (spectrum option dte); dimensionless in the"
              " Mathieu scene")
-"""What ``p`` in the long names of the result variables means (their ``comment``)."""
+"""What ``p`` in the long names of the result variables means (their ``comment``; with the long
+name and units within ``filelayout.ATTRIBUTE_TEXT_BYTES``: docs/data-format.md says the rest)."""
 
 # ------------------------------------------------------------------------------- attributes
 
