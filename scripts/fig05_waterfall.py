@@ -39,9 +39,9 @@ def draw(ds: xr.Dataset, figures: Path, suffix: str = "") -> None:
     ax = fig.add_subplot(projection="3d")
     plot_waterfall(ax, ds, traces=40, natural_frequency_hz=f_n)
     ax.view_init(elev=28, azim=-62)
-    ax.set_title(f"{ds.attrs['title']}\ndynamic transmission error p (Eq. 9), {damping_text(ds)};"
-                 f" 40 of {ds.sizes['speed']} speeds drawn; order 0 (mean of p) left out",
-                 fontsize=9)
+    ax.set_title(f"{ds.attrs['title']}\np of Eq. (9): the dynamic minus the static transmission"
+                 f" error\n{damping_text(ds)}; 40 of {ds.sizes['speed']} speeds drawn; order 0"
+                 " (mean of p) left out", fontsize=9)
     print(save(fig, figures / f"fig05_waterfall{suffix}.png", dpi=150))
 
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 7.6), sharex=True,
