@@ -590,13 +590,51 @@ def test_a_jump_beside_a_steep_branch_or_an_outlier_beyond_it_keeps_its_support(
 def test_a_jump_across_unsettled_speeds_larger_than_one_between_neighbours_is_the_jump():
     """The run-up of that scene: supported 28% and 38% steps between neighbours in a scatter, and
     its real jump, 3.2 -> 20.9 um, across two unsettled speeds: the larger, supported, is the
-    jump, at the midpoint of its settled neighbours."""
+    jump, where the sweep leaves its branch (3.2 at 5, 14.8 at 6: far off it, settled or not)."""
     speed = np.arange(10.0)
     up = np.array([3.8, 3.9, 5.4, 5.3, 3.3, 3.2, 14.8, 14.0, 20.9, 19.7])
     settled = np.array([1, 1, 1, 1, 1, 1, 0, 0, 1, 1], bool)
     down = np.full(10, 25.0)
     jp = jumps.find_jumps(speed, up, down, settled_up=settled)
-    assert jp.up_speed == 6.5 and jp.up_size == pytest.approx((20.9 - 3.2) / 20.9)
+    assert jp.up_speed == 5.5 and jp.up_size == pytest.approx((20.9 - 3.2) / 20.9)
+    assert (jp.up_low, jp.up_high) == (5.0, 6.0)
+
+
+def _leaving_sweep(speed, edge, high=354.0, low=52.0):
+    """A run-up whose upper branch ends at ``edge`` (the true jump: the branch exists below it,
+    not above) and whose motion then does not settle, scattering about the lower branch's level
+    (60-115 um, as an outside engineer's idle pair 19/57 at c = 1 N s/mm did over 19 speeds),
+    until it settles on the lower branch 4,750 rpm later."""
+    rng = np.random.default_rng(7)
+    up = np.where(speed < edge, high, low)
+    settled = np.ones(speed.size, bool)
+    scatter = (speed > edge) & (speed < edge + 4750.0)
+    up[scatter] = rng.uniform(60.0, 115.0, scatter.sum())
+    settled[scatter] = False
+    return up, settled
+
+
+@pytest.mark.parametrize("edge", [14600.0, 10100.0])
+def test_a_jump_across_a_long_unsettled_stretch_is_where_the_sweep_leaves_its_branch(edge):
+    """The outside engineer's run-up left its branch between 14,500 and 14,750 rpm (354 -> 115
+    um) and settled again at 19,500: the jump was put at the midpoint of the settled ends,
+    17,000 rpm, with nothing to say how uncertain. The sweep's branch is known to end at
+    ``edge``: the jump lies within the one grid step holding it, and says so (``up_low``,
+    ``up_high``); the run-down, the mirror image, the same."""
+    speed = np.arange(5000.0, 25001.0, 250.0)
+    up, settled = _leaving_sweep(speed, edge)
+    down = np.full(speed.size, 52.0)
+    jp = jumps.find_jumps(speed, up, down, settled_up=settled)
+    assert abs(jp.up_speed - edge) <= 125.0  # it was 17,000 rpm at edge 14,600
+    assert jp.up_low < edge < jp.up_high and jp.up_high - jp.up_low == 250.0
+    assert jp.up_speed == 0.5 * (jp.up_low + jp.up_high) and not jp.up_unsupported
+    # the run-down: its upper branch (seen from the top) ends at the mirrored edge
+    rev, s_rev = _leaving_sweep(speed, edge)
+    mirror = speed[0] + speed[-1] - edge
+    jp = jumps.find_jumps(speed, down, rev[::-1].copy(), settled_down=s_rev[::-1].copy())
+    assert abs(jp.down_speed - mirror) <= 125.0
+    assert jp.down_low < mirror < jp.down_high and jp.down_high - jp.down_low == 250.0
+    assert not jp.down_unsupported
 
 
 def test_jump_map_marks_a_sweep_whose_jumps_cannot_be_judged():

@@ -47,8 +47,16 @@ point of a sweep 85% of whose case-speeds did not settle (7.9 um between 17.5 an
 
 The sweep's jump is its largest supported step, between neighbours or across unsettled speeds;
 one across unsettled speeds that holds a supported step between neighbours is located by that
-step (the finer: the Fig. 8 run-up drop, 8,030 rpm, across one unsettled speed). Where steps
-meet 1 and 2 but none is supported, the sweep has no jump and is marked *unsupported*
+step (the finer: the Fig. 8 run-up drop, 8,030 rpm, across one unsettled speed). One that holds
+none lies between the settled end of the branch the sweep leaves (the run-up's lower end, the
+run-down's upper one) and the first point from there, settled or not, more than ``threshold``
+away from that end's amplitude (a point that far off has left the branch, whatever it does
+there; one nearer may be a transient caught mid-drop). The midpoint of the settled ends put an
+outside engineer's run-up drop (354 to 115 um between 14,500 and 14,750 rpm, then 19 speeds
+that did not settle) at 17,000 rpm. Each jump comes with the two grid speeds of the step that
+locates it (``up_low``, ``up_high``, ...): its speed is their midpoint, and the jump lies
+between them. Where steps meet 1 and 2 but none is supported, the sweep has no jump and is
+marked *unsupported*
 (``up_unsupported`` / ``down_unsupported``): whether it jumps cannot be judged from the sweep,
 and neither can the hysteresis band (NaN, width NaN).
 """
@@ -93,13 +101,22 @@ class JumpSummary:
     """Jumps of an up and a down sweep (arrays over the leading axes; NaN: no jump)."""
 
     up_speed: np.ndarray
-    """Speed at which the run-up jumps: midpoint of the two neighbouring speeds [speed unit]."""
+    """Speed at which the run-up jumps: midpoint of ``up_low`` and ``up_high`` [speed unit]."""
     up_size: np.ndarray
     """Signed relative change of the run-up jump [1] (negative: the amplitude drops)."""
     down_speed: np.ndarray
     """Speed at which the run-down jumps [speed unit]."""
     down_size: np.ndarray
     """Signed relative change of the run-down jump, in the direction of decreasing speed [1]."""
+    up_low: np.ndarray
+    """Speed below the run-up jump: the jump lies between ``up_low`` and ``up_high``, the two
+    grid speeds of the step that locates it (module docstring) [speed unit]."""
+    up_high: np.ndarray
+    """Speed above the run-up jump [speed unit]."""
+    down_low: np.ndarray
+    """Speed below the run-down jump [speed unit]."""
+    down_high: np.ndarray
+    """Speed above the run-down jump [speed unit]."""
     band_low: np.ndarray
     """Lower end of the hysteresis band [speed unit]."""
     band_high: np.ndarray
@@ -227,14 +244,26 @@ def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25, settled_up=True
         prev = np.where(across, _take(prev2, i2), _take(prev1, i))
         size = np.where(across, _take(step2, i2), _take(step1, i))
         found = np.maximum(best1, best2) > 0
-        at = 0.5 * (_take(s, i) + _take(s, np.maximum(prev, 0)))
-        return (np.where(found, at, np.nan), np.where(found, size, np.nan),
-                ~found & (seen1 | seen2))
+        # a jump across unsettled speeds lies between the settled end of the branch the sweep
+        # leaves and the first point, settled or not, more than threshold away from it
+        ref = _take(a, np.where(sign > 0, prev, i))
+        with np.errstate(invalid="ignore"):
+            off = np.abs(a - ref[..., None]) > threshold * np.maximum(np.abs(a),
+                                                                      np.abs(ref[..., None]))
+        off &= (idx >= prev[..., None]) & (idx <= i[..., None])
+        if sign > 0:
+            i = np.where(across, np.argmax(off, axis=-1), i)
+        else:
+            prev = np.where(across, a.shape[-1] - 1 - np.argmax(off[..., ::-1], axis=-1), prev)
+        low = np.where(found, _take(s, np.maximum(prev, 0)), np.nan)
+        high = np.where(found, _take(s, i), np.nan)
+        return (low, high, np.where(found, size, np.nan), ~found & (seen1 | seen2))
 
     settled_up, settled_down = (np.broadcast_to(np.asarray(x, bool), up.shape)
                                 for x in (settled_up, settled_down))
-    up_speed, up_size, up_unsupported = largest(up, settled_up, 1.0)
-    down_speed, down_size, down_unsupported = largest(down, settled_down, -1.0)
+    up_low, up_high, up_size, up_unsupported = largest(up, settled_up, 1.0)
+    down_low, down_high, down_size, down_unsupported = largest(down, settled_down, -1.0)
+    up_speed, down_speed = 0.5 * (up_low + up_high), 0.5 * (down_low + down_high)
     # the ends of the loop: the jumps, or an end of the sweep that is still two-valued
     n = up.shape[-1]
     first = np.argmax(both, axis=-1)[..., None]
@@ -256,7 +285,8 @@ def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25, settled_up=True
             np.isnan(ends), -np.inf, ends), axis=0))
     judged = ~(up_unsupported | down_unsupported)
     return JumpSummary(up_speed=up_speed, up_size=up_size, down_speed=down_speed,
-                       down_size=down_size, band_low=np.where(judged, lo, np.nan),
+                       down_size=down_size, up_low=up_low, up_high=up_high,
+                       down_low=down_low, down_high=down_high, band_low=np.where(judged, lo, np.nan),
                        band_high=np.where(judged, hi, np.nan), open_low=open_low & judged,
                        open_high=open_high & judged, up_unsupported=up_unsupported,
                        down_unsupported=down_unsupported)

@@ -2,9 +2,10 @@
 
 ``jump_summary(ds)`` applies ``gearsweep.analysis.jumps.find_jumps`` (the criterion is stated in
 its module docstring) to the amplitude ``p_pp / 2`` of the ``up`` and ``down`` sweeps of every
-case (a case-speed that did not settle, ``status`` != 0, is no end of a jump, nor support of
-one) and returns the speeds where each sweep jumps and the hysteresis band between them, on the
-study's other dims; ``jump_unsupported`` marks the sweeps whose jumps cannot be judged.
+case (a case-speed that did not settle, ``status`` != 0, is no support of a jump) and returns
+the speeds where each sweep jumps, the two grid speeds between which each jump lies, and the
+hysteresis band between them, on the study's other dims; ``jump_unsupported`` marks the sweeps
+whose jumps cannot be judged.
 """
 
 from __future__ import annotations
@@ -15,10 +16,18 @@ import xarray as xr
 from gearsweep.analysis.jumps import find_jumps
 
 JUMP_VARIABLES = {
-    "jump_up_speed": ("rpm", "speed at which the run-up jumps (NaN: no jump)"),
+    "jump_up_speed": ("rpm", ("speed at which the run-up jumps: midpoint of jump_up_low"
+                                  " and jump_up_high (NaN: no jump)")),
     "jump_up_size": ("1", "relative amplitude change of the run-up jump (negative: drop)"),
-    "jump_down_speed": ("rpm", "speed at which the run-down jumps (NaN: no jump)"),
+    "jump_down_speed": ("rpm", ("speed at which the run-down jumps: midpoint of"
+                                    " jump_down_low and jump_down_high (NaN: no jump)")),
     "jump_down_size": ("1", "relative amplitude change of the run-down jump, towards lower speed"),
+    "jump_up_low": ("rpm", ("speed below the run-up jump: the jump lies between jump_up_low and"
+                            " jump_up_high, the speeds of the step that locates it")),
+    "jump_up_high": ("rpm", "speed above the run-up jump"),
+    "jump_down_low": ("rpm", ("speed below the run-down jump: the jump lies between"
+                              " jump_down_low and jump_down_high")),
+    "jump_down_high": ("rpm", "speed above the run-down jump"),
     "hysteresis_low": ("rpm", "lower end of the jump hysteresis band"),
     "hysteresis_high": ("rpm", "upper end of the jump hysteresis band"),
     "hysteresis_width": ("rpm", ("width of the jump hysteresis band (0: none; NaN: cannot be"
@@ -64,6 +73,8 @@ def jump_summary(ds: xr.Dataset, threshold: float = 0.25) -> xr.Dataset:
     out = {}
     values = {"jump_up_speed": js.up_speed, "jump_up_size": js.up_size,
               "jump_down_speed": js.down_speed, "jump_down_size": js.down_size,
+              "jump_up_low": js.up_low, "jump_up_high": js.up_high,
+              "jump_down_low": js.down_low, "jump_down_high": js.down_high,
               "hysteresis_low": js.band_low, "hysteresis_high": js.band_high,
               "hysteresis_width": js.width,
               "hysteresis_open": (np.asarray(js.open_low, np.int8)
