@@ -813,6 +813,40 @@ def test_pathological_cases_are_flagged_not_fatal():
     assert (ds["status"] == 1).all() and ds["p_rms"].isnull().all()
 
 
+WILD_WHINE = """title: 27/41 whine at a step beyond RK4's limit
+scene:
+  kind: whine
+  gear: {module: 2.5 mm, z1: 27, z2: 41, face_width: 18 mm, x1: 0.3, x2: -0.1, backlash: 0.1 mm}
+  torque: 150 N*m
+  drive: {inertia_1: 5e-4 kg m^2, inertia_2: 3e-3 kg m^2}
+  damping: 2 N*s/mm
+sweep:
+  speed: [500 rpm, 600 rpm]
+solver: {method: rk4, steps_per_period: STEPS, transient_periods: 100, record_periods: 50,
+         step_guard: 'off'}
+outputs: [stats]
+"""
+
+
+def test_a_case_whose_p_left_the_divergence_bound_between_checks_is_diverged():
+    """An outside engineer's 27/41 whine scene at 48 RK4 steps per mesh period, 500 rpm (beyond
+    the method's stability limit there): p_max 2.5e9 um, p_min -3.9e9 um, status 0 (ok) and
+    settle_error 0, although the status's codes say 1 where p exceeded divergence_factor (1e6)
+    x its static scale (12.5 um here: the bound 1.25e7 um). The kernel checks the bound once per
+    mesh period, and p was back inside at each check. Now the case is diverged, its values NaN;
+    600 rpm and the 64-step run are unchanged."""
+    import yaml
+
+    import gearsweep
+
+    ds = gearsweep.run(yaml.safe_load(WILD_WHINE.replace("STEPS", "48")))
+    assert int(ds.status.sel(speed=500)) == 1
+    assert np.isnan(ds.p_max.sel(speed=500)) and np.isnan(ds.p_pp.sel(speed=500))
+    fine = gearsweep.run(yaml.safe_load(WILD_WHINE.replace("STEPS", "64")))
+    assert (fine.status == 0).all() and (ds.status.sel(speed=600) == 0)
+    assert float(np.abs(fine.p_max).max()) < 100.0  # um: the static deflection's order
+
+
 def assert_same_values(a: xr.Dataset, b: xr.Dataset) -> None:
     for name in b.data_vars:
         np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
