@@ -211,6 +211,9 @@ class Advice:
     for the same target (None otherwise)."""
     kink_msteps: float | None = None
     warnings: list[str] = field(default_factory=list)
+    varying_stiffness: bool = False
+    """The scene's stiffness varies (k(t): a gear pair's steps between one and two tooth pairs
+    in contact), which makes the response ring at omega_n (``report``: the extremes)."""
     decay_zeta: float = math.nan
     """The damping ratio that the slowest free decay among the speeds corresponds to (zeta
     itself unless k(t) slows it, near a parametric resonance: ``free_decay``); the light-damping
@@ -240,18 +243,26 @@ class Advice:
             f" {self.expected_error:.1e} from err <= {self.constant:.3g} (h omega_n max(1, r))^"
             f"{self.order:g}{self._knee_text()} with r = Omega / omega_n = {self.ratio:.3g}),"
             f" {self.msteps:.3g} Msteps.")
+        # An extreme taken on the step grid lies within half a step, T / (2 N), of the true one,
+        # where p' = 0: there m p'' = -k(t) (p - p_qs), p_qs = e(t) + F_m / k(t) the quasi-static
+        # deflection, and the sample is low by p'' (T / 2N)^2 / 2 = (pi q / N)^2 / 2 |p - p_qs|
+        # with q = omega_n / Omega (omega_n at the largest stiffness). A line at the mesh order
+        # has |p - p_qs| = r^2 of its amplitude: (pi / N)^2 / 2 of it. Impacts and the steps of
+        # a gear pair's k(t) make p ring about p_qs with about the amplitude: (pi q / N)^2 / 2
+        # of that (an outside tester's 27/41 pair at 2000 rpm, q = 7.4, N = 248: p_pp off by
+        # 2.5e-3 of the amplitude, where 8.0e-5 was said; tests/test_precision.py).
         sampled = (math.pi / self.steps_per_period) ** 2 / 2
-        line = (f"The target is the trajectory's (and p_rms's) error; p_pp, p_max and p_min"
-                f" are taken on the step grid and can be off by up to (pi/N)^2/2 of the amplitude ="
-                f" {sampled:.1e} at N = {self.steps_per_period} steps per mesh period")
+        line = (f"The target is the trajectory's (and p_rms's) error; p_max and p_min are taken"
+                f" on the step grid and can each be off by up to (pi/N)^2/2 of the amplitude"
+                f" (p_pp/2; p_pp by twice that) = {sampled:.1e} at N = {self.steps_per_period}"
+                f" steps per mesh period")
         ring = 1.0 / self.ratio if self.ratio > 0 else math.inf
-        if self.scene_kind == "rattle" and ring > 1.0:
-            # impacts ring at omega_n, order 1 / r of the mesh: where that ringing sets the
-            # extremes the grid misses more (an outside tester: 1.85e-4 of the amplitude at
-            # N = 256 against the 7.5e-5 said, at order 19)
+        cause = ("impacts" if self.scene_kind == "rattle" else
+                 "the steps of k(t)" if self.varying_stiffness else None)
+        if cause and ring > 1.0:
             ringing = (math.pi * ring / self.steps_per_period) ** 2 / 2
             line += (f" for a line at the mesh order, and up to (pi q/N)^2/2 = {ringing:.1e} of"
-                     f" the ringing's own amplitude where the ringing after impacts, at order"
+                     f" the ringing's own amplitude where the ringing after {cause}, at order"
                      f" q = omega_n / Omega = {ring:.3g}, sets the extremes")
         lines.append(line + ".")
         lines += [f"WARNING: {w}" for w in self.warnings]
@@ -414,4 +425,5 @@ def advise(
             f"about {KINK_COST:g} times a plain one.")
     return Advice(method, kink_aware, kind, target, spp, hw_adv,
                   model_error(C, p, knee, hw_adv, r, n), limit, msteps, p, C, wn, zeta, r, knee, n,
-                  steps_per_period, chosen_err, kink_spp, kink_msteps, warnings, decay)
+                  steps_per_period, chosen_err, kink_spp, kink_msteps, warnings,
+                  bool(k_harmonics), decay)
