@@ -19,7 +19,8 @@ Rules (docs/study-reference.md, "Units"):
   50 Hz = 3000 rpm (pint alone would read it as 50 rad/s, 2 pi off). An angular rate in rad/s or
   deg/s is converted as such.
 * The common spellings of engineers are accepted (``RPM``, ``rev/min``, ``r/min``; ``N m``,
-  ``N*m``, ``N.m``, ``N·m``, ``Nm``; ``N mm``, ``Nmm``; ``N s/mm``; ``um``, ``µm``, ``micron``).
+  ``N*m``, ``N.m``, ``N·m``, ``Nm``, with any SI prefix: ``mNm``, ``daNm``, ``kNm``; ``N mm``,
+  ``Nmm``; ``N s/mm``; ``um``, ``µm``, ``micron``).
 """
 
 from __future__ import annotations
@@ -99,9 +100,19 @@ _EXPONENT = re.compile(r"(?:\*\*|\^)\s*\(?\s*[-+]?\s*(?:\d+(?:\.\d*)?|\.\d+)")
 """A power of a unit (``m**2``, ``mm^-1``): the one place a unit expression has digits."""
 
 _WORD_ALIASES = {
-    "RPM": "rpm", "Rpm": "rpm", "Nm": "N*m", "Nmm": "N*mm", "kNm": "kN*m", "kNmm": "kN*mm",
-    "micron": "um", "microns": "um", "Nms": "N*m*s", "Ns": "N*s", "kNs": "kN*s",
+    "RPM": "rpm", "Rpm": "rpm", "micron": "um", "microns": "um", "Ns": "N*s", "kNs": "kN*s",
 }
+_NEWTON_METRE = re.compile(r"(da|[umcdhkMG]?)N(mm|m)(s?)")
+"""A newton metre (or millimetre) written as one word, with any SI prefix: ``Nm``, ``kNm``,
+``mNm``, ``daNm``, ``Nmm``, ``Nms``. pint reads ``Nm`` as a "number metre" ([length] / [mass]):
+``500 mNm`` and ``15 daNm`` were refused as torques while ``kNm``, an alias, was taken."""
+
+
+def _word(word: str) -> str:
+    m = _NEWTON_METRE.fullmatch(word)
+    if m:
+        return f"{m[1]}N*{m[2]}" + ("*s" if m[3] else "")
+    return _WORD_ALIASES.get(word, word)
 _SPELLINGS = (
     (re.compile(r"\b(?:rev|r|U)\s*/\s*min\b"), "rpm"),  # U/min: German for rpm
     (re.compile(r"\b(?:rev|r)\s*/\s*s\b"), "Hz"),
@@ -141,7 +152,7 @@ def normalise(text: str) -> str:
     out = text.strip()
     for pattern, repl in _SPELLINGS:
         out = pattern.sub(repl, out)
-    out = _WORD.sub(lambda m: _WORD_ALIASES.get(m.group(0), m.group(0)), out)
+    out = _WORD.sub(lambda m: _word(m.group(0)), out)
     m = _NUMBER.match(out)
     number, unit = (out[:m.end()], out[m.end():]) if m else ("", out)
     return number + _UDUNITS_POWER.sub(r"**\1", unit)

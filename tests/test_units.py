@@ -23,6 +23,14 @@ from gearsweep.units import KINDS, UnitParseError, display_factor, to_display, t
     ("30 Nm", "torque", 30.0),
     ("30000 N mm", "torque", 30.0),
     ("30000 Nmm", "torque", 30.0),
+    # a newton metre in one word with an SI prefix (mNm, daNm were "[length] / [mass]": pint
+    # reads Nm as a "number metre"; kNm alone was an alias)
+    ("500 mNm", "torque", 0.5),
+    ("15 daNm", "torque", 150.0),
+    ("2 kNm", "torque", 2000.0),
+    ("5 cNm", "torque", 0.05),
+    ("3 MNm", "torque", 3e6),
+    ("2 kNmm", "torque", 2.0),
     ("5.5 N s/mm", "damping", 5500.0),
     ("5500 N s/m", "damping", 5500.0),
     ("5 um", "displacement", 5e-6),
