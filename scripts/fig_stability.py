@@ -23,6 +23,7 @@ import yaml
 from gearsweep import result_model
 from gearsweep.plot.common import save
 from gearsweep.plot.stability import (
+    damping_row,
     plot_artifact_edges,
     plot_operating_map,
     plot_stability_regions,
@@ -118,9 +119,10 @@ def fig72() -> None:
                            zeta_per_damping=zeta_per_damping, teeth=rig.teeth)
         if why:
             _blank(ax, flag, why)
-        ax.axhline(5.5, color="0.3", lw=0.8, ls=":")
-        ax.annotate(f"paper's c = 5.5 N s/mm (ζ = {5500 * zeta_per_damping:.3f})", (speed.max(), 5.5),
-                    xytext=(-4, 3),
+        paper = damping_row(damping, 5500.0)
+        ax.axhline(paper, color="0.3", lw=0.8, ls=":")
+        ax.annotate(f"paper's c = 5.5 N s/mm (ζ = {5500 * zeta_per_damping:.3f})",
+                    (speed.max(), paper), xytext=(-4, 3),
                     textcoords="offset points", ha="right", fontsize=7, color="0.3")
     for ax in axs.ravel():  # shared axes, but every labelled axis shows its values
         ax.tick_params(labelleft=True, labelbottom=True)
@@ -170,7 +172,7 @@ def fig72_methods() -> None:
                                  + ("the paper's shape" if bool(out.reproduces_paper.loc[m][j200])
                                     else "NOT the paper's shape"),
                            zeta_per_damping=zeta_per_damping, teeth=teeth)
-        ax.axhline(5.5, color="0.3", lw=0.8, ls=":")
+        ax.axhline(damping_row(damping, 5500.0), color="0.3", lw=0.8, ls=":")
     fig.suptitle("Fig. 7.2 with four fifth-order Runge-Kutta methods: the paper's criterion at a "
                  "fixed step flags instability that the equation does not have (Floquet: stable "
                  "everywhere)", fontsize=10)

@@ -383,7 +383,8 @@ def test_a_stability_map_of_a_users_own_result_has_its_units_teeth_and_ticks():
     fig = plot_stability_map(ds, "unstable", title="mine")
     ax = fig.axes[0]
     assert ax.get_xlabel() == "speed of the driving gear (30 teeth) [rpm]"
-    assert ax.get_ylim() == pytest.approx((0.0, 5.0))  # N s/mm, as the file and the label
+    # N s/mm, as the file and the label (one row per computed damping)
+    assert [x.get_text() for x in ax.get_yticklabels()] == ["0", "1", "5"]
     ticks = [t for t in ax.get_xticks() if 3000 <= t <= 30000]
     assert ticks == [3000, 5000, 10000, 20000, 30000]
     with pytest.raises(ValueError, match="select the other dims first"):
@@ -392,6 +393,41 @@ def test_a_stability_map_of_a_users_own_result_has_its_units_teeth_and_ticks():
     with pytest.raises(ValueError, match=r"'unstable' has no damping dim \(dims \('speed',\)\)"
                                          r"; give a result of a study sweeping both"):
         plot_stability_map(ds.isel(damping=0), "unstable")
+
+
+def test_a_stability_map_claims_no_damping_it_did_not_compute():
+    """With dampings 0 and 2 N s/mm and the c = 0 cells flagged, the map drew them up to 1 N s/mm
+    (cells reaching halfway to the next computed value), a damping never computed, on an axis
+    ticked 0 and 1. Each computed damping is now one row, ticked with its value: every tick
+    within a flagged cell is a computed damping, that cell's own."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import xarray as xr
+    from matplotlib.collections import QuadMesh
+
+    from gearsweep.plot.stability import plot_stability_map
+
+    speed = np.array([100.0, 200.0, 400.0])
+    ds = xr.Dataset({"unstable": (("damping", "speed"), np.array([[1, 1, 0], [0, 0, 0]], bool))},
+                    coords={"speed": speed,
+                            "damping": ("damping", [0.0, 2.0], {"units": "N s mm-1"})})
+    fig = plot_stability_map(ds)
+    ax = fig.axes[0]
+    (mesh,) = [c for c in ax.collections if isinstance(c, QuadMesh)]
+    y = mesh.get_coordinates()[:, 0, 1]  # the row edges
+    ticks = dict(zip(ax.get_yticks(), (x.get_text() for x in ax.get_yticklabels()), strict=True))
+    lo, hi = ax.get_ylim()
+    assert set(ticks.values()) == {"0", "2"}
+    inside = [label for tick, label in ticks.items() if y[0] <= tick <= y[1] and lo <= tick <= hi]
+    assert inside == ["0"]  # the flagged row holds c = 0 and no other damping
+    from gearsweep.plot.stability import damping_row  # the row of a damping, to draw on the map
+
+    assert damping_row(np.array([0.0, 2000.0]), 2000.0) == 1
+    with pytest.raises(ValueError, match="no row for c = 1 N s/mm: its dampings are 0, 2 N s/mm"):
+        damping_row(np.array([0.0, 2000.0]), 1000.0)
+    plt.close(fig)
 
 
 @pytest.mark.parametrize("method,c", [("rk5", 5500.0), ("rk4", 5500.0), ("rk5", 200.0)])

@@ -166,6 +166,11 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
     ``zeta_per_damping`` (damping ratio per N s/m) a right-hand axis gives the damping ratio.
     From a result Dataset: ``plot_stability_map(ds)``, which converts the file's units.
 
+    Each computed damping is one row, ticked with its value: a row claims that damping and no
+    other (on a continuous damping axis the cells reached halfway to the next computed value:
+    with dampings 0 and 2 N s/mm the c = 0 row was drawn up to 1 N s/mm, never computed).
+    ``damping_row`` gives the row of a damping, to draw on the map.
+
     Parameters
     ----------
     speed : ndarray (ns,)
@@ -180,7 +185,7 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
     limit_speed : ndarray (nc,), optional
         Speed below which the guard rail refuses the step, drawn as a line.
     log : bool
-        Log speed axis and symmetric-log damping axis (linear below 0.01 N s/mm).
+        Log speed axis.
     """
     speed = si_array(speed, "speed", "speed")
     damping = si_array(damping, "damping", "damping")
@@ -188,16 +193,18 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
         limit_speed = si_array(limit_speed, "speed", "limit_speed")
     flag = _flag(flag, "flag", "plot_operating_map", "ax.pcolormesh")
     fig, ax = axes(ax)
-    _mask_image(ax, speed, damping / 1e3, flag, color)
+    rows = np.arange(damping.size)
+    _mask_image(ax, speed, rows, flag, color)
     handles = [Patch(color=color, label=f"{label} ({int(np.count_nonzero(flag))} of "
                                         f"{flag.size})")]
     if limit_speed is not None:
-        ax.plot(limit_speed, damping / 1e3, color="k", lw=1.2, ls="--")
+        ax.plot(limit_speed, rows, color="k", lw=1.2, ls="--")
         handles.append(Line2D([], [], color="k", ls="--",
                               label="step limit of the stability polynomial"))
     ax.set_xlabel("speed of the driving gear" + (f" ({teeth} teeth)" if teeth else "")
                   + " [rpm]")
-    ax.set_ylabel("mesh damping c [N s/mm]")
+    ax.set_ylabel("mesh damping c [N s/mm]\n(one row per computed value)")
+    ax.set_yticks(rows, [f"{c / 1e3:g}" for c in damping])
     if log:
         from matplotlib.ticker import FixedLocator, NullLocator, ScalarFormatter
 
@@ -206,19 +213,28 @@ def plot_operating_map(speed: np.ndarray, damping: np.ndarray, flag: np.ndarray,
                                                            float(speed.max()))))
         ax.xaxis.set_minor_locator(NullLocator())
         ax.xaxis.set_major_formatter(ScalarFormatter())
-        ax.set_yscale("symlog", linthresh=0.01, linscale=0.5)
     ax.set_xlim(speed.min(), speed.max())
-    ax.set_ylim(damping.min() / 1e3, damping.max() / 1e3)
+    ax.set_ylim(-0.5, damping.size - 0.5)
     if zeta_per_damping:
-        f = zeta_per_damping * 1e3  # per N s/mm, the axis unit
-        sec = ax.secondary_yaxis("right", functions=(lambda c: c * f, lambda z: z / f))
-        if log:  # the secondary axis does not take the parent's symlog by itself
-            sec.set_yscale("symlog", linthresh=0.01 * f, linscale=0.5)
+        sec = ax.secondary_yaxis("right")
+        sec.set_yticks(rows, [f"{zeta_per_damping * c:.3g}" for c in damping])
         sec.set_ylabel("damping ratio ζ [-]", fontsize=8)
         sec.tick_params(labelsize=7)
     ax.set_title(title, fontsize=9)
     ax.legend(handles=handles, loc="lower right", fontsize=7, framealpha=0.9)
     return fig
+
+
+def damping_row(damping: np.ndarray, value: float) -> int:
+    """The row of ``plot_operating_map`` (its y) that draws the damping ``value`` [N s/m] of
+    the computed ``damping`` [N s/m]; ``ValueError`` where it was not computed (the map has no
+    row for it)."""
+    damping = si_array(damping, "damping", "damping")
+    hit = np.flatnonzero(np.isclose(damping, value, rtol=1e-9, atol=0.0))
+    if not hit.size:
+        raise ValueError(f"the map has no row for c = {value / 1e3:g} N s/mm: its dampings are"
+                         f" {', '.join(f'{c / 1e3:g}' for c in damping)} N s/mm")
+    return int(hit[0])
 
 
 def plot_stability_regions(methods: dict[str, np.ndarray], ax: Axes | None = None,
