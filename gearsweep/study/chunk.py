@@ -387,8 +387,9 @@ def _continued(plan: Plan, params: dict[str, np.ndarray], n: int) -> dict[str, n
             a = arr.reshape(nd, n, *arr.shape[1:])
             for di in range(nd):
                 cols[name][di, :, idx[di * n]] = a[di]
-        # Carry the state; a diverged lane restarts from the initial state at the next speed.
-        dead = status == STATUS_DIVERGED
+        # Carry the state; a diverged lane restarts from the initial state at the next speed
+        # (the kernel's verdict, a skipped lane's too, or _outputs': a p beyond the bound).
+        dead = (res.status == STATUS_DIVERGED) | (status == STATUS_DIVERGED)
         x = np.where(dead, x0, res.x_final)
         v = np.where(dead, s.initial_velocity, res.v_final)
     return cols
