@@ -246,7 +246,7 @@ def test_share_kernel_solves_compatibility(compliance, separation, force):
     e = np.array([separation])
     ste, stiffness = np.empty((1, 1)), np.empty((1, 1))
     loads = np.empty((1, 1, 3))
-    _share_kernel(c, e, np.array([force]), ste, loads, stiffness)
+    _share_kernel(c, e, np.array([[force]]), ste, loads, stiffness)
 
     def residual(d: float) -> float:
         return float(np.sum(np.maximum(0.0, (d - e[0]) / c[0])) - force)
@@ -266,6 +266,108 @@ def test_fourier_recovers_known_series():
     amp, phase = fourier(x, 4)
     assert_allclose(amp, [3.0, 2.0, 0.0, 0.7, 0.0], atol=1e-12)
     assert_allclose(phase[[1, 3]], [0.5, -1.0], atol=1e-12)
+
+
+TESTER_PAIR = GearPair(module=2.5e-3, z1=27, z2=41, face_width=18e-3, x1=0.3, x2=-0.1)
+"""An outside tester's pair (contact ratio 1.61): at 200 uniform positions its k_5 was 54 % off."""
+
+
+def _amplitudes(c: np.ndarray) -> np.ndarray:
+    """Eq. (1) amplitudes of complex coefficients ``c_n = int x e^(-2 pi i n phase)``."""
+    a = 2.0 * np.abs(c)
+    a[0] = c[0].real
+    return a
+
+
+def _unmodified_harmonics_by_simpson(pair: GearPair, torque: float, orders: np.ndarray,
+                                     m: int = 4001) -> tuple[np.ndarray, np.ndarray]:
+    """k and STE amplitudes of an unmodified pair by Simpson's rule on ``m`` points, written
+    from pair_compliance alone. k: one pair's stiffness kp(u) over its engagement u in [0, eps]
+    (base pitches), as the slots stitch into it: c_n = int_0^eps kp(u) e^(-2 pi i n u) du, a
+    smooth integrand without jumps. STE = F / k(phase) on each piece between the phases 0 and
+    eps - floor(eps) where a pair enters and leaves, k the sum over the pairs in contact."""
+    from scipy.integrate import simpson
+
+    eps, force = pair.contact_ratio, torque / pair.base_radius1
+
+    def kp(u: np.ndarray) -> np.ndarray:
+        return 1.0 / pair_compliance(pair, pair.s_start + u * pair.base_pitch)
+
+    def integral(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        return simpson(x[:, None] * np.exp(-2j * np.pi * np.outer(u, orders)), x=u, axis=0)
+
+    u = np.linspace(0.0, eps, m)
+    c_k = integral(kp(u), u)
+    c_e = 0.0
+    f = eps - math.floor(eps)
+    for a, b in ((0.0, f), (f, 1.0)):
+        p = np.linspace(a, b, m)
+        k = sum(kp(p + j) for j in range(3) if 0.5 * (a + b) + j <= eps)
+        c_e = c_e + integral(force / k, p)
+    return _amplitudes(c_k), _amplitudes(c_e)
+
+
+@pytest.mark.parametrize("pair, torque", [(TESTER_PAIR, 150.0), (table1_consistent(), 50.0)],
+                         ids=["27-41", "table1"])
+def test_harmonics_match_an_independent_integral_to_1e5(pair, torque):
+    """k and STE harmonics 0..10 of mesh_cycle (and of gear_excitation, which the dynamics take)
+    against Simpson's rule on 4001 points per piece (converged: 200001 points move it by 1e-8).
+    Measured: 1.2e-6 relative at most (the smallest harmonic, 0.6 % of k0); the DFT of 200
+    uniform samples was 0.34-0.55 off at the worst order (k5 of the 27/41 pair +54 %, k3 of
+    Table 1 +6.5 %: the jumps of k where a pair enters or leaves make its error 1/N)."""
+    orders = np.arange(11)
+    k_true, e_true = _unmodified_harmonics_by_simpson(pair, torque, orders)
+    arrays = mesh_cycle(pair, torque).as_arrays(10)
+    assert_allclose(arrays["k_harmonic"], k_true, rtol=1e-5)
+    assert_allclose(arrays["ste_harmonic"], e_true, rtol=1e-5)
+    from gearsweep.gear.excitation import gear_excitation
+
+    ex = gear_excitation(pair, torque)
+    assert_allclose([ex.stiffness, *(h.amplitude for h in ex.stiffness_harmonics)], k_true,
+                    rtol=1e-5)
+    assert_allclose([h.amplitude for h in ex.ste_harmonics], e_true[1:], rtol=1e-5)
+
+
+def test_quadrature_integrates_a_piecewise_linear_function_with_jumps_exactly():
+    """The nodes of a mesh cycle against the closed-form Fourier coefficients of a function
+    linear on each piece between its breaks, jumping at each break (as k does): to 1e-11 (the
+    mean is 1.7; measured 2.3e-12; 200 uniform samples of it are 8e-3 off)."""
+    quad = mesh_cycle(TESTER_PAIR, 150.0, harmonics=10).quadrature
+    assert_allclose(quad.breaks, [0.0, TESTER_PAIR.contact_ratio - 1.0], rtol=1e-14)
+    assert_allclose(quad.weight.sum(), 1.0, rtol=1e-14)
+    stops = np.append(quad.breaks[1:], 1.0)
+    alpha, beta = np.array([1.0, -0.5]), np.array([2.0, 3.0])  # x = alpha + beta phase
+    x = np.zeros_like(quad.phase)
+    exact = np.zeros(11, dtype=complex)
+    for a, b, al, be in zip(quad.breaks, stops, alpha, beta, strict=True):
+        inside = (quad.phase > a) & (quad.phase < b)
+        x[inside] = al + be * quad.phase[inside]
+        exact[0] += al * (b - a) + be * (b**2 - a**2) / 2
+        w = 2 * np.pi * np.arange(1, 11)
+        # int (al + be p) e^(-iwp) dp = e^(-iwp) (al / (-iw) + be (p / (-iw) + 1 / w^2))
+        def antiderivative(p, al=al, be=be, w=w):
+            return np.exp(-1j * w * p) * (al / (-1j * w) + be * (p / (-1j * w) + 1 / w**2))
+        exact[1:] += antiderivative(b) - antiderivative(a)
+    amp, phase = quad.fourier(x)
+    assert np.abs(amp - _amplitudes(exact)).max() < 1e-11
+    assert np.abs(phase[1:] - np.angle(exact[1:])).max() < 1e-11 / np.abs(exact[1:]).min()
+
+
+def test_relieved_harmonics_with_pairs_that_lift_off_match_100000_uniform_positions():
+    """6 um relief at 10 N m: the relieved pairs carry no load for part of their contact, so k
+    jumps at phases the load sets (solved: two breaks besides the geometric ones). Against the DFT
+    of 100,000 uniform positions, whose error is below (sum of the jumps of k) / N = 1.5 k0 / N
+    for k and, the STE being continuous here, far smaller for the STE: measured 8e-7 k0 and
+    3e-9 of the mean STE; at 200 positions they were 2.7e-3 k0 and 3e-2 of a harmonic."""
+    pair = table1_consistent()
+    relief = _relief_at_single_contact_bounds(pair, 6e-6)
+    mc = mesh_cycle(pair, 10.0, tip_relief=relief)
+    assert mc.quadrature.breaks.size == 4
+    many = mesh_cycle(pair, 10.0, n=100_000, tip_relief=relief)
+    k, e = fourier(many.mesh_stiffness, 10)[0], fourier(many.ste, 10)[0]
+    arrays = mc.as_arrays(10)
+    assert np.abs(arrays["k_harmonic"] - k).max() < 2.0 * k[0] / 100_000
+    assert np.abs(arrays["ste_harmonic"] - e).max() < 1e-7 * e[0]
 
 
 @pytest.mark.parametrize("n", [200, 201])
@@ -365,7 +467,8 @@ def test_as_arrays_uses_data_names():
     expected = {"mesh_phase", "ste", "load_share", "mesh_stiffness", "k_harmonic", "k_phase"}
     assert expected | {"ste_harmonic", "ste_phase"} == set(arrays)
     assert arrays["k_harmonic"].shape == (6,)
-    assert arrays["k_harmonic"][0] == pytest.approx(mc.mesh_stiffness.mean(), rel=1e-12)
+    # The mean of the uniform samples is off by less than the jumps of k over n positions.
+    assert abs(arrays["k_harmonic"][0] - mc.mesh_stiffness.mean()) < np.ptp(mc.mesh_stiffness) / 200
     assert np.all((arrays["mesh_phase"] >= 0) & (arrays["mesh_phase"] < 1))
 
 

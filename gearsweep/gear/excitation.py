@@ -14,20 +14,21 @@ from functools import lru_cache
 
 from gearsweep.errors import GeometryError
 from gearsweep.gear.geometry import GearPair
-from gearsweep.gear.mesh import MeshCycle, TipRelief, fourier, mesh_cycle
+from gearsweep.gear.mesh import MeshCycle, TipRelief, mesh_cycle
 from gearsweep.model import Harmonic
 
 DEFAULT_HARMONICS = 10
 """Fourier harmonics of k(t) and e(t) passed to the dynamics when a scene does not say."""
 
 POSITIONS = 200
-"""Positions per mesh cycle at which the static mesh is computed for a dynamic scene."""
+"""Uniform positions per mesh cycle of a dynamic scene's static mesh (its harmonics come from
+the mesh cycle's quadrature, not from these)."""
 
 Reliefs = tuple[TipRelief | None, TipRelief | None]
 
 
 def static_mesh(pair: GearPair, torque: float, reliefs: Reliefs = (None, None),
-                n: int = POSITIONS) -> MeshCycle:
+                n: int = POSITIONS, harmonics: int = DEFAULT_HARMONICS) -> MeshCycle:
     """Check the pair and compute its static mesh over one cycle at ``torque`` [N m].
 
     Parameters
@@ -40,6 +41,8 @@ def static_mesh(pair: GearPair, torque: float, reliefs: Reliefs = (None, None),
         Tip relief of gear 1 and gear 2.
     n : int
         Positions per mesh cycle [-].
+    harmonics : int
+        Highest Fourier order of its harmonics (``MeshCycle.quadrature``) [-].
 
     Returns
     -------
@@ -51,7 +54,7 @@ def static_mesh(pair: GearPair, torque: float, reliefs: Reliefs = (None, None),
     GeometryError
         The pair cannot exist (every problem named), or a tip relief does not fit it.
     """
-    return mesh_cycle(pair.check(), torque, n=n, tip_relief=reliefs)
+    return mesh_cycle(pair, torque, n=n, tip_relief=reliefs, harmonics=harmonics)  # (checks it)
 
 
 @dataclass(frozen=True)
@@ -85,14 +88,14 @@ class GearExcitation:
 
 @lru_cache(maxsize=256)
 def _excitation(pair: GearPair, reliefs: Reliefs, torque: float, harmonics: int) -> GearExcitation:
-    mc = static_mesh(pair, torque, reliefs)
-    arrays = mc.as_arrays(harmonics)
-    k, ka = arrays["k_harmonic"], arrays["k_phase"]
-    e, ea = arrays["ste_harmonic"], arrays["ste_phase"]
+    mc = static_mesh(pair, torque, reliefs, harmonics=harmonics)
+    q = mc.quadrature  # (not the uniform samples: their DFT is off as 1/N at the jumps)
+    k, ka = q.fourier(q.mesh_stiffness)
+    e, ea = q.fourier(q.ste)
     # With k(t) in the model, the static solution is p = F_m / k(t), so e(t) must be what the
     # STE holds beyond F_m / k(t) (the stiffness-weighted separation of the loaded pairs);
     # the loaded STE itself would count the elastic deflection twice (docs/mesh.md).
-    u, ua = fourier(mc.ste - mc.load / mc.mesh_stiffness, harmonics)
+    u, ua = q.fourier(q.ste - mc.load / q.mesh_stiffness)
     pair = mc.pair
     return GearExcitation(
         pair=pair, torque=torque, teeth=pair.z1, base_radius_1=pair.base_radius1,
@@ -120,7 +123,7 @@ def gear_excitation(pair: GearPair, torque: float, reliefs: Reliefs = (None, Non
     reliefs : (TipRelief or None, TipRelief or None)
         Tip relief of gear 1 and gear 2.
     harmonics : int
-        Fourier harmonics kept, 1 <= harmonics <= 100 (200 positions per mesh cycle).
+        Fourier harmonics kept, >= 1.
 
     Returns
     -------

@@ -105,7 +105,7 @@ def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
         with warned_once():
             pair = gear_pair(spec).check()
             cycles = mesh_cycles(pair, torques, n=study.positions,
-                                 tip_relief=tip_reliefs(spec, pair))
+                                 tip_relief=tip_reliefs(spec, pair), harmonics=h)
         arrays = [c.as_arrays(h) for c in cycles]
         c_prime, c_gamma = iso6336_stiffness(pair)
         rec = {k: np.stack([a[k] for a in arrays]) for k in
