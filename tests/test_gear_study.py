@@ -489,6 +489,36 @@ def test_run_from_python_refuses_a_mesh_study_beyond_the_memory_limit_unless_yes
     assert len(ran) == 1
 
 
+def test_a_load_swept_gear_scene_with_a_spectrum_builds_each_loads_model_once(monkeypatch):
+    """Each load's k(t) and e(t) is built once per plan. The spectrum's default sampling asks
+    for the stiffest load's k0 (``outputs.resonant_order``), and the plan of each load (one
+    kernel call per load) had a memo of its own: every load's model was built again for each
+    load in each chunk, quadratic in the loads (an outside tester's 4 speeds x 300 torques were
+    still running after 10 min; 2,353 builds for 48 torques). Truth of the numbers: a load run
+    alone gives the same p_rms."""
+    import gearsweep
+    from gearsweep.study import plan as plan_module
+
+    built = []
+    real = plan_module.build_model
+
+    def counted(study, torque=None):
+        built.append(torque)
+        return real(study, torque)
+
+    monkeypatch.setattr(plan_module, "build_model", counted)
+    loads = [10.0, 30.0, 50.0, 70.0, 90.0, 110.0]
+    solver = ("solver: {steps_per_period: 64, transient_periods: 4, record_periods: 4}\n"
+              "outputs: [stats, {spectrum: {max_order: 3}}]\n")
+    sweep = "  torque: [" + ", ".join(f"{t} N*m" for t in loads) + "]\n"
+    swept = gearsweep.run(whine("table1_consistent") + sweep + solver)
+    per_load = [t for t in built if t is not None]
+    assert sorted(per_load) == loads  # each load once; the plan's own model (None) besides
+    assert len(built) == len(loads) + 1
+    monkeypatch.setattr(plan_module, "build_model", real)
+    alone = gearsweep.run(whine("table1_consistent", "  torque: 70 N*m\n") + solver)
+    assert_allclose(swept.p_rms.sel(torque=70.0).values, alone.p_rms.values, rtol=1e-13)
+
 
 @pytest.mark.parametrize("continued", [False, True])
 def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continued):

@@ -95,7 +95,7 @@ def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) ->
     for g, load in enumerate(loads):
         idx = np.flatnonzero(which == g)
         sub = {k: np.asarray(v)[idx] for k, v in params.items()}
-        at = dataclasses.replace(plan, model=plan.model_for_load(float(load)))
+        at = plan.at_load(float(load))
         parts.append((idx, _integrate_model(at, sub, len(idx), _take(x0, idx), _take(v0, idx))))
     return _merge(parts, n)
 
@@ -352,8 +352,7 @@ def _floquet_once(plan: Plan, params: dict[str, np.ndarray], n: int) -> None:
     for load in [None] if torques is None else np.unique(torques):
         idx = slice(None) if load is None else np.flatnonzero(torques == load)
         sub = {k: v[idx] for k, v in every.items()}
-        at = plan if load is None else dataclasses.replace(
-            plan, model=plan.model_for_load(float(load)))
+        at = plan if load is None else plan.at_load(float(load))
         if len(sub["speed"]):
             OUTPUTS["floquet"].compute(at, sub, _Sized(len(sub["speed"])))
 

@@ -39,7 +39,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -362,9 +362,7 @@ def measure_rate(plan: Plan, threads: int, seconds: float = 0.3) -> float:
         params["speed"] = np.full(n, plan.grids["speed"][0])
     trial = None
     for record in (1, periods // 2):
-        solver = s.model_copy(update={"transient_periods": periods - record,
-                                      "record_periods": record})
-        trial = replace(plan, study=plan.study.model_copy(update={"solver": solver}))
+        trial = plan.with_solver(transient_periods=periods - record, record_periods=record)
         t0 = time.perf_counter()
         _integrate(trial, params, n, None, None)
         dt = time.perf_counter() - t0
@@ -499,8 +497,7 @@ def _warm_up(plan: Plan, first: tuple[int, int] | None = None) -> None:
                 _step_ok(plan, params, n)
             else:
                 _guard_table(plan)
-    solver = s.model_copy(update={"transient_periods": 1, "record_periods": 1})
-    trial = replace(plan, study=plan.study.model_copy(update={"solver": solver}))
+    trial = plan.with_solver(transient_periods=1, record_periods=1)
     params = _lane_params(plan, 0, 1)
     if plan.continued:
         params["speed"] = plan.grids["speed"][:1]

@@ -257,8 +257,8 @@ class SpectrumOptions(Strict):
 def resonant_order(plan: Plan) -> tuple[float, float] | None:
     """The natural frequency's mesh order r_n = f_n / f_mesh at the sweep's lowest speed, where
     it is largest, and that speed [rpm]: f_n = sqrt(k0 / m) / 2 pi with the largest k0 and the
-    least m of the sweep (a gear sweeping its load: its stiffest load's k0; each load's k(t) is
-    computed once per plan, the step guard and the advice need them too). ``None`` where the
+    least m of the sweep (a gear sweeping its load: its stiffest load's k0, ``Plan.stiffest_load``,
+    found once per plan; each load's plan asks it). ``None`` where the
     steady response has only the excitation's orders (constant stiffness and no backlash: a
     linear time-invariant scene) and for a Mathieu chart."""
     m = plan.model
@@ -267,8 +267,7 @@ def resonant_order(plan: Plan) -> tuple[float, float] | None:
     g = plan.grids
     k = float(np.max(g["stiffness"])) if "stiffness" in g else m.stiffness
     if plan.gear_load_swept and "stiffness" not in g:
-        loads = plan.case_torques({d: g[d] for d in ("torque", "mean_force") if d in g})
-        k = max(k, *(plan.model_for_load(float(t)).stiffness for t in np.unique(loads)))
+        k = max(k, plan.stiffest_load())
     mass = float(np.min(g["mass"])) if "mass" in g else m.mass
     speed = float(np.min(g["speed"]))
     return math.sqrt(k / mass) / (2.0 * math.pi) / float(mesh_frequency(speed, m.teeth)), speed
