@@ -4,6 +4,7 @@ saying one estimate of the same study (an outside tester's findings, 27 Nov 2026
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import subprocess
@@ -149,3 +150,73 @@ def test_the_note_on_a_huge_chunk_size_says_the_rule_it_follows(tmp_path, capsys
     total_s = plan.n_cases / per_round * shortest_chunk_seconds(plan)
     assert total_s / PROGRESS_CHUNKS < SHORTEST_CAP_SECONDS  # this study: the floor applies
     assert SHORTEST_CAP_SECONDS * 0.9 < chunk_s <= SHORTEST_CAP_SECONDS
+
+
+GEAR_LOADS = """\
+title: gear torque sweep
+scene: {kind: whine, gear: table1_consistent, mass: 0.1527 kg, damping: 5.5 N*s/mm}
+sweep:
+  speed: {start: 2000 rpm, stop: 12000 rpm, num: 4}
+  torque: {start: 10 N m, stop: 150 N m, num: 100}
+solver: {steps_per_period: 64, transient_periods: 100, record_periods: 50}
+outputs: [stats, {spectrum: {max_order: 3}}]
+"""
+"""An outside tester's gear scene sweeping its load (of 300 loads), cut to 100."""
+
+
+def test_the_time_estimate_of_a_gear_scene_sweeping_its_load_holds(tmp_path):
+    """4 speeds x 300 loads were estimated at 1.1 s (one kernel call a chunk) and took 9 s:
+    each load is a kernel call of its own, whose 4 cases fill a block of 32 lanes, with its own
+    inputs and outputs, and each load's model is built (``execute.load_costs``)."""
+    study = tmp_path / "s.yaml"
+    study.write_text(GEAR_LOADS, encoding="utf-8")
+    env = {**os.environ, "PYTHONWARNINGS": "error"}
+    cmd = [sys.executable, "-m", "gearsweep", "run", str(study), "-o", str(tmp_path / "s.nc"),
+           "--yes", "--quiet", "--overwrite"]
+    subprocess.run(cmd, check=True, env=env, capture_output=True)  # the kernel compiled once
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, env=env, capture_output=True)
+    took = time.perf_counter() - t0
+    est = _estimate(_plan(GEAR_LOADS), None)
+    assert took / FACTOR < est.seconds < FACTOR * took, (est.line(), took)
+
+
+@pytest.mark.parametrize("torque_first", [False, True])
+@pytest.mark.parametrize("requested", [40, None])
+def test_the_estimate_counts_the_kernel_calls_of_a_gear_scene_sweeping_its_load(
+        monkeypatch, torque_first, requested):
+    """The calls ``execute.load_costs`` prices are the run's: one per load in each chunk,
+    whether a chunk holds every load or runs of one load's lanes, its first and last chunk
+    cut short (``with_short_ends``), as ``quick_estimate`` counts the chunks."""
+    from gearsweep.study import chunk
+    from gearsweep.study.estimate import _chunk_bounds
+
+    speed = "  speed: {start: 2000 rpm, stop: 12000 rpm, num: 4}\n"
+    torque = "  torque: {start: 10 N m, stop: 150 N m, num: 100}\n"
+    text = GEAR_LOADS.replace(speed + torque, (torque + speed) if torque_first else speed + torque)
+    text = text.replace("num: 100", "num: 9").replace("num: 4", "num: 200").replace(
+        "transient_periods: 100, record_periods: 50", "transient_periods: 1, record_periods: 2")
+    plan = _plan(text)
+    cases = chunk_cases(plan, requested)[0]
+    chunks = execute.chunks_to_run(plan, None, cases)
+    lanes = execute.lanes_per_chunk(plan, cases) or plan.default_lanes_per_chunk()
+    starts, stops = _chunk_bounds(plan, lanes, execute.kernel_threads())
+    assert len(chunks) >= 3  # the first and the last cut short where the runner sizes them
+    assert list(zip(starts.tolist(), stops.tolist(), strict=True)) == chunks
+    calls = []
+    real = chunk._integrate_model
+
+    def counted(plan, params, n, x0, v0):
+        calls.append(n)
+        return real(plan, params, n, x0, v0)
+
+    monkeypatch.setattr(chunk, "_integrate_model", counted)
+    for a, b in chunks:
+        chunk.run_chunk(plan, a, b)
+    monkeypatch.setattr(execute, "LOAD_MODEL_SECONDS", 0.0)
+    monkeypatch.setattr(execute, "LOAD_CALL_SECONDS", 1.0)
+    threads = execute.kernel_threads()
+    lane_steps, seconds = execute.load_costs(plan, starts, stops, threads)
+    assert seconds == len(calls)
+    rounds = sum(math.ceil(math.ceil(n / execute.LANES) / threads) for n in calls)
+    assert lane_steps == rounds * execute.LANES * plan.steps_per_case

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from gearsweep.kernels import LANES, cuda
 from gearsweep.kernels.batch import (
     COLD_COMPILE_BYTES,
@@ -34,6 +36,7 @@ from gearsweep.study.execute import (
     disk_bytes,
     kernel_threads,
     lanes_per_chunk,
+    load_costs,
     measure_rate,
     output_seconds,
     table_bytes,
@@ -93,6 +96,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
         return math.ceil(math.ceil(lanes * ways / LANES) / threads)
 
     source = "measured" if rate else "stated"
+    loads_s = 0.0
     if plan.device == "cuda":  # one thread per lane: the steps themselves, at the GPU's rate
         kernel_s = float(plan.n_cases) * plan.steps_per_case / cuda.STATED_STEPS_PER_SECOND
         rate = cuda.STATED_STEPS_PER_SECOND / 1e6
@@ -100,13 +104,15 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     else:
         lane_steps = float(full * rounds(per) + (rounds(rest) if rest else 0)) * plan.chain \
             * LANES * plan.steps_per_case
+        if plan.gear_load_swept:  # one kernel call per load in a chunk, each load's model
+            lane_steps, loads_s = load_costs(plan, *_chunk_bounds(plan, per, threads), threads)
         rate = rate or STATED_RATE[s.method]
         kernel_s = lane_steps / (rate * 1e6)
     per_case = _case_bytes(plan)
     output = float(output_bound(plan))
     compile_s = compile_seconds(plan, ask_cache)
     compile_b = compile_bytes(plan, ask_cache)
-    seconds = kernel_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
+    seconds = kernel_s + loads_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
     memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal + compile_b
@@ -124,6 +130,21 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
                    compile_seconds=compile_s, compile_bytes=compile_b, output_seconds=outputs_s,
                    disk_bytes=disk_bytes(plan, count))
     return est, compile_s
+
+
+def _chunk_bounds(plan: Plan, per: int, threads: int) -> tuple[np.ndarray, np.ndarray]:
+    """(starts, stops) of the chunks of ``per`` lanes as ``chunks_to_run`` cuts them (the
+    first and the last shorter: ``with_short_ends``), as arrays."""
+    n = plan.n_lanes
+    starts = np.arange(0, n, per, dtype=np.int64)
+    stops = np.minimum(starts + per, n)
+    ends = list(dict.fromkeys((int(starts[i]), int(stops[i])) for i in (0, -1)) if n else [])
+    cut = np.array(with_short_ends(plan, ends, threads), np.int64).reshape(-1, 2)
+    if len(starts) < 2:
+        return cut[:, 0], cut[:, 1]
+    head, tail = cut[cut[:, 0] < stops[0]], cut[cut[:, 0] >= starts[-1]]
+    return (np.concatenate([head[:, 0], starts[1:-1], tail[:, 0]]),
+            np.concatenate([head[:, 1], stops[1:-1], tail[:, 1]]))
 
 
 MAX_SPEEDUP = 4.0

@@ -142,6 +142,18 @@ docs/scale.md): 6-8 ms a chunk over chunk sizes of 1 to 1,024 cases with the mac
 7 (other jobs beside), 2.0 ms quiet (600 chunks of one case: 1.53-1.69 s against 0.42 s in the
 runner's chunks); 4 ms lies within a factor 2 of both."""
 
+LOAD_MODEL_SECONDS = 10e-3
+"""Building the model of one load of a gear scene that sweeps its load (its mesh cycle,
+compliance and STE at that load, ``Plan.model_for_load``), once per distinct load [s].
+Measured on this 2-core VM (27 Nov 2026): 8.5-11 ms for ``table1_consistent`` (300 loads)."""
+
+LOAD_CALL_SECONDS = 2e-3
+"""Wall time each kernel call of a gear scene that sweeps its load costs beyond its kernel
+rounds [s]: a chunk makes one call per load in it (per speed of a continued sweep,
+``chunk._integrate_all``), each with its own kernel inputs and outputs. Measured on this
+2-core VM (27 Nov 2026), 4 speeds x 300 loads: 0.8 ms a call with ``stats``, 2.5 ms with a
+spectrum as well."""
+
 CHUNK_FILE_BYTES = 4096 + 128
 """Disk a checkpoint file takes beyond its arrays and their headers [bytes], at most: the file
 system's last, partly filled block (4 kB) and the chunk's line in ``runs.jsonl``."""
@@ -345,6 +357,41 @@ def _lane_steps(plan: Plan, chunks: list[tuple[int, int]], threads: int) -> floa
     return float(rounds) * calls_per_chunk * LANES * plan.steps_per_case
 
 
+def load_costs(plan: Plan, starts: np.ndarray, stops: np.ndarray, threads: int
+               ) -> tuple[float, float]:
+    """(lane-steps per thread, seconds beyond the kernel) of the chunks ``[starts, stops)`` of
+    a gear scene that sweeps its load: a chunk makes one kernel call per load in it (per speed
+    of a continued sweep), each of whole blocks of that load's lanes (``chunk._integrate_all``),
+    at ``LOAD_CALL_SECONDS`` each, and each distinct load's model is built once
+    (``LOAD_MODEL_SECONDS``). The chunk's lanes run in C order over ``plan.lane_dims``: a load
+    holds runs of ``stride`` lanes; a chunk that touches more runs than there are loads has
+    every load, its lanes shared out evenly (to a lane). An estimate of one call a chunk put
+    4 speeds x 300 loads at 1.1 s: each load's call computed a block of 32 lanes for its 4
+    cases, and the run took 9 s."""
+    dims = plan.lane_dims
+    load = "torque" if "torque" in dims else "mean_force"
+    at = dims.index(load)
+    loads = len(plan.grids[load])
+    stride = math.prod(len(plan.grids[d]) for d in dims[at + 1:])
+    ways = max(len(plan.directions), 1)
+
+    def rounds(lanes):
+        return np.ceil(np.ceil(np.asarray(lanes) * ways / LANES) / threads)
+
+    starts, stops = np.asarray(starts, np.int64), np.asarray(stops, np.int64)
+    first_run, last_run = starts // stride, (stops - 1) // stride
+    runs = last_run - first_run + 1
+    head = np.minimum(stops, (first_run + 1) * stride) - starts
+    tail = np.where(runs > 1, stops - last_run * stride, 0)
+    few = runs <= loads
+    calls = np.where(few, runs, loads)
+    steps = np.where(few, rounds(head) + rounds(tail) + np.maximum(runs - 2, 0) * rounds(stride),
+                     loads * rounds(np.ceil((stops - starts) / loads)))
+    lane_steps = float(steps.sum()) * plan.chain * LANES * plan.steps_per_case
+    return lane_steps, (float(calls.sum()) * plan.chain * LOAD_CALL_SECONDS
+                        + loads * LOAD_MODEL_SECONDS)
+
+
 def measure_rate(plan: Plan, threads: int, seconds: float = 0.3) -> float:
     """Throughput per core [Msteps/s] of this study's kernel and outputs, measured here.
 
@@ -424,7 +471,12 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     per_case = _case_bytes(plan)
     output = float(output_bound(plan))
     outputs_s = output_seconds(plan, len(chunks))
-    seconds = (_lane_steps(plan, chunks, threads) / (rate * 1e6) + FIXED_SECONDS
+    if plan.gear_load_swept:
+        lane_steps, loads_s = load_costs(plan, *np.array(chunks, np.int64).reshape(-1, 2).T,
+                                         threads)
+    else:
+        lane_steps, loads_s = _lane_steps(plan, chunks, threads), 0.0
+    seconds = (lane_steps / (rate * 1e6) + FIXED_SECONDS + loads_s
                + len(chunks) * CHUNK_OVERHEAD_SECONDS + output / WRITE_RATE + outputs_s)
     biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
