@@ -286,9 +286,36 @@ def test_example_study_matches_the_gear_scene():
 # --------------------------------------------------------------------------- refusals
 
 
+@pytest.mark.parametrize(("header", "column", "meant"), [
+    ("mesh_phase [1], te [um], mesh_stiffness [N/mm]", "column 2 'te'", "ste"),
+    ("mesh_phase [1], ste [um], mesh_stifness [N/mm]", "column 3 'mesh_stifness'",
+     "mesh_stiffness"),
+    ("phase [1], ste [um]", "column 1 'phase'", "mesh_phase"),
+    ("mesh_phase [1], ste [um], force [N]", "column 3 'force'", None),
+])
+def test_a_csv_column_of_another_name_is_refused_at_the_header_line(tmp_path, capsys, header,
+                                                                     column, meant):
+    """A CSV column whose name is none of those read was skipped: ``te [um]`` beside
+    ``mesh_stiffness`` validated, and the scene ran without its STE (p_rms 21x lower at 20000
+    rpm); ``mesh_stifness`` was told "scene.stiffness: (missing) -- required", never naming
+    the column (an outside tester). It is refused at the header's line (comments counted),
+    with the names read and the closest one, exit 2."""
+    write_csv(tmp_path / "x.csv", header, [[0.1, 1.0, 2e5][:header.count(",") + 1]])
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  excitation: {file: x.csv}\n")))
+    assert main(["validate", str(f)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    names = ("mesh_phase, angle, roll_angle, ste, transmission_error, mesh_stiffness or"
+             " stiffness")
+    assert line.startswith(f"gearsweep: error: {f}:")
+    assert (f"scene.excitation.file: 'x.csv' -- line 2: {column} is no column gearsweep reads"
+            f" ({names})") in line, line  # line 1: write_csv's comment
+    assert line.endswith(f"; did you mean {meant!r}?" if meant else f"({names})"), line
+
+
 @pytest.mark.parametrize(("header", "rows", "message"), [
-    ("phase [1], ste [um]", [[0.1, 1.0]], "no position column"),
-    ("mesh_phase [1], force [N]", [[0.1, 1.0]], "no value column"),
+    ("ste [um]", [[1.0]], "no position column"),
+    ("mesh_phase [1]", [[0.1]], "no value column"),
     ("mesh_phase [1], ste", [[0.1, 1.0]], "column 'ste' needs its unit"),
     ("mesh_phase [1], ste [N]", [[0.1, 1.0]], "column 'ste': unit 'N'"),
     ("mesh_phase [deg], ste [um]", [[0.1, 1.0]], "unit 'deg' of a mesh phase"),
