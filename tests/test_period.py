@@ -119,3 +119,64 @@ def test_the_estimate_prices_the_period_output_by_its_comparisons():
         motion_period(q, np.full(100, 8.0), 1e-3)  # price, CPU 1.18x; idle 1.2x and 1.13x)
         took.append(time.process_time() - t0)
     assert min(took) / 3 < priced < 3 * min(took)
+
+
+MED = """\
+title: whine with its period
+scene: {kind: whine, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm,
+        stiffness_harmonics: [{amplitude: 179 kN/mm}], ste: [{amplitude: 5 um}],
+        damping: 5.5 N*s/mm, mean_force: 833 N}
+sweep:
+  speed: {start: 1000 rpm, stop: 20000 rpm, num: 400}
+  damping: {start: 1 N*s/mm, stop: 10 N*s/mm, num: DAMPINGS}
+solver: {method: rk4, steps_per_period: 64, transient_periods: 1000, record_periods: 4000}
+outputs: OUTPUTS
+"""
+"""An outside tester's whine study: a linear scene, whose settled motion has the period of its
+excitation (1 mesh period); 400 x 20 cases ran in 4.2 s."""
+
+
+def _med(dampings: int, outputs: str):
+    from gearsweep.study.estimate import quick_estimate
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import parse_study
+
+    text = MED.replace("DAMPINGS", str(dampings)).replace("OUTPUTS", outputs)
+    return quick_estimate(make_plan(parse_study(text), text), ask_cache=False)[0]
+
+
+def test_the_estimate_prices_a_linear_scene_s_period_output_at_its_excitation_s_cycle():
+    """The period output was priced as if no case had a period (3 R^2 / 8 comparisons a case):
+    8,000 whine cases at 4,000 recorded periods said "about 67.2 s" and took 4.2 s, and 80,000
+    were refused ("time > 10.0 min ... about 11.1 min") for about 45 s. A driven scene without
+    backlash settles on its excitation's period: truth, the CPU time of motion_period on
+    period-1 samples of the study's shape, within 3x; the worst case is said as a bound."""
+    import time
+
+    from gearsweep.study.execute import _duration
+    from gearsweep.study.outputs import PERIOD_COMPARE_SECONDS
+
+    priced = (_med(20, "[stats, period]").output_seconds - _med(20, "[stats]").output_seconds)
+    q = np.repeat(RNG.standard_normal((1000, 1)), 4000, axis=1)  # period 1, a chunk's worth
+    took = []
+    for _ in range(3):  # CPU time, the best of 3 (see the test above)
+        t0 = time.process_time()
+        period, _ = motion_period(q, np.full(1000, 8.0), 1e-3)
+        took.append(8 * (time.process_time() - t0))  # 8,000 cases
+    assert (period == 1).all()
+    assert min(took) / 3 < priced < 3 * min(took), (priced, took)
+    est = _med(20, "[stats, period]")
+    assert est.worst_seconds - est.seconds == pytest.approx(
+        8000 * sum(4000 - p for p in range(1, 2001)) * PERIOD_COMPARE_SECONDS - priced)
+    assert (f"about {_duration(est.seconds)} (at most {_duration(est.worst_seconds)} if no case's"
+            " motion repeats within half its record: the period output) on ") in est.line()
+
+
+def test_a_linear_scene_with_the_period_output_is_held_to_its_typical_time_not_its_bound():
+    """80,000 cases: the typical time is within the 10 min limit (the run takes about 45 s),
+    the bound (every case without a period) beyond it; the study is not refused."""
+    from gearsweep.study.execute import LIMITS
+
+    est = _med(200, "[stats, period]")
+    assert est.seconds < LIMITS.seconds < est.worst_seconds
+    assert est.over() == []

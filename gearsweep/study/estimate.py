@@ -128,7 +128,9 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
                    seconds=seconds + count * CHUNK_OVERHEAD_SECONDS + outputs_s,
                    memory_bytes=memory, output_bytes=output, device=plan.device,
                    compile_seconds=compile_s, compile_bytes=compile_b, output_seconds=outputs_s,
-                   disk_bytes=disk_bytes(plan, count))
+                   disk_bytes=disk_bytes(plan, count),
+                   worst_seconds=(seconds + count * CHUNK_OVERHEAD_SECONDS
+                                  + output_seconds(plan, count, worst=True)))
     return est, compile_s
 
 

@@ -95,12 +95,16 @@ fallback, not a promise. Measured on this 2-core AVX-512 machine, rattle scene: 
 core for RK4 (``scripts/bench_scale.py``, docs/scale.md); half that allows for AVX2 (4 lanes per
 vector instead of 8), and RK5 takes 6 stages to RK4's 4."""
 
-def output_seconds(plan: Plan, chunks: int) -> float:
+def output_seconds(plan: Plan, chunks: int, worst: bool = False) -> float:
     """Time of the outputs' own work beyond the kernel's [s] (``Output.seconds`` where an output
-    has one: the ``floquet`` output's monodromy maps and step-limit scan), at the stated RK5
-    rate (those maps are RK5)."""
-    return sum(OUTPUTS[o].seconds(plan, chunks, STATED_RATE["rk5"]) for o in plan.outputs
-               if hasattr(OUTPUTS[o], "seconds"))
+    has one: the ``floquet`` output's monodromy maps and step-limit scan, the ``period``
+    output's comparisons), at the stated RK5 rate (those maps are RK5). ``worst``: at most
+    (``Output.worst_seconds`` where an output's work depends on the motion: ``period``)."""
+    def one(output) -> float:
+        how = getattr(output, "worst_seconds", output.seconds) if worst else output.seconds
+        return how(plan, chunks, STATED_RATE["rk5"])
+
+    return sum(one(OUTPUTS[o]) for o in plan.outputs if hasattr(OUTPUTS[o], "seconds"))
 
 
 BASELINE_MEMORY = 300e6
@@ -271,6 +275,10 @@ class Estimate:
     in_memory: bool = False
     """A run that writes no file (``gearsweep.run`` without ``output``): its result's arrays
     counted in ``memory_bytes``, and no output or disk (``api.estimate(in_memory=True)``)."""
+    worst_seconds: float = 0.0
+    """``seconds`` at most where an output's work depends on the motion (``period``: every
+    case without a period), said beside it where it is more. The limit is held to ``seconds``,
+    the typical time."""
 
     def line(self) -> str:
         """The estimate in one line, saying when it includes compiling the kernel."""
@@ -281,8 +289,12 @@ class Estimate:
                  f" {self.rate:.0f} Msteps/s per core ({self.rate_source})")
         cold = (f"; includes about {self.compile_seconds:.0f} s to compile the kernel once"
                 " (cold cache)" if self.compile_seconds else "")
+        worst = (f" (at most {_duration(self.worst_seconds)} if no case's motion repeats within"
+                 " half its record: the period output)"
+                 if self.worst_seconds > self.seconds else "")
         return (f"{self.cases:,} cases, {self.steps:.3g} steps in {chunks}: about"
-                f" {_duration(self.seconds)} {where}, peak memory {_size(self.memory_bytes)}"
+                f" {_duration(self.seconds)}{worst} {where}, peak memory"
+                f" {_size(self.memory_bytes)}"
                 + (f" ({_size(self.compile_bytes)} of it compiling)" if self.compile_bytes else "")
                 + (", the result held in memory (no file)" if self.in_memory else
                    f", output at most {_size(self.output_bytes)}")
@@ -486,7 +498,8 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     return Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * steps_case, chunks=len(chunks),
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
                     memory_bytes=memory, output_bytes=output, output_seconds=outputs_s,
-                    disk_bytes=disk_bytes(plan, len(chunks)))
+                    disk_bytes=disk_bytes(plan, len(chunks)),
+                    worst_seconds=seconds - outputs_s + output_seconds(plan, len(chunks), True))
 
 
 def check_limits(est: Estimate, where: str, limits: Limits | None = None,
