@@ -296,13 +296,23 @@ _COMPUTING = threading.Event()
 """Set while ``gearsweep run`` computes its chunks (a Ctrl-C before stops before the first)."""
 
 
+_left: int | None = None
+"""The chunks ``gearsweep run`` has still to compute, the one computing included (``_stoppable``);
+``None`` before the first begins (the kernel loading, or compiling on a cold cache)."""
+
+
 def _on_sigint(signum, frame) -> None:
     if _STOP.is_set():  # a second Ctrl-C: stop now (the chunks saved so far are kept)
         raise KeyboardInterrupt
     _STOP.set()
-    if _COMPUTING.is_set():
-        print("gearsweep: stopping after the chunk being computed, which is kept (Ctrl-C again"
-              " to stop at once)", file=sys.stderr)  # (a chunk may last up to CHUNK_SECONDS)
+    if _COMPUTING.is_set():  # what the stop does (``_stoppable``): a one-chunk run stopped in
+        # its compile was told "stopping after the chunk being computed", then ran to its end
+        # and wrote its file, exit 0 (an outside tester)
+        what = ("stopping before the first chunk, once the kernel is loaded" if _left is None
+                else "finishing the last chunk and writing the file" if _left == 1
+                else "stopping after the chunk being computed, which is kept")
+        print(f"gearsweep: {what} (Ctrl-C again to stop at once)", file=sys.stderr)
+        # (a chunk may last up to CHUNK_SECONDS)
 
 
 _TERMINATED = threading.Event()
@@ -324,15 +334,22 @@ def _stoppable(backend):
     """``backend`` whose ``run`` stops cleanly between chunks once ``_STOP`` is set: every chunk
     computed so far, the one that was computing when the stop came included, is saved by the
     caller before the stop (raised as ``KeyboardInterrupt``); a stop during the last chunk lets
-    the run finish and write its file. (The chunk that finished after the stop was dropped: a
-    single-chunk continued sweep ran to its end and kept nothing; an adversarial test.)"""
+    the run finish and write its file; a stop before the first chunk (while the kernel loaded
+    or compiled) stops before it. (The chunk that finished after the stop was dropped: a
+    single-chunk continued sweep ran to its end and kept nothing; an adversarial test.) Keeps
+    ``_left``, which the Ctrl-C's line tells from."""
     base = type(backend)
 
     class Stoppable(base):
         def run(self, plan, todo, *args):
+            global _left
+            if _STOP.is_set():  # no chunk has begun
+                raise KeyboardInterrupt
             last = len(todo) - 1
+            _left = len(todo)
             for i, item in enumerate(base.run(self, plan, todo, *args)):
                 yield item
+                _left = last - i
                 if _STOP.is_set() and i < last:
                     raise KeyboardInterrupt
 
@@ -363,6 +380,7 @@ def _check_mesh_memory(study, name: str, yes: bool) -> float:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    global _left
     set_up_runtime_in_background()  # beside reading the study and planning (LLVM, no GIL)
     text, shown = read_text(args.study)
     try:  # --device replaces solver.device before the study's device checks
@@ -524,6 +542,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             t0 = time.perf_counter()
             if _STOP.is_set():  # a Ctrl-C before the first chunk
                 raise KeyboardInterrupt
+            _left = None
             _COMPUTING.set()
             written = stream_to_file(plan, out, backend=_stoppable(backend),
                                      chunk_cases=chunk, progress=progress, codec=args.codec)
@@ -539,6 +558,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         sys.unraisablehook = unraisable
         _STOP.clear()
         _COMPUTING.clear()
+        _left = None
     # Counted as the chunks were written: the file is not opened again to report them.
     for line in (step_limit_text(plan, written.beyond, out),
                  contact_lost_text(plan, written.contact_lost, out)):

@@ -1107,3 +1107,55 @@ def test_the_estimate_counts_the_excitation_tables_of_a_long_cycle(terms):
     assert peak <= 1.01 * table_bytes(plan, several=False) <= 1.5 * peak
     est, _ = quick_estimate(plan)
     assert est.memory_bytes >= BASELINE_MEMORY + peak / 1.01
+
+
+def _ctrl_c() -> None:
+    """A Ctrl-C to this process, handled (``cli._on_sigint``) before this returns."""
+    os.kill(os.getpid(), signal.SIGINT)
+    time.sleep(0.01)
+
+
+def test_a_ctrl_c_while_a_one_chunk_run_loads_its_kernel_stops_before_the_chunk(
+        tmp_path, monkeypatch, capsys, write_study, small_whine):
+    """A Ctrl-C while the kernel compiled (a cold cache) of a one-chunk run was told "stopping
+    after the chunk being computed ...", then the run finished and wrote its file, exit 0 (an
+    outside tester). No chunk was computing: it stops before the first, as the README says
+    ("Ctrl-C stops after the chunk being computed"), and says so."""
+    from gearsweep.study import execute
+
+    real = execute.warm_up
+
+    def interrupted(plan, first=None):
+        _ctrl_c()  # while the kernel loads
+        real(plan, first)
+
+    monkeypatch.setattr(execute, "warm_up", interrupted)
+    out = tmp_path / "o.nc"
+    assert main(["run", str(write_study(small_whine)), "-o", str(out)]) == 130
+    err = capsys.readouterr().err
+    assert ("gearsweep: stopping before the first chunk, once the kernel is loaded (Ctrl-C again"
+            " to stop at once)") in err, err
+    assert "interrupted before the first chunk was saved: nothing to continue from" in err
+    assert not out.exists()
+
+
+def test_a_ctrl_c_during_the_last_chunk_says_the_run_finishes(tmp_path, monkeypatch, capsys,
+                                                               write_study, small_whine):
+    """During the last (here the only) chunk a Ctrl-C lets the run finish and write its file
+    (README): the line says that, not "stopping after the chunk being computed"."""
+    from gearsweep.study import execute
+
+    real = execute.run_prepared
+
+    def interrupted(plan, prep):
+        _ctrl_c()  # while the chunk computes
+        return real(plan, prep)
+
+    monkeypatch.setattr(execute, "run_prepared", interrupted)
+    out = tmp_path / "o.nc"
+    assert main(["run", str(write_study(small_whine)), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert ("gearsweep: finishing the last chunk and writing the file (Ctrl-C again to stop at"
+            " once)") in err, err
+    assert "stopping after" not in err
+    assert xr.open_dataset(out).sizes["speed"] == 7
