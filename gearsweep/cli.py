@@ -199,9 +199,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
         print(f"{name}: ok -- {summary(study)}, peak memory about {_size(memory)}")
         return 0
     if getattr(study, "type", None) == "analysis":
-        from gearsweep.study.analyses import check_inputs
+        from gearsweep.study.analyses import check_inputs, missing_inputs
 
-        folder = _default_output(args.study).parent  # where `run` without -o reads them
+        # where `run` with the same -o (or without: results/) reads them: validate looked in
+        # results/ while `run -o bal.nc` read the output's folder (an outside tester)
+        folder = output_path(args.output or _default_output(args.study)).parent
         try:
             check_inputs(study, folder)  # what run would refuse of them, said now
         except StudyError as exc:
@@ -210,12 +212,14 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
         est = (analysis_cost.estimate(study, folder) if args.yes
                else analysis_cost.check_limits(study, folder, name))
-        print(f"{name}: ok -- analysis study {study.analysis.kind!r}; estimate: {est.line()}")
-        for needed in getattr(study.analysis, "inputs", lambda: [])():
-            if not (folder / f"{needed}.nc").exists():  # valid, but run would stop: say so now
-                print(f"gearsweep: note: {name}: it reads {folder / needed}.nc, not there yet:"
-                      f" run studies/{needed}.yaml first (or run it with -o in the folder that"
-                      " holds that result)", file=sys.stderr)
+        reads = (f", its inputs read from {folder}{os.sep}"
+                 if getattr(study.analysis, "inputs", list)() else "")
+        print(f"{name}: ok -- analysis study {study.analysis.kind!r}{reads}; estimate:"
+              f" {est.line()}")
+        missing = missing_inputs(study, folder)
+        if missing is not None:  # valid, but run would stop: said now, as run would say it
+            for line in _in_file(missing, text, args.study).lines:
+                print(f"gearsweep: note: {line}", file=sys.stderr)
         return 0
     plan = _plan(study, text, args.study)
     chunk, _ = chunk_cases(plan, None)  # the chunks `run` cuts (the default ones, without the
@@ -972,6 +976,8 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("study", help="study file (- reads stdin)")
     v.add_argument("--yes", action="store_true",
                    help="accept a study beyond the limits (as run --yes would run it)")
+    v.add_argument("-o", "--output", help="the result file run -o would write (default"
+                   " results/STUDY.nc): an analysis study's inputs are checked in its folder")
     v.set_defaults(func=cmd_validate)
     a = sub.add_parser("advise", help="steps per period for a target accuracy, cost, warnings")
     a.add_argument("study", help="study file (- reads stdin)")

@@ -234,10 +234,15 @@ def test_validate_notes_a_result_the_analysis_reads_that_is_not_there(tmp_path, 
     monkeypatch.chdir(tmp_path)
     assert main(["validate", str(study)]) == 0
     out = capsys.readouterr()
-    assert out.out.startswith(f"{study}: ok -- analysis study 'rattle_balance'")
-    assert out.err == (f"gearsweep: note: {study}: it reads results/fig08_rattle.nc, not there"
-                       " yet: run studies/fig08_rattle.yaml first (or run it with -o in the"
-                       " folder that holds that result)\n")
+    assert out.out.startswith(f"{study}: ok -- analysis study 'rattle_balance', its inputs read"
+                              " from results/; estimate: ")
+    line = next(i for i, ln in enumerate(study.read_text().splitlines(), 1)
+                if ln.strip() == "result: fig08_rattle")
+    assert out.err == (f"gearsweep: note: {study}:{line}: analysis.result: 'fig08_rattle' -- no"
+                       " results/fig08_rattle.nc: an analysis reads its inputs from its output's"
+                       " folder (results): run the study that makes it there first (gearsweep run"
+                       " fig08_rattle.yaml -o results/fig08_rattle.nc), or this one with -o"
+                       " beside it\n")
     (tmp_path / "results").mkdir()
     import netCDF4  # a readable netCDF file (an empty one is refused as run refuses it)
 
@@ -470,18 +475,44 @@ def test_an_input_whose_model_attribute_is_no_model_record_is_one_line(tmp_path,
 def test_run_names_every_input_it_lacks_where_it_looks(tmp_path):
     """``run`` of an analysis lacking its inputs said the first alone, as 'run
     studies/NAME.yaml first', though it looks beside its output (an outside tester's study in
-    their own folder): now every missing one, in the folder the run reads."""
-    from gearsweep.errors import ResultError
+    their own folder): now every missing one, at its field, with the path looked for."""
+    from gearsweep.errors import StudyError
 
     study = {"type": "analysis", "title": "budget",
              "analysis": {"kind": "rattle_budget", "fitted": "r4", "scenes": ["g1"],
                           "names": ["gear"], "mesh": "nomesh"}}
-    with pytest.raises(ResultError) as err:
+    with pytest.raises(StudyError) as err:
         gearsweep.run(study, output=tmp_path / "bud.nc")
-    assert str(err.value) == (
-        f"{tmp_path}: no r4.nc, g1.nc, nomesh.nc; analysis 'rattle_budget' reads them from the"
-        " folder of its output: run the studies that make them there first (gearsweep run"
-        f" r4.yaml -o {tmp_path / 'r4.nc'})")
+    assert str(err.value).splitlines() == [
+        f"<study>: analysis.{field}: '{name}' -- no {tmp_path / name}.nc: an analysis reads its"
+        f" inputs from its output's folder ({tmp_path}): run the study that makes it there first"
+        f" (gearsweep run {name}.yaml -o {tmp_path / name}.nc), or this one with -o beside it"
+        for field, name in (("fitted", "r4"), ("scenes[0]", "g1"), ("mesh", "nomesh"))]
+
+
+def test_validate_and_run_of_an_analysis_read_its_inputs_in_one_folder(tmp_path, capsys,
+                                                                       monkeypatch):
+    """``validate`` checked an analysis's inputs in results/ while ``run -o bal.nc`` read
+    them from the output's folder, and the run's error named the folder '.' where the file
+    goes, without the study's line: 'gearsweep: error: .: no fig08_rattle.nc; ...' (an outside
+    tester). validate takes -o as run does and says the folder; both name the study file, the
+    line of the field that names the input, and the path looked for."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bal.yaml").write_text(
+        "type: analysis\ntitle: t\nanalysis:\n  kind: rattle_balance\n  result: fig08_rattle\n",
+        encoding="utf-8")
+    said = ("bal.yaml:5: analysis.result: 'fig08_rattle' -- no {0}: an analysis reads its inputs"
+            " from its output's folder ({1}): run the study that makes it there first (gearsweep"
+            " run fig08_rattle.yaml -o {0}), or this one with -o beside it")
+    here, results = said.format("./fig08_rattle.nc", "."), said.format(
+        "results/fig08_rattle.nc", "results")
+    for extra, folder, line in (([], "results", results), (["-o", "bal.nc"], ".", here)):
+        assert main(["validate", "bal.yaml", *extra]) == 0
+        out, err = capsys.readouterr()
+        assert f"analysis study 'rattle_balance', its inputs read from {folder}/;" in out
+        assert err == f"gearsweep: note: {line}\n"
+        assert main(["run", "bal.yaml", *extra]) == 2
+        assert capsys.readouterr().err == f"gearsweep: error: {line}\n"
 
 
 def test_rattle_balance_keeps_the_rest_where_harmonic_balance_does_not_converge(tmp_path,

@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import time
 from pathlib import Path
 
@@ -725,15 +726,9 @@ COMPUTE = {"method_stability": method_stability, "work_precision": work_precisio
 def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
     """The results an analysis reads, and their provenance (study sha256 per input)."""
     names = study.analysis.inputs() if hasattr(study.analysis, "inputs") else []
-    missing = [n for n in dict.fromkeys(names) if not (Path(results) / f"{n}.nc").exists()]
-    if missing:  # all at once, where the run looks (it said 'studies/NAME.yaml' of the first)
-        shown = ", ".join(f"{n}.nc" for n in missing)
-        raise ResultError(f"{Path(results)}: no {shown}; analysis {study.analysis.kind!r} reads"
-                          f" {'them' if len(missing) > 1 else 'it'} from the folder of its output:"
-                          f" run the stud{'ies' if len(missing) > 1 else 'y'} that"
-                          f" make{'' if len(missing) > 1 else 's'} {'them' if len(missing) > 1 else 'it'}"
-                          f" there first (gearsweep run {missing[0]}.yaml -o"
-                          f" {Path(results) / missing[0]}.nc)")
+    missing = missing_inputs(study, results)
+    if missing:  # each at its field, with the path looked for (it said '.: no NAME.nc')
+        raise missing
     inputs, prov = {}, {}
     for name in names:
         path = Path(results) / f"{name}.nc"
@@ -745,6 +740,21 @@ def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
         prov[f"input_{name}"] = ds.attrs.get("study_sha256") or hashlib.sha256(
             ds.attrs.get("study", "").encode()).hexdigest()
     return inputs, prov
+
+
+def missing_inputs(study: AnalysisStudy, results: str | Path) -> StudyError | None:
+    """The inputs of the analysis not in the folder ``results`` (its output's), each at the
+    field that names it with the path looked for, as one ``StudyError`` (``None``: none)."""
+    fields = study.analysis.input_fields() if hasattr(study.analysis, "input_fields") else []
+    problems = []
+    for field, name in fields:
+        path = os.path.join(str(results), f"{name}.nc")
+        if not os.path.exists(path):
+            problems.append((None, field, name, (
+                f"no {path}: an analysis reads its inputs from its output's folder ({results}):"
+                f" run the study that makes it there first (gearsweep run {name}.yaml -o {path}),"
+                " or this one with -o beside it")))
+    return StudyError.many("<study>", problems) if problems else None
 
 
 INPUT_CHECKS = {"jump_map": _jump_map_input, "rattle_balance": _rattle_balance_input,

@@ -62,7 +62,20 @@ class MethodStability(Strict):
 
 
 
-class ArtifactMap(Strict):
+class ReadsResults(Strict):
+    """An analysis that reads other studies' results (``input_fields``)."""
+
+    def input_fields(self) -> list[tuple[str, str]]:
+        """(field of the study, result name) of each result it reads, in the order read: where
+        a problem of that input is said (``analyses._open_inputs``)."""
+        return [(f"analysis.{name}", value) for name, value in self._reads()]
+
+    def inputs(self) -> list[str]:
+        """The names of the results it reads (``results/<name>.nc`` beside its output)."""
+        return [name for _, name in self.input_fields()]
+
+
+class ArtifactMap(ReadsResults):
     """The paper's instability criterion (growth 1e3-fold within 100 mesh periods at a fixed
     step) for several fifth-order Runge-Kutta tableaux over the speed x damping grid of a rig
     study (Fig. 7.2): which tableau and step reproduce the paper's figure."""
@@ -76,8 +89,8 @@ class ArtifactMap(Strict):
                                 EACH_ONCE] = Field(
         default_factory=lambda: list(range(100, 421, 20)), min_length=1)
 
-    def inputs(self) -> list[str]:
-        return [self.rig]
+    def _reads(self) -> list[tuple[str, str]]:
+        return [("rig", self.rig)]
 
 
 class WorkPrecision(Strict):
@@ -132,7 +145,7 @@ GraphicalLine = Annotated[Real, Field(gt=0, le=100)]
 no or negative speed with status 0) and at most 100 (1e300 overflowed in the balance)."""
 
 
-class RattleBalance(Strict):
+class RattleBalance(ReadsResults):
     """Harmonic balance of a continued (up and down) rattle study's scene beside its integration:
     the describing-function curves (with the mean force and without), the AFT harmonic-balance
     branch with Floquet stability, their turning points, the paper's Eq. (15) (every root on a
@@ -154,11 +167,11 @@ class RattleBalance(Strict):
                          " Fig. 8: F0 and c fitted to its jump speeds); titles and plots say"
                          " 'fitted' only then")
 
-    def inputs(self) -> list[str]:
-        return [self.result]
+    def _reads(self) -> list[tuple[str, str]]:
+        return [("result", self.result)]
 
 
-class RattleBudget(Strict):
+class RattleBudget(ReadsResults):
     """The force budget of a fitted rattle scene against scenes driven by the pair's own STE:
     the fitted force, the mean force, what the pair's first STE harmonic supplies (k e_1 and
     m w^2 e_1), the least force that opens the mesh of each scene and damping, and each scene's
@@ -181,11 +194,12 @@ class RattleBudget(Strict):
                                   f" the {len(self.scenes)} scenes, not {len(self.names)}"))])
         return self
 
-    def inputs(self) -> list[str]:
-        return [self.fitted, *self.scenes, self.mesh]
+    def _reads(self) -> list[tuple[str, str]]:
+        return [("fitted", self.fitted), *((f"scenes[{i}]", s) for i, s in enumerate(self.scenes)),
+                ("mesh", self.mesh)]
 
 
-class JumpMap(Strict):
+class JumpMap(ReadsResults):
     """Where a continued (up and down) sweep over design parameters rattles: per case of the
     result, the share of speeds with contact loss (either sweep) and its jump summary
     (``gearsweep.study.jumps``: jump speeds, hysteresis band)."""
@@ -195,8 +209,8 @@ class JumpMap(Strict):
     loss_threshold: Real = Field(0.01, ge=0, lt=1, description="contact loss above this"
                                  " fraction of the time counts as rattle [1]")
 
-    def inputs(self) -> list[str]:
-        return [self.result]
+    def _reads(self) -> list[tuple[str, str]]:
+        return [("result", self.result)]
 
 
 AnalysisSpec = Annotated[MethodStability | WorkPrecision | ArtifactMap | RattleBalance
