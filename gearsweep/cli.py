@@ -312,7 +312,7 @@ def _on_sigint(signum, frame) -> None:
     if _COMPUTING.is_set():  # what the stop does (``_stoppable``): a one-chunk run stopped in
         # its compile was told "stopping after the chunk being computed", then ran to its end
         # and wrote its file, exit 0 (an outside tester)
-        what = ("stopping before the first chunk, once the kernel is loaded" if _left is None
+        what = ("stopping before the first chunk begins" if _left is None
                 else "finishing the last chunk and writing the file" if _left == 1
                 else "stopping after the chunk being computed, which is kept")
         print(f"gearsweep: {what} (Ctrl-C again to stop at once)", file=sys.stderr)

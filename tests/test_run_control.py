@@ -1133,7 +1133,7 @@ def test_a_ctrl_c_while_a_one_chunk_run_loads_its_kernel_stops_before_the_chunk(
     out = tmp_path / "o.nc"
     assert main(["run", str(write_study(small_whine)), "-o", str(out)]) == 130
     err = capsys.readouterr().err
-    assert ("gearsweep: stopping before the first chunk, once the kernel is loaded (Ctrl-C again"
+    assert ("gearsweep: stopping before the first chunk begins (Ctrl-C again"
             " to stop at once)") in err, err
     assert "interrupted before the first chunk was saved: nothing to continue from" in err
     assert not out.exists()
