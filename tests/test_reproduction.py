@@ -90,6 +90,24 @@ def test_fig05_variants_switch_off_one_source_of_the_main_study_and_nothing_else
         assert a.phase == pytest.approx(b.phase, abs=1e-5)
 
 
+def test_fig08_paper_k_variant_has_the_pair_studys_ste_and_only_the_stiffness_changed():
+    """Fig. 8 out of sample: the paper's-k variant is "the same STE at the paper's k". It typed
+    in the first four of the pair's ten STE harmonics (orders 5, 6, 8, 9 of 0.16-0.31 um left
+    out), which moved where its mesh opens from 1,800 to 4,400 rpm: an outside reader's finding.
+    Its e(t) must be the pair study's, harmonic for harmonic, and only k0 differ."""
+    from gearsweep.study.plan import build_model
+    from gearsweep.study.schema import load_study
+
+    pair, paper_k = (build_model(load_study(ROOT / "studies" / f"{n}.yaml")[0])
+                     for n in ("rattle_table1_pair", "rattle_table1_ste_paper_k"))
+    assert len(pair.ste_harmonics) == 10
+    assert paper_k.ste_harmonics == pair.ste_harmonics
+    assert paper_k.stiffness_harmonics == pair.stiffness_harmonics == ()
+    assert paper_k.stiffness == pytest.approx(1073e6)
+    for f in ("mass", "teeth", "backlash", "mean_force"):
+        assert getattr(paper_k, f) == pytest.approx(getattr(pair, f), rel=1e-12), f
+
+
 _DRAW_CHILD = """
 import json, sys
 from pathlib import Path

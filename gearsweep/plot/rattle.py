@@ -450,6 +450,9 @@ def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | Non
     plot_lines(ax, None, lines, xlabel=_speed_label(ds["budget_speed"]),
                ylabel="force amplitude at mesh order 1 [N]")
     ax.legend(fontsize=6.5, loc="lower right")
+    ax.set_title("Mesh order 1 only (the order of the fitted force). Not drawn: the STE's higher"
+                 " orders n, forces m_eq (n w)² e_n,\nresonant where n x the mesh frequency meets"
+                 " f_n, which can open the mesh at speeds where m_eq w² e_1 cannot", fontsize=8)
     return ax.figure
 
 
