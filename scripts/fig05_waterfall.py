@@ -1,12 +1,13 @@
 """Fig. 5: waterfall of the whine response and its order/speed map (studies/fig05_waterfall.yaml).
 
 Writes figures/fig05_waterfall.png (3-D waterfall: frequency x speed x amplitude) and
-figures/fig05_campbell.png (order/speed colour map with mesh orders 1-3 and f_n, and the order
-lines), and figures/fig05_order_sources.png: the order lines of the study and of its two variants
+figures/fig05_campbell.png (order/speed colour map with the mesh orders the result keeps, 1-10,
+and f_n, and the order lines), and figures/fig05_order_sources.png: the order lines of the study
+and of its two variants
 with the STE off (studies/fig05_waterfall_no_ste.yaml) and the stiffness ripple off
 (studies/fig05_waterfall_no_ripple.yaml), which says where each order comes from, and
-figures/fig05_phase.png: each order's phase behind the STE's (the study and the ripple-off
-variant), which passes -90 degrees where the line is a resonance. Run from the
+figures/fig05_phase.png: the phase of orders 1-4 behind the STE's (the study and the
+ripple-off variant), which passes -90 degrees where the line is a resonance. Run from the
 repository root after running the three studies:
 
     python scripts/fig05_waterfall.py [--results results] [--figures figures]
@@ -31,45 +32,66 @@ from gearsweep.plot.whine import (
 )
 
 
+def mesh_orders(ds: xr.Dataset) -> tuple[int, ...]:
+    """The whole mesh orders from 1 up that the result ``ds`` keeps (its spectrum's
+    max_order): Fig. 5's STE has ten harmonics, and orders 5-10 are not small (orders 8-10 are
+    what first part the teeth)."""
+    return tuple(int(o) for o in ds["order"].values if o >= 1 and float(o).is_integer())
+
+
+def two_columns(ax) -> None:
+    """The order lines' legend (its title says how many cases were masked) in two columns at
+    the lower right, where the ten lines leave room."""
+    title = ax.get_legend().get_title().get_text()
+    ax.legend(fontsize=6.5, ncols=2, loc="lower right", title=title or None, title_fontsize=6.5)
+
+
 def draw(ds: xr.Dataset, figures: Path, suffix: str = "") -> None:
     """Write fig05_waterfall{suffix}.png and fig05_campbell{suffix}.png from one result."""
     f_n = natural_frequency(ds)
+    orders = mesh_orders(ds)
     teeth = int(round(float(ds.mesh_frequency[-1] / ds.speed[-1] * 60)))
     fig = plt.figure(figsize=(8.0, 6.4), layout="constrained")
     ax = fig.add_subplot(projection="3d")
     plot_waterfall(ax, ds, traces=40, natural_frequency_hz=f_n)
     ax.view_init(elev=28, azim=-62)
     ax.set_title(f"{ds.attrs['title']}\np of Eq. (9): the dynamic minus the static transmission"
-                 f" error\n{damping_text(ds)}; 40 of {ds.sizes['speed']} speeds drawn; order 0"
-                 " (mean of p) left out", fontsize=9)
+                 f" error\n{damping_text(ds)}; 40 of {ds.sizes['speed']} speeds drawn; mesh orders"
+                 f" {orders[0]}-{orders[-1]} (order 0, the mean of p, left out)",
+                 fontsize=9)
     print(save(fig, figures / f"fig05_waterfall{suffix}.png", dpi=150))
 
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8.0, 7.6), sharex=True,
                                   height_ratios=[1.4, 1.0], layout="constrained")
-    plot_campbell(ax, ds, natural_frequency_hz=f_n)
+    plot_campbell(ax, ds, natural_frequency_hz=f_n, orders=orders)
     ax.set_title(f"{ds.attrs['title']}; {damping_text(ds)}\ndashed: order f_n / f_mesh,"
                  f" f_n = sqrt(k0/m)/2pi; circles: order n meets f_n at 60 f_n / ({teeth} n) rpm",
                  fontsize=9)
     ax.set_xlabel("")
-    plot_order_lines(ax2, ds, orders=(1, 2, 3, 4), log=True)
-    for n in (1, 2, 3, 4):
+    plot_order_lines(ax2, ds, orders=orders, log=True)
+    for n in orders:
         ax2.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
-    ax2.set_title(f"the mesh-order lines; dotted: 60 f_n / ({teeth} n)", fontsize=9)
+    ax2.set_ylim(1e-3, None)
+    two_columns(ax2)
+    ax2.set_title(f"the mesh-order lines {orders[0]}-{orders[-1]}; dotted: 60 f_n / ({teeth} n);"
+                  " grey: p < 0 somewhere in the cycle", fontsize=9)
     print(save(fig, figures / f"fig05_campbell{suffix}.png", dpi=150))
 
 
 def draw_sources(results: Path, figures: Path) -> None:
-    """fig05_order_sources.png: mesh orders 1-4 of the study and of its two variants."""
+    """fig05_order_sources.png: the mesh orders of the study and of its two variants."""
     names = ("fig05_waterfall", "fig05_waterfall_no_ste", "fig05_waterfall_no_ripple")
     sets = [open_result(results, n) for n in names]
     fig, axs = plt.subplots(1, 3, figsize=(13.5, 4.4), sharey=True, layout="constrained")
     for ax, ds, tag in zip(axs, sets, "abc", strict=True):
         f_n = natural_frequency(ds)
         teeth = int(round(float(ds.mesh_frequency[-1] / ds.speed[-1] * 60)))
-        plot_order_lines(ax, ds, orders=(1, 2, 3, 4), log=True)
-        for n in (1, 2, 3, 4):
+        orders = mesh_orders(ds)
+        plot_order_lines(ax, ds, orders=orders, log=True)
+        for n in orders:
             ax.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
         ax.set_ylim(1e-4, 10)
+        two_columns(ax)
         ax.set_title(f"({tag}) {ds.attrs['title']}\n{damping_text(ds)}", fontsize=8.5, loc="left")
     fig.suptitle("Where the mesh orders of Fig. 5 come from: the study, the STE off, the ripple"
                  " off; dotted: 60 f_n / (48 n)", fontsize=10)
@@ -89,7 +111,8 @@ def draw_phase(results: Path, figures: Path) -> None:
     for n in (1, 2, 3, 4):
         ax.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
     ax.legend(fontsize=7.5, ncols=2)
-    ax.set_title(f"Fig. 5's order lines: phase behind the STE's same order; {damping_text(study)}"
+    ax.set_title(f"Fig. 5's order lines 1-4: phase behind the STE's same order;"
+                 f" {damping_text(study)}"
                  f"\nsolid: the study; dashed: stiffness ripple off; dotted: 60 f_n / ({teeth} n),"
                  "\nwhere a resonance of a force in phase with e passes -90 deg"
                  " (-m e'' or the ripple under F_m: not told apart)",

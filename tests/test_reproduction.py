@@ -90,6 +90,28 @@ def test_fig05_variants_switch_off_one_source_of_the_main_study_and_nothing_else
         assert a.phase == pytest.approx(b.phase, abs=1e-5)
 
 
+@pytest.mark.parametrize("name", ["fig05_waterfall", "fig05_waterfall_no_ste",
+                                  "fig05_waterfall_no_ripple"])
+def test_fig05_studies_keep_every_mesh_order_the_ste_has(name):
+    """Fig. 5's spectrum stopped at order 4, while the pair's STE has ten harmonics and orders 5,
+    6, 8 and 9 of the response are larger than order 3 or 4 near their resonances (orders 8-10
+    part the teeth first): an outside reader's finding. Each study keeps the orders of the
+    STE it is driven by (the variant with the STE off: those of the main study, to compare), and
+    samples each period often enough that the response's higher orders (the STE's and the
+    ripple's orders combined, and their products again) cannot alias into a kept bin."""
+    from gearsweep.study.plan import build_model
+    from gearsweep.study.schema import load_study
+
+    ste_orders = max(h.order for h in build_model(
+        load_study(ROOT / "studies" / "fig05_waterfall.yaml")[0]).ste_harmonics)
+    assert ste_orders == 10
+    (spectrum,) = [o.options for o in load_study(ROOT / "studies" / f"{name}.yaml")[0].outputs
+                   if o.name == "spectrum"]
+    assert spectrum["max_order"] >= ste_orders
+    # an order m aliases into bin samples - m: none below 4 x the kept orders does
+    assert spectrum["samples_per_period"] - 4 * ste_orders > spectrum["max_order"]
+
+
 def test_fig08_paper_k_variant_has_the_pair_studys_ste_and_only_the_stiffness_changed():
     """Fig. 8 out of sample: the paper's-k variant is "the same STE at the paper's k". It typed
     in the first four of the pair's ten STE harmonics (orders 5, 6, 8, 9 of 0.16-0.31 um left
