@@ -50,6 +50,7 @@ from gearsweep.gear import (
     TipRelief,
     table1_as_printed,
     table1_consistent,
+    table1_profile_shift,
 )
 from gearsweep.gear.compliance import SAINSOT_BORE_RATIO
 from gearsweep.gear.excitation import DEFAULT_HARMONICS, GearExcitation, gear_excitation
@@ -63,7 +64,8 @@ from gearsweep.study.quantities import (
     Strict,
 )
 
-PRESETS = {"table1_consistent": table1_consistent, "table1_as_printed": table1_as_printed}
+PRESETS = {"table1_consistent": table1_consistent, "table1_as_printed": table1_as_printed,
+           "table1_profile_shift": table1_profile_shift}
 """Named gear pairs a study can use as ``gear: NAME`` or ``gear: {preset: NAME, ...}``."""
 
 class TipReliefSpec(Strict):
@@ -104,7 +106,7 @@ def _below_45_deg(angle: float) -> float:
 class GearSpec(Strict):
     """A gear pair: a ``preset`` and/or the fields of :class:`gearsweep.gear.GearPair` with units."""
 
-    preset: Literal["table1_consistent", "table1_as_printed"] | None = None
+    preset: Literal["table1_consistent", "table1_as_printed", "table1_profile_shift"] | None = None
     module: Length | None = Field(None, gt=0, description="module [m]")
     z1: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driving gear 1")
     z2: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driven gear 2")
