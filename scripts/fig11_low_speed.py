@@ -56,8 +56,9 @@ plot_lines(ax2, n_driven, per_load, xlabel=xlab, scale=1e6,
            ylabel="the same divided by the load [µm / (N m)]")
 ax2.set_title("divided by the load: the curves coincide (response proportional to load)",
               fontsize=9)
-fig.suptitle(f"Fig. 12 counterpart. {base_title}; loads 2-8.9 N m on the gear shaft (the 0.7 kW"
-             " motor's rated torque through the 1:2 belt is 8.9 N m)\nthe pair's own k(t) and STE,"
+fig.suptitle(f"Fig. 12 counterpart. {base_title}; loads 2-8.9 N m on the gear shaft\n(8.9 N m, our"
+             " reading: the 0.7 kW motor's power at its top speed, 1,500 rpm, through the 1:2 belt;"
+             " the paper gives no rated torque)\nthe pair's own k(t) and STE,"
              f" backlash 0.47 mm; {n_bad} of {n_all} cases not settled", fontsize=9)
 print(save(fig, args.figures / "fig12_rig_rms.png", dpi=130))
 
