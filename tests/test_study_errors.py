@@ -1386,8 +1386,9 @@ def test_a_section_that_is_no_mapping_says_what_it_should_be(old, new, line, tmp
      ("s.yaml:5: gear.tip_relief: '[...]' -- a mapping of tip_relief fields (amount: ..., shape:"
      " linear, ...), not a list")),
     ("type: mesh\ntitle: t\ngear: [table1_consistent]\ntorque: 50 N*m\n",
-     ("s.yaml:3: gear: '[...]' -- a preset name (table1_consistent, table1_as_printed) or a mapping"
-     " of gear fields (preset: ..., module: ..., ...), not a list")),
+     ("s.yaml:3: gear: '[...]' -- a preset name (table1_consistent, table1_as_printed,"
+     " table1_profile_shift) or a mapping of gear fields (preset: ..., module: ..., ...), not a"
+     " list")),
 ])
 def test_a_section_of_a_mesh_or_analysis_study_that_is_no_mapping(text, line, tmp_path, capsys):
     assert _validate(tmp_path, capsys, text) == (2, [line])
