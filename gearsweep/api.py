@@ -239,8 +239,11 @@ def _held(est: Estimate) -> Estimate:
     """``est`` of a run whose result is held in memory: its arrays (their file's upper bound)
     on top of the peak memory, no file (no output bound, no time writing it: it stated the
     file's bound and write time of a run that writes none) and no disk (no checkpoints)."""
+    write = est.output_bytes / WRITE_RATE  # off the worst case too (else every study's line
+    # said a period output's worst case, the typical time less the write being below it)
     return dataclasses.replace(est, memory_bytes=est.memory_bytes + est.output_bytes,
-                               seconds=est.seconds - est.output_bytes / WRITE_RATE,
+                               seconds=est.seconds - write,
+                               worst_seconds=max(0.0, est.worst_seconds - write),
                                output_bytes=0.0, disk_bytes=0.0, in_memory=True)
 
 

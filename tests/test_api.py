@@ -402,6 +402,7 @@ def test_an_estimate_in_memory_states_no_file(small_whine, tmp_path, monkeypatch
     assert ", the result held in memory (no file)" in held.line()
     assert held.memory_bytes == on_file.memory_bytes + on_file.output_bytes
     assert held.seconds == pytest.approx(on_file.seconds - on_file.output_bytes / WRITE_RATE)
+    assert "at most" not in held.line()  # no period output: no worst case (it said one)
 
 
 def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_study, capsys):

@@ -842,6 +842,7 @@ def test_a_case_whose_p_left_the_divergence_bound_between_checks_is_diverged():
     ds = gearsweep.run(yaml.safe_load(WILD_WHINE.replace("STEPS", "48")))
     assert int(ds.status.sel(speed=500)) == 1
     assert np.isnan(ds.p_max.sel(speed=500)) and np.isnan(ds.p_pp.sel(speed=500))
+    assert not bool(ds.contact_lost.sel(speed=500))  # from the p thrown away (an outside tester)
     fine = gearsweep.run(yaml.safe_load(WILD_WHINE.replace("STEPS", "64")))
     assert (fine.status == 0).all() and (ds.status.sel(speed=600) == 0)
     assert float(np.abs(fine.p_max).max()) < 100.0  # um: the static deflection's order
