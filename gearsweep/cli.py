@@ -190,10 +190,29 @@ def _summary(study, plan, est_line: str) -> str:
             f" outputs {', '.join(plan.outputs)}{replaced}; estimate: {est_line}")
 
 
+def _check_output_arg(output: str | None, name: str) -> None:
+    """``-o``'s value checked as a file path, by ``run`` and ``validate`` alike (validate took a
+    folder that run refuses, and looked for an analysis' inputs beside it)."""
+    if output is None:
+        return
+    if not output.strip():
+        raise StudyError(name, "--output", output, "a file path (it is empty)")
+    if output == "-":  # as the study's '-' is stdin, a user may mean stdout: it wrote ./-
+        raise StudyError(name, "--output", output, "a file path (a netCDF result is not"
+                         " written to stdout; write it to a file, or './-' for a file named '-')")
+    try:
+        folder = output.endswith(("/", os.sep)) or Path(output).is_dir()  # (Path() drops '/')
+    except OSError:  # a name too long, say: said by the output's own checks, in one line
+        folder = False
+    if folder:
+        raise StudyError(name, "--output", output, "a file path, not a folder")
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
 
     study, text = load_study(args.study)
     name = _shown(args.study)
+    _check_output_arg(getattr(args, "output", None), name)
     if getattr(study, "type", None) == "mesh":
         memory = _check_mesh_memory(study, name, args.yes)
         print(f"{name}: ok -- {summary(study)}, peak memory about {_size(memory)}")
@@ -396,13 +415,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     name = _shown(args.study)
     if args.study == "-" and not args.output:
         raise StudyError(name, "--output", NO_VALUE, "a study read from stdin needs -o OUT.nc")
-    if args.output is not None and not args.output.strip():
-        raise StudyError(name, "--output", args.output, "a file path (it is empty)")
-    if args.output == "-":  # as the study's '-' is stdin, a user may mean stdout: it wrote ./-
-        raise StudyError(name, "--output", args.output, "a file path (a netCDF result is not"
-                         " written to stdout; write it to a file, or './-' for a file named '-')")
-    if args.output is not None and args.output.endswith(("/", os.sep)):  # Path() drops the '/'
-        raise StudyError(name, "--output", args.output, "a file path, not a folder")
+    _check_output_arg(args.output, name)
     out = output_path(args.output if args.output else _default_output(args.study))
     if not args.estimate:
         _check_writable(out, args.study, study)

@@ -513,6 +513,12 @@ def test_validate_and_run_of_an_analysis_read_its_inputs_in_one_folder(tmp_path,
         assert err == f"gearsweep: note: {line}\n"
         assert main(["run", "bal.yaml", *extra]) == 2
         assert capsys.readouterr().err == f"gearsweep: error: {line}\n"
+    (tmp_path / "res").mkdir()  # -o a folder: refused by both alike (validate took it, and
+    for command in ("validate", "run"):  # looked for the inputs beside it)
+        for folder in ("res", "res/"):
+            assert main([command, "bal.yaml", "-o", folder]) == 2
+            assert capsys.readouterr().err == (f"gearsweep: error: bal.yaml: --output: {folder!r}"
+                                               " -- a file path, not a folder\n")
 
 
 def test_rattle_balance_keeps_the_rest_where_harmonic_balance_does_not_converge(tmp_path,
