@@ -99,20 +99,21 @@ numbers (a gear ratio: ``200*32/48 rpm``)."""
 _EXPONENT = re.compile(r"(?:\*\*|\^)\s*\(?\s*[-+]?\s*(?:\d+(?:\.\d*)?|\.\d+)")
 """A power of a unit (``m**2``, ``mm^-1``): the one place a unit expression has digits."""
 
-_WORD_ALIASES = {
-    "RPM": "rpm", "Rpm": "rpm", "micron": "um", "microns": "um", "Ns": "N*s", "kNs": "kN*s",
-}
-_NEWTON_METRE = re.compile(r"(da|[umcdhkMG]?)N(mm|m)(s?)")
-"""A newton metre (or millimetre) written as one word, with any SI prefix: ``Nm``, ``kNm``,
-``mNm``, ``daNm``, ``Nmm``, ``Nms``. pint reads ``Nm`` as a "number metre" ([length] / [mass]):
-``500 mNm`` and ``15 daNm`` were refused as torques while ``kNm``, an alias, was taken."""
+_WORD_ALIASES = {"RPM": "rpm", "Rpm": "rpm", "micron": "um", "microns": "um"}
+_NEWTON_WORD = re.compile(r"(da|[yzafpnuµmcdhkMGTPEZY]?)N(mm|m)?(s?)")
+"""A newton metre, millimetre or second written as one word, with any SI prefix: ``Nm``,
+``kNm``, ``mNm``, ``daNm``, ``Nmm``, ``Nms``, ``Ns``, ``kNs``, ``mNs``. pint reads ``Nm`` as a
+"number metre" ([length] / [mass]): ``500 mNm`` and ``15 daNm`` were refused as torques while
+``kNm``, an alias, was taken; ``kNs`` was an alias and ``mNs`` an unknown unit."""
 
 
 def _word(word: str) -> str:
-    m = _NEWTON_METRE.fullmatch(word)
-    if m:
-        return f"{m[1]}N*{m[2]}" + ("*s" if m[3] else "")
+    m = _NEWTON_WORD.fullmatch(word)
+    if m and (m[2] or m[3]):
+        return f"{m[1]}N" + (f"*{m[2]}" if m[2] else "") + ("*s" if m[3] else "")
     return _WORD_ALIASES.get(word, word)
+
+
 _SPELLINGS = (
     (re.compile(r"\b(?:rev|r|U)\s*/\s*min\b"), "rpm"),  # U/min: German for rpm
     (re.compile(r"\b(?:rev|r)\s*/\s*s\b"), "Hz"),

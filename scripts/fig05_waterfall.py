@@ -55,8 +55,8 @@ def draw(ds: xr.Dataset, figures: Path, suffix: str = "") -> None:
     ax = fig.add_subplot(projection="3d")
     plot_waterfall(ax, ds, traces=40, natural_frequency_hz=f_n)
     ax.view_init(elev=28, azim=-62)
-    ax.set_title(f"{ds.attrs['title']}\np of Eq. (9): the dynamic minus the static transmission"
-                 f" error\n{damping_text(ds)}; 40 of {ds.sizes['speed']} speeds drawn; mesh orders"
+    ax.set_title(f"{ds.attrs['title']}\np of Eq. (9): r1 theta1 - r2 theta2 - e(t) (docs/data-format.md)"
+                 f"\n{damping_text(ds)}; 40 of {ds.sizes['speed']} speeds drawn; mesh orders"
                  f" {orders[0]}-{orders[-1]} (order 0, the mean of p, left out)",
                  fontsize=9)
     print(save(fig, figures / f"fig05_waterfall{suffix}.png", dpi=150))

@@ -1,6 +1,7 @@
 """The dynamic transmission error p + e (``outputs.spectrum.dte``) against independent truth.
 
-p of Eq. (5) is r1 th1 - r2 th2 - e(t): the dynamic minus the static transmission error. What
+p of Eq. (5) is r1 th1 - r2 th2 - e(t): with a gear pair's k(t), e = STE - F_m / k(t) and p is
+the mesh deflection; with e the loaded STE, the dynamic minus the static transmission error. What
 an angle or transmission-error measurement sees is r1 th1 - r2 th2 = p + e. References,
 independent of the code under test:
 
@@ -84,7 +85,7 @@ def test_quasi_static_dte_is_the_loaded_ste_where_p_is_not():
     for name in ("spectrum", "dte_spectrum"):  # what the file says p is: not the DTE
         comment = ds[name].attrs["comment"]
         assert "r1 theta1 - r2 theta2 - e(t)" in comment
-        assert "the dynamic transmission error is p + e" in comment
+        assert "the dynamic TE is p + e" in comment and "the mesh deflection where k(t)" in comment
     assert np.isnan(ds.dte_spectrum.sel(order=0.0)).all()  # e(t)'s mean is not in the model
 
 

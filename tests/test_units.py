@@ -31,6 +31,10 @@ from gearsweep.units import KINDS, UnitParseError, display_factor, to_display, t
     ("5 cNm", "torque", 0.05),
     ("3 MNm", "torque", 3e6),
     ("2 kNmm", "torque", 2.0),
+    ("2 nNm", "torque", 2e-9),  # every SI prefix, as the README says (nNm, PNm were refused)
+    ("1 PNm", "torque", 1e15),
+    ("5 mNs/mm", "damping", 5.0),  # a newton second too (kNs was an alias, mNs unknown)
+    ("5.5 kNs/m", "damping", 5500.0),
     ("5.5 N s/mm", "damping", 5500.0),
     ("5500 N s/m", "damping", 5500.0),
     ("5 um", "displacement", 5e-6),

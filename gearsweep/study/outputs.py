@@ -238,8 +238,9 @@ class SpectrumOptions(Strict):
     dte: Flag = Field(False, description="also the spectrum of the dynamic transmission error"
                       " p + e = r1 theta1 - r2 theta2 (Eq. 5) per line, dte_spectrum [um] (and"
                       " dte_spectrum_phase with phase): what an angle or transmission-error"
-                      " measurement sees; p is the dynamic minus the static transmission error"
-                      " e(t), so p alone hides whatever e(t) cancels (tip relief); from p's"
+                      " measurement sees; p is r1 theta1 - r2 theta2 less the scene's e(t) (with a"
+                      " gear pair's k(t), e = STE - F_m/k and p is the mesh deflection), so p alone"
+                      " hides whatever e(t) cancels (tip relief); from p's"
                       " lines and e(t)'s harmonics; NaN at order 0, a mean the model leaves out;"
                       " not for the Mathieu scene")
 

@@ -95,10 +95,10 @@ VARIABLES = {
     "status": ("1", "0 ok; nonzero flags a diverged, unsettled or skipped case"),
 }
 
-P_MEANING = ("p = r1 theta1 - r2 theta2 - e(t), Eq. (5) of Choi, Lee & Shin (1997): the dynamic"
-             " minus the static transmission error, the mesh deflection on the line of action;"
-             " the dynamic transmission error is p + e (spectrum option dte); dimensionless in the"
-             " Mathieu scene")
+P_MEANING = ("p = r1 theta1 - r2 theta2 - e(t), Eq. (5) of Choi, Lee & Shin (1997): the mesh"
+             " deflection where k(t) is a gear pair's (e = STE - F_m/k), the dynamic minus the"
+             " static TE where e is the loaded STE; the dynamic TE is p + e (spectrum option"
+             " dte); dimensionless in the Mathieu scene")
 """What ``p`` in the long names of the result variables means (their ``comment``; with the long
 name and units within ``filelayout.ATTRIBUTE_TEXT_BYTES``: docs/data-format.md says the rest)."""
 
