@@ -891,3 +891,20 @@ def test_rattle_balance_plots_of_a_users_scene_say_what_its_result_says(tmp_path
     assert "nan" not in user.lower() and "fitted" not in user.lower(), user
     assert "1 root at every speed from 5000 to 14000 rpm" in user and "3 roots" not in user
     assert "FITTED: F0 = 20 kN" in paper and "as fitted for Fig. 8" in paper
+
+
+def test_a_jump_bracket_does_not_move_with_a_far_point_that_did_not_settle():
+    """An outside tester: a run-down leaving its branch (5) between 1400 and 1500 rpm, the
+    point at 1500 (5.1, 2 % off the branch) unsettled, was bracketed 1400-1500 when the rest
+    settled but 1400-1600 when the point at 1700, on the branch and far from the jump, did not
+    settle. A point within half the threshold of the branch is on it, settled or not; one
+    between the branches (a transient caught mid-drop) still widens the bracket (the test
+    above)."""
+    speed = np.arange(1000.0, 2000.0, 100.0)
+    up = np.full(10, 10.0)
+    down = np.array([10.0, 10, 10, 10, 10, 5.1, 5, 5, 5, 5])
+    for unsettled in ([5], [5, 7]):
+        settled = ~np.isin(np.arange(10), unsettled)
+        jp = jumps.find_jumps(speed, up, down, settled_down=settled)
+        assert (float(jp.down_low), float(jp.down_high)) == (1400.0, 1500.0), unsettled
+        assert float(jp.down_speed) == 1450.0

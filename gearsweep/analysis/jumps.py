@@ -51,7 +51,10 @@ step (the finer: the Fig. 8 run-up drop, 8,030 rpm, across one unsettled speed).
 none lies between the settled end of the branch the sweep leaves (the run-up's lower end, the
 run-down's upper one) and the first point from there, settled or not, more than ``threshold``
 away from that end's amplitude (a point that far off has left the branch, whatever it does
-there; one nearer may be a transient caught mid-drop). The midpoint of the settled ends put an
+there; one nearer may be a transient caught mid-drop); its other end is the last point from
+the branch's settled end on that stays within half the threshold of it, settled or not (one
+that near is on the branch: the bracket depended on whether a point far from the jump settled,
+1400-1600 rpm where the sweep left its branch between 1400 and 1500). The midpoint of the settled ends put an
 outside engineer's run-up drop (354 to 115 um between 14,500 and 14,750 rpm, then 19 speeds
 that did not settle) at 17,000 rpm. Each jump comes with the two grid speeds of the step that
 locates it (``up_low``, ``up_high``, ...): its speed is their midpoint, and the jump lies
@@ -248,13 +251,24 @@ def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25, settled_up=True
         # leaves and the first point, settled or not, more than threshold away from it
         ref = _take(a, np.where(sign > 0, prev, i))
         with np.errstate(invalid="ignore"):
-            off = np.abs(a - ref[..., None]) > threshold * np.maximum(np.abs(a),
-                                                                      np.abs(ref[..., None]))
-        off &= (idx >= prev[..., None]) & (idx <= i[..., None])
+            apart = np.abs(a - ref[..., None]) / np.maximum(np.abs(a), np.abs(ref[..., None]))
+        inside = (idx >= prev[..., None]) & (idx <= i[..., None])
+        off = inside & (apart > threshold)
+        # the branch's own end: the points from its settled end on that stay within half the
+        # threshold of it, settled or not (a far point that did not settle moved the bracket)
+        loose = inside & ~(apart <= 0.5 * threshold)
+        n = a.shape[-1]
         if sign > 0:
             i = np.where(across, np.argmax(off, axis=-1), i)
+            loose &= idx > prev[..., None]
+            end = np.where(loose.any(axis=-1), np.argmax(loose, axis=-1), n) - 1
+            prev = np.where(across, np.clip(end, prev, i - 1), prev)
         else:
-            prev = np.where(across, a.shape[-1] - 1 - np.argmax(off[..., ::-1], axis=-1), prev)
+            prev = np.where(across, n - 1 - np.argmax(off[..., ::-1], axis=-1), prev)
+            loose &= idx < i[..., None]
+            end = np.where(loose.any(axis=-1), n - 1 - np.argmax(loose[..., ::-1], axis=-1),
+                           -1) + 1
+            i = np.where(across, np.clip(end, prev + 1, i), i)
         low = np.where(found, _take(s, np.maximum(prev, 0)), np.nan)
         high = np.where(found, _take(s, i), np.nan)
         return (low, high, np.where(found, size, np.nan), ~found & (seen1 | seen2))

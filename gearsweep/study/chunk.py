@@ -248,9 +248,11 @@ def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchRe
         [np.isfinite(a) for a in res.stats.values()]))
     if over.any():
         status[over] = STATUS_DIVERGED
-        for a in out.values():  # (a flag of the discarded p, contact_lost, is no verdict:
-            if a.shape[:1] == over.shape and a.dtype.kind in "fb":  # False, as a diverged case's)
-                a[over] = False if a.dtype == bool else np.nan
+        for a in out.values():
+            if a.dtype.kind == "f" and a.shape[:1] == over.shape:
+                a[over] = np.nan
+        if "contact_lost" in out:  # a flag of the p thrown away is no verdict (a diverged
+            out["contact_lost"][over] = False  # case's is False); Floquet's flags stay
     # A response that has died away (a free vibration with nothing driving it) has nothing left
     # to settle: its settle_error is round-off over round-off (0.48 with p_pp 1e-16 m). Below
     # 1e-9 of the static scale (the divergence bound's, kernel_inputs) it counts as settled.
