@@ -28,7 +28,7 @@ from gearsweep.cli import main
 from gearsweep.errors import LimitError
 from gearsweep.study import analysis_cost as ac
 from gearsweep.study.analyses import run_analysis_study
-from gearsweep.study.execute import LIMITS
+from gearsweep.study.execute import BASELINE_FILE_MEMORY, LIMITS
 from gearsweep.study.schema import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -386,16 +386,21 @@ from gearsweep.study.schema import parse_study
 study, out = sys.argv[1], sys.argv[2]
 st = parse_study(open(study, encoding="utf-8").read(), study)
 est = ac.estimate(st, out.rsplit("/", 1)[0])
+import netCDF4, xarray  # noqa: E401,F401  (what the run imports: their pages counted)
+def kb(field):
+    return int(next(ln for ln in open("/proc/self/status") if ln.startswith(field)).split()[1])
+files = kb("RssFile:") * 1024
 compiles = []
 with event.install_timer("numba:compile", compiles.append):
     assert main(["run", study, "-q", "-o", out]) == 0
-hwm = next(ln for ln in open("/proc/self/status") if ln.startswith("VmHWM:"))
 print(json.dumps({"memory": est.memory_bytes, "compile": est.compile_bytes,
                   "compile_s": est.compile_seconds, "compiled": len(compiles),
-                  "line": est.line(), "peak": int(hwm.split()[1]) * 1024}))
+                  "line": est.line(), "peak": kb("VmHWM:") * 1024,
+                  "files": max(files, kb("RssFile:") * 1024)}))
 """
 """An analysis study's estimate, then its run's peak resident memory and Numba's compiles, in
-a process of its own (VmHWM: the process's own)."""
+a process of its own (VmHWM: the process's own), and the libraries' file-backed resident pages
+(``files``, the larger of before and after the run)."""
 
 SMALL_ANALYSES = {
     "stability": {"kind": "method_stability", "methods": ["rk4", "rk5"], "zeta": [0.1, 0.5],
@@ -448,7 +453,13 @@ def _counts_its_cold_compile(tmp_path: Path, env: dict, name: str, analysis: dic
     assert cold["compiled"] and cold["compile_s"] > 0 and cold["compile"] > 0, (name, runs)
     assert "to compile once (cold cache)" in cold["line"], (name, cold["line"])
     assert not warm["compiled"] and warm["compile_s"] == warm["compile"] == 0, (name, runs)
-    assert cold["peak"] <= cold["memory"] and warm["peak"] <= warm["memory"], (name, runs)
+    # The peaks less the libraries' file-backed pages against the estimates less the baseline's
+    # share of them (execute.BASELINE_FILE_MEMORY): those pages vary with how the files sit in
+    # the page cache (llvmlite's library 37 MB resident in one fresh virtual environment, 98 MB
+    # in another of the same wheels installed by a newer pip, as CI's: 340 MB against 288 MB
+    # for the same warm run), which no estimate of a study can know.
+    for run in runs:
+        assert run["peak"] - run["files"] <= run["memory"] - BASELINE_FILE_MEMORY, (name, runs)
     assert cold["peak"] - warm["peak"] <= cold["compile"], (name, runs)
 
 

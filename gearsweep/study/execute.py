@@ -110,6 +110,13 @@ def output_seconds(plan: Plan, chunks: int, worst: bool = False) -> float:
 BASELINE_MEMORY = 300e6
 """Resident memory of the interpreter with numpy, numba, xarray and the compiled kernels [bytes]."""
 
+BASELINE_FILE_MEMORY = 80e6
+"""Of ``BASELINE_MEMORY``, the libraries' file-backed resident pages [bytes] (79 MB measured with
+gearsweep, netCDF4, xarray and scipy imported, 27 Nov 2026). They vary with how the files sit in
+the page cache, not with the study: 144 MB in a virtual environment of the same wheels installed
+by a newer pip (llvmlite's library 98 MB resident against 37 MB), the anonymous memory the same
+89 MB in both. Tests compare a run's peak less its file-backed pages with an estimate less this."""
+
 CHUNKS_HELD = 8
 """A run's memory beyond ``BASELINE_MEMORY``, in chunks' worth of result bytes, where a chunk is
 one kernel call (``chunk.prepare``): the next chunk's kernel inputs (made while a chunk
