@@ -465,7 +465,7 @@ def test_as_arrays_uses_data_names():
     mc = mesh_cycle(table1_consistent(), 50.0)
     arrays = mc.as_arrays(n_harmonics=5)
     expected = {"mesh_phase", "ste", "load_share", "mesh_stiffness", "k_harmonic", "k_phase"}
-    assert expected | {"ste_harmonic", "ste_phase"} == set(arrays)
+    assert expected | {"ste_harmonic", "ste_phase", "e_harmonic", "e_phase"} == set(arrays)
     assert arrays["k_harmonic"].shape == (6,)
     # The mean of the uniform samples is off by less than the jumps of k over n positions.
     assert abs(arrays["k_harmonic"][0] - mc.mesh_stiffness.mean()) < np.ptp(mc.mesh_stiffness) / 200

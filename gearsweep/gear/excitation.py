@@ -89,13 +89,14 @@ class GearExcitation:
 @lru_cache(maxsize=256)
 def _excitation(pair: GearPair, reliefs: Reliefs, torque: float, harmonics: int) -> GearExcitation:
     mc = static_mesh(pair, torque, reliefs, harmonics=harmonics)
-    q = mc.quadrature  # (not the uniform samples: their DFT is off as 1/N at the jumps)
-    k, ka = q.fourier(q.mesh_stiffness)
-    e, ea = q.fourier(q.ste)
-    # With k(t) in the model, the static solution is p = F_m / k(t), so e(t) must be what the
-    # STE holds beyond F_m / k(t) (the stiffness-weighted separation of the loaded pairs);
-    # the loaded STE itself would count the elastic deflection twice (docs/mesh.md).
-    u, ua = q.fourier(q.ste - mc.load / q.mesh_stiffness)
+    # integrated over the mesh cycle's quadrature, not from the uniform samples (their DFT is off
+    # as 1/N at the jumps). With k(t) in the model, the static solution is p = F_m / k(t), so
+    # e(t) must be what the STE holds beyond F_m / k(t) (the stiffness-weighted separation of
+    # the loaded pairs, ``e_harmonic``); the loaded STE itself would count the elastic
+    # deflection twice (docs/mesh.md).
+    a = mc.as_arrays(harmonics)
+    k, ka, e, ea = a["k_harmonic"], a["k_phase"], a["ste_harmonic"], a["ste_phase"]
+    u, ua = a["e_harmonic"], a["e_phase"]
     pair = mc.pair
     return GearExcitation(
         pair=pair, torque=torque, teeth=pair.z1, base_radius_1=pair.base_radius1,

@@ -194,6 +194,10 @@ class MeasuredExcitation:
     with k(t), e(phi) + mean with constant stiffness) at the samples [m]; NaN without STE."""
     ste_residual_max: float
     """Largest |measured STE - model's quasi-static STE| [m]; NaN without STE."""
+    source: str = "samples"
+    """Where the harmonics come from: ``"samples"`` (fitted to them by least squares, the DFT
+    of evenly spaced ones) or ``"integrated"`` (a mesh study's own, integrated between the
+    breaks of its mesh cycle: ``integrated_excitation``)."""
 
 
 def measured_excitation(phi, ste, stiffness, orders, *, time_varying: bool, mean_force: float,
@@ -254,3 +258,77 @@ def measured_excitation(phi, ste, stiffness, orders, *, time_varying: bool, mean
         stiffness=k0, stiffness_harmonics=k_h,
         ste_harmonics=e_fit.harmonics if e_fit is not None else (),
         stiffness_fit=k_fit, excitation_fit=e_fit, ste_residual_rms=rms, ste_residual_max=mx)
+
+
+def _series_of(amplitude, phase, harmonics: int) -> tuple[float, tuple[Harmonic, ...]]:
+    """The mean and ``Harmonic`` s 1..``harmonics`` of Eq. (1) coefficients over orders 0..H
+    (``a[0] cos(phase[0])`` the mean: its phase is 0 or pi)."""
+    amplitude, phase = np.asarray(amplitude, dtype=float), np.asarray(phase, dtype=float)
+    return (float(amplitude[0] * math.cos(phase[0])),
+            tuple(Harmonic(float(amplitude[n]), float(n), float(phase[n]))
+                  for n in range(1, harmonics + 1)))
+
+
+def _held(phi, values, mean: float, harmonics: tuple[Harmonic, ...]) -> FourierFit:
+    """A series given (not fitted) and how far the samples are from it."""
+    resid = np.asarray(values, dtype=float) - series(mean, harmonics, phi)
+    return FourierFit(mean, harmonics, float(np.sqrt(np.mean(resid**2))),
+                      float(np.max(np.abs(resid))), int(np.size(phi)))
+
+
+def integrated_excitation(phi, ste, stiffness, k, ste_series, e_series, harmonics: int, *,
+                          time_varying: bool, mean_force: float) -> MeasuredExcitation:
+    """k0, k_n and e_n from harmonics integrated over a mesh cycle (a mesh study's result:
+    ``gearsweep.gear.mesh.Quadrature``), with the samples beside them only for the residuals.
+
+    The DFT of uniform samples is off by O(1/N) where k jumps (a pair enters or leaves contact);
+    the integrated harmonics are the gear scene's own, so a scene fed a mesh study's result
+    runs as the ``gear:`` scene of that pair and load.
+
+    Parameters
+    ----------
+    phi, ste, stiffness : ndarray (N,)
+        The samples [mesh cycles], [m], [N/m] (for the residuals only).
+    k, ste_series : (ndarray, ndarray)
+        Amplitudes and phases over orders 0..H of the mesh stiffness [N/m] and the loaded
+        STE [m], [rad].
+    e_series : (ndarray, ndarray) or None
+        The same of ``STE - F / k`` at the file's load F [m], [rad]: e(t) with k(t).
+    harmonics : int
+        Orders 1..``harmonics`` kept, at most H.
+    time_varying : bool
+        The scene has k(t) (whine, full): e = STE - F_m / k; else (rattle) e = STE.
+    mean_force : float
+        Mean mesh force F_m of the scene [N] (0: e is the STE, as with samples).
+
+    Raises
+    ------
+    FitError
+        ``harmonics`` beyond H, e(t) with k(t) not given, or k(t) not positive.
+    """
+    top = min(np.size(k[0]), np.size(ste_series[0])) - 1
+    if harmonics > top:
+        raise FitError(f"the file holds the harmonics 0-{top} its mesh study integrated, fewer"
+                       f" than the {harmonics} asked for")
+    with_k = time_varying and bool(mean_force)
+    if with_k and e_series is None:
+        raise FitError("the file holds no e_harmonic (STE - F / k) for a scene with k(t)")
+    phi = np.asarray(phi, dtype=float)
+    k_fit = _held(phi, stiffness, *_series_of(*k, harmonics))
+    low, where = positive_minimum(k_fit.mean, k_fit.harmonics if time_varying else ())
+    if not low > 0:
+        raise FitError(f"the mesh stiffness's series is not positive ({low:.4g} N/m at mesh"
+                       f" phase {where:.3g})")
+    ste = np.asarray(ste, dtype=float)
+    if with_k:
+        e_fit = _held(phi, ste - mean_force / stiffness, *_series_of(*e_series, harmonics))
+        model_ste = mean_force / k_fit(phi) + e_fit(phi)
+    else:
+        e_fit = _held(phi, ste, *_series_of(*ste_series, harmonics))
+        model_ste = e_fit(phi)
+    resid = ste - model_ste
+    return MeasuredExcitation(
+        stiffness=k_fit.mean, stiffness_harmonics=k_fit.harmonics if time_varying else (),
+        ste_harmonics=e_fit.harmonics, stiffness_fit=k_fit, excitation_fit=e_fit,
+        ste_residual_rms=float(np.sqrt(np.mean(resid**2))),
+        ste_residual_max=float(np.max(np.abs(resid))), source="integrated")

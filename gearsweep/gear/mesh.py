@@ -322,12 +322,15 @@ class MeshCycle:
         dict of str to ndarray
             ``mesh_phase`` (n,), ``ste`` [m] (n,), ``load_share`` [1] (n, pair),
             ``mesh_stiffness`` [N/m] (n,), ``k_harmonic`` [N/m], ``k_phase`` [rad],
-            ``ste_harmonic`` [m], ``ste_phase`` [rad] (harmonic, 0 = mean; from the
-            quadrature).
+            ``ste_harmonic`` [m], ``ste_phase`` [rad], ``e_harmonic`` [m], ``e_phase`` [rad]
+            (harmonic, 0 = mean; from the quadrature). ``e`` is ``STE - load / k``: the
+            excitation e(t) of a dynamic scene with k(t) at this load (the quasi-static
+            ``F_m / k(t) + e(t)`` is then the STE; zero for unmodified error-free teeth).
         """
         q = self.quadrature
         k_amp, k_ph = q.fourier(q.mesh_stiffness, n_harmonics)
-        e_amp, e_ph = q.fourier(q.ste, n_harmonics)
+        s_amp, s_ph = q.fourier(q.ste, n_harmonics)
+        e_amp, e_ph = q.fourier(q.ste - self.load / q.mesh_stiffness, n_harmonics)
         return {
             "mesh_phase": self.phase,
             "ste": self.ste,
@@ -335,8 +338,10 @@ class MeshCycle:
             "mesh_stiffness": self.mesh_stiffness,
             "k_harmonic": k_amp,
             "k_phase": k_ph,
-            "ste_harmonic": e_amp,
-            "ste_phase": e_ph,
+            "ste_harmonic": s_amp,
+            "ste_phase": s_ph,
+            "e_harmonic": e_amp,
+            "e_phase": e_ph,
         }
 
 

@@ -18,6 +18,12 @@ and/or the mesh stiffness, each with its unit:
 * netCDF: 1-D variables over one coordinate, each with a ``units`` attribute (a ``type: mesh``
   study's result, one gear pair at one torque, is such a file).
 
+A mesh study's result also holds its harmonics, integrated between the breaks of the mesh
+(``k_harmonic``, ``ste_harmonic``, ``e_harmonic`` and their phases over ``harmonic``): a scene
+over one mesh cycle takes those (:func:`gearsweep.gear.measured.integrated_excitation`), as the
+``gear:`` scene of that pair does, not a fit of the samples, whose DFT is off by O(1/N) where k
+jumps. Samples alone (CSV, other netCDF files) are fitted.
+
 The position is ``mesh_phase`` (mesh cycles, unit ``1``) or ``angle`` / ``roll_angle`` (rotation of
 the driving gear, the scene's ``teeth``, in an angle unit); the values are ``ste`` (or
 ``transmission_error``, a length) and ``mesh_stiffness`` (or ``stiffness``, N/m, N/mm, N/um,
@@ -46,6 +52,7 @@ from gearsweep.gear.measured import (
     FitError,
     MeasuredExcitation,
     fit_orders,
+    integrated_excitation,
     measured_excitation,
     min_samples,
 )
@@ -59,6 +66,35 @@ VALUES = {"ste": ("ste", "displacement"), "transmission_error": ("ste", "displac
           "mesh_stiffness": ("stiffness", "stiffness"), "stiffness": ("stiffness", "stiffness")}
 """Column names of the values -> (which, kind of quantity in ``gearsweep.units``)."""
 DIMENSIONLESS = ("1", "-", "", "cycle", "cycles")
+
+
+Series = tuple[np.ndarray, np.ndarray]
+"""Amplitudes and phases [SI, rad] of Eq. (1) over orders 0..H (0: the mean)."""
+
+
+@dataclass(frozen=True)
+class Integrated:
+    """A mesh study's harmonics of its mesh cycle, integrated between its breaks (SI)."""
+
+    stiffness: Series
+    """``k_harmonic`` [N/m], ``k_phase`` [rad]."""
+    ste: Series
+    """``ste_harmonic`` [m], ``ste_phase`` [rad]."""
+    e: Series | None
+    """``e_harmonic`` [m], ``e_phase`` [rad] (STE - F / k at the file's load); ``None`` in a
+    result written before mesh studies stored it."""
+
+    @property
+    def harmonics(self) -> int:
+        """The highest order H held."""
+        return int(self.stiffness[0].size) - 1
+
+
+INTEGRATED = {"stiffness": ("k_harmonic", "k_phase", "stiffness"),
+              "ste": ("ste_harmonic", "ste_phase", "displacement"),
+              "e": ("e_harmonic", "e_phase", "displacement")}
+"""A mesh study's variables of its integrated harmonics (over ``harmonic``, 0..H): what -> (the
+amplitude, the phase, the amplitude's kind in ``gearsweep.units``)."""
 
 
 @dataclass(frozen=True)
@@ -78,6 +114,9 @@ class Samples:
     teeth: int | None = None
     """The driving gear's teeth the file states (a mesh study's 2 pi ``base_radius_1`` /
     ``base_pitch``)."""
+    integrated: Integrated | None = None
+    """A mesh study's integrated harmonics of k and the STE (``None``: the file has samples
+    only)."""
 
     def mesh_phase(self, teeth: int) -> np.ndarray:
         return self.at if self.position == "mesh_phase" else self.at * teeth / (2.0 * math.pi)
@@ -225,7 +264,37 @@ def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, dict]:
             (str(v), str(ds[v].attrs.get("units", ""))) for v in wanted]
         data = np.stack([np.asarray(ds[dim].values, float)]
                         + [np.asarray(ds[v].values, float) for v in wanted], axis=1)
+        stated["integrated"] = _integrated(ds)
     return names, data, stated
+
+
+def _harmonic_series(ds: Any, amplitude: str, phase: str, kind: str) -> Series | None:
+    """``amplitude`` (of ``kind``) and ``phase`` [rad] of ``ds`` in SI over its ``harmonic``
+    0..H, or ``None`` where the file does not hold them so."""
+    if amplitude not in ds.variables or phase not in ds.variables or "harmonic" not in ds.coords:
+        return None
+    a, p = ds[amplitude], ds[phase]
+    if a.dims != ("harmonic",) or p.dims != ("harmonic",):
+        return None
+    order = np.asarray(ds["harmonic"].values)
+    if order.size < 2 or not np.array_equal(order, np.arange(order.size)):
+        return None
+    try:
+        fa = to_si("1 " + str(a.attrs["units"]), kind)
+        fp = to_si("1 " + str(p.attrs["units"]), "angle")
+    except (KeyError, UnitParseError):
+        return None
+    values = np.asarray(a.values, float) * fa, np.asarray(p.values, float) * fp
+    return values if np.isfinite(values).all() else None
+
+
+def _integrated(ds: Any) -> Integrated | None:
+    """A mesh study's integrated harmonics in ``ds`` (``INTEGRATED``), or ``None`` without
+    those of k and the STE."""
+    got = {which: _harmonic_series(ds, *names) for which, names in INTEGRATED.items()}
+    if got["stiffness"] is None or got["ste"] is None:
+        return None
+    return Integrated(**got)
 
 
 @lru_cache(maxsize=32)
@@ -305,7 +374,9 @@ class ExcitationSpec(Strict):
     """``excitation:``: the scene's STE and/or mesh stiffness as samples in a file, fitted."""
 
     file: str = Field(min_length=1, description="CSV or netCDF file (relative to the study file)")
-    harmonics: Count = Field(10, ge=1, le=100, description="highest mesh order of the fit")
+    harmonics: Count = Field(10, ge=1, le=100, description="highest mesh order kept: fitted to"
+                             " the samples, or of a mesh study's result its integrated harmonics"
+                             " (at most the study's harmonics)")
     span: Literal["mesh_cycle", "revolution"] = Field(
         "mesh_cycle", description="the samples cover one mesh cycle or one revolution of the"
         " driving gear")
@@ -376,8 +447,18 @@ def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
         return [("scene.excitation.span", ex.span, (f"the samples of excitation.file span {what},"
                  f" more than one {span} ({period} mesh cycle{'s' if period != 1 else ''} of {scene.teeth}"
                  f" teeth){hint}"))]
-    need = min_samples(ex.harmonics, scene.teeth, ex.span == "revolution")
-    n = np.unique(np.round(_one_period(phi, period), 12)).size
+    if _takes_integrated(s, ex.span == "revolution", scene.kind != "rattle",
+                         scene_mean_force(scene)):
+        top = s.integrated.harmonics
+        if ex.harmonics > top:
+            return [("scene.excitation.harmonics", ex.harmonics, (f"excitation.file holds the"
+                     f" harmonics 0-{top} its mesh study integrated (k_harmonic, ste_harmonic,"
+                     f" e_harmonic): ask for at most {top}, or run the mesh study with"
+                     f" harmonics: {ex.harmonics}"))]
+        need, n = 0, 0  # the harmonics are the file's: its samples only draw the cycle
+    else:
+        need = min_samples(ex.harmonics, scene.teeth, ex.span == "revolution")
+        n = np.unique(np.round(_one_period(phi, period), 12)).size
     if n < need:
         return [("scene.excitation.harmonics", ex.harmonics, (f"needs at least {need} samples"
                  f" over a {span}{f' of {scene.teeth} teeth' if period > 1 else ''};"
@@ -465,6 +546,16 @@ def _one_period(phi: np.ndarray, period: float) -> np.ndarray:
     return phi
 
 
+def _takes_integrated(s: Samples, revolution: bool, time_varying: bool, mean_force: float
+                      ) -> bool:
+    """Whether a scene takes the file's integrated harmonics (a mesh study's result: over a
+    mesh cycle, with e = STE - F / k where the scene has k(t) and a load) rather than a fit of
+    its samples."""
+    return (s.integrated is not None and not revolution and s.ste is not None
+            and s.stiffness is not None
+            and (s.integrated.e is not None or not (time_varying and mean_force)))
+
+
 @lru_cache(maxsize=64)
 def _fit(path: str, stamp: tuple, teeth: int, harmonics: int, revolution: bool,
          time_varying: bool, mean_force: float, k_mean: float | None,
@@ -473,6 +564,11 @@ def _fit(path: str, stamp: tuple, teeth: int, harmonics: int, revolution: bool,
     phi = s.mesh_phase(teeth)
     keep = _one_period(phi, teeth if revolution else 1).size
     sl = slice(0, keep)
+    if _takes_integrated(s, revolution, time_varying, mean_force):
+        i = s.integrated
+        return integrated_excitation(phi[sl], s.ste[sl], s.stiffness[sl], i.stiffness, i.ste,
+                                     i.e, harmonics, time_varying=time_varying,
+                                     mean_force=mean_force)
     return measured_excitation(
         phi[sl], None if s.ste is None else s.ste[sl],
         None if s.stiffness is None else s.stiffness[sl],

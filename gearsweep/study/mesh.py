@@ -4,7 +4,9 @@ A mesh study computes :func:`gearsweep.gear.mesh_cycles` for one gear pair (``ge
 labelled variants (``gears``, a ``variant`` dim) at one torque or a swept torque (a ``torque``
 dim), and writes the variables of docs/data-format.md ``ste``, ``load_share`` (dim ``pair``) and
 ``mesh_stiffness`` over ``mesh_phase`` and ``k_harmonic``, ``k_phase``, ``ste_harmonic``,
-``ste_phase`` over ``harmonic``::
+``ste_phase``, ``e_harmonic``, ``e_phase`` over ``harmonic`` (integrated between the breaks of
+the mesh, ``gearsweep.gear.mesh.Quadrature``; a dynamic scene fed this result as its
+``excitation.file`` takes these, ``gearsweep.study.measured``)::
 
     type: mesh
     title: STE versus load, Table 1 (consistent interpretation)
@@ -42,6 +44,9 @@ _ATTRS = {  # name -> (kind of gearsweep.units, or a unit; long name)
     "k_phase": ("rad", "Fourier phase of mesh stiffness, cos(2 pi n phase + k_phase)"),
     "ste_harmonic": ("displacement", "Fourier amplitude of STE (0 = mean)"),
     "ste_phase": ("rad", "Fourier phase of STE, cos(2 pi n phase + ste_phase)"),
+    "e_harmonic": ("displacement", ("Fourier amplitude of STE - mean_force / mesh_stiffness,"
+                                    " the excitation e(t) of a scene with k(t) (0 = mean)")),
+    "e_phase": ("rad", "Fourier phase of STE - mean_force / k, cos(2 pi n phase + e_phase)"),
     "in_contact": ("1", "tooth pair slot inside the geometric path of contact"),
     "mean_force": ("N", "normal load along the line of action T / r_b1"),
     "contact_ratio": ("1", "transverse contact ratio"),
@@ -110,7 +115,7 @@ def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
         c_prime, c_gamma = iso6336_stiffness(pair)
         rec = {k: np.stack([a[k] for a in arrays]) for k in
                ("ste", "load_share", "mesh_stiffness", "k_harmonic", "k_phase", "ste_harmonic",
-                "ste_phase")}
+                "ste_phase", "e_harmonic", "e_phase")}
         rec["mean_force"] = np.array([c.load for c in cycles])
         rec["in_contact"] = cycles[0].in_contact
         rec.update(contact_ratio=pair.contact_ratio, base_pitch=pair.base_pitch,
@@ -144,7 +149,8 @@ def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
     trailing = {"ste": ("mesh_phase",), "mesh_stiffness": ("mesh_phase",),
                 "load_share": ("mesh_phase", "pair"), "k_harmonic": ("harmonic",),
                 "k_phase": ("harmonic",), "ste_harmonic": ("harmonic",),
-                "ste_phase": ("harmonic",), "mean_force": ()}
+                "ste_phase": ("harmonic",), "e_harmonic": ("harmonic",),
+                "e_phase": ("harmonic",), "mean_force": ()}
     data_vars: dict[str, tuple] = {n: ((*lead, *d), stack(n)) for n, d in trailing.items()}
     vdim = ("variant",) if multi else ()
     data_vars["in_contact"] = ((*vdim, "mesh_phase", "pair"),

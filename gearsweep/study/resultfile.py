@@ -419,6 +419,13 @@ def gear_variables(plan: Any) -> dict[str, Var]:
     }
 
 
+EXCITATION_SOURCES = {
+    "samples": "a least-squares fit of the file's samples (their DFT where evenly spaced)",
+    "integrated": ("the file's harmonics, integrated by its mesh study between the breaks of the"
+                   " mesh (k_harmonic, and ste_harmonic or e_harmonic)")}
+"""Where the harmonics of an excitation file come from, as the result's ``source`` says."""
+
+
 def excitation_variables(plan: Any) -> dict[str, Var]:
     """A scene's excitation file: the residuals of its fit and the harmonics the kernel used
     (``excitation_order`` in mesh orders), so the result shows how well the series holds the
@@ -434,7 +441,7 @@ def excitation_variables(plan: Any) -> dict[str, Var]:
             " model's quasi-static STE at the samples (F_m / k(t) + e(t) with k(t); mean + e(t)"
             " with constant stiffness)", max=to_display(fit.ste_residual_max, "displacement"),
             samples=e_fit.samples if e_fit else 0, file=ex.file, harmonics=ex.harmonics,
-            span=ex.span),
+            span=ex.span, source=EXCITATION_SOURCES[fit.source]),
         "excitation_fit_residual_stiffness": display_variable(
             (), k_fit.residual_rms if k_fit else nan, "stiffness", long_name="rms of measured"
             " mesh stiffness - its fitted series at the samples",
