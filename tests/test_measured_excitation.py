@@ -757,3 +757,42 @@ def test_a_mesh_result_with_fewer_harmonics_or_another_load_is_refused(tmp_path,
     rc, err = validate("  torque: 60 N*m\n  excitation: {file: mesh.nc, harmonics: 10}\n")
     assert rc == 2 and err.count("\n") == 1, err
     assert "excitation.file's STE is at 50 N m (its 'torque'), the scene at 60 N m" in err, err
+
+
+def test_a_mesh_result_over_several_torques_gives_the_scenes_load(tmp_path, capsys):
+    """A mesh study swept over torque holds each load's integrated harmonics: a scene takes
+    those at its own torque (or mean_force x base radius), and one at a torque the file does not
+    hold is refused in one line (the file was refused whole: 'values must be 1-D'). A result of
+    several gear pairs (variant) says it needs one pair a file."""
+    mesh = RELIEVED_MESH.replace("torque: 50 N*m\n", "sweep:\n  torque: [30 N*m, 50 N*m, 70 N*m]\n")
+    gearsweep.run(parse_study(mesh), output=tmp_path / "mesh.nc")
+    r1 = table1_consistent().base_radius1
+    gear = "{preset: table1_consistent, tip_relief: {amount: 6 um, start_at: single_contact}}"
+    base = "  kind: whine\n  mass: 0.1527 kg\n  damping: 0.55 N*s/mm\n"
+    for load in ("torque: 70 N*m", f"mean_force: {50.0 / r1!r} N"):
+        f = tmp_path / "s.yaml"
+        f.write_text(study(base + f"  {load}\n  excitation: {{file: mesh.nc}}\n  teeth: 48\n"
+                           f"  base_radius: {r1!r} m\n"))
+        m = build_model(load_study(f)[0])
+        g = build_model(parse_study(study(base + f"  {load}\n  gear: {gear}\n")))
+        assert m.stiffness == pytest.approx(g.stiffness, rel=1e-13)
+        for mine, theirs in ((m.stiffness_harmonics, g.stiffness_harmonics),
+                             (m.ste_harmonics, g.ste_harmonics)):
+            assert_allclose([h.amplitude * np.exp(1j * h.phase) for h in mine],
+                            [h.amplitude * np.exp(1j * h.phase) for h in theirs], rtol=0,
+                            atol=1e-12 * max(h.amplitude for h in theirs))
+
+    def validate(scene: str) -> tuple[int, str]:
+        (tmp_path / "s.yaml").write_text(study(base + scene), encoding="utf-8")
+        rc = main(["validate", str(tmp_path / "s.yaml")])
+        return rc, capsys.readouterr().err
+
+    rc, err = validate(f"  torque: 60 N*m\n  excitation: {{file: mesh.nc}}\n  teeth: 48\n"
+                       f"  base_radius: {r1!r} m\n")
+    assert rc == 2 and err.count("\n") == 1, err
+    assert ("s.yaml:6: scene.torque: excitation.file holds the mesh at 3 torques (30-70 N m,"
+            " its 'torque'), not the scene's 60 N m") in err, err
+    gearsweep.run(ROOT / "studies/mesh_ste_vs_load.yaml", output=tmp_path / "pairs.nc")
+    rc, err = validate("  torque: 50 N*m\n  excitation: {file: pairs.nc}\n  teeth: 48\n")
+    assert rc == 2 and err.count("\n") == 1, err
+    assert "several gear pairs (variant): one pair a file" in err, err

@@ -16,7 +16,8 @@ and/or the mesh stiffness, each with its unit:
   ``mesh_phase [1], ste [um], mesh_stiffness [N/mm]`` (comma, semicolon or tab separated; lines
   starting with ``#`` are comments);
 * netCDF: 1-D variables over one coordinate, each with a ``units`` attribute (a ``type: mesh``
-  study's result, one gear pair at one torque, is such a file).
+  study's result of one gear pair is such a file; over a swept ``torque``, the scene's torque is
+  taken, and a torque it does not hold is refused).
 
 A mesh study's result also holds its harmonics, integrated between the breaks of the mesh
 (``k_harmonic``, ``ste_harmonic``, ``e_harmonic`` and their phases over ``harmonic``): a scene
@@ -240,31 +241,44 @@ def _stated(ds: Any, name: str, kind: str) -> float | None:
         return None
 
 
-def _read_netcdf(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, dict]:
+def _read_netcdf(path: Path) -> list[tuple[list[tuple[str, str]], np.ndarray, dict]]:
+    """(column names and units, samples, what the file states) of each load a netCDF file
+    holds: one, or one per value of a ``torque`` dimension (a mesh study's swept torque)."""
     import xarray as xr
 
     with xr.open_dataset(path) as ds:
         # a mesh study swept over one torque holds it as a dimension of length 1: its load
         ds = ds.squeeze([d for d, n in ds.sizes.items() if n == 1 and d in ds.coords])
-        # the load and the pair of a mesh study, stated by scalars with units; else unstated
-        stated = {"torque": _stated(ds, "torque", "torque"),
-                  "base_radius": _stated(ds, "base_radius_1", "length")}
-        pitch = _stated(ds, "base_pitch", "length")
-        if stated["base_radius"] and pitch:
-            stated["teeth"] = round(2.0 * math.pi * stated["base_radius"] / pitch)
         wanted = [v for v in ds.variables if str(v).lower() in VALUES]
-        if not wanted:
-            raise ValueError("no variable ste or mesh_stiffness (1-D over mesh_phase or angle)")
-        dims = {ds[v].dims for v in wanted}
-        if len(dims) != 1 or len(next(iter(dims))) != 1:
-            shown = ", ".join(f"{v}{ds[v].dims}" for v in wanted)
-            raise ValueError(f"the values must be 1-D over one position coordinate: {shown}")
-        (dim,) = next(iter(dims))
-        names = [(str(dim), str(ds[dim].attrs.get("units", "")))] + [
-            (str(v), str(ds[v].attrs.get("units", ""))) for v in wanted]
-        data = np.stack([np.asarray(ds[dim].values, float)]
-                        + [np.asarray(ds[v].values, float) for v in wanted], axis=1)
-        stated["integrated"] = _integrated(ds)
+        if wanted and "torque" in ds.dims and "torque" in ds.coords \
+                and all(ds[v].dims[:1] == ("torque",) for v in wanted):
+            return [_read_load(ds.isel(torque=i)) for i in range(ds.sizes["torque"])]
+        return [_read_load(ds)]
+
+
+def _read_load(ds: Any) -> tuple[list[tuple[str, str]], np.ndarray, dict]:
+    """The samples of one load of a netCDF file (``_read_netcdf``)."""
+    # the load and the pair of a mesh study, stated by scalars with units; else unstated
+    stated = {"torque": _stated(ds, "torque", "torque"),
+              "base_radius": _stated(ds, "base_radius_1", "length")}
+    pitch = _stated(ds, "base_pitch", "length")
+    if stated["base_radius"] and pitch:
+        stated["teeth"] = round(2.0 * math.pi * stated["base_radius"] / pitch)
+    wanted = [v for v in ds.variables if str(v).lower() in VALUES]
+    if not wanted:
+        raise ValueError("no variable ste or mesh_stiffness (1-D over mesh_phase or angle)")
+    dims = {ds[v].dims for v in wanted}
+    if len(dims) != 1 or len(next(iter(dims))) != 1:
+        shown = ", ".join(f"{v}{ds[v].dims}" for v in wanted)
+        hint = ("; a mesh study's result of several gear pairs (variant): one pair a file,"
+                " from a study with 'gear:'") if "variant" in ds.dims else ""
+        raise ValueError(f"the values must be 1-D over one position coordinate: {shown}{hint}")
+    (dim,) = next(iter(dims))
+    names = [(str(dim), str(ds[dim].attrs.get("units", "")))] + [
+        (str(v), str(ds[v].attrs.get("units", ""))) for v in wanted]
+    data = np.stack([np.asarray(ds[dim].values, float)]
+                    + [np.asarray(ds[v].values, float) for v in wanted], axis=1)
+    stated["integrated"] = _integrated(ds)
     return names, data, stated
 
 
@@ -298,15 +312,23 @@ def _integrated(ds: Any) -> Integrated | None:
 
 
 @lru_cache(maxsize=32)
-def _read(path: str, stamp: tuple[int, int]) -> Samples:
+def _read(path: str, stamp: tuple[int, int]) -> tuple[Samples, ...]:
+    """The samples of each load the file holds (one, but for a mesh study's swept torque)."""
     p = Path(path)
     try:
         if p.suffix.lower() in (".nc", ".nc4", ".cdf"):
-            (names, data, stated), rows_at, header = _read_netcdf(p), None, None
+            tables = [(*t, None, None) for t in _read_netcdf(p)]
         else:
-            (names, data, rows_at, header), stated = _read_csv(p), {}
+            names, data, rows_at, header = _read_csv(p)
+            tables = [(names, data, {}, rows_at, header)]
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"cannot read the file ({type(exc).__name__})") from None
+    return tuple(_samples(*t) for t in tables)
+
+
+def _samples(names: list[tuple[str, str]], data: np.ndarray, stated: dict,
+             rows_at: list | None, header: int | None) -> Samples:
+    """One load's samples in SI, checked (every problem one sentence, at its line of a CSV)."""
     index, factor, position = _columns(names, header)
     used = list(index.values())
     finite = np.isfinite(data[:, used])
@@ -336,15 +358,41 @@ def _read(path: str, stamp: tuple[int, int]) -> Samples:
     return Samples(position, si["position"], si.get("ste"), si.get("stiffness"), **stated)
 
 
-def read_samples(path: str | Path) -> Samples:
-    """The samples of an excitation file (cached while the file is unchanged).
+class LoadNotHeld(ValueError):
+    """A file of several torques (a mesh study's swept torque) holds none at the scene's."""
+
+
+def read_samples(path: str | Path, torque: float | None = None) -> Samples:
+    """The samples of an excitation file (cached while the file is unchanged); of a file that
+    holds several torques (a mesh study's swept ``torque``), those at ``torque`` [N m] (to
+    1e-3, as a file's stated load is compared with a scene's).
 
     Raises
     ------
     ValueError
         One sentence: the file is missing or unreadable, a column or its unit is missing or not
-        of its kind, or a sample is not a finite number.
+        of its kind, a sample is not a finite number, or the file holds several torques and
+        ``torque`` is none of them (``LoadNotHeld``).
     """
+    loads = _read_all(path)
+    if len(loads) == 1:
+        return loads[0]
+    held = np.array([s.torque for s in loads], dtype=float)
+    span = (f"the mesh at {held.size} torques ({np.nanmin(held):g}-{np.nanmax(held):g} N m,"
+            " its 'torque')")
+    if torque is None:
+        raise LoadNotHeld(f"excitation.file holds {span}: give the scene's torque (or"
+                         " mean_force and base_radius) to take one")
+    at = [i for i, t in enumerate(held) if math.isclose(t, torque, rel_tol=1e-3)]
+    if not at:
+        raise LoadNotHeld(f"excitation.file holds {span}, not the scene's {torque:g} N m: an STE"
+                         " holds for the load it was computed at; run the scene at one of"
+                         " them, or compute the mesh at this one")
+    return loads[at[0]]
+
+
+def _read_all(path: str | Path) -> tuple[Samples, ...]:
+    """The samples of each load of an excitation file (``_read``), the file checked first."""
     p = Path(path)
     try:
         st = p.stat()
@@ -387,12 +435,8 @@ class ExcitationSpec(Strict):
         path = Path(v).expanduser()
         if not path.is_absolute():
             path = _base(info) / path
-        read_samples(path)  # every problem of the file: one ValueError sentence
+        _read_all(path)  # every problem of the file: one ValueError sentence
         return str(path.resolve())
-
-    @property
-    def samples(self) -> Samples:
-        return read_samples(self.file)
 
 
 def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
@@ -414,7 +458,16 @@ def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
     if scene.teeth is None:
         out.append(("scene.teeth", "(missing)", ("required with 'excitation' (N1 of the driving"
                     " gear: the mesh frequency and the mesh phase of an angle)")))
-    s = ex.samples
+    try:
+        s = read_samples(ex.file, scene_torque(scene))
+    except LoadNotHeld as exc:  # a file of several torques, none the scene's
+        name = next((n for n in ("torque", "mean_force") if n in swept), None)
+        if name is not None:
+            return [(f"sweep.{name}", NO_VALUE, f"{exc} (one study per load)")]
+        name = "mean_force" if scene.torque is None and scene.mean_force is not None else "torque"
+        value = getattr(scene, name)
+        return out + [(f"scene.{name}", NO_VALUE if value is not None else "(missing)",
+                       str(exc))]
     if s.stiffness is not None:
         out += [(f"scene.{f}", NO_VALUE, "excitation.file gives the mesh stiffness: remove it")
                 for f in ("stiffness", "stiffness_harmonics") if getattr(scene, f, None)]
@@ -519,6 +572,17 @@ def _stated_pair_problems(scene: Any, s: Samples) -> list[tuple[str, Any, str]]:
     return out
 
 
+def scene_torque(scene: Any) -> float | None:
+    """The scene's own mean driving torque [N m]: its ``torque``, or ``mean_force`` times the
+    driving gear's base radius; ``None`` where it gives neither (a file of several torques is
+    read at this one)."""
+    if scene.torque is not None:
+        return float(scene.torque)
+    if scene.mean_force is not None and getattr(scene, "r1", None) is not None:
+        return float(scene.mean_force * scene.r1)
+    return None
+
+
 def scene_mean_force(scene: Any) -> float:
     """The scene's own mean mesh force F_m [N] (0 when it gives no load)."""
     if scene.mean_force is not None:
@@ -557,10 +621,10 @@ def _takes_integrated(s: Samples, revolution: bool, time_varying: bool, mean_for
 
 
 @lru_cache(maxsize=64)
-def _fit(path: str, stamp: tuple, teeth: int, harmonics: int, revolution: bool,
-         time_varying: bool, mean_force: float, k_mean: float | None,
+def _fit(path: str, stamp: tuple, torque: float | None, teeth: int, harmonics: int,
+         revolution: bool, time_varying: bool, mean_force: float, k_mean: float | None,
          k_harmonics: tuple[Harmonic, ...]) -> MeasuredExcitation:
-    s = read_samples(path)
+    s = read_samples(path, torque)
     phi = s.mesh_phase(teeth)
     keep = _one_period(phi, teeth if revolution else 1).size
     sl = slice(0, keep)
@@ -587,7 +651,8 @@ def scene_measured(scene: Any, mean_force: float) -> MeasuredExcitation:
     """
     ex: ExcitationSpec = scene.excitation
     st = Path(ex.file).stat()
-    return _fit(ex.file, (st.st_mtime_ns, st.st_size), scene.teeth, ex.harmonics,
+    return _fit(ex.file, (st.st_mtime_ns, st.st_size), scene_torque(scene), scene.teeth,
+                ex.harmonics,
                 ex.span == "revolution", scene.kind != "rattle", float(mean_force),
                 scene.stiffness, typed_harmonics(getattr(scene, "stiffness_harmonics", [])))
 
