@@ -470,6 +470,8 @@ def test_as_arrays_uses_data_names():
     # The mean of the uniform samples is off by less than the jumps of k over n positions.
     assert abs(arrays["k_harmonic"][0] - mc.mesh_stiffness.mean()) < np.ptp(mc.mesh_stiffness) / 200
     assert np.all((arrays["mesh_phase"] >= 0) & (arrays["mesh_phase"] < 1))
+    # e = STE - F / k: zero for unmodified error-free teeth (STE = F / k at every phase)
+    assert arrays["e_harmonic"].max() < 1e-12 * arrays["ste_harmonic"][0]
 
 
 # --------------------------------------------------------------------------- plots (data only)

@@ -700,9 +700,10 @@ def test_a_mesh_result_fed_back_gives_the_gear_scenes_integrated_harmonics(tmp_p
     """A mesh study's result fed as ``excitation.file`` gives the scene the harmonics its mesh
     study integrated between the breaks of the mesh, not the DFT of its 200 samples (off by
     O(1/N) where k jumps: k3 by 6.5 %; the twin of whine_gear_table1 fed
-    fig01_02_mesh_cycle's result was up to 2.4 % off the gear scene in p_rms). Truth: the gear scene's own k0, k_n and e_n (integrated; tested against Simpson's
-    rule in test_gear_mesh.py), for a relieved pair (e = STE - F_m / k is not 0), and its
-    response over a few speeds."""
+    fig01_02_mesh_cycle's result was up to 2.4 % off the gear scene in p_rms). Truth: the gear
+    scene's own k0, k_n and e_n (integrated; tested against Simpson's rule in
+    test_gear_mesh.py), for a relieved pair (e = STE - F_m / k is not 0), and its response
+    over a few speeds."""
     gearsweep.run(parse_study(RELIEVED_MESH), output=tmp_path / "mesh.nc")
     r1 = table1_consistent().base_radius1
     gear = ("{preset: table1_consistent, tip_relief: {amount: 6 um, start_at: single_contact}}")
