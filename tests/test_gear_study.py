@@ -673,3 +673,47 @@ def test_profile_shift_preset_is_the_pair_the_mesh_study_types_in():
     assert consistent.ste_harmonics[1].amplitude == pytest.approx(0.738e-6, abs=1e-9)
     assert b.ste_harmonics[1].amplitude == pytest.approx(0.312e-6, abs=1e-9)
     assert preset.backlash_loa == pytest.approx(0.4592e-3, abs=5e-8)
+
+
+def test_a_load_swept_gear_scene_checks_its_pairs_geometry_once(monkeypatch):
+    """The pair's geometry (``GearPair.check``: its faults and cautions) does not depend on the
+    load: a study that sweeps the load of a gear scene checks it once, not at each load's build
+    (26 times for 12 loads: twice a build, most of its time). The pair here (a face width of its
+    own) is one no other test checks, so its count starts at zero."""
+    from gearsweep.study.plan import make_plan
+
+    computed = []
+    real = GearPair._faults
+
+    def counted(self):
+        computed.append(self.name)
+        return real(self)
+
+    monkeypatch.setattr(GearPair, "_faults", counted)
+    loads = [10.0 + 7.0 * i for i in range(12)]
+    text = (whine("{preset: table1_consistent, face_width: 11.37 mm}", kind="rattle")
+            + "  torque: [" + ", ".join(f"{t} N*m" for t in loads) + "]\n")
+    plan = make_plan(parse_study(text), text)
+    models = [plan.model_for_load(t) for t in loads]
+    e1 = [m.ste_harmonics[0].amplitude for m in models]
+    assert all(a < b for a, b in zip(e1, e1[1:], strict=False))  # each load its own STE
+    assert len(computed) == 1, computed
+
+
+def test_a_checked_pair_still_refuses_and_warns_at_each_check():
+    """Checking a pair once per pair leaves what each ``check`` says as it was: a pair that
+    cannot exist raises at every check with the same message, a nearly pointed one warns at
+    every check."""
+    from gearsweep.gear import GeometryWarning, table1_as_printed
+
+    bad = table1_as_printed()
+    said = []
+    for _ in range(2):
+        with pytest.raises(GeometryError) as exc:
+            bad.check()
+        said.append((str(exc.value), exc.value.faults))
+    assert said[0] == said[1] and "interference" in said[0][0]
+    pointed = GearPair(module=2e-3, z1=12, z2=40, face_width=20e-3, x1=0.8)
+    for _ in range(2):
+        with pytest.warns(GeometryWarning, match="nearly pointed"):
+            pointed.check()
