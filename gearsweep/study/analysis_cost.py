@@ -38,7 +38,9 @@ monodromy ``hb._monodromy``), the one-time compile's time and memory, as for a d
 806 MB resident against 283 MB on the cache it filled, and was estimated at 13.7 s and 306 MB.
 
 Memory, every kind: the results it reads are loaded whole, counted from their files' headers
-(``input_bytes``).
+(``input_bytes``), and while they load, the chunks HDF5 keeps in each variable's chunk cache
+until the file closes (``loading_bytes``); ``jump_map``: then its jump summary's arrays
+(``JUMP_MAP_BYTES`` per value of the input's p_pp), in the memory the chunk caches let go.
 """
 
 from __future__ import annotations
@@ -136,6 +138,11 @@ BALANCE_SAMPLE_BYTES = 56
 """... and its memory per harmonic and time sample [bytes]: ``AFTBalance``'s matrices E and P
 (2H + 1 by n_time each) and their making (cos, sin); 47-55 B measured (peak resident memory at
 200 x 16,384, 50 x 65,536 and 200 x 65,536: 620 MB there)."""
+JUMP_MAP_BYTES = 100
+"""``jump_map``: its arrays beyond the input it holds, per value of the input's ``p_pp`` [bytes]:
+``jump_summary``'s amplitude and sweeps and ``find_jumps``' arrays of each sweep, at their
+peak (tracemalloc: 95.1-95.4 B measured on results/rattle_map.nc and cuts of it of 0.2-2
+million values, 27 Nov 2026)."""
 FIXED_ANALYSIS_SECONDS = {"rattle_budget": 0.5, "jump_map": 0.5}
 """The kinds that only read results [s] (measured: the Fig. 8 budget 0.03-0.05 s, the rattle map's
 jumps 0.25 s)."""
@@ -302,15 +309,56 @@ def input_bytes(study: AnalysisStudy, results: Path | None) -> float:
     (``analyses._open_inputs``: ``xr.load_dataset``), every variable at its shape and type (a
     jump map of a 2 GB rattle map was priced at 300 MB); from the files' headers, nothing
     read. One not there or not readable counts 0 (the analysis says what is wrong with it)."""
+    return sum(_value_bytes(v) for v in _input_variables(study, results))
+
+
+def loading_bytes(study: AnalysisStudy, results: Path | None) -> float:
+    """The bytes HDF5 holds beside the arrays while the results an analysis reads are loaded:
+    each chunked variable keeps the chunks it decompressed in a chunk cache of its own, up to the
+    cache's size (netCDF-C's default: 64 MB a variable), until the file closes, after every
+    variable is read (studies/rattle_map_jumps.yaml peaked at 557 MB against 448 MB estimated:
+    its 148 MB input took 296 MB to load, as a read of its variables with netCDF4 alone; 148 MB
+    with each variable's cache set to 0). A chunk larger than the cache is not kept. From the
+    files' headers, as ``input_bytes``."""
     total = 0.0
+    for v in _input_variables(study, results):
+        chunks = v.chunking()
+        if chunks == "contiguous" or not v.shape:
+            continue
+        size = v.get_var_chunk_cache()[0]
+        chunk = math.prod(chunks) * _itemsize(v)
+        count = math.prod(math.ceil(n / c) for n, c in zip(v.shape, chunks, strict=True))
+        total += min(count * chunk, size) if chunk <= size else 0.0
+    return total
+
+
+def work_bytes(study: AnalysisStudy, results: Path | None) -> float:
+    """The bytes of an analysis's own arrays that grow with what it reads, at their peak, after
+    its inputs are loaded: ``jump_map``'s jump summary (``JUMP_MAP_BYTES`` per value of the
+    input's ``p_pp``); the other kinds' are counted by their options (``_estimate``) or small."""
+    if study.analysis.kind != "jump_map":
+        return 0.0
+    return sum(JUMP_MAP_BYTES * math.prod(v.shape) for v in _input_variables(study, results)
+               if v.name == "p_pp")
+
+
+def _input_variables(study: AnalysisStudy, results: Path | None):
+    """The variables (headers: netCDF4, the file open while each is looked at) of the results an
+    analysis reads; none of one not there or not readable."""
     for name in getattr(study.analysis, "inputs", lambda: [])() if results is not None else []:
         try:
             with netCDF4.Dataset(Path(results) / f"{name}.nc") as nc:
-                total += sum(math.prod(v.shape) * (v.dtype.itemsize if isinstance(
-                    v.dtype, np.dtype) else 8) for v in _variables(nc))
+                yield from _variables(nc)
         except OSError:
             pass
-    return total
+
+
+def _itemsize(v) -> int:
+    return v.dtype.itemsize if isinstance(v.dtype, np.dtype) else 8
+
+
+def _value_bytes(v) -> float:
+    return math.prod(v.shape) * _itemsize(v)
 
 
 def _variables(group):
@@ -324,10 +372,14 @@ def estimate(study: AnalysisStudy, results: str | Path | None = None,
              threads: int | None = None) -> AnalysisEstimate:
     """The predicted time and memory of an analysis study; ``results``: the folder its inputs
     are read from (an artifact map's grid is its rig result's; the results it reads are held
-    in memory whole: ``input_bytes``); with the one-time compile of what Numba's cache lacks
-    (``compile_cost``)."""
-    est = _estimate(study, None if results is None else Path(results), threads)
-    held = input_bytes(study, None if results is None else Path(results))
+    in memory whole: ``input_bytes``, and while they load, their chunk caches beside them:
+    ``loading_bytes``; then the analysis's arrays that grow with them: ``work_bytes``, in the
+    memory the caches let go when the files closed: the larger of the two counts); with the
+    one-time compile of what Numba's cache lacks (``compile_cost``)."""
+    folder = None if results is None else Path(results)
+    est = _estimate(study, folder, threads)
+    held = input_bytes(study, folder) + max(loading_bytes(study, folder),
+                                            work_bytes(study, folder))
     seconds, compiling = compile_cost(study)
     return replace(est, seconds=est.seconds + seconds,
                    memory_bytes=est.memory_bytes + held + compiling, compile_seconds=seconds,
