@@ -6,8 +6,9 @@ and f_n, and the order lines), and figures/fig05_order_sources.png: the order li
 and of its two variants
 with the STE off (studies/fig05_waterfall_no_ste.yaml) and the stiffness ripple off
 (studies/fig05_waterfall_no_ripple.yaml), which says where each order comes from, and
-figures/fig05_phase.png: the phase of orders 1-4 behind the STE's (the study and the
-ripple-off variant), which passes -90 degrees where the line is a resonance. Run from the
+figures/fig05_phase.png: the phase of each mesh order the study keeps (1-10) behind the STE's
+same order, one panel per order (the study and the ripple-off variant), which passes -90
+degrees where the line is a resonance. Run from the
 repository root after running the three studies:
 
     python scripts/fig05_waterfall.py [--results results] [--figures figures]
@@ -23,6 +24,7 @@ from _common import open_result, parse
 
 from gearsweep.plot.common import save
 from gearsweep.plot.whine import (
+    PHASE_FLOOR,
     damping_text,
     natural_frequency,
     plot_campbell,
@@ -100,24 +102,44 @@ def draw_sources(results: Path, figures: Path) -> None:
 
 
 def draw_phase(results: Path, figures: Path) -> None:
-    """fig05_phase.png: the lag of orders 1-4 behind the STE's, the study and its ripple-off
-    variant: a resonance of the STE's forcing passes -90 degrees at 60 f_n / (48 n)."""
+    """fig05_phase.png: the lag of each mesh order the study keeps (1-10) behind the STE's same
+    order, one panel per order, the study and its ripple-off variant: a resonance of the STE's
+    forcing passes -90 degrees at 60 f_n / (48 n). A speed where the order's line is below
+    ``PHASE_FLOOR`` of the largest mesh-order line there is left blank."""
     study = open_result(results, "fig05_waterfall")
     flat = open_result(results, "fig05_waterfall_no_ripple")
     f_n = natural_frequency(study)
     teeth = int(round(float(study.mesh_frequency[-1] / study.speed[-1] * 60)))
-    fig, ax = plt.subplots(figsize=(8.0, 4.8), layout="constrained")
-    plot_ste_phase_lags(ax, study)
-    plot_ste_phase_lags(ax, flat, linestyle="--", label=", ripple off")
-    for n in (1, 2, 3, 4):
+    orders = mesh_orders(study)
+    cols = 5
+    rows = -(-len(orders) // cols)
+    fig, axs = plt.subplots(rows, cols, figsize=(15.0, 3.2 * rows + 1.0), sharex=True,
+                            sharey=True, layout="constrained", squeeze=False)
+    for k, (ax, n) in enumerate(zip(axs.flat, orders, strict=False)):
+        plot_ste_phase_lags(ax, study, orders=(n,), color="C0", label=": the study")
+        plot_ste_phase_lags(ax, flat, orders=(n,), color="C1", linestyle="--",
+                            label=": ripple off")
         ax.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
-    ax.legend(fontsize=7.5, ncols=2)
-    ax.set_title(f"Fig. 5's order lines 1-4: phase behind the STE's same order;"
-                 f" {damping_text(study)}"
-                 f"\nsolid: the study; dashed: stiffness ripple off; dotted: 60 f_n / ({teeth} n),"
-                 "\nwhere a resonance of a force in phase with e passes -90 deg"
-                 " (-m e'' or the ripple under F_m: not told apart)",
-                 fontsize=9)
+        ax.set_xscale("log")
+        ax.set_title(f"order {n}: 60 f_n / ({teeth} x {n}) = {60 * f_n / (teeth * n):,.0f} rpm",
+                     fontsize=8.5)
+        if k % cols:
+            ax.set_ylabel("")
+        elif k:
+            ax.set_ylabel("phase [deg]")
+        if k < len(orders) - cols:
+            ax.set_xlabel("")
+        else:
+            ax.set_xlabel("driving-gear speed [rpm]")
+    for ax in list(axs.flat)[len(orders):]:
+        ax.set_visible(False)
+    axs.flat[0].legend(fontsize=7.5, loc="lower left")
+    fig.suptitle(f"Fig. 5's order lines {orders[0]}-{orders[-1]}: phase of p behind the STE's"
+                 f" same order; {damping_text(study)}; solid: the study, dashed: stiffness ripple"
+                 f" off\ndotted: 60 f_n / ({teeth} n), where a resonance of a force in phase with e"
+                 " passes -90 deg (-m e'' or the ripple under F_m: not told apart); a speed where"
+                 f" the order's line is below {PHASE_FLOOR:.0%} of the largest mesh-order line is"
+                 " left blank", fontsize=9.5)
     print(save(fig, figures / "fig05_phase.png", dpi=150))
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import matplotlib
 
@@ -316,3 +317,54 @@ def test_order_lines_shade_the_speeds_where_contact_is_lost(ds):
     fig, ax = plt.subplots()
     plot_order_lines(ax, one.assign(contact_lost=one.contact_lost & False))
     assert not ax.patches
+
+
+def test_the_phase_figure_draws_every_kept_order_and_blanks_a_negligible_line(tmp_path,
+                                                                              monkeypatch):
+    """fig05_phase.png drew orders 1-4 only while Fig. 5's verdict reads orders 1-10: it draws
+    one panel per mesh order the result keeps. A line far below the largest (here order 2, whose
+    STE term is 1e-5 of order 1's: with constant stiffness each line is its own receptance times
+    e_n, so order 2 is below 1e-3 of order 1 at every speed) has a phase that says nothing: it is
+    left blank (``PHASE_FLOOR``), while order 1 follows the receptance's closed form."""
+    import importlib.util
+    import sys
+
+    from gearsweep.plot.whine import PHASE_FLOOR, plot_ste_phase_lags
+
+    text = (STUDY.replace("  stiffness_harmonics: [{amplitude: 179 kN/mm}]\n", "")
+            .replace("ste: [{amplitude: 5 um, phase: 180 deg}, {amplitude: 1 um, phase: 180 deg}]",
+                     "ste: [{amplitude: 1 um, phase: 40 deg}, {amplitude: 1e-5 um, phase: 10 deg},"
+                     " {amplitude: 0.5 um}, {amplitude: 0.3 um}]")
+            .replace("  torque: [25 N*m, 50 N*m]\n", "")
+            .replace("  base_radius: 56.38 mm\n", "  mean_force: 800 N\n")
+            .replace("{max_order: 4}", "{max_order: 4, phase: true}"))
+    assert "1e-5 um" in text and "phase: true" in text
+    ds = run_study(parse_study(text, "t.yaml"), text)
+    assert PHASE_FLOOR == 0.01
+    fig, ax = plt.subplots()
+    plot_ste_phase_lags(ax, ds, orders=(1, 2))
+    one, two = (ln.get_ydata() for ln in ax.lines[:2])
+    assert np.isnan(two).all() and np.isfinite(one).all()
+    f_n = math.sqrt(1073e6 / 0.1527) / (2 * math.pi)
+    zeta = 5500 / (2 * math.sqrt(1073e6 * 0.1527))
+    r = 48 * ds.speed.values / 60 / f_n
+    assert_allclose(one, -np.degrees(np.arctan2(2 * zeta * r, 1 - r**2)), atol=0.05)
+    plt.close(fig)
+
+    for name in ("fig05_waterfall", "fig05_waterfall_no_ripple"):
+        ds.to_netcdf(tmp_path / f"{name}.nc")
+    scripts = Path(__file__).resolve().parents[1] / "scripts"
+    monkeypatch.syspath_prepend(str(scripts))
+    spec = importlib.util.spec_from_file_location("fig05_script", scripts / "fig05_waterfall.py")
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "fig05_script", module)
+    spec.loader.exec_module(module)
+    drawn = []
+    monkeypatch.setattr(module, "save", lambda f, path, **_: drawn.append(f) or path)
+    module.draw_phase(tmp_path, tmp_path)
+    panels = [a for a in drawn[0].axes if a.get_visible()]
+    assert [a.get_title().split(":")[0] for a in panels] == ["order 1", "order 2", "order 3",
+                                                             "order 4"]
+    assert np.isnan(panels[1].lines[0].get_ydata()).all()  # order 2: blank
+    assert all(np.isfinite(a.lines[0].get_ydata()).all() for a in panels[::2])
+    plt.close(drawn[0])

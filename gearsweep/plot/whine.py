@@ -435,16 +435,30 @@ def ste_phase_lag(ds: xr.Dataset, order: float) -> xr.DataArray:
     return out
 
 
+PHASE_FLOOR = 0.01
+"""The smallest amplitude an order line must have, as a fraction of the largest mesh-order line
+(orders 1 and up) of the same case, for ``plot_ste_phase_lags`` to draw its phase: below it the
+line is not what p is made of, and its phase says nothing of the response."""
+
+
 def plot_ste_phase_lags(ax: Axes, ds: xr.Dataset, *, orders: Sequence[int] = (1, 2, 3, 4),
-                        linestyle: str = "-", label: str = "") -> Figure:
+                        linestyle: str = "-", label: str = "", color: str | None = None,
+                        floor: float = PHASE_FLOOR) -> Figure:
     """The lag of each order line of p behind the STE's same order against speed [deg]
     (``ste_phase_lag``), with -90 degrees marked: a resonance of the STE's forcing passes it at
-    omega_n. Cases that did not settle are left out."""
+    omega_n. Cases that did not settle are left out, and so are the speeds where the line's
+    amplitude is below ``floor`` times the largest mesh-order line of that case (``PHASE_FLOOR``);
+    the line is broken where the lag wraps past -180 degrees."""
     speed, speed_label = _speed_axis(ds, None)
+    spectrum = ds["spectrum"]
+    whole = [o for o in spectrum["order"].values if o >= 1 and float(o).is_integer()]
+    largest = spectrum.sel(order=whole).max("order").values
     for i, n in enumerate(orders):
         lag, _, _ = settled(ste_phase_lag(ds, n), ds)
-        ax.plot(speed, lag.values, ls=linestyle, lw=1.1, color=f"C{i}",
-                label=f"order {n}{label}")
+        lag = np.where(spectrum.sel(order=float(n)).values >= floor * largest, lag.values, np.nan)
+        wraps = np.flatnonzero(np.abs(np.diff(lag)) > 180.0)  # (-180 to +180: not a jump)
+        x, y = np.insert(speed.astype(float), wraps + 1, np.nan), np.insert(lag, wraps + 1, np.nan)
+        ax.plot(x, y, ls=linestyle, lw=1.1, color=color or f"C{i}", label=f"order {n}{label}")
     ax.axhline(-90.0, color="0.3", lw=0.8)
     ax.set_xlabel(speed_label)
     ax.set_ylabel("phase of p behind the STE, same order [deg]")
@@ -452,4 +466,3 @@ def plot_ste_phase_lags(ax: Axes, ds: xr.Dataset, *, orders: Sequence[int] = (1,
     ax.set_yticks(range(-180, 1, 30))
     ax.grid(True, alpha=0.3)
     return ax.figure
-
