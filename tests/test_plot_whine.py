@@ -368,3 +368,30 @@ def test_the_phase_figure_draws_every_kept_order_and_blanks_a_negligible_line(tm
     assert np.isnan(panels[1].lines[0].get_ydata()).all()  # order 2: blank
     assert all(np.isfinite(a.lines[0].get_ydata()).all() for a in panels[::2])
     plt.close(drawn[0])
+
+
+def test_order_by_variant_names_each_k_and_draws_the_constant_force_closed_form(ds):
+    """Fig. 6 (d), the k(t) variants its verdict rests on: each line is the order line of p
+    (relative: over its value at the first speed), named by its k(t), and the grey line is a
+    constant-amplitude force's receptance, which peaks at 1 / (2 zeta sqrt(1 - zeta^2)) at
+    sqrt(1 - 2 zeta^2) f_n (closed form, from the study's m, k0 and c)."""
+    from gearsweep.plot.whine import plot_order_by_variant
+
+    one = ds.isel(torque=0)
+    fig, ax = plt.subplots()
+    plot_order_by_variant(ax, [("typed", one)], relative=True)
+    labels = [ln.get_label() for ln in ax.lines]
+    assert labels[0] == "typed: k0 = 1073; k1 = 179 kN/mm"
+    line = one.spectrum.sel(order=1.0).values
+    assert_allclose(ax.lines[0].get_ydata(), line / line[0], rtol=1e-12)
+    zeta = 5500 / (2 * math.sqrt(1073e6 * 0.1527))
+    f_n = math.sqrt(1073e6 / 0.1527) / (2 * math.pi)
+    assert "closed form" in labels[1] and f"ζ = {zeta:.3f}" in labels[1]
+    r = 48 * one.speed.values / 60 / f_n
+    gain = 1 / np.sqrt((1 - r**2) ** 2 + (2 * zeta * r) ** 2)
+    assert_allclose(ax.lines[1].get_ydata(), gain / gain[0], rtol=1e-9)
+    peak = 60 * math.sqrt(1 - 2 * zeta**2) * f_n / 48
+    assert ax.lines[2].get_xdata()[0] == pytest.approx(peak, rel=1e-9)  # the dotted mark
+    assert float(np.max(gain)) <= 1 / (2 * zeta * math.sqrt(1 - zeta**2)) + 1e-12
+    assert ax.get_ylabel() == "order 1 of p / its value at 2,000 rpm [-]"
+    plt.close(fig)

@@ -33,8 +33,10 @@ __all__ = [
     "plot_campbell",
     "plot_order_lines",
     "plot_response_by_load",
+    "plot_order_by_variant",
     "plot_waterfall",
     "result_natural_frequency",
+    "stiffness_label",
 ]
 
 UM = 1e6  # m -> um
@@ -342,6 +344,61 @@ def plot_response_by_load(
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, title=f"{n_bad} of {n_all} cases not settled (masked)" if n_bad else None,
               title_fontsize=8)
+    return ax.figure
+
+
+def _stiffness(ds: xr.Dataset) -> tuple[float, list[float]]:
+    """k0 and the amplitudes k_n [N/m] a result of one load ran with: a gear scene's
+    ``gear_stiffness`` and ``gear_stiffness_harmonic`` (the pair's at that load), else the
+    resolved model's."""
+    if "gear_stiffness" in ds:
+        si = si_data_vars(ds[["gear_stiffness", "gear_stiffness_harmonic"]])
+        return (float(si["gear_stiffness"]),
+                [float(a) for a in np.atleast_1d(si["gear_stiffness_harmonic"].values)])
+    model = model_from_record(json.loads(ds.attrs["model"]))
+    return model.stiffness, [h.amplitude for h in model.stiffness_harmonics]
+
+
+def stiffness_label(ds: xr.Dataset) -> str:
+    """The k(t) a result of one load ran with [kN/mm]: ``k0 = 219; k1 = 56 kN/mm`` (with more
+    than three harmonics the first three and how many)."""
+    k0, k_n = _stiffness(ds)
+    shown = ", ".join(f"k{i + 1} = {a / 1e6:.0f}" for i, a in enumerate(k_n[:3]))
+    more = f", ... ({len(k_n)} harmonics)" if len(k_n) > 3 else ""
+    return f"k0 = {k0 / 1e6:.0f}; {shown}{more} kN/mm"
+
+
+def plot_order_by_variant(ax: Axes, variants: Sequence[tuple[str, xr.Dataset]], *,
+                          order: int = 1, relative: bool = False) -> Figure:
+    """The order-``order`` line of p against speed for several results of one load (``label``,
+    ``ds``), each named by its label and its k(t) (``stiffness_label``), with the closed form of
+    a constant-amplitude force at the first result's f_n and damping (grey, dashed): its
+    response 1 / sqrt((1 - r^2)^2 + (2 zeta r)^2) times the line's quasi-static value, which
+    peaks at 1 / (2 zeta sqrt(1 - zeta^2)) at r = sqrt(1 - 2 zeta^2). ``relative``: each line
+    divided by its value at the first speed [-] (the closed form by its own there); else the
+    amplitude [µm] and the closed form scaled to the first result's line at the first speed.
+    Cases that did not settle are left out."""
+    speed = variants[0][1]["speed"].values
+    for label, ds in variants:
+        line, _, _ = settled(si_data_vars(ds)["spectrum"].sel(order=float(order)), ds)
+        y = line.values / line.values[0] if relative else line.values * UM
+        ax.plot(ds["speed"].values, y, lw=1.3, label=f"{label}: {stiffness_label(ds)}")
+    first = variants[0][1]
+    model = model_from_record(json.loads(first.attrs["model"]))
+    k0 = _stiffness(first)[0]
+    f_n = math.sqrt(k0 / model.mass) / (2 * math.pi)
+    zeta = model.damping / (2 * math.sqrt(k0 * model.mass))
+    r = order * first["mesh_frequency"].values / f_n
+    gain = 1 / np.sqrt((1 - r**2) ** 2 + (2 * zeta * r) ** 2)
+    base = si_data_vars(first)["spectrum"].sel(order=float(order)).values[0]
+    ax.plot(speed, gain / gain[0] if relative else gain / gain[0] * base * UM, color="0.45",
+            ls="--", lw=1.0, label=f"a constant-amplitude force, ζ = {zeta:.3f} (closed form)")
+    peak = math.sqrt(1 - 2 * zeta**2) * f_n * speed[-1] / (order * first["mesh_frequency"].values[-1])
+    ax.axvline(peak, color="0.45", ls=":", lw=0.8)
+    ax.set_xlabel(f"speed of the {first['speed'].attrs.get('gear', 'driving gear')} [rpm]")
+    ax.set_ylabel(f"order {order} of p / its value at {speed[0]:,.0f} rpm [-]" if relative
+                  else f"order-{order} amplitude of p [µm]")
+    ax.grid(True, which="both", alpha=0.3)
     return ax.figure
 
 
