@@ -3,7 +3,6 @@ written and what would fit; the bounds against closed forms of involute geometry
 not against the code's own numbers."""
 
 import math
-import re
 import warnings
 from pathlib import Path
 
@@ -199,9 +198,13 @@ def test_nearly_pointed_teeth_warn_once_at_the_field(tmp_path, capsys):
         with warnings.catch_warnings():
             warnings.simplefilter("always", GeometryWarning)  # as outside pytest: shown, not raised
             assert main(command) == 0
-        assert capsys.readouterr().err == said
-    with pytest.warns(GeometryWarning, match=re.escape(said[len("gearsweep: warning: "):-1])):
+        root, pointed = capsys.readouterr().err.splitlines(keepends=True)
+        assert pointed == said  # (and the pinion's root half angle, at z1, also set by x1)
+        assert root.startswith(f"gearsweep: warning: {path}:7: gear.z1: 12 -- gear 1 root half"
+                               " angle theta_f = ") and root.endswith("; also set by x1: 0.75\n")
+    with pytest.warns(GeometryWarning) as warned:
         parse_study(NEARLY_POINTED.replace("x1: 0.75", "x1: 0.75  # shifted"), str(path))
+    assert [str(w.message) for w in warned][1] == said[len("gearsweep: warning: "):-1]
 
 
 def test_a_good_gear_says_nothing():
@@ -302,3 +305,15 @@ def test_teeth_whose_flanks_meet_too_low_for_a_contact_ratio_are_told_the_backla
             f" below 1; a backlash of at most {most:g} mm leaves it a tooth to its tip"
             " (backlash)")
     assert any(line.startswith(said) for line in lines), lines
+
+
+def test_a_root_half_angle_below_sainsot_s_range_is_refused_at_the_teeth(tmp_path, capsys):
+    """A 400-tooth gear's root half angle is below pi / 400 = 0.0079 rad, under the 0.01 rad
+    Sainsot et al.'s gear-body fit starts at (below it the fit's body compliance falls to zero):
+    refused at z2's line, as a bore radius outside the fit's other range is at its own."""
+    text = ("type: mesh\ntitle: t\ngear:\n  module: 1 mm\n  z1: 30\n  z2: 400\n"
+            "  face_width: 20 mm\ntorque: 50 N*m\n")
+    path, lines = refused(tmp_path, capsys, text)
+    assert len(lines) == 1 and lines[0].startswith(
+        f"{path}:6: gear.z2: 400 -- gear 2 root half angle theta_f = ")
+    assert "rad (400 teeth), outside 0.01 to 0.12 rad" in lines[0]

@@ -281,9 +281,14 @@ def test_each_problem_carries_the_fields_that_set_it_and_what_fits():
 
 
 def test_nearly_pointed_teeth_warn():
+    """(The 14-tooth pinion's root half angle, shifted 0.8, is past where Sainsot et al.'s
+    gear-body fit is extrapolated without a word: that is warned too.)"""
     pair = GearPair(module=2e-3, z1=14, z2=40, face_width=10e-3, x1=0.8)
-    with pytest.warns(GeometryWarning, match="below 0.2 m"):
+    with pytest.warns(GeometryWarning) as said:
         pair.check()
+    assert [str(w.message).split(": ", 1)[1][:22] for w in said] == [
+        "gear 1 root half angle", "gear 1 tip thickness 0"]
+    assert "below 0.2 m" in str(said[1].message)
 
 
 @pytest.mark.parametrize(

@@ -34,7 +34,9 @@ contact point) per unit load [m/N]:
 
 Rim: Sainsot's fits are for a solid body clamped at ``r_int``; in them a larger ``r_int``
 (thinner annulus clamped on a rigid shaft) is *stiffer*, and they hold for ``r_f / r_int`` in
-:data:`SAINSOT_BORE_RATIO` (refused outside). A thin rim on a narrow web is softer;
+:data:`SAINSOT_BORE_RATIO` (refused outside), and for a root half angle ``theta_f`` in
+:data:`SAINSOT_ROOT_ANGLE` (refused below; above, extrapolated, with a warning beyond
+``geometry.SAINSOT_ROOT_ANGLE_WARNED``). A thin rim on a narrow web is softer;
 for that the tooth-and-foundation stiffness is multiplied by ISO 6336-1's empirical rim factor
 ``C_R = 1 + ln(b_s/b) / (5 exp(s_R / (5 m)))`` (``C_R = 1`` for a solid gear).
 
@@ -50,11 +52,12 @@ from functools import lru_cache
 import numpy as np
 
 from gearsweep.errors import GeometryError
-from gearsweep.gear.geometry import GearPair, _mm_down, _mm_up
+from gearsweep.gear.geometry import SAINSOT_ROOT_ANGLE, GearPair, _mm_down, _mm_up
 
 __all__ = [
     "SAINSOT_BORE_RATIO",
     "SAINSOT_COEFFICIENTS",
+    "SAINSOT_ROOT_ANGLE",
     "ToothCompliance",
     "ToothProfile",
     "hertz_compliance",
@@ -289,6 +292,16 @@ def tooth_compliance(
         raise GeometryError(f"{pair.name}: {why}",
                             [(why, (f"bore_radius{gear}", *pair.sets("root", gear)))])
     th = prof.theta_f
+    if th < SAINSOT_ROOT_ANGLE[0]:  # (z2 = 1000: P* = -36, k0 1.5 times ISO's c_gamma)
+        z = pair.z1 if gear == 1 else pair.z2
+        why = (f"gear {gear} root half angle theta_f = {th:.3g} rad ({z} teeth), outside"
+               f" {SAINSOT_ROOT_ANGLE[0]:g} to {SAINSOT_ROOT_ANGLE[1]:g} rad, where Sainsot et"
+               " al.'s gear-body fit holds (below it the body's compliance falls to zero and"
+               f" turns negative); theta_f < pi / z: more than {math.pi / SAINSOT_ROOT_ANGLE[0]:.0f}"
+               f" teeth never fit (z{gear})")
+        raise GeometryError(f"{pair.name}: {why}",
+                            [(why, tuple(dict.fromkeys((f"z{gear}", *pair.sets("root", gear),
+                                                        "fillet_radius"))))])
     terms = np.array([1.0 / th**2, h**2, h / th, 1.0 / th, h, 1.0])
     lstar, mstar, pstar, qstar = SAINSOT_COEFFICIENTS @ terms
     s_f = 2.0 * prof.root_radius * math.sin(th)

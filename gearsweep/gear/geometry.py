@@ -35,6 +35,8 @@ import numpy as np
 from gearsweep.errors import GeometryError
 
 __all__ = [
+    "SAINSOT_ROOT_ANGLE",
+    "SAINSOT_ROOT_ANGLE_WARNED",
     "GearPair",
     "GeometryWarning",
     "involute",
@@ -48,6 +50,27 @@ MAX_FACE_MODULES = 100.0
 """Widest face a pair may have, in modules: spur gears are about 6 to 40 modules wide (ISO
 6336's b/m), a helical or a very wide one up to about 60; 100 and above is a unit slip (a
 module in um, a face in inches written as mm)."""
+
+
+SAINSOT_ROOT_ANGLE = (0.01, 0.12)
+"""Root half angle ``theta_f`` [rad] over which Sainsot et al. (2004) fitted their gear-body term
+(the range the paper states beside ``compliance.SAINSOT_BORE_RATIO``'s, as public gear-mesh
+codes that carry its Table 1 quote it: find_string "0.01 <= gear.theta_f <= 0.12"); here, not
+in ``compliance`` (which imports this module), as ``GearPair.cautions`` reads it too. Below it
+``compliance.tooth_compliance`` refuses the pair, the fit being meaningless: its 1/theta_f^2
+terms take over, P* (the body's own compliance) falls to zero at theta_f = 0.0047 to 0.0077
+(h_fi = 7 to 1.4) and turns negative, and at 0.008 the term lies up to 22 % from the fit at
+0.01 (a gear of more than pi / 0.01 = 314 teeth is always below it: theta_f < pi / z). Above it
+the fit changes slowly and is extrapolated: see ``SAINSOT_ROOT_ANGLE_WARNED``."""
+
+SAINSOT_ROOT_ANGLE_WARNED = 0.19
+"""Root half angle [rad] above which ``GearPair.cautions`` warns that Sainsot et al.'s
+gear-body term is extrapolated: up to it the term lies within 5 % of its value at the fitted
+range's top, 0.12 (the worst over h_fi = 1.4 to 7, u_f / S_f = 0.3 to 3 and tan(beta) up to
+0.5; 1 % at 0.13, 2.6 % at 0.15), and beyond it up to 11 % (at pi / 4, the widest root a tooth
+of four or more teeth has). Unshifted pinions of fewer than 23 teeth (the default fillet) lie
+above 0.12, those of 14 to 22 below 0.19: warning for every one of them would say nothing a
+difference of a few percent in one of four compliance terms deserves."""
 
 
 class GeometryWarning(UserWarning):
@@ -946,8 +969,10 @@ class GearPair:
     def cautions(self) -> list[tuple[str, tuple[str, ...]]]:
         """What :meth:`check` warns of, as ``(message, fields)`` (as :meth:`faults`): an undercut
         below the active profile (contact stays on the involute; the model's tooth is the
-        uncut one), with the shift that avoids it; a tip thickness below 0.2 module (nearly
-        pointed teeth), with the tip radius that gives it."""
+        uncut one), with the shift that avoids it; a root half angle far above Sainsot et al.'s
+        fitted range (``SAINSOT_ROOT_ANGLE_WARNED``: the gear body's compliance is
+        extrapolated); a tip thickness below 0.2 module (nearly pointed teeth), with the tip
+        radius that gives it."""
         return list(_memo(_cautions_of, self))
 
     def _cautions(self) -> list[tuple[str, tuple[str, ...]]]:
@@ -958,6 +983,18 @@ class GearPair:
                 out.append(((f"slight undercut: {self._undercut_said(g, top)}, on the involute"
                              f" (the model's tooth is the uncut one){self._undercut_cure(g)}"),
                             self.sets("root", g)))
+        top = SAINSOT_ROOT_ANGLE[1]
+        for g in (1, 2):
+            theta_f = self.fillet_geometry(g)[0]
+            if theta_f > SAINSOT_ROOT_ANGLE_WARNED:
+                out.append(((f"gear {g} root half angle theta_f = {theta_f:.3g} rad is"
+                             f" {theta_f - top:.2g} rad above the {SAINSOT_ROOT_ANGLE[0]:g} to"
+                             f" {top:g} rad where Sainsot et al.'s gear-body fit holds, past the"
+                             f" {SAINSOT_ROOT_ANGLE_WARNED:g} rad up to which extrapolating it"
+                             f" moves that term less than 5 % from its value at {top:g}: up to"
+                             " 11 % (more teeth bring theta_f down)"),
+                            tuple(dict.fromkeys((f"z{g}", *self.sets("root", g),
+                                                 "fillet_radius")))))
         for g in (1, 2):
             sa, keep = self.tip_thickness(g), 0.2 * self.module
             if sa < keep:
