@@ -47,7 +47,9 @@ for col, study in enumerate(studies):
     ax.set_xlabel("")
     plot_response_by_load(ax2, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n,
                            relative=True, log=True)
-    ax2.get_legend().remove()
+    # of the legend only the grey bands' entry: the ratios whose case lost contact
+    grey = [h for h in ax2.get_lines() if h.get_label().startswith("grey:")]
+    ax2.legend(handles=grey, fontsize=8, loc="center right") if grey else ax2.get_legend().remove()
     ax2.set_title("relative to the lowest torque", fontsize=9)
     if col:
         ax.set_ylabel("")

@@ -255,8 +255,8 @@ def test_damping_legend_is_in_n_s_per_mm_from_either_unit_of_the_file():
                        .replace("num: 41", "num: 3"))
     assert ds["damping"].attrs["units"] == "N s mm-1"
     ax = plot_response_vs_speed(ds, "p_pp", hue="damping").axes[0]
-    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["c = 2.5 N s/mm",
-                                                                  "c = 5.5 N s/mm"]
+    assert [t.get_text() for t in ax.get_legend().get_texts()][:2] == [
+        "c = 2.5 N s/mm", "c = 5.5 N s/mm"]  # (then the grey band's: these cases part the teeth)
     si = xr.Dataset(coords={"damping": ("damping", [2500.0], {"units": "N s m-1"})})
     assert value_label(si, "damping", 2500.0) == "c = 2.5 N s/mm"
 
@@ -395,3 +395,93 @@ def test_order_by_variant_names_each_k_and_draws_the_constant_force_closed_form(
     assert float(np.max(gain)) <= 1 / (2 * zeta * math.sqrt(1 - zeta**2)) + 1e-12
     assert ax.get_ylabel() == "order 1 of p / its value at 2,000 rpm [-]"
     plt.close(fig)
+def _lost_result(directions: bool = False) -> xr.Dataset:
+    """A synthetic whine result over speed x damping (p in um, as a file stores it): damping 1's
+    case at speeds 3-5 lost contact, damping 0's at speed 7; speed 4 of damping 1 is not
+    settled (masked, so not marked either)."""
+    speed = np.linspace(1000.0, 10000.0, 10)
+    dims = ("speed", "damping")
+    lost = np.zeros((10, 2), bool)
+    lost[3:6, 1] = True
+    lost[7, 0] = True
+    status = np.zeros((10, 2), np.int8)
+    status[4, 1] = 2
+    p = np.linspace(1.0, 2.0, 20).reshape(10, 2)
+    ds = xr.Dataset(
+        {"p_rms": (dims, p, {"units": "um", "long_name": "rms of p"}),
+         "p_pp": (dims, 2 * p, {"units": "um", "long_name": "peak-to-peak of p"}),
+         "contact_lost": (dims, lost), "status": (dims, status)},
+        coords={"speed": ("speed", speed, {"units": "rpm"}),
+                "damping": ("damping", [0.55, 5.5], {"units": "N s mm-1"}),
+                "mesh_frequency": ("speed", speed * 48 / 60, {"units": "Hz"})})
+    if directions:
+        ds = xr.concat([ds, ds], dim=xr.DataArray(["up", "down"], dims="direction"))
+    return ds
+
+
+CONTACT_LOST = "p < 0: teeth would part (contact_lost)"  # as the Campbell figure's grey
+
+
+def _bands(ax) -> list:
+    """The grey bands of contact-lost cases: lines drawn in 0.78 grey."""
+    return [ln for ln in ax.get_lines() if ln.get_color() == "0.78"]
+
+
+def test_response_vs_speed_marks_the_cases_that_lost_contact():
+    """whine_gear_table1.png and whine_speed_sweep.png drew cases whose p fell below 0 (90 of
+    400 and 1,405 of 1,800 cases ``contact_lost``) as if the teeth stayed in contact, while
+    fig05_campbell.png shades such speeds grey (an outside reviewer): each line's contact-lost
+    points lie on a grey band, counted in one legend entry; a masked case is not marked."""
+    from gearsweep.plot.sweep import plot_response_vs_speed
+
+    ds = _lost_result()
+    ax = plot_response_vs_speed(ds, "p_rms", hue="damping").axes[0]
+    bands = _bands(ax)
+    assert len(bands) == 2
+    marked = {tuple(np.isfinite(b.get_ydata()).nonzero()[0]) for b in bands}
+    assert marked == {(7,), (3, 5)}  # speed 4 of damping 1 is masked (not settled)
+    for b in bands:
+        y = b.get_ydata()
+        ok = np.isfinite(y)
+        line = [ln for ln in ax.get_lines() if ln not in bands
+                and np.allclose(ln.get_ydata()[ok], y[ok])]
+        assert line  # on its own line's values (um)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels[-1] == f"grey: {CONTACT_LOST},\n3 of 19 cases drawn"
+    run = plot_response_vs_speed(_lost_result(directions=True), "p_pp", hue="damping").axes[0]
+    assert len(_bands(run)) == 4  # both sweeps
+    assert run.get_legend().get_texts()[-1].get_text().endswith("6 of 38 cases drawn")
+    none = plot_response_vs_speed(ds.assign(contact_lost=ds.contact_lost & False), "p_rms",
+                                  hue="damping").axes[0]
+    assert not _bands(none) and "contact_lost" not in " ".join(
+        t.get_text() for t in none.get_legend().get_texts())
+    plain = plot_response_vs_speed(ds.drop_vars("contact_lost"), "p_rms").axes[0]
+    assert not _bands(plain)
+    plt.close("all")
+
+
+def test_response_by_load_marks_the_cases_that_lost_contact_and_the_ratios_on_them():
+    """fig06_mean_torque.png panel (b): the 12.5 N m line, the baseline of the relative panel,
+    loses contact at 679 of 1,000 speeds, unmarked (an outside reviewer). Each line's
+    contact-lost points lie on a grey band; in the relative panel a ratio is marked where
+    either case lost contact, the baseline's too."""
+    ds = _lost_result()
+    fig, ax = plt.subplots()
+    plot_response_by_load(ax, ds, by="damping", variable="p_rms")
+    bands = _bands(ax)
+    assert [tuple(np.isfinite(b.get_ydata()).nonzero()[0]) for b in bands] == [(7,), (3, 5)]
+    assert_allclose(bands[1].get_ydata()[[3, 5]], ds.p_rms.values[[3, 5], 1])  # um
+    assert ax.get_legend().get_texts()[-1].get_text() == (
+        f"grey: {CONTACT_LOST},\n3 of 19 cases drawn")
+    fig, ax = plt.subplots()
+    plot_response_by_load(ax, ds, by="damping", variable="p_rms", relative=True)
+    bands = _bands(ax)
+    assert [tuple(np.isfinite(b.get_ydata()).nonzero()[0]) for b in bands] == [(7,), (3, 5, 7)]
+    assert ax.get_legend().get_texts()[-1].get_text() == (
+        f"grey: {CONTACT_LOST},\n4 of 19 ratios drawn (in the line's\ncase or the first"
+        " damping's)")
+    fig, ax = plt.subplots()
+    plot_response_by_load(ax, ds.drop_vars("contact_lost"), by="damping")
+    assert not _bands(ax)
+    plt.close("all")
+

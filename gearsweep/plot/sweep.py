@@ -41,6 +41,48 @@ def settled(da: xr.DataArray, ds: xr.Dataset) -> tuple[xr.DataArray, int, int]:
     return da.where(ok), int((~ok).sum()), int(ok.size)
 
 
+CONTACT_LOST = "p < 0: teeth would part (contact_lost)"
+"""What the grey of a figure marks: the cases (a line's band) or speeds (a span) where p fell
+below 0 in the steady state (``contact_lost``): the drive flanks part, and a linear scene answers
+there for a pair with no backlash, not for a real pair, whose teeth would separate."""
+
+
+def contact_lost(da: xr.DataArray, ds: xr.Dataset) -> xr.DataArray:
+    """Bool like ``da``: did the case lose contact (``ds["contact_lost"]``)? False everywhere
+    where the result has no ``contact_lost`` (a rattle scene, a result without stats)."""
+    if "contact_lost" not in ds:
+        return xr.zeros_like(da, dtype=bool)
+    return ds["contact_lost"].astype(bool).broadcast_like(da)
+
+
+def mark_contact_lost(ax: Axes, x, y, lost, *, label: str | None = None) -> int:
+    """A grey band under the points of the line ``(x, y)`` whose case lost contact (``lost``;
+    points not drawn, NaN, are not marked), below the line; ``label``: its legend entry. The
+    same grey as the spans of ``plot_order_lines`` over the speeds where a case lost contact.
+    Returns the number of points marked."""
+    y = np.asarray(y, float)
+    mark = np.asarray(lost, bool) & np.isfinite(y)
+    if not mark.any():
+        return 0
+    ax.plot(x, np.where(mark, y, np.nan), color="0.78", lw=6.0, marker="o", ms=5.0, mew=0.0,
+            solid_capstyle="round", zorder=1.5, label=label)  # (markers: a lone point shows)
+    return int(mark.sum())
+
+
+def mark_contact_lost_lines(ax: Axes, x, bands, label: str) -> int:
+    """``mark_contact_lost`` for each ``(y, lost)`` of ``bands``, the first band drawn with
+    ``label`` (one legend entry); the number of points marked."""
+    n = 0
+    for y, lost in bands:
+        n += mark_contact_lost(ax, x, y, lost, label=None if n else label)
+    return n
+
+
+def contact_lost_label(n_lost: int, n_all: int, what: str = "cases drawn") -> str:
+    """The legend entry of the grey bands: what they mean and how many points they mark."""
+    return f"grey: {CONTACT_LOST},\n{n_lost} of {n_all} {what}"
+
+
 def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = None,
                            hue: str | None = None, secondary_mesh_axis: bool = True,
                            hue_labels: list[str] | None = None) -> Figure:
@@ -48,7 +90,8 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     displacement in µm, anything else in its own unit.
 
     Only settled cases (``status == 0``) are drawn; the others are masked and counted in the
-    legend title.
+    legend title. Drawn cases that lost contact (``contact_lost``: p < 0, the linear scene
+    answers for a pair with no backlash) lie on a grey band, counted in its legend entry.
 
     Parameters
     ----------
@@ -83,6 +126,7 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
             ds = ds.isel({d: 0})
     # masked and counted among the cases drawn (it counted those of the dims held fixed too)
     da, n_masked, n_all = settled(ds[var], ds)
+    lost_all = contact_lost(da, ds)
     # A displacement (SI here) is drawn in um; anything else (a fraction, a count) as it is,
     # in its own unit (contact_loss_fraction was drawn times 1e6 and labelled um; an API test)
     metres = da.attrs.get("units") == "m"
@@ -90,27 +134,32 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     dirs = list(ds["direction"].values) if "direction" in da.dims else [None]
     hues = list(ds[hue].values) if hue else [None]
     colors = matplotlib_colors(len(hues))
+    bands = []  # (y, lost) of each line: drawn after the lines (the legend entry comes last)
     for i, hv in enumerate(hues):
         for dv in dirs:
-            sel = da
+            sel, lost = da, lost_all
             if hue:
-                sel = sel.sel({hue: hv})
+                sel, lost = sel.sel({hue: hv}), lost.sel({hue: hv})
             if dv is not None:
-                sel = sel.sel(direction=dv)
+                sel, lost = sel.sel(direction=dv), lost.sel(direction=dv)
+            bands.append((sel.values * scale, lost.values))
             style = {"up": dict(ls="-", marker="^", ms=3), "down": dict(ls="--", marker="v", ms=3)
                      }.get(dv, dict(ls="-"))
             lab = (hue_labels[i] if hue_labels else value_label(ds, hue, hv)) if hue else ""
             label = ", ".join(x for x in (lab,
                                           f"run-{dv}" if dv else "") if x)
             ax.plot(ds["speed"].values, sel.values * scale, color=colors[i],
-                    label=label or None, lw=1.2, **style)
+                    label=label or None, lw=1.2, zorder=2, **style)
+    n_lost = int((lost_all & da.notnull()).sum())
+    mark_contact_lost_lines(ax, ds["speed"].values, bands,
+                            contact_lost_label(n_lost, n_all - n_masked))
     name = ds[var].attrs.get("long_name", var)
     ax.set_xlabel(speed_label(ds["speed"]))
     ax.set_ylabel(f"{name} [{unit}]" if unit else name)
     ax.set_title(name + (f" at {', '.join(fixed)} (select others with ds.sel)" if fixed else ""),
                  fontsize=10)
     ax.grid(True, alpha=0.3)
-    if hue or dirs != [None] or n_masked:
+    if hue or dirs != [None] or n_masked or n_lost:
         ax.legend(fontsize=8, title=f"{n_masked} of {n_all} cases not settled (masked)"
                   if n_masked else None, title_fontsize=8)
     if secondary_mesh_axis and "mesh_frequency" in ds.coords:

@@ -23,7 +23,14 @@ from matplotlib.figure import Figure
 
 from gearsweep.analysis.spectrum import wrap_phase
 from gearsweep.model import model_from_record
-from gearsweep.plot.sweep import settled, value_label
+from gearsweep.plot.sweep import (
+    CONTACT_LOST,
+    contact_lost,
+    contact_lost_label,
+    mark_contact_lost_lines,
+    settled,
+    value_label,
+)
 from gearsweep.units import si_data_vars, si_values
 
 __all__ = [
@@ -317,15 +324,30 @@ def plot_response_by_load(
         Logarithmic amplitude axis.
     relative : bool
         Draw each line divided by the line of the first value of ``by`` [-].
+
+    Drawn cases that lost contact (``contact_lost``: p < 0, the linear scene answers for a pair
+    with no backlash) lie on a grey band, counted in its legend entry; with ``relative`` a ratio
+    is marked where either of its two cases lost contact (the first line's too: the baseline).
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da, n_bad, n_all = settled(ds[variable], ds)  # a case that has not settled is no point
+    lost = contact_lost(da, ds)
     speed = ds["speed"].values
     base = da.isel({by: 0}).values
+    lost_base = lost.isel({by: 0}).values
+    bands, n_lost, n_drawn = [], 0, 0
     for v in ds[by].values:
         y = da.sel({by: v}).values
-        ax.plot(speed, y / base if relative else y * UM, lw=1.2,
+        y = y / base if relative else y * UM
+        mark = lost.sel({by: v}).values | (lost_base if relative else False)
+        ax.plot(speed, y, lw=1.2, zorder=2,
                 label=value_label(ds, by, v))  # (said "N s mm-1", the CF unit)
+        bands.append((y, mark))
+        n_lost += int((mark & np.isfinite(y)).sum())
+        n_drawn += int(np.isfinite(y).sum())
+    mark_contact_lost_lines(ax, speed, bands, contact_lost_label(
+        n_lost, n_drawn, f"ratios drawn (in the line's\ncase or the first {by}'s)" if relative
+        else "cases drawn"))
     if natural_frequency_hz is not None:
         f_per_rpm = float(ds["mesh_frequency"].values[-1] / speed[-1])
         for i, n in enumerate(orders):
@@ -416,7 +438,7 @@ def _shade_contact_lost(ax: Axes, ds: xr.Dataset, driven_teeth: int | None) -> N
     change = np.flatnonzero(np.diff(np.concatenate([[0], lost.astype(int), [0]])))
     for k, (i, j) in enumerate(zip(change[::2], change[1::2], strict=True)):
         ax.axvspan(edges[i], edges[j], color="0.88", zorder=0, lw=0,
-                   label=None if k else "p < 0: teeth would part (contact_lost)")
+                   label=None if k else CONTACT_LOST)
 
 
 def plot_order_lines(
