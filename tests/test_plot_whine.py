@@ -485,3 +485,51 @@ def test_response_by_load_marks_the_cases_that_lost_contact_and_the_ratios_on_th
     assert not _bands(ax)
     plt.close("all")
 
+
+def _spectrum_result() -> xr.Dataset:
+    """A synthetic spectrum over (speed, order) in um, as a file stores it; the case at speed 2
+    has not settled (status 2)."""
+    speed = np.linspace(1000.0, 5000.0, 5)
+    order = np.arange(0.0, 4.0)
+    f_mesh = speed * 48 / 60
+    status = np.zeros(5, np.int8)
+    status[2] = 2
+    return xr.Dataset(
+        {"spectrum": (("speed", "order"), np.linspace(0.01, 2.0, 20).reshape(5, 4),
+                      {"units": "um"}),
+         "status": ("speed", status)},
+        coords={"speed": ("speed", speed, {"units": "rpm"}), "order": ("order", order),
+                "mesh_frequency": ("speed", f_mesh, {"units": "Hz"}),
+                "frequency": (("speed", "order"), f_mesh[:, None] * order, {"units": "Hz"})})
+
+
+def test_waterfall_and_campbell_leave_out_the_cases_that_did_not_settle():
+    """plot_waterfall and plot_campbell drew the spectrum of a case that had not settled
+    (status != 0) as a steady one, unlike every other plot function (an outside reviewer): its
+    trace is empty, its column uncoloured (white), and both say how many."""
+    ds = _spectrum_result()
+    fig = plt.figure()
+    ax = fig.add_subplot(projection="3d")
+    plot_waterfall(ax, ds, traces=5)
+    z = [ln.get_data_3d()[2] for ln in ax.get_lines()]
+    assert len(z) == 5 and np.isnan(z[2]).all()
+    assert all(np.isfinite(z[i]).all() for i in (0, 1, 3, 4))
+    assert_allclose(z[3], ds.spectrum.values[3, 1:])
+    assert [t.get_text() for t in ax.texts] == [
+        "1 of 5 speeds drawn not settled (masked: no trace)"]
+    fig = plt.figure()
+    ax = fig.add_subplot(projection="3d")
+    plot_waterfall(ax, ds, traces=2)  # speeds 0 and 4: none masked, nothing said
+    assert not ax.texts
+    fig, ax = plt.subplots()
+    plot_campbell(ax, ds, natural_frequency_hz=False, floor=1e-3)
+    image = np.ma.filled(ax.collections[0].get_array(), np.nan).reshape(4, 5)
+    assert np.isnan(image[:, 2]).all() and np.isfinite(np.delete(image, 2, axis=1)).all()
+    assert ax.collections[0].norm.vmax == pytest.approx(ds.spectrum.values[[0, 1, 3, 4], 1:].max())
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "white: 1 of 5 speeds not settled (masked)"]
+    fig, ax = plt.subplots()
+    plot_campbell(ax, ds.assign(status=ds.status * 0), natural_frequency_hz=False)
+    assert ax.get_legend() is None
+    assert np.isfinite(np.ma.filled(ax.collections[0].get_array(), np.nan)).all()
+    plt.close("all")

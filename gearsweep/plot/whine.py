@@ -20,6 +20,7 @@ import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
 from gearsweep.analysis.spectrum import wrap_phase
 from gearsweep.model import model_from_record
@@ -177,6 +178,9 @@ def plot_waterfall(
         Draw f_n [Hz] on the floor of the plot (dashed), where the order lines resonate.
     zlabel : str, optional
         Label of the amplitude axis (default: from the variable: p in µm or a force in N).
+
+    Only settled cases (``status == 0``) are drawn: a trace of a case that has not settled is
+    left empty, and the number of such traces is written in the axes' lower left corner.
     """
     if not hasattr(ax, "set_zlabel"):  # else it drew, then failed on the z label
         raise TypeError("plot_waterfall draws on a 3-D axes: fig.add_subplot(projection='3d')")
@@ -184,6 +188,10 @@ def plot_waterfall(
     da = _on_speed_and_order(ds, variable, "plot_waterfall")
     speed, speed_label = _speed_axis(ds, driven_teeth)
     pick = np.unique(np.linspace(0, len(speed) - 1, traces).round().astype(int))
+    # a case that has not settled is no trace (as in every other plot), counted among the drawn
+    da, _, _ = settled(da, ds)
+    n_bad = (int((ds["status"] != 0).broadcast_like(ds["speed"]).values[pick].sum())
+             if "status" in ds else 0)
     orders = ds["order"].values
     cols = orders > 0 if skip_mean else np.ones(orders.shape, bool)
     is_force = da.attrs.get("units") == "N"
@@ -204,6 +212,9 @@ def plot_waterfall(
         ax.plot(f_line[keep], speed[keep], np.zeros(int(keep.sum())), color="tab:red", ls="--",
                 lw=1.0, label=f"f_n = {natural_frequency_hz / 1e3:.2f} kHz")
         ax.legend(loc="upper left", fontsize=8)
+    if n_bad:
+        ax.text2D(0.02, 0.02, f"{n_bad} of {len(pick)} speeds drawn not settled (masked: no"
+                  " trace)", transform=ax.transAxes, fontsize=8)
     ax.set_xlabel(f"frequency [{f_unit}]" if x == "frequency" else "mesh order [-]")
     ax.set_ylabel(speed_label)
     ax.set_zlabel(zlabel or ("force amplitude [N]" if is_force else "amplitude of p [µm]"))
@@ -248,23 +259,30 @@ def plot_campbell(
         about F_m / k0, is no vibration; drawn, it was a bright row under the order lines and,
         where it is the largest amplitude, the top of the colour scale (as ``plot_waterfall``'s
         ``skip_mean``).
+
+    Only settled cases (``status == 0``) are coloured: the column of a speed whose case has not
+    settled is left white, and counted in the legend.
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da = _on_speed_and_order(ds, variable, "plot_campbell")
+    da, _, _ = settled(da, ds)  # a case that has not settled is no colour (as in every plot)
+    n_bad = (int((ds["status"] != 0).broadcast_like(ds["speed"]).sum()) if "status" in ds
+             else 0)
     is_force = da.attrs.get("units") == "N"
     scale = 1.0 if is_force else UM
     speed, speed_label = _speed_axis(ds, driven_teeth)
     order = ds["order"].values
-    amp = np.clip(da.transpose("order", "speed").values * scale, floor, None)
+    amp = np.clip(da.transpose("order", "speed").values * scale, floor, None)  # (NaN stays)
     if skip_mean:
-        amp[order == 0, :] = floor
+        amp[order == 0, :] = np.where(np.isnan(amp[order == 0, :]), np.nan, floor)
     if natural_frequency_hz is None:
         natural_frequency_hz = result_natural_frequency(ds)
     elif natural_frequency_hz is False:
         natural_frequency_hz = None
-    mesh = ax.pcolormesh(_edges(speed), _edges(order), amp, norm=LogNorm(vmin=floor,
-                         vmax=float(amp.max())), cmap="inferno", shading="flat",
-                         rasterized=True)
+    vmax = float(np.nanmax(amp)) if np.isfinite(amp).any() else 10 * floor
+    mesh = ax.pcolormesh(_edges(speed), _edges(order), amp, norm=LogNorm(vmin=floor, vmax=vmax),
+                         cmap=matplotlib.colormaps["inferno"].with_extremes(bad="white"),
+                         shading="flat", rasterized=True)
     cb = ax.figure.colorbar(mesh, ax=ax, pad=0.02)
     cb.set_label("force amplitude [N]" if is_force else "amplitude of p [µm]")
     ax.set_yticks(list(orders), minor=True)
@@ -277,7 +295,12 @@ def plot_campbell(
             s_n = np.interp(natural_frequency_hz / n, f_mesh, speed, left=np.nan, right=np.nan)
             if np.isfinite(s_n):
                 ax.plot(s_n, n, "o", mfc="none", mec="tab:cyan", ms=9, mew=1.2)
-        ax.legend(loc="upper right", fontsize=8)
+    handles = ax.get_legend_handles_labels()[0]
+    if n_bad:  # (a proxy: the white cells are no artist of their own)
+        handles.append(Patch(facecolor="white", edgecolor="0.5",
+                             label=f"white: {n_bad} of {speed.size} speeds not settled (masked)"))
+    if handles:
+        ax.legend(handles=handles, loc="upper right", fontsize=8)
     ax.set_ylim(order[0], order[-1])
     ax.set_xlabel(speed_label)
     ax.set_ylabel("order = frequency / mesh frequency [-]")
