@@ -908,3 +908,43 @@ def test_a_jump_bracket_does_not_move_with_a_far_point_that_did_not_settle():
         jp = jumps.find_jumps(speed, up, down, settled_down=settled)
         assert (float(jp.down_low), float(jp.down_high)) == (1400.0, 1500.0), unsettled
         assert float(jp.down_speed) == 1450.0
+
+
+def test_rattle_contact_says_drive_flank_impacts_only_where_the_back_flank_fraction_is_zero():
+    """Fig. 8's note "(free flight, drive-flank impacts only)" above the run-up drop was typed,
+    whatever the back-flank fraction it draws beside it (an outside reviewer): it is read from
+    the run-up's backside_contact_fraction above jump_up_speed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import xarray as xr
+
+    from gearsweep.plot import rattle as pr
+
+    speed = np.linspace(6000.0, 10000.0, 5)
+    dr = ("direction", "speed")
+    back = np.zeros((2, 5))
+    back[1, 4] = 0.25  # the run-down: not above the run-up drop's reading
+
+    def balance(back):
+        return xr.Dataset(
+            {"contact_loss_fraction": (dr, np.full((2, 5), 0.9)),
+             "backside_contact_fraction": (dr, back),
+             "contact_loss_above_drop_min": ((), 0.9), "contact_loss_above_drop_max": ((), 0.95),
+             "jump_up_speed": ((), 7500.0)},
+            coords={"speed": ("speed", speed, {"units": "rpm"}), "direction": ["up", "down"]})
+
+    def note(ds):
+        fig, ax = plt.subplots()
+        pr.plot_rattle_contact(ax, ds)
+        (text,) = [t.get_text() for t in ax.texts]
+        plt.close(fig)
+        return " ".join(text.split())
+
+    assert note(balance(back)).endswith("(free flight, drive-flank impacts only)")
+    back[0, 3] = 0.12  # the run-up above its drop (8000 rpm > 7500)
+    assert note(balance(back)).endswith("(free flight, back flanks in contact up to 12% of the"
+                                        " time)")
+    back[0, 3], back[0, 0] = 0.0, 0.3  # below the drop: not what the note is about
+    assert note(balance(back)).endswith("drive-flank impacts only)")
