@@ -19,6 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import numpy as np
 import xarray as xr
 from _common import open_result, parse
 
@@ -93,9 +94,13 @@ def draw_sources(results: Path, figures: Path) -> None:
         plot_order_lines(ax, ds, orders=orders, log=True)
         for n in orders:
             ax.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
-        ax.set_ylim(1e-4, 10)
         two_columns(ax)
         ax.set_title(f"({tag}) {ds.attrs['title']}\n{damping_text(ds)}", fontsize=8.5, loc="left")
+    # down to the decade under the smallest peak drawn: below 1e-4 um orders 8-10 of (b), the STE
+    # off, were in the legend but not on the axes
+    peaks = [np.nanmax(ln.get_ydata()) for ax in axs for ln in ax.get_lines()
+             if ln.get_label().startswith("order ")]
+    axs[0].set_ylim(min(1e-4, 10 ** np.floor(np.log10(min(peaks)))), 10)
     fig.suptitle("Where the mesh orders of Fig. 5 come from: the study, the STE off, the ripple"
                  " off; dotted: 60 f_n / (48 n)", fontsize=10)
     print(save(fig, figures / "fig05_order_sources.png", dpi=150))

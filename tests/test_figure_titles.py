@@ -14,6 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import xarray as xr  # noqa: E402
 
@@ -108,4 +109,24 @@ def test_fig11_gives_the_order_lines_change_to_a_tenth_of_a_percent(rig, tmp_pat
     for n, text in zip((1, 2, 3), changes.groups(), strict=True):
         line = x.sel(order=float(n)).values
         assert text == f"{line[-1] / line[0] - 1:+.1%}"
+    plt.close("all")
+
+
+@pytest.mark.filterwarnings("ignore::gearsweep.errors.ContactLossWarning")  # (the study's own)
+def test_fig05_order_sources_shows_every_order_line_it_names(tmp_path, monkeypatch, capsys):
+    """Panel (b), the STE off, named orders 8-10 in its legend while their peaks (5.8e-5 to
+    4.6e-6 um) lay under its fixed lower limit of 1e-4 um: the limit now goes down to the decade
+    under the smallest peak drawn."""
+    results = tmp_path / "results"
+    for name in ("fig05_waterfall", "fig05_waterfall_no_ste", "fig05_waterfall_no_ripple"):
+        text = (ROOT / "studies" / f"{name}.yaml").read_text(encoding="utf-8")
+        assert text.count("num: 2000") == 1
+        gearsweep.run(text.replace("num: 2000", "num: 25"), output=results / f"{name}.nc")
+    fig = draw("fig05_waterfall.py", results, tmp_path, monkeypatch)["fig05_order_sources.png"]
+    for ax in fig.axes:
+        low, high = ax.get_ylim()
+        lines = [ln for ln in ax.get_lines() if ln.get_label().startswith("order ")]
+        assert len(lines) == 10
+        for ln in lines:
+            assert low <= np.nanmax(ln.get_ydata()) <= high, (ax.get_title(loc="left"), ln.get_label())
     plt.close("all")
