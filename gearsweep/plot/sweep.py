@@ -150,9 +150,9 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
                                           f"run-{dv}" if dv else "") if x)
             ax.plot(ds["speed"].values, sel.values * scale, color=colors[i],
                     label=label or None, lw=1.2, zorder=2, **style)
-    n_lost = int((lost_all & da.notnull()).sum())
+    n_lost = int((lost_all & da.notnull()).sum())  # of the points drawn (as the other plot)
     mark_contact_lost_lines(ax, ds["speed"].values, bands,
-                            contact_lost_label(n_lost, n_all - n_masked))
+                            contact_lost_label(n_lost, int(da.notnull().sum())))
     name = ds[var].attrs.get("long_name", var)
     ax.set_xlabel(speed_label(ds["speed"]))
     ax.set_ylabel(f"{name} [{unit}]" if unit else name)
