@@ -262,3 +262,92 @@ def test_a_start_far_from_rest_is_within_the_divergence_bound(start):
     ds = gearsweep.run(FREE.replace("initial_velocity: VALUE", start).replace(
         "mean_force: 0 N", "mean_force: 100 N"))
     assert (ds.status != 1).all()
+
+
+# ------------------------------------------------ numbers YAML 1.1 and YAML 1.2 read differently
+
+
+def test_a_number_yaml_1_1_and_1_2_read_differently_is_refused_naming_both_readings():
+    """PyYAML's YAML 1.1 resolvers read 03000 as octal (1536), 50:00 as base 60 (3000), 0b10 as
+    binary and 1_000 as 1000; YAML 1.2 reads 03000 as 3000, the others as text, and 0o10 as 8
+    (which YAML 1.1 reads as text). ``speed: [03000, 04000]`` validated as 1536-2048 rpm and
+    ``teeth: 030`` as 24 teeth, exit 0 (an outside tester's finding). Each is one line, at its
+    own line, naming both readings, in a flow sequence, a flow mapping or a block."""
+    text = (GOOD.replace("speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                         "speed: [03000, 50:00, 1:30.5, 0o10]")
+            .replace("teeth: 48", "teeth: 030")
+            .replace("steps_per_period: 32, transient_periods: 4",
+                     "steps_per_period: 0100, transient_periods: 1_000")
+            .replace("record_periods: 4", "record_periods: 0b100"))
+    assert _lines(text) == [
+        ("s.yaml:5: scene.teeth: 030 is read as 24 by YAML 1.1 (a leading 0 makes it octal) and"
+         " as 30 by YAML 1.2: write it without the leading 0 (30), or 24 if octal was meant"),
+        ("s.yaml:10: sweep.speed[0]: 03000 is read as 1536 by YAML 1.1 (a leading 0 makes it"
+         " octal) and as 3000 by YAML 1.2: write it without the leading 0 (3000), or 1536 if"
+         " octal was meant"),
+        ("s.yaml:10: sweep.speed[1]: 50:00 is read as 3000 by YAML 1.1 (base 60) and as the text"
+         " '50:00' by YAML 1.2: write the number in decimal digits (3000), or in quotes"
+         " ('50:00') if text is meant"),
+        ("s.yaml:10: sweep.speed[2]: 1:30.5 is read as 90.5 by YAML 1.1 (base 60) and as the text"
+         " '1:30.5' by YAML 1.2: write the number in decimal digits (90.5), or in quotes"
+         " ('1:30.5') if text is meant"),
+        ("s.yaml:10: sweep.speed[3]: 0o10 is read as the text '0o10' by YAML 1.1 and as 8 by"
+         " YAML 1.2 (octal): write the number in decimal digits (8), or in quotes ('0o10') if"
+         " text is meant"),
+        ("s.yaml:11: solver.steps_per_period: 0100 is read as 64 by YAML 1.1 (a leading 0 makes"
+         " it octal) and as 100 by YAML 1.2: write it without the leading 0 (100), or 64 if"
+         " octal was meant"),
+        ("s.yaml:11: solver.transient_periods: 1_000 is read as 1000 by YAML 1.1 (digits grouped"
+         " by _) and as the text '1_000' by YAML 1.2: write the number in decimal digits (1000),"
+         " or in quotes ('1_000') if text is meant"),
+        ("s.yaml:11: solver.record_periods: 0b100 is read as 4 by YAML 1.1 (binary) and as the"
+         " text '0b100' by YAML 1.2: write the number in decimal digits (4), or in quotes"
+         " ('0b100') if text is meant")]
+    with pytest.raises(StudyError) as err:  # one value, written in a block
+        parse_study(GOOD.replace("speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                                 "speed:\n    - 3000\n    - 04000"), "s.yaml")
+    assert str(err.value).startswith("s.yaml:12: sweep.speed[1]: 04000 is read as 2048"), err.value
+    with pytest.raises(StudyError) as err:  # a scalar axis is named as written
+        parse_study(GOOD.replace("speed: {start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                                 "speed: 03000"), "s.yaml")
+    assert str(err.value).startswith("s.yaml:10: sweep.speed: 03000 is read as 1536"), err.value
+
+
+@pytest.mark.parametrize("written", ["0x10", "+5", ".5", "-0.5", "1.5e+3", "1e3", "007", "089",
+                                     "10", "0", ".inf", ".nan", "'030'", "1_000 rpm", "8:00"])
+def test_a_number_both_yaml_versions_read_alike_is_taken(written):
+    """Where YAML 1.1 and 1.2 agree (0x10 is 16 in both; 007 is 7; 1e3, which YAML 1.1 leaves as
+    text, is read by the fields as 1000, as YAML 1.2 reads it) nothing is refused for the
+    reading; a quoted value or a quantity's text is not a YAML number at all (8:00, a time of
+    day to a reader, is 480 to YAML 1.1 and text to YAML 1.2: refused)."""
+    from gearsweep.study.schema import load_yaml
+
+    text = f"a: {written}\nb: [{written}]\nc: {{d: {written}}}\n"
+    if written == "8:00":
+        with pytest.raises(StudyError):
+            load_yaml(text, "s.yaml")
+        return
+    assert load_yaml(text, "s.yaml") is not None
+
+
+def test_a_speed_in_hexadecimal_or_with_an_exponent_is_read_as_both_yaml_versions_read_it():
+    study = parse_study(GOOD.replace("{start: 5000 rpm, stop: 6000 rpm, num: 3}",
+                                     "[0xBB8, 4e3, 5.0e+3]"), "s.yaml")
+    assert list(study.grid("speed")) == [3000, 4000, 5000]  # rpm
+
+
+def test_a_whole_number_with_an_exponent_is_taken_as_the_number_it_is():
+    """``num: 1e3`` (text to YAML 1.1, 1000.0 to YAML 1.2) said "Input should be a valid integer,
+    unable to parse string as an integer" of a number the user wrote, while ``num: 1.0e+3`` was
+    1000; 1e12 and 1e400 said the same (an outside tester's finding). An exponent's number is
+    taken as a whole number's field takes 1000.0, and held to the field's bounds."""
+    study = parse_study(GOOD.replace("num: 3}", "num: 1e1}"), "s.yaml")
+    assert len(study.grid("speed")) == 10
+    assert _lines(GOOD.replace("num: 3}", "num: 1e12}")) == [
+        "s.yaml:10: sweep.speed.num: '1e12' -- Input should be less than or equal to 10000000"]
+    assert _lines(GOOD.replace("num: 3}", "num: 2.5e0}")) == [
+        ("s.yaml:10: sweep.speed.num: '2.5e0' -- Input should be a valid integer, got a number"
+         " with a fractional part")]
+    assert _lines(GOOD.replace("teeth: 48", "teeth: 1e400")) == [
+        ("s.yaml:5: scene.teeth: '1e400' -- a whole number (1e400 is beyond the largest number,"
+         " about 1.8e308)")]

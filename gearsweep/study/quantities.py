@@ -39,9 +39,20 @@ Damping, Stiffness, Inertia, Angle, Speed = (Q("damping"), Q("stiffness"), Q("in
 Displacement, Pressure, Velocity = Q("displacement"), Q("pressure"), Q("velocity")
 
 
+_EXPONENT = re.compile(r"\s*[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)[eE][-+]?[0-9]+\s*")
+"""A number with an exponent (``1e3``) that YAML 1.1 leaves as text (YAML 1.2 reads it as a
+float): pydantic's ``int`` could not parse the text, though it takes ``1.0e+3`` (a float)."""
+
+
 def _whole(value: Any) -> Any:
     if isinstance(value, bool):
         raise ValueError("a whole number (not true or false)")
+    if isinstance(value, str) and _EXPONENT.fullmatch(value):
+        number = float(value)  # then as the float YAML 1.2 reads: whole, within the bounds
+        if not math.isfinite(number):
+            raise ValueError(f"a whole number ({value.strip()} is beyond the largest number,"
+                             " about 1.8e308)")
+        return number
     return value
 
 

@@ -911,6 +911,10 @@ class _Loader(yaml.SafeLoader):
         self.odd_keys: list[tuple[_Map, str, int, Any]] = []
         """Keys YAML reads as other than a name (``on``, ``no``, ``2``, ``~``): (mapping, the key
         as written, its line, what YAML read); the mapping holds them as written."""
+        self.odd_numbers: list[tuple[Any, str | int, int, str]] = []
+        """Values YAML 1.1 and YAML 1.2 read differently (``030``, ``50:00``, ``0o10``):
+        (mapping or sequence, key or index, line, message); the container holds YAML 1.1's
+        reading (``_two_readings``)."""
 
 
 def _construct_map(loader: _Loader, node: yaml.MappingNode):
@@ -947,6 +951,7 @@ def _construct_map(loader: _Loader, node: yaml.MappingNode):
                 "while constructing a mapping", node.start_mark, "found an unhashable key",
                 knode.start_mark) from None
         data.lines[key] = knode.start_mark.line + 1
+        _note_two_readings(loader, data, key, vnode, data[key])
 
 
 def _construct_seq(loader: _Loader, node: yaml.SequenceNode):
@@ -954,6 +959,78 @@ def _construct_seq(loader: _Loader, node: yaml.SequenceNode):
     data.line, data.lines = node.start_mark.line + 1, [n.start_mark.line + 1 for n in node.value]
     yield data
     data.extend(_construct(loader, n) for n in node.value)
+    for i, (n, value) in enumerate(zip(node.value, data, strict=True)):
+        _note_two_readings(loader, data, i, n, value)
+
+
+_YAML12_NUMBER = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+                            r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)")
+"""A float (or decimal integer) of YAML 1.2's core schema."""
+
+
+def _yaml12_reading(text: str) -> int | float | str:
+    """What YAML 1.2's core schema reads the plain scalar ``text`` as, of numbers: a decimal,
+    octal (``0o``) or hexadecimal (``0x``) integer, a float, else the text."""
+    if re.fullmatch(r"[-+]?[0-9]+", text):
+        return int(text)
+    if re.fullmatch(r"0o[0-7]+|0x[0-9a-fA-F]+", text):
+        return int(text[2:], 8 if text[1] == "o" else 16)
+    if not _YAML12_NUMBER.fullmatch(text):
+        return text
+    return float(text.replace(".", "", 1)) if text.lower().lstrip("+-") in (".inf", ".nan") \
+        else float(text)
+
+
+def _same_number(a: Any, b: Any) -> bool:
+    return a == b or (isinstance(a, float) and isinstance(b, float) and a != a and b != b)
+
+
+def _two_readings(node: yaml.Node, value: Any) -> str | None:
+    """Why the plain scalar ``node``, which this (YAML 1.1) loader read as ``value``, reads
+    otherwise in YAML 1.2, or ``None`` where the two agree (or it is no number in either).
+
+    YAML 1.1 reads 030 as octal (24), 50:00 and 1:30.5 as base 60, 0b10 as binary and 1_000 with
+    its digits grouped; YAML 1.2 reads 030 as 30, the others as text, and 0o10 as 8 (text in
+    YAML 1.1). A study file is kept with its results and read by other tools, some of each
+    version: such a number is refused, naming both readings, rather than taken in either (what
+    ``speed: [03000, 04000]`` meant was 3000-4000 rpm, not the 1536-2048 rpm it ran). Text that
+    YAML 1.2 alone reads as a number the fields read as that number (1e3, 089: a quantity's or a
+    whole number's text), so it agrees."""
+    if not isinstance(node, yaml.ScalarNode) or node.style is not None or isinstance(value, bool):
+        return None
+    text = node.value
+    if isinstance(value, str):
+        if value != text:
+            return None
+        v12 = _yaml12_reading(text)
+        try:
+            if isinstance(v12, str) or _same_number(float(text), v12):
+                return None
+        except ValueError:
+            pass
+        return (f"{text} is read as the text '{text}' by YAML 1.1 and as {v12!r} by YAML 1.2"
+                f" (octal): write the number in decimal digits ({v12!r}), or in quotes"
+                f" ('{text}') if text is meant")
+    if not isinstance(value, int | float):
+        return None
+    v12 = _yaml12_reading(text)
+    if isinstance(v12, int | float):
+        if _same_number(value, v12):
+            return None
+        return (f"{text} is read as {value!r} by YAML 1.1 (a leading 0 makes it octal) and as"
+                f" {v12!r} by YAML 1.2: write it without the leading 0 ({v12!r}), or"
+                f" {value!r} if octal was meant")
+    why = ("base 60" if ":" in text else "binary" if "0b" in text else "digits grouped by _")
+    return (f"{text} is read as {value!r} by YAML 1.1 ({why}) and as the text '{text}' by YAML"
+            f" 1.2: write the number in decimal digits ({value!r}), or in quotes ('{text}') if"
+            " text is meant")
+
+
+def _note_two_readings(loader: _Loader, container: Any, key: str | int, node: yaml.Node,
+                       value: Any) -> None:
+    message = _two_readings(node, value)
+    if message is not None:
+        loader.odd_numbers.append((container, key, node.start_mark.line + 1, message))
 
 
 def _construct(loader: _Loader, node: yaml.Node) -> Any:
@@ -1089,7 +1166,7 @@ def load_yaml(text: str, file: str, duplicates: list | None = None) -> Any:
     finally:
         if loader is not None:
             loader.dispose()
-    if loader.duplicates or loader.odd_keys:
+    if loader.duplicates or loader.odd_keys or loader.odd_numbers:
         problems = []
         for container, key, line, first in loader.duplicates:
             where = _path_of(raw, container) or ""
@@ -1104,6 +1181,11 @@ def load_yaml(text: str, file: str, duplicates: list | None = None) -> Any:
             msg = (f"{key!r} as a key is read by YAML as {what}, not as a name; write it in"
                    f" quotes ('{key}') if a name is meant")
             problems.append((line, f"{where}.{key}" if where else key, NO_VALUE, msg))
+        for container, key, line, msg in loader.odd_numbers:
+            where = _path_of(raw, container) or ""
+            path = (f"{where}[{key}]" if isinstance(key, int) else f"{where}.{key}" if where
+                    else str(key))
+            problems.append((line, _as_file_writes(raw, path), NO_VALUE, msg))
         if duplicates is None:
             raise StudyError.many(file, problems)
         duplicates.extend(problems)
