@@ -381,8 +381,9 @@ def test_the_problems_found_when_planning_are_said_at_once():
         make_plan(study, text, "s.yaml")
     lines = str(err.value).splitlines()
     assert [ln.split(" -- ")[0] for ln in lines] == [
-        "s.yaml:12: solver.record_periods: 1", "s.yaml:12: solver.steps_per_period: 60",
-        "s.yaml:13: outputs[1].spectrum.pinion: True"], lines
+        "s.yaml:12: solver.record_periods: 1",  # (the clash of 7 samples with 60 steps: at the
+        "s.yaml:13: outputs[1].spectrum.pinion: True",  # later written, samples_per_period)
+        "s.yaml:13: outputs[1].spectrum.samples_per_period: 7"], lines
 
 
 def test_an_output_s_options_are_said_beside_the_study_s_other_problems():
@@ -661,8 +662,9 @@ def test_a_problem_found_when_planning_names_the_file_and_line(tmp_path, capsys)
                     "outputs: [{spectrum: {samples_per_period: 16}}]\n", encoding="utf-8")
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
-    assert err == (f"gearsweep: error: {path}:4: solver.steps_per_period: 30 -- a multiple of 16"
-                   " (the samples per period the outputs need)\n")
+    assert err == (f"gearsweep: error: {path}:5: outputs[0].spectrum.samples_per_period: 16 --"
+                   " a divisor of solver.steps_per_period (30): the samples are taken from the"
+                   " steps\n")  # (the later written of the two)
 
 
 def test_a_duplicate_key_a_scene_error_and_a_sweep_error_are_three_lines(tmp_path, capsys):
@@ -1948,3 +1950,48 @@ def test_a_torque_fluctuation_beside_a_typed_mass_is_noted(tmp_path, capsys):
     path.write_text(torque.replace("10 N*m", "300 N"))
     assert main(["validate", str(path)]) == 0
     assert "typed mass" not in capsys.readouterr().err
+
+
+def test_a_clash_of_steps_and_samples_per_period_is_said_at_the_later_written_field():
+    """With the spectrum's samples_per_period 48 written after solver.steps_per_period 64 it said
+    "s1.yaml:18: solver.steps_per_period: 64 -- a multiple of 48" at the earlier field (an outside
+    tester's finding); the README's rule is the later written of the two. Written the other way
+    round (outputs first), it is said at steps_per_period."""
+
+    def _planned(text: str) -> list[str]:
+        with pytest.raises(StudyError) as err:
+            make_plan(parse_study(text, "s.yaml"), text, "s.yaml")
+        return str(err.value).split("\n")
+
+    text = GOOD + "outputs:\n  - spectrum: {samples_per_period: 12}\n"
+    assert _planned(text) == [
+        ("s.yaml:13: outputs[0].spectrum.samples_per_period: 12 -- a divisor of"
+         " solver.steps_per_period (32): the samples are taken from the steps")]
+    solver = "solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}\n"
+    first = ("outputs:\n  - spectrum: {samples_per_period: 12}\n" + solver)
+    assert _planned(GOOD.replace(solver, first)) == [
+        ("s.yaml:13: solver.steps_per_period: 32 -- a multiple of 12 (the samples per period the"
+         " outputs need)")]
+    main_ok = GOOD + "outputs:\n  - spectrum: {samples_per_period: 16}\n"
+    make_plan(parse_study(main_ok, "s.yaml"), main_ok, "s.yaml")
+
+
+def test_a_gears_harmonics_against_the_steps_per_period_is_said_at_the_later_written_field():
+    """The same rule for a gear's ``harmonics`` against ``steps_per_period`` (4 steps per period
+    of the highest harmonic): at the steps where the solver is written below the scene, at the
+    harmonics where the scene is written below the solver."""
+    solver = "solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}\n"
+    scene = ("scene:\n  kind: rattle\n  gear: table1_consistent\n  harmonics: 10\n"
+             "  torque: 50 N*m\n  mass: 0.1527 kg\n  backlash: 0.4698 mm\n  damping: 4.92 N*s/mm\n")
+    sweep = "sweep:\n  speed: [3000 rpm]\n"
+    lines = []
+    for text in ("title: t\n" + scene + sweep + solver, "title: t\n" + solver + scene + sweep):
+        with pytest.raises(StudyError) as err:
+            make_plan(parse_study(text, "s.yaml"), text, "s.yaml")
+        lines.append(str(err.value))
+    assert lines == [
+        ("s.yaml:12: solver.steps_per_period: 32 -- at least 40 (4 steps per period of the highest"
+         " excitation harmonic, mesh order 10, the gear's harmonics: 10; fewer cannot follow its"
+         " forcing)"),
+        ("s.yaml:6: scene.harmonics: 10 -- at most 8 (4 steps per period of the highest harmonic:"
+         " solver.steps_per_period is 32)")]

@@ -451,21 +451,52 @@ def _make_plan(study: Study, text: str) -> Plan:
         top = max(orders)  # 8.8e-14 um against 3.56 um at 1024 steps, status 0)
         whose = (f", the gear's harmonics: {gear}" if gear == top else
                  f", scene.excitation.harmonics: {fitted}" if fitted == top else "")
-        problems.append(StudyError("<study>", "solver.steps_per_period", spp, (
-            f"at least {math.ceil(STEPS_PER_HARMONIC * top)} ({STEPS_PER_HARMONIC} steps per"
-            f" period of the highest excitation harmonic, mesh order {top:g}{whose}; fewer"
-            " cannot follow its forcing)")))
+        fewest = (f"at most {spp // STEPS_PER_HARMONIC} ({STEPS_PER_HARMONIC} steps per period"
+                  f" of the highest harmonic: solver.steps_per_period is {spp})")
+        problems.append(_at_later_written(study, text, StudyError(
+            "<study>", "solver.steps_per_period", spp, (
+                f"at least {math.ceil(STEPS_PER_HARMONIC * top)} ({STEPS_PER_HARMONIC} steps per"
+                f" period of the highest excitation harmonic, mesh order {top:g}{whose}; fewer"
+                " cannot follow its forcing)")),
+            [(f, n, fewest) for f, n in (("scene.harmonics", gear),
+                                         ("scene.excitation.harmonics", fitted)) if n == top]))
     sps = None if refused else plan.samples_per_period()  # (options refused: their defaults
     if sps and spp % sps:  # are no guide to the samples the study asks for)
-        problems.append(StudyError("<study>", "solver.steps_per_period", spp,
-                                   f"a multiple of {sps} (the samples per period the outputs"
-                                   " need)"))
+        problems.append(_at_later_written(study, text, StudyError(
+            "<study>", "solver.steps_per_period", spp,
+            f"a multiple of {sps} (the samples per period the outputs need)"),
+            [(f"outputs.{o}.samples_per_period", sps, (f"a divisor of solver.steps_per_period"
+              f" ({spp}): the samples are taken from the steps")) for o in plan.outputs
+             if getattr(plan.options.get(o), "samples_per_period", None) == sps]))
     if problems:  # one line per field (record_periods was said by the spectrum and the plan)
         said = {}
         for p in (p for e in problems for p in e.problems):
             said.setdefault(p[1], p)
         raise StudyError.many("<study>", list(said.values()))
     return plan
+
+
+def _at_later_written(study: Study, text: str, err: StudyError,
+                      others: list[tuple[str, Any, str]]) -> StudyError:
+    """``err``, a problem between its field and each of ``others`` (``(field, value, message)``
+    saying it at that field), said at the one of them the study file writes last (the README's
+    rule: a problem between two fields is said at the later written of the two); ``err`` itself
+    where the file writes none of the others later, or there is no file. It said "solver.
+    steps_per_period: 64 -- a multiple of 48" at the solver's line with the spectrum's
+    ``samples_per_period: 48`` written below it (an outside tester's finding)."""
+    if not text or not others:
+        return err
+    raw = load_yaml(text, "<study>")
+
+    def written_line(field_: str) -> int:
+        where = _field_in_file(study, raw, field_)
+        return (line_of(raw, where) or 0) if written_at(raw, where) is not None else 0
+
+    line, at = written_line(err.field), None
+    for other in others:
+        if written_line(other[0]) > line:
+            line, at = written_line(other[0]), other
+    return err if at is None else StudyError("<study>", *at)
 
 
 def _lanes(plan: Plan, lane0: int, lane1: int, guard: bool = False
