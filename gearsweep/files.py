@@ -228,6 +228,32 @@ class DirectFile:
             os.close(self.fd)
 
 
+def utf8_text(data: bytes) -> str:
+    """``data`` decoded as UTF-8 (a leading byte-order mark dropped); bytes that are not UTF-8
+    raise ``NotUtf8`` naming the line and column of the first of them."""
+    body = data[3:] if data.startswith(b"\xef\xbb\xbf") else data
+    try:
+        return body.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise NotUtf8(body, exc) from None
+
+
+class NotUtf8(ValueError):
+    """Text that is not UTF-8: ``line`` and ``column`` (from 1; the column in characters) of its
+    first bad byte, and ``what`` says so (``byte 0xe9 at column 12``), for a line of the file's
+    ``path:LINE:`` form (a Latin-1 study or CSV said no line: an outside tester's finding)."""
+
+    def __init__(self, data: bytes, exc: UnicodeDecodeError) -> None:
+        start = exc.start
+        begins = data.rfind(b"\n", 0, start) + 1
+        self.line = data.count(b"\n", 0, start) + 1
+        self.column = len(data[begins:start].decode("utf-8", "replace")) + 1
+        bad = data[start:max(exc.end, start + 1)]
+        self.what = (f"byte{'s' if len(bad) > 1 else ''} {' '.join(f'0x{b:02x}' for b in bad)}"
+                     f" at column {self.column}")
+        super().__init__(f"line {self.line}: {self.what} is not UTF-8 text")
+
+
 def replace_problem(path: str | Path) -> str | None:
     """Why a result cannot be renamed over ``path`` (``None``: it is a regular file or nothing).
     A result is written beside its path and renamed over it, which would replace a device, a

@@ -797,3 +797,16 @@ def test_a_mesh_result_over_several_torques_gives_the_scenes_load(tmp_path, caps
     rc, err = validate("  torque: 50 N*m\n  excitation: {file: pairs.nc}\n  teeth: 48\n")
     assert rc == 2 and err.count("\n") == 1, err
     assert "several gear pairs (variant): one pair a file" in err, err
+def test_a_csv_not_in_utf8_names_the_line_and_column_of_its_first_bad_byte(tmp_path):
+    """A Latin-1 CSV (a micro sign 0xb5 in its header) said "cannot read the file
+    (UnicodeDecodeError)", no line (an outside tester's finding): its line in the file and the
+    column, as for a sample that is not a number."""
+    (tmp_path / "x.csv").write_bytes(b"# a test file\nmesh_phase [1], ste [\xb5m]\n0.0, 1.0\n")
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  stiffness: 2e8 N/m\n  excitation: {file: x.csv}\n")))
+    with pytest.raises(StudyError) as e:
+        load_study(f)
+    (line,) = str(e.value).splitlines()
+    assert line.startswith(f"{f}:") and line.endswith(
+        "scene.excitation.file: 'x.csv' -- line 2: byte 0xb5 at column 22 is not UTF-8 text"
+        " (save the file as UTF-8)"), line

@@ -1995,3 +1995,20 @@ def test_a_gears_harmonics_against_the_steps_per_period_is_said_at_the_later_wri
          " forcing)"),
         ("s.yaml:6: scene.harmonics: 10 -- at most 8 (4 steps per period of the highest harmonic:"
          " solver.steps_per_period is 32)")]
+
+
+def test_a_study_file_not_in_utf8_names_the_line_and_column_of_its_first_bad_byte(
+        tmp_path, capsys, monkeypatch):
+    """``title: "caf\\xe9"`` (Latin-1) said "x.yaml: (file): 'x.yaml' -- a study file in YAML (not
+    UTF-8 text)", no line (an outside tester's finding)."""
+    path = tmp_path / "x.yaml"
+    path.write_bytes(b"# caf\xc3\xa9 in UTF-8 first\ntitle: \"caf\xe9\"\n")
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == (
+        f"gearsweep: error: {path}:2: (file): not UTF-8 text: byte 0xe9 at column 12 (a study"
+        " file is UTF-8 text: save it as UTF-8)\n")
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(path.read_bytes())))
+    assert main(["validate", "-"]) == 2  # (said "character '\udce9' is not allowed")
+    assert capsys.readouterr().err == (
+        "gearsweep: error: <stdin>:2: (file): not UTF-8 text: byte 0xe9 at column 12 (a study"
+        " file is UTF-8 text: save it as UTF-8)\n")

@@ -49,6 +49,7 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
 from gearsweep.errors import NO_VALUE, article
+from gearsweep.files import NotUtf8, utf8_text
 from gearsweep.gear.measured import (
     FitError,
     MeasuredExcitation,
@@ -191,7 +192,10 @@ _HEADER = re.compile(r"^\s*([^\[\]()]*?)\s*(?:[\[(]\s*([^\[\]()]*?)\s*[\])])?\s*
 
 def _read_csv(path: Path) -> tuple[list[tuple[str, str]], np.ndarray, list[tuple[int, list]], int]:
     """(column names and units, samples, each sample's line and cells, the header's line)."""
-    text = path.read_text(encoding="utf-8-sig")
+    try:
+        text = utf8_text(path.read_bytes())
+    except NotUtf8 as exc:
+        raise ValueError(f"{exc} (save the file as UTF-8)") from None
     numbered = [(i, ln) for i, ln in enumerate(text.splitlines(), 1)
                 if ln.strip() and not ln.lstrip().startswith("#")]
     if not numbered:

@@ -67,6 +67,7 @@ from gearsweep.errors import (
     problem_line,
     signals_held,
 )
+from gearsweep.files import NotUtf8, utf8_text
 from gearsweep.gear import GeometryWarning
 from gearsweep.gear.excitation import static_mesh
 from gearsweep.kernels.cuda import DEVICES, PRECISIONS
@@ -1999,15 +2000,25 @@ def read_text(path: str | Path) -> tuple[str, str]:
     if str(path) == "-":
         import sys
 
-        return sys.stdin.read(), "<stdin>"
+        buffer = getattr(sys.stdin, "buffer", None)  # (bytes: 'character \udce9 is not allowed')
+        try:
+            return (sys.stdin.read() if buffer is None else utf8_text(buffer.read())), "<stdin>"
+        except NotUtf8 as exc:
+            raise StudyError("<stdin>", "(file)", NO_VALUE, (
+                f"not UTF-8 text: {exc.what} (a study file is UTF-8 text: save it as UTF-8)"),
+                exc.line) from None
     path = Path(path)
     try:
-        return path.read_text(encoding="utf-8"), str(path)
-    except (OSError, UnicodeDecodeError) as exc:
-        why = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
-        if isinstance(exc, UnicodeDecodeError) and is_netcdf(path):
-            why = "this is a netCDF result; 'gearsweep inspect' describes it"
-        raise StudyError(str(path), "(file)", str(path), f"a study file in YAML ({why})") from None
+        return utf8_text(path.read_bytes()), str(path)
+    except NotUtf8 as exc:
+        if not is_netcdf(path):
+            raise StudyError(str(path), "(file)", NO_VALUE, (
+                f"not UTF-8 text: {exc.what} (a study file is UTF-8 text: save it as UTF-8)"),
+                exc.line) from None
+        why = "this is a netCDF result; 'gearsweep inspect' describes it"
+    except OSError as exc:
+        why = exc.strerror
+    raise StudyError(str(path), "(file)", str(path), f"a study file in YAML ({why})")
 
 
 def is_netcdf(path: Path) -> bool:
