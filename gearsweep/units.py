@@ -450,7 +450,7 @@ def _to_si_pint_checked(value: object, kind: str) -> float:
     except pint.DimensionalityError:
         found = next((other.name for other in KINDS.values() if other.si and other.name != k.name
                       and ureg.Quantity(1.0, other.si).dimensionality == q.dimensionality), None)
-        what = (f"is {article(found)} ({KINDS[found].display.replace('*', ' ')})" if found
+        what = (f"is {article(found)} ({shown_unit(KINDS[found].display)})" if found
                 else f"has units of {q.dimensionality}")  # 'is a torque', not '[mass] * ...'
         if q.dimensionless and not any(u in _ANGLE_UNITS for u in roots):
             what = "is a plain number (no dimension)"  # '5 %': not 'an angle (deg)'
@@ -459,6 +459,12 @@ def _to_si_pint_checked(value: object, kind: str) -> float:
     if not math.isfinite(result):
         raise UnitParseError("expected a finite number (not nan or inf)")
     return result
+
+
+def shown_unit(unit: str) -> str:
+    """A unit of pint's spelling as a study writes it: ``kg*m**2`` is ``kg m^2``, ``N*s/mm``
+    ``N s/mm`` (each '*' made a space had said "is an inertia (kg m  2)")."""
+    return unit.replace("**", "^").replace("*", " ")
 
 
 @cache

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -527,3 +528,23 @@ def test_a_kept_unit_is_read_without_pint_in_any_spelling_of_its_number(tmp_path
                          text=True).stdout.split()
     assert out[-1] == "False", out
     assert " ".join(out[:-1]) == "[-0.003, 0.003, 0.0005, 1.0, 1073000000.0]"
+
+
+@pytest.mark.parametrize("kind", sorted(k for k in KINDS if KINDS[k].si))
+def test_a_dimension_error_shows_the_unit_it_found_as_a_study_writes_it(kind):
+    """'mass: 0.1527 kg m^2' said "is an inertia (kg m  2), expected mass": the display unit
+    kg*m**2 with each '*' made a space. Every kind's display unit, given where another dimension
+    is expected, is shown readably, as a study would write it, and reads back as that kind."""
+    other = "mass" if kind not in ("mass", "inertia") else "length"
+    with pytest.raises(UnitParseError) as err:
+        to_si(f"1 {KINDS[kind].display}", other)
+    m = re.match(r"is an? (\w+) \(([^()]+)\), expected", str(err.value))
+    if m is None:  # a speed for a mass, an angle: said in their own words
+        assert ("shaft speed (rpm)" in str(err.value) if kind in ("speed", "frequency")
+                else kind == "angle" and "has an angle unit" in str(err.value)), err.value
+        return
+    found, shown = m.groups()  # (the first kind of that dimension: a displacement's is length)
+    assert "*" not in shown and "  " not in shown, shown
+    assert to_si(f"1 {shown}", found) == pytest.approx(to_si(f"1 {KINDS[found].display}", found))
+    if kind == "inertia":
+        assert shown == "kg m^2", shown
