@@ -516,8 +516,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"{name}: {est.line()}")
         if saved:
             done, total = saved_chunks(plan, out, chunk)
-            print(f"{name}: {done} of {total} chunks already saved in {chunk_folder(out)}:"
-                  " a run computes only the others (the estimate is for them all)")
+            saying = (f"all {total} chunks already saved in {chunk_folder(out)}: a run writes"
+                      " the result from them" if done == total else  # (nothing to compute)
+                      f"{done} of {total} chunks already saved in {chunk_folder(out)}: a run"
+                      " computes only the others")
+            print(f"{name}: {saying} (the estimate is for them all)")
         try:  # what the run would be refused for (it said nothing of it; an outside test)
             check_partial(plan, out)
         except BusyError as exc:
@@ -553,9 +556,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             if not args.quiet and est.seconds > SHOW_ESTIMATE_SECONDS:
                 print(f"{name}: {est.line()}", file=sys.stderr)
             saved, total = saved_chunks(plan, out, chunk)
-            if saved and not args.quiet:
-                print(f"{out}: resuming: {saved} of {total} chunks already saved in"
-                      f" {out}.chunks, computing the others", file=sys.stderr)
+            if saved and not args.quiet:  # (all of them: after a full disk, say)
+                print(f"{out}: all {total} chunks already saved in {out}.chunks, writing the"
+                      " result" if saved == total else f"{out}: resuming: {saved} of {total}"
+                      f" chunks already saved in {out}.chunks, computing the others",
+                      file=sys.stderr)
             t0 = time.perf_counter()
             if _STOP.is_set():  # a Ctrl-C before the first chunk
                 raise KeyboardInterrupt

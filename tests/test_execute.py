@@ -287,6 +287,39 @@ def test_the_cli_resumes_in_the_saved_chunks_and_says_so(rattle_reference, tmp_p
         assert_same(ds.load(), rattle_reference, resumed=True)
 
 
+class CrashAtTheEnd(execute.InProcess):
+    """In-process backend that dies once every chunk is computed and saved (the result not
+    written: a full disk at the end, say)."""
+
+    def run(self, plan, todo):
+        yield from super().run(plan, todo)
+        raise Crash
+
+
+def test_a_resume_with_every_chunk_saved_says_it_writes_the_result(rattle_reference, tmp_path,
+                                                                     capsys):
+    """A resume after a full disk said "resuming: 22 of 22 chunks already saved ..., computing
+    the others" with nothing left to compute (an outside tester's finding), and --estimate "a
+    run computes only the others": both say that the run writes the result."""
+    study, out = tmp_path / "r.yaml", tmp_path / "r.nc"
+    study.write_text(RATTLE, encoding="utf-8")
+    plan = plan_of(RATTLE)
+    n = len(plan.chunks(execute.lanes_per_chunk(plan, CHUNK)))
+    with pytest.raises(Crash):
+        execute.run_to_file(plan, out, backend=CrashAtTheEnd(), chunk_cases=CHUNK)
+    assert saved_chunks(plan, out, CHUNK) == (n, n)
+    assert main(["run", str(study), "-o", str(out), "--estimate"]) == 0
+    said = capsys.readouterr().out
+    assert (f"all {n} chunks already saved in {out}.chunks: a run writes the result from them"
+            " (the estimate is for them all)") in said, said
+    assert main(["run", str(study), "-o", str(out), "--yes"]) == 0
+    err = capsys.readouterr().err
+    assert f"{out}: all {n} chunks already saved in {out}.chunks, writing the result" in err, err
+    assert "computing the others" not in err
+    with xr.open_dataset(out) as ds:
+        assert_same(ds.load(), rattle_reference, resumed=True)
+
+
 @pytest.mark.parametrize("guard", ["warn", "off"])
 def test_a_prepared_chunk_gives_run_chunk_s_arrays_bit_for_bit(guard):
     """``InProcess`` runs a chunk that is one kernel call as ``prepare`` (in a helper thread) and
