@@ -2012,3 +2012,29 @@ def test_a_study_file_not_in_utf8_names_the_line_and_column_of_its_first_bad_byt
     assert capsys.readouterr().err == (
         "gearsweep: error: <stdin>:2: (file): not UTF-8 text: byte 0xe9 at column 12 (a study"
         " file is UTF-8 text: save it as UTF-8)\n")
+
+
+def test_stiffness_harmonics_against_a_stiffness_written_later_are_said_at_the_stiffness():
+    """Harmonics that take k(t) below 0 at the least swept k0 were said at
+    scene.stiffness_harmonics, above the sweep that sets k0; by the README's rule (the later
+    written of the two) it is said at the least swept stiffness, with the k0 that would do; an
+    unswept k0 written above the harmonics keeps it at the harmonics."""
+    scene = WHINE_SCENE.replace("1073 kN/mm", "80 kN/mm")
+    sweep = "sweep:\n  speed: [3000 rpm]\n  stiffness: [1000 kN/mm, 50 kN/mm]\n"
+    after = scene.replace("  stiffness: 80 kN/mm\n", "").replace("  damping:",
+                                                                  "  stiffness: 80 kN/mm\n  damping:")
+    lines = []
+    for text in ("title: t\n" + scene + sweep, "title: t\n" + scene + "sweep:\n  speed: [3000 rpm]\n",
+                 "title: t\n" + after + "sweep:\n  speed: [3000 rpm]\n"):
+        with pytest.raises(StudyError) as err:
+            make_plan(parse_study(text, "s.yaml"), text, "s.yaml")
+        lines.append(str(err.value))
+    assert lines == [
+        ("s.yaml:12: sweep.stiffness[1]: '50 kN/mm' -- above 100 kN/mm, where"
+         " scene.stiffness_harmonics keep k(t) positive (at this k0 they take it to -50 kN/mm at"
+         " mesh phase 0.5)"),
+        ("s.yaml:7: scene.stiffness_harmonics: harmonics that keep k(t) positive: with k0 = 80"
+         " kN/mm they take it to -20 kN/mm at mesh phase 0.5"),
+        ("s.yaml:7: scene.stiffness: '80 kN/mm' -- above 100 kN/mm, where"
+         " scene.stiffness_harmonics keep k(t) positive (at this k0 they take it to -20 kN/mm at"
+         " mesh phase 0.5)")]

@@ -425,11 +425,20 @@ def _make_plan(study: Study, text: str) -> Plan:
         k0 = grids["stiffness"].min() if "stiffness" in grids else plan.model.stiffness
         low, where = positive_minimum(k0, plan.model.stiffness_harmonics,
                                       getattr(plan.model, "cycle_periods", 1))
-        if not low > 0:
-            problems.append(StudyError("<study>", "scene.stiffness_harmonics", NO_VALUE, (
-                f"harmonics that keep k(t) positive: with k0 = {k0 / 1e6:.6g} kN/mm"
-                f"{' (the least swept)' if 'stiffness' in grids else ''} they take it to"
-                f" {low / 1e6:.4g} kN/mm at mesh phase {where:.3g}")))
+        if not low > 0:  # said at k0's field instead where the file writes it later
+            k0_at = "scene.stiffness"
+            if "stiffness" in grids:
+                spec, i = study.sweep["stiffness"], int(np.argmin(grids["stiffness"]))
+                k0_at = (f"sweep.stiffness[{i}]" if isinstance(spec, list | tuple) else
+                         f"sweep.stiffness.{'start' if i == 0 else 'stop'}")
+            problems.append(_at_later_written(study, text, StudyError(
+                "<study>", "scene.stiffness_harmonics", NO_VALUE, (
+                    f"harmonics that keep k(t) positive: with k0 = {k0 / 1e6:.6g} kN/mm"
+                    f"{' (the least swept)' if 'stiffness' in grids else ''} they take it to"
+                    f" {low / 1e6:.4g} kN/mm at mesh phase {where:.3g}")),
+                [(k0_at, k0, (f"above {(k0 - low) / 1e6:.6g} kN/mm, where"
+                              " scene.stiffness_harmonics keep k(t) positive (at this k0 they"
+                              f" take it to {low / 1e6:.4g} kN/mm at mesh phase {where:.3g})"))]))
     rec, cycle = study.solver.record_periods, getattr(plan.model, "cycle_periods", 1)
     if plan.driven and rec < 2 * cycle:
         problems.append(StudyError("<study>", "solver.record_periods", rec,
