@@ -1,5 +1,5 @@
 """The main job: run every study under studies/ (not its subfolders), then every figure script,
-then check that the figures docs/REPRODUCTION.md lists were written and that every number
+then check that the figures docs/REPRODUCTION.md lists or any doc embeds were written and that every number
 docs/claims.yaml lists is what its result gives (scripts/check_claims.py).
 
 Analysis studies (``type: analysis``) run after the others: some read their results.
@@ -146,10 +146,31 @@ def run_studies(studies: list[Path], results: Path, jobs: int,
     return failed
 
 
+EMBEDDED_FIGURE = re.compile(r"!\[[^\]]*\]\((?:\.\./)?figures/([A-Za-z0-9_.-]+\.png)\)")
+"""A figure a doc embeds: ``![...](figures/x.png)`` (README.md) or ``![...](../figures/x.png)``."""
+
+
+def doc_pages() -> list[Path]:
+    """The docs a reader sees: README.md and docs/*.md."""
+    return [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+
+def embedded_figures() -> dict[str, list[str]]:
+    """Each figure file any doc embeds (README.md, docs/*.md), with the docs that embed it."""
+    out: dict[str, list[str]] = {}
+    for page in doc_pages():
+        for name in EMBEDDED_FIGURE.findall(page.read_text(encoding="utf-8")):
+            out.setdefault(name, [])
+            if page.name not in out[name]:
+                out[name].append(page.name)
+    return out
+
+
 def listed_figures() -> list[str]:
-    """Figure files named in docs/REPRODUCTION.md."""
+    """Figure files named in docs/REPRODUCTION.md and every figure a doc embeds: the main job
+    must have written each of them."""
     text = (ROOT / "docs" / "REPRODUCTION.md").read_text(encoding="utf-8")
-    return sorted(set(re.findall(r"figures/([A-Za-z0-9_.-]+\.png)", text)))
+    return sorted(set(re.findall(r"figures/([A-Za-z0-9_.-]+\.png)", text)) | set(embedded_figures()))
 
 
 def is_analysis(study: Path) -> bool:
@@ -158,13 +179,15 @@ def is_analysis(study: Path) -> bool:
 
 
 def check_reproduction(figures: Path, since: float) -> list[str]:
-    """Every figure that docs/REPRODUCTION.md lists must have been written by this run."""
-    missing = [f for f in listed_figures()
+    """Every figure that docs/REPRODUCTION.md lists or any doc embeds must have been written by
+    this run."""
+    listed = listed_figures()
+    missing = [f for f in listed
                if not (figures / f).exists() or (figures / f).stat().st_mtime < since - 1]
-    print(f"== docs/REPRODUCTION.md lists {len(listed_figures())} figures: "
+    print(f"== docs/REPRODUCTION.md and the docs' images name {len(listed)} figures: "
           + (f"NOT PRODUCED: {', '.join(missing)}" if missing else "all produced by this run"),
           flush=True)
-    return [f"REPRODUCTION.md: {f}" for f in missing]
+    return [f"figure {f}" for f in missing]
 
 
 def check_claims(results: Path) -> list[str]:

@@ -66,6 +66,50 @@ def test_every_study_a_section_rests_on_is_drawn(study):
         assert not drawn, f"{study} is drawn now: remove it from NOT_DRAWN"
     else:
         assert drawn, f"{study}: named in a study row of REPRODUCTION.md, drawn by no figure"
+def _main_job():
+    import sys
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import main_job
+
+    return main_job
+
+
+def _written_figure_patterns() -> list[re.Pattern]:
+    """The figure names the figure scripts write, from the ``"NAME.png"`` strings of
+    scripts/fig*.py and what they import from scripts/ (an f-string's ``{suffix}`` reads as any
+    name's characters: ``fig05_campbell{suffix}.png`` covers fig05_campbell_mesh.png)."""
+    names = set()
+    for script in (ROOT / "scripts").glob("*.py"):
+        names |= set(re.findall(r"[\"']([A-Za-z0-9_{}.-]+\.png)[\"']", script.read_text()))
+    return [re.compile("".join(r"[A-Za-z0-9_.-]*" if part.startswith("{") else re.escape(part)
+                               for part in re.split(r"(\{[^}]*\})", n)) + r"\Z")
+            for n in sorted(names)]
+
+
+EMBEDDED = sorted(_main_job().embedded_figures().items())
+
+
+@pytest.mark.parametrize("figure,pages", EMBEDDED, ids=[f for f, _ in EMBEDDED])
+def test_every_figure_a_doc_embeds_is_written_by_a_figure_script_and_checked(figure, pages):
+    """A figure a doc embeds (README.md, docs/*.md: ``![..](figures/x.png)``) is in the
+    repository, a figure script writes a file of that name, and the main job checks that this
+    run wrote it (fig05_campbell_mesh.png, embedded in whine.md only, was not checked)."""
+    assert (ROOT / "figures" / figure).exists(), f"{pages} embed figures/{figure}: not in figures/"
+    assert any(p.match(figure) for p in _written_figure_patterns()), (
+        f"{pages} embed figures/{figure}, which no scripts/fig*.py writes")
+    assert figure in _main_job().listed_figures()
+
+
+def test_the_embedded_figure_reader():
+    main_job = _main_job()
+    text = "![a](../figures/x_1.png) ![](figures/y.png) `--out figures/z.png` [w](figures/w.png)"
+    assert main_job.EMBEDDED_FIGURE.findall(text) == ["x_1.png", "y.png"]
+    assert "fig05_campbell_mesh.png" in main_job.embedded_figures()
+    patterns = _written_figure_patterns()
+    assert any(p.match("fig05_campbell_mesh.png") for p in patterns)
+    assert not any(p.match("fig05_campbell_mesh.png.bak") or p.match("no_such_figure.png")
+                   for p in patterns)
 
 
 def _analysis_inputs() -> list[tuple[str, str]]:
