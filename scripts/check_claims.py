@@ -177,8 +177,10 @@ def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, l
                 env = {"np": np, "math": math, "hb": hb, "rattle": rattle, "sensor": sensor,
                        "stability": stability, "spectrum": spectrum,
                        **names(load(str(c["result"])))}
+                # the names as globals: a generator expression or lambda of the expression
+                # sees them too ("max(f(n) for n in (1, 2, 3))"), which it does not as locals
                 got = float(np.asarray(eval(str(c["expr"]),  # noqa: S307
-                                            {"__builtins__": SAFE_BUILTINS}, env)))
+                                            {"__builtins__": SAFE_BUILTINS, **env})))
             except Exception as exc:  # noqa: BLE001  any failure of the expression fails it
                 out.append(f"{cid}: expression {c['expr']!r} failed: {type(exc).__name__}: {exc}")
                 continue
