@@ -713,8 +713,9 @@ def fourier(x: np.ndarray, n_harmonics: int) -> tuple[np.ndarray, np.ndarray]:
     ``x(phase) = a[0] + sum_{k=1}^{n_harmonics} a[k] cos(2 pi k phase + phi[k])`` (Eq. (1) of
     the paper, phase in mesh cycles). With ``n_harmonics = N // 2`` the series reproduces the
     samples exactly. The coefficients of a function that jumps (the mesh stiffness where a pair
-    enters or leaves) are off by O(1/N): a mesh cycle's own come from its
-    :class:`Quadrature`.
+    enters or leaves) are off by O(1/N) (Table 1's k2 at N = 200 by +0.4 %, k3 by +6.5 %): a
+    mesh cycle's own, which the studies use, come from its :class:`Quadrature`
+    (``MeshCycle.as_arrays(n)["k_harmonic"]``, ``MeshCycle.quadrature.fourier``).
 
     Parameters
     ----------
