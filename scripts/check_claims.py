@@ -147,7 +147,7 @@ def _namespace(results: Path, cache: dict):
 def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, list[str]]:
     """(claims checked, reasons of the failed ones) of every ``folder/*.yaml`` in the
     per-figure format of docs/claims/README.md (``tol``, ``scale``, names ``js``, ``model``...)."""
-    from gearsweep.analysis import hb, rattle, sensor, spectrum, stability
+    from gearsweep.analysis import hb, precision, rattle, sensor, spectrum, stability
 
     cache: dict = {}
     docs: dict = {}
@@ -175,7 +175,7 @@ def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, l
                 continue
             try:
                 env = {"np": np, "math": math, "hb": hb, "rattle": rattle, "sensor": sensor,
-                       "stability": stability, "spectrum": spectrum,
+                       "stability": stability, "spectrum": spectrum, "precision": precision,
                        **names(load(str(c["result"])))}
                 # the names as globals: a generator expression or lambda of the expression
                 # sees them too ("max(f(n) for n in (1, 2, 3))"), which it does not as locals
