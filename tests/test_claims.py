@@ -104,3 +104,43 @@ def test_a_per_figure_claim_whose_quote_lacks_its_value_fails_unless_worded(tmp_
     assert "does not contain the value 0" in run(quote="never separate", expr="0", value=0)[0]
     assert run(quote="never separate", expr="0", value=0, worded="'never': 0") == []
     assert "gives 1" in run(quote="never separate", expr="1", value=0, worded="'never': 0")[0]
+
+
+def test_per_figure_claims_are_well_formed_whatever_their_doc():
+    """Every claim of docs/claims/*.yaml (mesh.md, rattle.md, precision.md, whine.md... not only
+    REPRODUCTION.md's) has its quote in its doc, showing its value unless `worded`, a result a
+    study or figure script writes, and a tolerance: CI checks this without results; the main job
+    checks the values."""
+    studies = {p.stem for p in (ROOT / "studies").glob("*.yaml")}
+    scripts = "".join(p.read_text() for p in (ROOT / "scripts").glob("fig*.py"))
+    docs: dict = {}
+    for path in sorted((ROOT / "docs" / "claims").glob("*.yaml")):
+        if path.name == cc.NOT_RESULTS:
+            continue
+        for i, c in enumerate(yaml.safe_load(path.read_text(encoding="utf-8")) or []):
+            cid = f"{path.name}[{i}]"
+            assert {"quote", "value", "result", "expr"} <= set(c), cid
+            assert not set(c) - {"doc", "quote", "value", "result", "expr", "tol", "scale",
+                                 "worded"}, cid
+            doc = c.get("doc", "docs/REPRODUCTION.md")
+            if doc not in docs:
+                docs[doc] = (ROOT / doc).read_text(encoding="utf-8")
+            assert c["quote"] in docs[doc], f"{cid}: quote not in {doc}: {c['quote']!r}"
+            assert "worded" in c or any(np.isclose(x, float(c["value"]), rtol=1e-12, atol=0)
+                                        for x in cc.numbers_in(c["quote"])), cid
+            stem = Path(str(c["result"])).stem
+            assert stem in studies or f"{stem}.nc" in scripts, f"{cid}: no study writes {stem}"
+            assert "tol" in c, f"{cid}: give a tolerance"
+
+
+def test_a_per_figure_expression_may_use_a_generator(tmp_path):
+    """The names reach generator expressions and lambdas of an expression (they are globals)."""
+    (tmp_path / "docs" / "claims").mkdir(parents=True)
+    (tmp_path / "docs" / "page.md").write_text("at most 2.0 µm\n")
+    (tmp_path / "results").mkdir()
+    xr.Dataset({"x": ("speed", [1.0, 2.0])}).to_netcdf(tmp_path / "results" / "r.nc")
+    claim = {"doc": "docs/page.md", "result": "r", "tol": 0, "quote": "at most 2.0 µm",
+             "expr": "max(float(ds.x[i]) * np.ones(1)[0] for i in (0, 1))", "value": 2.0}
+    path = tmp_path / "docs" / "claims" / "c.yaml"
+    path.write_text(yaml.safe_dump([claim]), encoding="utf-8")
+    assert cc.check_folder(tmp_path / "docs" / "claims", tmp_path / "results", tmp_path) == (1, [])
