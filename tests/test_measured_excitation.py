@@ -34,14 +34,23 @@ from gearsweep.model import Harmonic
 from gearsweep.study.plan import build_model, make_plan
 from gearsweep.study.schema import load_study, parse_study
 
+
 ROOT = Path(__file__).resolve().parent.parent
+
+
 TWO_PI = 2.0 * math.pi
 
 # A whine scene's k(t) and the separation u(t) = STE - F_m / k(t) it is excited by, as harmonics
 # (amplitude SI, mesh order, phase rad): the truth the file is written from.
 K0 = 2.0e8
+
+
 K_H = [(4.0e7, 1, 0.7), (1.5e7, 2, -1.9)]
+
+
 U_H = [(1.2e-6, 1, 0.3), (0.4e-6, 3, 2.2)]
+
+
 F_M = 900.0
 
 
@@ -294,6 +303,8 @@ def test_example_study_matches_the_gear_scene():
     ("phase [1], ste [um]", "column 1 'phase'", "mesh_phase"),
     ("mesh_phase [1], ste [um], force [N]", "column 3 'force'", None),
 ])
+
+
 def test_a_csv_column_of_another_name_is_refused_at_the_header_line(tmp_path, capsys, header,
                                                                      column, meant):
     """A CSV column whose name is none of those read was skipped: ``te [um]`` beside
@@ -325,6 +336,8 @@ def test_a_csv_column_of_another_name_is_refused_at_the_header_line(tmp_path, ca
      " write e.g. deg or rad")),
     ("mesh_phase [1], ste [um]", [[0.1, float("nan")]], "finite"),
 ])
+
+
 def test_bad_files_give_one_line(tmp_path, header, rows, message):
     write_csv(tmp_path / "x.csv", header, rows)
     f = tmp_path / "s.yaml"
@@ -354,6 +367,8 @@ def test_bad_files_give_one_line(tmp_path, header, rows, message):
      " micrometres: a unit slip?)")),
     ("mesh_phase [1], ste [m]\n0.0, 5e-6\n0.5, -0.002\n", "line 4: '-0.002' is beyond an STE"),
 ])
+
+
 def test_bad_csv_lines_and_twin_columns_are_named(tmp_path, text, message):
     """A CSV problem names its line in the file (comments counted; a ragged row said "setting
     an array element with a sequence"), and a column given twice is refused (the second was
@@ -423,6 +438,8 @@ def test_a_sample_beyond_a_float_in_si_is_named_by_its_line(tmp_path):
      "sweep.mean_force: with k(t)"),
     ("  excitation: {file: ltca.csv}\n  harmonics: 3\n", None, "scene.harmonics: 3"),
 ])
+
+
 def test_inconsistent_scenes_give_one_line_and_exit_2(tmp_path, capsys, extra, sweep, message):
     whine_files(tmp_path)
     f = tmp_path / "s.yaml"
@@ -696,6 +713,8 @@ RELIEVED_MESH = ("type: mesh\ntitle: relieved Table 1 pair\ngear: {preset: table
 
 
 @pytest.mark.parametrize("kind", ["whine", "rattle"])
+
+
 def test_a_mesh_result_fed_back_gives_the_gear_scenes_integrated_harmonics(tmp_path, kind):
     """A mesh study's result fed as ``excitation.file`` gives the scene the harmonics its mesh
     study integrated between the breaks of the mesh, not the DFT of its 200 samples (off by
@@ -797,6 +816,8 @@ def test_a_mesh_result_over_several_torques_gives_the_scenes_load(tmp_path, caps
     rc, err = validate("  torque: 50 N*m\n  excitation: {file: pairs.nc}\n  teeth: 48\n")
     assert rc == 2 and err.count("\n") == 1, err
     assert "several gear pairs (variant): one pair a file" in err, err
+
+
 def test_a_csv_not_in_utf8_names_the_line_and_column_of_its_first_bad_byte(tmp_path):
     """A Latin-1 CSV (a micro sign 0xb5 in its header) said "cannot read the file
     (UnicodeDecodeError)", no line (an outside tester's finding): its line in the file and the
@@ -810,3 +831,37 @@ def test_a_csv_not_in_utf8_names_the_line_and_column_of_its_first_bad_byte(tmp_p
     assert line.startswith(f"{f}:") and line.endswith(
         "scene.excitation.file: 'x.csv' -- line 2: byte 0xb5 at column 22 is not UTF-8 text"
         " (save the file as UTF-8)"), line
+
+
+# --------------------------------------------------------------------------- netCDF names, units
+
+
+def _ltca_netcdf(path: Path, names: dict[str, str | None], n: int = 64) -> Path:
+    """``whine_files``'s STE [um] and stiffness [N/mm] as a netCDF file over mesh_phase, each
+    under the name given (``names``: 'ste'/'stiffness' -> variable name), with ``units`` unless
+    the name maps to None-unit (``name!`` drops the attribute)."""
+    phi = np.arange(n) / n
+    k = series(K0, K_H, phi)
+    ste = series(3e-6, U_H, phi) + F_M / k
+    data = {}
+    for which, values, unit in (("ste", ste * 1e6, "um"), ("stiffness", k * 1e-3, "N/mm")):
+        name = names.get(which)
+        if name is None:
+            continue
+        bare = name.endswith("!")
+        data[name.rstrip("!")] = ("mesh_phase", values, {} if bare else {"units": unit})
+    xr.Dataset(data, coords={"mesh_phase": ("mesh_phase", phi, {"units": "1"})}).to_netcdf(path)
+    return path
+
+
+def test_a_netcdf_variable_without_units_is_told_to_add_a_units_attribute(tmp_path):
+    """_factor spoke of a CSV header to a netCDF file: "column 'ste' needs its unit in the
+    header, e.g. 'ste [um]'" for a variable without ``units`` (an outside tester)."""
+    _ltca_netcdf(tmp_path / "x.nc", {"ste": "ste!", "stiffness": "mesh_stiffness"})
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  excitation: {file: x.nc}\n")))
+    with pytest.raises(StudyError) as e:
+        load_study(f)
+    (line,) = str(e.value).splitlines()
+    assert line.endswith("-- variable 'ste' needs a 'units' attribute, e.g. units = 'um'"), line
+    assert "header" not in line and "column" not in line

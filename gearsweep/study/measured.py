@@ -124,24 +124,32 @@ class Samples:
         return self.at if self.position == "mesh_phase" else self.at * teeth / (2.0 * math.pi)
 
 
-def _factor(name: str, unit: str, kind: str) -> float:
-    """SI per unit of a column (``um`` of an STE: 1e-6)."""
+def _factor(name: str, unit: str, kind: str, netcdf: bool = False) -> float:
+    """SI per unit of a column (``um`` of an STE: 1e-6); ``netcdf``: of a netCDF variable,
+    whose unit is its ``units`` attribute (the words of a CSV header told it to write one in
+    its header: an outside tester)."""
+    what = "variable" if netcdf else "column"
     if kind == "mesh_phase":
         if unit.strip().lower() in DIMENSIONLESS:
             return 1.0
-        raise ValueError(f"column {name!r}: unit {unit!r} of a mesh phase; write [1] (mesh cycles)"
-                         " or give an 'angle' column in deg or rad")
+        write = "units = '1'" if netcdf else "[1]"
+        raise ValueError(f"{what} {name!r}: unit {unit!r} of a mesh phase; write {write} (mesh"
+                         f" cycles) or give an 'angle' {what} in deg or rad")
     if not unit.strip():
+        example = {'angle': 'deg', 'displacement': 'um'}.get(kind, 'N/mm')
+        if netcdf:
+            raise ValueError(f"variable {name!r} needs a 'units' attribute, e.g. units ="
+                             f" '{example}'")
         raise ValueError(f"column {name!r} needs its unit in the header, e.g."
-                         f" '{name} [{ {'angle': 'deg', 'displacement': 'um'}.get(kind, 'N/mm')}]'")
+                         f" '{name} [{example}]'")
     example = {"angle": "deg or rad", "displacement": "um or m"}.get(kind, "N/mm or N/m")
     if unit.strip().lower() in DIMENSIONLESS:  # 'angle [1]' read "1 1": "a space inside a number"
-        raise ValueError(f"column {name!r}: unit {unit!r} is no unit of {article(kind)}; write"
+        raise ValueError(f"{what} {name!r}: unit {unit!r} is no unit of {article(kind)}; write"
                          f" e.g. {example}")
     try:  # UDUNITS exponents of netCDF files (``N m-1``, ``kg m2``): units.normalise reads them
         f = to_si("1 " + unit, kind)
     except UnitParseError as exc:
-        raise ValueError(f"column {name!r}: unit {unit!r}: {exc}") from None
+        raise ValueError(f"{what} {name!r}: unit {unit!r}: {exc}") from None
     return f
 
 
@@ -173,11 +181,11 @@ def _columns(names: list[tuple[str, str]], header: int | None = None
             position = POSITION[key]
             index["position"] = i
             factor["position"] = _factor(name, unit, "mesh_phase" if position == "mesh_phase"
-                                         else "angle")
+                                         else "angle", header is None)
         elif key in VALUES and VALUES[key][0] not in index:
             which, kind = VALUES[key]
             index[which] = i
-            factor[which] = _factor(name, unit, kind)
+            factor[which] = _factor(name, unit, kind, header is None)
     found = ", ".join(repr(n) for n, _ in names) or "none"
     if "position" not in index:
         raise ValueError(f"no position column (mesh_phase [1], angle [deg] or roll_angle [deg]);"
