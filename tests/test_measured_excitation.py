@@ -854,6 +854,43 @@ def _ltca_netcdf(path: Path, names: dict[str, str | None], n: int = 64) -> Path:
     return path
 
 
+@pytest.mark.parametrize(("names", "said"), [
+    ({"ste": "te", "stiffness": "mesh_stiffness"}, "variable 'te'", ),
+    ({"ste": "ste", "stiffness": "mesh_stifness"}, "variable 'mesh_stifness'"),
+    ({"ste": "STE_", "stiffness": None}, "variable 'STE_'"),
+])
+def test_a_netcdf_value_under_a_near_miss_name_is_refused(tmp_path, capsys, names, said):
+    """A netCDF file with its STE as ``te`` (um) beside ``mesh_stiffness`` validated and ran
+    without any STE (no excitation_ste_* variables, another p_rms): only the names read were
+    looked at (an outside tester). As the CSV rule refuses ``te [um]`` with "did you mean
+    'ste'?", a netCDF variable whose name is a near miss of a value the file lacks is refused,
+    in one line, exit 2 (a mesh study's other variables are left alone: the test of its result
+    above)."""
+    _ltca_netcdf(tmp_path / "x.nc", names)
+    meant = {"te": "ste", "mesh_stifness": "mesh_stiffness", "STE_": "ste"}[said.split("'")[1]]
+    f = tmp_path / "s.yaml"
+    extra = "" if names.get("stiffness") else "  stiffness: 2e8 N/m\n"
+    f.write_text(study(typed_whine(extra + "  excitation: {file: x.nc}\n")))
+    assert main(["validate", str(f)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert f"scene.excitation.file: 'x.nc' -- {said} is no variable gearsweep reads" in line, line
+    assert line.endswith(f"did you mean {meant!r}?"), line
+
+
+def test_a_netcdf_file_s_unrelated_variables_are_left_alone(tmp_path):
+    """Variables not near a value the file lacks (a temperature, a ``te`` beside ``ste``) are
+    not the samples' and are not refused."""
+    path = _ltca_netcdf(tmp_path / "x.nc", {"ste": "ste", "stiffness": "mesh_stiffness"})
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    ds["te"] = ds["ste"] * 2
+    ds["temperature"] = ((), 40.0, {"units": "degC"})
+    ds.to_netcdf(tmp_path / "y.nc")
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  excitation: {file: y.nc}\n")))
+    load_study(f)
+
+
 def test_a_netcdf_variable_without_units_is_told_to_add_a_units_attribute(tmp_path):
     """_factor spoke of a CSV header to a netCDF file: "column 'ste' needs its unit in the
     header, e.g. 'ste [um]'" for a variable without ``units`` (an outside tester)."""

@@ -277,6 +277,7 @@ def _read_load(ds: Any) -> tuple[list[tuple[str, str]], np.ndarray, dict]:
     if stated["base_radius"] and pitch:
         stated["teeth"] = round(2.0 * math.pi * stated["base_radius"] / pitch)
     wanted = [v for v in ds.variables if str(v).lower() in VALUES]
+    _near_misses(ds, wanted)
     if not wanted:
         raise ValueError("no variable ste or mesh_stiffness (1-D over mesh_phase or angle)")
     dims = {ds[v].dims for v in wanted}
@@ -292,6 +293,28 @@ def _read_load(ds: Any) -> tuple[list[tuple[str, str]], np.ndarray, dict]:
                     + [np.asarray(ds[v].values, float) for v in wanted], axis=1)
     stated["integrated"] = _integrated(ds)
     return names, data, stated
+
+
+def _near_misses(ds: Any, wanted: list) -> None:
+    """Refuse a 1-D variable (over the values' coordinate, where there are values) whose name is
+    a near miss of a value the file lacks, as a CSV column of another name is (``_columns``):
+    ``te`` (um) beside ``mesh_stiffness`` ran the scene without its STE and validate said ok (an
+    outside tester). Only near misses: a netCDF file's other variables are left alone (a mesh
+    study's result holds many, and holds both values)."""
+    have = {VALUES[str(v).lower()][0] for v in wanted}
+    lacking = [name for name, (which, _) in VALUES.items() if which not in have]
+    if not lacking:
+        return
+    dims = {ds[v].dims for v in wanted}
+    for v in ds.data_vars:
+        if ds[v].ndim != 1 or (dims and ds[v].dims not in dims):
+            continue
+        close = difflib.get_close_matches(str(v).lower(), lacking, n=1)
+        if close:
+            which = {"ste": "STE", "stiffness": "mesh stiffness"}[VALUES[close[0]][0]]
+            raise ValueError(
+                f"variable {str(v)!r} is no variable gearsweep reads ({', '.join(list(VALUES)[:-1])}"
+                f" or {list(VALUES)[-1]}), and the file has no {which}; did you mean {close[0]!r}?")
 
 
 def _harmonic_series(ds: Any, amplitude: str, phase: str, kind: str) -> Series | None:
