@@ -902,3 +902,30 @@ def test_a_netcdf_variable_without_units_is_told_to_add_a_units_attribute(tmp_pa
     (line,) = str(e.value).splitlines()
     assert line.endswith("-- variable 'ste' needs a 'units' attribute, e.g. units = 'um'"), line
     assert "header" not in line and "column" not in line
+
+
+def test_a_mesh_phase_without_a_unit_is_mesh_cycles_and_one_in_degrees_is_told(tmp_path):
+    """``mesh_phase`` is a fraction of the mesh cycle, dimensionless: a CSV ``mesh_phase``
+    column without a unit is read as ``[1]`` (docs/mesh.md says so, as the exception to "a
+    column without a unit is refused"); one written in degrees spans more than a cycle and is
+    refused with where the angle goes (it said only "span: revolution")."""
+    path = whine_files(tmp_path)
+    text = path.read_text().replace("mesh_phase [1]", "mesh_phase")
+    (tmp_path / "bare.csv").write_text(text)
+    models = []
+    for name in (path.name, "bare.csv"):
+        f = tmp_path / "s.yaml"
+        f.write_text(study(typed_whine(f"  excitation: {{file: {name}, harmonics: 5}}\n")))
+        models.append(build_model(load_study(f)[0]))
+    assert models[0] == models[1]
+    phi = np.arange(64) / 64
+    write_csv(tmp_path / "deg.csv", "mesh_phase, ste [um]",
+              zip(phi * 18.0, series(3.0, [(1.0, 1, 0.0)], phi), strict=True))
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  stiffness: 2e8 N/m\n  excitation: {file: deg.csv}\n")))
+    with pytest.raises(StudyError) as e:
+        load_study(f)
+    (line,) = str(e.value).splitlines()
+    assert "span 17.72 mesh cycles" in line and ("mesh_phase is in mesh cycles (0 to 1); an angle"
+                                                  " of the driving gear is an 'angle [deg]'"
+                                                  " column") in line, line

@@ -28,8 +28,10 @@ jumps. Samples alone (CSV, other netCDF files) are fitted.
 The position is ``mesh_phase`` (mesh cycles, unit ``1``) or ``angle`` / ``roll_angle`` (rotation of
 the driving gear, the scene's ``teeth``, in an angle unit); the values are ``ste`` (or
 ``transmission_error``, a length) and ``mesh_stiffness`` (or ``stiffness``, N/m, N/mm, N/um,
-kN/mm). Units are read by :mod:`gearsweep.units` (a column without a unit is refused, and a CSV
-column of another name: ``_columns``). The fit is
+kN/mm). Units are read by :mod:`gearsweep.units` (a column without a unit is refused, but
+``mesh_phase``, a fraction of the mesh cycle: no unit is ``1``; a CSV column of another name, or
+a netCDF variable whose name is a near miss of a value the file lacks: ``_columns``,
+``_near_misses``). The fit is
 :func:`gearsweep.gear.measured.measured_excitation`; this module only reads and checks the file.
 """
 
@@ -532,6 +534,9 @@ def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
         what = (f"{width:.4g} mesh cycles" if s.position == "mesh_phase"
                 else f"{math.degrees(width * 2 * math.pi / scene.teeth):.4g} deg")
         hint = "" if ex.span == "revolution" else "; samples over a revolution: span: revolution"
+        if s.position == "mesh_phase":  # (no unit is mesh cycles: degrees were read as cycles)
+            hint += ("; mesh_phase is in mesh cycles (0 to 1); an angle of the driving gear is an"
+                     " 'angle [deg]' column")
         return [("scene.excitation.span", ex.span, (f"the samples of excitation.file span {what},"
                  f" more than one {span} ({period} mesh cycle{'s' if period != 1 else ''} of {scene.teeth}"
                  f" teeth){hint}"))]
