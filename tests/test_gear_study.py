@@ -193,6 +193,8 @@ BAD_GEARS = {  # the gear (flow style, on line 4), the field each problem is at,
 
 
 @pytest.mark.parametrize("name", list(BAD_GEARS))
+
+
 def test_bad_geometry_is_one_line_a_problem_at_its_field_and_exit_2(tmp_path, capsys, name):
     """``gearsweep validate`` (not only ``run``) refuses every inconsistent geometry, one line a
     problem, each naming the file, the field it is about (the gear where the file writes none of
@@ -229,6 +231,8 @@ def test_mesh_study_refuses_table1_as_printed(tmp_path, capsys):
     ("  torque: 50 N*m\n  teeth: 48\n", "give either 'gear' or typed-in teeth"),
     ("  torque: 50 N*m\n  base_radius: 56 mm\n", "typed-in base_radius"),
 ])
+
+
 def test_gear_with_typed_in_coefficients_is_refused(tmp_path, capsys, extra, message):
     """At the typed-in field's line (line 8), the one to leave out (was the scene's, line 2)."""
     rc, _, err = _run_cli(tmp_path, capsys, whine("table1_consistent", extra))
@@ -392,6 +396,8 @@ def test_single_torque_mesh_study_has_no_torque_dim():
      "s.yaml:4: sweep.torque[0]: '-5 N*m' -- a positive torque"),
     ("type: meshes\ntitle: t\n", "'mesh' (a static mesh study)"),
 ])
+
+
 def test_mesh_study_problems_are_one_study_error(text, message):
     with pytest.raises(StudyError, match=None) as info:
         parse_study(text, "s.yaml")
@@ -400,6 +406,8 @@ def test_mesh_study_problems_are_one_study_error(text, message):
 
 @pytest.mark.parametrize("path", sorted([*STUDIES.glob("*.yaml"), *STUDIES.glob("heavy/*.yaml")]),
                          ids=lambda p: p.stem)
+
+
 def test_every_study_file_validates(path, capsys):
     assert main(["validate", str(path)]) == 0
     assert capsys.readouterr().out.startswith(f"{path}: ok -- ")
@@ -521,6 +529,8 @@ def test_a_load_swept_gear_scene_with_a_spectrum_builds_each_loads_model_once(mo
 
 
 @pytest.mark.parametrize("continued", [False, True])
+
+
 def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continued):
     """step_guard: skip with a gear scene that sweeps its load, the first speed beyond the step
     limit of 40 RK4 steps per mesh period: its cases are skipped (status 3), the others run.
@@ -621,6 +631,8 @@ def test_advise_of_a_swept_load_takes_the_stiffest_load(tmp_path, capsys):
      "s.yaml:9: sweep.mean_force[1]: '-1 kN'"),
     ("  mean_force: -800 N\nsweep:\n  speed: [3000 rpm]\n", "s.yaml:7: scene.mean_force: '-800 N'"),
 ])
+
+
 def test_every_load_of_a_gear_scene_must_be_positive_in_one_line(lines, said):
     """A gear scene's k(t) and STE are the pair's under its load: only the first swept load was
     checked, so [50 N m, -50 N m] validated and the run stopped at the second load with 'the
@@ -718,3 +730,44 @@ def test_a_checked_pair_still_refuses_and_warns_at_each_check():
         with pytest.warns(GeometryWarning) as said:  # also Sainsot's root angle, far above
             pointed.check()
         assert any("nearly pointed" in str(w.message) for w in said)
+
+
+def test_a_relief_from_single_contact_is_refused_where_there_is_none(tmp_path, capsys):
+    """``start_at: single_contact`` is where single-tooth contact ends on the flank; at a contact
+    ratio of 2 or more there is none (two pairs or more at every position), yet 50/100 teeth at
+    15 deg with tips 1.25 m (eps 2.646) took s_start + p_b and relieved 62 % of the path (an
+    outside tester). It is refused at start_at, naming the contact ratio (its closed form here)
+    and the diameters a start_diameter may take on the relieved flank; the same pair with tips
+    0.75 m (eps 1.69) is taken."""
+    rb1, rb2 = 50e-3 * math.cos(math.radians(15)), 100e-3 * math.cos(math.radians(15))
+    ra1, ra2 = 52.5e-3, 102.5e-3
+    eps = (math.sqrt(ra1**2 - rb1**2) + math.sqrt(ra2**2 - rb2**2)
+           - 150e-3 * math.sin(math.radians(15))) / (math.pi * 2e-3 * math.cos(math.radians(15)))
+    assert eps > 2
+    text = textwrap.dedent("""\
+        type: mesh
+        title: high contact ratio
+        gear:
+          module: 2 mm
+          z1: 50
+          z2: 100
+          face_width: 20 mm
+          pressure_angle: 15 deg
+          tip_radius1: 52.5 mm
+          tip_radius2: 102.5 mm
+          tip_relief: {amount: 10 um, start_at: single_contact, gears: driving}
+        torque: 100 N*m
+        """)
+    path = tmp_path / "eps.yaml"
+    path.write_text(text)
+    assert main(["validate", str(path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    s_start = 150e-3 * math.sin(math.radians(15)) - math.sqrt(ra2**2 - rb2**2)
+    low = 2e3 * math.hypot(rb1, s_start)  # gear 1's lowest contact diameter [mm]
+    assert f"{path}:11: gear.tip_relief.start_at: 'single_contact' -- " in line, line
+    assert (f"contact ratio {eps:.3f}: no single-tooth contact (2 or more pairs carry the load"
+            " everywhere)") in line, line
+    assert (f"give start_diameter (or start_radius, start_roll_angle): gear 1's active flank"
+            f" is {math.ceil(low * 100) / 100:g} to 105 mm") in line, line
+    path.write_text(text.replace("52.5 mm", "51.5 mm").replace("102.5 mm", "101.5 mm"))
+    assert main(["validate", str(path)]) == 0

@@ -54,6 +54,7 @@ from gearsweep.gear import (
 )
 from gearsweep.gear.compliance import SAINSOT_BORE_RATIO
 from gearsweep.gear.excitation import DEFAULT_HARMONICS, GearExcitation, gear_excitation
+from gearsweep.gear.geometry import _mm_down, _mm_up
 from gearsweep.study.quantities import (
     Angle,
     Count,
@@ -74,7 +75,8 @@ class TipReliefSpec(Strict):
     amount: Length = Field(ge=0, description="relief at the tip C_a [m]")
     shape: Literal["linear", "parabolic"] = "linear"
     start_at: Literal["single_contact"] | None = Field(
-        None, description="start where single-tooth contact ends on the gear's flank (long relief)")
+        None, description=("start where single-tooth contact ends on the gear's flank (long"
+                           " relief); a contact ratio of 2 or more has none: refused"))
     start_radius: Length | None = Field(None, gt=0, description="radius where relief starts [m]")
     start_diameter: Length | None = Field(None, gt=0, description="diameter where it starts [m]")
     start_roll_angle: Angle | None = Field(None, gt=0, description="roll angle of the start [rad]")
@@ -210,6 +212,17 @@ def tip_reliefs(spec: GearSpec, pair: GearPair) -> tuple[TipRelief | None, TipRe
                f" is at most {MAX_RELIEF_MODULES:g} module"
                f" ({MAX_RELIEF_MODULES * pair.module * 1e6:.4g} um here): a unit slip?")
         raise GeometryError(f"tip_relief.amount {why}", [(why, ("tip_relief.amount",))])
+    if r.start_at == "single_contact" and pair.contact_ratio >= 2.0:
+        # s_start + p_b is then inside a zone of two or more pairs (50/100 teeth at 15 deg,
+        # eps 2.646: 62 % of the path relieved, validate ok; an outside tester)
+        flanks = [f"gear {g}'s active flank is {_mm_up(2.0 * pair.contact_radii(s)[g - 1])} to"
+                  f" {_mm_down(2.0 * pair.tip_radius[g - 1])} mm"
+                  for g, s in ((1, pair.s_start), (2, pair.s_end))
+                  if r.gears in ("both", ("driving", "driven")[g - 1])]
+        why = (f"contact ratio {pair.contact_ratio:.3f}: no single-tooth contact (2 or more pairs"
+               " carry the load everywhere), so no end of it to start the relief at; give"
+               f" start_diameter (or start_radius, start_roll_angle): {', '.join(flanks)}")
+        raise GeometryError(f"tip_relief.start_at {why}", [(why, ("tip_relief.start_at",))])
     out: list[TipRelief | None] = []
     for g, side in ((1, "driving"), (2, "driven")):
         if r.gears not in ("both", side):
