@@ -1,5 +1,6 @@
 """Gear pair geometry against closed forms, and every inconsistent geometry as a GeometryError."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -332,3 +333,21 @@ def test_a_thickness_bound_that_cannot_fit_is_not_offered():
     left = math.pi * m - m * (0.5 * math.pi + 2.0 * 2.5 * math.tan(a))
     assert left < 0 and "at most -" not in line
     assert line.endswith(f"; no thickness1 fits: one of 0 leaves a backlash of {left * 1e3:.4g} mm")
+
+
+def test_a_shifted_pair_without_backlash_has_exactly_none():
+    """A pair with no backlash, thickness or centre distance given meshes tight by construction
+    (the centre distance of inv(alpha_w) = inv(alpha) + 2 tan(alpha) (x1 + x2) / (z1 + z2)):
+    its backlash is 0, not the round-off of the shift formula (gear_backlash was 1.17e-15 mm for
+    z 18/55, m 2 mm, 25 deg, x 0.3/-0.1; an outside tester). A backlash asked for is kept; a
+    larger centre distance da opens one, 2 da tan(alpha_w) to first order."""
+    pair = GearPair(module=2e-3, z1=18, z2=55, face_width=20e-3, pressure_angle=math.radians(25),
+                    x1=0.3, x2=-0.1)
+    assert pair.circumferential_backlash == 0.0
+    assert pair.backlash_loa == 0.0
+    asked = dataclasses.replace(pair, backlash=0.1e-3)
+    assert asked.circumferential_backlash == pytest.approx(0.1e-3, rel=1e-12)
+    # an opened centre distance: j_t = 2 da tan(alpha_w) to first order in da (1 um here)
+    opened = dataclasses.replace(pair, centre_distance=pair.operating_centre_distance + 1e-6)
+    assert opened.circumferential_backlash == pytest.approx(
+        2e-6 * math.tan(pair.operating_pressure_angle), rel=1e-3)
