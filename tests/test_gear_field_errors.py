@@ -317,3 +317,25 @@ def test_a_root_half_angle_below_sainsot_s_range_is_refused_at_the_teeth(tmp_pat
     assert len(lines) == 1 and lines[0].startswith(
         f"{path}:6: gear.z2: 400 -- gear 2 root half angle theta_f = ")
     assert "rad (400 teeth), outside 0.01 to 0.12 rad" in lines[0]
+
+
+@pytest.mark.parametrize("field", ["z1", "z2"])
+
+
+def test_negative_teeth_are_said_to_be_an_internal_gear_which_is_not_supported(tmp_path, capsys,
+                                                                               field):
+    """``z2: -60`` (an internal gear, as some codes write it) said only "Input should be greater
+    than or equal to 3"; the line says internal gears are not supported (external spur pairs
+    only), at the field, exit 2. Teeth 0-2 keep the plain bound."""
+    text = ("type: mesh\ntitle: internal\ngear: {module: 2 mm, z1: 20, z2: 60,"
+            " face_width: 20 mm}\ntorque: 50 N*m\n").replace(f"{field}: ", f"{field}: -")
+    path = tmp_path / "s.yaml"
+    path.write_text(text)
+    assert main(["validate", str(path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert f"{path}:3: gear.{field}: -" in line, line
+    assert "internal gears are not supported (external spur pairs only)" in line, line
+    path.write_text(re.sub(rf"{field}: -\d+", f"{field}: 2", text))
+    assert main(["validate", str(path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "greater than or equal to 3" in line and "internal" not in line, line

@@ -105,13 +105,25 @@ def _below_45_deg(angle: float) -> float:
     return angle
 
 
+def _external(value: Any) -> Any:
+    """Teeth of an external gear: a negative count (an internal gear, as some codes write it)
+    said only "greater than or equal to 3" (an outside tester)."""
+    if isinstance(value, int | float) and not isinstance(value, bool) and value < 0:
+        raise ValueError("internal gears are not supported (external spur pairs only): the"
+                         " teeth of an external gear, at least 3")
+    return value
+
+
+Teeth = Annotated[Count, BeforeValidator(_external)]
+
+
 class GearSpec(Strict):
     """A gear pair: a ``preset`` and/or the fields of :class:`gearsweep.gear.GearPair` with units."""
 
     preset: Literal["table1_consistent", "table1_as_printed", "table1_profile_shift"] | None = None
     module: Length | None = Field(None, gt=0, description="module [m]")
-    z1: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driving gear 1")
-    z2: Count | None = Field(None, ge=3, le=10_000, description="teeth of the driven gear 2")
+    z1: Teeth | None = Field(None, ge=3, le=10_000, description="teeth of the driving gear 1")
+    z2: Teeth | None = Field(None, ge=3, le=10_000, description="teeth of the driven gear 2")
     face_width: Length | None = Field(None, gt=0, description="face width [m]")
     pressure_angle: Annotated[Angle, AfterValidator(_below_45_deg)] | None = Field(
         None, gt=0, description=(
