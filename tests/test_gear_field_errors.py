@@ -339,3 +339,70 @@ def test_negative_teeth_are_said_to_be_an_internal_gear_which_is_not_supported(t
     assert main(["validate", str(path)]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert "greater than or equal to 3" in line and "internal" not in line, line
+
+
+RIMMED = ("type: mesh\ntitle: rim\ngear:\n  module: 3 mm\n  z1: 20\n  z2: 40\n"
+          "  face_width: 20 mm\n  rim_thickness1: {rim}\n  web_width1: {web}\ntorque: 50 N*m\n")
+
+
+def iso_rim_factor(s_r: float, b_s: float, b: float, m: float) -> float:
+    """ISO 6336-1 C_R = 1 + ln(b_s / b) / (5 exp(s_R / (5 m))), inside its range only."""
+    assert s_r / m >= 1.0 and 0.2 <= b_s / b <= 1.2
+    return 1.0 + math.log(b_s / b) / (5.0 * math.exp(s_r / (5.0 * m)))
+
+
+@pytest.mark.parametrize(("rim", "web", "field", "said"), [
+    # gear 1: root radius 3 (20 / 2 - 1.25) = 26.25 mm, bore half of it: a rim of at most 13.12
+    ("100 mm", "10 mm", "rim_thickness1", ("gear 1: rim thickness 100 mm is more than the root"
+     " radius 26.25 mm less the bore radius 13.12 mm (the default, half the root radius): at most"
+     " 13.12 mm fits (rim_thickness1)")),
+    ("5 mm", "200 mm", "web_width1", ("gear 1: web width 200 mm is more than the face width 20 mm:"
+     " at most 20 mm fits (web_width1; a full web is the face width)")),
+])
+def test_an_impossible_rim_or_web_is_refused_at_its_field(tmp_path, capsys, rim, web, field,
+                                                          said):
+    """A 100 mm rim on a gear of root radius 26.25 mm, and a 200 mm web on a 20 mm face (stiffer
+    than a solid gear: ISO's C_R > 1 for b_s > b), were accepted (an outside tester). Refused,
+    one line at the field, with what fits, exit 2."""
+    path = tmp_path / "s.yaml"
+    text = RIMMED.format(rim=rim, web=web)
+    path.write_text(text)
+    assert main(["validate", str(path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    at = next(i for i, ln in enumerate(text.splitlines(), 1) if ln.strip().startswith(field))
+    assert f"{path}:{at}: gear.{field}: '{rim if field.startswith('rim') else web}' -- {said}" \
+        in line, line
+
+
+def test_a_rim_or_web_outside_iso_s_range_warns_that_its_factor_is_taken_at_the_bound(tmp_path):
+    """ISO 6336-1 states its rim factor for s_R >= m and 0.2 <= b_s / b <= 1.2; rim_factor takes
+    it at the bound outside, unsaid: a 0.1 mm rim on a 1 mm web gave exactly the k0 of a 3 mm
+    rim on a 4 mm web (an outside tester). Each bound passed warns, at its field, with the
+    factor taken (ISO's formula at the bound, computed here); within the range, no warning."""
+    from gearsweep.gear import GearPair, mesh_cycle
+    from gearsweep.gear.compliance import rim_factor
+
+    path = tmp_path / "s.yaml"
+    path.write_text(RIMMED.format(rim="0.1 mm", web="1 mm"))
+    at_bound = iso_rim_factor(3e-3, 4e-3, 20e-3, 3e-3)
+    with pytest.warns(GeometryWarning) as got:
+        parse_study(path.read_text(), str(path))
+    said = sorted(str(w.message) for w in got)
+    assert len(said) == 2, said
+    assert said[0].startswith(f"{path}:8: gear.rim_thickness1: '0.1 mm' -- gear 1: rim"
+                              " thickness 0.1 mm is 0.0333 modules, below ISO 6336-1's range of"
+                              " its rim factor (s_R >= m = 3 mm): C_R is taken at s_R = m"), said
+    assert said[1].startswith(f"{path}:9: gear.web_width1: '1 mm' -- gear 1: web width 1 mm is"
+                              " 0.05 of the face width, below ISO 6336-1's range of its rim"
+                              " factor (b_s / b >= 0.2): C_R is taken at b_s = 0.2 b = 4 mm"), said
+    assert said[1].endswith(f"(C_R = {at_bound:.4f})"), said
+    thin = GearPair(module=3e-3, z1=20, z2=40, face_width=20e-3, rim_thickness1=0.1e-3,
+                    web_width1=1e-3)
+    assert rim_factor(thin, 1) == pytest.approx(at_bound, rel=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        inside = GearPair(module=3e-3, z1=20, z2=40, face_width=20e-3, rim_thickness1=6e-3,
+                          web_width1=8e-3).check()
+        assert rim_factor(inside, 1) == pytest.approx(iso_rim_factor(6e-3, 8e-3, 20e-3, 3e-3),
+                                                      rel=1e-12)
+        mesh_cycle(inside, 50.0)

@@ -180,9 +180,12 @@ class GearPair:
         ``compliance.SAINSOT_BORE_RATIO`` (else the compliance refuses it); a larger one is
         stiffer: a thin rim is ``rim_thickness``.
     rim_thickness1, rim_thickness2 : float or None
-        Rim thickness below the root circle of a webbed gear [m]; ``None`` for a solid body.
+        Rim thickness below the root circle of a webbed gear [m]; ``None`` for a solid body. At
+        most the root radius less the bore radius (refused beyond); below one module, outside
+        ISO 6336-1's range of the rim factor, it is taken at one module (warned).
     web_width1, web_width2 : float or None
-        Web width of a webbed gear [m]; default ``face_width`` (i.e. a full web).
+        Web width of a webbed gear [m]; default ``face_width`` (i.e. a full web). At most the
+        face width (refused beyond); below 0.2 of it, outside ISO's range, taken at 0.2 (warned).
     contact_ratio_range : tuple of float or None
         Contact ratio range the source states [-]; :meth:`check` reports a pair outside it.
     name : str
@@ -679,6 +682,7 @@ class GearPair:
                 f" modules ({0.5 * self.module * mm:.4g} to"
                 f" {MAX_FACE_MODULES * self.module * mm:.4g} mm; a unit slip?)"),
                 ("face_width", "module")))
+        out += self._rim_faults()
         a = self.operating_centre_distance
         ra1, ra2 = self.tip_radius
         rf1, rf2 = self.root_radius
@@ -777,6 +781,56 @@ class GearPair:
                     f"above the lowest contact point at {r_low * mm:.4g} mm"
                     f"{self._mate_tip_cure(g, r_tan)}"),
                     (*self.sets("tip", 3 - g), "fillet_radius", *self.sets("root", g))))
+        return out
+
+    def _rim_faults(self) -> list[tuple[str, tuple[str, ...]]]:
+        """A rim below the bore (thicker than the root radius less the bore radius) or a web
+        wider than the face: accepted, a 200 mm web on a 20 mm face made the gear stiffer than a
+        solid one (ISO's C_R > 1 beyond b_s = b; an outside tester)."""
+        out = []
+        for g in (1, 2):
+            s_r, web = getattr(self, f"rim_thickness{g}"), getattr(self, f"web_width{g}")
+            rf, bore = self.root_radius[g - 1], self.bore_radius[g - 1]
+            if s_r is not None and s_r > rf - bore + 1e-12:
+                default = (" (the default, half the root radius)"
+                           if getattr(self, f"bore_radius{g}") is None else "")
+                out.append(((f"gear {g}: rim thickness {s_r * 1e3:.4g} mm is more than the root"
+                             f" radius {rf * 1e3:.4g} mm less the bore radius {bore * 1e3:.4g} mm"
+                             f"{default}: at most {_mm_down(rf - bore)} mm fits"
+                             f" (rim_thickness{g})"),
+                            (f"rim_thickness{g}", f"bore_radius{g}", *self.sets("root", g))))
+            if web is not None and web > self.face_width * (1 + 1e-12):
+                out.append(((f"gear {g}: web width {web * 1e3:.4g} mm is more than the face width"
+                             f" {self.face_width * 1e3:.4g} mm: at most"
+                             f" {_mm_down(self.face_width)} mm fits (web_width{g}; a full web is"
+                             " the face width)"), (f"web_width{g}", "face_width")))
+        return out
+
+    def _rim_cautions(self) -> list[tuple[str, tuple[str, ...]]]:
+        """A rim or web outside the range ISO 6336-1 states for its rim factor (s_R >= m,
+        b_s / b >= 0.2), where ``compliance.rim_factor`` takes it at the bound: a 0.1 mm rim on
+        a 1 mm web gave exactly the k0 of a 3 mm rim on a 4 mm web, unsaid (an outside
+        tester). Warned, not refused: such a gear exists, and the empirical factor has no value
+        beyond its range to give instead."""
+        from gearsweep.gear.compliance import rim_factor  # (compliance imports this module)
+
+        out = []
+        m, b = self.module, self.face_width
+        for g in (1, 2):
+            s_r, web = getattr(self, f"rim_thickness{g}"), getattr(self, f"web_width{g}")
+            if s_r is None:
+                continue  # a solid gear: C_R = 1
+            c_r = f"(C_R = {rim_factor(self, g):.4f})"
+            if s_r < m * (1 - 1e-12):
+                out.append(((f"gear {g}: rim thickness {s_r * 1e3:.4g} mm is {s_r / m:.3g} modules,"
+                             " below ISO 6336-1's range of its rim factor (s_R >= m ="
+                             f" {m * 1e3:.4g} mm): C_R is taken at s_R = m {c_r}"),
+                            (f"rim_thickness{g}",)))
+            if web is not None and web < 0.2 * b * (1 - 1e-12):
+                out.append(((f"gear {g}: web width {web * 1e3:.4g} mm is {web / b:.3g} of the face"
+                             " width, below ISO 6336-1's range of its rim factor (b_s / b >="
+                             f" 0.2): C_R is taken at b_s = 0.2 b = {0.2 * b * 1e3:.4g} mm {c_r}"),
+                            (f"web_width{g}",)))
         return out
 
     def _lowest_contact(self, g: int) -> float:
@@ -977,11 +1031,11 @@ class GearPair:
         uncut one), with the shift that avoids it; a root half angle far above Sainsot et al.'s
         fitted range (``SAINSOT_ROOT_ANGLE_WARNED``: the gear body's compliance is
         extrapolated); a tip thickness below 0.2 module (nearly pointed teeth), with the tip
-        radius that gives it."""
+        radius that gives it; a rim or web outside ISO 6336-1's range of C_R."""
         return list(_memo(_cautions_of, self))
 
     def _cautions(self) -> list[tuple[str, tuple[str, ...]]]:
-        out = []
+        out = self._rim_cautions()
         for g in (1, 2):
             top = self.undercut_radius(g)
             if top is not None and not self._contact_on_cut(g, top):

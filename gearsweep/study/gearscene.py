@@ -157,10 +157,14 @@ class GearSpec(Strict):
     bore_radius2: Length | None = Field(None, gt=0)
     rim_thickness1: Length | None = Field(None, gt=0, description=(
         "rim thickness below the root circle of a webbed gear, for ISO 6336-1's rim factor C_R,"
-        " which softens the tooth (unset: a solid gear) [m]"))
+        " which softens the tooth (unset: a solid gear): at most the root radius less the bore"
+        " radius (refused beyond); ISO states C_R for at least one module, and a thinner rim"
+        " is taken at one module, with a warning [m]"))
     rim_thickness2: Length | None = Field(None, gt=0)
     web_width1: Length | None = Field(None, gt=0, description=(
-        "web width of a webbed gear, with rim_thickness1 (unset: the face width) [m]"))
+        "web width of a webbed gear, with rim_thickness1 (unset: the face width): at most the"
+        " face width (refused beyond); ISO states C_R for at least 0.2 of it, and a narrower"
+        " web is taken at 0.2 face widths, with a warning [m]"))
     web_width2: Length | None = Field(None, gt=0)
     tip_relief: TipReliefSpec | None = None
 
