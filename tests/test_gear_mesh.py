@@ -53,6 +53,8 @@ def _relief_at_single_contact_bounds(pair: GearPair, amount: float, shape: str =
 
 
 @pytest.mark.parametrize("pair", STANDARD_PAIRS, ids=lambda p: f"{p.z1}-{p.z2}")
+
+
 def test_stiffness_within_band_of_iso6336(pair):
     """Mean mesh stiffness vs c_gamma and maximum single-pair stiffness vs c' within +-25 %.
 
@@ -103,6 +105,8 @@ def test_a_pair_beyond_the_compliance_model_s_range_is_refused():
 
 
 @pytest.mark.parametrize("youngs_modulus", [2.5e9, 70e9, 110e9, 450e9])
+
+
 def test_a_pair_of_another_material_is_checked_against_iso_for_that_material(youngs_modulus):
     """Every compliance term is 1/E, so a pair's stiffness is E times that of steel (E = 206 GPa)
     and ISO 6336-1 scales its c' and c_gamma by E / E_st for other materials. The range check
@@ -249,6 +253,8 @@ def test_profile_error_array_equals_callable():
     separation=st.lists(st.floats(0.0, 2e-5), min_size=3, max_size=3),
     force=st.floats(1.0, 1e4),
 )
+
+
 def test_share_kernel_solves_compatibility(compliance, separation, force):
     """Water filling against a root of sum max(0, (d - e_j)/c_j) = F found by scipy's brentq."""
     c = np.array([compliance])
@@ -318,6 +324,8 @@ def _unmodified_harmonics_by_simpson(pair: GearPair, torque: float, orders: np.n
 
 @pytest.mark.parametrize("pair, torque", [(TESTER_PAIR, 150.0), (table1_consistent(), 50.0)],
                          ids=["27-41", "table1"])
+
+
 def test_harmonics_match_an_independent_integral_to_1e5(pair, torque):
     """k and STE harmonics 0..10 of mesh_cycle (and of gear_excitation, which the dynamics take)
     against Simpson's rule on 4001 points per piece (converged: 200001 points move it by 1e-8).
@@ -380,6 +388,8 @@ def test_relieved_harmonics_with_pairs_that_lift_off_match_100000_uniform_positi
 
 
 @pytest.mark.parametrize("n", [200, 201])
+
+
 def test_fourier_reconstructs_mesh_curves(n):
     """All harmonics up to N//2 reproduce the tabulated curve to round-off (1e-9 relative).
 
@@ -414,6 +424,8 @@ def test_mesh_of_table1_as_printed_is_refused():
         ({"tip_relief": TipRelief(1e-6, start_radius=1e-3)}, "tip relief start radius"),
     ],
 )
+
+
 def test_bad_mesh_inputs_raise(kwargs, text):
     args = {"pair": table1_consistent(), "torque": 50.0} | kwargs
     with pytest.raises(GeometryError, match=text):
@@ -536,7 +548,11 @@ def test_compliance_integration_converges():
 
 
 @pytest.mark.parametrize("gear", [1, 2])
+
+
 @pytest.mark.parametrize("pair", STANDARD_PAIRS[:2], ids=lambda p: f"{p.z1}-{p.z2}")
+
+
 def test_castigliano_integrals_by_quadrature(pair, gear):
     """Bending, shear and axial compliance of a tooth at five contact radii are the
     potential-energy integrals of Yang & Lin (1987) / Tian (2004) in their textbook form,
@@ -588,6 +604,8 @@ def test_castigliano_integrals_by_quadrature(pair, gear):
     x1=st.floats(-0.5, 0.8),
     x2=st.floats(-0.5, 0.8),
 )
+
+
 def test_any_pair_is_refused_or_meshes_sensibly(z1, z2, x1, x2):
     """Random shifted pairs: a GeometryError, or a mesh with shares summing to 1 and stiffness
     within [0.7, 1.4] of ISO 6336-1 (wider than for standard pairs: ISO's shift terms are a fit
@@ -661,3 +679,47 @@ def test_sainsot_s_root_half_angle_is_refused_below_its_range_and_warned_far_abo
     assert len(said) == 1 and said[0].message.fields[:2] == ("z1", "x1")
     assert (f"gear 1 root half angle theta_f = {theta:.3g} rad is {theta - 0.12:.2g} rad above the"
             " 0.01 to 0.12 rad") in str(said[0].message)
+
+
+def test_iso6336_values_take_iso_s_low_load_rule_per_torque():
+    """ISO 6336-1 scales c' (and so c_gamma) by (F_t K_A / b / 100 N/mm)^0.25 where the line load
+    is below 100 N/mm; it was left out (only a docstring said so) while the mesh study labelled
+    its variables ISO's c' and c_gamma, one value over a torque sweep (an outside tester).
+    Table 1 at 50 N m: F_t = 50 N m / 60 mm (the reference radius, m z1 / 2) = 833.3 N on
+    10 mm, 83.3 N/mm, so c_gamma = 207.77 x 0.9554 = 198.5 kN/mm (the hand value of
+    test_iso6336_hand_value times ISO's factor, K_A = 1); at 200 N m (333 N/mm) unscaled."""
+    pair = table1_consistent()
+    w = 50.0 / (2.5e-3 * 48 / 2) / 10.0  # [N/mm]
+    factor = (w / 100.0) ** 0.25
+    assert factor == pytest.approx(0.9554, abs=1e-4)
+    c_prime, c_gamma = iso6336_stiffness(pair, torque=50.0)
+    assert c_prime == pytest.approx(135.74e6 * factor, rel=1e-4)
+    assert c_gamma == pytest.approx(207.77e6 * factor, rel=1e-4)
+    assert c_gamma == pytest.approx(198.5e6, rel=2e-4)
+    assert iso6336_stiffness(pair, torque=200.0)[1] == pytest.approx(207.77e6, rel=1e-4)
+    swept = iso6336_stiffness(pair, torque=np.array([5.0, 50.0, 200.0]))[1]
+    assert_allclose(swept, 207.77e6 * np.minimum((np.array([5.0, 50.0, 200.0]) / 0.06 / 10.0
+                                                  / 100.0) ** 0.25, 1.0), rtol=1e-4)
+    # the compliance model's plausibility bound is load-independent (k is, for unmodified
+    # teeth): it keeps ISO's value at 100 N/mm or more, so a light load is not refused
+    # (at 1 N m ISO's low-load c_gamma is 75 kN/mm, ours 219: 2.9 times)
+    assert mesh_cycle(pair, 1.0).mesh_stiffness.mean() == pytest.approx(
+        mesh_cycle(pair, 50.0).mesh_stiffness.mean(), rel=1e-12)
+
+
+def test_a_mesh_study_s_iso_values_are_per_torque(tmp_path):
+    """Over a swept torque the mesh study's iso_single_stiffness and iso_mesh_stiffness are one
+    value per torque (dims variant, torque), ISO's at that torque's line load (above)."""
+    import gearsweep
+
+    text = ("type: mesh\ntitle: iso\ngears: {a: table1_consistent, b: table1_profile_shift}\n"
+            "sweep: {torque: [5 N*m, 50 N*m, 200 N*m]}\npositions: 16\nharmonics: 2\n")
+    ds = gearsweep.run(text)
+    assert ds.iso_mesh_stiffness.dims == ("variant", "torque")
+    assert ds.iso_mesh_stiffness.attrs["units"] == "kN mm-1"
+    factor = np.minimum((np.array([5.0, 50.0, 200.0]) / 0.06 / 10.0 / 100.0) ** 0.25, 1.0)
+    assert_allclose(ds.iso_mesh_stiffness.sel(variant="a").values, 207.77 * factor, rtol=1e-4)
+    assert_allclose(ds.iso_single_stiffness.sel(variant="a").values, 135.74 * factor, rtol=1e-4)
+    ratio = ds.iso_mesh_stiffness.sel(variant="b") / ds.iso_mesh_stiffness.sel(variant="b",
+                                                                                  torque=200.0)
+    assert_allclose(ratio.values, factor, rtol=1e-12)  # same reference radius, 60 mm

@@ -54,8 +54,12 @@ _ATTRS = {  # name -> (kind of gearsweep.units, or a unit; long name)
     "base_radius_1": ("length", "base radius of the driving gear"),
     "base_radius_2": ("length", "base radius of the driven gear"),
     "gear_backlash": ("length", "backlash of the gear pair along the line of action"),
-    "iso_single_stiffness": ("stiffness", "ISO 6336-1 single stiffness c' (x E / 206 GPa)"),
-    "iso_mesh_stiffness": ("stiffness", "ISO 6336-1 mesh stiffness c_gamma (x E / 206 GPa)"),
+    "iso_single_stiffness": ("stiffness", ("ISO 6336-1 single stiffness c' at the torque, scaled"
+                             " by (F_t K_A / b / 100 N/mm)^0.25 below 100 N/mm, K_A = 1"
+                             " (x E / 206 GPa)")),
+    "iso_mesh_stiffness": ("stiffness", ("ISO 6336-1 mesh stiffness c_gamma at the torque, scaled"
+                           " by (F_t K_A / b / 100 N/mm)^0.25 below 100 N/mm, K_A = 1"
+                           " (x E / 206 GPa)")),
     "pair": ("1", "tooth pair slot: slot j is at s_start + (mesh_phase + j) base pitch"),
     "harmonic": ("1", "Fourier harmonic order in mesh orders (0 = mean)"),
     "variant": ("-", "gear pair variant (label from the study)"),
@@ -112,16 +116,16 @@ def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
             cycles = mesh_cycles(pair, torques, n=study.positions,
                                  tip_relief=tip_reliefs(spec, pair), harmonics=h)
         arrays = [c.as_arrays(h) for c in cycles]
-        c_prime, c_gamma = iso6336_stiffness(pair)
+        c_prime, c_gamma = iso6336_stiffness(pair, torques)  # per torque (its line load)
         rec = {k: np.stack([a[k] for a in arrays]) for k in
                ("ste", "load_share", "mesh_stiffness", "k_harmonic", "k_phase", "ste_harmonic",
                 "ste_phase", "e_harmonic", "e_phase")}
         rec["mean_force"] = np.array([c.load for c in cycles])
+        rec["iso_single_stiffness"], rec["iso_mesh_stiffness"] = c_prime, c_gamma
         rec["in_contact"] = cycles[0].in_contact
         rec.update(contact_ratio=pair.contact_ratio, base_pitch=pair.base_pitch,
                    base_radius_1=pair.base_radius1, base_radius_2=pair.base_radius2,
-                   gear_backlash=pair.backlash_loa, iso_single_stiffness=c_prime,
-                   iso_mesh_stiffness=c_gamma)
+                   gear_backlash=pair.backlash_loa)
         per.append(rec)
         relief = f", tip relief {spec.tip_relief.model_dump(exclude_none=True)}" if (
             spec.tip_relief is not None) else ""
@@ -150,14 +154,14 @@ def run_mesh_study(study: MeshStudy, text: str = "") -> xr.Dataset:
                 "load_share": ("mesh_phase", "pair"), "k_harmonic": ("harmonic",),
                 "k_phase": ("harmonic",), "ste_harmonic": ("harmonic",),
                 "ste_phase": ("harmonic",), "e_harmonic": ("harmonic",),
-                "e_phase": ("harmonic",), "mean_force": ()}
+                "e_phase": ("harmonic",), "mean_force": (), "iso_single_stiffness": (),
+                "iso_mesh_stiffness": ()}
     data_vars: dict[str, tuple] = {n: ((*lead, *d), stack(n)) for n, d in trailing.items()}
     vdim = ("variant",) if multi else ()
     data_vars["in_contact"] = ((*vdim, "mesh_phase", "pair"),
                                np.stack([r["in_contact"] for r in per]) if multi
                                else per[0]["in_contact"])
-    for name in ("contact_ratio", "base_pitch", "base_radius_1", "base_radius_2", "gear_backlash",
-                 "iso_single_stiffness", "iso_mesh_stiffness"):
+    for name in ("contact_ratio", "base_pitch", "base_radius_1", "base_radius_2", "gear_backlash"):
         vals = np.array([r[name] for r in per])
         data_vars[name] = (vdim, vals if multi else vals[0])
     coords: dict[str, tuple] = {
