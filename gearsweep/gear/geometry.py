@@ -812,15 +812,15 @@ class GearPair:
         a 1 mm web gave exactly the k0 of a 3 mm rim on a 4 mm web, unsaid (an outside
         tester). Warned, not refused: such a gear exists, and the empirical factor has no value
         beyond its range to give instead."""
-        from gearsweep.gear.compliance import rim_factor  # (compliance imports this module)
-
         out = []
         m, b = self.module, self.face_width
         for g in (1, 2):
             s_r, web = getattr(self, f"rim_thickness{g}"), getattr(self, f"web_width{g}")
             if s_r is None:
                 continue  # a solid gear: C_R = 1
-            c_r = f"(C_R = {rim_factor(self, g):.4f})"
+            # compliance.rim_factor's C_R (that module imports this one), at ISO's bounds
+            bs_b = min(max((web if web is not None else b) / b, 0.2), 1.2)
+            c_r = f"(C_R = {1.0 + math.log(bs_b) / (5.0 * math.exp(max(s_r / m, 1.0) / 5.0)):.4f})"
             if s_r < m * (1 - 1e-12):
                 out.append(((f"gear {g}: rim thickness {s_r * 1e3:.4g} mm is {s_r / m:.3g} modules,"
                              " below ISO 6336-1's range of its rim factor (s_R >= m ="
