@@ -3,6 +3,7 @@ written and what would fit; the bounds against closed forms of involute geometry
 not against the code's own numbers."""
 
 import math
+import re
 import warnings
 from pathlib import Path
 

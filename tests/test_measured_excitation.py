@@ -34,7 +34,6 @@ from gearsweep.model import Harmonic
 from gearsweep.study.plan import build_model, make_plan
 from gearsweep.study.schema import load_study, parse_study
 
-
 ROOT = Path(__file__).resolve().parent.parent
 
 
