@@ -274,8 +274,10 @@ def hill_parameters(model: MeshModel | MathieuModel, params: dict[str, np.ndarra
         ``alpha = k0 / (m (N w)^2)``, ``beta = 1 / (m (N w)^2)`` (the scale of the stiffness
         harmonics), ``gamma = c / (m N w)``; the Mathieu scene gives them directly.
     harmonics : (amplitudes, orders, phases) or None
-        The stiffness harmonics shared by every case; None also when a stiffness order is not an
-        integer (then alpha is NaN).
+        The stiffness harmonics shared by every case, their orders per period of the Hill
+        equation: that of the stiffness orders' cycle, ``hill_cycle(model)[0]`` mesh periods
+        (orders 0.5 and 1: 2 periods, orders 1 and 2; alpha, beta, gamma in that time too); None
+        also where that cycle is longer than ``HILL_CYCLE_MAX`` (then alpha is NaN).
     kmax_over_m, c_over_m, period : ndarray (n,)
         Largest stiffness / mass [1/s^2], damping / mass [1/s] and mesh period [s] of each case
         (Mathieu scene: in units of tau).
@@ -293,19 +295,48 @@ def hill_parameters(model: MeshModel | MathieuModel, params: dict[str, np.ndarra
     k0 = case("stiffness", model.stiffness)
     c = case("damping", model.damping)
     kh = model.stiffness_harmonics
+    period = 2.0 * math.pi / omega
+    cycle = hill_cycle(model)[0]
+    omega = omega / max(cycle, 1)  # the Hill equation's period: the stiffness orders' cycle
     scale = 1.0 / (mass * omega**2)
     alpha, gamma = k0 * scale, c / (mass * omega)
     harmonics = None
     beta = np.zeros(n)
     if kh:
-        if any(abs(h.order - round(h.order)) > 1e-12 for h in kh):
+        if cycle == 0:
             alpha = np.full(n, math.nan)
         else:
-            harmonics = ([h.amplitude for h in kh], [round(h.order) for h in kh],
+            harmonics = ([h.amplitude for h in kh], [round(h.order * cycle) for h in kh],
                          [h.phase for h in kh])
             beta = scale
     kmax = (k0 + sum(abs(h.amplitude) for h in kh)) / mass
-    return alpha, beta, gamma, harmonics, kmax, c / mass, 2.0 * math.pi / omega
+    return alpha, beta, gamma, harmonics, kmax, c / mass, period
+
+
+HILL_CYCLE_MAX = 64
+"""Most mesh periods in the cycle of a scene's stiffness orders that the Floquet analysis and the
+step guard's map check cover (``hill_cycle``): their monodromy takes the cycle's steps, as the
+kernel's table does. Orders 0.5 and 1: 2 periods; an order with no small common period with the
+others (1/97 beside 1, 0.4142: an irrational-looking one) is not analysed (``hill_parameters``
+gives alpha NaN, and the run says so)."""
+
+
+def hill_cycle(model: MeshModel | MathieuModel) -> tuple[int, int]:
+    """(P, q): the mesh periods in one period of the scene's Hill equation, the least common
+    multiple of its stiffness orders' periods (1 for whole orders; 0 where that exceeds
+    ``HILL_CYCLE_MAX``: not analysed), and the periods of that equation in one cycle of every
+    excitation (``MeshModel.cycle_periods``: the forcing's period, whose periodic response the
+    step guard's resonance test judges)."""
+    if not isinstance(model, MeshModel) or not model.stiffness_harmonics:
+        return 1, getattr(model, "cycle_periods", 1)
+    p = 1
+    for hm in model.stiffness_harmonics:
+        den = model._order_fraction(hm.order).denominator
+        p = p * den // math.gcd(p, den)
+    if p > HILL_CYCLE_MAX:
+        return 0, 1
+    total = model.cycle_periods
+    return p, max(total // p, 1)
 
 
 # --------------------------------------------------------------------------- one case, per mass

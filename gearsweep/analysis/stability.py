@@ -76,6 +76,8 @@ __all__ = [
     "integrator_unstable",
     "map_step_check",
     "map_step_limit",
+    "RESONANCE_TOL",
+    "resonance_error",
     "max_stable_step",
     "measured_step_limit",
     "operating_map",
@@ -451,8 +453,70 @@ def variation_ratio(alpha, beta, harmonics=None) -> np.ndarray:
         return np.where(var == 0, 0.0, np.where(a > 0, var / np.where(a > 0, a, 1.0), np.inf))
 
 
+RESONANCE_TOL = 0.01
+"""Largest relative error of the forced response's resonant part that the step guard lets a
+fixed-step map bring (``resonance_error``): 1 %, the share the project holds a study's answers
+to elsewhere (``settle_tolerance``, the transient note's ``SETTLED_RESIDUAL``). Near a parametric
+tongue a damped case's periodic response is amplified by 1 / det(I - M) (M the monodromy over the
+forcing's period), and a map whose multiplier nearest 1 is off by a little there is off by a lot
+in the response: an outside analyst's whine scene (k1 / k0 = 0.98, zeta 0.007, RK5) at 56 steps
+per mesh period has the map's multiplier 0.99926 against the equation's 0.97881 and p_rms 28.5
+times the truth, with status 0 (docs/stability.md)."""
+
+
+def _det_i_minus(M: np.ndarray, cycles: int = 1) -> np.ndarray:
+    """det(I - M^cycles) of 2x2 matrices (n, 2, 2): 1 - tr(M^q) + det(M)^q."""
+    Mq = np.linalg.matrix_power(M, int(cycles)) if cycles != 1 else M
+    det = np.linalg.det(M) ** int(cycles)
+    return 1.0 - (Mq[:, 0, 0] + Mq[:, 1, 1]) + det
+
+
+def resonance_error(M_map, M_eq, cycles: int = 1) -> np.ndarray:
+    """Relative error of the resonant part of the periodic forced response that the fixed-step map
+    ``M_map`` brings against the equation's monodromy ``M_eq`` (both (n, 2, 2), over one period
+    of the Hill equation).
+
+    A response periodic with the forcing (``cycles`` periods of the equation: a fractional forcing
+    order) starts from (I - M^q)^-1 b, b the particular solution's end state, whose error is the
+    step's ordinary error. (I - M)^-1 = adj(I - M) / det(I - M) with adj linear in M, so where
+    det(I - M) is small (a multiplier near 1: near a parametric tongue, or undamped near its
+    edge) the response is amplified by 1 / det(I - M), and the map's response differs from the
+    equation's by the factor det(I - M_eq) / det(I - M_map):
+
+        E = |det(I - M_eq^q) - det(I - M_map^q)| / |det(I - M_map^q)|.
+
+    Invariant under a change of basis and needs no pairing of multipliers; a multiplier near -1
+    does not amplify a response of the forcing's period and does not count. (The analyst's whine
+    scene, RK5: E = 27.3, 0.69, 0.099, 0.024, 0.0020 at 56, 64, 80, 96, 128 steps per period,
+    where p_rms was 28.5, 1.70, 1.10, 1.026, 1.0024 times scipy's; tests/test_step_guard_map.py.)
+    ``inf`` where the map overflowed.
+    """
+    M_map, M_eq = np.asarray(M_map, float), np.asarray(M_eq, float)
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        pm, pe = _det_i_minus(M_map, cycles), _det_i_minus(M_eq, cycles)
+        e = np.abs(pe - pm) / np.abs(pm)
+    return np.where(np.isfinite(e), e, np.inf)
+
+
+_RESONANCE_SCREEN = 8.0
+"""``map_step_check`` computes the equation's monodromy for the resonance test only where the
+map's own Richardson estimate of E (the map at S against 2S) exceeds RESONANCE_TOL / this: well
+below the tolerance the map at S and at 2S agree with each other and, in the asymptotic range,
+with the equation (``scripts/scan_step_guard.py resonance`` counts the cases the screen passes
+that the equation flags)."""
+
+
+_SCREEN_HW = 1.0
+"""The screen is trusted only where h omega at the stiffest instant is at most this: coarser,
+the maps at S and 2S can both be far from the equation and agree with each other (RK4 near its
+frozen limit, where both kill a free vibration the equation keeps at 0.3 a period: E 0.6 with
+the screen's estimate 2e-5; ``scripts/scan_step_guard.py resonance``)."""
+
+
 def map_step_check(alpha, beta, gamma, steps_per_period: int, *, method: str,
-                   harmonics=None, tol: float = UNSTABLE_TOL) -> tuple[np.ndarray, np.ndarray]:
+                   harmonics=None, tol: float = UNSTABLE_TOL, forced: bool = False,
+                   cycles: int = 1, resonance_tol: float = RESONANCE_TOL,
+                   screen: bool = True, equation=None) -> tuple[np.ndarray, np.ndarray]:
     """The step guard's check of the fixed-step map, where ``needs_map_check`` asks for it.
 
     Parameters
@@ -460,18 +524,30 @@ def map_step_check(alpha, beta, gamma, steps_per_period: int, *, method: str,
     alpha, beta, gamma : array_like (n,)
         Hill equations in Mathieu form (``gearsweep.model.hill_parameters``).
     steps_per_period : int
+        Steps per period of the Hill equation (2 pi of its time).
     method : str
         A kernel method (``rk4``, ``rk5``).
     harmonics : see ``gearsweep.kernels.floquet.monodromy``.
     tol : float
         A multiplier counts as > 1 above ``1 + tol`` (the floquet output's threshold).
+    forced : bool
+        The scene is forced (a gear scene: mean force, STE, fluctuation): also beyond where the
+        map's resonant response is off by more than ``resonance_tol`` (``resonance_error``), the
+        forcing repeating every ``cycles`` periods of the equation.
+    screen : bool
+        Compute the equation's monodromy only where the map's Richardson estimate of that error
+        is above ``resonance_tol / _RESONANCE_SCREEN`` or the step is coarse (h omega >
+        ``_SCREEN_HW`` at the stiffest instant) (False: everywhere).
+    equation : (n, 2, 2) array, optional
+        The equation's monodromy of the cases, if known (``map_step_limit`` computes it once).
 
     Returns
     -------
     beyond : ndarray of bool
         The map's largest |mu| over one period is > 1 + tol and the equation's (converged, RK5)
-        is not: ``integrator_unstable``'s rule. The converged multiplier is computed only for the
-        cases whose map is unstable.
+        is not (``integrator_unstable``'s rule), or (``forced``) the map's resonant response is
+        off by more than ``resonance_tol``. The converged multiplier is computed only for the
+        cases whose map is unstable or whose screen asks for it.
     discrete : ndarray
         The map's largest |mu| (inf where it overflows).
     """
@@ -480,32 +556,63 @@ def map_step_check(alpha, beta, gamma, steps_per_period: int, *, method: str,
     beyond = np.zeros(a.size, bool)
     if a.size == 0:
         return beyond, np.zeros(0)
-    disc = largest_multiplier(fq.monodromy(a, b, g, steps_per_period, method=method,
-                                           harmonics=harmonics))
-    grow = np.flatnonzero(disc > 1 + tol)
-    if grow.size:
-        eq = floquet(a[grow], b[grow], g[grow], method="rk5", rtol=1e-8, tol=tol,
-                     harmonics=harmonics)
-        beyond[grow] = ~eq.unstable
+    S = int(steps_per_period)
+    M = fq.monodromy(a, b, g, S, method=method, harmonics=harmonics)
+    disc = largest_multiplier(M)
+    grow = disc > 1 + tol
+    ask = grow.copy()
+    if forced:
+        if equation is not None or not screen:
+            ask[:] = True
+        else:
+            M2 = fq.monodromy(a, b, g, 2 * S, method=method, harmonics=harmonics)
+            p = fq.ORDER[method]
+            est = resonance_error(M, M2, cycles) * 2.0**p / (2.0**p - 1.0)
+            amps = np.atleast_1d((harmonics if harmonics is not None else fq.MATHIEU)[0])
+            hw = 2.0 * np.pi * np.sqrt(np.abs(a) + np.abs(b) * np.sum(np.abs(amps))) / S
+            ask |= ~(est <= resonance_tol / _RESONANCE_SCREEN) | ~(hw <= _SCREEN_HW)
+    idx = np.flatnonzero(ask)
+    if idx.size:
+        if equation is not None:
+            M_eq = np.asarray(equation, float).reshape(-1, 2, 2)[idx]
+            eq_mu = largest_multiplier(M_eq)
+        else:
+            eq = floquet(a[idx], b[idx], g[idx], method="rk5", rtol=1e-10 if forced else 1e-8,
+                         tol=tol, harmonics=harmonics)
+            M_eq, eq_mu = eq.monodromy.reshape(-1, 2, 2), eq.multiplier
+        stable = ~(eq_mu > 1 + tol)
+        out = grow[idx] & stable
+        if forced:  # (an unstable equation has no periodic response to get right)
+            out |= stable & (resonance_error(M[idx], M_eq, cycles) > resonance_tol)
+        beyond[idx] = out
     return beyond, disc
 
 
 def map_step_limit(alpha, beta, gamma, start, *, method: str, harmonics=None,
-                   tol: float = UNSTABLE_TOL, most: int = 8) -> np.ndarray:
+                   tol: float = UNSTABLE_TOL, most: int = 8, forced: bool = False,
+                   cycles: int = 1, spp_scale: int = 1) -> np.ndarray:
     """The fewest steps per period, from ``start`` (the frozen-coefficient limit, per case) on,
     that ``map_step_check`` passes: ``start`` where it passes there, else start + 1, + 2, ...
     (the map's multiplier need not fall monotonically with the step: the first count that
-    passes), at most ``most`` x start (then that)."""
+    passes), at most ``most`` x start (then that). ``spp_scale``: the map's steps per period of
+    the equation per step count counted here (the periods of a fractional stiffness order's
+    cycle: the count is per mesh period). With ``forced`` the equation's monodromy is computed
+    once per case."""
     a, b, g, s0 = (np.ravel(x) for x in np.broadcast_arrays(
         np.asarray(alpha, float), np.asarray(beta, float), np.asarray(gamma, float),
         np.asarray(start, np.int64)))
     out = s0.copy()
     active = np.ones(a.size, bool)
+    M_eq = None
+    if forced and a.size:
+        M_eq = floquet(a, b, g, method="rk5", rtol=1e-10, tol=tol,
+                       harmonics=harmonics).monodromy.reshape(-1, 2, 2)
     while active.any():
         S = int(out[active].min())
         idx = np.flatnonzero(active & (out == S))
-        beyond, _ = map_step_check(a[idx], b[idx], g[idx], S, method=method,
-                                   harmonics=harmonics, tol=tol)
+        beyond, _ = map_step_check(a[idx], b[idx], g[idx], S * spp_scale, method=method,
+                                   harmonics=harmonics, tol=tol, forced=forced, cycles=cycles,
+                                   equation=None if M_eq is None else M_eq[idx])
         stop = ~beyond | (S >= most * s0[idx])
         active[idx[stop]] = False
         out[idx[~stop]] = S + 1

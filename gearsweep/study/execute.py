@@ -47,6 +47,7 @@ from urllib.parse import urlparse
 
 import numpy as np
 
+from gearsweep.analysis.stability import RESONANCE_TOL
 from gearsweep.errors import (
     ClusterError,
     ContactLossWarning,
@@ -59,7 +60,7 @@ from gearsweep.files import check_replaceable
 from gearsweep.jit import cache_loads_without_set_up
 from gearsweep.kernels import LANES
 from gearsweep.kernels.batch import compiled
-from gearsweep.model import MeshModel
+from gearsweep.model import HILL_CYCLE_MAX, MeshModel
 from gearsweep.study.checkpoint import (
     ChunkStore,
     RunLog,
@@ -1428,6 +1429,13 @@ def step_limit_text(plan: Plan, n: int, where: str | Path, *, before: bool = Fal
     s = plan.study.solver
     head = (f"{where}: {n} case(s) {'will use' if before else 'use'} a step beyond the stability"
             f" limit of {s.method} at {s.steps_per_period} steps/period")
+    if plan.memo.get("unanalysed"):
+        head += (f" (or whose fixed-step map it could not check: k(t)'s orders have no common"
+                 f" period of at most {HILL_CYCLE_MAX} mesh periods; unchecked, not passed)")
+    if plan.memo.get("resonance_flagged"):
+        head += (f" (or where its fixed-step map's forced response, 1 / det(I - M) near a"
+                 f" parametric resonance of k(t), is more than {RESONANCE_TOL:.0%} off the"
+                 " equation's: docs/stability.md)")
     if s.step_guard == "skip":
         return StepLimitWarning(f"{head}; step_guard: skip leaves them uncomputed (status 3,"
                                 " skipped; raise solver.steps_per_period to compute them)")

@@ -39,7 +39,7 @@ from gearsweep.kernels.floquet import (
     monodromy,
     monodromy_call,
 )
-from gearsweep.model import RPM, MeshModel, hill_parameters, mesh_frequency
+from gearsweep.model import RPM, MeshModel, hill_cycle, hill_parameters, mesh_frequency
 from gearsweep.study.quantities import (
     MAX_STEPS_PER_PERIOD,
     Count,
@@ -784,7 +784,7 @@ class Floquet:
                 result: BatchResult) -> dict[str, np.ndarray]:
         n = result.x_final.shape[0]
         a, b, g, harm, kmax, cm, period = hill_parameters(plan.model, params, n)
-        s = plan.study.solver
+        s = _HillSolver(plan)
         ok = np.isfinite(a)
         memo = _FLOQUET_MEMO.get()
         if memo is None:
@@ -826,12 +826,51 @@ _FLOQUET_MEMO: contextvars.ContextVar[dict | None] = contextvars.ContextVar("flo
 """``Floquet.shared``'s table per shape of the stiffness variation: case -> its arrays' values."""
 
 
+def forced_scene(plan: Plan) -> bool:
+    """The scene's response is forced (a mean force or load, STE or force harmonics): the step
+    guard's map check then also judges the map's resonant response (``map_step_check``'s
+    ``forced``). A Mathieu scene and a free vibration (the rig of Fig. 7.2) are not."""
+    m = plan.model
+    if not isinstance(m, MeshModel):
+        return False
+    return bool(m.mean_force or m.ste_harmonics or m.force_harmonics
+                or {"torque", "mean_force"} & set(plan.grids))
+
+
+@dataclass(frozen=True)
+class _HillSolver:
+    """The study's method and steps with the period of its Hill equation (``hill_cycle``: a
+    fractional stiffness order's cycle of ``cycle`` mesh periods, the forcing's ``cycles`` of
+    them) and whether the scene is forced (``forced_scene``)."""
+
+    method: str
+    steps_per_period: int
+    cycle: int
+    cycles: int
+    forced: bool
+
+    def __init__(self, plan: Plan):
+        cycle, q = hill_cycle(plan.model)
+        for k, v in dict(method=plan.study.solver.method,
+                         steps_per_period=plan.study.solver.steps_per_period,
+                         cycle=max(cycle, 1), cycles=q, forced=forced_scene(plan)).items():
+            object.__setattr__(self, k, v)
+
+
 def _multipliers(a, b, g, harm, solver) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Converged largest |mu| and its error (RK5) and the study's fixed-step map's largest |mu|
-    of the cases (a, b, g) of the Hill equation of shape ``harm``."""
+    of the cases (a, b, g) of the Hill equation of shape ``harm``, per mesh period (the equation's
+    period is ``solver.cycle`` of them)."""
     fl = floquet(a, b, g, method="rk5", rtol=1e-8, tol=TOL, harmonics=harm)
-    M = monodromy(a, b, g, solver.steps_per_period, method=solver.method, harmonics=harm)
-    return fl.multiplier, fl.error, largest_multiplier(M)
+    M = monodromy(a, b, g, solver.steps_per_period * solver.cycle, method=solver.method,
+                  harmonics=harm)
+    mu, err, disc = fl.multiplier, fl.error, largest_multiplier(M)
+    if solver.cycle > 1:  # |mu|^(1/P) per mesh period, its error by the derivative
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            per = mu ** (1.0 / solver.cycle)
+            err = err * per / (solver.cycle * mu)
+            mu, disc = per, disc ** (1.0 / solver.cycle)
+    return mu, err, disc
 
 
 def _step_limit(solver, harm, ok, a, b, g, kmax, cm, period) -> np.ndarray:
@@ -841,12 +880,15 @@ def _step_limit(solver, harm, ok, a, b, g, kmax, cm, period) -> np.ndarray:
     n = np.size(a)
     _, limit = check_step(solver.method, solver.steps_per_period, period, kmax, cm)
     limit = np.array(np.broadcast_to(limit, (n,)), dtype=float)
-    strong = np.flatnonzero(ok & needs_map_check(a, b, g, harm, solver.steps_per_period))
+    strong = np.flatnonzero(ok & needs_map_check(a, b, g, harm,
+                                                 solver.steps_per_period * solver.cycle))
     if strong.size:
         with np.errstate(over="ignore", invalid="ignore"):
             limit[strong] = map_step_limit(a[strong], b[strong], g[strong],
                                            limit[strong].astype(np.int64),
-                                           method=solver.method, harmonics=harm)
+                                           method=solver.method, harmonics=harm,
+                                           forced=solver.forced, cycles=solver.cycles,
+                                           spp_scale=solver.cycle)
     return limit
 
 

@@ -21,9 +21,13 @@ from typing import Any
 import numpy as np
 
 from gearsweep.analysis.stability import (
+    COARSE_STEPS,
+    STRONG_VARIATION,
+    TONGUE_MARGIN,
     map_step_check,
     needs_map_check,
     ray_limit,
+    resonance_error,
     stability_polynomial,
     step_limit_hw,
 )
@@ -34,11 +38,13 @@ from gearsweep.gear.measured import positive_minimum
 from gearsweep.kernels import LANES
 from gearsweep.kernels.cuda import CHUNK_STEPS as GPU_CHUNK_STEPS
 from gearsweep.kernels.cuda import planned_device
+from gearsweep.kernels.floquet import UNSTABLE_TOL, floquet, largest_multiplier, monodromy
 from gearsweep.model import (
     Harmonic,
     MathieuModel,
     MeshModel,
     equivalent_mass,
+    hill_cycle,
     hill_parameters,
     mean_mesh_force,
 )
@@ -46,7 +52,13 @@ from gearsweep.model import fluctuating_force as eq7_force
 from gearsweep.study.gearscene import scene_excitation
 from gearsweep.study.lanes import lane_values
 from gearsweep.study.measured import scene_measured, typed_harmonics
-from gearsweep.study.outputs import OUTPUTS, VarSpec, configure, record_periods_needed
+from gearsweep.study.outputs import (
+    OUTPUTS,
+    VarSpec,
+    configure,
+    forced_scene,
+    record_periods_needed,
+)
 from gearsweep.study.schema import Study, first_load, line_of, load_yaml, written_at
 from gearsweep.units import to_si
 
@@ -616,10 +628,32 @@ def _model_step_ok(plan: Plan, model, params: dict[str, np.ndarray], n: int) -> 
     monodromy (``_map_multipliers``)."""
     a, b, g, harm, kmax, cm, period = hill_parameters(model, params, n)
     ok = _frozen_ok(plan, kmax, cm, period, n)
+    if isinstance(model, MeshModel) and model.stiffness_harmonics and hill_cycle(model)[0] == 0:
+        return ok & ~_unanalysed(plan, model, params, n)
     if not np.any(b):  # constant stiffness: nothing more to check, at no cost
         return ok
     beyond, _ = _map_multipliers(plan, model, a, b, g, harm, ok)
     return ok & ~beyond
+
+
+def _unanalysed(plan: Plan, model: MeshModel, params: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """The cases whose map the step guard would check (``needs_map_check``'s rule with the
+    several-harmonics tongue damping r / 4) but cannot: k(t)'s orders have no common period of at
+    most ``HILL_CYCLE_MAX`` mesh periods (``model.hill_cycle``). They count as beyond the step
+    limit, unchecked, never as passed; the warning says why (``plan.memo["unanalysed"]``)."""
+    def case(name: str, default: float) -> np.ndarray:
+        v = params.get(name)
+        return np.full(n, float(default)) if v is None else np.asarray(v, float)
+
+    k0, m, c = case("stiffness", model.stiffness), case("mass", model.mass), case(
+        "damping", model.damping)
+    r = sum(abs(h.amplitude) for h in model.stiffness_harmonics) / k0
+    zeta = np.abs(c) / (2.0 * np.sqrt(k0 * m))
+    need = (r > STRONG_VARIATION) | (plan.study.solver.steps_per_period < COARSE_STEPS) | ~(
+        zeta > TONGUE_MARGIN * r / 4.0)
+    if need.any():
+        plan.memo["unanalysed"] = True
+    return need
 
 
 def _frozen_ok(plan: Plan, kmax, cm, period, n: int) -> np.ndarray:
@@ -632,18 +666,23 @@ def _frozen_ok(plan: Plan, kmax, cm, period, n: int) -> np.ndarray:
 
 
 def _map_multipliers(plan: Plan, model, a, b, g, harm, ok) -> tuple[np.ndarray, np.ndarray]:
-    """(beyond, the map's largest |mu|) per case: ``analysis.stability.map_step_check`` at the
-    study's method and steps for the cases that pass the frozen rule (``ok``) where
-    ``analysis.stability.needs_map_check`` asks for it (False and NaN elsewhere). Each distinct (alpha, beta,
-    gamma) of a model is computed once per study (``plan.memo``): a continued sweep asks again
-    at every speed of every chunk."""
+    """(beyond, the map's largest |mu| per mesh period) per case: ``analysis.stability.
+    map_step_check`` at the study's method and steps for the cases that pass the frozen rule
+    (``ok``) where ``analysis.stability.needs_map_check`` asks for it (False and NaN elsewhere),
+    over one period of the Hill equation (``model.hill_cycle``: the cycle of fractional stiffness
+    orders; the multiplier is taken per mesh period), with the resonance test where the scene is
+    forced (``forced_scene``). Each distinct (alpha, beta, gamma) of a model is computed once per
+    study (``plan.memo``): a continued sweep asks again at every speed of every chunk."""
     n = np.size(a)
     beyond, disc = np.zeros(n, bool), np.full(n, np.nan)
     a, b, g, ok = (np.broadcast_to(np.asarray(x), (n,)) for x in (a, b, g, ok))
     s = plan.study.solver
-    strong = ok & np.isfinite(a) & needs_map_check(a, b, g, harm, s.steps_per_period)
+    cycle, q = hill_cycle(model)
+    spp = s.steps_per_period * max(cycle, 1)
+    strong = ok & np.isfinite(a) & needs_map_check(a, b, g, harm, spp)
     if not strong.any():
         return beyond, disc
+    forced = forced_scene(plan)
     idx = np.flatnonzero(strong)
     # Rows (alpha, beta, gamma) as 24-byte keys: one sort, no Python loop over cases (a dict of
     # tuples took 4 s of 1e6 combinations, against 0.13 s of the frozen rule).
@@ -651,15 +690,16 @@ def _map_multipliers(plan: Plan, model, a, b, g, harm, ok) -> tuple[np.ndarray, 
     keys = rows.view(np.dtype((np.void, 24))).ravel()
     uniq, inverse = np.unique(keys, return_inverse=True)
     memo = plan.memo.setdefault("map_multipliers", {})
-    name = (id(model), repr(harm), s.method, s.steps_per_period)
+    name = (id(model), repr(harm), s.method, spp, forced, q)
     known, kb, kd = memo.get(name, (uniq[:0], np.zeros(0, bool), np.zeros(0)))
     pos = np.minimum(np.searchsorted(known, uniq), max(known.size - 1, 0))
     have = (known.size > 0) & (known[pos] == uniq) if known.size else np.zeros(uniq.size, bool)
     if not have.all():
         t = uniq[~have].view(np.float64).reshape(-1, 3)
         with np.errstate(over="ignore", invalid="ignore"):
-            f, d = map_step_check(t[:, 0], t[:, 1], t[:, 2], s.steps_per_period,
-                                  method=s.method, harmonics=harm)
+            f, d = map_step_check(t[:, 0], t[:, 1], t[:, 2], spp, method=s.method,
+                                  harmonics=harm, forced=forced, cycles=q)
+            d = d ** (1.0 / cycle) if cycle > 1 else d
         known, kb, kd = (np.concatenate(x) for x in ((known, uniq[~have]), (kb, f), (kd, d)))
         order = np.argsort(known, kind="stable")
         known, kb, kd = known[order], kb[order], kd[order]
@@ -668,6 +708,8 @@ def _map_multipliers(plan: Plan, model, a, b, g, harm, ok) -> tuple[np.ndarray, 
     inverse = np.ravel(inverse)
     beyond[idx] = kb[pos][inverse]
     disc[idx] = kd[pos][inverse]
+    if np.any(beyond & ~(disc > 1 + UNSTABLE_TOL)):  # flagged by the resonance test alone:
+        plan.memo["resonance_flagged"] = True  # the warning says so (``step_limit_text``)
     return beyond, disc
 
 
@@ -709,6 +751,61 @@ def cases_beyond_step_limit(plan: Plan) -> int | None:
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         ok = np.asarray(_step_ok(plan, params, m))
     return int((~ok).sum()) * (plan.n_cases // m)  # each grid point: the other dims' cases
+
+
+def resonance_steps(plan: Plan, start: int, target: float, multiple: int = 8,
+                    most: int = 4096) -> tuple[int, float, float, float] | None:
+    """The fewest steps per mesh period, from ``start`` on in ``multiple``s, from which up to twice
+    as many the fixed-step map's resonant response (``analysis.stability.resonance_error``) is
+    within ``target`` at every case of ``plan`` the step guard checks the map of (on the grid of the
+    swept dims it depends on; ``most`` at most), with that error at ``start`` and at the steps
+    found and the speed where it was largest at ``start`` [rpm] (the error returned for the steps found is the
+    largest over that run); ``None`` where the scene is not
+    forced, no case is checked or the grid is larger than ``_GUARD_TABLE_MAX``. The advisor's
+    error model does not see this amplification (docs/precision.md)."""
+    swept = _swept_grid(plan, GUARD_PARAMS)
+    if swept is None or not forced_scene(plan) or "speed" not in swept[0]:
+        return None
+    params, m = swept
+    cycle, q = hill_cycle(plan.model)
+    a, b, g, harm, *_ = hill_parameters(plan.model, params, m)
+    a, b, g = (np.broadcast_to(np.asarray(x, float), (m,)) for x in (a, b, g))
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        pick = np.isfinite(a) & np.asarray(b != 0) & needs_map_check(
+            a, b, g, harm, start * max(cycle, 1))
+        if not pick.any():
+            return None
+        rows = np.unique(np.stack([a[pick], b[pick], g[pick], params["speed"][pick]], 1), axis=0)
+        eq = floquet(rows[:, 0], rows[:, 1], rows[:, 2], method="rk5", rtol=1e-10,
+                     tol=UNSTABLE_TOL, harmonics=harm)
+        rows, M_eq = rows[~eq.unstable], eq.monodromy.reshape(-1, 2, 2)[~eq.unstable]
+        if not rows.size:
+            return None
+
+        def error(S: int) -> np.ndarray:
+            M = monodromy(rows[:, 0], rows[:, 1], rows[:, 2], S * max(cycle, 1),
+                          method=plan.study.solver.method, harmonics=harm)
+            e = resonance_error(M, M_eq, q)
+            return np.where(largest_multiplier(M) > 1 + UNSTABLE_TOL, np.inf, e)
+
+        # The error changes sign with the step (the whine scene of docs/stability.md: 2e-3 at
+        # 128 steps, 3e-5 at 160, 1.9e-4 at 192, then falling as about S^-4.6): the steps found
+        # are the first of a run that stays within the target up to twice as many.
+        first = error(start)
+        S, e = start, np.max(first)
+        run, worst = (start, e) if e <= target else (None, 0.0)
+        while (run is None or S < 2 * run) and S < most:
+            S = (S // multiple + 1) * multiple
+            e = float(np.max(error(S)))
+            if e > target:
+                run, worst = None, 0.0
+            elif run is None:
+                run, worst = S, e
+            else:
+                worst = max(worst, e)
+    steps = run if run is not None else S
+    return steps, float(np.max(first)), worst if run is not None else e, float(
+        rows[int(np.argmax(first)), 3])
 
 
 SETTLED_RESIDUAL = 0.01
