@@ -16,6 +16,8 @@ Sections (all by default):
 * ``above``: the map near tongue n at 1.01, 1.1 and 1.5 zeta_n (``TONGUE_MARGIN``).
 * ``multi``: several harmonics (orders 1, 2, 3 of equal size).
 * ``alias``: away from the low tongues, h w_n from 0.3 to the frozen limit.
+* ``resonance``: the resonance test of forced scenes (``resonance_error``): the docs' whine scene
+  against scipy's periodic response and runs of the study; the screen against the exact test.
 
 Each figure is printed as ``quoted: ... | measured: ...``. Seeds are fixed. ``--quick`` runs
 every section on a small sample (under a minute on 2 cores; not the docs' numbers); the full
@@ -405,7 +407,114 @@ def alias(quick: bool) -> dict:
     return {"beyond": total}
 
 
-SECTIONS = {f.__name__: f for f in (examples, random, weak, edges, close, above, multi, alias)}
+def _scipy_monodromy(alpha: float, beta: float, gamma: float) -> np.ndarray:
+    def f(t, y):
+        return [y[1], -gamma * y[1] - (alpha + beta * np.cos(t)) * y[0]]
+    return np.column_stack([solve_ivp(f, (0, 2 * np.pi), y0, method="DOP853", rtol=1e-13,
+                                      atol=1e-15).y[:, -1] for y0 in ([1.0, 0.0], [0.0, 1.0])])
+
+
+def _whine_response(steps: int | None) -> float:
+    """p_rms [um] of the docs' whine scene (k1 = 1050 of k0 = 1073 kN/mm, c = 256 N s/m, STE
+    5 um, 2184.4 rpm): ``None``: scipy's periodic response, (I - M)^-1 b, DOP853 at rtol 1e-11;
+    else a run of the study at that many RK5 steps per mesh period, its transient long enough
+    for the map's own decay to leave 1e-6."""
+    import warnings
+
+    import gearsweep
+    k0, k1, m, c, rpm = 1073e6, 1050e6, 0.1527, 256.0, 2184.4
+    w = 48 * rpm / 60 * 2 * np.pi
+    if steps is None:
+        T, kw = 2 * np.pi / w, dict(method="DOP853", rtol=1e-11, atol=1e-18)
+
+        def f(t, y, forced=True):
+            g = (833.0 / m + 5e-6 * w * w * np.cos(w * t)) if forced else 0.0
+            return [y[1], g - c / m * y[1] - (k0 + k1 * np.cos(w * t)) / m * y[0]]
+        M = np.column_stack([solve_ivp(f, (0, T), y0, args=(False,), **kw).y[:, -1]
+                             for y0 in ([1.0, 0.0], [0.0, 1.0])])
+        x0 = np.linalg.solve(np.eye(2) - M, solve_ivp(f, (0, T), [0.0, 0.0], **kw).y[:, -1])
+        p = solve_ivp(f, (0, T), x0, t_eval=np.linspace(0, T, 4001)[:-1], **kw).y[0]
+        return float(np.sqrt(np.mean((p - p.mean()) ** 2))) * 1e6
+    a, b, g = k0 / (m * w * w), k1 / (m * w * w), c / (m * w)
+    mu = float(map_mu(a, b, g, steps, "rk5")[0])
+    study = {"title": "w", "outputs": ["stats"], "scene": {
+        "kind": "whine", "mass": "0.1527 kg", "teeth": 48, "stiffness": "1073 kN/mm",
+        "damping": "256 N*s/m", "mean_force": "833 N",
+        "stiffness_harmonics": [{"amplitude": "1050 kN/mm"}], "ste": [{"amplitude": "5 um"}]},
+        "sweep": {"speed": [f"{rpm} rpm"]},
+        "solver": {"method": "rk5", "steps_per_period": steps, "record_periods": 50,
+                   "transient_periods": int(np.log(1e-6) / np.log(mu)) + 1}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return float(gearsweep.run(study).p_rms.values.ravel()[0])
+
+
+def resonance(quick: bool) -> dict:
+    """The resonance test (``resonance_error``, ``RESONANCE_TOL``): the docs' whine scene, and
+    the screen of ``map_step_check`` (the map at S against 2S) against the exact test on random
+    forced cases."""
+    out = {}
+    k0, k1, m, c, w = 1073e6, 1050e6, 0.1527, 256.0, 48 * 2184.4 / 60 * 2 * np.pi
+    a, b, g = k0 / (m * w * w), k1 / (m * w * w), c / (m * w)
+    print("whine scene at 2184.4 rpm (alpha 58.285, beta / alpha 0.979, zeta 0.0071), RK5")
+    Me = _scipy_monodromy(a, b, g)
+    show("equation's multipliers (scipy)", "0.97881, 0.39144",
+         ", ".join(f"{abs(x):.5f}" for x in sorted(np.linalg.eigvals(Me), key=abs)[::-1]))
+    truth = _whine_response(None)
+    show("p_rms of the periodic response (scipy)", "224.66 um", f"{truth:.2f} um")
+    for S, qe, qr in ((56, "27.3", "28.5"), (64, "0.69", "1.70"), (80, "0.099", "1.10"),
+                      (96, "0.024", "1.026"), (128, "0.0020", "1.0024")):
+        M = fq.monodromy(a, b, g, S, method="rk5")
+        e = float(st.resonance_error(M, Me[None])[0])
+        mu = float(fq.largest_multiplier(M)[0])
+        ratio = _whine_response(S) / truth if not quick or S in (56, 128) else float("nan")
+        show(f"{S} steps: map's |mu|, E, p_rms / truth", f"E {qe}, p_rms x{qr}",
+             f"|mu| {mu:.5f}, E {e:.3g}, p_rms x{ratio:.4g}")
+    lim = int(st.map_step_limit(a, b, g, 38, method="rk5", forced=True)[0])
+    show("map_step_limit from 38 (forced)", "108", str(lim))
+    # The screen: random forced cases, every step count from the frozen limit S0 to twice it, and
+    # 3, 4, 6 and 8 times it.
+    rng = np.random.default_rng(SEED)
+    n = 300 if quick else 3000
+    for method in METHODS:
+        alpha = np.exp(rng.uniform(np.log(0.3), np.log(2000), n))
+        r = rng.uniform(0.05, 0.99, n)
+        zeta = rng.choice([0.0, 0.001, 0.005, 0.01, 0.05, 0.2], n)
+        beta, gamma = r * alpha, 2 * zeta * np.sqrt(alpha)
+        Me = fq.floquet(alpha, beta, gamma, method="rk5", rtol=1e-10).monodromy
+        stable = ~(fq.floquet(alpha, beta, gamma, method="rk5", rtol=1e-8).multiplier > 1 + TOL)
+        s0 = frozen_limit(method, alpha + beta, gamma).astype(int)
+        checked = missed = flagged = screened_total = 0
+        pairs = [(S, np.flatnonzero((s0 <= S) & (S <= 2 * s0) & stable))
+                 for S in range(int(s0.min()), int(2 * s0.max()) + 1)]
+        pairs += [(int(f * S0), np.flatnonzero((s0 == S0) & stable))
+                  for S0 in np.unique(s0) for f in (3, 4, 6, 8)]
+        for S, idx in pairs:
+            if not idx.size:
+                continue
+            M = fq.monodromy(alpha[idx], beta[idx], gamma[idx], S, method=method)
+            M2 = fq.monodromy(alpha[idx], beta[idx], gamma[idx], 2 * S, method=method)
+            p = fq.ORDER[method]
+            est = st.resonance_error(M, M2) * 2.0**p / (2.0**p - 1.0)
+            exact = st.resonance_error(M, Me[idx])
+            ok = fq.largest_multiplier(M) <= 1 + TOL
+            hw = 2 * np.pi * np.sqrt(alpha[idx] + beta[idx]) / S
+            screened = ((est <= st.RESONANCE_TOL / st._RESONANCE_SCREEN) & (hw <= st._SCREEN_HW)
+                        & (gamma[idx] != 0))
+            checked += int(ok.sum())
+            flagged += int((ok & (exact > st.RESONANCE_TOL)).sum())
+            missed += int((ok & screened & (exact > st.RESONANCE_TOL)).sum())
+            screened_total += int((ok & screened).sum())
+        out[f"missed_{method}"] = missed
+        show(f"{method}: (case, step) pairs whose map decays; resonance flagged; passed by the"
+             " screen but flagged exactly", "0 missed",
+             f"{checked}; {flagged}; {missed} (screened {screened_total})")
+        out[f"screened_{method}"] = screened_total
+    return out
+
+
+SECTIONS = {f.__name__: f for f in (examples, random, weak, edges, close, above, multi, alias,
+                                    resonance)}
 
 
 def main() -> None:
