@@ -22,6 +22,7 @@ from gearsweep import result_model
 from gearsweep.plot.common import save
 from gearsweep.plot.whine import (
     damping_text,
+    lowest_in_contact,
     natural_frequency,
     plot_order_by_variant,
     plot_response_by_load,
@@ -45,12 +46,20 @@ for col, study in enumerate(studies):
                                f" {damping_text(ds).split(', ')[1]} (at the first load)", 62),
                  fontsize=9)
     ax.set_xlabel("")
+    # the baseline: the lowest torque whose cases all keep contact (a ratio set against a case
+    # that lost contact compares with the linear equation's answer for a pair with no backlash)
+    base = lowest_in_contact(ds, "torque")
+    lowest = float(ds["torque"].min())
     plot_response_by_load(ax2, ds, by="torque", variable="p_rms", natural_frequency_hz=f_n,
-                           relative=True, log=True)
+                          relative=True, log=True, baseline=lowest if base is None else base)
     # of the legend only the grey bands' entry: the ratios whose case lost contact
     grey = [h for h in ax2.get_lines() if h.get_label().startswith("grey:")]
-    ax2.legend(handles=grey, fontsize=8, loc="center right") if grey else ax2.get_legend().remove()
-    ax2.set_title("relative to the lowest torque", fontsize=9)
+    ax2.legend(handles=grey, fontsize=8, loc="lower right") if grey else ax2.get_legend().remove()
+    ax2.set_ylabel("p_rms / p_rms at the baseline torque (title) [-]")
+    ax2.set_title("relative to the lowest torque (every load keeps contact)" if base == lowest
+                  else f"relative to {lowest:g} N m (every load loses contact somewhere)"
+                  if base is None else f"relative to {base:g} N m, the lowest torque that keeps contact"
+                  f" at every speed\n({lowest:g} N m does not: its ratio is grey there)", fontsize=9)
     if col:
         ax.set_ylabel("")
         ax2.set_ylabel("")

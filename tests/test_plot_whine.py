@@ -18,6 +18,7 @@ from numpy.testing import assert_allclose  # noqa: E402
 from gearsweep.api import run_study  # noqa: E402
 from gearsweep.plot.whine import (  # noqa: E402
     driven_speed,
+    lowest_in_contact,
     natural_frequency,
     plot_campbell,
     plot_order_lines,
@@ -478,11 +479,66 @@ def test_response_by_load_marks_the_cases_that_lost_contact_and_the_ratios_on_th
     bands = _bands(ax)
     assert [tuple(np.isfinite(b.get_ydata()).nonzero()[0]) for b in bands] == [(7,), (3, 5, 7)]
     assert ax.get_legend().get_texts()[-1].get_text() == (
-        f"grey: {CONTACT_LOST},\n4 of 19 ratios drawn (in the line's\ncase or the first"
-        " damping's)")
+        f"grey: {CONTACT_LOST},\n4 of 19 ratios drawn (in the line's\ncase or the"
+        " baseline's)")
     fig, ax = plt.subplots()
     plot_response_by_load(ax, ds.drop_vars("contact_lost"), by="damping")
     assert not _bands(ax)
+    plt.close("all")
+
+
+def _three_loads() -> xr.Dataset:
+    """A synthetic Fig. 6 (b): p_rms over speed x torque (um), 12.5 N m losing contact at the
+    top three speeds (and there larger than the others, as a case whose flanks part), 25 and
+    50 N m keeping it; speed 1 of 25 N m not settled."""
+    speed = np.linspace(1000.0, 10000.0, 6)
+    torque = np.array([12.5, 25.0, 50.0])
+    p = np.outer(np.ones(6), [1.0, 2.0, 4.0])
+    p[3:, 0] = 8.0
+    lost = np.zeros((6, 3), bool)
+    lost[3:, 0] = True
+    status = np.zeros((6, 3), np.int8)
+    status[1, 1] = 2
+    dims = ("speed", "torque")
+    return xr.Dataset(
+        {"p_rms": (dims, p, {"units": "um", "long_name": "rms of p"}),
+         "contact_lost": (dims, lost), "status": (dims, status)},
+        coords={"speed": ("speed", speed, {"units": "rpm"}),
+                "torque": ("torque", torque, {"units": "N m"}),
+                "mesh_frequency": ("speed", speed * 48 / 60, {"units": "Hz"})})
+
+
+def test_relative_response_can_be_set_against_the_lowest_load_that_keeps_contact():
+    """Fig. 6 (b): its relative panel divided by 12.5 N m, which loses contact from 7,105 rpm
+    up, so its ratios (down to 0.48) compared a real pair with the linear equation's answer
+    for a pair with no backlash. ``lowest_in_contact`` names the lowest load none of whose
+    settled cases lost contact; ``baseline`` divides by it, and only the ratios whose own case
+    lost contact are then marked."""
+    ds = _three_loads()
+    assert lowest_in_contact(ds, "torque") == 25.0
+    keeps = ds.assign(contact_lost=ds.contact_lost & False)
+    assert lowest_in_contact(keeps, "torque") == 12.5
+    everywhere = ds.assign(contact_lost=ds.contact_lost | (ds.speed > 9000.0))
+    assert lowest_in_contact(everywhere, "torque") is None
+    # a case that lost contact but has not settled is masked, not counted against its load
+    masked = ds.copy(deep=True)
+    masked["contact_lost"][{"speed": 1, "torque": 1}] = True
+    assert lowest_in_contact(masked, "torque") == 25.0
+    fig, ax = plt.subplots()
+    plot_response_by_load(ax, ds, by="torque", relative=True, baseline=25.0)
+    lines = [ln for ln in ax.get_lines() if ln.get_color() != "0.78"]
+    assert_allclose(lines[0].get_ydata(), [0.5, np.nan, 0.5, 4.0, 4.0, 4.0])  # (the baseline's
+    assert_allclose(lines[1].get_ydata(), [1.0, np.nan, 1.0, 1.0, 1.0, 1.0])  # unsettled case:
+    assert_allclose(lines[2].get_ydata(), [2.0, np.nan, 2.0, 2.0, 2.0, 2.0])  # no ratio)
+    assert [tuple(np.isfinite(b.get_ydata()).nonzero()[0]) for b in _bands(ax)] == [(3, 4, 5)]
+    assert ax.get_ylabel() == "p_rms / p_rms at torque = 25 N m [-]"
+    fig, ax = plt.subplots()
+    plot_response_by_load(ax, ds, by="torque", relative=True)  # the first load: all three marked
+    assert ax.get_ylabel() == "p_rms / p_rms at torque = 12.5 N m [-]"
+    assert [tuple(np.isfinite(b.get_ydata()).nonzero()[0]) for b in _bands(ax)] == [
+        (3, 4, 5), (3, 4, 5), (3, 4, 5)]
+    lines = [ln for ln in ax.get_lines() if ln.get_color() != "0.78"]
+    assert_allclose(lines[2].get_ydata()[3:], 0.5)  # 50 / 12.5 N m where 12.5 N m parted
     plt.close("all")
 
 

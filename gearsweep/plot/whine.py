@@ -37,6 +37,7 @@ from gearsweep.units import si_data_vars, si_values
 __all__ = [
     "damping_labels",
     "driven_speed",
+    "lowest_in_contact",
     "natural_frequency",
     "plot_campbell",
     "plot_order_lines",
@@ -326,6 +327,7 @@ def plot_response_by_load(
     orders: Sequence[int] = (1, 2, 3),
     log: bool = True,
     relative: bool = False,
+    baseline: float | None = None,
 ) -> Figure:
     """A response statistic against speed, one line per value of ``by`` (paper Fig. 6).
 
@@ -346,18 +348,22 @@ def plot_response_by_load(
     log : bool
         Logarithmic amplitude axis.
     relative : bool
-        Draw each line divided by the line of the first value of ``by`` [-].
+        Draw each line divided by the line of the value ``baseline`` of ``by`` [-].
+    baseline : float, optional
+        The value of ``by`` whose line the others are divided by with ``relative``; the first
+        value when not given (``lowest_in_contact`` gives the lowest that keeps contact).
 
     Drawn cases that lost contact (``contact_lost``: p < 0, the linear scene answers for a pair
     with no backlash) lie on a grey band, counted in its legend entry; with ``relative`` a ratio
-    is marked where either of its two cases lost contact (the first line's too: the baseline).
+    is marked where either of its two cases lost contact (the baseline's too).
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     da, n_bad, n_all = settled(ds[variable], ds)  # a case that has not settled is no point
     lost = contact_lost(da, ds)
     speed = ds["speed"].values
-    base = da.isel({by: 0}).values
-    lost_base = lost.isel({by: 0}).values
+    first = float(ds[by].values[0]) if baseline is None else float(baseline)
+    base = da.sel({by: first}).values
+    lost_base = lost.sel({by: first}).values
     bands, n_lost, n_drawn = [], 0, 0
     for v in ds[by].values:
         y = da.sel({by: v}).values
@@ -369,7 +375,7 @@ def plot_response_by_load(
         n_lost += int((mark & np.isfinite(y)).sum())
         n_drawn += int(np.isfinite(y).sum())
     mark_contact_lost_lines(ax, speed, bands, contact_lost_label(
-        n_lost, n_drawn, f"ratios drawn (in the line's\ncase or the first {by}'s)" if relative
+        n_lost, n_drawn, "ratios drawn (in the line's\ncase or the baseline's)" if relative
         else "cases drawn"))
     if natural_frequency_hz is not None:
         f_per_rpm = float(ds["mesh_frequency"].values[-1] / speed[-1])
@@ -384,12 +390,28 @@ def plot_response_by_load(
         ax.set_yscale("log")
     ax.set_xlabel(f"speed of the {ds['speed'].attrs.get('gear', 'driving gear')} [rpm]")
     name = da.attrs.get("long_name", variable)
-    first = value_label(ds, by, float(ds[by].values[0]))
-    ax.set_ylabel(f"{variable} / {variable} at {first} [-]" if relative else f"{name} [µm]")
+    ax.set_ylabel(f"{variable} / {variable} at {value_label(ds, by, first)} [-]" if relative
+                  else f"{name} [µm]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, title=f"{n_bad} of {n_all} cases not settled (masked)" if n_bad else None,
               title_fontsize=8)
     return ax.figure
+
+
+def lowest_in_contact(ds: xr.Dataset, by: str = "torque", variable: str = "p_rms") -> float | None:
+    """The lowest value of ``by`` none of whose settled cases lost contact (``contact_lost``),
+    the baseline of a relative ``plot_response_by_load`` whose ratios compare only responses of
+    the linear mesh in contact; None where every value has a case that lost contact.
+
+    A case that lost contact is the linear equation's answer for a pair with no backlash, not
+    the pair's: a ratio set against it compares a real pair's response with that of another
+    system (Fig. 6 (b): the relieved pair's 12.5 N m line from 7,105 rpm up)."""
+    da, _, _ = settled(si_data_vars(ds)[variable], ds)
+    lost = contact_lost(da, ds) & da.notnull()
+    other = [d for d in lost.dims if d != by]
+    keeps = ~lost.any(other) if other else ~lost
+    values = sorted(float(v) for v, ok in zip(ds[by].values, keeps.values, strict=True) if ok)
+    return values[0] if values else None
 
 
 def _stiffness(ds: xr.Dataset) -> tuple[float, list[float]]:
