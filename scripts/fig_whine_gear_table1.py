@@ -1,9 +1,11 @@
 """Whine response versus speed with k(t) from the Table 1 gear pair (studies/whine_gear_table1.yaml).
 
 Reads results/whine_gear_table1.nc; writes whine_gear_table1.png. Only settled cases are drawn:
-a case not settled at the end of its window (status 2: at low damping the parametric instability
-near twice the natural frequency, and the slowly decaying cases at its edges) has no steady value;
-those are masked and counted.
+a case not settled at the end of its window (status != 0) has no steady value; those are masked
+and counted, and the title gives, per damping, the mesh frequencies at which they lie over the
+natural frequency f_n (read from the result: at low damping they gather around twice f_n, the
+principal parametric resonance, whose tongue docs/REPRODUCTION.md checks with Floquet
+multipliers apart from this figure).
 """
 
 from _common import open_result, parse
@@ -11,7 +13,7 @@ from _common import open_result, parse
 from gearsweep.api import result_model
 from gearsweep.plot.common import save
 from gearsweep.plot.sweep import plot_response_vs_speed
-from gearsweep.plot.whine import damping_labels
+from gearsweep.plot.whine import damping_labels, natural_frequency
 
 args = parse(__doc__)
 ds = open_result(args.results, "whine_gear_table1")
@@ -20,8 +22,18 @@ k0, m = model.stiffness, model.mass
 fig = plot_response_vs_speed(ds, "p_rms", hue="damping", hue_labels=damping_labels(ds))
 ax = fig.axes[0]
 ax.set_yscale("log")
-bad = int((ds["status"] != 0).sum())
-ax.set_title(f"{ds.attrs['title']}\nk0 = {k0 / 1e6:.0f} kN/mm (from the pair), m_eq = {m:g} kg;"
-             f" {bad} of {ds['status'].size} cases not settled, masked\n(the parametric"
-             " tongue near twice f_n and its slow edges: no steady value)", fontsize=9)
+unsettled = ds["status"] != 0
+bad = int(unsettled.sum())
+# where the unsettled cases lie, read from the result (the reason was typed: "the parametric
+# tongue near twice f_n and its slow edges", true or not of the data drawn)
+f_n = natural_frequency(ds)
+where = []
+for c, label in zip(ds["damping"].values, damping_labels(ds), strict=True):
+    f = ds["mesh_frequency"].values[unsettled.sel(damping=c).values] / f_n
+    if f.size:
+        where.append(f"{f.size} at {label.split(' (')[0]}, mesh frequency {f.min():.2f}-"
+                     f"{f.max():.2f} f_n")
+ax.set_title(f"{ds.attrs['title']}\nk0 = {k0 / 1e6:.0f} kN/mm (from the pair), m_eq = {m:g} kg,"
+             f" f_n = {f_n / 1e3:.2f} kHz\n{bad} of {ds['status'].size} cases not settled,"
+             " masked" + (f" ({'; '.join(where)})" if where else ""), fontsize=9)
 print(save(fig, args.figures / "whine_gear_table1.png", dpi=150))

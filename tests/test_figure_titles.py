@@ -42,8 +42,10 @@ def rig(tmp_path_factory) -> xr.Dataset:
     return xr.load_dataset(folder / "rig_low_speed.nc")
 
 
-def draw(script: str, results: Path, tmp_path: Path, monkeypatch) -> dict[str, plt.Figure]:
-    """Run ``scripts/<script>`` on ``results``; the figures it saves, by file name, open."""
+def draw(script: str, results: Path, tmp_path: Path, monkeypatch,
+         *extra: str) -> dict[str, plt.Figure]:
+    """Run ``scripts/<script>`` on ``results`` (``extra``: more arguments); the figures it
+    saves, by file name, open."""
     saved = {}
 
     def keep(fig, path, dpi=130):
@@ -53,7 +55,7 @@ def draw(script: str, results: Path, tmp_path: Path, monkeypatch) -> dict[str, p
     monkeypatch.setattr(common, "save", keep)
     monkeypatch.syspath_prepend(str(ROOT / "scripts"))
     monkeypatch.setattr(sys, "argv", [script, "--results", str(results), "--figures",
-                                      str(tmp_path / "figures")])
+                                      str(tmp_path / "figures"), *extra])
     runpy.run_path(str(ROOT / "scripts" / script), run_name="__main__")
     return saved
 
@@ -129,4 +131,76 @@ def test_fig05_order_sources_shows_every_order_line_it_names(tmp_path, monkeypat
         assert len(lines) == 10
         for ln in lines:
             assert low <= np.nanmax(ln.get_ydata()) <= high, (ax.get_title(loc="left"), ln.get_label())
+    plt.close("all")
+
+
+def small(name: str, *swaps: tuple[str, str]) -> str:
+    """studies/<name>.yaml with each (old, new) of ``swaps`` replaced once."""
+    text = (ROOT / "studies" / f"{name}.yaml").read_text(encoding="utf-8")
+    for old, new in swaps:
+        assert text.count(old) == 1, (name, old)
+        text = text.replace(old, new)
+    return text
+
+
+@pytest.mark.filterwarnings("ignore::gearsweep.errors.StepLimitWarning")  # (the study's own)
+def test_fig7_2_methods_title_counts_the_floquet_unstable_cases(tmp_path, monkeypatch, capsys):
+    """The title said "(Floquet: stable everywhere)", typed: now it counts the converged
+    Floquet multipliers above 1 in the rig result the map is drawn on, and says another thing
+    when one is."""
+    results = tmp_path / "results"
+    dampings = ("damping: [0 N*s/m, 10 N*s/m, 100 N*s/m, 500 N*s/m, 1 N*s/mm, 2 N*s/mm,"
+                " 5.5 N*s/mm, 10 N*s/mm]")
+    steps = ("steps_per_period: [100, 120, 140, 160, 180, 200, 220, 240, 260, 280, 300, 320,"
+             " 340, 360, 380, 400, 420]")
+    gearsweep.run(small("stability_rig", ("num: 96", "num: 3"),
+                        (dampings, "damping: [0 N*s/m, 5.5 N*s/mm]")),
+                  output=results / "stability_rig.nc")
+    gearsweep.run(small("stability_artifact_map",
+                        ("methods: [rk5, fehlberg5, cashkarp5, dopri5]", "methods: [rk5]"),
+                        (steps, "steps_per_period: [100, 200]")),
+                  output=results / "stability_artifact_map.nc")
+    rig = xr.load_dataset(results / "stability_rig.nc")
+    assert not rig.unstable.any()
+
+    def title() -> str:
+        fig = draw("fig_stability.py", results, tmp_path, monkeypatch, "--only", "methods")
+        return fig["fig7_2_methods.png"].get_suptitle()
+
+    assert "the equation is stable at all 6 cases of the grid (Floquet" in title()
+    plt.close("all")
+    rig["unstable"][{"speed": 1, "damping": 0}] = True
+    rig.to_netcdf(results / "stability_rig.nc")
+    said = title()
+    assert "the equation is unstable at 1 of 6 cases of the grid (Floquet" in said
+    assert "stable at all" not in said and "artifact" not in said
+    plt.close("all")
+
+
+def test_whine_gear_table1_title_says_where_its_unsettled_cases_lie(tmp_path, monkeypatch,
+                                                                     capsys):
+    """The title explained its masked cases as "the parametric tongue near twice f_n and its
+    slow edges", typed: now it gives, per damping, the mesh frequencies of the cases not
+    settled over f_n, read from the result (and nothing where every case settled)."""
+    results = tmp_path / "results"
+    gearsweep.run(small("whine_gear_table1", ("num: 400", "num: 4"),
+                        ("record_periods: 50", "record_periods: 8")),
+                  output=results / "whine_gear_table1.nc")
+    ds = xr.load_dataset(results / "whine_gear_table1.nc")
+    assert not (ds.status != 0).any()
+
+    def title() -> str:
+        fig = draw("fig_whine_gear_table1.py", results, tmp_path, monkeypatch)
+        return fig["whine_gear_table1.png"].axes[0].get_title()
+
+    said = title()
+    assert said.endswith("0 of 8 cases not settled, masked"), said
+    plt.close("all")
+    ds["status"][{"speed": 2, "damping": 1}] = 2
+    ds["status"][{"speed": 3, "damping": 1}] = 2
+    ds.to_netcdf(results / "whine_gear_table1.nc")
+    f_n = np.sqrt(gearsweep.result_model(ds).stiffness / 0.1527) / (2 * np.pi)
+    lo, hi = ds.mesh_frequency.values[2:4] / f_n
+    assert title().endswith(f"2 of 8 cases not settled, masked (2 at c = 5.5 N s/mm, mesh"
+                            f" frequency {lo:.2f}-{hi:.2f} f_n)")
     plt.close("all")
