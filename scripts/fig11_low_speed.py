@@ -1,12 +1,15 @@
 """The paper's rig in the model: counterparts of Fig. 11 (pick-up waterfall) and Fig. 12 (rms of
-the doubly integrated accelerometer for several loads), from results/rig_low_speed.nc.
+the doubly integrated accelerometer for several loads), from results/rig_low_speed.nc; the ratios
+of Fig. 11's order lines also for the profile-shift reading of Table 1 at the top load
+(results/rig_low_speed_profile_shift.nc), which docs/REPRODUCTION.md quotes beside them.
 
 The 48-tooth gear drives and the 32-tooth pinion is driven; the paper's speed axes are the
 driven (pinion) shaft, 200-800 rpm: mesh frequency x 60 / 32. Both sensors sit at the pinion and
 see its angular motion theta_2 (Eq. 4), not p: the study's output ``pinion_spectrum`` (r2 theta2
 per spectral line, formed from the mesh-force spectrum) and ``pinion_rms``. Nothing is computed
 here. Writes figures/fig11_low_speed.png and figures/fig12_rig_rms.png. Run from the repository
-root after ``gearsweep run studies/rig_low_speed.yaml``:
+root after ``gearsweep run studies/rig_low_speed.yaml`` and
+``studies/rig_low_speed_profile_shift.yaml``:
 
     python scripts/fig11_low_speed.py [--results results] [--figures figures]
 """
@@ -99,17 +102,36 @@ for i, t in enumerate(loads):
         rl.append({"y": (xi.sel(order=float(n)) / xi.sel(order=1.0)).values,
                    "label": f"order {n} / order 1, T1 = {t:g} N m",
                    "color": f"C{n - 1}", "ls": ("-", "--", ":")[i]})
+# Table 1's other reading, the profile-shift pair (docs/mesh.md), at the top load: the ratios
+# that depend on the reading (docs/REPRODUCTION.md, Figs. 1-3 and 11)
+shift = open_result(args.results, "rig_low_speed_profile_shift")
+xs, _, _ = settled(shift["pinion_spectrum"], shift)
+xs = xs.sel(damping=c0)
+n_shift = driven_speed(shift, DRIVEN_TEETH)
+t_shift = float(result_study(shift).scene.torque)
+for n in (2, 3):
+    rl.append({"y": (xs.sel(order=float(n)) / xs.sel(order=1.0)).values, "x": n_shift,
+               "label": f"order {n} / order 1, profile-shift reading, T1 = {t_shift:g} N m",
+               "color": f"C{n - 1}", "ls": "-.", "lw": 2.2})
 plot_lines(ax_r, n_driven, rl, xlabel=xlab, log=False, ylabel="ratio of order lines [1]")
 ax_r.legend(fontsize=6.5, ncol=2)
 # the ratios' range over speed and their spread between the loads, read from the lines drawn
 # (the verdict "they change with speed, not with load" was typed)
 ratio = x_all.sel(damping=c0) / x_all.sel(damping=c0, order=1.0)
-ranges = ", ".join(f"{n} / 1: {float(ratio.sel(order=float(n)).min()):.3f}-"
-                   f"{float(ratio.sel(order=float(n)).max()):.3f}" for n in (2, 3))
+
+
+def ranges(r) -> str:
+    return ", ".join(f"{n} / 1: {float(r.sel(order=float(n)).min()):.3f}-"
+                     f"{float(r.sel(order=float(n)).max()):.3f}" for n in (2, 3))
+
+
+consistent = ranges(ratio)
 ratio = ratio.sel(order=[2.0, 3.0])
 apart = float(((ratio.max("torque") - ratio.min("torque")) / ratio.mean("torque")).max())
-ax_r.set_title(f"ratios of order lines over the speeds: {ranges}\nbetween the loads they differ"
-               f" by at most {apart:.1g} of their mean", fontsize=9)
+ax_r.set_title(f"ratios of order lines over the speeds, {labels[0]}\nconsistent reading (one"
+               f" line style per load): {consistent}\nbetween the loads they differ by at most"
+               f" {apart:.1g} of their mean\nprofile-shift reading (dash-dot, {t_shift:g} N m):"
+               f" {ranges(xs / xs.sel(order=1.0))}", fontsize=8)
 fig.suptitle(f"Fig. 11 counterpart. {base_title}, {top:g} N m on the gear shaft: what the"
              " pinion's sensors see (θ2, Eq. 4), not p.\nA magnetic pick-up's own tooth-passing"
              " line (order 1) grows in proportion to speed even for a rigid pinion: it cannot"

@@ -17,6 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import xarray as xr  # noqa: E402
+from numpy.testing import assert_allclose  # noqa: E402
 
 import gearsweep  # noqa: E402
 import gearsweep.plot.common as common  # noqa: E402
@@ -24,9 +25,10 @@ import gearsweep.plot.common as common  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def small_rig() -> str:
-    """studies/rig_low_speed.yaml, small: 5 stiffness harmonics, 3 speeds, orders 0-4."""
-    text = (ROOT / "studies" / "rig_low_speed.yaml").read_text(encoding="utf-8")
+def small_rig(name: str = "rig_low_speed") -> str:
+    """studies/<name>.yaml (the rig, or its profile-shift reading), small: 5 stiffness
+    harmonics, 3 speeds, orders 0-4."""
+    text = (ROOT / "studies" / f"{name}.yaml").read_text(encoding="utf-8")
     small = (text.replace("harmonics: 60", "harmonics: 5").replace("num: 121", "num: 3")
              .replace("steps_per_period: 2048", "steps_per_period: 512")
              .replace("max_order: 64, samples_per_period: 512",
@@ -40,6 +42,16 @@ def rig(tmp_path_factory) -> xr.Dataset:
     folder = tmp_path_factory.mktemp("rig")
     gearsweep.run(small_rig(), output=folder / "rig_low_speed.nc")
     return xr.load_dataset(folder / "rig_low_speed.nc")
+
+
+@pytest.fixture(scope="module")
+def shift(tmp_path_factory) -> xr.Dataset:
+    """The same, with the profile-shift reading of Table 1 (8.9 N m), which Fig. 11 draws beside
+    the consistent reading's ratios."""
+    folder = tmp_path_factory.mktemp("shift")
+    gearsweep.run(small_rig("rig_low_speed_profile_shift"),
+                  output=folder / "rig_low_speed_profile_shift.nc")
+    return xr.load_dataset(folder / "rig_low_speed_profile_shift.nc")
 
 
 def draw(script: str, results: Path, tmp_path: Path, monkeypatch,
@@ -60,29 +72,31 @@ def draw(script: str, results: Path, tmp_path: Path, monkeypatch,
     return saved
 
 
-def rig_figures(ds: xr.Dataset, tmp_path: Path, monkeypatch) -> dict[str, plt.Figure]:
+def rig_figures(ds: xr.Dataset, shift: xr.Dataset, tmp_path: Path,
+                monkeypatch) -> dict[str, plt.Figure]:
     results = tmp_path / "results"
     results.mkdir(exist_ok=True)
     ds.to_netcdf(results / "rig_low_speed.nc")
+    shift.to_netcdf(results / "rig_low_speed_profile_shift.nc")
     return draw("fig11_low_speed.py", results, tmp_path, monkeypatch)
 
 
-def test_fig12_says_theta2_in_urad_as_the_axis_value_over_r2_in_metres(rig, tmp_path,
+def test_fig12_says_theta2_in_urad_as_the_axis_value_over_r2_in_metres(rig, shift, tmp_path,
                                                                        monkeypatch, capsys):
     """The y label said "θ2 rms [µrad] = this / 37.6 mm": 0.143 / 37.6 = 0.0038, not the
     3.8 µrad it is (µm / m = µrad)."""
-    ax = rig_figures(rig, tmp_path, monkeypatch)["fig12_rig_rms.png"].axes[0]
+    ax = rig_figures(rig, shift, tmp_path, monkeypatch)["fig12_rig_rms.png"].axes[0]
     r2 = gearsweep.result_study(rig).scene.drive.base_radius_2
     assert f"(θ2 rms [µrad] = this [µm] / r2 [m], r2 = {r2:.4f} m)" in ax.get_ylabel()
     plt.close("all")
 
 
-def test_fig12_and_fig11_verdicts_follow_the_curves_they_draw(rig, tmp_path, monkeypatch,
+def test_fig12_and_fig11_verdicts_follow_the_curves_they_draw(rig, shift, tmp_path, monkeypatch,
                                                               capsys):
     """"the curves coincide" (Fig. 12, per load) and "they change with speed, not with load"
     (Fig. 11, ratios of order lines) were typed: now the spread between the loads is read
     from the result, and a result whose loads differ says so."""
-    figs = rig_figures(rig, tmp_path, monkeypatch)
+    figs = rig_figures(rig, shift, tmp_path, monkeypatch)
     per_load = figs["fig12_rig_rms.png"].axes[1].get_title()
     ratios = figs["fig11_low_speed.png"].axes[2].get_title()
     assert "(they coincide: response proportional to load)" in per_load
@@ -92,7 +106,7 @@ def test_fig12_and_fig11_verdicts_follow_the_curves_they_draw(rig, tmp_path, mon
     changed = rig.copy(deep=True)
     changed["pinion_rms"].loc[{"torque": 2.0}] *= 1.1  # no longer proportional to the load
     changed["pinion_spectrum"].loc[{"torque": 2.0, "order": 2.0}] *= 1.2
-    figs = rig_figures(changed, tmp_path, monkeypatch)
+    figs = rig_figures(changed, shift, tmp_path, monkeypatch)
     per_load = figs["fig12_rig_rms.png"].axes[1].get_title()
     ratios = figs["fig11_low_speed.png"].axes[2].get_title()
     assert "coincide" not in per_load and "differ by at most 0.1 of their mean" in per_load
@@ -100,11 +114,11 @@ def test_fig12_and_fig11_verdicts_follow_the_curves_they_draw(rig, tmp_path, mon
     plt.close("all")
 
 
-def test_fig11_gives_the_order_lines_change_to_a_tenth_of_a_percent(rig, tmp_path,
+def test_fig11_gives_the_order_lines_change_to_a_tenth_of_a_percent(rig, shift, tmp_path,
                                                                     monkeypatch, capsys):
     """The change of orders 1-3 from 200 to 800 rpm was printed with ``+.0%``: order 1's
     -0.89 % read "-1%", where docs/REPRODUCTION.md says "less than 1 %"."""
-    title = rig_figures(rig, tmp_path, monkeypatch)["fig11_low_speed.png"].axes[1].get_title()
+    title = rig_figures(rig, shift, tmp_path, monkeypatch)["fig11_low_speed.png"].axes[1].get_title()
     changes = re.search(r" 1: (\S+), 2: (\S+), 3: (\S+)$", title)
     assert changes, title
     x = rig["pinion_spectrum"].sel(torque=8.9, damping=5.5)
@@ -203,4 +217,32 @@ def test_whine_gear_table1_title_says_where_its_unsettled_cases_lie(tmp_path, mo
     lo, hi = ds.mesh_frequency.values[2:4] / f_n
     assert title().endswith(f"2 of 8 cases not settled, masked (2 at c = 5.5 N s/mm, mesh"
                             f" frequency {lo:.2f}-{hi:.2f} f_n)")
+    plt.close("all")
+
+
+def test_fig11_draws_the_profile_shift_reading_beside_the_consistent_one(rig, shift, tmp_path,
+                                                                        monkeypatch, capsys):
+    """docs/REPRODUCTION.md quotes order 2 / order 1 for both readings of Table 1 (0.55-0.57 and
+    0.20-0.23), but no figure drew rig_low_speed_profile_shift: now Fig. 11's ratio panel draws
+    its order 2 / 1 and 3 / 1, labelled, and its title gives their ranges, read from the result
+    (a changed result changes them)."""
+    def panel(profile_shift):
+        return rig_figures(rig, profile_shift, tmp_path, monkeypatch)["fig11_low_speed.png"].axes[2]
+
+    c0 = float(rig.damping[0])
+    x = shift.pinion_spectrum.sel(damping=c0)
+    ax = panel(shift)
+    for n in (2, 3):
+        drawn = [ln for ln in ax.get_lines()
+                 if ln.get_label() == f"order {n} / order 1, profile-shift reading, T1 = 8.9 N m"]
+        assert len(drawn) == 1
+        assert_allclose(drawn[0].get_ydata(), x.sel(order=float(n)) / x.sel(order=1.0))
+    r = x.sel(order=2.0) / x.sel(order=1.0)
+    assert (f"profile-shift reading (dash-dot, 8.9 N m): 2 / 1: {float(r.min()):.3f}-"
+            f"{float(r.max()):.3f}") in ax.get_title()
+    plt.close("all")
+    changed = shift.copy(deep=True)
+    changed["pinion_spectrum"].loc[{"order": 2.0}] *= 2.0
+    assert (f"2 / 1: {2 * float(r.min()):.3f}-{2 * float(r.max()):.3f}"
+            in panel(changed).get_title())
     plt.close("all")
