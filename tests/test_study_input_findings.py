@@ -351,3 +351,28 @@ def test_a_whole_number_with_an_exponent_is_taken_as_the_number_it_is():
     assert _lines(GOOD.replace("teeth: 48", "teeth: 1e400")) == [
         ("s.yaml:5: scene.teeth: '1e400' -- a whole number (1e400 is beyond the largest number,"
          " about 1.8e308)")]
+
+
+def test_an_aliased_number_read_two_ways_is_reported_at_the_field_that_uses_it():
+    """``teeth: &z 030`` on line 5 and ``record_periods: *z`` later: the refusal of the alias
+    was reported at the anchor's line (5), where an ordinary error through the same alias
+    (``&z -1``) is at the field's (an outside tester's finding). In a block mapping, a flow
+    sequence and a block sequence, each use is at its own line."""
+    text = (GOOD.replace("teeth: 48", "teeth: &z 030")
+            .replace("record_periods: 4}", "record_periods: 4}\nextra: [*z]\nmore:\n  - *z")
+            .replace("solver: {method: rk4, steps_per_period: 32, transient_periods: 4,"
+                     " record_periods: 4}",
+                     "solver:\n  method: rk4\n  steps_per_period: 32\n  transient_periods: 4\n"
+                     "  record_periods: *z"))
+    from gearsweep.study.schema import load_yaml
+
+    with pytest.raises(StudyError) as err:
+        load_yaml(text, "s.yaml")
+    lines = [line.split(" is read")[0] for line in str(err.value).split("\n")]
+    assert lines == ["s.yaml:5: scene.teeth: 030", "s.yaml:15: solver.record_periods: 030",
+                     "s.yaml:16: extra[0]: 030", "s.yaml:18: more[0]: 030"], err.value
+    ordinary = _lines(GOOD.replace("teeth: 48", "teeth: &z -1").replace(
+        "solver: {method: rk4, steps_per_period: 32, transient_periods: 4, record_periods: 4}",
+        "solver:\n  method: rk4\n  steps_per_period: 32\n  transient_periods: 4\n"
+        "  record_periods: *z"))
+    assert any(x.startswith("s.yaml:15: solver.record_periods: -1") for x in ordinary), ordinary

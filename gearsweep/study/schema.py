@@ -917,6 +917,18 @@ class _Loader(yaml.SafeLoader):
         (mapping or sequence, key or index, line, message); the container holds YAML 1.1's
         reading (``_two_readings``)."""
 
+    def compose_node(self, parent, index):
+        """A scalar written through an alias (``record_periods: *z``) is a copy of its anchor's
+        node marked where the alias is written, so that a problem with its value is reported
+        at the field that uses it, not at the anchor (a sequence item's line is its node's;
+        ``_two_readings`` used the node's mark). Mappings and sequences stay shared."""
+        alias = self.peek_event() if self.check_event(yaml.AliasEvent) else None
+        node = super().compose_node(parent, index)
+        if alias is not None and isinstance(node, yaml.ScalarNode):
+            node = yaml.ScalarNode(node.tag, node.value, alias.start_mark, alias.end_mark,
+                                   node.style)
+        return node
+
 
 def _construct_map(loader: _Loader, node: yaml.MappingNode):
     data = _Map()
