@@ -241,6 +241,26 @@ def test_gear_with_typed_in_coefficients_is_refused(tmp_path, capsys, extra, mes
     assert f"study.yaml:8: scene.{field}: " in err and message in err
 
 
+@pytest.mark.parametrize("typed, message", [
+    ("teeth: 48", "give either 'gear' or typed-in teeth"),
+    ("ste: [{amplitude: 5 um}]", "give either 'gear' or typed-in ste"),
+    ("base_radius: 56 mm", "typed-in base_radius"),
+    ("stiffness_harmonics: [{amplitude: 179 kN/mm}]", "need 'stiffness' too"),
+])
+def test_gear_written_after_typed_in_coefficients_is_the_line_refused(tmp_path, capsys, typed,
+                                                                      message):
+    """A clash between 'gear' and a typed-in field is said at the later written of the two (the
+    README's rule): with the typed-in field on line 4 and the gear on line 7 it was said at line 4
+    (an outside tester's finding); it is at the gear's line."""
+    text = whine("table1_consistent", "  torque: 50 N*m\n").replace(
+        "  gear: table1_consistent\n", f"  {typed}\n").replace(
+        "  torque: 50 N*m\n", "  torque: 50 N*m\n  gear: table1_consistent\n")
+    assert text.splitlines()[3] == f"  {typed}" and text.splitlines()[7].strip().startswith("gear")
+    rc, _, err = _run_cli(tmp_path, capsys, text)
+    assert rc == 2 and err.count("\n") == 1, err
+    assert "study.yaml:8: scene.gear: 'table1_consistent' -- " in err and message in err, err
+
+
 def test_gear_without_a_load_is_refused(tmp_path, capsys):
     rc, _, err = _run_cli(tmp_path, capsys, whine("table1_consistent"))
     assert rc == 2 and err.count("\n") == 1

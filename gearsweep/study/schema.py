@@ -274,12 +274,12 @@ class _Driven(Strict):
             return self
         typed = [f for f in ("teeth", "ste", "base_radius") if getattr(self, f, None)]
         if typed:
-            raise FieldProblems([(tuple(typed), (f"give either 'gear' or typed-in"
+            raise FieldProblems([(("gear", *typed), (f"give either 'gear' or typed-in"
                                   f" {', '.join(typed)}, not both: the gear pair gives teeth, ste"
                                   " and base_radius (and stiffness and stiffness_harmonics, unless"
                                   " typed in to replace the pair's)"))])
         if getattr(self, "stiffness_harmonics", None) and self.stiffness is None:
-            raise FieldProblems([(("stiffness_harmonics",), ("'stiffness_harmonics' beside a"
+            raise FieldProblems([(("gear", "stiffness_harmonics"), ("'stiffness_harmonics' beside a"
                                   " 'gear' need 'stiffness' too: a typed-in k(t) replaces the"
                                   " pair's as a whole"))])
         return self
