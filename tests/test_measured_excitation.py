@@ -453,8 +453,25 @@ def test_gear_and_excitation_are_exclusive(tmp_path):
     f = tmp_path / "s.yaml"
     f.write_text(study("  kind: whine\n  gear: table1_consistent\n  torque: 50 N*m\n"
                        "  mass: 0.1527 kg\n  excitation: {file: ltca.csv}\n"))
-    with pytest.raises(StudyError, match="scene.gear: give either 'gear' or 'excitation'"):
+    with pytest.raises(StudyError, match=("scene.excitation: '{...}' -- give either 'gear' or"  # the
+                                          " 'excitation'")):  # later written (README)
         load_study(f)
+
+
+@pytest.mark.parametrize("first, second", [("gear", "excitation"), ("excitation", "gear")])
+def test_gear_and_excitation_clash_is_said_at_the_later_written(tmp_path, first, second):
+    """A problem between two fields is said at the later written (README): 'gear' then
+    'excitation' was said at scene.gear, the earlier line."""
+    whine_files(tmp_path)
+    lines = {"gear": "  gear: table1_consistent\n", "excitation": "  excitation: {file: ltca.csv}\n"}
+    f = tmp_path / "s.yaml"
+    f.write_text(study(f"  kind: whine\n{lines[first]}  torque: 50 N*m\n  mass: 0.1527 kg\n"
+                       f"{lines[second]}"))
+    with pytest.raises(StudyError) as err:
+        load_study(f)
+    text = str(err.value)
+    assert len(text.splitlines()) == 1 and f"scene.{second}: " in text, text
+    assert "give either 'gear' or 'excitation', not both" in text, text
 
 
 def test_measured_model_carries_fitted_harmonics(tmp_path):

@@ -265,6 +265,9 @@ class _Driven(Strict):
                                   lambda f: getattr(self.drive, f, None) is not None)
         if problems:
             raise FieldProblems(problems)
+        if self.excitation is not None and self.gear is not None:  # at the later written
+            raise FieldProblems([(("gear", "excitation"), ("give either 'gear' or 'excitation',"
+                                  " not both"))])
         if self.excitation is not None:  # checked with the sweep (consistency_problems)
             return self
         if self.gear is None:
