@@ -319,6 +319,28 @@ def test_a_root_half_angle_below_sainsot_s_range_is_refused_at_the_teeth(tmp_pat
         f"{path}:6: gear.z2: 400 -- gear 2 root half angle theta_f = ")
     assert "rad (400 teeth), outside 0.01 to 0.12 rad" in lines[0]
 
+def test_a_root_half_angle_just_below_sainsot_s_range_names_its_value_and_the_teeth_that_fit(
+        tmp_path, capsys):
+    """Module 2 mm, z2 = 300: theta_f = 0.009996 rad was printed as "0.01 rad ..., outside 0.01
+    to 0.12 rad" (read as inside), and "more than 314 teeth never fit" is only a bound (300 is
+    refused, 299 passes): the value has the digits that put it outside, and the message names
+    the most teeth that fit with this module, shift and fillet, the same check's own answer."""
+    from gearsweep.gear.compliance import tooth_compliance
+    from gearsweep.gear.geometry import GearPair, GeometryError
+
+    text = ("type: mesh\ntitle: t\ngear:\n  module: 2 mm\n  z1: 20\n  z2: 300\n"
+            "  face_width: 20 mm\ntorque: 50 N*m\n")
+    path, lines = refused(tmp_path, capsys, text)
+    assert len(lines) == 1 and lines[0].startswith(
+        f"{path}:6: gear.z2: 300 -- gear 2 root half angle theta_f = 0.009996 rad (300 teeth),"
+        " outside 0.01 to 0.12 rad"), lines
+    most = int(re.search(r"at most (\d+) teeth fit", lines[0]).group(1))
+    pair = GearPair(module=2e-3, z1=20, z2=most, face_width=20e-3)
+    tooth_compliance(pair, 2, pair.base_radius2 * 1.05)  # passes
+    with pytest.raises(GeometryError, match="root half angle"):
+        more = GearPair(module=2e-3, z1=20, z2=most + 1, face_width=20e-3)
+        tooth_compliance(more, 2, more.base_radius2 * 1.05)
+
 
 @pytest.mark.parametrize("field", ["z1", "z2"])
 

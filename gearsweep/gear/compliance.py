@@ -45,6 +45,7 @@ Plane stress (``E``, ``G = E / (2 (1 + nu))``) throughout, as in Yang & Lin, Tia
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from functools import lru_cache
@@ -237,6 +238,43 @@ def rim_factor(pair: GearPair, gear: int) -> float:
     return 1.0 + math.log(bs_b) / (5.0 * math.exp(sr_m / 5.0))
 
 
+def _below(value: float, bound: float) -> str:
+    """``value`` (below ``bound``) in 3 significant digits, or as many more as show it below:
+    0.00996 printed as 0.01 read as inside a range that starts at 0.01."""
+    for digits in range(3, 17):
+        text = f"{value:.{digits}g}"
+        if float(text) < bound:
+            return text
+    return repr(value)
+
+
+def _most_teeth_within(pair: GearPair, gear: int) -> int | None:
+    """The most teeth of gear ``gear`` whose root half angle is within Sainsot et al.'s range
+    (:data:`SAINSOT_ROOT_ANGLE`), the rest of the pair as it is: found by bisection over the
+    same check (theta_f falls as the teeth grow; above pi / 0.01 = 314 teeth none fits).
+    ``None`` where the gear's radii, thickness or the centre distance are given as lengths (a
+    count of teeth with them kept means another gear) or no count fits."""
+    fixed = (f"tip_radius{gear}", f"root_radius{gear}", f"thickness{gear}", "centre_distance")
+    if any(getattr(pair, f) is not None for f in fixed):
+        return None
+
+    def fits(z: int) -> bool:
+        try:
+            other = dataclasses.replace(pair, **{f"z{gear}": z})
+            return other.fillet_geometry(gear)[0] >= SAINSOT_ROOT_ANGLE[0]
+        except (GeometryError, ValueError, ArithmeticError):
+            return False
+
+    lo, hi = 3, min(pair.z1 if gear == 1 else pair.z2,
+                    math.floor(math.pi / SAINSOT_ROOT_ANGLE[0]) + 1)
+    if not fits(lo):
+        return None
+    while hi - lo > 1:  # fits(lo), not fits(hi)
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if fits(mid) else (lo, mid)
+    return lo
+
+
 def tooth_compliance(
     pair: GearPair, gear: int, r: np.ndarray | float, n: int = 2000
 ) -> ToothCompliance:
@@ -294,11 +332,13 @@ def tooth_compliance(
     th = prof.theta_f
     if th < SAINSOT_ROOT_ANGLE[0]:  # (z2 = 1000: P* = -36, k0 1.5 times ISO's c_gamma)
         z = pair.z1 if gear == 1 else pair.z2
-        why = (f"gear {gear} root half angle theta_f = {th:.3g} rad ({z} teeth), outside"
-               f" {SAINSOT_ROOT_ANGLE[0]:g} to {SAINSOT_ROOT_ANGLE[1]:g} rad, where Sainsot et"
-               " al.'s gear-body fit holds (below it the body's compliance falls to zero and"
-               f" turns negative); theta_f < pi / z: more than {math.pi / SAINSOT_ROOT_ANGLE[0]:.0f}"
-               f" teeth never fit (z{gear})")
+        most = _most_teeth_within(pair, gear)
+        fits = (f"with this module, shift and fillet at most {most} teeth fit (z{gear})"
+                if most is not None else f"fewer teeth fit (z{gear})")
+        why = (f"gear {gear} root half angle theta_f = {_below(th, SAINSOT_ROOT_ANGLE[0])} rad"
+               f" ({z} teeth), outside {SAINSOT_ROOT_ANGLE[0]:g} to {SAINSOT_ROOT_ANGLE[1]:g} rad,"
+               " where Sainsot et al.'s gear-body fit holds (below it the body's compliance falls"
+               f" to zero and turns negative); {fits}")
         raise GeometryError(f"{pair.name}: {why}",
                             [(why, tuple(dict.fromkeys((f"z{gear}", *pair.sets("root", gear),
                                                         "fillet_radius"))))])
