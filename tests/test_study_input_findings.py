@@ -376,3 +376,19 @@ def test_an_aliased_number_read_two_ways_is_reported_at_the_field_that_uses_it()
         "solver:\n  method: rk4\n  steps_per_period: 32\n  transient_periods: 4\n"
         "  record_periods: *z"))
     assert any(x.startswith("s.yaml:15: solver.record_periods: -1") for x in ordinary), ordinary
+
+
+@pytest.mark.parametrize("written, value, why", [
+    ("-0x30", -48, "hexadecimal with a sign"), ("+0x30", 48, "hexadecimal with a sign"),
+    ("0x_30", 48, "hexadecimal, digits grouped by _"),
+    ("-0x_30", -48, "hexadecimal with a sign, digits grouped by _"),
+    ("1_000", 1000, "digits grouped by _")])
+def test_a_signed_or_grouped_hexadecimal_is_named_for_what_yaml_1_2_refuses(written, value, why):
+    """``-0x30`` was said to be "(digits grouped by _)": it has no _; YAML 1.2 reads a
+    hexadecimal with no sign and no _, so each reading is named for what it has."""
+    from gearsweep.study.schema import load_yaml
+
+    with pytest.raises(StudyError) as err:
+        load_yaml(f"a: {written}\n", "s.yaml")
+    assert str(err.value).startswith(f"s.yaml:1: a: {written} is read as {value} by YAML 1.1"
+                                      f" ({why}) and as the text '{written}' by YAML 1.2"), err.value

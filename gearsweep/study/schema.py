@@ -1036,7 +1036,15 @@ def _two_readings(node: yaml.Node, value: Any) -> str | None:
         return (f"{text} is read as {value!r} by YAML 1.1 (a leading 0 makes it octal) and as"
                 f" {v12!r} by YAML 1.2: write it without the leading 0 ({v12!r}), or"
                 f" {value!r} if octal was meant")
-    why = ("base 60" if ":" in text else "binary" if "0b" in text else "digits grouped by _")
+    if ":" in text:
+        why = "base 60"
+    elif "0b" in text:
+        why = "binary"
+    elif "0x" in text:  # YAML 1.2 reads hexadecimal digits with no sign and no _
+        why = ", ".join(["hexadecimal with a sign" if text[0] in "+-" else "hexadecimal",
+                         *(["digits grouped by _"] if "_" in text else [])])
+    else:
+        why = "digits grouped by _"
     return (f"{text} is read as {value!r} by YAML 1.1 ({why}) and as the text '{text}' by YAML"
             f" 1.2: write the number in decimal digits ({value!r}), or in quotes ('{text}') if"
             " text is meant")
