@@ -378,6 +378,22 @@ def test_an_aliased_number_read_two_ways_is_reported_at_the_field_that_uses_it()
     assert any(x.startswith("s.yaml:15: solver.record_periods: -1") for x in ordinary), ordinary
 
 
+@pytest.mark.parametrize("field", ["title", "description"])
+@pytest.mark.parametrize("written, readings", [
+    ("1:30", "is read as 90 by YAML 1.1 (base 60) and as the text '1:30' by YAML 1.2"),
+    ("030", "is read as 24 by YAML 1.1 (a leading 0 makes it octal) and as 30 by YAML 1.2"),
+    ("0o10", "is read as the text '0o10' by YAML 1.1 and as 8 by YAML 1.2 (octal)")])
+def test_a_text_field_read_two_ways_is_told_to_quote_only(field, written, readings):
+    """``title: 1:30`` was told "write the number in decimal digits (90)": a title is text, so
+    only the quoting advice applies (an outside tester's finding)."""
+    from gearsweep.study.schema import load_yaml
+
+    with pytest.raises(StudyError) as err:
+        load_yaml(f"{field}: {written}\n", "s.yaml")
+    assert str(err.value) == (f"s.yaml:1: {field}: {written} {readings}: {field} is text; write"
+                              f" it in quotes ('{written}')")
+
+
 @pytest.mark.parametrize("written, value, why", [
     ("-0x30", -48, "hexadecimal with a sign"), ("+0x30", 48, "hexadecimal with a sign"),
     ("0x_30", 48, "hexadecimal, digits grouped by _"),

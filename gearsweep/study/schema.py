@@ -1050,6 +1050,21 @@ def _two_readings(node: yaml.Node, value: Any) -> str | None:
             " text is meant")
 
 
+_TEXT_FIELDS = ("title", "description", "scene.excitation.file")
+"""Fields that are text: a value of theirs YAML reads two ways is told only to be quoted."""
+
+
+def _as_text_field(path: str, message: str) -> str:
+    """``message`` of ``_two_readings`` for the value of ``path``; for a text field (``title:
+    1:30``) its readings and the quoting advice alone (it was told "write the number in decimal
+    digits (90)": a title is no number)."""
+    if path not in _TEXT_FIELDS:
+        return message
+    written = message.split(" is read as ", 1)[0]
+    readings = message.split(": write ", 1)[0]
+    return f"{readings}: {path.rsplit('.', 1)[-1]} is text; write it in quotes ('{written}')"
+
+
 def _note_two_readings(loader: _Loader, container: Any, key: str | int, node: yaml.Node,
                        value: Any) -> None:
     message = _two_readings(node, value)
@@ -1209,7 +1224,8 @@ def load_yaml(text: str, file: str, duplicates: list | None = None) -> Any:
             where = _path_of(raw, container) or ""
             path = (f"{where}[{key}]" if isinstance(key, int) else f"{where}.{key}" if where
                     else str(key))
-            problems.append((line, _as_file_writes(raw, path), NO_VALUE, msg))
+            problems.append((line, _as_file_writes(raw, path), NO_VALUE,
+                             _as_text_field(path, msg)))
         if duplicates is None:
             raise StudyError.many(file, problems)
         duplicates.extend(problems)
