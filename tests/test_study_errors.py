@@ -2038,3 +2038,15 @@ def test_stiffness_harmonics_against_a_stiffness_written_later_are_said_at_the_s
         ("s.yaml:7: scene.stiffness: '80 kN/mm' -- above 100 kN/mm, where"
          " scene.stiffness_harmonics keep k(t) positive (at this k0 they take it to -20 kN/mm at"
          " mesh phase 0.5)")]
+
+
+@pytest.mark.parametrize("written", ["ste_harmonics", "static_transmission_error"])
+def test_a_scene_s_ste_written_by_another_name_is_pointed_at_ste(written):
+    """``scene.ste_harmonics`` was told "did you mean 'harmonics'?" (by spelling the nearest),
+    but the field meant is ``ste`` (the STE's harmonics): an outside tester's finding."""
+    text = GOOD_RATTLE.replace("  mean_force: 100 N\n",
+                               f"  mean_force: 100 N\n  {written}: [{{amplitude: 5 um}}]\n")
+    with pytest.raises(StudyError) as err:
+        parse_study(text, "s.yaml")
+    assert str(err.value).startswith(f"s.yaml:9: scene.{written}: '{written}' is not a"
+                                      " field of a rattle scene -- did you mean 'ste'?"), err.value

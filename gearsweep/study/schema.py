@@ -1397,10 +1397,17 @@ SYNONYMS = {"gpu": "cuda", "nvidia": "cuda"}
 """Words a user writes for a choice by another name: ``device: gpu`` means ``cuda`` (by spelling
 it was nearest to ``cpu``, and the hint said so; found by an outside test)."""
 
+FIELD_WORDS = {"ste_harmonics": "ste", "static_transmission_error": "ste",
+               "transmission_error": "ste"}
+"""Fields a user writes by another name: ``ste_harmonics`` (the STE's harmonics, written like
+``stiffness_harmonics``) means ``ste``; by spelling it was nearest to ``harmonics`` (a gear's
+Fourier count), and the hint said so (an outside tester's finding)."""
+
 
 def _closest(word: Any, choices) -> str | None:
     names = [str(c) for c in choices]
-    meant = SYNONYMS.get(str(word).strip().lower())
+    said = str(word).strip().lower()
+    meant = SYNONYMS.get(said) or FIELD_WORDS.get(said)
     if meant in names:
         return meant
     same = [n for n in names if n.lower() == str(word).strip().lower() and n != str(word)]
