@@ -589,3 +589,22 @@ def test_waterfall_and_campbell_leave_out_the_cases_that_did_not_settle():
     assert ax.get_legend() is None
     assert np.isfinite(np.ma.filled(ax.collections[0].get_array(), np.nan)).all()
     plt.close("all")
+
+
+def test_response_vs_speed_of_no_settled_case_says_so_without_an_empty_legend():
+    """A result of one swept dim with no settled case called ``legend`` with nothing labelled:
+    matplotlib warned "No artists with labels found to put in legend" (an outside tester's
+    finding). The count of masked cases is written on the axes instead, and no legend drawn."""
+    import gearsweep
+    from gearsweep.plot.sweep import plot_response_vs_speed
+
+    text = STUDY.replace("  torque: [25 N*m, 50 N*m]\n", "").replace(
+        "  base_radius: 56.38 mm\n", "  base_radius: 56.38 mm\n  torque: 50 N*m\n").replace(
+        "{start: 2000 rpm, stop: 18000 rpm, num: 41}", "[2000 rpm, 3000 rpm]").replace(
+        "transient_periods: 40", "transient_periods: 4")
+    ds = gearsweep.run(text)
+    ds["status"][:] = 2  # not settled
+    ax = plot_response_vs_speed(ds, "p_pp").axes[0]
+    assert ax.get_legend() is None
+    assert [t.get_text() for t in ax.texts] == ["2 of 2 cases not settled (masked)"]
+    plt.close("all")
