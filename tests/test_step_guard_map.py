@@ -257,6 +257,24 @@ def test_the_whine_study_warns_and_skips_and_names_the_steps_that_pass():
     assert int(ds.min_steps_per_period.values.ravel()[0]) == first
 
 
+def test_beyond_step_limit_says_each_thing_it_flags_within_the_attribute_limit():
+    """The whine scene at 80 steps: its map decays (own monodromy) yet the variable flags it, for
+    the resonance test alone (own E against scipy > 1 %). Its long_name must say so (it said only
+    "stability limit"), and the unchecked maps of orders with no short common period, within the
+    bytes a variable's attributes may take (tests/test_output_bound.py)."""
+    from gearsweep.study.filelayout import ATTRIBUTE_TEXT_BYTES
+
+    a, b, g = whine_abg()
+    assert own_map("rk5", a, b, g, 80) < 1 and own_resonance_error("rk5", a, b, g, 80) > 0.01
+    assert whine_beyond(80)
+    attrs = plan_of(whine(80)).specs["beyond_step_limit"].attrs
+    text = attrs["long_name"]
+    for words in ("stability limit", "resonant", "1 %", "exact equation", "parametric tongue",
+                  "could not check"):
+        assert words in text, (words, text)
+    assert sum(len(k.encode()) + len(v.encode()) for k, v in attrs.items()) <= ATTRIBUTE_TEXT_BYTES
+
+
 def test_weak_variation_costs_no_monodromy_and_strong_one_each_combination_once(monkeypatch):
     """Below STRONG_VARIATION (the rig's k1/k0 = 0.167) and with constant stiffness the guard
     computes no monodromy; above it, one per distinct (alpha, beta, gamma), kept for the study."""

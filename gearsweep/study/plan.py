@@ -22,6 +22,7 @@ import numpy as np
 
 from gearsweep.analysis.stability import (
     COARSE_STEPS,
+    RESONANCE_TOL,
     STRONG_VARIATION,
     TONGUE_MARGIN,
     map_step_check,
@@ -430,8 +431,11 @@ def _make_plan(study: Study, text: str) -> Plan:
             problems.append(exc)
     if study.solver.step_guard == "warn":
         plan.specs["beyond_step_limit"] = VarSpec(dtype="bool", attrs={
-            "units": "1", "long_name": "step beyond the method's stability limit (results may be"
-            " spoiled by the integrator)"})
+            "units": "1", "long_name": "step beyond the method's stability limit, or (a forced"
+            " scene near a parametric tongue of k(t)) the fixed-step map's resonant response more"
+            f" than {RESONANCE_TOL * 100:g} % off the exact equation's, or a map the step guard could"
+            " not check (k(t)'s orders with no short common period): results may be spoiled by"
+            " the integrator (docs/stability.md)"})
     typed = getattr(study.scene, "stiffness_harmonics", None)
     if typed:  # (a gear's own k(t) is positive: the pair's teeth in contact)
         k0 = grids["stiffness"].min() if "stiffness" in grids else plan.model.stiffness

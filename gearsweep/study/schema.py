@@ -415,8 +415,10 @@ class Solver(Strict):
         " error is about 6e-8 of |p|, so large against a response small beside the mean"
         " deflection: docs/gpu.md)")
     step_guard: Annotated[Literal["warn", "skip", "off"], BeforeValidator(_guard_word)] = Field(
-        "warn", description="cases whose step is beyond the method's stability limit: flag them"
-        " (warn), do not integrate them (skip, status 3), or do not check (off)")
+        "warn", description="cases whose step is beyond the method's stability limit (or, a forced"
+        " scene near a parametric tongue, whose fixed-step map's resonant response is more than"
+        " 1 % off the exact equation's, or whose map could not be checked: docs/stability.md):"
+        " flag them (warn), do not integrate them (skip, status 3), or do not check (off)")
 
 
 def _guard_word(v: Any) -> Any:
