@@ -275,6 +275,38 @@ def test_beyond_step_limit_says_each_thing_it_flags_within_the_attribute_limit()
     assert sum(len(k.encode()) + len(v.encode()) for k, v in attrs.items()) <= ATTRIBUTE_TEXT_BYTES
 
 
+def test_the_resonance_test_refines_the_equation_only_until_its_verdict_is_settled(monkeypatch):
+    """The whine scene over speed x damping (RK5, 64 steps): the resonance test's exact monodromy
+    took 22 times the work of the two maps (RK5 refined to rtol 1e-10 at every case the screen
+    asks about); it need refine a case only until its verdict cannot change. Its verdicts are
+    those of this test's own map and scipy's equation (every 6th speed, each damping), and all
+    the monodromy work (cases x steps) stays within 4 times the maps' (22.4 before, 3.0 after:
+    two levels of the equation's at its first step count, h |lambda| <= 0.5, are the least)."""
+    from gearsweep.kernels import floquet as fq_mod
+
+    a0, b0, g0 = whine_abg()
+    sp, zd = np.meshgrid(np.linspace(0.45, 2.5, 120), [0.1, 0.5, 2.0], indexing="ij")
+    a, b, g = a0 / sp.ravel() ** 2, b0 / sp.ravel() ** 2, g0 * zd.ravel() / sp.ravel()
+    work = [0]
+    real = fq_mod.monodromy
+
+    def counted_steps(al, be, ga, steps, **kw):
+        work[0] += np.size(al) * int(steps)
+        return real(al, be, ga, steps, **kw)
+
+    monkeypatch.setattr(fq_mod, "monodromy", counted_steps)
+    with np.errstate(over="ignore", invalid="ignore"):
+        beyond, _ = st.map_step_check(a, b, g, 64, method="rk5", forced=True)
+    maps = a.size * (64 + 128)
+    assert work[0] <= 4 * maps, work[0] / maps
+    for i in range(0, a.size, 18):
+        eq = own_equation(a[i], b[i], g[i])
+        own = eq <= 1 + TOL and (own_map("rk5", a[i], b[i], g[i], 64) > 1 + TOL
+                                 or own_resonance_error("rk5", a[i], b[i], g[i], 64) > 0.01)
+        assert bool(beyond[i]) == own, (i, a[i], b[i], g[i])
+    assert beyond.any() and not beyond.all()
+
+
 def test_weak_variation_costs_no_monodromy_and_strong_one_each_combination_once(monkeypatch):
     """Below STRONG_VARIATION (the rig's k1/k0 = 0.167) and with constant stiffness the guard
     computes no monodromy; above it, one per distinct (alpha, beta, gamma), kept for the study."""

@@ -515,6 +515,59 @@ screened either: there the map's own damping is all the decay there is (RK4 at 3
 0.71: the map's |mu| 0.77 against the equation's 1, E 0.014 with the estimate 7e-4)."""
 
 
+_SETTLED_MARGIN = 4.0
+"""``_settled_equation`` stops refining a case once the last refinement moved its multiplier and
+its resonance error each by less than 1 / this of their distance from their thresholds: RK5's
+next refinements move them by about 1 / 31 of the last one, and all of them together by 1 / 31
+of it (a geometric series of ratio 1 / 32), so the verdict is 4 x 31 = 124 times that from
+changing."""
+
+
+def _settled_equation(a, b, g, M_map, grow, *, tol: float, resonance_tol: float, cycles: int,
+                      harmonics) -> tuple[np.ndarray, np.ndarray]:
+    """The equation's monodromy and largest |mu| of the cases for ``map_step_check``'s forced
+    test: ``floquet``'s refinement (RK5 from its first step count, doubling, rtol 1e-10: the same
+    kernel calls), each case stopped as soon as its verdict is settled (``_SETTLED_MARGIN``):
+    its multiplier clearly on one side of 1 + tol and, where that is stable and the map not
+    diverging (``grow``), its resonance error clearly on one side of ``resonance_tol``. Most of
+    ``floquet``'s work is in its finest levels, where a case whose E is 1e-4 or 0.5 needs none of
+    it (the synthetic 1e5-case whine grid of docs/stability.md). Returns what ``floquet`` would,
+    at the level where each case stopped."""
+    n = a.size
+    spp = np.minimum(fq._initial_spp(a, b, g, harmonics, fq.HW0, fq.SPP_MIN), fq.SPP_MAX)
+    M = np.full((n, 2, 2), np.nan)
+    mu, prev_mu, prev_e = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    active = np.ones(n, bool)
+    factor = 2.0 ** fq.ORDER["rk5"] - 1.0
+    while active.any():
+        S = int(spp[active].min())
+        idx = np.flatnonzero(active & (spp == S))
+        Mi = fq.monodromy(a[idx], b[idx], g[idx], S, method="rk5", harmonics=harmonics)
+        mi = largest_multiplier(Mi)
+        p = prev_mu[idx]
+        with np.errstate(invalid="ignore"):  # floquet's convergence, as it has it
+            e = np.where(np.isnan(p), np.inf,
+                         np.where(np.isinf(mi) & np.isinf(p), 0.0, np.abs(mi - p) / factor))
+        e = np.where(np.isnan(e), np.inf, e)
+        ok = e <= 1e-12 + 1e-10 * np.where(np.isfinite(mi), mi, 0.0)
+        ok |= np.isinf(mi) & np.isinf(p)
+        with np.errstate(invalid="ignore", over="ignore"):
+            E = resonance_error(M_map[idx], Mi, cycles)
+            dmu = np.abs(mi - p)
+            dE = np.abs(E - prev_e[idx])
+            mu_far = dmu * _SETTLED_MARGIN < np.abs(mi - (1.0 + tol))
+            E_far = dE * _SETTLED_MARGIN < np.abs(E - resonance_tol)
+        unstable = mi > 1 + tol
+        settled = np.isfinite(mi) & np.isfinite(p) & mu_far & (
+            unstable | grow[idx] | (np.isfinite(E) & np.isfinite(prev_e[idx]) & E_far))
+        M[idx], mu[idx] = Mi, mi
+        prev_mu[idx], prev_e[idx] = mi, E
+        stop = ok | settled | (S >= fq.SPP_MAX)
+        active[idx[stop]] = False
+        spp[idx[~stop]] = 2 * S
+    return M, mu
+
+
 def map_step_check(alpha, beta, gamma, steps_per_period: int, *, method: str,
                    harmonics=None, tol: float = UNSTABLE_TOL, forced: bool = False,
                    cycles: int = 1, resonance_tol: float = RESONANCE_TOL,
@@ -578,9 +631,13 @@ def map_step_check(alpha, beta, gamma, steps_per_period: int, *, method: str,
         if equation is not None:
             M_eq = np.asarray(equation, float).reshape(-1, 2, 2)[idx]
             eq_mu = largest_multiplier(M_eq)
+        elif forced:
+            M_eq, eq_mu = _settled_equation(a[idx], b[idx], g[idx], M[idx], grow[idx], tol=tol,
+                                            resonance_tol=resonance_tol, cycles=cycles,
+                                            harmonics=harmonics)
         else:
-            eq = floquet(a[idx], b[idx], g[idx], method="rk5", rtol=1e-10 if forced else 1e-8,
-                         tol=tol, harmonics=harmonics)
+            eq = floquet(a[idx], b[idx], g[idx], method="rk5", rtol=1e-8, tol=tol,
+                         harmonics=harmonics)
             M_eq, eq_mu = eq.monodromy.reshape(-1, 2, 2), eq.multiplier
         stable = ~(eq_mu > 1 + tol)
         out = grow[idx] & stable
