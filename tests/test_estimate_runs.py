@@ -257,3 +257,69 @@ def test_the_estimate_counts_the_kernel_calls_of_a_gear_scene_sweeping_its_load(
     assert seconds == len(calls)
     rounds = sum(math.ceil(math.ceil(n / execute.LANES) / threads) for n in calls)
     assert lane_steps == rounds * execute.LANES * plan.steps_per_case
+
+
+FORCED_FLOQUET = """\
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  mean_force: 833 N
+  stiffness_harmonics: [{amplitude: 1050 kN/mm}]
+  ste: [{amplitude: 5 um}]
+sweep:
+  speed: {start: 1800 rpm, stop: 2600 rpm, num: 40}
+  damping: {start: 50 N*s/m, stop: 2000 N*s/m, num: 5}
+solver: {method: rk4, steps_per_period: 64, transient_periods: 4, record_periods: 2}
+outputs: [stats, floquet]
+"""
+"""A forced whine scene near the principal tongue (k1 / k0 = 0.98), RK4 at 64 steps: the floquet
+output's min_steps_per_period scans the map from the frozen limit (about 38) to where its
+resonant response passes (up to 231), each case with the equation's monodromy at rtol 1e-10."""
+
+
+@pytest.mark.parametrize("method", ["rk4", "rk5"])
+def test_the_floquet_estimate_counts_the_step_limit_scan_of_a_forced_scene(monkeypatch, method):
+    """The floquet output's time was priced at its own monodromy (rtol 1e-8: 15 first step
+    counts a lane) and the study's map, 6,368 lane-steps a case here; the run's floquet output
+    computed 24,645 (RK4; the forced scene's step-limit scan, its maps at every count tried and
+    the equation's monodromy at rtol 1e-10: 3.9 times the price; RK5 17,950, 2.8 times). The
+    lane-steps the estimate prices are those the run's floquet output computes (counted at the
+    kernel), within FACTOR (now 26,804 and 21,156)."""
+    import warnings
+
+    import numpy as np
+
+    import gearsweep
+    from gearsweep.kernels import floquet as fq_mod
+    from gearsweep.study.outputs import FLOQUET_CASE_SECONDS, OUTPUTS
+
+    text = FORCED_FLOQUET.replace("rk4", method)
+    plan = _plan("title: t\n" + text)
+    out = OUTPUTS["floquet"]
+    priced = out.seconds(plan, 0, 1e-6) / plan.n_cases - FLOQUET_CASE_SECONDS  # lane-steps a case
+    counted = [0]
+    inside = [False]
+    real_mono, real_compute = fq_mod.monodromy, type(out).compute
+
+    def mono(a, b, g, steps, **kw):
+        if inside[0]:
+            counted[0] += 2 * np.size(np.broadcast_arrays(a, b, g)[0]) * int(steps)
+        return real_mono(a, b, g, steps, **kw)
+
+    def compute(self, *args, **kw):
+        inside[0] = True
+        try:
+            return real_compute(self, *args, **kw)
+        finally:
+            inside[0] = False
+
+    monkeypatch.setattr(fq_mod, "monodromy", mono)
+    monkeypatch.setattr(type(out), "compute", compute)
+    monkeypatch.setattr(gearsweep.study.execute, "kernel_threads", lambda: 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (beyond the step limit; contact loss)
+        gearsweep.run(_plan("title: t\n" + text).study)
+    run = counted[0] / plan.n_cases
+    assert run / FACTOR < priced < FACTOR * run, (priced, run)

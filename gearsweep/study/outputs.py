@@ -734,7 +734,9 @@ class Floquet:
         ``FLOQUET_CASE_SECONDS`` and the monodromy maps' lane-steps at ``rate`` [Msteps/s]:
         ``FLOQUET_PERIODS`` times ``floquet``'s first step count (from the largest frozen pole;
         per speed with the scene's other values, or at the grid's largest alpha, beta, gamma of a
-        Mathieu scene) and the study's own map; each chunk pays ``FLOQUET_CALL_SECONDS``."""
+        Mathieu scene) and the study's own map, and in a forced scene the step-limit scan's
+        exact monodromy and maps (``_forced_lane_steps``); each chunk pays
+        ``FLOQUET_CALL_SECONDS``."""
         g = plan.grids
         if plan.dimensionless:
             params = {d: np.array([np.max(np.abs(g[d]))]) for d in ("alpha", "beta", "gamma")
@@ -746,6 +748,8 @@ class Floquet:
             a, b, gm, harm, *_ = hill_parameters(plan.model, params, n)
             first = initial_steps(np.nan_to_num(a), np.nan_to_num(b), np.nan_to_num(gm), harm)
         steps = 2.0 * (FLOQUET_PERIODS * float(np.mean(first)) + plan.study.solver.steps_per_period)
+        if forced_scene(plan) and not plan.dimensionless:
+            steps += _forced_lane_steps(plan)
         cases = plan.n_cases / max(len(plan.directions), 1)
         return (cases * (FLOQUET_CASE_SECONDS + steps / (rate * 1e6))
                 + chunks * FLOQUET_CALL_SECONDS)
@@ -820,6 +824,55 @@ FLOQUET_PERIODS = 15
 1 + 2 + 4 + 8, three doublings. Measured: 800, 25,226, 414 and 391 lane-steps a case against
 first step counts of 40, 1056, 32 and 27 on average (a rattle, the rig, the Strutt chart and a
 gear study): 10-14 of them per lane."""
+
+FORCED_PERIODS = 31
+"""Steps per lane of the equation's monodromy that ``map_step_limit`` computes in a forced
+scene (``floquet`` at rtol 1e-10, besides the output's own at 1e-8), in units of ``floquet``'s
+first step count: 1 + 2 + 4 + 8 + 16, four doublings. Measured (27 Nov 2026): 30 and 25 of them
+(whine scenes with k1 / k0 = 0.98 and 0.84, RK5 at 64 steps: 6,308 and 1,655 lane-steps a case
+against first step counts of 208 and 65)."""
+
+FORCED_SAMPLE = 32
+"""Cases of the guard's grid (evenly spaced) whose step-limit scan ``_forced_lane_steps`` runs to
+price a forced scene's scan."""
+
+
+def _forced_lane_steps(plan: Plan) -> float:
+    """Lane-steps a case of a forced scene's ``min_steps_per_period`` costs beyond the floquet
+    output's own maps (``_step_limit``: ``map_step_limit`` with ``forced``): the equation's
+    monodromy (``FORCED_PERIODS`` first step counts) and the map at every count the scan tries
+    from the frozen limit to the first that passes, 2 S lanes-steps each. The scan's length is
+    the study's own (RK5 at 64 steps near the principal tongue: 38 -> 108; RK4 further): it is
+    run on ``FORCED_SAMPLE`` cases of the swept grid, those the guard checks averaged over all
+    (the mean over the sample, unchecked cases costing nothing). Every forced case of a strong
+    k(t) was priced at the output's 1e-8 monodromy alone: RK4 at 64 steps near the principal
+    tongue took 7 times what was priced."""
+    grids = plan.grids
+    names = [d for d in ("speed", "damping", "mass", "stiffness", "torque", "mean_force")
+             if d in grids and d in plan.dims]
+    shape = tuple(len(grids[d]) for d in names)
+    m = math.prod(shape)
+    pick = np.unique(np.linspace(0, m - 1, min(m, FORCED_SAMPLE)).round().astype(np.int64))
+    at = np.unravel_index(pick, shape) if names else ()
+    params = {d: np.asarray(grids[d], float)[i] for d, i in zip(names, at, strict=True)}
+    n = pick.size
+    s = _HillSolver(plan)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        a, b, g, harm, kmax, cm, period = hill_parameters(plan.model, params, n)
+        a, b, g = (np.broadcast_to(np.asarray(x, float), (n,)) for x in (a, b, g))
+        ok = np.isfinite(a)
+        strong = np.flatnonzero(ok & needs_map_check(a, b, g, harm, s.steps_per_period * s.cycle))
+        if not strong.size:
+            return 0.0
+        _, start = check_step(s.method, s.steps_per_period, period, kmax, cm)
+        start = np.broadcast_to(np.asarray(start, float), (n,))[strong].astype(np.int64)
+        limit = map_step_limit(a[strong], b[strong], g[strong], start, method=s.method,
+                               harmonics=harm, forced=True, cycles=s.cycles,
+                               spp_scale=s.cycle).astype(np.int64)
+        first = initial_steps(a[strong], b[strong], g[strong], harm)
+    tried = (limit * (limit + 1) - start * (start - 1)) // 2 * s.cycle  # sum of S, start..limit
+    return float(np.sum(2.0 * (FORCED_PERIODS * first + tried))) / n
+
 
 _FLOQUET_MEMO: contextvars.ContextVar[dict | None] = contextvars.ContextVar("floquet_memo",
                                                                         default=None)
