@@ -121,7 +121,7 @@ def test_per_figure_claims_are_well_formed_whatever_their_doc():
             cid = f"{path.name}[{i}]"
             assert {"quote", "value", "result", "expr"} <= set(c), cid
             assert not set(c) - {"doc", "quote", "value", "result", "expr", "tol", "scale",
-                                 "worded"}, cid
+                                 "worded", "note"}, cid
             doc = c.get("doc", "docs/REPRODUCTION.md")
             if doc not in docs:
                 docs[doc] = (ROOT / doc).read_text(encoding="utf-8")
