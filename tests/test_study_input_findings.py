@@ -4,6 +4,7 @@ and exit code 2, and ``validate`` refuses what ``run`` would refuse of the file.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -392,6 +393,18 @@ def test_a_text_field_read_two_ways_is_told_to_quote_only(field, written, readin
         load_yaml(f"{field}: {written}\n", "s.yaml")
     assert str(err.value) == (f"s.yaml:1: {field}: {written} {readings}: {field} is text; write"
                               f" it in quotes ('{written}')")
+
+
+@pytest.mark.parametrize("written, read", [("2026", "a number"), ("1.5", "a number"),
+                                           ("true", "a boolean"), ("off", "a boolean")])
+def test_an_unquoted_number_for_a_text_field_is_told_to_quote_it(written, read):
+    """``title: 2026`` said only "Input should be a valid string": YAML reads an unquoted 2026,
+    1.5 or true as a number or a boolean, not text; the line says so and how to write it."""
+    text = re.sub(r"(?m)^title: .*$", f"title: {written}", GOOD)
+    assert f"title: {written}\n" in text
+    (line,) = _lines(text)
+    assert line.startswith("s.yaml:1: title: ") and line.endswith(
+        f"-- text; YAML reads this unquoted value as {read}: write it in quotes"), line
 
 
 @pytest.mark.parametrize("written, value, why", [

@@ -1522,6 +1522,9 @@ def _problems(exc: ValidationError, raw=None) -> list[Problem]:
             msg = "a list, e.g. [a, b, c]"
         elif t == "finite_number":
             msg = "a finite number (not nan or inf)"
+        elif t == "string_type" and isinstance(written, int | float | bool):  # 'title: 2026'
+            read = "a boolean" if isinstance(written, bool) else "a number"
+            msg = f"text; YAML reads this unquoted value as {read}: write it in quotes"
         elif "has no unit" in msg:
             value = NO_VALUE
         if e.get("or_literal"):
