@@ -53,7 +53,7 @@ from functools import lru_cache
 import numpy as np
 
 from gearsweep.errors import GeometryError
-from gearsweep.gear.geometry import SAINSOT_ROOT_ANGLE, GearPair, _mm_down, _mm_up
+from gearsweep.gear.geometry import SAINSOT_ROOT_ANGLE, GearPair, _mm_down, _mm_up, rim_factor
 
 __all__ = [
     "SAINSOT_BORE_RATIO",
@@ -210,32 +210,6 @@ class ToothCompliance:
     def total(self) -> np.ndarray:
         """Sum of the parts [m/N]."""
         return self.bending + self.shear + self.axial + self.foundation
-
-
-def rim_factor(pair: GearPair, gear: int) -> float:
-    """ISO 6336-1 rim factor ``C_R`` (1 for a solid gear) [-].
-
-    Parameters
-    ----------
-    pair : GearPair
-        The gear pair.
-    gear : {1, 2}
-        Which gear.
-
-    Returns
-    -------
-    float
-        ``C_R = 1 + ln(b_s / b) / (5 exp(s_R / (5 m)))``, ``b_s/b`` limited to [0.2, 1.2] and
-        ``s_R/m`` to >= 1 as in the standard.
-    """
-    s_r = pair.rim_thickness1 if gear == 1 else pair.rim_thickness2
-    if s_r is None:
-        return 1.0
-    web = pair.web_width1 if gear == 1 else pair.web_width2
-    bs_b = (web if web is not None else pair.face_width) / pair.face_width
-    bs_b = min(max(bs_b, 0.2), 1.2)
-    sr_m = max(s_r / pair.module, 1.0)
-    return 1.0 + math.log(bs_b) / (5.0 * math.exp(sr_m / 5.0))
 
 
 def _below(value: float, bound: float) -> str:

@@ -43,6 +43,7 @@ __all__ = [
     "inverse_involute",
     "table1_as_printed",
     "table1_consistent",
+    "rim_factor",
 ]
 
 _TOL_BACKLASH = 1e-6  # [m] given and computed backlash agree within 1 um
@@ -808,7 +809,7 @@ class GearPair:
 
     def _rim_cautions(self) -> list[tuple[str, tuple[str, ...]]]:
         """A rim or web outside the range ISO 6336-1 states for its rim factor (s_R >= m,
-        b_s / b >= 0.2), where ``compliance.rim_factor`` takes it at the bound: a 0.1 mm rim on
+        b_s / b >= 0.2), where :func:`rim_factor` takes it at the bound: a 0.1 mm rim on
         a 1 mm web gave exactly the k0 of a 3 mm rim on a 4 mm web, unsaid (an outside
         tester). Warned, not refused: such a gear exists, and the empirical factor has no value
         beyond its range to give instead."""
@@ -818,9 +819,7 @@ class GearPair:
             s_r, web = getattr(self, f"rim_thickness{g}"), getattr(self, f"web_width{g}")
             if s_r is None:
                 continue  # a solid gear: C_R = 1
-            # compliance.rim_factor's C_R (that module imports this one), at ISO's bounds
-            bs_b = min(max((web if web is not None else b) / b, 0.2), 1.2)
-            c_r = f"(C_R = {1.0 + math.log(bs_b) / (5.0 * math.exp(max(s_r / m, 1.0) / 5.0)):.4f})"
+            c_r = f"(C_R = {rim_factor(self, g):.4f})"
             if s_r < m * (1 - 1e-12):
                 out.append(((f"gear {g}: rim thickness {s_r * 1e3:.4g} mm is {s_r / m:.3g} modules,"
                              " below ISO 6336-1's range of its rim factor (s_R >= m ="
@@ -1187,3 +1186,29 @@ def table1_profile_shift() -> GearPair:
         root_radius2=37.8e-3, fillet_radius=1.2e-3, backlash=0.5e-3,
         contact_ratio_range=(1.0, 2.0), name="Table 1 (profile-shift reading)",
     )  # fmt: skip
+
+
+def rim_factor(pair: GearPair, gear: int) -> float:
+    """ISO 6336-1 rim factor ``C_R`` (1 for a solid gear) [-].
+
+    Parameters
+    ----------
+    pair : GearPair
+        The gear pair.
+    gear : {1, 2}
+        Which gear.
+
+    Returns
+    -------
+    float
+        ``C_R = 1 + ln(b_s / b) / (5 exp(s_R / (5 m)))``, ``b_s/b`` limited to [0.2, 1.2] and
+        ``s_R/m`` to >= 1 as in the standard.
+    """
+    s_r = pair.rim_thickness1 if gear == 1 else pair.rim_thickness2
+    if s_r is None:
+        return 1.0
+    web = pair.web_width1 if gear == 1 else pair.web_width2
+    bs_b = (web if web is not None else pair.face_width) / pair.face_width
+    bs_b = min(max(bs_b, 0.2), 1.2)
+    sr_m = max(s_r / pair.module, 1.0)
+    return 1.0 + math.log(bs_b) / (5.0 * math.exp(sr_m / 5.0))
