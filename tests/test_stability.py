@@ -595,3 +595,50 @@ def test_ray_limit_of_many_angles_is_each_angles_in_bounded_memory():
     assert_allclose(st.ray_limit("rk4", np.pi / 2), 2 * np.sqrt(2), rtol=1e-12)  # RK4 on the axis
     alone = {t: float(st.ray_limit("rk5", t)) for t in theta[:5]}
     np.testing.assert_array_equal(st.ray_limit("rk5", few), [alone[t] for t in few])
+
+
+def _hill_multiplier_ivp(alpha, beta, gamma, order, periods):
+    """Largest |mu| per period 2 pi of p'' + gamma p' + (alpha + beta cos(order tau)) p = 0, from
+    its monodromy over ``periods`` periods 2 pi (the true period of a fractional ``order``),
+    integrated by scipy (DOP853, rtol 1e-10), independent of the kernels."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, y):
+        return [y[1], -gamma * y[1] - (alpha + beta * np.cos(order * t)) * y[0]]
+
+    cols = [solve_ivp(rhs, (0, 2 * np.pi * periods), y0, method="DOP853", rtol=1e-10,
+                      atol=1e-12).y[:, -1] for y0 in ([1.0, 0.0], [0.0, 1.0])]
+    return np.abs(np.linalg.eigvals(np.array(cols).T)).max() ** (1.0 / periods)
+
+
+# An outside tester: floquet(0.25, 0.3, 0.0, harmonics=([1.0], [1.5], [0.0])) returned 1.6016
+# (unstable) where the equation's multiplier per 2 pi is 1.0000, and 2.1732 for order 0.5 where
+# it is 1.4985: the kernel's table at a fractional order is not periodic over the 2 pi its
+# monodromy spans. The direct API now refuses such an order, naming it.
+@pytest.mark.parametrize("order", [1.5, 0.5])
+def test_the_direct_floquet_api_refuses_a_fractional_order_naming_it(order):
+    harm = ([1.0], [order], [0.0])
+    for call in (lambda: floquet(0.25, 0.3, 0.0, harmonics=harm),
+                 lambda: monodromy(0.25, 0.3, 0.0, 64, harmonics=harm),
+                 lambda: paper_criterion(0.25, 0.3, 0.0, 64, harmonics=harm)):
+        with pytest.raises(ValueError, match=rf"order {order:g} is not a whole number"):
+            call()
+    floquet(0.25, 0.3, 0.0, harmonics=([1.0], [2.0], [0.0]))  # a whole order as a float: taken
+
+
+@pytest.mark.parametrize(("order", "truth"), [(1.5, 1.0000), (0.5, 1.4985)])
+def test_a_fractional_order_over_its_common_period_matches_scipy(order, truth):
+    """The way the refusal names (a study's: ``model.hill_parameters`` over the cycle of
+    ``model.hill_cycle``, |mu|^(1/P) per mesh period) gives scipy's multiplier per 2 pi."""
+    from gearsweep.model import RPM, Harmonic, MeshModel, hill_cycle, hill_parameters
+
+    # Unit mass, mesh angular frequency 1 rad/s: alpha = k0, beta = k1, gamma = c per 2 pi.
+    model = MeshModel(mass=1.0, teeth=1, stiffness=0.25, damping=0.0,
+                      stiffness_harmonics=(Harmonic(0.3, order),))
+    a, b, g, harm, *_ = hill_parameters(model, {"speed": np.array([1.0 / RPM])}, 1)
+    cycle = hill_cycle(model)[0]
+    assert cycle == 2
+    mu = floquet(a, b, g, harmonics=harm, rtol=1e-10).multiplier[0] ** (1.0 / cycle)
+    ivp = _hill_multiplier_ivp(0.25, 0.3, 0.0, order, cycle)
+    assert ivp == pytest.approx(truth, abs=5e-5)  # the tester's numbers
+    assert mu == pytest.approx(ivp, rel=1e-8)

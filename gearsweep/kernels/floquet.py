@@ -6,10 +6,12 @@ In the Mathieu time tau = N w t (mesh period 2 pi, unit mass), Eq. (11) of the p
                                                        s(tau) = sum_n r_n cos(n tau + a_n)  (Hill)
 
 with alpha = k0 / (m (N w)^2), beta = k1 / (m (N w)^2), gamma = c / (m N w) (Eq. 12;
-``mathieu_parameters``) and, for the Hill equation, r_n = k_n / k1. The monodromy matrix M maps
-(p, p') at tau = 0 to tau = 2 pi; its eigenvalues mu_1, mu_2 are the Floquet multipliers,
-mu_1 mu_2 = det M = exp(-2 pi gamma) (Liouville), and the equation is unstable when the largest
-|mu| exceeds 1 (for gamma > 0: |tr M| > 1 + det M).
+``mathieu_parameters``) and, for the Hill equation, r_n = k_n / k1 with whole orders n (a
+fractional order is refused, ValueError: s(tau) would not have the period 2 pi; a study analyses
+one over the common period of its orders, ``model.hill_parameters``, and reports |mu|^(1/P) per
+mesh period). The monodromy matrix M maps (p, p') at tau = 0 to tau = 2 pi; its eigenvalues
+mu_1, mu_2 are the Floquet multipliers, mu_1 mu_2 = det M = exp(-2 pi gamma) (Liouville), and the
+equation is unstable when the largest |mu| exceeds 1 (for gamma > 0: |tr M| > 1 + det M).
 
 M is computed with the batch kernel ``simulate``: two lanes per case start from (1, 0) and (0, 1),
 run ``steps_per_period`` steps with no force and no backlash, and their end states are the
@@ -74,6 +76,14 @@ def mathieu_parameters(k0, k1, m, c, mesh_frequency):
 
 def _shape_table(harmonics, steps_per_period: int) -> np.ndarray:
     amps, orders, phases = harmonics if harmonics is not None else MATHIEU
+    for order in np.atleast_1d(np.asarray(orders, dtype=float)):
+        if not float(order).is_integer():
+            raise ValueError(
+                f"harmonics: order {float(order):g} is not a whole number: the orders are per"
+                " period 2 pi of tau, over which the monodromy is taken. A fractional order is"
+                " analysed over the common period of P periods (orders 0.5 and 1: P = 2) with"
+                " orders x P, alpha and beta x P^2, gamma x P, and |mu|^(1/P) per period, as a"
+                " study does (model.hill_parameters)")
     return fourier_table(amps, orders, phases, steps_per_period)
 
 
@@ -89,7 +99,8 @@ def monodromy(alpha, beta, gamma, steps_per_period: int, *, method: str = "rk5",
         Steps per period 2 pi.
     method : {"rk4", "rk5"}
     harmonics : (amplitudes, orders, phases), optional
-        Shape s(tau) of the stiffness variation, scaled by ``beta``; default cos tau.
+        Shape s(tau) of the stiffness variation, scaled by ``beta``; default cos tau. Orders
+        whole (per period 2 pi; ValueError naming a fractional one).
 
     Returns
     -------
@@ -138,7 +149,7 @@ class FloquetResult:
     """Converged Floquet analysis of a batch of cases (arrays of length n)."""
 
     multiplier: np.ndarray
-    """Largest |mu| of the monodromy matrix at the finest step [-]."""
+    """Largest |mu| of the monodromy matrix at the finest step, per period 2 pi of tau [-]."""
     error: np.ndarray
     """Estimated absolute error of ``multiplier`` (Richardson) [-]."""
     steps_per_period: np.ndarray
@@ -198,7 +209,8 @@ def floquet(alpha, beta, gamma=0.0, *, method: str = "rk5", rtol: float = 1e-9,
     tol : float
         ``unstable`` threshold: multiplier > 1 + tol.
     harmonics : (amplitudes, orders, phases), optional
-        Shape of the stiffness variation (default cos tau).
+        Shape of the stiffness variation (default cos tau); whole orders only, per period 2 pi
+        (ValueError naming a fractional one: see the module's docstring).
 
     Returns
     -------
@@ -273,7 +285,7 @@ def paper_criterion(alpha, beta, gamma, steps_per_period: int, *, method: str = 
     threshold : float
         Growth factor that counts as "without bound".
     harmonics : optional
-        Shape of the stiffness variation (default cos tau).
+        Shape of the stiffness variation (default cos tau); whole orders only (ValueError).
 
     Returns
     -------
