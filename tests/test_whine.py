@@ -571,3 +571,22 @@ outputs: [stats, spectrum]
         assert plan.samples_per_period() == alone.samples_per_period()
     light = make_plan(parse_study(base.replace("TORQUES", "[12.5 N*m]")))
     assert light.model.stiffness < 0.8 * k0 and resonant_order(light)[0] < 0.9 * r_n
+
+
+# An outside tester: k_orders=[1.5], f_orders=[2.7] returned exactly the response of orders 1
+# and 2 (the orders were cut to integers in silence), and k_orders=[0.5] was refused as "got 0".
+@pytest.mark.parametrize(("k_orders", "f_orders", "named"), [
+    ([1.5], [1], "k_orders: order 1.5 "), ([1], [2.7], "f_orders: order 2.7 "),
+    ([0.5], [1], "k_orders: order 0.5 "), ([1, 41], [1], "k_orders: order 41 ")])
+def test_periodic_response_refuses_a_fractional_order_naming_the_value_typed(k_orders, f_orders,
+                                                                            named):
+    w = mesh_omega([5000.0])
+    with pytest.raises(ValueError, match=rf"^{named}is not allowed: orders must be whole numbers"
+                                         r" 1\.\.40"):
+        periodic_response(M, C, K0, w, k_amplitudes=[0.1 * K0] * len(k_orders),
+                          k_orders=k_orders, f_amplitudes=[100.0], f_orders=f_orders)
+    # a whole order typed as a float is that order
+    assert_allclose(periodic_response(M, C, K0, w, k_amplitudes=[0.1 * K0], k_orders=[2.0],
+                                      f_amplitudes=[100.0], f_orders=[1.0]),
+                    periodic_response(M, C, K0, w, k_amplitudes=[0.1 * K0], k_orders=[2],
+                                      f_amplitudes=[100.0], f_orders=[1]), rtol=0, atol=0)

@@ -28,14 +28,17 @@ __all__ = ["periodic_response", "ste_force"]
 
 
 def _two_sided(mean: float, amplitudes: Sequence[float], orders: Sequence[int],
-               phases: Sequence[float], size: int) -> np.ndarray:
-    """Exponential Fourier coefficients C_j, j = -size..size, of mean + sum a cos(n theta + ph)."""
+               phases: Sequence[float], size: int, name: str) -> np.ndarray:
+    """Exponential Fourier coefficients C_j, j = -size..size, of mean + sum a cos(n theta + ph);
+    ``name`` is the argument that gave ``orders`` (for the error)."""
     c = np.zeros(2 * size + 1, dtype=complex)
     c[size] += mean
-    for a, n, ph in zip(amplitudes, orders, phases, strict=True):
-        n = int(n)
-        if n < 1 or n > size:
-            raise ValueError(f"orders must be integers 1..{size}, got {n}")
+    for a, order, ph in zip(amplitudes, orders, phases, strict=True):
+        if not (float(order).is_integer() and 1 <= order <= size):
+            raise ValueError(f"{name}: order {order} is not allowed: orders must be whole"
+                             f" numbers 1..{size} (the truncation `harmonics`; the response is"
+                             " periodic in the mesh period, fractional orders are not supported)")
+        n = int(order)
         c[size + n] += 0.5 * a * np.exp(1j * ph)
         c[size - n] += 0.5 * a * np.exp(-1j * ph)
     return c
@@ -91,13 +94,14 @@ def periodic_response(
     omega : ndarray (s,)
         Mesh angular frequencies W [rad/s], one response per value.
     k_amplitudes, k_orders, k_phases :
-        Stiffness harmonics k_n [N/m], integer orders n, phases a_n [rad] (default 0).
+        Stiffness harmonics k_n [N/m], whole orders n (1..``harmonics``; a fractional or out
+        of range one is refused, ValueError naming it), phases a_n [rad] (default 0).
     mean_force : float
         F0 [N].
     f_amplitudes : array_like (m,) or (s, m)
         Force harmonics F_n [N], the same for every W or one row per W (e.g. ``ste_force``).
     f_orders, f_phases :
-        Their integer orders and phases b_n [rad] (default 0).
+        Their whole orders (as ``k_orders``) and phases b_n [rad] (default 0).
     harmonics : int
         Truncation J [-]; the response is returned for orders 0..J.
 
@@ -111,7 +115,7 @@ def periodic_response(
     J = int(harmonics)
     k_phases = np.zeros(len(k_orders)) if k_phases is None else k_phases
     f_phases = np.zeros(len(f_orders)) if f_phases is None else f_phases
-    kc = _two_sided(0.0, k_amplitudes, k_orders, k_phases, J)
+    kc = _two_sided(0.0, k_amplitudes, k_orders, k_phases, J, "k_orders")
     fa = np.broadcast_to(np.asarray(f_amplitudes, dtype=float), (w.size, len(f_orders)))
     j = np.arange(-J, J + 1)
     # Convolution matrix of the stiffness harmonics: A[r, s] = K_{j_r - j_s}.
@@ -121,7 +125,8 @@ def periodic_response(
     diag = stiffness - mass * (j[None, :] * w[:, None]) ** 2 + 1j * damping * j[None, :] * w[:, None]
     idx = np.arange(2 * J + 1)
     a[:, idx, idx] += diag
-    rhs = np.stack([_two_sided(mean_force, fa[i], f_orders, f_phases, J) for i in range(w.size)])
+    rhs = np.stack([_two_sided(mean_force, fa[i], f_orders, f_phases, J, "f_orders")
+                    for i in range(w.size)])
     p = np.linalg.solve(a, rhs[..., None])[..., 0]
     out = p[:, J:].copy()
     out[:, 1:] *= 2.0  # single-sided: c_j = 2 P_j for j > 0 (P_{-j} = conj(P_j))
