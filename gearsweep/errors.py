@@ -204,3 +204,11 @@ class SpectrumAliasingWarning(UserWarning):
     response has weight (up to the natural frequency's order plus the excitation's highest)
     fold onto its kept lines: ``gearsweep.run`` warns it before running; ``gearsweep validate``
     and ``run`` print the same line. Its text: ``gearsweep.study.outputs.spectrum_aliasing``."""
+
+
+class UnstableEquationWarning(UserWarning):
+    """``gearsweep.analysis.linear_response.periodic_response`` at a mesh frequency where the
+    homogeneous equation is parametrically unstable (its largest Floquet multiplier exceeds
+    1 + ``kernels.floquet.UNSTABLE_TOL``): the periodic solution returned there exists, but it is
+    not the steady state, since any perturbation of it grows. Its own class so that a script can
+    filter it without matching its text."""

@@ -590,3 +590,40 @@ def test_periodic_response_refuses_a_fractional_order_naming_the_value_typed(k_o
                                       f_amplitudes=[100.0], f_orders=[1.0]),
                     periodic_response(M, C, K0, w, k_amplitudes=[0.1 * K0], k_orders=[2],
                                       f_amplitudes=[100.0], f_orders=[1]), rtol=0, atol=0)
+
+
+def _multiplier_ivp(mass, damping, k0, k1, omega):
+    """Largest |mu| per mesh period of m p'' + c p' + (k0 + k1 cos(W t)) p = 0, its monodromy
+    integrated by scipy (DOP853, rtol 1e-10), independent of the kernels."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, y):
+        return [y[1], -(damping * y[1] + (k0 + k1 * np.cos(omega * t)) * y[0]) / mass]
+
+    T = 2 * np.pi / omega
+    cols = [solve_ivp(rhs, (0, T), y0, method="DOP853", rtol=1e-10, atol=1e-14).y[:, -1]
+            for y0 in ([1.0, 0.0], [0.0, omega])]
+    return np.abs(np.linalg.eigvals(np.array(cols).T / [1.0, omega])).max()
+
+
+# An outside tester: periodic_response returned a finite "periodic response" with no word where
+# the homogeneous equation is parametrically unstable (k1 = 1050 kN/mm at a 26 kHz mesh, Floquet
+# multiplier 2.08 per mesh period), though its docstring makes the steady state exist only where
+# that equation is stable.
+def test_periodic_response_warns_where_the_homogeneous_equation_is_unstable():
+    from gearsweep.errors import UnstableEquationWarning
+
+    m, c, k0, k1 = 0.1527, 256.0, 1.073e9, 1050e6
+    args = dict(k_amplitudes=[k1], k_orders=[1], mean_force=833.0, f_amplitudes=[300.0],
+                f_orders=[1])
+    unstable, stable = 2 * np.pi * 26000.0, 2 * np.pi * 1600.0
+    mu = _multiplier_ivp(m, c, k0, k1, unstable)
+    assert mu == pytest.approx(2.085, abs=5e-4)
+    with pytest.warns(UnstableEquationWarning, match=rf"1 of 2 mesh frequencies \(largest Floquet"
+                                                     rf" multiplier per mesh period {mu:.4g} at"
+                                                     r" 26000 Hz\)"):
+        periodic_response(m, c, k0, np.array([stable, unstable]), **args)
+    assert _multiplier_ivp(m, c, k0, k1, stable) < 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        periodic_response(m, c, k0, np.array([stable]), **args)  # stable: no warning

@@ -6,8 +6,10 @@ periodic right-hand side):
     m p'' + c p' + k(t) p = F(t),
     k(t) = k0 + sum_n k_n cos(n W t + a_n),   F(t) = F0 + sum_n F_n cos(n W t + b_n)
 
-with W the mesh angular frequency and integer orders n. Its periodic solution (it exists and is
-unique when the homogeneous equation is asymptotically stable) is found by harmonic balance:
+with W the mesh angular frequency and whole orders n. Its periodic solution (it exists and is
+unique when the homogeneous equation is asymptotically stable; where that equation is
+parametrically unstable, ``periodic_response`` warns, ``UnstableEquationWarning``, for the periodic
+solution is then not the steady state) is found by harmonic balance:
 writing ``p = sum_{|j| <= J} P_j exp(i j W t)`` turns the equation into the linear system
 
     (k0 - m (j W)^2 + i c j W) P_j + sum_{n != 0} K_n P_{j-n} = F_j,   |j| <= J,
@@ -20,9 +22,13 @@ spectra of the batch integrator are tested against. For the STE excitation of Eq
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
+
+from gearsweep.errors import UnstableEquationWarning
+from gearsweep.kernels.floquet import floquet
 
 __all__ = ["periodic_response", "ste_force"]
 
@@ -110,6 +116,13 @@ def periodic_response(
     ndarray complex (s, J + 1)
         ``c_j`` with ``p(t) = sum_j Re(c_j exp(i j W t))`` [m]: ``|c_j|`` is the amplitude of
         mesh order j, ``c_0`` the mean.
+
+    Warns
+    -----
+    UnstableEquationWarning
+        Where the homogeneous equation is parametrically unstable (its converged largest Floquet
+        multiplier, ``kernels.floquet.floquet``, above 1 + ``UNSTABLE_TOL``): the solution
+        returned there is periodic but not the steady state.
     """
     w = np.atleast_1d(np.asarray(omega, dtype=float))
     J = int(harmonics)
@@ -130,4 +143,24 @@ def periodic_response(
     p = np.linalg.solve(a, rhs[..., None])[..., 0]
     out = p[:, J:].copy()
     out[:, 1:] *= 2.0  # single-sided: c_j = 2 P_j for j > 0 (P_{-j} = conj(P_j))
+    if np.any(np.asarray(k_amplitudes, dtype=float) != 0.0):
+        _warn_if_unstable(mass, damping, stiffness, w, (k_amplitudes, k_orders, k_phases))
     return out
+
+
+def _warn_if_unstable(mass: float, damping: float, stiffness: float, w: np.ndarray,
+                      harmonics) -> None:
+    """``UnstableEquationWarning`` naming the mesh frequencies where the homogeneous equation's
+    converged largest Floquet multiplier (``kernels.floquet.floquet``, per mesh period, in the
+    Mathieu time W t) is unstable."""
+    scale = 1.0 / (mass * w**2)
+    fl = floquet(stiffness * scale, scale, damping / (mass * w), harmonics=harmonics)
+    bad = np.flatnonzero(fl.unstable)
+    if bad.size:
+        worst = bad[np.argmax(fl.multiplier[bad])]
+        warnings.warn(
+            f"periodic_response: the homogeneous equation is parametrically unstable at"
+            f" {bad.size} of {w.size} mesh frequencies (largest Floquet multiplier per mesh"
+            f" period {fl.multiplier[worst]:.4g} at {w[worst] / (2.0 * np.pi):.6g} Hz): the"
+            " periodic solution returned there is not the steady state (any perturbation of it"
+            " grows)", UnstableEquationWarning, stacklevel=3)
