@@ -614,13 +614,15 @@ def _hill_multiplier_ivp(alpha, beta, gamma, order, periods):
 # An outside tester: floquet(0.25, 0.3, 0.0, harmonics=([1.0], [1.5], [0.0])) returned 1.6016
 # (unstable) where the equation's multiplier per 2 pi is 1.0000, and 2.1732 for order 0.5 where
 # it is 1.4985: the kernel's table at a fractional order is not periodic over the 2 pi its
-# monodromy spans. The direct API now refuses such an order, naming it.
+# monodromy spans. The direct API now refuses such an order, naming it (kernels.floquet.whole_orders).
 @pytest.mark.parametrize("order", [1.5, 0.5])
 def test_the_direct_floquet_api_refuses_a_fractional_order_naming_it(order):
     harm = ([1.0], [order], [0.0])
     for call in (lambda: floquet(0.25, 0.3, 0.0, harmonics=harm),
                  lambda: monodromy(0.25, 0.3, 0.0, 64, harmonics=harm),
-                 lambda: paper_criterion(0.25, 0.3, 0.0, 64, harmonics=harm)):
+                 lambda: paper_criterion(0.25, 0.3, 0.0, 64, harmonics=harm),
+                 lambda: st.tableau_monodromy(0.25, 0.3, 0.0, 64, "rk5", harmonics=harm),
+                 lambda: st.integrator_unstable(0.25, 0.3, 0.0, 64, harmonics=harm)):
         with pytest.raises(ValueError, match=rf"order {order:g} is not a whole number"):
             call()
     floquet(0.25, 0.3, 0.0, harmonics=([1.0], [2.0], [0.0]))  # a whole order as a float: taken

@@ -851,14 +851,15 @@ def tableau_monodromy(alpha, beta, gamma, steps_per_period: int, method: str,
     method : str
         A name in ``gearsweep.kernels.tableaux.TABLEAUX``.
     harmonics : (amplitudes, orders, phases), optional
-        s(tau) = sum r cos(n tau + a); default cos tau.
+        s(tau) = sum r cos(n tau + a); default cos tau. Whole orders only (ValueError naming a
+        fractional one: ``kernels.floquet.whole_orders``).
 
     Returns
     -------
     ndarray (n, 2, 2)
     """
     A, b, c = TABLEAUX[_method(method)].arrays()
-    amps, orders, phases = harmonics if harmonics is not None else ((1.0,), (1,), (0.0,))
+    amps, orders, phases = fq.whole_orders(harmonics)
     a_, b_, g_ = (np.ravel(x) for x in np.broadcast_arrays(
         np.asarray(alpha, float), np.asarray(beta, float), np.asarray(gamma, float)))
     n, S = a_.size, int(steps_per_period)

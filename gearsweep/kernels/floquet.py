@@ -42,6 +42,7 @@ __all__ = [
     "mathieu_parameters",
     "monodromy",
     "paper_criterion",
+    "whole_orders",
 ]
 
 ORDER = {m: tableaux.get(m).order for m in tableaux.KERNEL_METHODS}
@@ -74,7 +75,17 @@ def mathieu_parameters(k0, k1, m, c, mesh_frequency):
             np.asarray(c, float) / (m * Nw))
 
 
-def _shape_table(harmonics, steps_per_period: int) -> np.ndarray:
+def whole_orders(harmonics) -> tuple:
+    """``harmonics`` (amplitudes, orders, phases) of s(tau), ``MATHIEU`` for None, its orders
+    checked to be whole: a monodromy over the period 2 pi of tau is one of the equation only
+    then (an outside tester: order 1.5 gave a multiplier 1.6016 where the equation's, per 2 pi
+    over its true period 4 pi, is 1.0000).
+
+    Raises
+    ------
+    ValueError
+        Naming a fractional order and the way to analyse it.
+    """
     amps, orders, phases = harmonics if harmonics is not None else MATHIEU
     for order in np.atleast_1d(np.asarray(orders, dtype=float)):
         if not float(order).is_integer():
@@ -84,7 +95,11 @@ def _shape_table(harmonics, steps_per_period: int) -> np.ndarray:
                 " analysed over the common period of P periods (orders 0.5 and 1: P = 2) with"
                 " orders x P, alpha and beta x P^2, gamma x P, and |mu|^(1/P) per period, as a"
                 " study does (model.hill_parameters)")
-    return fourier_table(amps, orders, phases, steps_per_period)
+    return amps, orders, phases
+
+
+def _shape_table(harmonics, steps_per_period: int) -> np.ndarray:
+    return fourier_table(*whole_orders(harmonics), steps_per_period)
 
 
 def monodromy(alpha, beta, gamma, steps_per_period: int, *, method: str = "rk5",
