@@ -40,6 +40,7 @@ from gearsweep.study.quantities import EachOnce
 from gearsweep.study.resultfile import COORDS, VARIABLES
 from gearsweep.study.schema import (
     SCENE_PARAMETERS,
+    SWEEP_GIVES,
     Drive,
     Fluctuation,
     FullScene,
@@ -142,6 +143,8 @@ def _bounds(field) -> str:
 def _default(field, kind: str | None) -> str:
     if field.default is PydanticUndefined and field.default_factory is None:
         return "**required**"
+    if field.default is SWEEP_GIVES:  # (schema.given_or_swept)
+        return "**required** unless swept"
     if field.default_factory is not None:
         value = field.default_factory()
         if isinstance(value, list) and value and isinstance(value[0], BaseModel):
@@ -274,8 +277,10 @@ def render() -> str:
         scenes = [s for s, names in SCENE_PARAMETERS.items() if name in names]
         lines.append(f"| `{name}` | {kind} | `{KINDS[kind].cf}` | {', '.join(scenes)} |")
     lines += ["", "A range `{start, stop, num}` must go from low to high (a down sweep is",
-              "`continuation: [down]`). A parameter both swept and given in the scene is allowed;",
-              "the sweep replaces the scene's value and `validate` says so."]
+              "`continuation: [down]`). A swept parameter need not be given in the scene: the",
+              "sweep gives it (a rattle scene's `backlash`; the `mass`, m_eq, with no `drive`;",
+              "the `stiffness`; as the `speed`). Given in both is allowed: the sweep replaces the",
+              "scene's value and `validate` says so."]
     for title, model, note in SECTIONS:
         lines += ["", f"## {title}", ""]
         if note:

@@ -511,7 +511,7 @@ def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
         if "stiffness" in swept:
             out.append(("sweep.stiffness", NO_VALUE, ("the excitation file gives the mesh"
                         " stiffness; sweep it with typed-in coefficients")))
-    elif scene.stiffness is None:
+    elif scene.stiffness is None and "stiffness" not in swept:  # (the sweep gives it)
         out.append(("scene.stiffness", "(missing)", ("required: excitation.file has no"
                     " mesh_stiffness column")))
     if s.ste is not None:

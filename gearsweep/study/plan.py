@@ -136,14 +136,19 @@ def build_model(study: Study, torque: float | None = None) -> MeshModel | Mathie
             k0, k_h = fit.stiffness, fit.stiffness_harmonics
         if fit.excitation_fit is not None:  # e(t): STE - F_m / k(t), or the STE (rattle)
             e_h = fit.ste_harmonics
+    def given(value: float | None) -> float:
+        # None: a field the scene leaves to the sweep (schema.swept_fields), which gives each
+        # case its own; the model has no scene value of it (model_swept names it), not a case's
+        return math.nan if value is None else value
+
     return MeshModel(
-        mass=mass,
+        mass=given(mass),
         teeth=teeth,
-        stiffness=k0,
+        stiffness=given(k0),
         damping=sc.damping,
         mean_force=mean_force,
         base_radius=r1,
-        backlash=getattr(sc, "backlash", 0.0),
+        backlash=given(getattr(sc, "backlash", 0.0)),
         stiffness_harmonics=k_h,
         ste_harmonics=e_h,
         force_harmonics=tuple(fluct),

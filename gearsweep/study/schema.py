@@ -54,9 +54,11 @@ from pydantic import (
     TypeAdapter,
     ValidationError,
     ValidationInfo,
+    WrapValidator,
     field_validator,
     model_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from gearsweep.errors import (
     NO_VALUE,
@@ -203,16 +205,57 @@ class Fluctuation(Strict):
         return False
 
 
-def scene_presence(has, drive_has) -> list[tuple[tuple[str, ...], str]]:
+def swept_fields(raw: Any) -> frozenset[str]:
+    """The scene fields that a study file's ``sweep:`` gives: sweeping a parameter gives the
+    scene's field of that name (``SCENE_PARAMETERS``; ``mass`` is m_eq, which ``drive`` would
+    give), which the scene then need not write. Written there too, it is allowed and the sweep
+    replaces it (``replaced_by_sweep``). ``parse_study`` passes them to the scene's checks as the
+    validation context's ``swept`` (``given_or_swept``, ``scene_presence``)."""
+    sweep = raw.get("sweep") if isinstance(raw, dict) else None
+    if not isinstance(sweep, dict):
+        return frozenset()
+    return frozenset(n for n in sweep if isinstance(n, str) and n in SWEEPABLE)
+
+
+def _swept(info: ValidationInfo | None) -> frozenset[str]:
+    """``swept_fields`` of the study being validated (none when validated without them)."""
+    context = info.context if info is not None else None
+    return frozenset(context.get("swept", ())) if isinstance(context, dict) else frozenset()
+
+
+class _GivenBySweep:
+    """The default of a scene field that is required unless the study sweeps it."""
+
+    def __repr__(self) -> str:
+        return "(required unless swept)"
+
+
+SWEEP_GIVES = _GivenBySweep()
+"""The default of a field that ``given_or_swept`` checks: not written in the scene."""
+
+
+def given_or_swept(value: Any, handler: Callable[[Any], Any], info: ValidationInfo) -> Any:
+    """A field a scene must give, or the study sweep (a rattle scene's ``backlash``): left out
+    (its default ``SWEEP_GIVES``), it is ``None`` where the sweep gives it (``swept_fields``),
+    else pydantic's own error of a required field (said as ever: "this field is required")."""
+    if value is SWEEP_GIVES:
+        if info.field_name in _swept(info):
+            return None
+        raise PydanticCustomError("missing", "Field required")
+    return handler(value)
+
+
+def scene_presence(has, drive_has, swept=frozenset()) -> list[tuple[tuple[str, ...], str]]:
     """The problems of which fields a whine, rattle or full scene gives, each ``(fields,
     message)`` as ``FieldProblems`` takes them (the fields the message is about: a field given
     beside another it excludes is reported on its own line; what is missing, on the scene's, in
     one line): ``has(name)`` says whether the scene gives field ``name``, ``drive_has(name)`` the
-    same of its ``drive``. Asked by the scene's validator, and, when other errors stop that
-    validator, on the file's own keys (``_problems_beside_errors``), so that a bare scene's problems
-    come in one run."""
+    same of its ``drive``; a field in ``swept`` (``swept_fields``) is given by the sweep, and
+    need not be written. Asked by the scene's validator, and, when other errors stop that
+    validator, on the file's own keys (``_problems_beside_errors``), so that a bare scene's
+    problems come in one run."""
     problems = []
-    if has("mass") == has("drive"):
+    if (has("mass") and has("drive")) or not (has("mass") or has("drive") or "mass" in swept):
         problems.append((("mass", "drive"), ("give exactly one of 'mass' (m_eq) and 'drive'"
                          " (inertias, radii)")))
     if has("mean_force") and has("torque"):
@@ -227,7 +270,7 @@ def scene_presence(has, drive_has) -> list[tuple[tuple[str, ...], str]]:
             problems.append((("drive",), (f"{' and '.join(missing)} required (or a 'gear', which"
                              " gives the base radii)")))
     if not has("gear") and not has("excitation"):
-        missing = [f"'{f}'" for f in ("teeth", "stiffness") if not has(f)]
+        missing = [f"'{f}'" for f in ("teeth", "stiffness") if not (has(f) or f in swept)]
         if missing:
             problems.append(((), (f"{' and '.join(missing)} required (or a 'gear' that gives"
                              " teeth, stiffness and their harmonics)")))
@@ -257,12 +300,13 @@ class _Driven(Strict):
     fluctuation: list[Fluctuation] = Field(default_factory=list)
 
     @model_validator(mode="after")
-    def _mass_and_force(self) -> _Driven:
+    def _mass_and_force(self, info: ValidationInfo) -> _Driven:
         # The independent problems of the scene at once (a user fixing one at a time met them
         # over several runs), each at the line of the field it names (they were all at the
         # scene's line, an outside tester's finding), what is missing in one line at the scene's
         problems = scene_presence(lambda f: getattr(self, f, None) is not None,
-                                  lambda f: getattr(self.drive, f, None) is not None)
+                                  lambda f: getattr(self.drive, f, None) is not None,
+                                  _swept(info))
         if problems:
             raise FieldProblems(problems)
         if self.excitation is not None and self.gear is not None:  # at the later written
@@ -315,7 +359,9 @@ class RattleScene(_Driven):
     """Eq. (13): constant stiffness with backlash; torque fluctuation and STE excitation."""
 
     kind: Literal["rattle"]
-    backlash: Length = Field(gt=0, description="total backlash on the line of action")
+    backlash: Annotated[Length, WrapValidator(given_or_swept)] = Field(
+        SWEEP_GIVES, gt=0, validate_default=True, description="total backlash on the line of"
+        " action")
     ste: list[SteHarmonic] = Field(default_factory=list)
 
 
@@ -724,8 +770,7 @@ def output_name_problems(names: list) -> list[Problem]:
 
 def replaced_by_sweep(study) -> list[str]:
     """Scene values that the sweep replaces (``validate`` says so): a swept parameter's value in
-    the scene is not used (a required one, such as a rattle scene's backlash, must still be
-    given)."""
+    the scene is not used (it need not be written there: ``swept_fields``)."""
     sc = study.scene
     load = {"torque": "mean_force", "mean_force": "torque"}  # either one gives the mean load
     out = [f"scene.{given}" for name in study.sweep
@@ -1692,7 +1737,8 @@ def _problems_beside_errors(raw: Any) -> list[Problem]:
     if isinstance(scene, dict) and scene.get("kind") in ("whine", "rattle", "full"):
         drive = scene.get("drive")
         given = scene_presence(lambda f: scene.get(f) is not None,  # a drive that is no mapping:
-                               lambda f: not isinstance(drive, dict) or drive.get(f) is not None)
+                               lambda f: not isinstance(drive, dict) or drive.get(f) is not None,
+                               swept_fields(raw))
         # its own error says so, not that its fields are missing
         if given:  # the same lines as the scene's validator gives, where it ran
             out += _field_problems(raw, ["scene"], FieldProblems(given))
@@ -1840,7 +1886,7 @@ def _parse_raw(raw: Any, file: str, base: str | None = None
     problems: list[Problem] = []
     try:
         study = Study.model_validate(raw, context={"problems": problems, "file": file,
-                                                   "base": base})
+                                                   "base": base, "swept": swept_fields(raw)})
     except ValidationError as exc:
         err = _first_error(exc, file, raw)
         more = problems + _problems_beside_errors(raw)  # every problem of the file at once
