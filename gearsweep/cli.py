@@ -863,6 +863,7 @@ def _advice(plan, target: float, free_vibration: bool = True):
     if plan.has_backlash:
         backlash = float(np.min(grids["backlash"])) if "backlash" in grids else model.backlash
     return advise(mass=mass, k0=k0, damping=damping, speed_rpm=grids["speed"], teeth=model.teeth,
+                  stability_cases=_stability_cases(plan),
                   k_harmonics=[(h.amplitude, h.order, h.phase) for h in model.stiffness_harmonics],
                   highest_order=max(1.0, model.highest_order),
                   backlash=backlash, method=s.method, kink_aware=s.kink_aware, target=target,
@@ -871,6 +872,31 @@ def _advice(plan, target: float, free_vibration: bool = True):
                   cases_per_speed=plan.n_cases / len(grids["speed"]),  # priced as --estimate
                   free_vibration=free_vibration,
                   multiple=_steps_multiple(plan))
+
+
+def _stability_cases(plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(mass, k0 + sum |k_n|, damping) of every combination of the plan's swept mass, stiffness,
+    damping and load (each load's k(t)), whose worst the advised step must be stable at, as the
+    step guard judges each case: the limit is not monotonic in the damping ratio (RK4: 2.95 at
+    zeta 0.1, 2.62 at 0.5), and the smallest damping's, all ``advise`` was given, passed 12 RK4
+    steps the guard flagged (an outside tester)."""
+    grids = plan.grids
+    if plan.gear_load_swept:
+        loads = plan.case_torques({n: grids[n] for n in ("torque", "mean_force") if n in grids})
+        models = [plan.model_for_load(float(t)) for t in np.unique(loads)]
+    else:
+        models = [plan.model]
+    rows = []
+    for model in models:
+        swing = sum(abs(h.amplitude) for h in model.stiffness_harmonics)
+        m, k, c = np.meshgrid(
+            np.unique(grids["mass"]) if "mass" in grids else [model.mass],
+            np.unique(grids["stiffness"]) if "stiffness" in grids else [model.stiffness],
+            np.unique(grids["damping"]) if "damping" in grids else [model.damping],
+            indexing="ij")
+        rows.append(np.stack([m.ravel(), k.ravel() + swing, c.ravel()]))
+    m, k, c = np.unique(np.concatenate(rows, axis=1), axis=1)
+    return m, k, c
 
 
 def cmd_advise(args: argparse.Namespace) -> int:

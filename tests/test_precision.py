@@ -491,6 +491,174 @@ def test_stability_limit_agrees_with_the_stability_module(method):
                                                               rel=1e-9)
 
 
+# Butcher's six-stage fifth-order method and the classic RK4, written out here from the
+# literature (Butcher, Numerical Methods for ODEs, 2016, Sec. 236; Kutta 1901), not read from
+# gearsweep.kernels.tableaux: one explicit step of y' = lambda y multiplies y by R(h lambda).
+_TABLEAUX = {
+    "rk5": ([[], [1 / 4], [1 / 8, 1 / 8], [0, -1 / 2, 1], [3 / 16, 0, 0, 9 / 16],
+             [-3 / 7, 2 / 7, 12 / 7, -12 / 7, 8 / 7]],
+            [7 / 90, 0, 32 / 90, 12 / 90, 32 / 90, 7 / 90]),
+    "rk4": ([[], [1 / 2], [0, 1 / 2], [0, 0, 1]], [1 / 6, 1 / 3, 1 / 3, 1 / 6]),
+}
+
+
+def _step_factor(method: str, z: complex) -> complex:
+    """R(z): one step of the explicit tableau on y' = lambda y from y = 1, z = h lambda."""
+    A, b = _TABLEAUX[method]
+    k = []
+    for row in A:
+        k.append(z * (1 + sum(a * kj for a, kj in zip(row, k, strict=False))))
+    return 1 + sum(bi * ki for bi, ki in zip(b, k, strict=True))
+
+
+def _first_unstable(method: str, pole: complex) -> float:
+    """The smallest h |pole| at which |R(h pole)| = 1 is crossed upwards (a scan of 0.001, then
+    brentq), the pole of unit modulus."""
+    from scipy.optimize import brentq
+
+    def f(x):
+        return abs(_step_factor(method, x * pole)) - 1.0
+
+    xs = np.arange(0.01, 6.0, 1e-3)
+    i = next(i for i, x in enumerate(xs) if f(x) > 0)
+    return brentq(f, xs[i - 1], xs[i], xtol=1e-14)
+
+
+def _oscillator_limit(method: str, zeta: float) -> float:
+    """Largest stable h omega_n of p'' + 2 zeta omega_n p' + omega_n^2 p = 0 from its poles
+    omega_n (-zeta +- sqrt(zeta^2 - 1)): under-damped on the unit circle's ray, over-damped the
+    faster real pole, omega_n (zeta + sqrt(zeta^2 - 1)), binds."""
+    if zeta < 1:
+        return _first_unstable(method, complex(-zeta, math.sqrt(1 - zeta * zeta)))
+    return _first_unstable(method, -1.0) / (zeta + math.sqrt(zeta * zeta - 1))
+
+
+# An outside tester's whine scene at zeta = 1.56 (RK5): advise said "stable for h omega_n <
+# 3.388" (the under-damped ray at zeta 0.999) and advised 16 steps per period, h omega_n = 2.18,
+# where the fast real pole limits it to 1.226; the run at 16 steps diverged at 3000 rpm.
+_OVERDAMPED = """\
+title: tester overdamped constant stiffness
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  ste:
+    - {amplitude: 5 um}
+  damping: 40 N*s/mm
+  mean_force: 833 N
+sweep:
+  speed: [3000 rpm, 6000 rpm, 12000 rpm]
+solver:
+  method: rk5
+  steps_per_period: 64
+  transient_periods: 200
+  record_periods: 50
+outputs: [stats]
+"""
+# The same tester: RK4 at 12 steps over damping 2560 and 12800 N s/m (zeta 0.1 and 0.5) at
+# 3000 rpm, h omega_n = 2.91: the limit is 2.95 at zeta 0.1 and 2.62 at 0.5; advise took it at
+# the smallest damping and said nothing, the run gave status [0 1].
+_DAMPING_SWEEP = """\
+title: damping sweep
+scene:
+  kind: whine
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1073 kN/mm
+  ste:
+    - {amplitude: 5 um}
+  mean_force: 833 N
+sweep:
+  speed: [3000 rpm]
+  damping: [2560 N*s/m, 12800 N*s/m]
+solver:
+  method: rk4
+  steps_per_period: 12
+  transient_periods: 200
+  record_periods: 20
+outputs: [stats]
+"""
+
+
+def test_rk5_real_axis_interval_from_the_tableau():
+    """The independent truth below: Butcher's RK5 is stable on the negative real axis up to
+    h |lambda| = 3.386 (docs/stability.md's table), RK4 up to 2.785; RK4 undamped 2 sqrt 2."""
+    assert _first_unstable("rk5", -1.0) == pytest.approx(3.3865, abs=1e-4)
+    assert _first_unstable("rk4", -1.0) == pytest.approx(2.7853, abs=1e-4)
+    assert _oscillator_limit("rk4", 0.0) == pytest.approx(2 * math.sqrt(2), rel=1e-9)
+
+
+@pytest.mark.parametrize("method", ["rk4", "rk5"])
+@pytest.mark.parametrize("zeta", [0.1, 0.5, 0.999, 1.0, 1.29, 1.562, 3.0])
+def test_stability_limit_is_the_oscillators_at_any_damping(method, zeta):
+    """``advise.stability_limit`` against the poles' limit from the tableau written out here;
+    above zeta = 1 the faster real pole binds (it raised, and advise took zeta 0.999 instead)."""
+    assert stability_limit(method, zeta) == pytest.approx(_oscillator_limit(method, zeta),
+                                                          rel=1e-6)
+
+
+def test_advise_takes_the_fast_real_pole_above_critical_damping():
+    """zeta = 1.56 (the tester's scene): the limit advise states and keeps its step under is
+    3.386 / (zeta + sqrt(zeta^2 - 1)) = 1.226, not the under-damped ray's 3.388; a written
+    step beyond it is warned about."""
+    m, k, c = 0.1527, 1.073e9, 40e3
+    zeta = c / (2 * math.sqrt(k * m))
+    want = _oscillator_limit("rk5", zeta)
+    assert want == pytest.approx(1.2257, abs=1e-4)
+    adv = advise(mass=m, k0=k, damping=c, speed_rpm=[3000.0, 6000.0, 12000.0], teeth=48,
+                 method="rk5", target=0.3, steps_per_period=16)
+    assert adv.stability_limit == pytest.approx(want, rel=1e-6)
+    assert adv.h_omega_n < want
+    assert any("beyond the rk5 stability limit 1.226" in w for w in adv.warnings)
+
+
+def test_cli_advises_a_step_that_runs_above_critical_damping(tmp_path, capsys):
+    """`gearsweep advise` on the tester's zeta = 1.56 scene states the fast real pole's limit,
+    and its advised step runs with status 0 at every speed (16 steps diverged at 3000 rpm);
+    the study at 16 steps is told it is beyond the limit."""
+    from gearsweep.api import run
+    from gearsweep.cli import main
+
+    path = tmp_path / "c.yaml"
+    path.write_text(_OVERDAMPED, encoding="utf-8")
+    assert main(["advise", str(path), "--target", "0.3"]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    said = float(re.search(r"stable for h omega_n < (\d+\.\d+)", flat)[1])
+    zeta = 40e3 / (2 * math.sqrt(1.073e9 * 0.1527))
+    assert said == pytest.approx(_oscillator_limit("rk5", zeta), abs=1.5e-3)
+    spp = int(re.search(r"For a target of [\d.e+-]+: (\d+) steps per mesh period", flat)[1])
+    ds = run(_OVERDAMPED.replace("steps_per_period: 64", f"steps_per_period: {spp}"))
+    np.testing.assert_array_equal(ds.status.values.ravel(), 0)
+    path.write_text(_OVERDAMPED.replace("steps_per_period: 64", "steps_per_period: 16"),
+                    encoding="utf-8")
+    assert main(["advise", str(path), "--target", "0.3"]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    assert re.search(r"WARNING: 16 steps per period give h omega_n = 2.18\d at 3000 rpm, beyond"
+                     r" the rk5 stability limit 1.226", flat), flat
+
+
+def test_cli_advise_takes_the_limit_at_every_swept_damping(tmp_path, capsys):
+    """The limit is not monotonic in zeta (RK4: 2.95 at 0.1, 2.62 at 0.5): advise checks the
+    step at every swept damping, as the step guard and validate do, and states the worst."""
+    from gearsweep.api import run
+    from gearsweep.cli import main
+
+    path = tmp_path / "d.yaml"
+    path.write_text(_DAMPING_SWEEP, encoding="utf-8")
+    assert main(["advise", str(path), "--target", "0.3"]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    want = _oscillator_limit("rk4", 12800 / (2 * math.sqrt(1.073e9 * 0.1527)))
+    assert want == pytest.approx(2.6225, abs=1e-3)
+    said = float(re.search(r"stable for h omega_n < (\d+\.\d+)", flat)[1])
+    assert said == pytest.approx(want, abs=1.5e-3)
+    assert re.search(r"WARNING: 12 steps per period give h omega_n = 2.91\d at 3000 rpm, beyond"
+                     r" the rk4 stability limit 2.62\d", flat), flat
+    spp = int(re.search(r"For a target of [\d.e+-]+: (\d+) steps per mesh period", flat)[1])
+    ds = run(_DAMPING_SWEEP.replace("steps_per_period: 12", f"steps_per_period: {spp}"))
+    np.testing.assert_array_equal(ds.status.values.ravel(), 0)
+
+
 @pytest.mark.slow  # compiles kink-kernel specialisations: 1-3 min on a cold cache
 @pytest.mark.parametrize(("method", "lo", "hi"), [("rk4", 3.5, 4.5), ("rk5", 4.5, 5.5)])
 def test_kink_aware_order_with_time_varying_stiffness_and_all_tables(method, lo, hi):
@@ -766,3 +934,65 @@ def test_validate_s_accuracy_note_does_not_pay_for_the_free_vibration_scan(monke
     adv._free_decay.cache_clear()
     assert cli.main(["validate", str(path)]) == 0
     assert len(calls) == 1  # validate did not
+
+
+def test_cli_advise_warns_of_a_written_step_beyond_the_over_damped_limit(tmp_path, capsys):
+    """The tester's varying scene (k1 = 500 of k0 = 1073 kN/mm, zeta 1.29 at k0 + k1, RK5):
+    at 6 steps per period, h omega_n = 1.92 against the fast real pole's 1.608, the run
+    diverged at 11000 and 11150 rpm where advise said 3.388 and warned of nothing; the
+    advised steps run with status 0."""
+    from gearsweep.api import run
+    from gearsweep.cli import main
+
+    text = _OVERDAMPED.replace("  ste:\n", "  stiffness_harmonics:\n    - {amplitude: 500 kN/mm}\n"
+                               "  ste:\n").replace(
+        "speed: [3000 rpm, 6000 rpm, 12000 rpm]",
+        "speed: [11000 rpm, 11150 rpm, 16000 rpm, 17200 rpm, 18000 rpm, 25000 rpm]").replace(
+        "steps_per_period: 64", "steps_per_period: 6").replace(
+        "transient_periods: 200", "transient_periods: 3000")
+    path = tmp_path / "over6.yaml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["advise", str(path), "--target", "0.3"]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    want = _oscillator_limit("rk5", 40e3 / (2 * math.sqrt(1.573e9 * 0.1527)))
+    assert want == pytest.approx(1.608, abs=1e-3)
+    said = float(re.search(r"stable for h omega_n < (\d+\.\d+)", flat)[1])
+    assert said == pytest.approx(want, abs=1.5e-3)
+    assert re.search(r"WARNING: 6 steps per period give h omega_n = 1.92\d at 11000 rpm, beyond"
+                     r" the rk5 stability limit 1.60\d", flat), flat
+    spp = int(re.search(r"For a target of [\d.e+-]+: (\d+) steps per mesh period", flat)[1])
+    ds = run(text.replace("steps_per_period: 6", f"steps_per_period: {spp}"))
+    np.testing.assert_array_equal(ds.status.values.ravel(), 0)
+
+
+def test_cli_advise_takes_the_limit_at_every_swept_stiffness(tmp_path, capsys):
+    """Over-damped, a smaller stiffness has the faster real pole (c / (2m) + sqrt(c^2 / 4m^2 -
+    k / m)): over k0 = 300 and 1073 kN/mm at 40 N s/mm, 30 RK5 steps at 3000 rpm are within the
+    stiffest case's limit and beyond the softer one's, which diverges (status 1); advise states
+    the softer case's limit (at the stiffest case's omega_n) and warns, as validate does."""
+    from gearsweep.api import run
+    from gearsweep.cli import main
+    from gearsweep.errors import StepLimitWarning
+
+    text = _OVERDAMPED.replace("speed: [3000 rpm, 6000 rpm, 12000 rpm]",
+                               "speed: [3000 rpm]\n  stiffness: [300 kN/mm, 1073 kN/mm]").replace(
+        "steps_per_period: 64", "steps_per_period: 30")
+    path = tmp_path / "k.yaml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["advise", str(path), "--target", "0.3"]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    m, c = 0.1527, 40e3
+    wn_lo, wn_hi = math.sqrt(3e8 / m), math.sqrt(1.073e9 / m)
+    want = _oscillator_limit("rk5", c / (2 * m * wn_lo)) * wn_hi / wn_lo
+    assert want == pytest.approx(1.117, abs=1e-3)
+    said = float(re.search(r"stable for h omega_n < (\d+\.\d+)", flat)[1])
+    assert said == pytest.approx(want, abs=1.5e-3)
+    assert "the one at damping ratio 2.955 sets it" in flat
+    assert re.search(r"WARNING: 30 steps per period give h omega_n = 1.16\d at 3000 rpm, beyond"
+                     r" the rk5 stability limit 1.11\d", flat), flat
+    assert main(["validate", str(path)]) == 0
+    assert "1 case(s) will use a step beyond the stability limit" in capsys.readouterr().err
+    with pytest.warns(StepLimitWarning, match="beyond the stability limit"):
+        ds = run(text)
+    assert ds.stiffness.values.tolist() == [300.0, 1073.0]  # kN/mm
+    np.testing.assert_array_equal(ds.status.values.ravel(), [1, 0])

@@ -30,8 +30,10 @@ calibration's damping ratio a warning bounds the error by zeta_cal / zeta times 
 with zeta the damping ratio of the slowest free decay among the speeds (``free_decay``: near a
 parametric resonance of k(t) it decays slower than c gives); speeds where k(t) makes the
 equation unstable are named. Stability: the step must also
-satisfy h omega_n below the limit of the method's stability polynomial on the ray of the
-eigenvalues omega_n (-zeta +- i sqrt(1 - zeta^2)), zeta = c / (2 m omega_n).
+satisfy h omega_n below the limit of the method's stability polynomial at the poles
+omega_n (-zeta +- sqrt(zeta^2 - 1)), zeta = c / (2 m omega_n) (``stability.step_limit_hw``: on the
+ray of the complex pair below zeta = 1, the faster real pole above), at every case of the study
+(``stability_cases``: the limit is not monotonic in zeta, RK4's 2.95 at 0.1 and 2.62 at 0.5).
 """
 
 from __future__ import annotations
@@ -99,13 +101,31 @@ def stability_polynomial(method: str) -> np.ndarray:
 
 @cache
 def stability_limit(method: str, zeta: float) -> float:
-    """Largest h omega_n [1] for which |R(h lambda)| <= 1 along the eigenvalue ray
-    lambda / omega_n = -zeta + i sqrt(1 - zeta^2) (0 <= zeta < 1): the first crossing of 1
-    (``gearsweep.analysis.stability.step_limit_hw``, the one computation of it)."""
-    if not 0.0 <= zeta < 1.0:
-        raise ValueError(f"damping ratio must lie in [0, 1), got {zeta}")
+    """Largest h omega_n [1] for which |R(h lambda)| <= 1 at the poles lambda / omega_n =
+    -zeta +- sqrt(zeta^2 - 1) of the oscillator at damping ratio ``zeta`` >= 0: below 1 the first
+    crossing of 1 along the ray of the complex pair, from 1 on the faster real pole's,
+    3.386 / (zeta + sqrt(zeta^2 - 1)) for RK5 (``gearsweep.analysis.stability.step_limit_hw``,
+    the one computation of it; the over-damped case raised here, and ``advise`` took zeta 0.999,
+    3.388 for RK5 at zeta 1.56 where 1.226 holds: an outside tester's run diverged)."""
+    if not zeta >= 0.0:
+        raise ValueError(f"damping ratio must be >= 0, got {zeta}")
     stability_polynomial(method)  # the method check
     return float(step_limit_hw(method, zeta))
+
+
+def worst_stability_limit(method: str, omega_n: float, mass, k_max, damping
+                          ) -> tuple[float, float]:
+    """(The largest h omega_n [1] stable at every case, the damping ratio of the case that sets
+    it): each case (``mass`` [kg], largest stiffness ``k_max`` [N/m], ``damping`` [N s/m],
+    broadcast together) is stable for h < ``stability_limit`` at its zeta over its own omega_n,
+    taken here as h ``omega_n``. The step guard's frozen rule, case by case
+    (``study.plan._stable_steps`` tabulates the same ``step_limit_hw``)."""
+    m, k, c = (np.ravel(x).astype(float) for x in np.broadcast_arrays(mass, k_max, damping))
+    wn = np.sqrt(k / m)
+    zeta = c / (2.0 * m * wn)
+    hw = np.asarray(step_limit_hw(method, zeta), dtype=float) * omega_n / wn
+    i = int(np.argmin(hw))
+    return float(hw[i]), float(zeta[i])
 
 
 def effective_order(k0: float, k_harmonics, highest_order: float) -> float:
@@ -214,6 +234,9 @@ class Advice:
     varying_stiffness: bool = False
     """The scene's stiffness varies (k(t): a gear pair's steps between one and two tooth pairs
     in contact), which makes the response ring at omega_n (``report``: the extremes)."""
+    limit_zeta: float = math.nan
+    """The damping ratio of the case whose stability limit binds (``worst_stability_limit``;
+    ``zeta`` unless the study sweeps the damping, mass or stiffness)."""
     decay_zeta: float = math.nan
     """The damping ratio that the slowest free decay among the speeds corresponds to (zeta
     itself unless k(t) slows it, near a parametric resonance: ``free_decay``); the light-damping
@@ -222,6 +245,12 @@ class Advice:
     def _knee_text(self) -> str:
         return (f" min(1, ({self.highest_order:g} r / {self.knee:g})^2)" if self.knee
                 else "")
+
+    def _limit_text(self) -> str:
+        if math.isnan(self.limit_zeta) or math.isclose(self.limit_zeta, self.zeta, rel_tol=1e-9):
+            return ""
+        return (f" (at every swept case; the one at damping ratio {self.limit_zeta:.3f}"
+                " sets it)")
 
     def report(self, scene: str | None = None, width: int = 96) -> str:
         """A few lines of at most ``width`` characters for a person. ``scene`` names the case
@@ -232,7 +261,7 @@ class Advice:
             (f"{what}, {name} (error constants of the {self.scene_kind} calibration): at the"
              f" largest stiffness k0 + sum |k_n|, omega_n = {self.omega_n:.4g} rad/s and damping"
              f" ratio {self.zeta:.3f}; the method is stable for h omega_n <"
-             f" {self.stability_limit:.3f}."),
+             f" {self.stability_limit:.3f}{self._limit_text()}."),
         ]
         if self.chosen is not None:
             lines.append(f"As written: {self.chosen} steps per mesh period, expected trajectory"
@@ -288,6 +317,7 @@ def advise(
     cases_per_speed: float = 1.0,
     multiple: int = 8,
     free_vibration: bool = True,
+    stability_cases=None,
 ) -> Advice:
     """Steps per mesh period for a target accuracy, the cost, and stability warnings.
 
@@ -334,6 +364,11 @@ def advise(
         (``free_decay``: a monodromy per speed, about 1.4 s for a scene of 56 stiffness
         harmonics), for the light-damping and instability warnings. False: only the steps and
         errors (the warnings assume the damping's own decay), as ``validate``'s accuracy note.
+    stability_cases : (mass [kg], largest stiffness [N/m], damping [N s/m]) or None
+        The cases the step must be stable at, arrays broadcast together (a study's swept mass,
+        stiffness k0 + sum |k_n| and damping: the limit is not monotonic in the damping ratio,
+        and above zeta = 1 a smaller stiffness has the faster pole); the limit is the smallest
+        over them (``worst_stability_limit``). Default: (mass, k0 + sum |k_n|, damping).
 
     Returns
     -------
@@ -358,7 +393,8 @@ def advise(
         highest_order = max((float(o) for _, o, _ in k_harmonics), default=1.0)
     n = effective_order(k0, k_harmonics, highest_order)
     hw_target = (target / (SAFETY * model_error(C, p, knee, 1.0, r, n))) ** (1.0 / p)
-    limit = stability_limit(method, min(zeta, 0.999))
+    limit, limit_zeta = worst_stability_limit(
+        method, wn, *((mass, k_max, damping) if stability_cases is None else stability_cases))
     warnings = []
     hw = min(hw_target, 0.9 * limit)
     spp = int(multiple * math.ceil(2.0 * math.pi * wn / (omega_min * hw) / multiple - 1e-9))
@@ -416,7 +452,7 @@ def advise(
                      method=method, kink_aware=True,
                      target=target, periods=periods, constants=constants,
                      cases_per_speed=cases_per_speed, multiple=multiple,
-                     free_vibration=free_vibration)
+                     free_vibration=free_vibration, stability_cases=stability_cases)
         kink_spp, kink_msteps = alt.steps_per_period, alt.msteps
         warnings.append(
             f"with backlash the plain step converges only as h^2; kink-aware stepping "
@@ -426,4 +462,4 @@ def advise(
     return Advice(method, kink_aware, kind, target, spp, hw_adv,
                   model_error(C, p, knee, hw_adv, r, n), limit, msteps, p, C, wn, zeta, r, knee, n,
                   steps_per_period, chosen_err, kink_spp, kink_msteps, warnings,
-                  bool(k_harmonics), decay)
+                  bool(k_harmonics), limit_zeta, decay)
