@@ -302,6 +302,26 @@ def test_floquet_output_of_a_mathieu_study_matches_direct_analysis():
     assert not ds["integrator_unstable"].any()
 
 
+def test_the_unstable_threshold_is_the_number_the_flags_compare_against(tmp_path):
+    """``unstable`` and ``integrator_unstable`` carry their ``threshold`` as a number, the one
+    ``compute`` compares against (1 + UNSTABLE_TOL): it was the string '1 + 1e-06', so that
+    ``ds.floquet_multiplier > ds.unstable.attrs['threshold']`` raised (an outside tester's
+    finding). Read back from a written file."""
+    import xarray as xr
+
+    from gearsweep.api import run_study
+    from gearsweep.kernels.floquet import UNSTABLE_TOL
+    from gearsweep.study.dataset import write_netcdf
+    from gearsweep.study.schema import parse_study
+
+    write_netcdf(run_study(parse_study(MATHIEU_STUDY)), tmp_path / "m.nc")
+    ds = xr.load_dataset(tmp_path / "m.nc")
+    for name in ("unstable", "integrator_unstable"):
+        assert float(ds[name].attrs["threshold"]) == 1.0 + UNSTABLE_TOL
+    above = ds["floquet_multiplier"] > ds["unstable"].attrs["threshold"]
+    assert above.any() and (above == ds["unstable"].astype(bool)).all()
+
+
 def test_an_undriven_scene_is_never_not_settled_and_its_status_follows_floquet():
     """A Strutt chart written from the reference with the solver's defaults (the settle test's
     tolerance 0.01 over 50 recorded periods) came back 1799 of 1800 flagged: decaying (stable)

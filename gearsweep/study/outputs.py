@@ -687,6 +687,12 @@ at 2,000 recorded periods, 16.2 s at 4,000 (1.2e10 comparisons); the estimate pr
 TOL = UNSTABLE_TOL
 """A multiplier counts as > 1 above 1 + TOL (converged to rtol 1e-8, far below)."""
 
+THRESHOLD = 1.0 + TOL
+"""``unstable`` and ``integrator_unstable`` are a multiplier above this: the number ``compute``
+compares against, stored as their ``threshold`` attribute (a number, so that
+``ds.floquet_multiplier > ds.unstable.attrs["threshold"]`` works; it was the string
+'1 + 1e-06', on which that comparison raised: an outside tester's finding)."""
+
 
 class Floquet:
     """Floquet multipliers, integrator stability and the step guard rail (docs/data-format.md
@@ -760,11 +766,16 @@ class Floquet:
                                                  "equation": "homogeneous, teeth in contact"}),
             "floquet_error": VarSpec(attrs={"units": "1", "long_name":
                                             "estimated error of floquet_multiplier (Richardson)"}),
-            "unstable": VarSpec(dtype="bool", attrs={"threshold": f"1 + {TOL:g}"}),
+            "unstable": VarSpec(dtype="bool", attrs={
+                "threshold": THRESHOLD,
+                "comment": f"floquet_multiplier > threshold (1 + {TOL:g})"}),
             "discrete_multiplier": VarSpec(attrs={
                 "units": "1", "long_name": "largest |mu| of the fixed-step map over one mesh "
                 "period at the study's method and steps_per_period"}),
-            "integrator_unstable": VarSpec(dtype="bool", attrs={"threshold": f"1 + {TOL:g}"}),
+            "integrator_unstable": VarSpec(dtype="bool", attrs={
+                "threshold": THRESHOLD,
+                "comment": f"discrete_multiplier > threshold (1 + {TOL:g}) where"
+                           " floquet_multiplier is not"}),
             "min_steps_per_period": VarSpec(attrs={
                 "units": "1", "long_name": "fewest steps per mesh period for which the study's "
                 "method is stable (stability polynomial at the largest stiffness; where the step "
@@ -799,13 +810,13 @@ class Floquet:
         else:
             fl_mu, fl_err, disc, limit = _shared(memo.setdefault(repr(harm), {}), s, harm, ok,
                                                  a, b, g, kmax, cm, period)
-        unstable = fl_mu > 1 + TOL
+        unstable = fl_mu > THRESHOLD
         return {
             "floquet_multiplier": fl_mu,
             "floquet_error": fl_err,
             "unstable": unstable,
             "discrete_multiplier": disc,
-            "integrator_unstable": (disc > 1 + TOL) & ~unstable & ok,
+            "integrator_unstable": (disc > THRESHOLD) & ~unstable & ok,
             "min_steps_per_period": limit,
         }
 
