@@ -144,3 +144,23 @@ def test_gearsweep_run_imports_neither_xarray_nor_pandas(tmp_path):
     with xr.open_dataset(out) as ds:
         assert ds["p_pp"].attrs["units"] == "um" and ds["speed"].attrs["units"] == "rpm"
         assert json.loads(ds.attrs["model"])
+
+
+@pytest.mark.parametrize(("name", "want"), [
+    ("stability_rig", {"initial_displacement_um": 1.0, "initial_velocity_mm_per_s": 0.0}),
+    ("rig_low_speed", {"initial_displacement_um": "static", "initial_velocity_mm_per_s": 0.0}),
+    ("strutt_mathieu", {"initial_displacement": 1.0, "initial_velocity": 0.0}),
+])
+def test_the_solver_start_is_a_global_attribute(tmp_path, name, want):
+    """The solver's start is stored with its other settings: stability_rig.yaml's verdict (the
+    paper's criterion, growth by divergence_factor) hangs on its 1 um start, which was only in
+    the study text (an outside tester's finding). In the display unit, named in the attribute
+    (as ``elapsed_seconds``); a Mathieu scene's bare numbers under the study's names."""
+    path = STUDIES / f"{name}.yaml"
+    study, text = load_study(str(path))
+    plan = make_plan(study, text, str(path))
+    out = tmp_path / "r.nc"
+    write_netcdf(assemble(plan, _random_results(plan), elapsed=1.0, kernel=0.5), out)
+    with netCDF4.Dataset(out) as nc:
+        got = {k: nc.getncattr(k) for k in nc.ncattrs() if k.startswith("initial_")}
+    assert got == want

@@ -345,6 +345,7 @@ def describe(plan: Any, elapsed: float | None = None, kernel: float | None = Non
         "device": plan.device,  # where the kernel ran (auto resolved), and in what precision:
         "precision": s.precision,  # float32 on a GPU differs from float64 by 5e-5 relative
         "cases": plan.n_cases,
+        **initial_state_attrs(plan),
     }
     if elapsed is not None:
         settings["elapsed_seconds"] = round(elapsed, 3)
@@ -365,6 +366,34 @@ def describe(plan: Any, elapsed: float | None = None, kernel: float | None = Non
         attrs = with_run_attrs(attrs, run_attrs(attrs["history"], elapsed, kernel, earlier,
                                                 chunks))
     return Description(variables, attrs)
+
+
+def unit_in_name(cf: str) -> str:
+    """A UDUNITS unit as a suffix of an attribute name (no spaces, no hyphens: ``um`` -> ``um``,
+    ``mm s-1`` -> ``mm_per_s``), as ``elapsed_seconds`` carries its unit."""
+    words = []
+    for w in cf.split():
+        words += ["per", w.removesuffix("-1")] if w.endswith("-1") else [w]
+    return "_".join(words)
+
+
+def initial_state_attrs(plan: Any) -> dict[str, Any]:
+    """The solver's start (``initial_displacement``, ``initial_velocity``) as global attributes:
+    dimensional ones in their kind's display unit, the unit in the name (``initial_displacement_um``,
+    ``initial_velocity_mm_per_s``; ``static`` as written), a Mathieu scene's bare numbers under the
+    study's names. A result's verdict may hang on its start (stability_rig.yaml's 1 um: the
+    paper's criterion is growth by divergence_factor from it); it was only in the study text."""
+    s = plan.study.solver
+    if plan.dimensionless:
+        return {"initial_displacement": s.initial_displacement,
+                "initial_velocity": s.initial_velocity}
+    out = {}
+    for name, kind, value in (("initial_displacement", "displacement", s.initial_displacement),
+                              ("initial_velocity", "velocity", s.initial_velocity)):
+        shown = value if isinstance(value, str) else float(to_display(np.asarray(value, float),
+                                                                      kind))
+        out[f"{name}_{unit_in_name(KINDS[kind].cf)}"] = shown
+    return out
 
 
 def display_variable(dims: tuple[str, ...], si_values, kind: str, **attrs) -> Var:
