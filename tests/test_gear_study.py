@@ -568,6 +568,7 @@ def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continue
         "sweep": {"torque": ["2 N*m", "8.9 N*m"], "speed": ["400 rpm", "4000 rpm"]},
         "solver": {"method": "rk4", "steps_per_period": 40, "step_guard": "skip",
                    "transient_periods": 4, "record_periods": 4},
+        "outputs": ["stats", "floquet"],
     }
     if continued:
         study["continuation"] = ["up"]
@@ -577,6 +578,9 @@ def test_a_load_swept_gear_scene_whose_first_cases_the_guard_skips_runs(continue
     assert (status.sel(speed=4000.0) != 3).all()
     assert ds.p_rms.sel(speed=400.0).isnull().all()
     assert ds.p_rms.sel(speed=4000.0).notnull().all()
+    # the skipped cases keep their step limit, each at its own load (NaN before)
+    limit = ds.min_steps_per_period.squeeze(drop=True)
+    assert limit.notnull().all() and (limit.sel(speed=400.0) > 40).all()
 
 
 def test_step_guard_of_a_swept_load_judges_each_load_by_its_own_stiffness():

@@ -384,6 +384,22 @@ def test_skipped_cases_are_not_computed_and_their_flags_say_so():
         assert "false also where floquet_multiplier is NaN" in ds[name].attrs["long_name"]
 
 
+def test_a_skipped_case_keeps_its_min_steps_per_period():
+    """``step_guard: skip`` left ``min_steps_per_period`` NaN for exactly the cases it skips,
+    whose user needs that number most (an outside tester's finding: ``off`` gave them 216-1328
+    on the rig): a skipped case has the value ``step_guard: off`` computes, above its steps."""
+    from gearsweep.api import run_study
+    from gearsweep.study.schema import parse_study
+
+    skip = run_study(parse_study(RIG_STUDY.replace("solver: {", "solver: {step_guard: skip, ", 1)))
+    off = run_study(parse_study(RIG_STUDY.replace("solver: {", "solver: {step_guard: off, ", 1)))
+    assert (skip["status"].sel(speed=150.0) == 3).all()
+    limit = skip["min_steps_per_period"]
+    assert limit.notnull().all() and (limit.sel(speed=150.0) > 200).all()
+    np.testing.assert_array_equal(limit.values, off["min_steps_per_period"].values)
+    assert "skips" in limit.attrs["long_name"]
+
+
 def test_a_stability_map_of_a_users_own_result_has_its_units_teeth_and_ticks():
     """plot_operating_map, given a 30-tooth result's arrays, said '48 teeth', had no speed tick
     labels outside the paper's 100-2000 rpm, and drew the file's N s/mm as N s/m (1000 times

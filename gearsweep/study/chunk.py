@@ -72,6 +72,8 @@ def _integrate_subset(plan: Plan, params, n: int, x0, v0, ok: np.ndarray) -> tup
         a = np.full((n, *arr.shape[1:]), fill, dtype=arr.dtype)
         a[idx] = arr
         full[name] = a
+    if "min_steps_per_period" in full and idx.size < n:  # the number a skipped case needs
+        full["min_steps_per_period"][~ok] = _skipped_step_limits(plan, params, ~ok)
     st = np.full(n, STATUS_SKIPPED, np.int8)
     st[idx] = status
     xf = np.full(n, np.nan)
@@ -80,6 +82,23 @@ def _integrate_subset(plan: Plan, params, n: int, x0, v0, ok: np.ndarray) -> tup
     rs = np.full(n, STATUS_DIVERGED, np.int8)  # a skipped lane restarts a continued sweep
     rs[idx] = res.status
     return BatchResult(stats={}, x_final=xf, v_final=vf, status=rs, signal=None), full, st
+
+
+def _skipped_step_limits(plan: Plan, params, skipped: np.ndarray) -> np.ndarray:
+    """The floquet output's ``min_steps_per_period`` of the cases the step guard skips (each at
+    its own load's k(t) where a gear scene sweeps its load), as ``step_guard: off`` gives them."""
+    idx = np.flatnonzero(skipped)
+    sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+    floquet = OUTPUTS["floquet"]
+    if not plan.gear_load_swept:
+        return floquet.step_limits(plan, sub, idx.size)
+    torques = plan.case_torques(sub)
+    out = np.empty(idx.size)
+    for load in np.unique(torques):
+        at = np.flatnonzero(torques == load)
+        out[at] = floquet.step_limits(plan.at_load(float(load)),
+                                      {k: v[at] for k, v in sub.items()}, at.size)
+    return out
 
 
 def _integrate_all(plan: Plan, params: dict[str, np.ndarray], n: int, x0, v0) -> tuple:

@@ -779,7 +779,8 @@ class Floquet:
             "min_steps_per_period": VarSpec(attrs={
                 "units": "1", "long_name": "fewest steps per mesh period for which the study's "
                 "method is stable (stability polynomial at the largest stiffness; where the step "
-                "guard checks it, the fixed-step map's monodromy too)"}),
+                "guard checks it, the fixed-step map's monodromy too); computed also for a case "
+                "the step guard skips (status 3), whose other floquet variables are not"}),
         }
 
     @staticmethod
@@ -794,6 +795,15 @@ class Floquet:
             yield
         finally:
             _FLOQUET_MEMO.reset(token)
+
+    def step_limits(self, plan: Plan, params: dict[str, np.ndarray], n: int) -> np.ndarray:
+        """``min_steps_per_period`` alone, of cases that share ``plan``'s model: what ``compute``
+        gives them, for the cases the step guard skips (``step_guard: skip``, status 3), whose
+        other variables are not computed; this one is the number their user needs (it was NaN
+        there: an outside tester's finding)."""
+        a, b, g, harm, kmax, cm, period = hill_parameters(plan.model, params, n)
+        a, b, g = (np.broadcast_to(np.asarray(x, float), (n,)) for x in (a, b, g))
+        return _step_limit(_HillSolver(plan), harm, np.isfinite(a), a, b, g, kmax, cm, period)
 
     def compute(self, plan: Plan, params: dict[str, np.ndarray],
                 result: BatchResult) -> dict[str, np.ndarray]:

@@ -464,7 +464,8 @@ class Solver(Strict):
         "warn", description="cases whose step is beyond the method's stability limit (or, a forced"
         " scene near a parametric tongue, whose fixed-step map's resonant response is more than"
         " 1 % off the exact equation's, or whose map could not be checked: docs/stability.md):"
-        " flag them (warn), do not integrate them (skip, status 3), or do not check (off)")
+        " flag them (warn), do not integrate them (skip, status 3; the floquet output's"
+        " min_steps_per_period is still given for them), or do not check (off)")
 
 
 def _guard_word(v: Any) -> Any:
