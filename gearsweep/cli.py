@@ -1039,8 +1039,9 @@ def build_parser() -> argparse.ArgumentParser:
                         " default about 1e9 steps, 3 chunks per worker with --workers, 4e9 steps"
                         " on a GPU; a resumed run keeps its first run's chunks)")
     r.add_argument("--overwrite", action="store_true",
-                   help="replace an existing output that holds another study's result (the"
-                        " same study's result is replaced without it)")
+                   help="replace an existing output that holds another study's result or a file"
+                        " that cannot be read as a netCDF result (the same study's result is"
+                        " replaced without it)")
     r.add_argument("--codec", choices=("zstd", "zlib", "none"),
                    help="compression of the result (default zstd, fastest to write; zlib for"
                         " readers whose HDF5 lacks the zstd filter, docs/data-format.md)")

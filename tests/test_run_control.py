@@ -310,6 +310,34 @@ def test_a_result_of_another_study_is_not_replaced_without_overwrite(tmp_path, c
     assert run(a, "--overwrite") == (0, "") and speeds() == 20
 
 
+def test_a_damaged_result_is_not_replaced_without_overwrite(tmp_path, capsys):
+    """A result cut short (``head -c 8000 r1.nc > t3.nc``: the netCDF signature, then nothing
+    readable) was replaced by a run of another study, exit 0 (an outside tester's finding): it
+    cannot be shown to be this study's, so it is refused in one line, exit 2, left as it was,
+    unless ``--overwrite``. gearsweep's own runs leave no such file at ``-o``: an interrupted
+    run's is in OUT.nc.chunks, and the same command continues to a whole result."""
+    import netCDF4
+
+    a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    a.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    b.write_text(STUDY.replace("NUM", "30"), encoding="utf-8")
+    whole, out = tmp_path / "whole.nc", tmp_path / "r.nc"
+    assert main(["run", str(a), "-o", str(whole), "-q"]) == 0
+    damaged = whole.read_bytes()[:8000]
+    out.write_bytes(damaged)
+    for study in (b, a):  # not even the same study's: nothing says it is
+        assert main(["run", str(study), "-o", str(out), "-q"]) == 2
+        err = capsys.readouterr().err
+        assert err == (f"gearsweep: error: {out}: holds data that cannot be read as a netCDF"
+                       " result (damaged or cut short), so it may be another study's result,"
+                       " which this result would replace: choose another -o, or pass"
+                       " --overwrite to replace it\n"), err
+        assert out.read_bytes() == damaged
+    assert main(["run", str(b), "-o", str(out), "-q", "--overwrite"]) == 0
+    with netCDF4.Dataset(out) as nc:
+        assert nc.dimensions["speed"].size == 30
+
+
 RATTLE_40K = """\
 title: a file past the file-size limit
 scene: {kind: rattle, mass: 0.1527 kg, teeth: 48, stiffness: 1073 kN/mm, base_radius: 30 mm,

@@ -22,6 +22,7 @@ import warnings
 from pathlib import Path
 
 from gearsweep.errors import GearsweepError, ResultError
+from gearsweep.files import replace_problem
 from gearsweep.study.checkpoint import SUFFIX, chunk_folder
 from gearsweep.study.execute import chunks_to_run
 from gearsweep.study.schema import parse_study
@@ -157,14 +158,18 @@ def saved_chunks(plan, out: str | Path, chunk_cases: int | None = None) -> tuple
 
 def replaced_result(study, out: str | Path) -> str | None:
     """What the file at ``out`` holds that a result of ``study`` would replace and lose: the
-    result of another study, or a netCDF file that is not a gearsweep result. ``None``: no file,
-    an empty one, one that netCDF cannot read (``files.replace_problem`` judges those), or a
-    result of this same study: the same values as validated (its comments, spacing and key
-    order aside, and the device it ran on), which its rerun computes again."""
+    result of another study, a netCDF file that is not a gearsweep result, or a file that
+    netCDF cannot read: it cannot be shown to be this study's (a result of another study cut
+    short by ``head -c`` was replaced without ``--overwrite``: an outside tester's finding;
+    gearsweep's own runs write their file beside it and rename it whole, so they leave none
+    such). ``None``: no file, an empty one, or a result of this same study: the same values as
+    validated (its comments, spacing and key order aside, and the device it ran on), which its
+    rerun computes again. A file that is not netCDF at all (a study, say) is
+    ``files.replace_problem``'s."""
     out = Path(out)
     try:
-        if not out.is_file() or out.stat().st_size == 0:
-            return None
+        if not out.is_file() or out.stat().st_size == 0 or replace_problem(out) is not None:
+            return None  # (a file that is not netCDF at all: replace_problem's one line)
     except OSError:
         return None
     import netCDF4
@@ -174,7 +179,8 @@ def replaced_result(study, out: str | Path) -> str | None:
             attrs = {k: nc.getncattr(k) for k in nc.ncattrs()
                      if k in ("study", "study_folder", "title", "history")}
     except (OSError, RuntimeError):
-        return None
+        return ("data that cannot be read as a netCDF result (damaged or cut short), so it may"
+                " be another study's result")
     if not isinstance(attrs.get("study"), str):
         return "a netCDF file that is not a gearsweep result (no 'study' attribute)"
     try:
