@@ -11,6 +11,7 @@ reference fails the test suite.
 from __future__ import annotations
 
 import argparse
+import itertools
 import re
 import sys
 import types
@@ -21,6 +22,7 @@ import annotated_types
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
+from gearsweep.errors import StudyError
 from gearsweep.model import SWEEPABLE
 from gearsweep.study.analysis_specs import (
     AnalysisStudy,
@@ -34,10 +36,10 @@ from gearsweep.study.analysis_specs import (
 from gearsweep.study.gearscene import PRESETS, GearSpec, TipReliefSpec
 from gearsweep.study.measured import ExcitationSpec
 from gearsweep.study.mesh import _ATTRS as MESH_VARIABLES
-from gearsweep.study.outputs import OUTPUTS, STATUS_CODES
+from gearsweep.study.outputs import OUTPUTS, STATUS_CODES, VarSpec
 from gearsweep.study.plan import make_plan
 from gearsweep.study.quantities import EachOnce
-from gearsweep.study.resultfile import COORDS, VARIABLES
+from gearsweep.study.resultfile import COORDS, VARIABLES, data_attrs, variable_attrs
 from gearsweep.study.schema import (
     SCENE_PARAMETERS,
     SWEEP_GIVES,
@@ -190,42 +192,71 @@ def _fields(model: type[BaseModel]) -> list[str]:
     return rows
 
 
-EXAMPLES = {
-    "stats, no backlash": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
-                          " speed: 1000 rpm}\noutputs: [stats]",
-    "stats, driven, no backlash": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8"
-                                  " N/m, mean_force: 100 N, speed: 1000 rpm}\noutputs: [stats]",
-    "stats, with backlash": "scene: {kind: rattle, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
-                            " backlash: 0.1 mm, speed: 1000 rpm}\noutputs: [stats]",
-    "spectrum": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
-                " speed: 1000 rpm}\noutputs: [spectrum]",
-    "spectrum, with phase": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
-                            " speed: 1000 rpm}\noutputs: [{spectrum: {phase: true}}]",
-    "floquet": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
-               " speed: 1000 rpm}\noutputs: [floquet]",
-    "period": "scene: {kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m,"
-              " speed: 1000 rpm}\noutputs: [period]",
+SCENES = {
+    "no backlash": "{kind: whine, drive: DRIVE, teeth: 20, stiffness: 1e8 N/m, speed: 1000 rpm}",
+    "driven, no backlash": ("{kind: whine, drive: DRIVE, teeth: 20, stiffness: 1e8 N/m,"
+                            " mean_force: 100 N, speed: 1000 rpm}"),
+    "with backlash": ("{kind: rattle, drive: DRIVE, teeth: 20, stiffness: 1e8 N/m,"
+                      " backlash: 0.1 mm, speed: 1000 rpm}"),
 }
+"""The scenes whose results the variables table is read from (each output with every combination
+of its yes/no options in each): what a variable needs beyond its output's defaults is the first
+scene it appears in (after the first) and the options it needs. A drive, for ``pinion``."""
+DRIVE = ("{inertia_1: 1e-3 kg m^2, inertia_2: 1e-3 kg m^2, base_radius_1: 30 mm,"
+         " base_radius_2: 30 mm}")
+PLAN_VARIABLES = {"beyond_step_limit": "(step_guard: warn)"}
+"""Variables the plan adds, not an output: the study setting that adds them."""
+
+
+def output_variants(name: str) -> list[tuple[dict[str, bool], str]]:
+    """(options, how they are written in ``outputs:``) of output ``name``: every combination of
+    its yes/no options, fewest changed from their defaults first."""
+    model = getattr(OUTPUTS[name], "options_model", None)
+    flags = {} if model is None else {n: f.default for n, f in model.model_fields.items()
+                                      if f.annotation is bool}
+    variants = []
+    for values in itertools.product((False, True), repeat=len(flags)):
+        changed = {n: v for (n, d), v in zip(flags.items(), values, strict=True) if v != d}
+        opts = ", ".join(f"{n}: {str(v).lower()}" for n, v in changed.items())
+        written = f"{{{name}: {{{opts}}}}}" if changed else name
+        variants.append((changed, written))
+    return sorted(variants, key=lambda v: len(v[0]))
+
+
+def output_variables(scene: str, output: str, written: str) -> dict[str, VarSpec] | None:
+    """The variables ``output`` (as ``written`` in ``outputs:``) adds in ``scene`` (a key of
+    ``SCENES``), and the plan's own (``PLAN_VARIABLES``); ``None`` where a study refuses it."""
+    text = (f"title: t\nscene: {SCENES[scene].replace('DRIVE', DRIVE)}\n"
+            f"outputs: [{written}]\n")
+    try:
+        return make_plan(parse_study(text), text).specs
+    except StudyError:  # an option this scene does not take (pinion without force)
+        return None
 
 
 def _variable_rows() -> list[str]:
     rows = ["| output | variable | units | extra dims | long_name |", "|---|---|---|---|---|"]
-    missing = set(OUTPUTS) - {label.split(",")[0] for label in EXAMPLES}
-    assert not missing, f"add an example study of the outputs {sorted(missing)} to EXAMPLES"
-    seen = set()
-    for label, body in EXAMPLES.items():
-        text = f"title: t\n{body}\n"
-        plan = make_plan(parse_study(text), text)
-        for name, spec in plan.specs.items():
-            attrs = dict(zip(("units", "long_name"), VARIABLES.get(name, ("1", name)), strict=False))
-            attrs.update(spec.attrs)
-            if name in seen:
-                continue
-            seen.add(name)
-            output = {"beyond_step_limit": "(step_guard: warn)",
-                      "contact_lost": "stats (driven, no backlash)"}.get(name, label.split(",")[0])
-            rows.append(f"| {output} | `{name}` | {_cell(attrs.get('units', '1'))} |"
-                        f" {', '.join(spec.extra_dims) or '-'} | {_cell(attrs.get('long_name', ''))} |")
+    seen: dict[str, tuple[str, VarSpec]] = {}
+    for output in OUTPUTS:
+        for changed, written in output_variants(output):
+            for i, scene in enumerate(SCENES):
+                specs = output_variables(scene, output, written)
+                for name, spec in (specs or {}).items():
+                    if name in seen:
+                        continue
+                    if name in PLAN_VARIABLES:
+                        seen[name] = (PLAN_VARIABLES[name], spec)
+                        continue
+                    needs = ([scene] if i else []) + [f"{n}: {str(v).lower()}"
+                                                      for n, v in changed.items()]
+                    seen[name] = (f"{output} ({', '.join(needs)})" if needs else output, spec)
+    plan_rows = [n for n in seen if n in PLAN_VARIABLES]
+    for name in [n for n in seen if n not in PLAN_VARIABLES] + plan_rows:
+        label, spec = seen[name]
+        _, attrs = variable_attrs(name, VARIABLES, spec.result_attrs())
+        attrs = data_attrs(attrs)
+        rows.append(f"| {label} | `{name}` | {_cell(attrs['units'])} |"
+                    f" {', '.join(spec.extra_dims) or '-'} | {_cell(attrs.get('long_name', ''))} |")
     units, long_name = VARIABLES["status"]
     rows.append(f"| (always) | `status` | {units} | - | {_cell(long_name)} |")
     for name, (units, long_name) in MESH_VARIABLES.items():
@@ -294,8 +325,12 @@ def render() -> str:
             lines += _fields(opts)
             lines.append("")
     lines += ["## Variables each output writes", "",
-              ("Rows `(always)` are in every dynamic study's result; rows `(type: mesh)` are a"
-              " mesh study's, which has no `status` (nothing is integrated)."), ""] \
+              ("Every variable an output can write, read from the outputs' own declarations"
+              " with every combination of their yes/no options: what a variable needs beyond"
+              " the output's defaults is in brackets, an option (`spectrum (dte: true)`) or a"
+              " scene (`stats (with backlash)`). Rows `(always)` are in every dynamic study's"
+              " result; rows `(type: mesh)` are a mesh study's, which has no `status` (nothing"
+              " is integrated)."), ""] \
         + _variable_rows()
     lines += ["", "## Coordinates", "", "| name | units | meaning |", "|---|---|---|"]
     for name, (units, long_name) in COORDS.items():

@@ -57,3 +57,64 @@ def test_study_reference_states_the_gear_defaults():
                    and "(length)" in line or line.startswith(f"| `{field}` | ") and field
                    in ("pressure_angle", "youngs_modulus", "poisson"))
         assert default in row, (field, row)
+
+
+TABLE_SCENES = [
+    "{kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m, speed: 1000 rpm}",
+    ("{kind: whine, mass: 1 kg, teeth: 20, stiffness: 1e8 N/m, mean_force: 100 N,"
+     " stiffness_harmonics: [{amplitude: 1e7 N/m}], ste: [{amplitude: 1 um}], speed: 1000 rpm}"),
+    ("{kind: whine, drive: DRIVE, teeth: 20, stiffness: 1e8 N/m, mean_force: 100 N,"
+     " speed: 1000 rpm}"),
+    ("{kind: rattle, drive: DRIVE, teeth: 20, stiffness: 1e8 N/m, backlash: 0.1 mm,"
+     " torque: 1 N m, speed: 1000 rpm}"),
+    ("{kind: full, gear: table1_consistent, drive: {inertia_1: 1e-3 kg m^2, inertia_2: 1e-3 kg"
+     " m^2}, backlash: 0.1 mm, torque: 10 N m, speed: 1000 rpm}"),
+    "{kind: mathieu, alpha: 0.5, beta: 0.1, gamma: 0.01}",
+]
+"""Scenes of every kind, with and without a drive, a load, backlash, k(t) and e(t)."""
+DRIVE = "{inertia_1: 1e-3 kg m^2, inertia_2: 1e-3 kg m^2, base_radius_1: 30 mm, base_radius_2: 30 mm}"
+
+
+def test_the_variables_table_lists_every_variable_any_output_can_write():
+    """The table "Variables each output writes" had no rows for dte_spectrum,
+    dte_spectrum_phase, pinion_spectrum and pinion_rms, which an option adds (an outside
+    tester's finding): it is now read from the outputs' own variables with every combination of
+    their yes/no options. Here, independently, every output with every combination of its yes/no
+    options and each step guard, in scenes of every kind: each variable a study can have has a
+    row, with the units its result stores."""
+    import itertools
+    import re
+
+    from gearsweep.errors import StudyError
+    from gearsweep.study.outputs import OUTPUTS
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.resultfile import VARIABLES, data_attrs, variable_attrs
+    from gearsweep.study.schema import parse_study
+
+    text = _generator().render()
+    table = text.split("## Variables each output writes", 1)[1].split("\n## ", 1)[0]
+    rows = {m[1]: m[2] for m in re.finditer(r"^\| [^|]+ \| `(\w+)` \| ([^|]+) \|", table, re.M)}
+    written: dict[str, set[str]] = {}
+    for scene, (name, out), guard in itertools.product(TABLE_SCENES, OUTPUTS.items(),
+                                                       ("warn", "skip", "off")):
+        model = getattr(out, "options_model", None)
+        flags = [n for n, f in (model.model_fields.items() if model else ()) if f.annotation is bool]
+        for values in itertools.product(("false", "true"), repeat=len(flags)):
+            opts = ", ".join(f"{f}: {v}" for f, v in zip(flags, values, strict=True))
+            study = (f"title: t\nscene: {scene.replace('DRIVE', DRIVE)}\n"
+                     f"solver: {{step_guard: {guard}}}\n"
+                     f"outputs: [{f'{{{name}: {{{opts}}}}}' if flags else name}]\n")
+            try:
+                plan = make_plan(parse_study(study), study)
+            except StudyError as exc:  # an option the scene does not take
+                assert re.search(r"outputs\.spectrum\.(pinion|dte): True", str(exc)), exc
+                continue
+            for var, spec in plan.specs.items():
+                attrs = data_attrs(variable_attrs(var, VARIABLES, spec.result_attrs())[1])
+                written.setdefault(var, set()).add(attrs["units"])
+    assert {"dte_spectrum", "dte_spectrum_phase", "pinion_spectrum", "pinion_rms",
+            "beyond_step_limit", "contact_lost", "impacts_per_period"} <= set(written)
+    missing = sorted(set(written) - set(rows))
+    assert not missing, f"no row in the variables table for {missing}"
+    for var, units in written.items():
+        assert rows[var].strip() in units, (var, rows[var], units)
