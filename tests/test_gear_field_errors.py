@@ -429,3 +429,87 @@ def test_a_rim_or_web_outside_iso_s_range_warns_that_its_factor_is_taken_at_the_
         assert rim_factor(inside, 1) == pytest.approx(iso_rim_factor(6e-3, 8e-3, 20e-3, 3e-3),
                                                       rel=1e-12)
         mesh_cycle(inside, 50.0)
+
+
+# ------------------------------------------------------------ loads and moduli out of scale
+
+HEAVY = "type: mesh\ntitle: t\npositions: 40\nharmonics: 4\ngear: {gear}\ntorque: {torque}\n"
+
+
+def table1_peak_ste_at_50() -> float:
+    """The Table 1 pair's largest STE at 50 N m [m] (a load the checks pass)."""
+    from gearsweep.gear import mesh_cycle, table1_consistent
+
+    return float(mesh_cycle(table1_consistent(), 50.0, n=40).ste.max())
+
+
+def test_a_load_in_the_wrong_unit_is_refused_at_the_torque_with_the_deflection(tmp_path, capsys):
+    """50000 N m, the paper's 50000 N mm written N m, ran with a peak STE of 6166 um (exit 0),
+    1.7 times the 3.68 mm teeth. The STE of unmodified teeth is proportional to the load, so it
+    is 1000 times that at 50 N m; the preset's teeth are pi m / 2 less half the 0.5 mm
+    backlash (at the standard centre distance) thick: refused at the torque's line, naming the
+    deflection, the thickness and the slip."""
+    peak = 1000 * table1_peak_ste_at_50()
+    thinnest = math.pi * 2.5 * M / 2 - 0.25 * M
+    assert peak > thinnest
+    text = HEAVY.format(gear="table1_consistent", torque="50000 N*m")
+    path, lines = refused(tmp_path, capsys, text)
+    assert len(lines) == 1
+    assert lines[0].startswith(f"{path}:6: torque: '50000 N*m' -- peak static transmission error"
+                               f" {peak * 1e6:,.0f} um at a torque of 50,000 N m (line load F_t /"
+                               f" b = {50000 / 0.060 / 10:,.0f} N/mm on the 10 mm face)")
+    assert f"thickness {thinnest / M:.4g} mm" in lines[0]
+    assert lines[0].endswith("a unit slip in the torque (N*mm written as N*m?)")
+
+
+def test_a_modulus_in_mpa_is_refused_at_its_line(tmp_path, capsys):
+    """206 MPa for steel's 206 GPa: every compliance term is 1/E, so the STE is 1000 times the
+    steel pair's at the same load; said at youngs_modulus, the slip named there."""
+    peak = 1000 * table1_peak_ste_at_50()
+    text = HEAVY.format(gear="{preset: table1_consistent, youngs_modulus: 206 MPa}",
+                        torque="50 N*m")
+    path, lines = refused(tmp_path, capsys, text)
+    assert len(lines) == 1 and lines[0].startswith(
+        f"{path}:5: gear.youngs_modulus: '206 MPa' -- peak static transmission error"
+        f" {peak * 1e6:,.0f} um at a torque of 50 N m")
+    assert "a unit slip in youngs_modulus (0.206 GPa; steel is 206 GPa)?" in lines[0]
+
+
+@pytest.mark.parametrize("torque, warned", [("900 N*m", False), ("3000 N*m", True)])
+def test_a_deflection_beyond_a_tenth_of_a_module_warns_at_the_largest_torque(tmp_path, capsys,
+                                                                             torque, warned):
+    """A swept torque is tested at its largest value, at that item's line: 3000 N m gives 60
+    times the STE at 50 N m, above 0.1 module (250 um) and below the tooth: warned, exit 0;
+    900 N m (18 times) is not."""
+    peak = float(torque.split()[0]) / 50 * table1_peak_ste_at_50()
+    assert (peak > 0.1 * 2.5 * M) == warned
+    text = ("type: mesh\ntitle: t\npositions: 40\nharmonics: 4\ngear: table1_consistent\n"
+            f"sweep:\n  torque:\n    - 50 N*m\n    - {torque}\n")
+    path = tmp_path / "s.yaml"
+    path.write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", GeometryWarning)
+        assert main(["validate", str(path)]) == 0
+    err = capsys.readouterr().err
+    said = (f"gearsweep: warning: {path}:9: sweep.torque[1]: '{torque}' -- peak static"
+            f" transmission error {peak * 1e6:.4g} um at a torque of")
+    assert (said in err) == warned and (err == "") != warned, err
+
+
+@pytest.mark.parametrize("modulus, warned", [("3 GPa", False), ("206 GPa", False),
+                                             ("0.2 GPa", True), ("2000 GPa", True)])
+def test_a_modulus_outside_gear_materials_warns_at_its_line(tmp_path, capsys, modulus, warned):
+    """Polymer gears (3 GPa) and steel pass silently; 0.2 GPa and 2000 GPa (at a load light
+    enough to pass) are warned at youngs_modulus as a likely unit slip."""
+    text = HEAVY.format(gear=f"{{preset: table1_consistent, youngs_modulus: {modulus}}}",
+                        torque="0.05 N*m")
+    path = tmp_path / "s.yaml"
+    path.write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", GeometryWarning)
+        assert main(["validate", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert (f"gearsweep: warning: {path}:5: gear.youngs_modulus: '{modulus}' -- Young's modulus"
+            in err) == warned, err
+    assert ("outside gear materials' 0.5 to 700 GPa" in err) == warned
+

@@ -115,8 +115,10 @@ def test_a_pair_of_another_material_is_checked_against_iso_for_that_material(you
     teeth or a thin body" (found by a fuzzer). Its stiffness is the steel pair's times E / E_st."""
     steel = table1_consistent()
     other = dataclasses.replace(steel, youngs_modulus=youngs_modulus)
-    k = mesh_cycle(other, 50.0).mesh_stiffness.mean()
-    assert k == pytest.approx(mesh_cycle(steel, 50.0).mesh_stiffness.mean()
+    # at 5 N m: 50 N m deflects the plastic pair by 0.18 module, beyond any rated load (warned:
+    # mesh.load_cautions); k of unmodified teeth does not depend on the load
+    k = mesh_cycle(other, 5.0).mesh_stiffness.mean()
+    assert k == pytest.approx(mesh_cycle(steel, 5.0).mesh_stiffness.mean()
                               * youngs_modulus / 206e9, rel=1e-6)
     far = GearPair(module=1e-3, z1=20, z2=2000, face_width=20e-3, youngs_modulus=youngs_modulus)
     with pytest.raises(GeometryError, match=r"root half angle theta_f = \S+ rad \(2000 teeth\)"):

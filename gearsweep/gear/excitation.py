@@ -82,6 +82,8 @@ class GearExcitation:
     time-varying stiffness k(t) (whine, full). Zero for unmodified error-free teeth."""
     ste_mean: float
     """e_0, the mean STE [m] (not used by the dynamics)."""
+    ste_max: float
+    """The largest STE over the cycle's samples [m] (what ``mesh.load_cautions`` tests)."""
     backlash: float
     """The pair's backlash along the line of action [m] (for information; scenes type theirs)."""
 
@@ -107,7 +109,8 @@ def _excitation(pair: GearPair, reliefs: Reliefs, torque: float, harmonics: int)
                             for n in range(1, harmonics + 1)),
         no_load_te_harmonics=tuple(Harmonic(float(u[n]), float(n), float(ua[n]))
                                    for n in range(1, harmonics + 1)),
-        ste_mean=float(e[0] * math.cos(ea[0])), backlash=pair.backlash_loa,
+        ste_mean=float(e[0] * math.cos(ea[0])), ste_max=float(mc.ste.max()),
+        backlash=pair.backlash_loa,
     )  # fmt: skip
 
 

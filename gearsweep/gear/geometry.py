@@ -35,6 +35,7 @@ import numpy as np
 from gearsweep.errors import GeometryError
 
 __all__ = [
+    "GEAR_MODULUS",
     "SAINSOT_ROOT_ANGLE",
     "SAINSOT_ROOT_ANGLE_WARNED",
     "GearPair",
@@ -51,6 +52,15 @@ MAX_FACE_MODULES = 100.0
 """Widest face a pair may have, in modules: spur gears are about 6 to 40 modules wide (ISO
 6336's b/m), a helical or a very wide one up to about 60; 100 and above is a unit slip (a
 module in um, a face in inches written as mm)."""
+
+
+GEAR_MODULUS = (0.5e9, 700e9)
+"""Young's moduli of gear materials [Pa], outside which ``GearPair.cautions`` warns of a unit
+slip (206 MPa for steel's 206 GPa ran, k0 = 0.219 kN/mm: an outside tester): the softest gear
+plastics (UHMW-PE about 0.7 GPa, wet polyamide about 1 GPa; POM about 3) to cemented carbide
+(up to about 700 GPa), steel 206 GPa, cast iron 100-170, bronze about 100. Warned, not refused:
+a softer gear (an elastomer) can exist; what a slip does to the load is refused by
+``mesh.load_faults``, a deflection beyond the tooth's thickness."""
 
 
 SAINSOT_ROOT_ANGLE = (0.01, 0.12)
@@ -1030,11 +1040,19 @@ class GearPair:
         uncut one), with the shift that avoids it; a root half angle far above Sainsot et al.'s
         fitted range (``SAINSOT_ROOT_ANGLE_WARNED``: the gear body's compliance is
         extrapolated); a tip thickness below 0.2 module (nearly pointed teeth), with the tip
-        radius that gives it; a rim or web outside ISO 6336-1's range of C_R."""
+        radius that gives it; a rim or web outside ISO 6336-1's range of C_R; a Young's modulus
+        outside ``GEAR_MODULUS``."""
         return list(_memo(_cautions_of, self))
 
     def _cautions(self) -> list[tuple[str, tuple[str, ...]]]:
         out = self._rim_cautions()
+        e = self.youngs_modulus
+        if not GEAR_MODULUS[0] <= e <= GEAR_MODULUS[1]:
+            out.append(((f"Young's modulus {e / 1e9:.4g} GPa is outside gear materials'"
+                         f" {GEAR_MODULUS[0] / 1e9:g} to {GEAR_MODULUS[1] / 1e9:g} GPa (steel 206"
+                         f" GPa, cast iron 100-170, polymers 0.7-10): a unit slip"
+                         f"{' (MPa for GPa)' if e < GEAR_MODULUS[0] else ''}?"),
+                        ("youngs_modulus",)))
         for g in (1, 2):
             top = self.undercut_radius(g)
             if top is not None and not self._contact_on_cut(g, top):

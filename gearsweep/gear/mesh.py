@@ -29,6 +29,7 @@ integrated piece by piece between the phases where the mesh jumps or kinks
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
@@ -38,7 +39,7 @@ import numpy as np
 
 from gearsweep.errors import GeometryError
 from gearsweep.gear.compliance import pair_compliance, rim_factor
-from gearsweep.gear.geometry import GearPair
+from gearsweep.gear.geometry import GEAR_MODULUS, GearPair, GeometryWarning
 from gearsweep.jit import jit
 
 __all__ = [
@@ -48,6 +49,8 @@ __all__ = [
     "fourier",
     "fourier_series",
     "iso6336_stiffness",
+    "load_cautions",
+    "load_faults",
     "mesh_cycle",
     "mesh_cycles",
 ]
@@ -625,6 +628,12 @@ def mesh_cycles(
     ste, stiffness, pair_load = _share(compliance, separation, np.repeat(loads[:, None], n, axis=1))
     k_pair = np.where(in_contact, 1.0 / compliance, 0.0)
     _check_against_iso(pair, float(k_pair.sum(axis=1).mean()))
+    top = int(np.argmax(torques))  # (the STE grows with the load: the largest is the test)
+    found = load_faults(pair, float(torques[top]), float(ste[top].max()))
+    if found:
+        raise GeometryError(f"{pair.name}: " + "; ".join(m for m, _ in found), found)
+    for message, fields in load_cautions(pair, float(torques[top]), float(ste[top].max())):
+        warnings.warn(GeometryWarning(f"{pair.name}: {message}", fields), stacklevel=2)
     quadratures = _quadratures(pair, separation_of, kinks, loads, int(harmonics))
     return [
         MeshCycle(
@@ -645,6 +654,69 @@ def mesh_cycles(
         )  # fmt: skip
         for q in range(loads.size)
     ]
+
+
+DEFLECTION_WARNED_MODULES = 0.1
+"""Peak STE [modules] above which :func:`load_cautions` warns that the load is beyond any gear's
+rating: steel teeth at F_t / (b m) = 200 N/mm^2 (a nominal root stress near 900 MPa with ISO
+6336-3's Y_F Y_S of about 4.5, about the bending strength of case-hardened steel) deflect 0.014
+to 0.016 module (Table 1, 20/40 m 2 mm, 18/60 m 5 mm, 30/90 m 1 mm, 14/14 x 0.5 m 3 mm; 27 Nov
+2026), and by the same scaling polymer teeth (E about 3 GPa) at a root stress of 50 MPa about
+0.06: 0.1 module is past both."""
+
+
+def _load_said(pair: GearPair, torque: float, ste_peak: float) -> str:
+    """The peak STE at ``torque`` with ISO 6336's line load ``F_t / b`` (``F_t = T1 / (m z1 /
+    2)``, as :func:`iso6336_stiffness`)."""
+    line_load = torque / pair.pitch_radius1 / (pair.face_width * 1e3)
+
+    def said(x: float) -> str:
+        return f"{x:,.0f}" if x >= 1000 else f"{x:.4g}"
+
+    return (f"peak static transmission error {said(ste_peak * 1e6)} um at a torque of"
+            f" {said(torque)} N m (line load F_t / b = {said(line_load)} N/mm on the"
+            f" {pair.face_width * 1e3:.4g} mm face)")
+
+
+def _slip(pair: GearPair) -> tuple[str, tuple[str, ...]]:
+    """The unit slip a load far too large most likely comes from, and the fields in that order:
+    a Young's modulus outside gear materials' (``geometry.GEAR_MODULUS``), else the torque."""
+    e = pair.youngs_modulus
+    if not GEAR_MODULUS[0] <= e <= GEAR_MODULUS[1]:
+        return (f"a unit slip in youngs_modulus ({e / 1e9:.4g} GPa; steel is 206 GPa)?",
+                ("youngs_modulus", "torque", "face_width"))
+    return ("a unit slip in the torque (N*mm written as N*m?)",
+            ("torque", "youngs_modulus", "face_width"))
+
+
+def load_faults(pair: GearPair, torque: float, ste_peak: float
+                ) -> list[tuple[str, tuple[str, ...]]]:
+    """Why a load cannot be taken, as :meth:`GearPair.faults` (``torque`` names the load): a peak
+    STE ``ste_peak`` [m] at ``torque`` [N m] above the thinner tooth's thickness, where a linear
+    tooth compliance (beams and Hertz line contact, small deflections) means nothing: Table 1 at
+    50000 N m, the paper's 50000 N mm in the wrong unit, ran with a peak STE of 6166 um, 1.7 times
+    its 3.68 mm teeth (an outside tester)."""
+    thinnest = min(pair.thickness)
+    if not ste_peak > thinnest:
+        return []
+    slip, fields = _slip(pair)
+    return [((f"{_load_said(pair, torque, ste_peak)} is more than the thinner tooth's thickness"
+              f" {thinnest * 1e3:.4g} mm: a linear tooth compliance means nothing at a deflection"
+              f" of the tooth's own size; {slip}"), fields)]
+
+
+def load_cautions(pair: GearPair, torque: float, ste_peak: float
+                  ) -> list[tuple[str, tuple[str, ...]]]:
+    """What a load is warned of, as :meth:`GearPair.cautions`: a peak STE above
+    ``DEFLECTION_WARNED_MODULES`` (beyond any gear's rated load), where not refused by
+    :func:`load_faults`."""
+    most = DEFLECTION_WARNED_MODULES * pair.module
+    if not most < ste_peak <= min(pair.thickness):
+        return []
+    slip, fields = _slip(pair)
+    return [((f"{_load_said(pair, torque, ste_peak)} is {ste_peak / pair.module:.3g} modules,"
+              f" above the {DEFLECTION_WARNED_MODULES:g} module ({most * 1e6:.4g} um) that no"
+              f" tooth deflects at its rated load (steel about 0.015): {slip}"), fields)]
 
 
 E_STEEL = 206e9

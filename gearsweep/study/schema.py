@@ -72,6 +72,7 @@ from gearsweep.errors import (
 from gearsweep.files import NotUtf8, utf8_text
 from gearsweep.gear import GeometryWarning
 from gearsweep.gear.excitation import static_mesh
+from gearsweep.gear.mesh import load_cautions
 from gearsweep.kernels.cuda import DEVICES, PRECISIONS
 from gearsweep.kernels.tableaux import KERNEL_METHODS
 from gearsweep.model import SWEEPABLE
@@ -1917,6 +1918,32 @@ def first_load(study: Study) -> float | None:
     return None
 
 
+def _largest_of(spec: Any, values: np.ndarray, name: str) -> tuple[float, str]:
+    """The largest of ``values`` (a sweep of ``name``'s ``spec``) and where the file writes it:
+    a range's start or stop, else the list's item."""
+    i = int(np.argmax(values))
+    if isinstance(spec, Range):
+        return float(values[i]), f"sweep.{name}.{'stop' if i == len(values) - 1 else 'start'}"
+    return float(values[i]), f"sweep.{name}[{i}]"
+
+
+def largest_load(study: Study) -> tuple[float, str]:
+    """The largest mean torque [N m] of a gear scene and where the file writes it (a
+    ``mean_force`` is ``F_m r_b1``): the load whose STE ``mesh.load_faults`` tests, the STE
+    growing with the load."""
+    sc = study.scene
+    for name in ("torque", "mean_force"):
+        if name in study.sweep:
+            value, where = _largest_of(study.sweep[name], study.grid(name), name)
+            break
+    else:
+        name = "torque" if sc.torque is not None else "mean_force"
+        value, where = float(getattr(sc, name)), f"scene.{name}"
+    if name == "mean_force":
+        value *= gear_pair(sc.gear).base_radius1
+    return value, where
+
+
 GEAR_LOAD = ("a positive load: a gear scene's k(t) and STE are the pair's under it, in the drive"
              " direction")
 
@@ -1944,8 +1971,13 @@ def _check_gear(study: Study, file: str, raw=None) -> None:
     if problems:
         raise _error(file, problems, raw)
     found: list = []
-    problems = gear_refusals(sc.gear, lambda: found.append(scene_excitation(sc, first_load(study))),
-                             file, raw, "scene.gear")
+    top, load_at = largest_load(study)
+
+    def computed() -> tuple[float, float]:
+        found.append(scene_excitation(sc, first_load(study)))
+        return top, scene_excitation(sc, top).ste_max
+
+    problems = gear_refusals(sc.gear, computed, file, raw, "scene.gear", load_at)
     if problems:
         raise _error(file, problems, raw, GearStudyError)
     ex = found[0]
@@ -2032,56 +2064,69 @@ def parse_mesh_study(raw: dict[str, Any], file: str) -> MeshStudy:
         raise _error(file, [Problem(where, written_at(raw, where) if raw else float(torques[bad[0]]),
                                     "a positive torque (it loads the mesh)")], raw)
     problems = []  # of every variant at once, each at its field's line (were at the gear's)
+    top, load_at = ((float(torques[0]), "torque") if not study.swept_torque
+                    else _largest_of(study.sweep["torque"], torques, "torque"))
     for label, spec in study.variants.items():
 
-        def computed(spec=spec) -> None:
-            pair = gear_pair(spec).check()
-            static_mesh(pair, float(torques[0]), tip_reliefs(spec, pair), n=study.positions)
+        def computed(spec=spec) -> tuple[float, float]:  # at the largest torque: its STE is
+            pair = gear_pair(spec).check()  # what mesh.load_faults tests
+            mc = static_mesh(pair, top, tip_reliefs(spec, pair), n=study.positions)
+            return top, float(mc.ste.max())
 
-        problems += gear_refusals(spec, computed, file, raw, f"gears.{label}" if label else "gear")
+        problems += gear_refusals(spec, computed, file, raw,
+                                  f"gears.{label}" if label else "gear", load_at)
     if problems:
         raise _error(file, problems, raw, GearStudyError)
     return study
 
 
-def gear_refusals(spec: GearSpec, compute: Callable[[], Any], file: str, raw: Any,
-                  where: str) -> list[Problem]:
+def gear_refusals(spec: GearSpec, compute: Callable[[], tuple[float, float]], file: str,
+                  raw: Any, where: str, load_at: str) -> list[Problem]:
     """The problems of the gear pair of ``spec``, written at ``where`` (``gear``, ``gears.NAME``,
     ``scene.gear``), that ``compute`` (its check and mesh) raises, each at the line of the first
     of the fields it names (``GeometryError.faults``, the most responsible first) that the file
     writes there, with the value written (a standard tip radius follows x1: at x1's line); at
-    ``where``'s line when it writes none of them (a preset's). Its ``GeometryWarning`` (nearly
-    pointed teeth) is warned the same way, once, when there is no problem."""
+    ``where``'s line when it writes none of them (a preset's); a fault of the ``torque``
+    (``mesh.load_faults``: a deflection beyond the tooth) at ``load_at``, where the file writes
+    the largest load, which ``compute`` returns with its peak STE. Its ``GeometryWarning``
+    (nearly pointed teeth, a load beyond any rating) is warned the same way, once, when there is
+    no problem."""
     try:
         pair = gear_pair(spec)
         with warned_once():
-            compute()
+            torque, ste_peak = compute()
     except GeometryError as exc:  # (pair: set, raised after it)
         if not exc.faults:  # what the messages of no field say: at the gear's line, as it was
             return [Problem(where, NO_VALUE, str(exc))]
-        return _at_gear_fields(exc.faults, pair.name, raw, where)
-    for p in _at_gear_fields(pair.cautions(), pair.name, raw, where):
+        return _at_gear_fields(exc.faults, pair.name, raw, where, load_at)
+    cautions = [*pair.cautions(), *load_cautions(pair, torque, ste_peak)]
+    for p in _at_gear_fields(cautions, pair.name, raw, where, load_at):
         text = problem_line(file, line_of(raw, p.path), p.path, p.value, p.message)
         warnings.warn(GeometryWarning(text), stacklevel=3)
     return []
 
 
 def _at_gear_fields(faults: list[tuple[str, tuple[str, ...]]], name: str, raw: Any,
-                    where: str) -> list[Problem]:
+                    where: str, load_at: str) -> list[Problem]:
     """``(message, fields)`` of the pair ``name`` as problems of the gear at ``where``: each at
-    the first of its fields the file writes there, naming the others it writes that share the
-    blame (not teeth and module, which set every radius), else at ``where``, with the pair's
-    name."""
+    the first of its fields the file writes there (``torque``: at ``load_at``, where the file
+    writes the load), naming the others it writes that share the blame (not teeth and module,
+    which set every radius), else at ``where``, with the pair's name."""
+
+    def path(field: str) -> str:
+        return load_at if field == "torque" else f"{where}.{field}"
+
     out = []
     for message, fields in faults:
-        written = [f for f in fields if written_at(raw, f"{where}.{f}") is not None]
+        written = [f for f in fields if written_at(raw, path(f)) is not None]
         if not written:
             out.append(Problem(where, NO_VALUE, f"{name}: {message}"))
             continue
         at, *others = written
-        shared = ", ".join(f"{f}: {written_at(raw, f'{where}.{f}')}" for f in others
+        shared = ", ".join(f"{load_at if f == 'torque' else f}: {written_at(raw, path(f))}"
+                           for f in others
                            if f not in ("z1", "z2", "module"))
-        out.append(Problem(f"{where}.{at}", _shown_value(written_at(raw, f"{where}.{at}")),
+        out.append(Problem(path(at), _shown_value(written_at(raw, path(at))),
                            message + (f"; also set by {shared}" if shared else "")))
     return out
 
