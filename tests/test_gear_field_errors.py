@@ -513,3 +513,23 @@ def test_a_modulus_outside_gear_materials_warns_at_its_line(tmp_path, capsys, mo
             in err) == warned, err
     assert ("outside gear materials' 0.5 to 700 GPa" in err) == warned
 
+
+def test_a_preset_changed_does_not_inherit_its_source_s_contact_ratio_range(tmp_path, capsys):
+    """Table 1 at 14.5 deg (a 0.5 mm fillet to fit the space) has a contact ratio above 2 (the
+    path of contact of standard tips at the standard centre distance over the base pitch): a
+    valid pair, refused as outside "the stated range [1, 2]", which the paper states of its own
+    Table 1. Changed, it validates; unchanged, Table 1 as printed is still refused by it."""
+    m, a = 2.5 * M, math.radians(14.5)
+    rb1, rb2 = 60 * M * math.cos(a), 40 * M * math.cos(a)
+    eps = (math.sqrt(62.5**2 * M**2 - rb1**2) + math.sqrt(42.5**2 * M**2 - rb2**2)
+           - 100 * M * math.sin(a)) / (math.pi * m * math.cos(a))
+    assert eps == pytest.approx(2.043, abs=5e-4)
+    path = tmp_path / "s.yaml"
+    path.write_text(HEAVY.format(gear=("{preset: table1_consistent, pressure_angle: 14.5 deg,"
+                                       " fillet_radius: 0.5 mm}"), torque="50 N*m"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", GeometryWarning)  # (a slight undercut of the pinion)
+        assert main(["validate", str(path)]) == 0
+    capsys.readouterr()
+    _, lines = refused(tmp_path, capsys, HEAVY.format(gear="table1_as_printed", torque="50 N*m"))
+    assert any("contact ratio 2.429 is outside the stated range [1, 2]" in line for line in lines)
