@@ -533,3 +533,37 @@ def test_a_preset_changed_does_not_inherit_its_source_s_contact_ratio_range(tmp_
     capsys.readouterr()
     _, lines = refused(tmp_path, capsys, HEAVY.format(gear="table1_as_printed", torque="50 N*m"))
     assert any("contact ratio 2.429 is outside the stated range [1, 2]" in line for line in lines)
+
+
+def test_a_preset_at_another_module_is_told_only_that_its_kept_centre_distance_is_too_far(
+        tmp_path, capsys):
+    """Table 1 at module 2 mm keeps the preset's 100 mm: the tips (48 + 1 and 32 + 1 modules of
+    1 mm radius) do not reach. Said once, at module's line, naming centre_distance, the standard
+    m (z1 + z2) / 2 = 80 mm and that 100 mm is the preset's; its consequences (a contact ratio of
+    -4.8 "outside the stated range", fillets at roots the mate never meets) are not said."""
+    text = HEAVY.format(gear="{preset: table1_consistent, module: 2 mm}", torque="50 N*m")
+    path, lines = refused(tmp_path, capsys, text)
+    assert len(lines) == 1, lines
+    tips = (48 + 2) * 1.0 + (32 + 2) * 1.0
+    assert lines[0].startswith(f"{path}:5: gear.module: '2 mm' -- the teeth do not reach each"
+                               f" other: tip radii 50 + 34 mm = {tips:g} mm, not more than the"
+                               " centre distance 100 mm")
+    assert f"the teeth and shifts give {2.0 * (48 + 32) / 2:g} mm" in lines[0]
+    assert lines[0].endswith("the centre distance 100 mm is preset table1_consistent's, kept when"
+                             " a variant changes its module, teeth or shifts: write"
+                             " centre_distance to change it")
+
+
+def test_a_shifted_preset_is_told_the_centre_distance_of_its_shifts(tmp_path, capsys):
+    """x1 = 0.5 on Table 1 keeps the preset's 100 mm, not the centre distance of the shifts the
+    docs give by default (inv(alpha_w)): both tip-root interferences name the centre distance that
+    clears them (r1 + 1.5 m + r2 - 1.25 m, rounded up to 0.01 mm) and the shifts' own."""
+    m = 2.5 * M
+    a, _ = operating(m, 48, 32, 0.5, 0.0)
+    text = HEAVY.format(gear="{preset: table1_consistent, x1: 0.5}", torque="50 N*m")
+    path, lines = refused(tmp_path, capsys, text)
+    clear = math.ceil((60 * M + 1.5 * m + 40 * M - 1.25 * m) / M * 100) / 100
+    assert len(lines) == 2 and all(line.startswith(f"{path}:5: gear.x1: 0.5 -- tip-root") and (
+        f"; or a centre distance of at least {clear:g} mm fits (centre_distance, given as 100 mm;"
+        f" the teeth and shifts give {a / M:.5g} mm); the centre distance 100 mm is preset"
+        " table1_consistent's") in line for line in lines), lines

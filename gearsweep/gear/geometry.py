@@ -705,7 +705,8 @@ class GearPair:
                     (f"tip-root interference: tip radius of gear {g} ({ra * mm:.4g} mm) + root "
                     f"radius of gear {3 - g} ({rf_mate * mm:.4g} mm) exceeds the centre distance "
                     f"{a * mm:.4g} mm by {overlap * mm:.3g} mm; a tip radius of gear {g} of at"
-                    f" most {_mm_down(a - rf_mate)} mm fits (tip_radius{g})"),
+                    f" most {_mm_down(a - rf_mate)} mm fits (tip_radius{g})"
+                    f"{self._own_centre_said(f'at least {_mm_up(ra + rf_mate)} mm')}"),
                     (*self.sets("tip", g), *self.sets("root", 3 - g), *self.sets("centre"))))
         basic: list[tuple[str, tuple[str, ...]]] = []
         for g in (1, 2):
@@ -744,12 +745,15 @@ class GearPair:
                 f" gear 1 of at most {_mm_down(math.hypot(rb[0], length))} mm fits"
                 " (tip_radius1)"), self._interference_sets(1)))
         eps = self.contact_ratio
-        if ra1 + ra2 <= a:  # said as "contact ratio -1.916" (an outside tester's finding)
-            out.append((
+        if ra1 + ra2 <= a:  # said as "contact ratio -1.916" (an outside tester's finding); and
+            out.append((  # alone: its contact ratio, a fillet at a root the mate never meets,
+                # are its consequences (a preset's 100 mm at module 2 mm said all three)
                 (f"the teeth do not reach each other: tip radii {ra1 * mm:.4g} + {ra2 * mm:.4g} mm"
-                f" = {(ra1 + ra2) * mm:.4g} mm, not more than the centre distance {a * mm:.4g} mm"),
+                f" = {(ra1 + ra2) * mm:.4g} mm, not more than the centre distance {a * mm:.4g} mm"
+                f"{self._own_centre_said()}"),
                 self._path_blame(shorter=True)))
-        elif eps < 1.0:
+            return out
+        if eps < 1.0:
             out.append((
                 (f"contact ratio {eps:.3f} is below 1: path of contact "
                 f"{self.path_of_contact * mm:.4g} mm is shorter than the base pitch "
@@ -894,6 +898,30 @@ class GearPair:
             return f"; no tip radius of gear {mate} fits"
         return (f"; a tip radius of gear {mate} of at most {_mm_down(math.hypot(rb_mate, reach))}"
                 f" mm fits (tip_radius{mate})")
+
+    def own_centre_distance(self) -> float | None:
+        """The centre distance the teeth and shifts give (``inv(alpha_w)``, the default), where a
+        given ``centre_distance`` differs from it by more than 1 nm (else ``None``) [m]."""
+        if self.centre_distance is None:
+            return None
+        try:
+            own = dataclasses.replace(self, centre_distance=None).operating_centre_distance
+        except GeometryError:
+            return None
+        return own if abs(own - self.centre_distance) > 1e-9 else None
+
+    def _own_centre_said(self, fits: str = "") -> str:
+        """What a given centre distance that is not the teeth's and shifts' own changes: ``fits``
+        (``at least 100.63 mm``) where one is known, and that own one; the field
+        ``centre_distance``. Empty where it is their own (or none is given)."""
+        own = self.own_centre_distance()
+        if own is None:
+            return ""
+        given = (f"(centre_distance, given as {self.centre_distance * 1e3:.5g} mm; the teeth and"
+                 f" shifts give {own * 1e3:.5g} mm)")
+        return f"; or a centre distance of {fits} fits {given}" if fits else (
+            f"; a centre distance below {_mm_down(self.tip_radius[0] + self.tip_radius[1])} mm"
+            f" lets them reach {given}")
 
     def _contact_ratio_cure(self) -> str:
         """What alone gives a contact ratio of 1: the tip radius or the centre distance that

@@ -217,6 +217,20 @@ def gear_pair(spec: GearSpec) -> GearPair:
     return GearPair(name="gear pair", **fields)
 
 
+def preset_centre_said(spec: GearSpec, pair: GearPair) -> str:
+    """Where a preset's centre distance, which a variant keeps (the file writes none), is not the
+    one its teeth and shifts give: that it is the preset's, and how to change it ("" otherwise).
+    A preset at module 2 mm was told its fillets and its contact ratio, not the centre distance
+    of 100 mm it kept (an outside tester)."""
+    if spec.preset is None or spec.centre_distance is not None or pair.centre_distance is None:
+        return ""
+    if pair.own_centre_distance() is None:
+        return ""
+    return (f"; the centre distance {pair.centre_distance * 1e3:.5g} mm is preset {spec.preset}'s,"
+            " kept when a variant changes its module, teeth or shifts: write centre_distance to"
+            " change it")
+
+
 MAX_RELIEF_MODULES = 0.1
 """Largest tip relief amount C_a taken, in modules (reliefs are tens of micrometres, some
 hundredths of a module): a larger one is refused as a unit slip (an outside fuzz tester's

@@ -83,6 +83,7 @@ from gearsweep.study.gearscene import (
     GearSpec,
     TipReliefSpec,
     gear_pair,
+    preset_centre_said,
     scene_excitation,
     tip_reliefs,
     warned_once,
@@ -2098,7 +2099,9 @@ def gear_refusals(spec: GearSpec, compute: Callable[[], tuple[float, float]], fi
     except GeometryError as exc:  # (pair: set, raised after it)
         if not exc.faults:  # what the messages of no field say: at the gear's line, as it was
             return [Problem(where, NO_VALUE, str(exc))]
-        return _at_gear_fields(exc.faults, pair.name, raw, where, load_at)
+        note = preset_centre_said(spec, pair)
+        return _at_gear_fields([(m + note if "centre_distance" in f else m, f)
+                                for m, f in exc.faults], pair.name, raw, where, load_at)
     cautions = [*pair.cautions(), *load_cautions(pair, torque, ste_peak)]
     for p in _at_gear_fields(cautions, pair.name, raw, where, load_at):
         text = problem_line(file, line_of(raw, p.path), p.path, p.value, p.message)
