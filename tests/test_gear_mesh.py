@@ -523,14 +523,60 @@ def test_plots_draw_the_computed_data():
         assert pos_mm.min() == 0.0 and pos_mm.max() == pytest.approx(path_mm, rel=1e-12)
         # every curve of Fig. 2 has a legend entry: the thin lines had none
         handles, labels = axes[1].get_legend_handles_labels()
-        assert labels == ["the preceding and following pairs", "one tooth pair"]
+        assert labels == ["the other pairs in contact", "one tooth pair"]
         assert len(axes[1].lines) == 3 + 2  # three curves (two thin), the LPSTC and HPSTC lines
+        # gear 1's points of single contact (the contact climbs gear 1's flank from its root)
+        eps, pb_mm = mc.pair.contact_ratio, mc.pair.base_pitch * 1e3
+        marks = {t.get_text().strip(): t.get_position()[0] for t in axes[1].texts}
+        assert marks == pytest.approx({"LPSTC of gear 1 (driving)": (eps - 1) * pb_mm,
+                                       "HPSTC of gear 1": pb_mm}, rel=1e-12)
         k, backlash = 2e8, 0.4e-3
         plot_backlash_stiffness(axes[2], k, backlash)
         p, force = axes[2].lines[0].get_data()
         # Eq. (8): zero inside +-b (b = 0.2 mm), slope k outside; p in mm, force in kN.
         assert_allclose(p, [-0.5, -0.2, 0.2, 0.5], rtol=1e-12)
         assert_allclose(force, [-k * 0.3e-3 / 1e3, 0.0, 0.0, k * 0.3e-3 / 1e3], rtol=1e-12)
+    finally:
+        plt.close(fig)
+
+
+def test_load_sharing_of_a_contact_ratio_above_2_draws_every_pair_and_no_single_contact():
+    """A 60/90 pair at 16 deg with long teeth (contact ratio 2.47: two or three pairs, never one)
+    was marked "HPSTC" and "LPSTC" (reversed) where three pairs change to two and drew only the
+    neighbouring pairs. Now: no single-contact marks; a dotted line where the count of pairs
+    changes, and each zone's count, as the mesh's own slots in contact count them; and the drawn
+    shares add to 1 (the load balance) at the middle of every zone."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gearsweep.plot.mesh import plot_load_sharing
+
+    pair = GearPair(module=2e-3, z1=60, z2=90, face_width=20e-3,
+                    pressure_angle=math.radians(16.0), tip_radius1=62.4e-3,
+                    tip_radius2=92.4e-3, root_radius1=57.1e-3, root_radius2=87.1e-3)
+    mc = mesh_cycle(pair, 100.0, n=400)
+    eps, pb_mm = pair.contact_ratio, pair.base_pitch * 1e3
+    assert eps == pytest.approx(2.47, abs=0.005)
+    fig, ax = plt.subplots()
+    try:
+        plot_load_sharing(ax, mc)
+        texts = [t.get_text() for t in ax.texts]
+        assert not any("STC" in t for t in texts)
+        bounds = sorted(ln.get_xdata()[0] for ln in ax.lines if ln.get_linestyle() == ":")
+        # a pair enters when ours is at 1, 2 base pitches, one leaves at eps - 1, eps - 2
+        assert bounds == pytest.approx([x * pb_mm for x in sorted([eps - 2, 1.0, eps - 1, 2.0])],
+                                       rel=1e-12)
+        edges = [0.0, *bounds, eps * pb_mm]
+        mids = [0.5 * (a + b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+        in_contact = mc.in_contact.sum(axis=1)  # pairs the mesh has in contact at each phase
+        expected = [f"{in_contact[int((x / pb_mm % 1.0) * 400)]} pairs" for x in mids]
+        assert texts == expected == ["3 pairs", "2 pairs", "3 pairs", "2 pairs", "3 pairs"]
+        curves = [ln for ln in ax.lines if ln.get_linestyle() == "-"]
+        for x in mids:
+            total = sum(np.interp(x, *ln.get_data(), left=0.0, right=0.0) for ln in curves)
+            assert total == pytest.approx(1.0, rel=1e-9)
     finally:
         plt.close(fig)
 

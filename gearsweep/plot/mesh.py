@@ -129,11 +129,52 @@ def plot_ste(
     return ax.figure
 
 
+def contact_zones(contact_ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where the number of tooth pairs in contact changes along one pair's engagement, and how
+    many are in contact between, in base pitches from the start of the path of contact.
+
+    A pair at ``x`` (0 to ``eps``) shares the load with the pairs at ``x + k`` (``k`` a nonzero
+    integer) that lie on the path: the count changes where one enters (``x`` an integer) or
+    leaves (``eps - x`` an integer).
+
+    Parameters
+    ----------
+    contact_ratio : float
+        ``eps`` [-], at least 1.
+
+    Returns
+    -------
+    bounds : ndarray
+        ``0``, the changes in increasing order, ``eps`` [base pitches].
+    pairs : ndarray of int
+        Pairs in contact between consecutive bounds (one fewer entries than ``bounds``).
+    """
+    eps = float(contact_ratio)
+    whole = np.arange(1, int(np.floor(eps)) + 1, dtype=float)
+    inner = np.concatenate([whole, eps - whole])
+    inner = np.unique(np.round(inner[(inner > 1e-9) & (inner < eps - 1e-9)], 12))
+    bounds = np.concatenate([[0.0], inner, [eps]])
+    mid = 0.5 * (bounds[:-1] + bounds[1:])
+    pairs = (np.floor(eps - mid) + np.floor(mid) + 1).astype(int)
+    return bounds, pairs
+
+
+OTHER_PAIRS = "the other pairs in contact"
+"""Legend label of the thin curves of ``plot_load_sharing``."""
+
+
 def plot_load_sharing(ax: Axes, cycle: MeshCycle | xr.Dataset) -> Figure:
     """Load share of one tooth pair through its whole engagement (paper Fig. 2).
 
     The pair enters at the start of the path of contact (position 0) and leaves at its end
-    (``epsilon_alpha`` mesh cycles later); the preceding and following pairs are drawn thin.
+    (``epsilon_alpha`` mesh cycles later); every other pair in contact meanwhile is drawn thin,
+    so that the shares add up to 1 at every position. Where one pair alone carries the load
+    (a contact ratio below 2) its bounds are marked as gear 1's (the driving gear, whose flank
+    the contact climbs from root to tip) lowest and highest points of single tooth contact,
+    LPSTC and HPSTC (gear 2's are the reverse); with none (2 or more) the bounds where the count
+    of pairs changes are marked and each zone says its count (a 2.47 pair was marked "HPSTC"
+    and "LPSTC" where three pairs change to two, and drew only the neighbouring pairs: the
+    shares did not add to 1 where three pairs carry it).
 
     Parameters
     ----------
@@ -159,13 +200,23 @@ def plot_load_sharing(ax: Axes, cycle: MeshCycle | xr.Dataset) -> Figure:
     pos = np.append(pos, eps)
     share = np.append(share, share[-1])
     to_mm = pb * MM
-    for shift in (-1, 1):  # one legend entry for both (Fig. 2 drew them unexplained)
+    others = [k for k in range(-n_slot + 1, n_slot) if k]  # every pair that meets [0, eps]
+    for i, shift in enumerate(others):  # one legend entry for all (Fig. 2's were unexplained)
         ax.plot((pos + shift) * to_mm, share, color="0.6", lw=0.8,
-                label="the preceding and following pairs" if shift == -1 else None)
+                label=OTHER_PAIRS if i == 0 else None)
     ax.plot(pos * to_mm, share, color="C0", lw=2.0, label="one tooth pair")
-    for mark, text in ((eps - 1, "LPSTC"), (1.0, "HPSTC")):
+    bounds, pairs = contact_zones(eps)
+    for mark in bounds[1:-1]:
         ax.axvline(mark * to_mm, color="0.4", ls=":", lw=0.8)
-        ax.text(mark * to_mm, 1.03, text, ha="center", va="bottom", fontsize=8)
+    if (pairs == 1).any():  # gear 1's: contact climbs its flank from root (position 0) to tip
+        for mark, text, side in ((eps - 1, "LPSTC of gear 1 (driving) ", "right"),
+                                 (1.0, " HPSTC of gear 1", "left")):  # (outward: apart)
+            ax.text(mark * to_mm, 1.03, text, ha=side, va="bottom", fontsize=8)
+    else:
+        for lo, hi, n in zip(bounds[:-1], bounds[1:], pairs, strict=True):
+            if hi - lo > 0.08 * eps:  # (a sliver's count would overprint its neighbours')
+                ax.text(0.5 * (lo + hi) * to_mm, 1.03, f"{n} pairs", ha="center", va="bottom",
+                        fontsize=8)
     ax.set_xlim(0, eps * to_mm)
     ax.set_ylim(0, 1.12)
     ax.set_xlabel("position along the path of contact from its start [mm]")
