@@ -5,6 +5,7 @@ import math
 import re
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -657,7 +658,8 @@ def test_castigliano_integrals_by_quadrature(pair, gear):
 def test_any_pair_is_refused_or_meshes_sensibly(z1, z2, x1, x2):
     """Random shifted pairs: a GeometryError, or a mesh with shares summing to 1 and stiffness
     within [0.7, 1.4] of ISO 6336-1 (wider than for standard pairs: ISO's shift terms are a fit
-    too; over 371 random consistent pairs the ratios spanned 0.90-1.28, median 1.00)."""
+    too; in one sample of 371 random consistent pairs the ratios spanned 0.90-1.28, median
+    1.00: a sample's extremes, not bounds, see the next test)."""
     pair = GearPair(module=2e-3, z1=z1, z2=z2, face_width=20e-3, x1=x1, x2=x2)
     try:
         with warnings.catch_warnings():
@@ -671,6 +673,26 @@ def test_any_pair_is_refused_or_meshes_sensibly(z1, z2, x1, x2):
     c_prime, c_gamma = iso6336_stiffness(pair)
     assert 0.7 < mc.mesh_stiffness.mean() / c_gamma < 1.4
     assert 0.7 < mc.pair_stiffness.max() / c_prime < 1.4
+
+
+def test_a_pair_inside_the_random_domain_lies_outside_the_sample_s_ratios_to_iso():
+    """docs/mesh.md said the model's stiffness "stays within" 0.90-1.21 of ISO's c_gamma, the
+    extremes of a sample of 371 pairs; a 14/14 pair of module 3 mm with x = 0.5 / 0.5, inside the
+    sampled domain, gives 1.23 and 1.31 (an outside tester), which the doc now says. Held to
+    these numbers, and inside ISO_FACTOR, the bound the model is refused beyond."""
+    from gearsweep.gear.mesh import ISO_FACTOR
+
+    pair = GearPair(module=3e-3, z1=14, z2=14, face_width=30e-3, x1=0.5, x2=0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", GeometryWarning)  # (its root half angles, above 0.19)
+        mc = mesh_cycle(pair, 50.0)
+    c_prime, c_gamma = iso6336_stiffness(pair)
+    ratios = (mc.as_arrays(10)["k_harmonic"][0] / c_gamma, mc.pair_stiffness.max() / c_prime)
+    assert ratios == pytest.approx((1.23, 1.31), abs=0.005)
+    assert ratios[0] > 1.21 and ratios[1] > 1.28 and max(ratios) < ISO_FACTOR
+    text = (Path(__file__).resolve().parent.parent / "docs" / "mesh.md").read_text()
+    assert "stays within 0.90-1.21" not in text
+    assert "gives 1.23\nand 1.31" in repr(text) or "gives 1.23 and 1.31" in " ".join(text.split())
 
 
 def test_sainsot_s_root_half_angle_is_refused_below_its_range_and_warned_far_above():
