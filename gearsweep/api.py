@@ -21,7 +21,6 @@ import dataclasses
 import json
 import math
 import numbers
-import os
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -38,6 +37,7 @@ from gearsweep.errors import (
     SpectrumAliasingWarning,
     StudyError,
 )
+from gearsweep.files import user_path
 from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, mean_mesh_force, model_from_record
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_cost import AnalysisEstimate
@@ -121,11 +121,8 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
 
 
 def _user_path(path: str | Path) -> Path:
-    """``path`` with a leading ``~`` made the home folder, as xarray, pandas and the shell do
-    (``run(output="~/r.nc")`` wrote the folder ``./~``, then xarray opened the home's); a
-    ``~user`` of no such user is left as it is, as they leave it (``Path.expanduser`` raised
-    RuntimeError, a traceback where a missing file is one line)."""
-    return Path(os.path.expanduser(path))
+    """``files.user_path`` as a ``Path``."""
+    return Path(user_path(path))
 
 
 def _is_file(text: str) -> bool:

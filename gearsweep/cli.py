@@ -37,7 +37,7 @@ from gearsweep.errors import (
     StudyError,
     article,
 )
-from gearsweep.files import replace_problem
+from gearsweep.files import replace_problem, user_path
 from gearsweep.gear import GeometryWarning
 from gearsweep.jit import set_up_runtime_in_background
 from gearsweep.kernels.cuda import kernel_for
@@ -1016,10 +1016,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"gearsweep {__version__}")
     p.add_argument("--debug", action="store_true",
                    help="show tracebacks (accepted anywhere on the command line)")
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True)  # every path: type=user_path ('~')
     r = sub.add_parser("run", help="run a study and write its netCDF result")
-    r.add_argument("study", help="study file (- reads stdin)")
-    r.add_argument("-o", "--output", help="result file (default results/STUDY.nc)")
+    r.add_argument("study", type=user_path, help="study file (- reads stdin)")
+    r.add_argument("-o", "--output", type=user_path, help="result file (default results/STUDY.nc)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress, no summary")
     where = r.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
@@ -1047,20 +1047,21 @@ def build_parser() -> argparse.ArgumentParser:
                         " readers whose HDF5 lacks the zstd filter, docs/data-format.md)")
     r.set_defaults(func=cmd_run)
     v = sub.add_parser("validate", help="check a study file without running it")
-    v.add_argument("study", help="study file (- reads stdin)")
+    v.add_argument("study", type=user_path, help="study file (- reads stdin)")
     v.add_argument("--yes", action="store_true",
                    help="accept a study beyond the limits (as run --yes would run it)")
-    v.add_argument("-o", "--output", help="the result file run -o would write (default"
+    v.add_argument("-o", "--output", type=user_path,
+                   help="the result file run -o would write (default"
                    " results/STUDY.nc): an analysis study's inputs are checked in its folder")
     v.set_defaults(func=cmd_validate)
     a = sub.add_parser("advise", help="steps per period for a target accuracy, cost, warnings")
-    a.add_argument("study", help="study file (- reads stdin)")
+    a.add_argument("study", type=user_path, help="study file (- reads stdin)")
     a.add_argument("--target", type=float, default=1e-4,
                    help="trajectory error relative to the amplitude (default 1e-4; the report"
                    " also gives the error the study's own steps per period reach)")
     a.set_defaults(func=cmd_advise)
     i = sub.add_parser("inspect", help="describe a result file in words")
-    i.add_argument("result", help="a result file (.nc) written by gearsweep run")
+    i.add_argument("result", type=user_path, help="a result file (.nc) written by gearsweep run")
     i.set_defaults(func=cmd_inspect)
     return p
 

@@ -1,5 +1,5 @@
 """Files written whole or not at all: the one atomic writer of the package (checkpoints, and the
-start-up caches kept beside the Numba cache)."""
+start-up caches kept beside the Numba cache); and a path as its user means it (``user_path``)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,17 @@ from pathlib import Path
 from typing import IO
 
 from gearsweep.errors import ResultError
+
+
+def user_path(path: str | os.PathLike[str]) -> str:
+    """``path`` with a leading ``~`` made the home folder, as xarray, pandas and the shell do: for
+    every path a user gives (a study file, ``-o``, ``inspect``'s result, a study's excitation
+    file; the API's ``run``, ``open_result``). ``gearsweep run s.yaml --output=~/r.nc`` (no shell
+    expands ``~`` after ``=``) and ``run(output="~/r.nc")`` wrote the folder ``./~``. A ``~user``
+    of no such user is left as it is, as they leave it (``Path.expanduser`` raised RuntimeError,
+    a traceback where a missing file is one line). A string, so that a trailing ``/`` (a folder
+    meant, which ``-o`` refuses) is kept."""
+    return os.path.expanduser(path)
 
 
 def cache_folder(module_file: str | Path) -> Path:

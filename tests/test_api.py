@@ -261,6 +261,43 @@ def test_a_path_with_the_home_of_no_such_user_is_one_line(tmp_path, monkeypatch)
         gearsweep.open_result("~gearsweep_no_such_user/r.nc")
 
 
+def test_every_path_of_every_subcommand_expands_a_tilde(small_whine, write_study, tmp_path,
+                                                       monkeypatch, capsys):
+    """``gearsweep run s.yaml --output=~/sub/r.nc`` (no shell expands '~' after '=') wrote the
+    folder ``./~`` (whose ``rm -rf ~`` deletes the home), exit 0; a quoted '~/s.yaml' was "no
+    such file"; ``inspect '~/r.nc'`` checked ``./~/r.nc`` and xarray opened the home's (an outside
+    tester's findings). Every path argument expands it as the API does: run's, validate's and
+    advise's study, run's and validate's -o, inspect's result."""
+    monkeypatch.chdir(tmp_path)
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    (home / "s.yaml").write_text(write_study(small_whine).read_text())
+    assert cli(["run", "~/s.yaml", "--output=~/sub/r.nc", "-q"]) == 0
+    assert (home / "sub" / "r.nc").is_file() and not (tmp_path / "~").exists()
+    capsys.readouterr()
+    assert cli(["inspect", "~/sub/r.nc"]) == 0
+    assert capsys.readouterr().out.startswith(f"{home / 'sub' / 'r.nc'}: ")
+    assert cli(["validate", "~/s.yaml", "-o", "~/sub/r.nc"]) == 0
+    assert cli(["validate", "~/s.yaml", "-o", "~/"]) == 2  # the home, a folder: refused
+    assert "a file path, not a folder" in capsys.readouterr().err
+    assert cli(["advise", "~/s.yaml"]) == 0
+    assert not (tmp_path / "~").exists()
+
+
+def test_an_excitation_file_under_the_home_of_no_such_user_is_one_line(tmp_path, capsys):
+    """A study's excitation file is read as every path a user gives (``files.user_path``): a
+    ``~user`` of no such user is a missing file, one line and exit 2 (``Path.expanduser``
+    raised RuntimeError, a traceback)."""
+    study = tmp_path / "s.yaml"
+    study.write_text("title: t\nscene:\n  kind: whine\n  teeth: 20\n  mass: 0.2 kg\n"
+                     "  mean_force: 900 N\n  excitation: {file: ~gearsweep_no_such_user/x.csv}\n"
+                     "sweep:\n  speed: [1000 rpm]\n", encoding="utf-8")
+    assert cli(["validate", str(study)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert ":7: scene.excitation.file:" in line and "~gearsweep_no_such_user" in line, line
+
+
 def test_a_path_with_a_newline_or_spaces_around_it_is_the_file(small_whine, write_study):
     """A path as read from a file (``'s.yaml\\n'``) was said "no such study file", one with
     spaces around it was opened with them ("No such file or directory") though the check that

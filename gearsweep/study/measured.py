@@ -51,7 +51,7 @@ import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
 
 from gearsweep.errors import NO_VALUE, article
-from gearsweep.files import NotUtf8, utf8_text
+from gearsweep.files import NotUtf8, user_path, utf8_text
 from gearsweep.gear.measured import (
     FitError,
     MeasuredExcitation,
@@ -469,7 +469,7 @@ class ExcitationSpec(Strict):
     @field_validator("file")
     @classmethod
     def _readable(cls, v: str, info: ValidationInfo) -> str:
-        path = Path(v).expanduser()
+        path = Path(user_path(v))
         if not path.is_absolute():
             path = _base(info) / path
         _read_all(path)  # every problem of the file: one ValueError sentence
