@@ -15,6 +15,9 @@ Rules (docs/study-reference.md, "Units"):
   the number (``2**1000 mm``, ``(3) mm``, sums) are refused, each with its own message.
 * A bare number in a dimensioned field is refused (``module: 3`` -> ``3 has no unit; write e.g.
   '3 mm', or '3 m' if SI was meant``), except 0 (zero in any unit) and a shaft speed, which is read in rpm.
+* An inch or foot mark (``0.004"``, ``2'``: pint drops it, a bare number) and ``mil`` (pint's
+  angular mil, not a thousandth of an inch: ``thou``) are refused, saying to write ``in``,
+  ``ft``, ``thou``.
 * A frequency given for a shaft speed (``50 Hz``, ``3 kHz``) is read as revolutions per second:
   50 Hz = 3000 rpm (pint alone would read it as 50 rad/s, 2 pi off). An angular rate in rad/s or
   deg/s is converted as such.
@@ -231,11 +234,45 @@ _PINT_SYMBOLS = frozenset("°¹²³⋅∙•·")
 are letters."""
 
 
-def _check_number_text(value: str) -> None:
+_MARK = re.compile("''|[\"'\u2032\u2033]")
+"""An inch or foot mark (``0.004"``, ``0.004''``, ``2'``, the primes ″ ′): pint's tokenizer
+drops it, leaving a bare number (``0.004"`` was told "has no unit; write e.g. '0.004" mm'", and
+``3"`` for a speed, where a bare number is rpm, was 3 rpm)."""
+
+
+def _mark_refusal(value: str, mark: str, kind: str) -> UnitParseError:
+    inch = mark in ('"', "''", "\u2033")
+    unit, what = ("in", "an inch mark") if inch else ("ft", "a foot mark")
+    number = _NUMBER.match(value)
+    k = KINDS[kind]
+    hint = (f"write {unit}, e.g. '{number.group().strip() if number else '1'} {unit}'"
+            if k.si == "m" else f"{article(kind)} is written e.g. '1 {k.examples[0]}'")
+    return UnitParseError(f"{mark!r} ({what}) is not read as a unit; {hint}")
+
+
+def _mil_refusal(value: str, kind: str) -> UnitParseError:
+    """``4 mil`` is pint's angular mil (an angle, pi/32000 rad: a plain number to pint), not a
+    thousandth of an inch: it was told "is a plain number (no dimension)"."""
+    k = KINDS[kind]
+    m = re.fullmatch(rf"\s*({_NUM})\s*mils?\s*", value)
+    if k.si == "m":
+        n = float(m.group(1).replace("_", "")) if m else 1.0
+        hint = f"write '{n:g} thou' or '{n / 1000:g} in'"
+    else:
+        hint = f"{article(kind)} is written e.g. '1 {k.examples[0]}'"
+    return UnitParseError("'mil' is read as pint's angular mil (an angle, pi/32000 rad), not a"
+                          f" thousandth of an inch; {hint}")
+
+
+def _check_number_text(value: str, kind: str) -> None:
     """Refuse the number spellings that pint would read as something else, silently: a decimal
     comma (``4,92 N s/mm``: a tuple, which came out as 0) and digit groups apart (``2 000 rpm``:
-    2 times 0 times rpm, also 0), and a symbol pint's tokenizer drops without a word (``㎜``,
-    the minus sign U+2212 of ``−3 mm``, which came out as +3 mm, is read as '-' by ``to_si``)."""
+    2 times 0 times rpm, also 0), an inch or foot mark (``_MARK``), and a symbol pint's
+    tokenizer drops without a word (``㎜``, the minus sign U+2212 of ``−3 mm``, which came out
+    as +3 mm, is read as '-' by ``to_si``)."""
+    mark = _MARK.search(value)
+    if mark is not None:
+        raise _mark_refusal(value, mark.group(), kind)
     for ch in value:
         if ord(ch) > 127 and ch not in _PINT_SYMBOLS and unicodedata.category(ch)[0] in "SP":
             raise UnitParseError(f"the character {ch!r} (U+{ord(ch):04X}) in a quantity; write"
@@ -280,7 +317,7 @@ def _read_text(value: str, kind: str) -> float:
     """``to_si`` of a string whose unit has no kept factor: the grammar checked, then the
     unit's factor computed and kept, or the whole text read by pint."""
     value = value.replace("\u2212", "-")  # the minus sign, which pint dropped (−3 mm: +3 mm)
-    _check_number_text(value)
+    _check_number_text(value, kind)
     unit = _unit_expression(value, kind)
     m = _PLAIN.fullmatch(value)
     if m and unit is not None and _UNIT_ONLY.match(unit) and normalise(m.group(2)) == unit:
@@ -428,6 +465,8 @@ def _to_si_pint_checked(value: object, kind: str) -> float:
         return _bare(value, k, float(q.magnitude))
     # Root names: a prefixed angle ('3 krpm' is pint's kilorevolutions_per_minute) is one too.
     roots = {root for u in units for _, root, _ in ureg.parse_unit_name(u)} | set(units)
+    if "mil" in roots:  # before the angle's checks: 'is not an angle', 'a plain number'
+        raise _mil_refusal(value, kind)
     if k.name == "speed" and q.check("1/[time]") and not any(u in _ANGLE_UNITS for u in roots):
         # A frequency (Hz, kHz, 1/s) of a shaft is revolutions per unit time: 50 Hz = 3000 rpm.
         return _bare(value, KINDS["dimensionless"], float(q.to("1/min").magnitude))

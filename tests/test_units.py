@@ -548,3 +548,32 @@ def test_a_dimension_error_shows_the_unit_it_found_as_a_study_writes_it(kind):
     assert to_si(f"1 {shown}", found) == pytest.approx(to_si(f"1 {KINDS[found].display}", found))
     if kind == "inertia":
         assert shown == "kg m^2", shown
+
+
+@pytest.mark.parametrize(("text", "kind", "message"), [
+    ("0.004\"", "length", "'\"' (an inch mark) is not read as a unit; write in, e.g. '0.004 in'"),
+    ("0.004 ''", "length", "an inch mark) is not read as a unit; write in, e.g. '0.004 in'"),
+    ("0.004\u2033", "length", "an inch mark) is not read as a unit; write in, e.g. '0.004 in'"),
+    ("2'", "length", "a foot mark) is not read as a unit; write ft, e.g. '2 ft'"),
+    ("3\"", "speed", "an inch mark) is not read as a unit; a speed is written e.g. '1 rpm'")])
+def test_an_inch_or_foot_mark_is_told_to_write_its_unit(text, kind, message):
+    """pint's tokenizer drops a quote: ``backlash: 0.004"`` was told "has no unit; write e.g.
+    '0.004" mm'", and ``3"`` for a speed (a bare number is rpm) was 3 rpm (an outside
+    tester's finding)."""
+    with pytest.raises(UnitParseError) as e:
+        to_si(text, kind)
+    assert message in str(e.value) and "mm'" not in str(e.value)
+
+
+@pytest.mark.parametrize(("text", "kind", "hint"), [
+    ("4 mil", "length", "write '4 thou' or '0.004 in'"),
+    ("2.5 mils", "displacement", "write '2.5 thou' or '0.0025 in'"),
+    ("4 mil", "force", "a force is written e.g. '1 N'")])
+def test_mil_is_said_to_be_pints_angular_mil(text, kind, hint):
+    """``backlash: 4 mil`` was told "is a plain number (no dimension), expected length": pint's
+    ``mil`` is an angle (a plain number to it), not a thousandth of an inch (``thou``, read)."""
+    with pytest.raises(UnitParseError) as e:
+        to_si(text, kind)
+    assert str(e.value) == ("'mil' is read as pint's angular mil (an angle, pi/32000 rad), not a"
+                            f" thousandth of an inch; {hint}")
+    assert to_si("4 thou", "length") == pytest.approx(to_si("0.004 in", "length"), rel=1e-12)
