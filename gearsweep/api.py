@@ -45,7 +45,12 @@ from gearsweep.study.analysis_cost import check_limits as check_analysis
 from gearsweep.study.analysis_cost import estimate as estimate_analysis
 from gearsweep.study.analysis_specs import AnalysisStudy
 from gearsweep.study.dataset import write_netcdf
-from gearsweep.study.estimate import before_refusing, quick_estimate, small_chunk_note
+from gearsweep.study.estimate import (
+    before_refusing,
+    capped_chunk_note,
+    quick_estimate,
+    small_chunk_note,
+)
 from gearsweep.study.estimate import chunk_cases as chunk_size
 from gearsweep.study.execute import (
     WRITE_RATE,
@@ -286,7 +291,8 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         Show a progress bar per chunk (stderr); ``"log"``: plain lines at most every
         ``execute.LOG_PROGRESS_SECONDS`` instead (for a log, not a terminal).
     chunk_cases : int, optional
-        About this many cases per chunk (default: sized from the step count).
+        About this many cases per chunk (default: sized from the step count), at most about a
+        tenth of the study's kernel time (``estimate.chunk_cases``, docs/scale.md).
     yes : bool
         Run a study predicted beyond the limits too (10 min, 2 GB of memory, 2 GB of output:
         ``estimate``); without it such a study raises ``LimitError`` before anything runs, as
@@ -315,7 +321,9 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         (marked in ``contact_lost``): their teeth would separate, which the scene does not model.
     ChunkSizeWarning
         If ``chunk_cases`` is below one round of the kernel's blocks on all threads (mostly
-        empty work; the note the CLI prints for ``--chunk-size``).
+        empty work), or gives chunks longer than the runner allows (about a tenth of the
+        study's kernel time, 1-30 s: then cut to that, as the CLI cuts them): the notes the CLI
+        prints for ``--chunk-size``.
     SpectrumAliasingWarning
         Before running, if the spectrum's ``samples_per_period`` (written in the study, or all
         the steps) folds the orders up to the natural frequency's plus the excitation's highest
@@ -360,6 +368,10 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     small = small_chunk_note(plan, chunk_cases)
     if small:  # the CLI's note for --chunk-size
         warnings.warn(f"{name}: chunk_cases={chunk_cases}: {small}", ChunkSizeWarning, stacklevel=2)
+    asked, (chunk_cases, capped) = chunk_cases, chunk_size(plan, chunk_cases)  # as the CLI runs
+    if capped and asked is not None:  # (it ran the chunks asked for, and estimated the cut ones)
+        warnings.warn(f"{name}: chunk_cases={asked} gives {capped_chunk_note(plan)}; using"
+                      f" {chunk_cases} cases per chunk", ChunkSizeWarning, stacklevel=2)
     aliased = spectrum_aliasing(plan)
     if aliased:  # the line the CLI prints
         warnings.warn(f"{name}: {aliased}", SpectrumAliasingWarning, stacklevel=2)

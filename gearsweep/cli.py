@@ -48,6 +48,7 @@ from gearsweep.study.estimate import (
     PROGRESS_CHUNKS,
     SHORTEST_CAP_SECONDS,
     before_refusing,
+    capped_chunk_note,
     chunk_cases,
     quick_estimate,
     shortest_chunk_seconds,
@@ -499,11 +500,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if small and not args.quiet:
         print(f"gearsweep: note: {name}: --chunk-size {args.chunk_size}: {small}", file=sys.stderr)
     if capped and args.chunk_size is not None and not args.quiet:
-        print(f"gearsweep: note: --chunk-size {args.chunk_size} gives chunks longer than the"
-              f" runner's (about 1/{PROGRESS_CHUNKS} of the study's kernel time, for"
-              f" progress, but at least {SHORTEST_CAP_SECONDS:.0f} s and at most"
-              f" {CHUNK_SECONDS:.0f} s); using {chunk} cases per chunk",
-              file=sys.stderr)
+        print(f"gearsweep: note: {name}: --chunk-size {args.chunk_size} gives"
+              f" {capped_chunk_note(plan)}; using {chunk} cases per chunk", file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once). Whether the
     # kernel is compiled already (Numba's cache asked: 7-8 ms the first time in a process, of
     # which the warm-up, which asks too, then repeats most: 2-4 ms net, medians 43.9 against
@@ -1037,7 +1035,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--chunk-size", type=_whole_number, metavar="CASES",
                    help="about this many cases per chunk (100000 or 1e5; checkpoint and progress unit;"
                         " default about 1e9 steps, 3 chunks per worker with --workers, 4e9 steps"
-                        " on a GPU; a resumed run keeps its first run's chunks)")
+                        f" on a GPU; at most about 1/{PROGRESS_CHUNKS} of the study's kernel time,"
+                        f" {SHORTEST_CAP_SECONDS:g}-{CHUNK_SECONDS:g} s at the stated rate, for"
+                        " progress and what an interruption loses; a quarter of the first and of"
+                        " the last chunk is split off where it still fills the cores twice: 20,000"
+                        " cases in chunks of 1000 are 22 chunks on 2 cores; a resumed run keeps"
+                        " its first run's chunks)")
     r.add_argument("--overwrite", action="store_true",
                    help="replace an existing output that holds another study's result or a file"
                         " that cannot be read as a netCDF result (the same study's result is"

@@ -179,8 +179,9 @@ class DeviceError(GearsweepError):
 
 class ChunkSizeWarning(UserWarning):
     """``gearsweep.run(..., chunk_cases=N)`` with chunks smaller than one round of the kernel's
-    lanes on all threads: most of each chunk's work is empty (the CLI notes it for
-    ``--chunk-size``). Its own class so that a script can filter it without matching its text."""
+    lanes on all threads: most of each chunk's work is empty; or longer than the runner allows,
+    then cut (``estimate.capped_chunk_note``). The CLI notes both for ``--chunk-size``. Its own
+    class so that a script can filter it without matching its text."""
 
 
 class StepLimitWarning(UserWarning):

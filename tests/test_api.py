@@ -470,6 +470,33 @@ def test_a_chunk_size_below_a_round_of_kernel_blocks_is_said(small_whine, write_
     assert "at least 7 cases per chunk keep that under 10% of the time" in err  # all 7 speeds
 
 
+def test_run_cuts_a_chunk_size_beyond_the_runners_longest_chunk_as_the_cli(small_whine,
+                                                                           monkeypatch):
+    """``run(chunk_cases=N)`` ran chunks of N cases however long, while its limits were checked
+    on the chunks the CLI cuts them to (``estimate.chunk_cases``: at most about a tenth of the
+    study's kernel time, 1-30 s); it now runs those, and warns the CLI's note."""
+    from gearsweep.errors import ChunkSizeWarning
+    from gearsweep.study import execute
+    from gearsweep.study.estimate import chunk_cases
+
+    small_whine["solver"]["transient_periods"] = 1_000_000  # a round of blocks: about 3 s
+    ran = []
+
+    class Stop(Exception):
+        pass
+
+    def spy(plan, output, cases):
+        ran.append((cases, chunk_cases(plan, 1000)))
+        raise Stop
+
+    monkeypatch.setattr(execute, "chunks_to_run", spy)
+    with pytest.warns(ChunkSizeWarning, match=r"chunk_cases=1000 gives chunks longer than the"
+                      r" runner allows: .*; using \d+ cases per chunk"), pytest.raises(Stop):
+        gearsweep.run(small_whine, chunk_cases=1000, yes=True)
+    ((cases, (cut, capped)),) = ran
+    assert capped and cases == cut < 1000
+
+
 def test_the_small_chunk_note_counts_the_kernels_threads(small_whine, monkeypatch):
     """A round of kernel blocks is LANES lanes on each of the kernel's threads (Numba's), not
     on each core: with NUMBA_NUM_THREADS=1 on 4 cores, chunks of one full block were told

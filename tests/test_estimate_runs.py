@@ -19,6 +19,7 @@ from gearsweep.cli import main
 from gearsweep.study import execute
 from gearsweep.study.checkpoint import chunk_folder
 from gearsweep.study.estimate import (
+    CHUNK_SECONDS,
     PROGRESS_CHUNKS,
     SHORTEST_CAP_SECONDS,
     chunk_cases,
@@ -190,6 +191,52 @@ def test_the_note_on_a_huge_chunk_size_says_the_rule_it_follows(tmp_path, capsys
     assert total_s / PROGRESS_CHUNKS < SHORTEST_CAP_SECONDS  # this study: the floor applies
     assert SHORTEST_CAP_SECONDS * 0.9 < chunk_s <= SHORTEST_CAP_SECONDS
 
+
+
+CI = """\
+title: interrupt test
+scene:
+  kind: full
+  gear: {module: 3 mm, z1: 25, z2: 61, face_width: 30 mm}
+  torque: 60 N m
+  mass: 0.5 kg
+  damping: 4 N*s/mm
+  backlash: 0.08 mm
+sweep:
+  speed: {start: 1000 rpm, stop: 16000 rpm, num: 400}
+  damping: {start: 1 N*s/mm, stop: 10 N*s/mm, num: 50}
+solver: {method: rk4, steps_per_period: 64, transient_periods: 20000, record_periods: 50}
+outputs: [stats]
+"""
+"""An outside tester's 20,000 cases, whose runner's own chunks are 28 of about 714 cases."""
+
+
+def test_the_cap_of_a_large_chunk_size_is_named_as_the_runners_limit_with_its_seconds(
+        tmp_path, capsys):
+    """``--chunk-size 1e4`` was told "gives chunks longer than the runner's (...); using 1984
+    cases per chunk", though the runner's own chunks are 28 of about 714 cases, and --help and
+    docs/scale.md spoke of no cap (an outside tester's finding). The note names the runner's
+    longest chunk and why, with this study's seconds; --help says the cap."""
+    study = tmp_path / "ci.yaml"
+    study.write_text(CI, encoding="utf-8")
+    assert main(["run", str(study), "--estimate", "-o", str(tmp_path / "ci.nc"),
+                 "--chunk-size", "1e4"]) == 0
+    (note,) = [line for line in capsys.readouterr().err.splitlines() if "--chunk-size" in line]
+    assert "runner's (" not in note
+    plan = _plan(CI)
+    per_round = execute.LANES * execute.cores()
+    total_s = math.ceil(plan.n_lanes / per_round) * shortest_chunk_seconds(plan)
+    limit_s = min(CHUNK_SECONDS, max(total_s / PROGRESS_CHUNKS, SHORTEST_CAP_SECONDS))
+    assert note.startswith(f"gearsweep: note: {study}: --chunk-size 10000 gives chunks longer"
+                           " than the runner allows: about 1/10 of the study's kernel time"), note
+    assert f"({limit_s:.2g} s of {total_s:.2g} s here, at the stated rate)" in note, note
+    cases = int(re.search(r"using (\d+) cases per chunk", note).group(1))
+    assert cases / per_round * shortest_chunk_seconds(plan) <= limit_s
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    helped = " ".join(capsys.readouterr().out.split())
+    assert (f"at most about 1/{PROGRESS_CHUNKS} of the study's kernel time,"
+            f" {SHORTEST_CAP_SECONDS:g}-{CHUNK_SECONDS:g} s at the stated rate") in helped
 
 GEAR_LOADS = """\
 title: gear torque sweep

@@ -253,6 +253,31 @@ def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = No
             " size to the runner)")
 
 
+def _longest_chunk_seconds(plan: Plan, threads: int, seconds: float = CHUNK_SECONDS
+                           ) -> tuple[float, float]:
+    """(the longest a CPU chunk of ``plan`` may take, the study's kernel time) [s], at the stated
+    rate on ``threads`` cores: about ``1 / PROGRESS_CHUNKS`` of the kernel time, at least
+    ``SHORTEST_CAP_SECONDS``, at most ``seconds`` (``chunk_cases``'s cap)."""
+    round_lanes = max(LANES * threads // max(len(plan.directions), 1), 1)
+    total_s = math.ceil(plan.n_lanes / round_lanes) * shortest_chunk_seconds(plan)
+    return min(seconds, max(total_s / PROGRESS_CHUNKS, SHORTEST_CAP_SECONDS)), total_s
+
+
+def capped_chunk_note(plan: Plan, threads: int | None = None) -> str:
+    """Why ``chunk_cases`` cut a requested chunk size, in words, with this study's numbers: the
+    runner's longest chunk (it said "longer than the runner's", taken for its default chunks,
+    and the help and docs/scale.md spoke of no cap)."""
+    if plan.device == "cuda":
+        return (f"chunks longer than the runner allows: at most about {CHUNK_SECONDS:.0f} s each"
+                " at the GPU's stated rate, so that progress is shown and an interruption loses"
+                " at most that")
+    limit, total = _longest_chunk_seconds(plan, threads or cores())
+    return (f"chunks longer than the runner allows: about 1/{PROGRESS_CHUNKS} of the study's"
+            f" kernel time, for progress, but at least {SHORTEST_CAP_SECONDS:.0f} s and at most"
+            f" {CHUNK_SECONDS:.0f} s, so that an interruption loses little ({limit:.2g} s of"
+            f" {total:.2g} s here, at the stated rate)")
+
+
 def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
                 seconds: float = CHUNK_SECONDS, workers: int | None = None
                 ) -> tuple[int | None, bool]:
@@ -283,8 +308,7 @@ def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
         return (requested, False) if lanes <= lanes_max else (lanes_max * per_lane, True)
     round_s = shortest_chunk_seconds(plan)  # one round of blocks [s]
     round_lanes = max(LANES * threads // ways, 1)
-    total_s = math.ceil(plan.n_lanes / round_lanes) * round_s
-    target = min(seconds, max(total_s / PROGRESS_CHUNKS, SHORTEST_CAP_SECONDS))
+    target = _longest_chunk_seconds(plan, threads, seconds)[0]
     lanes_max = max(int(target // round_s), 1) * round_lanes
     lanes = (lanes_per_chunk(plan, requested) if requested is not None
              else plan.default_lanes_per_chunk())
