@@ -355,8 +355,8 @@ def test_misspelt_names_beside_other_errors_are_all_said_at_once():
     lines = _lines(text)
     for says in (("s.yaml:4: scene.mas: 'mas' is not a field of a rattle scene -- did you mean"
                  " 'mass'?"),
-                 ("s.yaml:10: sweep.sped: not a sweepable parameter of the 'rattle' scene; did you"
-                 " mean 'speed'?"),
+                 ("s.yaml:10: sweep.sped: 'sped' is not a sweepable parameter of the 'rattle' scene;"
+                 " did you mean 'speed'?"),
                  ("s.yaml:11: solver.step_per_period: 'step_per_period' is not a field of solver --"
                  " did you mean 'steps_per_period'?"),
                  "s.yaml:12: outputs[0]: 'stat' -- not an output; did you mean 'stats'?"):
@@ -365,8 +365,21 @@ def test_misspelt_names_beside_other_errors_are_all_said_at_once():
     lines = _lines(GOOD.replace("  speed: {", "  speed: {start: 1 rpm, stop: 2 rpm, num: 2}\n"
                                 "  backlsh: [0.1 mm]\n  x: {") + "continuation: [up, dwn]\n")
     assert any(ln.startswith("s.yaml:14: continuation[1]") for ln in lines), lines
-    assert any(ln.startswith("s.yaml:11: sweep.backlsh: not a sweepable parameter of the"
-                             " 'rattle' scene; did you mean 'backlash'?") for ln in lines), lines
+    assert any(ln.startswith("s.yaml:11: sweep.backlsh: 'backlsh' is not a sweepable parameter"
+                             " of the 'rattle' scene; did you mean 'backlash'?") for ln in lines), lines
+
+
+def test_a_repeated_output_and_an_unsweepable_name_are_named_as_written():
+    """``outputs: [stats, stats]`` was told "outputs: list each output at most once" and a
+    whine scene's ``sweep.backlash`` "not a sweepable parameter ...", neither naming what was
+    written (an outside tester's finding): the repeat is named at its place, and the name."""
+    text = GOOD.replace("  speed: {", "  speed: {start: 1 rpm, stop: 2 rpm, num: 2}\n"
+                        "  alpha: [0.1 mm]\n  x: {") + "outputs:\n  - stats\n  - stats\n"
+    lines = _lines(text)
+    assert ("s.yaml:16: outputs[1]: 'stats' -- listed already (outputs[0]); list each output at"
+            " most once") in lines, lines
+    assert any(ln.startswith("s.yaml:11: sweep.alpha: 'alpha' is not a sweepable parameter of"
+                             " the 'rattle' scene; allowed: ") for ln in lines), lines
 
 
 def test_the_problems_found_when_planning_are_said_at_once():

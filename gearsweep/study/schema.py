@@ -749,8 +749,10 @@ def sweep_name_problems(kind: str, names: list, gear: bool = False) -> list[Prob
         if name not in allowed:
             close = difflib.get_close_matches(str(name), sorted(allowed), n=1)
             hint = f"did you mean {close[0]!r}? " if close else ""
-            out.append(Problem(f"sweep.{name}", NO_VALUE, f"not a sweepable parameter of the"
-                               f" {kind!r} scene; {hint}allowed: {', '.join(sorted(allowed))}"))
+            # the name as written, as a field that is none is named (it said "not a sweepable
+            # parameter" without it)
+            out.append(Problem(f"sweep.{name}", NO_VALUE, f"{name!r} is not a sweepable parameter"
+                               f" of the {kind!r} scene; {hint}allowed: {', '.join(sorted(allowed))}"))
     return out
 
 
@@ -763,8 +765,10 @@ def output_name_problems(names: list) -> list[Problem]:
             hint = f"did you mean {close[0]!r}? " if close else ""
             out.append(Problem(f"outputs[{i}]", name, f"not an output; {hint}allowed:"
                                f" {', '.join(sorted(OUTPUTS))}"))
-    if len(set(names)) != len(names):
-        out.append(Problem("outputs", NO_VALUE, "list each output at most once"))
+    for i, name in enumerate(names):  # the repeat, named (it said only "list each output at
+        if name in names[:i]:  # most once", not which)
+            out.append(Problem(f"outputs[{i}]", name, f"listed already (outputs[{names.index(name)}]);"
+                               " list each output at most once"))
     if not names:
         out.append(Problem("outputs", [], f"at least one output (leave the key out for stats);"
                            f" allowed: {', '.join(sorted(OUTPUTS))}"))
