@@ -458,7 +458,8 @@ def _base(info: ValidationInfo) -> Path:
 class ExcitationSpec(Strict):
     """``excitation:``: the scene's STE and/or mesh stiffness as samples in a file, fitted."""
 
-    file: str = Field(min_length=1, description="CSV or netCDF file (relative to the study file)")
+    file: str = Field(min_length=1, description="CSV or netCDF file (relative to the study file;"
+                      " a leading ~ is the home folder)")
     harmonics: Count = Field(10, ge=1, le=100, description="highest mesh order kept: fitted to"
                              " the samples, or of a mesh study's result its integrated harmonics"
                              " (at most the study's harmonics)")
