@@ -628,6 +628,9 @@ def test_rattle_budget_marks_a_scene_whose_jumps_cannot_be_judged(tmp_path):
         at = {"damping": c, "direction": d}
         ds["p_pp"].loc[at] = 2 * np.array(amp)
         ds["status"].loc[at] = status
+        # and their settle_error: the j1 sweep's unsettled points scatter (by more than half
+        # the jump threshold: no support, analysis.jumps), its settled ones do not
+        ds["settle_error"].loc[at] = np.where(np.array(status) == 2, 0.2, 0.0)
     ds.to_netcdf(tmp_path / "j.nc")
     budget = gearsweep.run({"type": "analysis", "title": "b", "analysis": {
         "kind": "rattle_budget", "fitted": "s", "scenes": ["j"], "names": ["j1"], "mesh": "m"}},

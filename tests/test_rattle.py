@@ -948,3 +948,127 @@ def test_rattle_contact_says_drive_flank_impacts_only_where_the_back_flank_fract
                                         " time)")
     back[0, 3], back[0, 0] = 0.0, 0.3  # below the drop: not what the note is about
     assert note(balance(back)).endswith("drive-flank impacts only)")
+
+
+def _sweeps(speed, up, down, status=None, settle_error=None):
+    """A continued result's Dataset of two sweeps: half peak-to-peak ``up`` and ``down``, and
+    their ``status`` and ``settle_error`` ((2, n): run-up, run-down), as a study writes them."""
+    import xarray as xr
+
+    dr = ("direction", "speed")
+    ds = xr.Dataset({"p_pp": (dr, 2 * np.array([up, down], float))},
+                    coords={"direction": ["up", "down"], "speed": np.asarray(speed, float)})
+    if status is not None:
+        ds["status"] = (dr, np.array(status, np.int8))
+    if settle_error is not None:
+        ds["settle_error"] = (dr, np.array(settle_error, float))
+    ds.attrs["settle_tolerance"] = "0.01"
+    return ds
+
+
+def test_a_branch_known_to_a_fraction_of_the_threshold_supports_a_jump():
+    """An outside tester: studies/fig08_rattle.yaml with 100 transient periods instead of 40.
+    The run-up drops from 677 um (8,008 rpm, settled, period 1) to 470, 468, 466, 464, 464 um;
+    three of those five did not pass the settle test (settle_error 0.018-0.022 against its
+    1e-2), so the lower branch had no two settled points beside the drop and the drop "could not
+    be judged" (jump_up_speed NaN, jump_unsupported 1). scipy's DOP853 (rtol 1e-10) drops
+    between 8,000 and 8,050 rpm, the describing function turns at 7,995 rpm. Each side's level
+    is known to 2 %, far inside the 25 % a jump needs: the drop is the jump, between 8,008 and
+    8,023 rpm. The same points scattering by more than half the threshold (settle_error 0.2)
+    show no branch: the drop cannot be judged."""
+    from gearsweep.study.jumps import jump_summary
+
+    speed = [7977.4, 7992.5, 8007.5, 8022.6, 8037.6, 8052.6, 8067.7, 8082.7, 8097.7, 8112.8]
+    up = [690.3, 682.5, 677.2, 469.6, 468.2, 465.6, 464.1, 463.8, 460.9, 459.4]
+    down = [473.9, 472.5, 471.0, 469.6, 468.2, 463.5, 465.2, 455.0, 461.6, 459.7]
+    status = [[0, 0, 0, 2, 0, 2, 2, 0, 2, 0], [0, 0, 0, 0, 0, 0, 0, 0, 0, 2]]
+    err = [[0.0, 0.0, 0.0, 0.0225, 0.0, 0.0182, 0.0179, 0.0001, 0.0107, 0.0072],
+           [0.0001, 0.0001, 0.0, 0.0, 0.0, 0.0013, 0.0001, 0.0001, 0.0056, 0.0118]]
+    js = jump_summary(_sweeps(speed, up, down, status, err))
+    assert int(js.jump_unsupported) == 0
+    assert (float(js.jump_up_low), float(js.jump_up_high)) == (8007.5, 8022.6)
+    assert 8000.0 < float(js.jump_up_speed) < 8050.0
+    assert float(js.jump_up_size) == pytest.approx((469.6 - 677.2) / 677.2)
+    scatter = np.where(np.array(status) == 2, 0.2, np.array(err))
+    js = jump_summary(_sweeps(speed, up, down, status, scatter))
+    assert int(js.jump_unsupported) == 1 and np.isnan(float(js.jump_up_speed))
+
+
+def test_the_rise_into_a_chaotic_band_is_the_same_jump_whatever_points_pass_the_settle_test():
+    """docs/rattle.md's paper-k scene at c = 0.492 N s/mm (results/rattle_table1_ste_paper_k.nc
+    and _long.nc, 3,800-7,400 rpm): the run-up leaves its lower branch between 4,600 and 4,800
+    rpm (3.7 um -> 18-20 um) into a chaotic band (motion_period NaN) whose p_pp scatters from
+    window to window by 3-16 %. Which of the band's speeds passed the settle test was chance:
+    none at 100 transient periods, three at 1,000; so the judged run-up jump was a later rise
+    (6,300 rpm) in the first, the rise into the band (4,700 rpm) in the second. With the band's
+    level known to within half the threshold, both rise into the band at 4,700 rpm; the
+    run-down drops at 4,500 rpm in both."""
+    from gearsweep.study.jumps import jump_summary
+
+    speed = np.arange(3800.0, 7401.0, 200.0)
+    down = [5.4, 4.4, 3.7, 3.5, 47.7, 45.1, 43.1, 40.8, 38.5, 36.3, 34.3, 32.2, 30.2, 28.3, 26.4,
+            24.6, 22.9, 21.4, 20.0]
+    rows = {  # transient periods: run-up p_pp, status, settle_error
+        100: ([5.4, 4.4, 3.7, 3.5, 3.7, 18.6, 18.5, 19.7, 21.6, 14.2, 8.7, 7.6, 8.6, 19.6, 26.4,
+               25.3, 22.9, 21.4, 20.0],
+              [0, 0, 0, 0, 0, 2, 2, 2, 2, 2, 0, 0, 2, 2, 0, 0, 0, 0, 0],
+              [0, 0, 0, 0, 0, 0.028, 0.086, 0.045, 0.161, 0.055, 0, 0, 0.116, 0.158, 0, 0, 0, 0,
+               0]),
+        1000: ([5.4, 4.4, 3.7, 3.5, 3.7, 20.1, 18.7, 18.2, 18.1, 17.1, 8.7, 7.6, 7.3, 28.3, 26.4,
+                24.5, 22.9, 21.4, 20.0],
+               [0, 0, 0, 0, 0, 0, 2, 0, 2, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+               [0, 0, 0, 0, 0, 0.007, 0.027, 0.008, 0.048, 0.226, 0, 0, 0, 0, 0, 0, 0, 0, 0]),
+    }
+    for transient, (up, status, err) in rows.items():
+        ds = _sweeps(speed, np.array(up) / 2, np.array(down) / 2, [status, [0] * 19],
+                     [err, [0.0] * 19])
+        js = jump_summary(ds)
+        assert float(js.jump_up_speed) == 4700.0, transient
+        assert float(js.jump_down_speed) == 4500.0 and int(js.jump_unsupported) == 0
+
+
+def test_a_drop_spread_by_a_transient_known_to_the_threshold_is_still_one_jump():
+    """The rattle map (c = 2.47 N s/mm, 408 N m, backlash 0.47 mm): the run-down rises from 347
+    to 517 um over two steps (10,636 -> 10,576 -> 10,515 rpm), 18 % and 18 %, through a point
+    that did not settle (422 um, settle_error 0.078: within half the threshold). The support
+    of a jump goes by the known points; the search across the speeds that did not settle still
+    goes by status: one jump, not "no jump" (and not "cannot be judged", the old verdict: the
+    chaotic run-down beyond it had one settled point among three)."""
+    from gearsweep.study.jumps import jump_summary
+
+    speed = [10333.3, 10393.9, 10454.5, 10515.2, 10575.8, 10636.4, 10697.0, 10757.6, 10818.2]
+    down = [514.6, 515.9, 516.4, 516.9, 421.6, 347.4, 331.7, 395.0, 381.0]
+    up = [514.6, 515.9, 516.4, 516.9, 517.8, 517.9, 517.5, 517.4, 515.3]
+    status = [[0] * 9, [0, 0, 0, 0, 2, 0, 2, 2, 2]]
+    err = [[0.0] * 9, [0.0, 0.0, 0.0, 0.0, 0.078, 0.004, 0.092, 0.072, 0.06]]
+    js = jump_summary(_sweeps(speed, up, down, status, err))
+    assert int(js.jump_unsupported) == 0
+    assert 10515.2 <= float(js.jump_down_low) and float(js.jump_down_high) <= 10636.4
+    assert float(js.jump_down_size) == pytest.approx((516.9 - 347.4) / 516.9)
+
+
+def test_a_sweep_that_never_settles_has_no_verdict_of_no_jump():
+    """An outside tester: the Fig. 8 scene undamped (c = 0), 7,000-9,000 rpm on 21 speeds: 40 of
+    42 case-speeds did not settle (status 2), no period anywhere, p_pp 1,237-1,617 um, and the
+    jump summary said "no hysteresis" (width 0, judged). With no damping nothing decays: the
+    windows are the transient's, whatever their settle_error (each under 0.12 here), and the
+    two sweeps agreeing says nothing of a loop. A sweep with no jump, most of whose points did
+    not settle, cannot be judged (width NaN)."""
+    from gearsweep.study.jumps import jump_summary
+
+    speed = np.linspace(7000.0, 9000.0, 21)
+    up = [1338, 1253, 1237, 1351, 1303, 1364, 1373, 1355, 1383, 1376, 1498, 1456, 1370, 1472,
+          1496, 1507, 1522, 1529, 1615, 1577, 1599]
+    down = [1329, 1338, 1321, 1383, 1369, 1359, 1439, 1423, 1406, 1333, 1397, 1459, 1311, 1468,
+            1498, 1477, 1484, 1483, 1546, 1617, 1590]
+    status = np.full((2, 21), 2)
+    status[0, 19] = status[1, 2] = 0
+    err = [[0.023, 0.035, 0.056, 0.048, 0.069, 0.028, 0.07, 0.104, 0.056, 0.011, 0.023, 0.06,
+            0.016, 0.027, 0.039, 0.081, 0.083, 0.077, 0.022, 0.003, 0.055],
+           [0.058, 0.032, 0.001, 0.031, 0.031, 0.031, 0.011, 0.084, 0.115, 0.022, 0.04, 0.047,
+            0.056, 0.033, 0.06, 0.084, 0.073, 0.025, 0.044, 0.023, 0.034]]
+    js = jump_summary(_sweeps(speed, np.array(up) / 2, np.array(down) / 2, status, err))
+    assert int(js.jump_unsupported) == 3 and np.isnan(float(js.hysteresis_width))
+    # the same sweeps settled: judged, no loop
+    js = jump_summary(_sweeps(speed, np.array(up) / 2, np.array(down) / 2, 0 * status, 0 * np.array(err)))
+    assert int(js.jump_unsupported) == 0 and float(js.hysteresis_width) == 0.0

@@ -2,10 +2,13 @@
 
 ``jump_summary(ds)`` applies ``gearsweep.analysis.jumps.find_jumps`` (the criterion is stated in
 its module docstring) to the amplitude ``p_pp / 2`` of the ``up`` and ``down`` sweeps of every
-case (a case-speed that did not settle, ``status`` != 0, is no support of a jump) and returns
-the speeds where each sweep jumps, the two grid speeds between which each jump lies, and the
-hysteresis band between them, on the study's other dims; ``jump_unsupported`` marks the sweeps
-whose jumps cannot be judged.
+case and returns the speeds where each sweep jumps, the two grid speeds between which each jump
+lies, and the hysteresis band between them, on the study's other dims; ``jump_unsupported``
+marks the sweeps whose jumps cannot be judged. A case-speed's amplitude is known (supports a
+jump) where its ``settle_error`` is at most half the jump threshold, whatever its ``status``
+(the settle tolerance, 1e-2, is for the recorded statistics; a diverged or skipped one, status 1
+or 3, is unknown); the search across the speeds that did not settle and the verdict "no jump"
+go by ``status`` (``find_jumps``'s ``settled_up`` / ``settled_down``).
 """
 
 from __future__ import annotations
@@ -14,6 +17,12 @@ import numpy as np
 import xarray as xr
 
 from gearsweep.analysis.jumps import find_jumps
+
+UNSUPPORTED_WHY = ("steps that meet the jump criterion but none with points of both branches"
+                   " beside it whose amplitude is known (settle_error at most half the"
+                   " threshold), or no jump while most of its case-speeds did not settle")
+"""Why a sweep's jump cannot be judged (``find_jumps``'s unsupported): the one wording of the
+``jump_unsupported`` variable and of the analyses' notes."""
 
 JUMP_VARIABLES = {
     "jump_up_speed": ("rpm", ("speed at which the run-up jumps: midpoint of jump_up_low"
@@ -35,11 +44,22 @@ JUMP_VARIABLES = {
     "hysteresis_open": ("1", ("the hysteresis band reaches an end of the swept speeds still"
                               " two-valued, its width a lower bound (0: no, 1: the lowest speed,"
                               " 2: the highest, 3: both)")),
-    "jump_unsupported": ("1", ("a sweep has steps that meet the jump criterion but none with"
-                               " settled points of both branches beside it: whether it jumps,"
-                               " and the hysteresis band, cannot be judged (0: judged, 1: the"
-                               " run-up, 2: the run-down, 3: both)")),
+    "jump_unsupported": ("1", (f"a sweep has {UNSUPPORTED_WHY}: whether it jumps, and the"
+                               " hysteresis band, cannot be judged (0: judged, 1: the run-up,"
+                               " 2: the run-down, 3: both)")),
 }
+
+
+def _amplitude_error(ds: xr.Dataset, settled: xr.DataArray) -> xr.DataArray:
+    """Relative uncertainty of each case-speed's amplitude: its ``settle_error``, NaN (unknown)
+    where it diverged or was skipped (status 1, 3), 0 where the study took it as settled above
+    its settle tolerance (only a response that has died away is: its settle_error is round-off
+    over round-off; ``STATUS_CODES`` 2)."""
+    err = ds["settle_error"]
+    tol = float(ds.attrs.get("settle_tolerance", np.inf))
+    quiet = settled & (err > tol)
+    status = ds["status"] if "status" in ds else xr.zeros_like(err, dtype=np.int8)
+    return xr.where(quiet, 0.0, err.where(status.isin([0, 2])))
 
 
 def jump_summary(ds: xr.Dataset, threshold: float = 0.25) -> xr.Dataset:
@@ -67,8 +87,13 @@ def jump_summary(ds: xr.Dataset, threshold: float = 0.25) -> xr.Dataset:
     def sweep(da, direction):
         return da.sel(direction=direction).transpose(*other, "speed").values
 
+    error = {"up": None, "down": None}
+    if "settle_error" in ds:
+        e = _amplitude_error(ds, settled).broadcast_like(amp)
+        error = {d: sweep(e, d) for d in error}
     js = find_jumps(ds["speed"].values, sweep(amp, "up"), sweep(amp, "down"), threshold,
-                    settled_up=sweep(settled, "up"), settled_down=sweep(settled, "down"))
+                    settled_up=sweep(settled, "up"), settled_down=sweep(settled, "down"),
+                    error_up=error["up"], error_down=error["down"])
     coords = {d: ds[d] for d in other}
     out = {}
     values = {"jump_up_speed": js.up_speed, "jump_up_size": js.up_size,
