@@ -38,9 +38,9 @@ def fig8(bal, figures):
 
     speed = bal["speed"].values
     flip = float(bal.flip_speed)
-    print(f"sweeps: run-up jumps at {float(bal.jump_up_speed):.0f} rpm (size"
-          f" {float(bal.jump_up_size):+.2f}), run-down at {float(bal.jump_down_speed):.0f} rpm"
-          f" (size {float(bal.jump_down_size):+.2f}); grid step {speed[1] - speed[0]:.1f} rpm")
+    print(f"sweeps: run-up {rplot.budget_jump(bal, 'up')} (size {float(bal.jump_up_size):+.2f}),"
+          f" run-down {rplot.budget_jump(bal, 'down')} (size {float(bal.jump_down_size):+.2f});"
+          f" grid step {speed[1] - speed[0]:.1f} rpm")  # (NaN: none, or cannot be judged)
     print(f"turning points [rpm]: describing fn. {turns('describing_function')}, with F_m = 0"
           f" {turns('describing_function_no_mean_force')}, AFT {turns('aft')}"
           f" ({bal.attrs['aft_points']} points, {bal.attrs['aft_seconds']:.1f} s)")

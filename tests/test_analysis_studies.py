@@ -652,3 +652,33 @@ def test_rattle_budget_marks_a_scene_whose_jumps_cannot_be_judged(tmp_path):
         "jump cannot be judged"] * 2
     assert [budget_jump(b.sel(damping=c_good), d) for d in ("up", "down")] == [
         f"jump at {0.5 * (speed[3] + speed[4]):.0f} rpm", "no jump"]
+
+
+def test_rattle_balance_says_which_jumps_cannot_be_judged_and_its_box_says_so(tmp_path):
+    """rattle_balance carried the jump speeds but not jump_unsupported (rattle_budget and
+    jump_map do), and Fig. 8's Eq. (15) box read a NaN jump as "the integration has no such
+    jump" while the axes drew the drop (an outside tester). The Fig. 8 scene with its run-up's
+    points from 7,950 rpm up made to scatter (status 2, settle_error 0.2: no branch there), so
+    its drop (near 8,018 rpm) has no support: jump_unsupported 1 with the jump summary's
+    long_name, and the box says the integration's drop cannot be judged."""
+    import xarray as xr
+
+    from gearsweep.plot.rattle import _eq15_lines
+    from gearsweep.study import analyses
+    from gearsweep.study.jumps import JUMP_VARIABLES, jump_summary
+    from gearsweep.study.schema import parse_study
+
+    gearsweep.run(RATTLE, output=tmp_path / "r.nc")
+    ds = xr.load_dataset(tmp_path / "r.nc")
+    assert int(jump_summary(ds).jump_unsupported) == 0  # as run: the drop is judged
+    far = {"direction": "up", "speed": ds["speed"].values[ds["speed"].values >= 7950.0]}
+    ds["status"].loc[far] = 2
+    ds["settle_error"].loc[far] = 0.2
+    ds.to_netcdf(tmp_path / "s.nc")
+    text = ("type: analysis\ntitle: t\nanalysis: {kind: rattle_balance, result: s,"
+            " harmonics: 5, n_time: 64}\n")
+    bal = analyses.run_analysis_study(parse_study(text), text, tmp_path)
+    assert int(bal["jump_unsupported"]) == 1 and np.isnan(float(bal["jump_up_speed"]))
+    assert bal["jump_unsupported"].attrs["long_name"] == JUMP_VARIABLES["jump_unsupported"][1]
+    drop = [line for line in _eq15_lines(bal) if line.startswith("run-up drop")]
+    assert drop and "cannot be judged" in drop[0] and "no such jump" not in drop[0], drop

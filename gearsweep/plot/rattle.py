@@ -263,8 +263,8 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     cbh = fig.colorbar(imh, ax=list(axes_hyst), shrink=0.9)
     cbh.set_label("hysteresis band width [rpm]" + ("\n(hatched: open at an end of the sweep,"
                                                    " at least this wide)" if opened.any() else "")
-                  + ("\n(grey: cannot be judged, no jump with settled points of both"
-                     " branches)" if unjudged.any() else ""))
+                  + ("\n(grey: cannot be judged, see jump_unsupported)" if unjudged.any()
+                     else ""))
     return fig
 
 
@@ -275,7 +275,8 @@ def plot_rattle_balance(ax: Axes, ds: xr.Dataset, *, ymax: float | None = None,
     branch flips, and Eq. (15) against the integration; titled with the scene's numbers.
     ``ymax`` [mm] (default: 1.6 times the integration's largest amplitude; Fig. 8 gives 0.6);
     ``note_at`` (rpm, mm): where the flip note is written."""
-    require(ds, ("amplitude", "aft_speed", "eq15_root"), "plot_rattle_balance", BALANCE)
+    require(ds, ("amplitude", "aft_speed", "eq15_root", "jump_unsupported"),
+            "plot_rattle_balance", BALANCE)
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     speed = ds["speed"].values
     amp = ds["amplitude"]
@@ -337,22 +338,27 @@ def _fitted(ds: xr.Dataset) -> bool:
 
 def _eq15_lines(ds: xr.Dataset) -> list[str]:
     """The lines of Eq. (15) against the integration that the result has numbers for (a NaN,
-    e.g. no jump or no three-root band, leaves its part out: it printed 'integration nan')."""
+    e.g. no jump or no three-root band, leaves its part out: it printed 'integration nan'; a
+    jump the jump summary cannot judge reads so: it read 'no such jump')."""
     def f(name: str) -> float:
         return float(ds[name])
 
-    def pair(what: str, eq: str, jump: str) -> str | None:
+    unjudged = int(ds["jump_unsupported"])  # (1: the run-up's jump, 2: the run-down's, 3)
+
+    def pair(what: str, eq: str, jump: str, bit: int) -> str | None:
         a, b = f(eq), f(jump)
         if np.isfinite(a) and np.isfinite(b):
             return f"{what} {a:.0f} rpm (integration {b:.0f})"
+        if np.isfinite(a) and unjudged & bit:  # NaN: the jump summary cannot judge that sweep
+            return f"{what} {a:.0f} rpm (the integration's: cannot be judged)"
         if np.isfinite(a):
             return f"{what} {a:.0f} rpm (the integration has no such jump)"
         if np.isfinite(b):
             return f"integration's {what} at {b:.0f} rpm (Eq. (15) has none: F0 >= k b)"
         return None
 
-    out = [pair("run-down rise", "eq15_rise_speed", "jump_down_speed"),
-           pair("run-up drop", "eq15_drop_speed", "jump_up_speed")]
+    out = [pair("run-down rise", "eq15_rise_speed", "jump_down_speed", 2),
+           pair("run-up drop", "eq15_drop_speed", "jump_up_speed", 1)]
     med, top = f("eq15_distance_rattling_median"), f("eq15_distance_rattling_max")
     if np.isfinite(med):
         out.append(f"amplitude, rattling branch: median {med:.1%}"
@@ -464,9 +470,9 @@ def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | Non
 
 def budget_jump(s: xr.Dataset, direction: str) -> str:
     """The jump of one sweep (``direction`` "up" or "down") of one scene and damping ``s`` of a
-    ``rattle_budget`` Dataset, in words: "jump at 6500 rpm", "no jump", or "jump cannot be
-    judged" where the jump criterion could not judge it (``jump_unsupported``; its jump speed is
-    NaN as where there is none)."""
+    ``rattle_budget`` Dataset (or of a ``rattle_balance`` one), in words: "jump at 6500 rpm",
+    "no jump", or "jump cannot be judged" where the jump criterion could not judge it
+    (``jump_unsupported``; its jump speed is NaN as where there is none)."""
     if int(s.jump_unsupported) & (1 if direction == "up" else 2):
         return "jump cannot be judged"
     speed = float(s[f"jump_{direction}_speed"])

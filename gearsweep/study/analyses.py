@@ -33,7 +33,7 @@ from gearsweep.study.analysis_specs import (
     WorkPrecision,
 )
 from gearsweep.study.dataset import build_dataset
-from gearsweep.study.jumps import JUMP_VARIABLES, jump_summary
+from gearsweep.study.jumps import JUMP_VARIABLES, UNSUPPORTED_WHY, jump_summary
 from gearsweep.units import KINDS, from_display, si_values
 
 DRIVEN_TEETH = 32
@@ -420,6 +420,7 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "jump_up_speed": ((), up_jump), "jump_down_speed": ((), down_jump),
         "jump_up_size": ((), float(js.jump_up_size)),
         "jump_down_size": ((), float(js.jump_down_size)),
+        "jump_unsupported": ((), int(js.jump_unsupported)),
         # Eq. (15) has three roots between w_t and w_n only where F0 < k b (the paper's order);
         # otherwise one root at every speed: no rise or drop of its to compare
         "eq15_rise_speed": ((), dist["up"].rise_eq15 if f0 < k * b else np.nan),
@@ -487,6 +488,8 @@ def rattle_balance(o: RattleBalance, inputs: dict) -> tuple[dict, dict, dict, di
         "jump_down_speed": {**rpm, "long_name": "integration: run-down jump"},
         "jump_up_size": {"units": "1", "long_name": "relative size of the run-up jump"},
         "jump_down_size": {"units": "1", "long_name": "relative size of the run-down jump"},
+        "jump_unsupported": {"units": JUMP_VARIABLES["jump_unsupported"][0],
+                             "long_name": JUMP_VARIABLES["jump_unsupported"][1]},
         "eq15_rise_speed": {**rpm, "long_name": "Eq. (15): its gap root appears (run-down rise;"
                             " NaN: F0 >= k b, one root at every speed)"},
         "eq15_drop_speed": {**rpm, "long_name": "Eq. (15): its in-phase root leaves to infinity"
@@ -664,9 +667,8 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
     if unjudged:  # (their jump speeds are NaN as where there is no jump)
         settings["jump_note"] = (
             f"{len(unjudged)} of {int(np.isfinite(per['unsupported']).sum())} scene dampings"
-            f" ({', '.join(unjudged)}): a step meets the jump criterion but no jump has settled"
-            " points of both branches beside it (jump speeds NaN, jump_unsupported > 0): whether"
-            " they jump cannot be judged from these results")
+            f" ({', '.join(unjudged)}): a sweep has {UNSUPPORTED_WHY} (jump speeds NaN,"
+            " jump_unsupported > 0): whether they jump cannot be judged from these results")
     return data, coords, attrs, settings
 
 
@@ -709,11 +711,10 @@ def jump_map(o: JumpMap, inputs: dict) -> tuple[dict, dict, dict, dict]:
                 "jump_unsupported_cases": unsupported}
     if unsupported:  # (the result's sweeps scatter: a band there would be read off noise)
         settings["jump_note"] = (
-            f"{unsupported} of {js['jump_unsupported'].size} cases: a step meets the jump"
-            " criterion but no jump has settled points of both branches beside it (jump speeds"
-            " and hysteresis band NaN, jump_unsupported > 0): whether they jump cannot be judged"
-            f" from this result ({float((ds['status'] == 2).mean()):.0%} of its case-speeds did"
-            " not settle)")
+            f"{unsupported} of {js['jump_unsupported'].size} cases: a sweep has"
+            f" {UNSUPPORTED_WHY} (jump speeds and hysteresis band NaN, jump_unsupported > 0):"
+            " whether they jump cannot be judged from this result"
+            f" ({float((ds['status'] == 2).mean()):.0%} of its case-speeds did not settle)")
     return data, coords, attrs, settings
 
 
