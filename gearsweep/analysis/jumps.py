@@ -258,12 +258,12 @@ def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25, settled_up=True
         did not settle, whichever is larger; a jump across unsettled speeds that holds a
         supported jump between neighbours is located by that one (the finer). ``sign`` -1: the
         run-down, measured towards lower speeds."""
-        kept, shown = np.where(settled, a, np.nan), np.where(known, a, np.nan)
+        step2, prev2 = _known_steps(np.where(settled, a, np.nan))  # the settled points' steps
+        step2 = sign * step2
+        shown = np.where(known, a, np.nan)  # the known points: the support of either search
         step1, prev1 = _known_steps(a)
         step1 = sign * step1
         sc1, seen1 = _scores(step1, prev1, differs, threshold, _supported(shown, prev1, threshold))
-        step2, prev2 = _known_steps(kept)
-        step2 = sign * step2
         sc2, seen2 = _scores(step2, prev2, differs, threshold, _supported(shown, prev2, threshold))
         i1, i2 = np.argmax(sc1, axis=-1), np.argmax(sc2, axis=-1)
         best1, best2 = _take(sc1, i1), _take(sc2, i2)

@@ -138,11 +138,12 @@ BALANCE_SAMPLE_BYTES = 56
 """... and its memory per harmonic and time sample [bytes]: ``AFTBalance``'s matrices E and P
 (2H + 1 by n_time each) and their making (cos, sin); 47-55 B measured (peak resident memory at
 200 x 16,384, 50 x 65,536 and 200 x 65,536: 620 MB there)."""
-JUMP_MAP_BYTES = 100
+JUMP_MAP_BYTES = 105
 """``jump_map``: its arrays beyond the input it holds, per value of the input's ``p_pp`` [bytes]:
-``jump_summary``'s amplitude and sweeps and ``find_jumps``' arrays of each sweep, at their
-peak (tracemalloc: 95.1-95.4 B measured on results/rattle_map.nc and cuts of it of 0.2-2
-million values, 27 Nov 2026)."""
+``jump_summary``'s amplitude, settle_error and sweeps and ``find_jumps``' arrays of each sweep,
+at their peak (tracemalloc: 99.7-100.0 B measured on results/rattle_map.nc and cuts of it of
+0.2-2 million values, 27 Nov 2026; 95.1-95.4 B before a sweep's settle_error, as float32, was
+held through ``find_jumps`` for its support)."""
 FIXED_ANALYSIS_SECONDS = {"rattle_budget": 0.5, "jump_map": 0.5}
 """The kinds that only read results [s] (measured: the Fig. 8 budget 0.03-0.05 s, the rattle map's
 jumps 0.25 s)."""

@@ -90,7 +90,9 @@ def jump_summary(ds: xr.Dataset, threshold: float = 0.25) -> xr.Dataset:
     error = {"up": None, "down": None}
     if "settle_error" in ds:
         e = _amplitude_error(ds, settled).broadcast_like(amp)
-        error = {d: sweep(e, d) for d in error}
+        # (float32: compared with a fraction of the threshold, and held through find_jumps)
+        error = {d: sweep(e, d).astype(np.float32) for d in error}
+        del e
     js = find_jumps(ds["speed"].values, sweep(amp, "up"), sweep(amp, "down"), threshold,
                     settled_up=sweep(settled, "up"), settled_down=sweep(settled, "down"),
                     error_up=error["up"], error_down=error["down"])
