@@ -28,9 +28,12 @@ beyond the sweep: the band ends at the last speed where both are known, and it i
 Each sweep is also searched with the speeds where it did not settle left out (``settled_up`` /
 ``settled_down`` False): a drop spread over two grid steps by a transient caught between them
 (each step under the threshold, the whole drop over it) is then one jump, at the midpoint of
-its settled neighbours. Whether the two sweeps differ is judged on every finite amplitude. A
-NaN amplitude (a diverged case) is no point of either sweep. All functions take the speed
-along the last axis and broadcast over any leading axes (sweeps of a parameter study).
+its settled neighbours. This search goes by the settle test, not by the known points below: a
+transient caught mid-drop may have a small settle_error (a rattle-map run-down, 517 -> 422 ->
+347 um, the middle point at settle_error 0.078, status 2). Whether the two sweeps differ is
+judged on every finite amplitude. A NaN amplitude (a diverged case) is no point of either
+sweep. All functions take the speed along the last axis and broadcast over any leading axes
+(sweeps of a parameter study).
 
 Support
 -------
@@ -47,7 +50,8 @@ Without errors the settled points are the known ones. So a chaotic band whose wi
 scatter is small is a level (the rise into it a jump of the amplitude), and a branch whose
 points narrowly failed the settle test still shows (the Fig. 8 run-up drop with 100 transient
 periods: 677 um at 8,008 rpm, then 470, 468, 466, 464, 464 um with settle_error 0.0001-0.022,
-three of them status 2, was "cannot be judged"; scipy's DOP853 drops between 8,000 and 8,050).
+three of them status 2, was "cannot be judged"; an outside tester's scipy DOP853 run drops
+between 8,000 and 8,050 rpm).
 A jump to or from one isolated point, or between points whose amplitude scatters from window
 to window by more than half the threshold, is no jump: an outside engineer's run-down "jump" at
 one settled point of a sweep 85% of whose case-speeds did not settle (7.9 um between 17.5 and
