@@ -638,6 +638,30 @@ def test_cli_advises_a_step_that_runs_above_critical_damping(tmp_path, capsys):
                      r" the rk5 stability limit 1.226", flat), flat
 
 
+@pytest.mark.parametrize("fraction", [0.999, 1.001])
+def test_validate_and_advise_agree_on_a_step_next_to_the_limit(tmp_path, capsys, fraction):
+    """A written step within 0.2 % of the stability limit (the limit from the tableau written out
+    here): the step guard took its limit 0.2 % tighter than advise, so validate warned of a step
+    at 0.999 of the limit that advise passed. Both now apply one rule
+    (``stability.frozen_step_ok``): neither warns at 0.999, both at 1.001."""
+    from gearsweep.cli import main
+
+    m, k, c = 0.1527, 1.073e9, 40e3
+    limit = _oscillator_limit("rk5", c / (2 * math.sqrt(k * m)))
+    rpm = 60 * math.sqrt(k / m) / (48 * 16 * fraction * limit)  # h omega_n = fraction x limit
+    path = tmp_path / "band.yaml"
+    path.write_text(_OVERDAMPED.replace("[3000 rpm, 6000 rpm, 12000 rpm]", f"[{rpm:.9f} rpm]")
+                    .replace("steps_per_period: 64", "steps_per_period: 16"), encoding="utf-8")
+    assert main(["validate", str(path)]) == 0
+    guard = "beyond the stability limit" in capsys.readouterr().err
+    assert main(["advise", str(path), "--target", "0.3"]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    said = re.search(r"WARNING: 16 steps per period give h omega_n = ([\d.]+)", flat)
+    assert guard == (fraction > 1) and (said is not None) == (fraction > 1), (guard, flat)
+    if said:
+        assert float(said[1]) == pytest.approx(fraction * limit, abs=1e-3)
+
+
 def test_cli_advise_takes_the_limit_at_every_swept_damping(tmp_path, capsys):
     """The limit is not monotonic in zeta (RK4: 2.95 at 0.1, 2.62 at 0.5): advise checks the
     step at every swept damping, as the step guard and validate do, and states the worst."""

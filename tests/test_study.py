@@ -287,8 +287,8 @@ def test_step_guard_warns_or_skips_cases_beyond_the_stability_limit(tmp_path, ca
 
 @pytest.mark.parametrize("method", ["rk4", "rk5"])
 def test_guard_step_is_a_tight_lower_bound_of_the_exact_stability_limit(method):
-    from gearsweep.analysis.stability import max_stable_step
-    from gearsweep.study.plan import _stable_steps
+    from gearsweep.analysis.stability import frozen_step_ok, max_stable_step
+    from gearsweep.study.plan import _GUARD_MARGIN, _stable_steps
 
     rng = np.random.default_rng(1)
     k = 10 ** rng.uniform(2, 10, 400)
@@ -299,6 +299,12 @@ def test_guard_step_is_a_tight_lower_bound_of_the_exact_stability_limit(method):
     assert np.all(fast <= exact * (1 + 1e-12))
     # The tabulated bound is within 0.5 % of the exact limit (grid of 1/20000 in zeta near 0).
     assert np.all(fast >= exact * (1 - 5e-3)), np.max(1 - fast / exact)
+    # The upper bound of the bracket within which the guard solves the limit exactly.
+    assert np.all(_stable_steps(method, k, c, _GUARD_MARGIN) >= exact * (1 - 1e-12))
+    # The guard's verdict is the exact rule's (``frozen_step_ok``) at steps next to the limit.
+    h = exact * rng.uniform(0.997, 1.003, exact.size)
+    bracket = (fast, _stable_steps(method, k, c, _GUARD_MARGIN))
+    np.testing.assert_array_equal(frozen_step_ok(method, h, k, c, bracket=bracket), h <= exact)
     # Negative stiffness: limited by the decaying real pole only.
     np.testing.assert_allclose(_stable_steps(method, np.array([-4.0]), np.array([3.0])),
                                max_stable_step(method, -4.0, 3.0), rtol=1e-12)

@@ -47,7 +47,12 @@ from pathlib import Path
 
 import numpy as np
 
-from gearsweep.analysis.stability import largest_multiplier, step_limit_hw, tableau_monodromy
+from gearsweep.analysis.stability import (
+    frozen_step_ok,
+    largest_multiplier,
+    step_limit_hw,
+    tableau_monodromy,
+)
 from gearsweep.kernels import tableaux
 from gearsweep.kernels.floquet import UNSTABLE_TOL
 
@@ -118,8 +123,8 @@ def worst_stability_limit(method: str, omega_n: float, mass, k_max, damping
     """(The largest h omega_n [1] stable at every case, the damping ratio of the case that sets
     it): each case (``mass`` [kg], largest stiffness ``k_max`` [N/m], ``damping`` [N s/m],
     broadcast together) is stable for h < ``stability_limit`` at its zeta over its own omega_n,
-    taken here as h ``omega_n``. The step guard's frozen rule, case by case
-    (``study.plan._stable_steps`` tabulates the same ``step_limit_hw``)."""
+    taken here as h ``omega_n``: the limit ``advise`` states. Whether a step is within it,
+    case by case, is ``stability.frozen_step_ok``'s, the step guard's frozen rule."""
     m, k, c = (np.ravel(x).astype(float) for x in np.broadcast_arrays(mass, k_max, damping))
     wn = np.sqrt(k / m)
     zeta = c / (2.0 * m * wn)
@@ -393,8 +398,8 @@ def advise(
         highest_order = max((float(o) for _, o, _ in k_harmonics), default=1.0)
     n = effective_order(k0, k_harmonics, highest_order)
     hw_target = (target / (SAFETY * model_error(C, p, knee, 1.0, r, n))) ** (1.0 / p)
-    limit, limit_zeta = worst_stability_limit(
-        method, wn, *((mass, k_max, damping) if stability_cases is None else stability_cases))
+    cases = (mass, k_max, damping) if stability_cases is None else stability_cases
+    limit, limit_zeta = worst_stability_limit(method, wn, *cases)
     warnings = []
     hw = min(hw_target, 0.9 * limit)
     spp = int(multiple * math.ceil(2.0 * math.pi * wn / (omega_min * hw) / multiple - 1e-9))
@@ -404,7 +409,9 @@ def advise(
     if steps_per_period is not None:
         hw_c = 2.0 * math.pi * wn / (omega_min * steps_per_period)
         chosen_err = model_error(C, p, knee, hw_c, r, n)
-        if hw_c >= limit:
+        m_c, k_c, c_c = (np.ravel(x).astype(float) for x in np.broadcast_arrays(*cases))
+        h_c = 2.0 * math.pi / (omega_min * steps_per_period)  # the step guard's rule, its
+        if not np.all(frozen_step_ok(method, h_c, k_c / m_c, c_c / m_c)):  # function
             warnings.append(
                 f"{steps_per_period} steps per period give h omega_n = {hw_c:.3f} at "
                 f"{speeds.min():.0f} rpm, beyond the {method} stability limit {limit:.3f}: the "

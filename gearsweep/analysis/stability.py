@@ -72,6 +72,7 @@ __all__ = [
     "UnstableStepError",
     "amplification",
     "check_step",
+    "frozen_step_ok",
     "integrator_edge",
     "integrator_unstable",
     "map_step_check",
@@ -311,6 +312,42 @@ def check_step(method: str, steps_per_period, mesh_period, k_max_over_m, c_over_
     limit = np.broadcast_to(np.maximum(need, 1.0).astype(np.int64),
                             np.broadcast_shapes(need.shape, spp.shape)).copy()
     return spp >= limit, limit
+
+
+def frozen_step_ok(method: str, h, k_over_m, c_over_m=0.0, *, bracket=None) -> np.ndarray:
+    """The frozen-coefficient rule, the one both the step guard (``study.plan``) and
+    ``gearsweep advise`` apply: is the fixed step ``h`` [s] within the method's stability limit
+    at the largest stiffness, h <= ``max_stable_step(method, k_over_m, c_over_m)``?
+
+    Parameters
+    ----------
+    method : {"rk4", "rk5"}
+    h : array_like
+        The step [s] (the mesh period over the steps per period) per case.
+    k_over_m, c_over_m : array_like
+        Largest stiffness over the cycle / mass [1/s^2], viscous damping / mass [1/s].
+    bracket : (h_lo, h_hi) of array_like, optional
+        Bounds of that limit known beforehand (the step guard's table, ``study.plan``):
+        h <= h_lo passes and h > h_hi fails without solving; only the steps between them are
+        judged against the exact limit. Without it every case is solved.
+
+    Returns
+    -------
+    ndarray of bool
+        True where the step is within the limit (and where ``h`` is NaN: nothing to judge).
+    """
+    h, k, c = np.broadcast_arrays(np.asarray(h, float), np.asarray(k_over_m, float),
+                                  np.asarray(c_over_m, float))
+    if bracket is None:
+        lo, hi = np.zeros(h.shape), np.full(h.shape, np.inf)
+    else:
+        lo, hi = (np.broadcast_to(np.asarray(x, float), h.shape) for x in bracket)
+    with np.errstate(invalid="ignore"):
+        bad = h > hi
+        band = np.flatnonzero(~bad & (h > lo))
+    if band.size:
+        bad.flat[band] = h.flat[band] > max_stable_step(method, k.flat[band], c.flat[band])
+    return ~bad
 
 
 def require_stable_step(method: str, steps_per_period, mesh_period, k_max_over_m,

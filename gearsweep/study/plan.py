@@ -25,6 +25,7 @@ from gearsweep.analysis.stability import (
     RESONANCE_TOL,
     STRONG_VARIATION,
     TONGUE_MARGIN,
+    frozen_step_ok,
     map_step_check,
     needs_map_check,
     ray_limit,
@@ -551,6 +552,10 @@ STATUS_SKIPPED = 3
 
 
 _GUARD_MARGIN = 2e-3
+"""Half-width of the bracket about the tabulated limit (``_stable_steps``) within which the step
+guard solves a case's limit exactly (``analysis.stability.frozen_step_ok``): the table's linear
+interpolation is within 1e-4 of it. The bracket decides nothing itself: a step 0.2 % within
+the polynomial's limit was flagged by the guard (and validate) and passed by advise."""
 
 
 @lru_cache(maxsize=4)
@@ -591,12 +596,15 @@ def _solve_hw_table(method: str) -> tuple[np.ndarray, np.ndarray, float]:
     return zeta, hw, float(ray_limit(method, np.pi))
 
 
-def _stable_steps(method: str, k_over_m: np.ndarray, c_over_m: np.ndarray) -> np.ndarray:
-    """Largest stable step h* [s] per case, a lower bound of ``analysis.stability.max_stable_step``.
+def _stable_steps(method: str, k_over_m: np.ndarray, c_over_m: np.ndarray,
+                  margin: float = -_GUARD_MARGIN) -> np.ndarray:
+    """The largest stable step h* [s] per case from the table, (1 + ``margin``) times its
+    interpolation: a lower bound of ``analysis.stability.max_stable_step`` (the default, 0.2 %
+    below), an upper bound with ``+_GUARD_MARGIN`` (tested against the exact limit); the step
+    guard judges the steps between the two exactly (``_frozen_ok``).
 
     h* = (h w_n)*(zeta) / w_n with (h w_n)* tabulated once per method on a zeta grid that
-    resolves its square-root ends and interpolated linearly, less a 0.2 % margin, so the guard
-    does not pass a step the polynomial would reject (tested against the exact limit).
+    resolves its square-root ends and interpolated linearly.
     Vectorised: a Mathieu chart has as many distinct zeta as cases.
     """
     zeta_grid, hw_grid, real_lim = _hw_table(method)
@@ -604,9 +612,9 @@ def _stable_steps(method: str, k_over_m: np.ndarray, c_over_m: np.ndarray) -> np
     osc = k > 0
     wn = np.sqrt(np.where(osc, k, 1.0))
     zeta = np.clip(np.where(osc, c / (2.0 * wn), 0.0), 0.0, zeta_grid[-1])
-    # Linear interpolation on this grid is second-order accurate (error < 1e-4 relative);
-    # 0.2 % below it keeps the guard on the safe side of the polynomial's limit.
-    hw = (1.0 - _GUARD_MARGIN) * np.interp(zeta, zeta_grid, hw_grid)
+    # Linear interpolation on this grid is second-order accurate (error < 1e-4 relative):
+    # 0.2 % on either side brackets the polynomial's limit.
+    hw = (1.0 + margin) * np.interp(zeta, zeta_grid, hw_grid)
     # k <= 0: real poles -c/2 +- sqrt(c^2/4 - k); only the negative one can limit the step.
     neg = 0.5 * c + np.sqrt(np.maximum(0.25 * c * c - k, 0.0))
     with np.errstate(divide="ignore"):
@@ -666,12 +674,13 @@ def _unanalysed(plan: Plan, model: MeshModel, params: dict[str, np.ndarray], n: 
 
 
 def _frozen_ok(plan: Plan, kmax, cm, period, n: int) -> np.ndarray:
-    """The frozen-coefficient rule: steps per period >= T / h* at the largest stiffness."""
+    """The frozen-coefficient rule at the largest stiffness, T / steps per period <= h*
+    (``analysis.stability.frozen_step_ok``, the rule ``gearsweep advise`` applies too), the
+    table's bracket of h* (``_stable_steps``) sparing the exact solution outside it."""
     s = plan.study.solver
-    h_star = _stable_steps(s.method, kmax, cm)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        need = np.ceil(np.asarray(period, float) / h_star)
-    return np.broadcast_to(~(need > s.steps_per_period), (n,))
+    bracket = (_stable_steps(s.method, kmax, cm), _stable_steps(s.method, kmax, cm, _GUARD_MARGIN))
+    h = np.asarray(period, float) / s.steps_per_period
+    return np.broadcast_to(frozen_step_ok(s.method, h, kmax, cm, bracket=bracket), (n,))
 
 
 def _map_multipliers(plan: Plan, model, a, b, g, harm, ok) -> tuple[np.ndarray, np.ndarray]:
