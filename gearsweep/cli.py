@@ -70,6 +70,7 @@ from gearsweep.study.outputs import spectrum_aliasing
 from gearsweep.study.plan import (
     SETTLED_RESIDUAL,
     cases_beyond_step_limit,
+    frozen_map_check,
     make_plan,
     resonance_steps,
     transient_residual,
@@ -840,10 +841,12 @@ def _pitch_line_note(plan) -> str | None:
             " teeth x that)")
 
 
-def _advice(plan, target: float, free_vibration: bool = True):
+def _advice(plan, target: float, free_vibration: bool = True, map_check: bool = False):
     """``advise`` for a gear scene's plan: its lowest mass and damping, its stiffest load and
     stiffness, its smallest backlash, the steps it has (``Advice.chosen_error``: the expected
-    error of those); ``free_vibration``: see ``advise``."""
+    error of those); ``free_vibration``: see ``advise``; ``map_check``: where the steps fail
+    the frozen-coefficient rule, check the fixed-step map there as the step guard does
+    (``plan.frozen_map_check``), so that the warning says "diverges" only where it does."""
     study = plan.study
     model = plan.model
     s = study.solver
@@ -869,7 +872,8 @@ def _advice(plan, target: float, free_vibration: bool = True):
                   periods=s.transient_periods + s.record_periods,
                   cases_per_speed=plan.n_cases / len(grids["speed"]),  # priced as --estimate
                   free_vibration=free_vibration,
-                  multiple=_steps_multiple(plan))
+                  multiple=_steps_multiple(plan),
+                  map_check=frozen_map_check(plan) if map_check else None)
 
 
 def _stability_cases(plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -914,7 +918,7 @@ def cmd_advise(args: argparse.Namespace) -> int:
         raise StudyError(name, "scene.kind", study.scene.kind,
                          "a gear scene (whine, rattle, full): the Mathieu scene has no accuracy"
                          " model", line_of(load_yaml(text, name), "scene.kind"))
-    a = _advice(plan, args.target)
+    a = _advice(plan, args.target, map_check=True)
     a = _resonance_advice(plan, a)
     for n, how in ((a.steps_per_period, ""), (a.kink_steps_per_period, " kink-aware")):
         if n is not None and n > MAX_STEPS_PER_PERIOD:  # advice a study cannot take

@@ -34,6 +34,10 @@ satisfy h omega_n below the limit of the method's stability polynomial at the po
 omega_n (-zeta +- sqrt(zeta^2 - 1)), zeta = c / (2 m omega_n) (``stability.step_limit_hw``: on the
 ray of the complex pair below zeta = 1, the faster real pole above), at every case of the study
 (``stability_cases``: the limit is not monotonic in zeta, RK4's 2.95 at 0.1 and 2.62 at 0.5).
+That rule takes the stiffest instant of the mesh cycle as if it lasted, which is conservative
+where k(t) varies: a written step beyond it is said to diverge only where the fixed-step map
+over the mesh cycle does (``map_check``, the step guard's check; an outside tester's RK4 run at
+h omega_n = 3.42 against the limit 2.95 was stable, p_rms 1.5 % off scipy's).
 """
 
 from __future__ import annotations
@@ -131,6 +135,33 @@ def worst_stability_limit(method: str, omega_n: float, mass, k_max, damping
     hw = np.asarray(step_limit_hw(method, zeta), dtype=float) * omega_n / wn
     i = int(np.argmin(hw))
     return float(hw[i]), float(zeta[i])
+
+
+def _beyond_text(spp: int, hw: float, rpm: float, method: str, limit: float, varying: bool,
+                 map_check: tuple[float, bool, bool] | None) -> str:
+    """``advise``'s warning for a written step beyond the frozen-coefficient limit: "diverges"
+    where the frozen rule is exact (constant stiffness) or the map diverges (``map_check``)."""
+    head = (f"{spp} steps per period give h omega_n = {hw:.3f} at {rpm:.0f} rpm, beyond the"
+            f" {method} stability limit {limit:.3f}")
+    if not varying:  # (constant stiffness: the map's multiplier is |R(h lambda)|^N)
+        return head + ": the integration diverges there whatever the physics."
+    head += (", the frozen-coefficient limit at the stiffest instant of the mesh cycle (k0 +"
+             " sum |k_n|), a conservative check where k(t) varies")
+    if map_check is None:
+        return (head + "; the stepping map over the mesh cycle was not checked here (the step"
+                " guard's map check: docs/stability.md).")
+    mu, diverges, integrator = map_check
+    if diverges and integrator:
+        return (head + f"; the stepping map over the mesh cycle diverges too (multiplier"
+                f" {mu:.4g} per mesh period): the integration diverges there whatever the"
+                " physics.")
+    if diverges:
+        return (head + f"; the stepping map over the mesh cycle diverges (multiplier {mu:.4g}"
+                " per mesh period) where the equation itself does (a parametric resonance of"
+                " k(t)).")
+    return (head + f", but the stepping map over the mesh cycle is stable (multiplier"
+            f" {mu:.4g} per mesh period): results at this step are not guaranteed accurate;"
+            " the accuracy advice says what step the target needs.")
 
 
 def effective_order(k0: float, k_harmonics, highest_order: float) -> float:
@@ -323,6 +354,7 @@ def advise(
     multiple: int = 8,
     free_vibration: bool = True,
     stability_cases=None,
+    map_check: tuple[float, bool, bool] | None = None,
 ) -> Advice:
     """Steps per mesh period for a target accuracy, the cost, and stability warnings.
 
@@ -374,6 +406,15 @@ def advise(
         stiffness k0 + sum |k_n| and damping: the limit is not monotonic in the damping ratio,
         and above zeta = 1 a smaller stiffness has the faster pole); the limit is the smallest
         over them (``worst_stability_limit``). Default: (mass, k0 + sum |k_n|, damping).
+    map_check : (float, bool, bool) or None
+        Where ``steps_per_period`` fails the frozen-coefficient rule (the stability polynomial
+        at the stiffest instant, k0 + sum |k_n|: conservative where k(t) varies), the step
+        guard's check of the fixed-step map over the mesh cycle at the cases it fails
+        (``stability.map_step_check``; ``study.plan.frozen_map_check`` for a study): the
+        largest |mu| per mesh period, whether a case's map diverges (|mu| > 1 + tol) and
+        whether one diverges where the equation does not. The warning says "diverges" only
+        where the map does. None: not checked (with constant stiffness the frozen rule is
+        the map's; with a varying one the warning says the map was not checked).
 
     Returns
     -------
@@ -412,10 +453,8 @@ def advise(
         m_c, k_c, c_c = (np.ravel(x).astype(float) for x in np.broadcast_arrays(*cases))
         h_c = 2.0 * math.pi / (omega_min * steps_per_period)  # the step guard's rule, its
         if not np.all(frozen_step_ok(method, h_c, k_c / m_c, c_c / m_c)):  # function
-            warnings.append(
-                f"{steps_per_period} steps per period give h omega_n = {hw_c:.3f} at "
-                f"{speeds.min():.0f} rpm, beyond the {method} stability limit {limit:.3f}: the "
-                "integration diverges there whatever the physics.")
+            warnings.append(_beyond_text(steps_per_period, hw_c, float(speeds.min()), method,
+                                         limit, bool(k_harmonics), map_check))
         elif chosen_err > target:
             warnings.append(
                 f"{steps_per_period} steps per period miss the target ({chosen_err:.1e} > "

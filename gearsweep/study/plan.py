@@ -771,6 +771,45 @@ def cases_beyond_step_limit(plan: Plan) -> int | None:
     return int((~ok).sum()) * (plan.n_cases // m)  # each grid point: the other dims' cases
 
 
+def frozen_map_check(plan: Plan) -> tuple[float, bool, bool] | None:
+    """The step guard's check of the fixed-step map (``analysis.stability.map_step_check``, at
+    the study's method and steps over one period of the Hill equation, without the resonance
+    test) at the cases of ``plan`` that fail the frozen-coefficient rule (``_frozen_ok``, on the
+    grid of the swept dims it depends on): (the largest |mu| per mesh period among them, whether
+    one's map diverges (|mu| > 1 + tol over the period), whether one diverges where the
+    equation does not). ``None`` where no case fails the rule, none can be checked (orders
+    with no short common period) or the grid is larger than ``_GUARD_TABLE_MAX``. The frozen
+    rule takes the stiffest instant of the mesh cycle as if it lasted: conservative where k(t)
+    varies (docs/stability.md); ``gearsweep advise`` says "diverges" only where the map does."""
+    swept = _swept_grid(plan, _guard_dims(plan))
+    if swept is None:
+        return None
+    params, n = swept
+    if plan.gear_load_swept and n:
+        torques = plan.case_torques(params)
+        groups = [(plan.model_for_load(float(t)), np.flatnonzero(torques == t))
+                  for t in np.unique(torques)]
+    else:
+        groups = [(plan.model, np.arange(n))]
+    s = plan.study.solver
+    mu, diverges, integrator = [], False, False
+    for model, idx in groups:
+        sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+        a, b, g, harm, kmax, cm, period = hill_parameters(model, sub, idx.size)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            bad = ~_frozen_ok(plan, kmax, cm, period, idx.size)
+            a, b, g = (np.broadcast_to(np.asarray(x, float), (idx.size,))[bad] for x in (a, b, g))
+            cycle = hill_cycle(model)[0]
+            if not a.size or cycle == 0 or not np.all(np.isfinite(a)):
+                continue
+            beyond, disc = map_step_check(a, b, g, s.steps_per_period * cycle, method=s.method,
+                                          harmonics=harm)
+        diverges |= bool(np.any(disc > 1.0 + UNSTABLE_TOL))
+        integrator |= bool(np.any(beyond))
+        mu.append(float(np.max(disc)) ** (1.0 / cycle))
+    return (max(mu), diverges, integrator) if mu else None
+
+
 def resonance_steps(plan: Plan, start: int, target: float, multiple: int = 8,
                     most: int = 4096) -> tuple[int, float, float, float] | None:
     """The fewest steps per mesh period, from ``start`` on in ``multiple``s, from which up to twice
