@@ -685,3 +685,28 @@ def test_advise_says_diverges_where_the_stepping_map_diverges(tmp_path, capsys):
     with pytest.warns(StepLimitWarning):
         ds = gearsweep.run(OVER6)
     assert ds.status.values.ravel().tolist() == [1, 0]
+
+
+def test_a_transient_the_map_has_not_decayed_is_not_settled():
+    """The whine scene at 400 steps and 200 transient periods: this test's own RK5 map decays
+    its slowest mode by mu = 0.979 a period, mu^200 = 1.4 % of the start's free vibration left,
+    above the settle tolerance (1 %). The record's halves agree (settle_error 1.3e-3) and the
+    case had status 0 with p_rms 1.1 % below the run's steady value (2000 transient periods);
+    it is now not settled (status 2). With the periods mu needs to reach 1 % (216) and more it
+    is settled, and within the tolerance of the steady value. (whine_gear_table1 had such a case
+    drawn as steady: 0.55 N s/mm at 14,429 rpm, mu = 0.9998, p_rms 3.01 um against 0.26.)"""
+    a, b, g = whine_abg()
+    mu = own_map("rk5", a, b, g, 400)
+    need = math.ceil(math.log(100) / -math.log(mu))
+    assert mu**200 > 0.01 >= mu**need
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (contact loss: the scene's light load)
+        steady = gearsweep.run(whine(400, transient=2000))
+        early = gearsweep.run(whine(400, transient=200))
+        enough = gearsweep.run(whine(400, transient=need + 5))
+    assert int(steady.status.values.ravel()[0]) == 0
+    rms = float(steady.p_rms.values.ravel()[0])
+    assert abs(float(early.p_rms.values.ravel()[0]) / rms - 1) > 0.01
+    assert int(early.status.values.ravel()[0]) == 2
+    assert int(enough.status.values.ravel()[0]) == 0
+    assert abs(float(enough.p_rms.values.ravel()[0]) / rms - 1) < 0.01

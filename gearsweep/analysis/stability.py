@@ -493,7 +493,7 @@ def variation_ratio(alpha, beta, harmonics=None) -> np.ndarray:
 RESONANCE_TOL = 0.01
 """Largest relative error of the forced response's resonant part that the step guard lets a
 fixed-step map bring (``resonance_error``): 1 %, the share the project holds a study's answers
-to elsewhere (``settle_tolerance``, the transient note's ``SETTLED_RESIDUAL``). Near a parametric
+to elsewhere (``settle_tolerance``, which the transient's residual is judged by too). Near a parametric
 tongue a damped case's periodic response is amplified by 1 / det(I - M) (M the monodromy over the
 forcing's period), and a map whose multiplier nearest 1 is off by a little there is off by a lot
 in the response: an outside analyst's whine scene (k1 / k0 = 0.98, zeta 0.007, RK5) at 56 steps

@@ -54,7 +54,10 @@ STATUS_CODES = {
     0: "ok",
     1: "diverged: p became non-finite or exceeded divergence_factor x its static scale, or a"
        " statistic of p overflowed",
-    2: "not settled: settle_error above solver.settle_tolerance (results kept; a response that"
+    2: "not settled: settle_error above solver.settle_tolerance, or the transient's decay"
+       " (damping, or the fixed-step map's largest Floquet multiplier: |mu|^transient_periods)"
+       " leaves more than settle_tolerance of the start's free vibration (results kept; a"
+       " response that"
        " has died away, p_pp below 1e-9 of its static scale, is settled; driven scenes only: an"
        " undriven one, a Mathieu chart say, decays or grows, see the floquet output)",
     3: "skipped: the step is beyond the method's stability limit for this case",

@@ -865,58 +865,84 @@ def resonance_steps(plan: Plan, start: int, target: float, multiple: int = 8,
         rows[int(np.argmax(first)), 3])
 
 
-SETTLED_RESIDUAL = 0.01
-"""Share of the start's free vibration the transient may leave, exp(-c / (2 m) N_t T), before
-``gearsweep validate`` notes it: the ``status`` check compares the halves of the record and
-misses a beat slower than the record (an outside check, 27 Nov 2026: zeta = 0.001, 300
-transient and 20 recorded periods, status 0 with p_pp 10-17 % off, where this estimate gives
-15 %). Where the step guard checks the map the slowest mode decays by the fixed-step map's
-largest multiplier per period instead, |mu|^N_t (``transient_residual``)."""
-
-
-def transient_residual(plan: Plan) -> tuple[float, float, int, float | None] | None:
-    """The largest share of a free vibration the transient leaves among the cases of ``plan``
-    (on the grid of the swept dims it depends on), the speed where it is largest [rpm], the
-    transient periods that bring it to ``SETTLED_RESIDUAL``, and the map's multiplier where it
-    decided (else ``None``: damping did); ``None`` when it is below that, for
-    a Mathieu chart (a stability study), or when the grid is larger than ``_GUARD_TABLE_MAX``.
+def transient_left(plan: Plan, params: dict[str, np.ndarray], n: int) -> tuple[np.ndarray, ...]:
+    """Per case of ``params``: (the share of the start's free vibration the transient leaves,
+    the decay per mesh period it was judged by, whether the map's multiplier set it, that
+    multiplier or NaN). The residual is 0 where it cannot be judged (undamped, a Mathieu chart).
 
     A case's free vibration decays per mesh period by exp(-c / (2 m) T) (its damping), or, where
     the step guard computes the map's multiplier (``needs_map_check``), by the largest |mu| of
     the fixed-step map at the study's method and step when that is larger:
     a parametric mode can decay far slower than damping says (an outside check: mu = 0.979
-    against exp(-c T / 2 m) = 0.62; 200 transient periods left 1.4 %, status 0 with the
+    against exp(-c T / 2m) = 0.62; 200 transient periods left 1.4 %, status 0 with the
     statistics 1 % off). Cases whose map diverges are the step guard's; undamped cases, whose
     free vibration the equation does not damp at all (the map's decay there is the integrator's:
-    RK5 at 200 steps, 1 - 1.1e-5 a period), are not judged."""
-    swept = None if isinstance(plan.model, MathieuModel) else _swept_grid(plan, GUARD_PARAMS)
-    if swept is None or "speed" not in swept[0]:
-        return None
-    params, m = swept
-    a, b, g, harm, kmax, cm, period = hill_parameters(plan.model, params, m)
-    cm, period = np.broadcast_to(cm, (m,)), np.broadcast_to(period, (m,))
+    RK5 at 200 steps, 1 - 1.1e-5 a period), are not judged. Where this residual is above
+    ``solver.settle_tolerance`` a case cannot have settled, whatever the record's halves say:
+    its status is 2 (``chunk._outputs``), and ``gearsweep validate`` says so beforehand
+    (``transient_residual``)."""
+    if isinstance(plan.model, MathieuModel) or not n:
+        z = np.zeros(n)
+        return z, z, np.zeros(n, bool), np.full(n, np.nan)
+    if plan.gear_load_swept:  # each case at its own load's k(t) (as ``_step_ok``)
+        torques = plan.case_torques(params)
+        parts = [np.zeros(n), np.zeros(n), np.zeros(n, bool), np.full(n, np.nan)]
+        for load in np.unique(torques):
+            idx = np.flatnonzero(torques == load)
+            sub = {k: np.asarray(v)[idx] for k, v in params.items()}
+            for whole, part in zip(parts, _model_transient_left(
+                    plan, plan.model_for_load(float(load)), sub, len(idx)), strict=True):
+                whole[idx] = part
+        return tuple(parts)
+    return _model_transient_left(plan, plan.model, params, n)
+
+
+def _model_transient_left(plan: Plan, model, params: dict[str, np.ndarray],
+                          n: int) -> tuple[np.ndarray, ...]:
+    """``transient_left`` of cases that share the model ``model``."""
+    a, b, g, harm, kmax, cm, period = hill_parameters(model, params, n)
+    cm, period = np.broadcast_to(cm, (n,)), np.broadcast_to(period, (n,))
     decay = np.where(cm > 0, 0.5 * cm * period, 0.0)  # per mesh period
-    by_map = np.zeros(m, bool)
+    by_map, disc = np.zeros(n, bool), np.full(n, np.nan)
     if np.any(b):
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            ok = _frozen_ok(plan, kmax, cm, period, m)
-            _, disc = _map_multipliers(plan, plan.model, a, b, g, harm, ok)
+            ok = _frozen_ok(plan, kmax, cm, period, n)
+            _, disc = _map_multipliers(plan, model, a, b, g, harm, ok)
             slow = np.isfinite(disc) & (disc > 0) & (disc < 1)
             mu_decay = -np.log(np.where(slow, disc, 1.0))
             # Undamped, the equation's multipliers have |mu1 mu2| = det M = 1: a map that decays
             # there decays by the integrator's own damping, not the equation's (that stays 0).
             by_map = slow & (mu_decay < decay)
             decay = np.where(by_map, mu_decay, decay)
+    residual = np.where(decay > 0, np.exp(-decay * plan.study.solver.transient_periods), 0.0)
+    return residual, decay, by_map, disc
+
+
+def transient_residual(plan: Plan) -> tuple[float, float, int, float | None] | None:
+    """The largest share of a free vibration the transient leaves among the cases of ``plan``
+    (``transient_left``, on the grid of the swept dims it depends on), the speed where it is
+    largest [rpm], the transient periods that bring it to ``solver.settle_tolerance``, and the
+    map's multiplier where it decided (else ``None``: damping did); ``None`` when it is within
+    that tolerance, for a Mathieu chart (a stability study), or when the grid is larger than
+    ``_GUARD_TABLE_MAX``. The ``status`` check compares the halves of the record and misses a
+    beat slower than the record (an outside check, 27 Nov 2026: zeta = 0.001, 300 transient and
+    20 recorded periods, status 0 with p_pp 10-17 % off, where this estimate gives 15 %): the
+    run flags those cases not settled (status 2) and ``gearsweep validate`` notes them first."""
+    swept = None if isinstance(plan.model, MathieuModel) else _swept_grid(plan, _guard_dims(plan))
+    if swept is None or "speed" not in swept[0]:
+        return None
+    params, m = swept
+    residual, decay, by_map, disc = transient_left(plan, params, m)
     known = decay > 0
     if not known.any():
         return None
     worst = int(np.argmin(np.where(known, decay, np.inf)))
-    residual = math.exp(-decay[worst] * plan.study.solver.transient_periods)
-    if residual <= SETTLED_RESIDUAL:
+    tol = plan.study.solver.settle_tolerance
+    if residual[worst] <= tol:
         return None
     mu = float(disc[worst]) if by_map[worst] else None
-    return (residual, float(params["speed"][worst]),
-            math.ceil(math.log(1 / SETTLED_RESIDUAL) / decay[worst]), mu)
+    return (float(residual[worst]), float(params["speed"][worst]),
+            math.ceil(math.log(1 / tol) / decay[worst]), mu)
 
 
 def _guard_table(plan: Plan) -> tuple[list[int], tuple[int, ...], np.ndarray] | None:
