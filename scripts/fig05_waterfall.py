@@ -139,7 +139,7 @@ def draw_phase(results: Path, figures: Path) -> None:
     for ax in list(axs.flat)[len(orders):]:
         ax.set_visible(False)
     axs.flat[0].legend(fontsize=7.5, loc="lower left")
-    fig.suptitle(f"Fig. 5's order lines {orders[0]}-{orders[-1]}: phase of p behind the STE's"
+    fig.suptitle(f"Fig. 5's order lines {orders[0]}-{orders[-1]}: phase of p relative to the STE's"
                  f" same order; {damping_text(study)}; solid: the study, dashed: stiffness ripple"
                  f" off\ndotted: 60 f_n / ({teeth} n), where a resonance of a force in phase with e"
                  " passes -90 deg (-m e'' or the ripple under F_m: not told apart); a speed where"

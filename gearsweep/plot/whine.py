@@ -585,7 +585,7 @@ def plot_ste_phase_lags(ax: Axes, ds: xr.Dataset, *, orders: Sequence[int] = (1,
         ax.plot(x, y, ls=linestyle, lw=1.1, color=color or f"C{i}", label=f"order {n}{label}")
     ax.axhline(-90.0, color="0.3", lw=0.8)
     ax.set_xlabel(speed_label)
-    ax.set_ylabel("phase of p behind the STE, same order [deg]")
+    ax.set_ylabel("phase of p relative to the STE, same order\n[deg] (negative: lag)")
     ax.set_ylim(-185, 10)
     ax.set_yticks(range(-180, 1, 30))
     ax.grid(True, alpha=0.3)
