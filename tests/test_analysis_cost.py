@@ -167,17 +167,26 @@ def test_validate_says_the_estimate_of_a_study_within_the_limits(capsys):
 def test_the_estimate_is_not_below_the_run_here(name):
     """Each analysis study of studies/ run here (its inputs from results/, as the main job
     leaves them), against its estimate: the stated rates are floors, so the run takes at most
-    the estimate (a factor 1.5 allowed for a busy machine), and the estimate is within 10x."""
+    the estimate (a factor 1.5 allowed for a busy machine), and the estimate is within 10x.
+
+    The run's time is the smaller of its wall time and its CPU time (all its threads): the idle
+    machine's wall time the estimate prices is at most either (a load stretches the wall time,
+    not the CPU time; threads make the CPU time the larger). By wall time alone, the shared
+    2-core machine at load 6-7 (27 Nov 2026) failed three of them, whose CPU times were within
+    their estimates: fig08_rattle_balance 4.6 s against 2.8 s estimated (1.5-1.6 s of CPU),
+    stability_artifact_map 31.5 s against 10.0 s (7.0-7.4 s), rattle_map_jumps 3.7 s against
+    0.5 s (0.62-0.68 s); at load 2, 1.5, 7.0 and 0.66 s of wall."""
     st, text = _study(name)
     if not all((ROOT / "results" / f"{n}.nc").exists()
                for n in getattr(st.analysis, "inputs", lambda: [])()):
         pytest.skip("run the main job first (the analysis reads its results)")
     est = ac.estimate(st, ROOT / "results")
     run_analysis_study(st, text, ROOT / "results")  # compiles what it calls
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     run_analysis_study(st, text, ROOT / "results")
-    seconds = time.perf_counter() - t0
-    print(name, round(seconds, 3), est.line())
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    seconds = min(wall, cpu)
+    print(name, f"wall {wall:.3f} s, CPU {cpu:.3f} s", est.line())
     assert seconds <= 1.5 * est.seconds, (name, seconds, est.line())
     assert est.seconds <= 10 * max(seconds, 0.1), (name, seconds, est.line())
     assert math.isfinite(est.memory_bytes)
