@@ -144,9 +144,11 @@ JUMP_MAP_BYTES = 105
 at their peak (tracemalloc: 99.7-100.0 B measured on results/rattle_map.nc and cuts of it of
 0.2-2 million values, 27 Nov 2026; 95.1-95.4 B before a sweep's settle_error, as float32, was
 held through ``find_jumps`` for its support)."""
-FIXED_ANALYSIS_SECONDS = {"rattle_budget": 0.5, "jump_map": 0.5}
-"""The kinds that only read results [s] (measured: the Fig. 8 budget 0.03-0.05 s, the rattle map's
-jumps 0.25 s)."""
+FIXED_ANALYSIS_SECONDS = {"rattle_budget": 0.5, "jump_map": 1.0}
+"""The kinds that only read results [s] (measured: the Fig. 8 budget 0.03-0.05 s; the rattle map's
+jumps 0.25 s, and since the jump criterion asks for known points beside a jump
+(``analysis.jumps._supported``, more than half of it) 0.69-0.82 s of CPU (fc871c9's criterion;
+0.62-0.68 s before it), 27 Nov 2026: 0.5 s was stated then)."""
 
 
 @dataclass(frozen=True)
