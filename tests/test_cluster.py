@@ -49,10 +49,10 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 @contextmanager
-def dask_cluster(tmp: Path, n_workers: int = 2, nthreads: int = 1):
+def dask_cluster(tmp: Path, n_workers: int = 2, nthreads: int = 1, other: Path | None = None):
     """Start ``dask scheduler`` and ``n_workers`` x ``dask worker`` (no nanny, so that killing a
     worker's process kills the worker); yield the address, the worker processes and the
-    scheduler's."""
+    scheduler's. ``other``: the last worker imports gearsweep from there (its PYTHONPATH)."""
     if DASK is None:
         pytest.fail("the 'dask' command is not installed next to the Python interpreter")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -70,9 +70,10 @@ def dask_cluster(tmp: Path, n_workers: int = 2, nthreads: int = 1):
         for i in range(n_workers):
             log = open(tmp / f"worker{i}.log", "w")  # noqa: SIM115
             logs.append(log)
+            mine = env if other is None or i < n_workers - 1 else dict(env, PYTHONPATH=str(other))
             w = subprocess.Popen([DASK, "worker", address, "--host", "127.0.0.1", "--nthreads",
                                   str(nthreads), "--no-nanny", "--no-dashboard",
-                                  "--death-timeout", "60"], env=env, stdout=log,
+                                  "--death-timeout", "60"], env=mine, stdout=log,
                                  stderr=subprocess.STDOUT)
             procs.append(w)
             workers.append(w)
@@ -118,6 +119,56 @@ def test_scheduler_identical_to_in_process(tmp_path, rattle_reference):
         assert proc.wait(timeout=600) == 0
     with xr.open_dataset(out) as ds:
         assert_same(ds.load(), rattle_reference)
+
+
+def _other_gearsweep(tmp: Path) -> Path:
+    """A copy of this gearsweep outside its checkout (no commit), with version 0.2.0: the
+    modified copy an outside tester put on a worker's PYTHONPATH."""
+    other = tmp / "other"
+    shutil.copytree(ROOT / "gearsweep", other / "gearsweep",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    version = other / "gearsweep" / "_version.py"
+    text = version.read_text(encoding="utf-8")
+    version.write_text(re.sub(r'__version__ = "[^"]*"', '__version__ = "0.2.0"', text),
+                       encoding="utf-8")
+    return other
+
+
+def test_a_worker_with_another_gearsweep_is_refused_before_computing(tmp_path, monkeypatch):
+    """A worker importing another gearsweep (another version, no commit) computed the study's
+    chunks under the client's history line, exit 0. The run now refuses on connecting, one
+    line naming the worker and both gearsweeps, exit 2, nothing computed; a worker that
+    escapes that check (one that joins later: the check skipped here) is refused by its
+    chunk's return, before it computes or saves the chunk."""
+    from gearsweep.errors import ClusterError
+    from gearsweep.study import execute
+    from gearsweep.study.provenance import identity
+
+    study = tmp_path / "rattle.yaml"
+    study.write_text(RATTLE, encoding="utf-8")
+    out = tmp_path / "other.nc"
+    with dask_cluster(tmp_path, n_workers=2, other=_other_gearsweep(tmp_path)) as (
+            address, _, _):
+        from distributed import Client
+
+        with Client(address) as client:
+            bad = [a for a, v in client.run(identity).items() if "0.2.0" in v]
+        assert len(bad) == 1
+        proc = _run_cli([str(study), "-o", str(out), "--scheduler", address, "--chunk-size",
+                         "48"], stderr=subprocess.PIPE, text=True)
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 2, err
+        assert err.count("\n") == 1, err
+        assert err.startswith(f"gearsweep: error: {bad[0]}: this dask worker runs gearsweep 0.2.0,"
+                              f" this run {identity()}: "), err
+        assert not out.exists() and not chunk_folder(out).exists()  # nothing computed
+        monkeypatch.setattr(execute.DaskBackend, "_check_workers", lambda self: None)
+        with execute.DaskBackend(scheduler=address) as backend, \
+                pytest.raises(ClusterError, match=f"{re.escape(bad[0])}: this dask worker runs"
+                              " gearsweep 0.2.0, this run "):
+            execute.stream_to_file(plan_of(RATTLE), out, backend=backend, chunk_cases=48)
+        saved = {p.name for p in chunk_folder(out).glob("*/chunk_*.npys")}
+    assert not out.exists() and len(saved) < 6
 
 
 def test_local_cluster_identical_to_in_process(tmp_path, rattle_reference):

@@ -80,6 +80,7 @@ from gearsweep.study.chunk import (
 from gearsweep.study.filelayout import output_bound
 from gearsweep.study.outputs import OUTPUTS
 from gearsweep.study.plan import Plan, _guard_table, _lane_params, _step_ok
+from gearsweep.study.provenance import identity
 from gearsweep.study.resultfile import ResultFile, history_line, result_layout
 
 if TYPE_CHECKING:
@@ -646,17 +647,37 @@ _KERNEL_LOCK = threading.Lock()
 """One chunk at a time per worker process: its Numba threads already fill its share of cores."""
 
 
+OTHER_GEARSWEEP = "gearsweep-other"
+"""First item of what ``_chunk_task`` returns, instead of a chunk, on a worker whose gearsweep
+is not the client's (then its address and its ``provenance.identity``)."""
+
+
+def other_gearsweep(address: str, theirs: str, client: str | None = None) -> ClusterError:
+    """The one line for a dask worker that imports another gearsweep than this run (``client``:
+    this process's ``provenance.identity``)."""
+    return ClusterError(f"{address}: this dask worker runs {theirs}, this run {client or identity()}:"
+                        " its results would differ from this gearsweep's and be recorded as"
+                        " its; start the workers with the same gearsweep (installed, or on their"
+                        " PYTHONPATH: docs/scale.md)")
+
+
 def _chunk_task(plan: Plan, lane0: int, lane1: int, procs_per_host: dict[str, int],
-                store: ChunkStore | None = None, mark: str | None = None
-                ) -> tuple[dict[str, np.ndarray] | None, float]:
+                store: ChunkStore | None = None, mark: str | None = None,
+                expected: str | None = None
+                ) -> tuple[dict[str, np.ndarray] | None, float] | tuple[str, str, str]:
     """A chunk on a dask worker, with Numba's threads set to this worker's share of the cores:
     its arrays, or ``None`` where the worker saved them to ``store`` itself (it does where it
     sees the client's ``mark`` file in the store's folder: the same file system), and the
-    seconds the worker spent in the kernel for it."""
+    seconds the worker spent in the kernel for it. On a worker whose gearsweep is not the
+    ``expected`` one (``provenance.identity``: a worker that joined after the run's check),
+    nothing is computed or saved: ``(OTHER_GEARSWEEP, its address, its identity)``."""
     import numba
     from distributed import get_worker
 
-    host = urlparse(get_worker().address).hostname or ""
+    address = get_worker().address
+    if expected is not None and (mine := identity()) != expected:
+        return OTHER_GEARSWEEP, address, mine
+    host = urlparse(address).hostname or ""
     procs = procs_per_host.get(host) or max(procs_per_host.values(), default=1)
     threads = max(1, min(numba.config.NUMBA_NUM_THREADS, cores() // procs))
     with _KERNEL_LOCK:  # one chunk at a time per process: the clock's difference is this chunk's
@@ -788,7 +809,9 @@ class DaskBackend:
     ----------
     scheduler : str
         Address of an existing scheduler, ``tcp://HOST:PORT``. Its workers must import the same
-        gearsweep version.
+        gearsweep (``provenance.identity``: its version, and its commit where it runs from a git
+        checkout): a cluster with another is refused on entering (``ClusterError``), and a worker
+        that joins later by its first chunk, before computing it.
     workers : int
         Start a ``LocalCluster`` of this many single-threaded worker processes instead.
     timeout : float
@@ -838,6 +861,11 @@ class DaskBackend:
                 self._quiet.enter_context(silence_logging_cmgr(logging.CRITICAL))
                 self.client = Client(self.scheduler, timeout=f"{min(self.timeout, 10.0)}s")
             self.client.wait_for_workers(1, timeout=self.timeout)
+            if self.scheduler is not None:  # (a local cluster's workers are this process's)
+                self._check_workers()
+        except ClusterError:
+            self.__exit__()
+            raise
         except (OSError, TimeoutError, ValueError, TypeError) as exc:  # ValueError: an address without
             self.__exit__()  # a port ('tcp://localhost'), or no address ('notaurl')
             raise ClusterError(f"{where}: cannot use the dask cluster ({type(exc).__name__}:"
@@ -856,6 +884,25 @@ class DaskBackend:
             self.cluster.close()
             self.cluster = None
         self._quiet.close()
+
+    def _check_workers(self) -> None:
+        """Refuse a cluster with a worker whose gearsweep is not this process's
+        (``provenance.identity``, asked of every worker at once): it computed other numbers
+        under this run's history line, exit 0 (an outside tester: a worker with a modified
+        copy on its PYTHONPATH). A worker that joins later is refused by its first chunk
+        (``_chunk_task``)."""
+        mine = identity()
+        try:
+            found = self.client.run(identity)
+        except Exception as exc:  # noqa: BLE001 - a worker that cannot import gearsweep at all
+            msg = str(exc).splitlines()[0] if str(exc) else ""
+            raise ClusterError(f"{self.scheduler}: a dask worker cannot run gearsweep"
+                               f" ({type(exc).__name__}: {msg}); start the workers with the"
+                               " same gearsweep (installed, or on their PYTHONPATH:"
+                               " docs/scale.md)") from None
+        for address, theirs in sorted(found.items()):
+            if theirs != mine:
+                raise other_gearsweep(address, theirs, mine)
 
     def _procs_per_host(self) -> dict[str, int]:
         info = self.client.scheduler_info(n_workers=-1)["workers"]
@@ -905,6 +952,7 @@ class DaskBackend:
         self.kernel_seconds = 0.0
         window = 2 * sum(procs.values()) + 2  # keeps every worker busy, bounds memory in flight
         sha = plan.study_key[:16]
+        mine = identity()
         pending = iter(todo)
         where: dict[str, tuple[int, int]] = {}
         queue = as_completed()
@@ -914,7 +962,7 @@ class DaskBackend:
             if chunk is None:
                 return False
             fut = self.client.submit(_chunk_task, plan, chunk[0], chunk[1], procs, store, mark,
-                                     retries=2, key=f"gearsweep-{sha}-{chunk[0]}-{chunk[1]}",
+                                     mine, retries=2, key=f"gearsweep-{sha}-{chunk[0]}-{chunk[1]}",
                                      pure=False)
             where[fut.key] = chunk
             queue.add(fut)
@@ -926,7 +974,7 @@ class DaskBackend:
         for fut in queue:
             a, b = where.pop(fut.key)
             try:
-                arrays, seconds = fut.result()
+                got = fut.result()
             except Exception as exc:
                 msg = str(exc).splitlines()[0] if str(exc) else ""
                 if fut.status != "error":  # the chunk did not fail: the client lost the
@@ -938,6 +986,9 @@ class DaskBackend:
                 raise ClusterError(f"{self.scheduler or 'local cluster'}: chunk of lanes {a}-{b}"
                                    f" failed: {type(exc).__name__}: {msg}") from exc
             fut.release()
+            if got[0] == OTHER_GEARSWEEP:  # a worker that joined after the check
+                raise other_gearsweep(got[1], got[2], mine)
+            arrays, seconds = got
             self.kernel_seconds += seconds
             yield a, b, arrays if arrays is not None else SavedChunk(store, a, b)
             submit()

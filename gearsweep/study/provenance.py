@@ -86,11 +86,19 @@ def source_commit(root: Path | None = None) -> str | None:
     return head[:12] if len(head) >= 12 and all(c in "0123456789abcdef" for c in head) else None
 
 
+def identity() -> str:
+    """The gearsweep that runs in this process as a result's history names it: ``gearsweep
+    0.1.0 commit 0123456789ab`` (the commit where it runs from a git checkout:
+    ``source_commit``). A dask worker's is compared with the client's before it computes a
+    chunk (``execute.DaskBackend``): a worker importing another gearsweep computed other
+    numbers under the client's history line (an outside tester)."""
+    commit = source_commit()
+    return f"gearsweep {__version__}" + (f" commit {commit}" if commit else "")
+
+
 def provenance() -> str:
     """``gearsweep run s.yaml -o o.nc (gearsweep 0.1.0 commit 0123456789ab, numba 0.60.0, ...)``
-    (the commit where gearsweep runs from a git checkout: ``source_commit``)."""
+    (``identity``, then the versions of the libraries it computes with)."""
     versions = ", ".join(f"{d} {_version(d)}" for d in ("numba", "numpy", "xarray"))
-    commit = source_commit()
-    ours = f"gearsweep {__version__}" + (f" commit {commit}" if commit else "")
-    return f"{command_line()} ({ours}, {versions}, Python {platform.python_version()})"
+    return f"{command_line()} ({identity()}, {versions}, Python {platform.python_version()})"
 
