@@ -318,7 +318,7 @@ def _backend(args: argparse.Namespace):
 
 
 _STOP = threading.Event()
-"""Set by the first SIGINT of ``gearsweep run``: stop after the chunk being computed."""
+"""Set by the first SIGINT of ``gearsweep run``: stop after the chunks being computed."""
 
 
 _COMPUTING = threading.Event()
@@ -329,19 +329,32 @@ _left: int | None = None
 """The chunks ``gearsweep run`` has still to compute, the one computing included (``_stoppable``);
 ``None`` before the first begins (the kernel loading, or compiling on a cold cache)."""
 
+_computing = None
+"""The backend's count of chunks being computed now (``DaskBackend.computing``; ``None``: one,
+in this process)."""
+
+
+def _stop_line() -> str:
+    """What the first Ctrl-C does, in words (``_stoppable``): a one-chunk run stopped in its
+    compile was told "stopping after the chunk being computed", then ran to its end and wrote
+    its file, exit 0; with several workers it said "the chunk being computed" and dropped the
+    others in flight (outside testers)."""
+    if _left is None:
+        return "stopping before the first chunk begins"
+    n = max(1, min(_left, _computing() if _computing is not None else 1))
+    chunks = "chunk" if n == 1 else f"{n} chunks"
+    if _left <= n:
+        return f"finishing the last {chunks} and writing the file"
+    return (f"stopping after the {chunks} being computed, which {'is' if n == 1 else 'are'}"
+            " kept")
+
 
 def _on_sigint(signum, frame) -> None:
     if _STOP.is_set():  # a second Ctrl-C: stop now (the chunks saved so far are kept)
         raise KeyboardInterrupt
     _STOP.set()
-    if _COMPUTING.is_set():  # what the stop does (``_stoppable``): a one-chunk run stopped in
-        # its compile was told "stopping after the chunk being computed", then ran to its end
-        # and wrote its file, exit 0 (an outside tester)
-        what = ("stopping before the first chunk begins" if _left is None
-                else "finishing the last chunk and writing the file" if _left == 1
-                else "stopping after the chunk being computed, which is kept")
-        print(f"gearsweep: {what} (Ctrl-C again to stop at once)", file=sys.stderr)
-        # (a chunk may last up to CHUNK_SECONDS)
+    if _COMPUTING.is_set():  # (a chunk may last up to CHUNK_SECONDS)
+        print(f"gearsweep: {_stop_line()} (Ctrl-C again to stop at once)", file=sys.stderr)
 
 
 _TERMINATED = threading.Event()
@@ -361,26 +374,35 @@ def _on_sigterm(signum, frame) -> None:
 
 def _stoppable(backend):
     """``backend`` whose ``run`` stops cleanly between chunks once ``_STOP`` is set: every chunk
-    computed so far, the one that was computing when the stop came included, is saved by the
-    caller before the stop (raised as ``KeyboardInterrupt``); a stop during the last chunk lets
-    the run finish and write its file; a stop before the first chunk (while the kernel loaded
-    or compiled) stops before it. (The chunk that finished after the stop was dropped: a
-    single-chunk continued sweep ran to its end and kept nothing; an adversarial test.) Keeps
-    ``_left``, which the Ctrl-C's line tells from."""
+    computed so far, those that were computing when the stop came included (on a dask cluster
+    every one begun: ``DaskBackend.stop``), is saved by the caller before the stop (raised as
+    ``KeyboardInterrupt``); a stop during the last chunks lets the run finish and write its
+    file; a stop before the first chunk (while the kernel loaded or compiled) stops before it.
+    (The chunk that finished after the stop was dropped: a single-chunk continued sweep ran to
+    its end and kept nothing; an adversarial test.) Keeps ``_left`` and ``_computing``, which
+    the Ctrl-C's line tells from."""
     base = type(backend)
+    drains = isinstance(backend, DaskBackend)  # it waits for its chunks in flight itself
 
     class Stoppable(base):
         def run(self, plan, todo, *args):
-            global _left
+            global _left, _computing
             if _STOP.is_set():  # no chunk has begun
                 raise KeyboardInterrupt
             last = len(todo) - 1
             _left = len(todo)
+            if drains:
+                self.stop = _STOP.is_set
+                _computing = lambda: self.computing  # noqa: E731
+            yielded = 0
             for i, item in enumerate(base.run(self, plan, todo, *args)):
                 yield item
+                yielded += 1
                 _left = last - i
-                if _STOP.is_set() and i < last:
+                if _STOP.is_set() and i < last and not drains:
                     raise KeyboardInterrupt
+            if _STOP.is_set() and yielded < len(todo):  # a cluster's stop, its chunks begun
+                raise KeyboardInterrupt
 
     backend.__class__ = Stoppable
     return backend
@@ -409,7 +431,7 @@ def _check_mesh_memory(study, name: str, yes: bool) -> float:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    global _left
+    global _left, _computing
     set_up_runtime_in_background()  # beside reading the study and planning (LLVM, no GIL)
     text, shown = read_text(args.study)
     try:  # --device replaces solver.device before the study's device checks
@@ -583,7 +605,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         sys.unraisablehook = unraisable
         _STOP.clear()
         _COMPUTING.clear()
-        _left = None
+        _left = _computing = None
     # Counted as the chunks were written: the file is not opened again to report them.
     for line in (step_limit_text(plan, written.beyond, out),
                  contact_lost_text(plan, written.contact_lost, out)):

@@ -266,8 +266,8 @@ def test_a_local_cluster_needs_no_fixed_port_and_listens_on_localhost_only():
 def test_ctrl_c_on_a_local_cluster_stops_cleanly(tmp_path):
     """Ctrl-C in a terminal signals the whole process group, the local cluster's workers too:
     they died with a traceback each and the run could wait for their chunks for good (2 of 4
-    tries). The workers now ignore SIGINT; the run stops after the chunks in flight, says so in
-    one line, exit 130, and the same command completes the file."""
+    tries). The workers now ignore SIGINT; the run stops after the chunks being computed, saves
+    each, says so in one line, exit 130, and the same command completes the file."""
     study = tmp_path / "long.yaml"
     study.write_text(LONG.replace("num: 50", "num: 400"), encoding="utf-8")
     out = tmp_path / "long.nc"
@@ -290,6 +290,16 @@ def test_ctrl_c_on_a_local_cluster_stops_cleanly(tmp_path):
     assert err.strip().splitlines()[-1].startswith("gearsweep: interrupted: "), err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
     saved = sum(1 for _ in folder.rglob("chunk_*.npys"))
+    # Every chunk being computed at the Ctrl-C is saved, its count said (it said "the chunk
+    # being computed" and dropped the other worker's: a hole before a later chunk saved; an
+    # outside tester): the saved chunks are the first ones, in lane order, with no hole.
+    said = re.search(r"gearsweep: stopping after the (\d+) chunks being computed, which are"
+                     r" kept \(Ctrl-C again to stop at once\)", err)
+    assert said is not None, err
+    assert 2 <= int(said[1]) <= saved, err
+    chunks = chunks_to_run(plan_of(study.read_text(encoding="utf-8")), None, 20)
+    names = {p.name for p in folder.rglob("chunk_*.npys")}
+    assert names == {f"chunk_{a}_{b}.npys" for a, b in chunks[:saved]}, (names, err)
     rc = _run_cli(args).wait(timeout=600)
     assert rc == 0 and out.exists()
     # The result records both runs: the chunks the interrupted one left (those its workers

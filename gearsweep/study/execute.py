@@ -829,6 +829,13 @@ class DaskBackend:
         self.kernel_seconds = 0.0
         """Seconds the workers spent in the kernel for the chunks of the last ``run``, summed
         over the workers (so up to workers x the wall time of the chunk phase)."""
+        self.stop: Callable[[], bool] = lambda: False
+        """Asked while ``run`` waits for chunks (every ``STOP_POLL_SECONDS``): once true, no
+        chunk is submitted, those not yet begun are cancelled, and those being computed are
+        waited for and yielded, then ``run`` returns (the CLI's first Ctrl-C: its chunks in
+        flight were dropped, one computing while a later one was saved; an outside tester)."""
+        self._in_flight = 0
+        self._slots = 0
 
     def __enter__(self) -> DaskBackend:
         import dask
@@ -944,34 +951,77 @@ class DaskBackend:
             if mark is not None:
                 (store.folder / mark).unlink(missing_ok=True)
 
+    @property
+    def computing(self) -> int:
+        """Chunks being computed now, about: those submitted and not yet yielded, at most the
+        cluster's dask threads (the rest wait on the scheduler)."""
+        return min(self._in_flight, self._slots)
+
+    def _cancel_not_begun(self, futures: dict[str, object]) -> None:
+        """Cancel the chunks of ``futures`` (by key) that no worker has begun (a stop): the
+        workers are asked which they execute; the finished and those are kept."""
+        executing = set()
+        with contextlib.suppress(Exception):  # a worker gone: its chunks are not computing
+            for keys in self.client.run(_executing).values():
+                executing.update(keys)
+        waiting = [f for k, f in futures.items() if k not in executing and not f.done()]
+        for f in waiting:
+            del futures[f.key]
+        if waiting:
+            self.client.cancel(waiting)
+
     def _run(self, plan: Plan, todo: list[tuple[int, int]], store: ChunkStore | None,
              mark: str | None) -> Iterator[tuple[int, int, dict[str, np.ndarray] | SavedChunk]]:
         from distributed import as_completed
 
         procs = self._procs_per_host()
+        self._slots = self.threads if self.cluster is None else sum(procs.values())
         self.kernel_seconds = 0.0
         window = 2 * sum(procs.values()) + 2  # keeps every worker busy, bounds memory in flight
         sha = plan.study_key[:16]
         mine = identity()
         pending = iter(todo)
         where: dict[str, tuple[int, int]] = {}
+        futures: dict[str, object] = {}  # submitted, not yet yielded or cancelled
         queue = as_completed()
+        stopping = False
 
         def submit() -> bool:
-            chunk = next(pending, None)
+            chunk = None if stopping else next(pending, None)
             if chunk is None:
                 return False
             fut = self.client.submit(_chunk_task, plan, chunk[0], chunk[1], procs, store, mark,
                                      mine, retries=2, key=f"gearsweep-{sha}-{chunk[0]}-{chunk[1]}",
                                      pure=False)
             where[fut.key] = chunk
+            futures[fut.key] = fut
+            self._in_flight = len(futures)
             queue.add(fut)
             return True
+
+        def finished() -> Iterator:
+            """The futures as they finish, the stop asked between (``self.stop``)."""
+            nonlocal stopping
+            while True:
+                if not stopping and self.stop():
+                    stopping = True
+                    self._cancel_not_begun(futures)
+                    self._in_flight = len(futures)
+                if queue.has_ready():
+                    yield next(queue)
+                elif queue.is_empty():
+                    return
+                else:
+                    with queue.thread_condition:
+                        queue.thread_condition.wait(timeout=STOP_POLL_SECONDS)
 
         for _ in range(window):
             if not submit():
                 break
-        for fut in queue:
+        for fut in finished():
+            if futures.pop(fut.key, None) is None:  # cancelled by a stop
+                continue
+            self._in_flight = len(futures)
             a, b = where.pop(fut.key)
             try:
                 got = fut.result()
@@ -992,6 +1042,15 @@ class DaskBackend:
             self.kernel_seconds += seconds
             yield a, b, arrays if arrays is not None else SavedChunk(store, a, b)
             submit()
+
+
+STOP_POLL_SECONDS = 0.05
+"""How often ``DaskBackend.run`` asks ``stop`` while no chunk finishes [s]."""
+
+
+def _executing(dask_worker) -> list[str]:
+    """The keys of the tasks a dask worker is executing (``client.run``)."""
+    return [ts.key for ts in dask_worker.state.executing]
 
 
 SHARED_MARK = "shared-"
