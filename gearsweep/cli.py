@@ -7,6 +7,7 @@ traceback is shown only with ``--debug``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import math
 import os
@@ -329,19 +330,19 @@ _left: int | None = None
 """The chunks ``gearsweep run`` has still to compute, the one computing included (``_stoppable``);
 ``None`` before the first begins (the kernel loading, or compiling on a cold cache)."""
 
-_computing = None
-"""The backend's count of chunks being computed now (``DaskBackend.computing``; ``None``: one,
-in this process)."""
+_drains = False
+"""Whether the running backend waits for its chunks in flight on a stop and says how many
+(``DaskBackend.stop``, ``stopping``): then its line is printed when it knows them."""
 
 
-def _stop_line() -> str:
-    """What the first Ctrl-C does, in words (``_stoppable``): a one-chunk run stopped in its
-    compile was told "stopping after the chunk being computed", then ran to its end and wrote
-    its file, exit 0; with several workers it said "the chunk being computed" and dropped the
-    others in flight (outside testers)."""
+def _stop_line(n: int = 1) -> str:
+    """What the first Ctrl-C does, in words (``_stoppable``), ``n`` chunks being computed: a
+    one-chunk run stopped in its compile was told "stopping after the chunk being computed",
+    then ran to its end and wrote its file, exit 0; with several workers it said "the chunk
+    being computed" and dropped the others in flight (outside testers)."""
     if _left is None:
         return "stopping before the first chunk begins"
-    n = max(1, min(_left, _computing() if _computing is not None else 1))
+    n = max(1, min(_left, n))
     chunks = "chunk" if n == 1 else f"{n} chunks"
     if _left <= n:
         return f"finishing the last {chunks} and writing the file"
@@ -349,12 +350,16 @@ def _stop_line() -> str:
             " kept")
 
 
+def _say_stopping(n: int = 1) -> None:
+    print(f"gearsweep: {_stop_line(n)} (Ctrl-C again to stop at once)", file=sys.stderr)
+
+
 def _on_sigint(signum, frame) -> None:
     if _STOP.is_set():  # a second Ctrl-C: stop now (the chunks saved so far are kept)
         raise KeyboardInterrupt
     _STOP.set()
-    if _COMPUTING.is_set():  # (a chunk may last up to CHUNK_SECONDS)
-        print(f"gearsweep: {_stop_line()} (Ctrl-C again to stop at once)", file=sys.stderr)
+    if _COMPUTING.is_set() and not (_drains and _left is not None):  # (a chunk may last up
+        _say_stopping()  # to CHUNK_SECONDS)
 
 
 _TERMINATED = threading.Event()
@@ -379,21 +384,20 @@ def _stoppable(backend):
     ``KeyboardInterrupt``); a stop during the last chunks lets the run finish and write its
     file; a stop before the first chunk (while the kernel loaded or compiled) stops before it.
     (The chunk that finished after the stop was dropped: a single-chunk continued sweep ran to
-    its end and kept nothing; an adversarial test.) Keeps ``_left`` and ``_computing``, which
+    its end and kept nothing; an adversarial test.) Keeps ``_left`` and ``_drains``, which
     the Ctrl-C's line tells from."""
     base = type(backend)
     drains = isinstance(backend, DaskBackend)  # it waits for its chunks in flight itself
 
     class Stoppable(base):
         def run(self, plan, todo, *args):
-            global _left, _computing
+            global _left, _drains
             if _STOP.is_set():  # no chunk has begun
                 raise KeyboardInterrupt
             last = len(todo) - 1
             _left = len(todo)
             if drains:
-                self.stop = _STOP.is_set
-                _computing = lambda: self.computing  # noqa: E731
+                self.stop, self.stopping, _drains = _STOP.is_set, _say_stopping, True
             yielded = 0
             for i, item in enumerate(base.run(self, plan, todo, *args)):
                 yield item
@@ -431,7 +435,6 @@ def _check_mesh_memory(study, name: str, yes: bool) -> float:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    global _left, _computing
     set_up_runtime_in_background()  # beside reading the study and planning (LLVM, no GIL)
     text, shown = read_text(args.study)
     try:  # --device replaces solver.device before the study's device checks
@@ -507,8 +510,23 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise StudyError(name, "--workers", args.workers, (  # (10000 would start them all)
             f"at most this machine's {cores()} cores (a local worker is a process with its share"
             " of them; several machines: --scheduler)"))
+    # An existing cluster is asked for its workers once, on connecting: the chunks are cut and
+    # the estimate stated for them (chunked and priced for this machine, 6 chunks where its 4
+    # workers wanted 8 or more, one of them idle; an outside tester).
+    with contextlib.ExitStack() as connected:
+        cluster = connected.enter_context(_backend(args)) if args.scheduler else None
+        return _run_chunked(args, study, text, plan, out, name, cluster)
+
+
+def _run_chunked(args: argparse.Namespace, study, text: str, plan, out: Path, name: str,
+                 cluster: DaskBackend | None) -> int:
+    """``gearsweep run`` of a study computed in chunks (``cluster``: the existing dask cluster
+    of ``--scheduler``, connected)."""
+    global _left, _drains
+    workers = cluster.n_workers if cluster is not None else args.workers
+    threads = cluster.threads if cluster is not None else cores() if args.workers else None
     # Chunks of at most about 30 s (progress, and a kill loses at most one chunk).
-    chunk, capped = chunk_cases(plan, args.chunk_size, workers=args.workers)
+    chunk, capped = chunk_cases(plan, args.chunk_size, threads=threads, workers=workers)
     saved = saved_layout(out, plan.study_key, plan.n_lanes)
     if saved:  # a resumed run keeps its chunks: estimate with them, say so if asked for others
         asked_chunk = chunk
@@ -533,10 +551,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     # run says or does: with every specialisation counted as compiled on the spot, a study
     # that is neither shown its estimate (--estimate, or over SHOW_ESTIMATE_SECONDS) nor
     # refused by the limits, is not.
-    threads = None if not args.workers else cores()
-    est, _ = quick_estimate(plan, chunk, threads=threads, ask_cache=False)
+    est, _ = quick_estimate(plan, chunk, threads=threads, ask_cache=False, workers=workers)
     if args.estimate or est.seconds > SHOW_ESTIMATE_SECONDS or (not args.yes and est.over()):
-        est, _ = quick_estimate(plan, chunk, threads=threads)
+        est, _ = quick_estimate(plan, chunk, threads=threads, workers=workers)
     if args.estimate:  # also for a GPU study on a machine without one: planning a GPU run
         print(f"{name}: {est.line()}")
         if saved:
@@ -558,7 +575,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return 0
     _check_device(study, text, args)  # no GPU: one line, exit 2, now
     if not args.yes:
-        est, _ = before_refusing(plan, est, chunk, threads)
+        est, _ = before_refusing(plan, est, chunk, threads, workers)
         check_limits(est, name)
     _long_sweep_note(plan, args)
     _aliasing_warning(plan, name)  # (as validate: a spectrum that folds its lines, said first)
@@ -576,7 +593,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             previous = (signal.signal(signal.SIGINT, _on_sigint),
                         signal.signal(signal.SIGTERM, _on_sigterm))
             sys.unraisablehook = _quiet_once_stopping(unraisable)
-        with OutputLock(out), _backend(args) as backend:
+        with OutputLock(out), (contextlib.nullcontext(cluster) if cluster is not None
+                               else _backend(args)) as backend:
             check_partial(plan, out)
             if not args.quiet and est.seconds > SHOW_ESTIMATE_SECONDS:
                 print(f"{name}: {est.line()}", file=sys.stderr)
@@ -605,7 +623,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         sys.unraisablehook = unraisable
         _STOP.clear()
         _COMPUTING.clear()
-        _left = _computing = None
+        _left, _drains = None, False
     # Counted as the chunks were written: the file is not opened again to report them.
     for line in (step_limit_text(plan, written.beyond, out),
                  contact_lost_text(plan, written.contact_lost, out)):

@@ -171,6 +171,29 @@ def test_a_worker_with_another_gearsweep_is_refused_before_computing(tmp_path, m
     assert not out.exists() and len(saved) < 6
 
 
+def test_a_scheduler_s_chunks_and_estimate_are_for_its_workers(tmp_path):
+    """--scheduler cut the default chunks and priced them for this machine, not its cluster
+    (6 chunks of the 1e6-case study where --workers 2 cut 8; on 4 workers one sat idle): the
+    scheduler is asked for its workers on connecting, and the chunks are cut as for that many
+    local workers (``CHUNKS_PER_WORKER`` each) and the estimate stated on them."""
+    from gearsweep.study.estimate import CHUNKS_PER_WORKER
+
+    study = ROOT / "studies" / "heavy" / "scale_1e6.yaml"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    here = subprocess.run([sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o",
+                           str(tmp_path / "h.nc"), "--estimate"], env=env, cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
+    with dask_cluster(tmp_path, n_workers=3) as (address, _, _):
+        there = subprocess.run([sys.executable, "-m", "gearsweep.cli", "run", str(study), "-o",
+                                str(tmp_path / "s.nc"), "--estimate", "--scheduler", address],
+                               env=env, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert here.returncode == 0 and there.returncode == 0, (here.stderr, there.stderr)
+    chunks = [int(re.search(r" in (\d+) chunks: ", p.stdout)[1]) for p in (here, there)]
+    assert chunks[1] >= CHUNKS_PER_WORKER * 3 > chunks[0], (here.stdout, there.stdout)
+    assert " on 3 workers, 3 cores at " in there.stdout, there.stdout
+    assert " workers" not in here.stdout, here.stdout
+
+
 def test_local_cluster_identical_to_in_process(tmp_path, rattle_reference):
     """The same study through --workers 2 (a LocalCluster started and closed by the CLI)."""
     study = tmp_path / "rattle.yaml"

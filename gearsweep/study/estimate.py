@@ -81,10 +81,13 @@ def _not_compiled(plan: Plan, ask_cache: bool) -> set[tuple]:
 
 
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,
-                   rate: float | None = None, ask_cache: bool = True) -> tuple[Estimate, float]:
+                   rate: float | None = None, ask_cache: bool = True,
+                   workers: int | None = None) -> tuple[Estimate, float]:
     """(estimate at the stated rate, or at ``rate`` [Msteps/s per core] measured, of which
     seconds to compile the kernel on a cold cache). ``ask_cache=False``: an upper bound, with
-    every specialisation the run calls counted as compiled on the spot (``compile_seconds``)."""
+    every specialisation the run calls counted as compiled on the spot (``compile_seconds``).
+    ``workers``: the dask worker processes that run the chunks on ``threads`` cores in all
+    (``None``: this process)."""
     threads = threads or kernel_threads()  # (NUMBA_NUM_THREADS=1 was estimated on every core)
     s = plan.study.solver
     per = lanes_per_chunk(plan, chunk_cases) or plan.default_lanes_per_chunk()
@@ -130,7 +133,8 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
                    compile_seconds=compile_s, compile_bytes=compile_b, output_seconds=outputs_s,
                    disk_bytes=disk_bytes(plan, count),
                    worst_seconds=(seconds + count * CHUNK_OVERHEAD_SECONDS
-                                  + output_seconds(plan, count, worst=True)))
+                                  + output_seconds(plan, count, worst=True)),
+                   workers=workers)
     return est, compile_s
 
 
@@ -156,7 +160,8 @@ without measuring (and, on a cold cache, without compiling)."""
 
 
 def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
-                    threads: int | None = None) -> tuple[Estimate, float]:
+                    threads: int | None = None, workers: int | None = None
+                    ) -> tuple[Estimate, float]:
     """``est`` again at the rate measured on this machine, where the stated rate puts it over
     the time limit; else ``est`` as it is; with the seconds of it that are compiling (after
     measuring, none: the measurement compiled the kernel). (``validate`` printed the estimate
@@ -176,8 +181,9 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
     if kernel / MAX_SPEEDUP > execute.LIMITS.seconds:
         return est, est.compile_seconds  # no machine is that much faster: refused at once,
         # nothing compiled
-    rate = measure_rate(plan, threads or cores())
-    return quick_estimate(plan, chunk_cases, threads, rate=rate)
+    rate = measure_rate(plan, min(threads or cores(), cores()))  # measured here, per core (a
+    # cluster's cores are not this machine's)
+    return quick_estimate(plan, chunk_cases, threads, rate=rate, workers=workers)
 
 
 CHUNK_SECONDS = 30.0

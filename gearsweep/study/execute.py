@@ -291,6 +291,9 @@ class Estimate:
     """``seconds`` at most where an output's work depends on the motion (``period``: every
     case without a period), said beside it where it is more. The limit is held to ``seconds``,
     the typical time."""
+    workers: int | None = None
+    """Dask worker processes the chunks run on (``--workers``, or an existing cluster's as its
+    scheduler counts them: ``DaskBackend``), said beside the cores; ``None``: this process."""
 
     def line(self) -> str:
         """The estimate in one line, saying when it includes compiling the kernel."""
@@ -299,6 +302,9 @@ class Estimate:
                  " its kernel (every run)" if self.device == "cuda" else
                  f"on {self.threads} core{'s' if self.threads != 1 else ''} at"
                  f" {self.rate:.0f} Msteps/s per core ({self.rate_source})")
+        if self.workers is not None and self.device != "cuda":  # a dask cluster's size
+            where = (f"on {self.workers} worker{'s' if self.workers != 1 else ''},"
+                     + where.removeprefix("on"))
         cold = (f"; includes about {self.compile_seconds:.0f} s to compile the kernel once"
                 " (cold cache)" if self.compile_seconds else "")
         worst = (f" (at most {_duration(self.worst_seconds)} if no case's motion repeats within"
@@ -831,11 +837,17 @@ class DaskBackend:
         over the workers (so up to workers x the wall time of the chunk phase)."""
         self.stop: Callable[[], bool] = lambda: False
         """Asked while ``run`` waits for chunks (every ``STOP_POLL_SECONDS``): once true, no
-        chunk is submitted, those not yet begun are cancelled, and those being computed are
-        waited for and yielded, then ``run`` returns (the CLI's first Ctrl-C: its chunks in
-        flight were dropped, one computing while a later one was saved; an outside tester)."""
-        self._in_flight = 0
-        self._slots = 0
+        chunk is submitted, those after every chunk begun are cancelled (``_cancel_not_begun``),
+        and the others waited for and yielded, then ``run`` returns (the CLI's first Ctrl-C:
+        its chunks in flight were dropped, one computing while a later one was saved; an
+        outside tester)."""
+        self.stopping: Callable[[int], None] = lambda n: None
+        """Called once ``stop`` is true, with the number of chunks ``run`` waits for."""
+        self.n_workers = 0
+        """Worker processes of the cluster, counted when the backend connects (an existing
+        cluster's as its scheduler knows them then): the chunks are cut and the estimate
+        stated for them (the CLI)."""
+        self._threads = 0
 
     def __enter__(self) -> DaskBackend:
         import dask
@@ -870,6 +882,7 @@ class DaskBackend:
             self.client.wait_for_workers(1, timeout=self.timeout)
             if self.scheduler is not None:  # (a local cluster's workers are this process's)
                 self._check_workers()
+            self._count_workers()
         except ClusterError:
             self.__exit__()
             raise
@@ -919,13 +932,19 @@ class DaskBackend:
             out[host] = out.get(host, 0) + 1
         return out
 
+    def _count_workers(self) -> None:
+        """``n_workers`` and ``threads``, asked of the scheduler once, on connecting."""
+        info = self.client.scheduler_info(n_workers=-1)["workers"]
+        self.n_workers = len(info) if self.cluster is None else self.workers
+        self._threads = (cores() if self.cluster is not None  # the local workers share this
+                         else max(1, sum(int(w.get("nthreads", 1)) for w in info.values())))
+        # machine's cores
+
     @property
     def threads(self) -> int:
-        """Cores of the cluster: its dask threads (dask's default is one per core)."""
-        if self.cluster is not None:
-            return cores()  # the local workers share this machine's cores
-        info = self.client.scheduler_info(n_workers=-1)["workers"]
-        return max(1, sum(int(w.get("nthreads", 1)) for w in info.values()))
+        """Cores of the cluster: its dask threads (dask's default is one per core), counted on
+        connecting (``n_workers``)."""
+        return self._threads
 
     def run(self, plan: Plan, todo: list[tuple[int, int]], store: ChunkStore | None = None
             ) -> Iterator[tuple[int, int, dict[str, np.ndarray] | SavedChunk]]:
@@ -951,20 +970,19 @@ class DaskBackend:
             if mark is not None:
                 (store.folder / mark).unlink(missing_ok=True)
 
-    @property
-    def computing(self) -> int:
-        """Chunks being computed now, about: those submitted and not yet yielded, at most the
-        cluster's dask threads (the rest wait on the scheduler)."""
-        return min(self._in_flight, self._slots)
-
-    def _cancel_not_begun(self, futures: dict[str, object]) -> None:
-        """Cancel the chunks of ``futures`` (by key) that no worker has begun (a stop): the
-        workers are asked which they execute; the finished and those are kept."""
+    def _cancel_not_begun(self, futures: dict[str, object],
+                          where: dict[str, tuple[int, int]]) -> None:
+        """A stop: cancel the chunks of ``futures`` (by key) after, in lane order, every chunk
+        a worker has begun (the workers are asked which they execute); the others are kept and
+        waited for, so that the chunks saved are the first ones, with no hole (the scheduler
+        may begin a chunk before an earlier one that waits on another worker)."""
         executing = set()
         with contextlib.suppress(Exception):  # a worker gone: its chunks are not computing
             for keys in self.client.run(_executing).values():
                 executing.update(keys)
-        waiting = [f for k, f in futures.items() if k not in executing and not f.done()]
+        begun = [where[k] for k in executing if k in futures]
+        last = max(begun, default=(-1, -1))
+        waiting = [f for k, f in futures.items() if where[k] > last and not f.done()]
         for f in waiting:
             del futures[f.key]
         if waiting:
@@ -975,7 +993,6 @@ class DaskBackend:
         from distributed import as_completed
 
         procs = self._procs_per_host()
-        self._slots = self.threads if self.cluster is None else sum(procs.values())
         self.kernel_seconds = 0.0
         window = 2 * sum(procs.values()) + 2  # keeps every worker busy, bounds memory in flight
         sha = plan.study_key[:16]
@@ -995,7 +1012,6 @@ class DaskBackend:
                                      pure=False)
             where[fut.key] = chunk
             futures[fut.key] = fut
-            self._in_flight = len(futures)
             queue.add(fut)
             return True
 
@@ -1005,8 +1021,8 @@ class DaskBackend:
             while True:
                 if not stopping and self.stop():
                     stopping = True
-                    self._cancel_not_begun(futures)
-                    self._in_flight = len(futures)
+                    self._cancel_not_begun(futures, where)
+                    self.stopping(len(futures))
                 if queue.has_ready():
                     yield next(queue)
                 elif queue.is_empty():
@@ -1021,7 +1037,6 @@ class DaskBackend:
         for fut in finished():
             if futures.pop(fut.key, None) is None:  # cancelled by a stop
                 continue
-            self._in_flight = len(futures)
             a, b = where.pop(fut.key)
             try:
                 got = fut.result()
