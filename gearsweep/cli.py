@@ -538,7 +538,7 @@ def _run_chunked(args: argparse.Namespace, study, text: str, plan, out: Path, na
         if asked and not args.quiet:
             print(f"gearsweep: note: {out}: resuming in the interrupted run's {len(saved)} chunks;"
                   f" the chunks of {' and '.join(asked)} apply to a fresh run", file=sys.stderr)
-    small = None if saved or args.workers else small_chunk_note(plan, args.chunk_size)
+    small = None if saved else small_chunk_note(plan, args.chunk_size, threads, workers)
     if small and not args.quiet:
         print(f"gearsweep: note: {name}: --chunk-size {args.chunk_size}: {small}", file=sys.stderr)
     if capped and args.chunk_size is not None and not args.quiet:

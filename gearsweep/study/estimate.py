@@ -25,12 +25,12 @@ from gearsweep.study import execute
 from gearsweep.study.chunk import kernel_calls
 from gearsweep.study.execute import (
     BASELINE_MEMORY,
-    CHUNK_OVERHEAD_SECONDS,
     FIXED_SECONDS,
     STATED_RATE,
     WRITE_RATE,
     Estimate,
     _case_bytes,
+    chunk_overhead,
     chunks_held,
     cores,
     disk_bytes,
@@ -128,11 +128,11 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     outputs_s = output_seconds(plan, count)
     est = Estimate(cases=plan.n_cases, steps=float(plan.n_cases) * plan.steps_per_case,
                    chunks=count, threads=threads, rate=rate, rate_source=source,
-                   seconds=seconds + count * CHUNK_OVERHEAD_SECONDS + outputs_s,
+                   seconds=seconds + count * chunk_overhead(workers) + outputs_s,
                    memory_bytes=memory, output_bytes=output, device=plan.device,
                    compile_seconds=compile_s, compile_bytes=compile_b, output_seconds=outputs_s,
                    disk_bytes=disk_bytes(plan, count),
-                   worst_seconds=(seconds + count * CHUNK_OVERHEAD_SECONDS
+                   worst_seconds=(seconds + count * chunk_overhead(workers)
                                   + output_seconds(plan, count, worst=True)),
                    workers=workers)
     return est, compile_s
@@ -177,7 +177,7 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
         return est, est.compile_seconds  # within the limits, refused for memory or output
         # whatever the rate, or on the GPU (the CPU kernel's rate says nothing of it)
     kernel = (est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE - est.compile_seconds
-              - est.output_seconds - est.chunks * CHUNK_OVERHEAD_SECONDS)
+              - est.output_seconds - est.chunks * chunk_overhead(est.workers))
     if kernel / MAX_SPEEDUP > execute.LIMITS.seconds:
         return est, est.compile_seconds  # no machine is that much faster: refused at once,
         # nothing compiled
@@ -223,13 +223,16 @@ WORKER_CHUNK_STEPS = 1e8
 per task (milliseconds) and the work around each kernel call stay small beside it."""
 
 
-def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = None
-                     ) -> str | None:
+def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = None,
+                     workers: int | None = None) -> str | None:
     """What a requested chunk size too small for its cost costs, in words (``None`` when it
-    is not): each chunk costs ``CHUNK_OVERHEAD_SECONDS`` beyond its kernel, and the kernel
-    computes ``LANES`` lanes a block on each core, so a chunk of fewer lane-sweeps runs mostly
-    empty blocks. The size it advises keeps the overhead under ``OVERHEAD_SHARE`` of a chunk's
-    kernel time. (It advised one round of blocks, 64 cases on 2 cores: the 300,000-case cut
+    is not): each chunk costs ``chunk_overhead`` beyond its kernel (more on a dask cluster of
+    ``workers`` processes, whose ``threads`` cores they share: a chunk runs on one of them),
+    and the kernel computes ``LANES`` lanes a block on each core, so a chunk of fewer
+    lane-sweeps runs mostly empty blocks. (With ``--workers`` it was not said, and the chunks
+    were priced at this process's cost: 40,000 cases in chunks of 64 estimated at 3.7 s took
+    8.7 s; an outside tester.) The size it advises keeps the overhead under
+    ``OVERHEAD_SHARE`` of a chunk's kernel time. (It advised one round of blocks, 64 cases on 2 cores: the 300,000-case cut
     of the 1e6-case study took 34.5 s in chunks of 64 cases, 4,688 of them, where its 4 runner's
     chunks take 5-6 s; an outside tester. A continued 1e6-case study in chunks of 2,000 cases,
     2 lanes of 1,000 speeds, took 58 s against 5.5 s by default.)"""
@@ -237,9 +240,12 @@ def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = No
         return None
     threads = threads or kernel_threads()  # the kernel's (cores() warned of a round of blocks
     # on every core where NUMBA_NUM_THREADS=1 runs one)
+    if workers:  # a chunk runs on one worker, with its share of the cores
+        threads = max(1, threads // workers)
+    overhead = chunk_overhead(workers)
     ways = max(len(plan.directions), 1)
     round_lanes = max(LANES * threads // ways, 1)
-    rounds = math.ceil(CHUNK_OVERHEAD_SECONDS / (OVERHEAD_SHARE * shortest_chunk_seconds(plan)))
+    rounds = math.ceil(overhead / (OVERHEAD_SHARE * shortest_chunk_seconds(plan)))
     enough = min(round_lanes * rounds, plan.n_lanes)
     lanes = lanes_per_chunk(plan, requested)
     if lanes >= enough:
@@ -252,8 +258,9 @@ def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = No
     empty = (f" hold {count(lanes, what)} each, where the kernel computes {round_lanes} at a time on"
              f" {threads} core{'s' if threads != 1 else ''}: most of each chunk's work is empty"
              f" (up to {round_lanes / lanes:.0f}x the time); and" if lanes < round_lanes else ":")
+    task = "its dask task, " if workers else ""
     return (f"chunks of {count(requested, 'cases')}{empty} each chunk costs about"
-            f" {CHUNK_OVERHEAD_SECONDS * 1e3:.0f} ms beyond its kernel (the call, its checkpoint"
+            f" {overhead * 1e3:.0f} ms beyond its kernel ({task}the call, its checkpoint"
             f" file, its part of the result file); at least {enough * plan.cases_per_lane} cases"
             f" per chunk keep that under {OVERHEAD_SHARE:.0%} of the time (or leave the chunk"
             " size to the runner)")

@@ -155,6 +155,22 @@ docs/scale.md): 6-8 ms a chunk over chunk sizes of 1 to 1,024 cases with the mac
 7 (other jobs beside), 2.0 ms quiet (600 chunks of one case: 1.53-1.69 s against 0.42 s in the
 runner's chunks); 4 ms lies within a factor 2 of both."""
 
+DASK_CHUNK_OVERHEAD_SECONDS = 10e-3
+"""``CHUNK_OVERHEAD_SECONDS`` of a chunk run on a dask cluster (``--workers``, ``--scheduler``)
+[s]: its task submitted, scheduled, run and its result sent back, beside the same kernel call,
+arrays and files. Measured on this 2-core VM (27 Nov 2026, load 2.3), 40,000 rattle cases with
+``--workers 2``: 6.41 and 6.82 s in chunks of 64 cases (about 625 chunks) against 1.06 and
+0.98 s in chunks of 10,000, 9.0 ms a chunk; in-process the same 2.31 and 2.43 s against 0.58
+and 0.60 s, 2.9 ms. An outside tester: about 12 ms. Priced at the in-process 4 ms, that study
+in chunks of 64 was estimated at 3.7 s and took 8.7 s."""
+
+
+def chunk_overhead(workers: int | None) -> float:
+    """Seconds each chunk costs beyond its kernel: on a dask cluster of ``workers`` worker
+    processes, or in this process (``None``)."""
+    return DASK_CHUNK_OVERHEAD_SECONDS if workers else CHUNK_OVERHEAD_SECONDS
+
+
 LOAD_MODEL_SECONDS = 3e-3
 """Building the model of one load of a gear scene that sweeps its load (its mesh cycle,
 compliance and STE at that load, ``Plan.model_for_load``), once per distinct load [s].
@@ -472,7 +488,7 @@ def table_bytes(plan: Plan, several: bool = True) -> float:
 
 
 def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None = None,
-             rate: float | None = None) -> Estimate:
+             rate: float | None = None, workers: int | None = None) -> Estimate:
     """Predict wall time, peak memory and output size of running ``chunks`` of ``plan``.
 
     Parameters
@@ -481,12 +497,15 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
         Cores the kernel runs on (default: this process's cores).
     rate : float
         Bare-kernel throughput per core [Msteps/s]; default ``STATED_RATE`` of the method.
+    workers : int
+        Dask worker processes that run the chunks (``None``: this process): a chunk's cost
+        beyond its kernel is ``chunk_overhead(workers)``.
 
     Notes
     -----
     Time: every kernel call advances ``ceil(blocks / threads)`` rounds of ``LANES`` lanes (a
     partly filled block costs a full one), at ``rate`` per core; plus ``FIXED_SECONDS``,
-    ``CHUNK_OVERHEAD_SECONDS`` per chunk and the writing of the file at ``WRITE_RATE``.
+    ``chunk_overhead`` per chunk and the writing of the file at ``WRITE_RATE``.
     Memory (of ``gearsweep run``, which streams the results to disk, ``run_to_file``):
     ``chunks_held`` chunks' worth and the interpreter's baseline, whatever the number of
     chunks; ``run_plan``, which returns the results in memory, needs the full result arrays
@@ -507,7 +526,7 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
     else:
         lane_steps, loads_s = _lane_steps(plan, chunks, threads), 0.0
     seconds = (lane_steps / (rate * 1e6) + FIXED_SECONDS + loads_s
-               + len(chunks) * CHUNK_OVERHEAD_SECONDS + output / WRITE_RATE + outputs_s)
+               + len(chunks) * chunk_overhead(workers) + output / WRITE_RATE + outputs_s)
     biggest = max((b - a for a, b in chunks), default=0) * plan.cases_per_lane
     sps = plan.samples_per_period()
     signal = max((b - a for a, b in chunks), default=0) * sps * plan.study.solver.record_periods * 8
@@ -517,7 +536,8 @@ def estimate(plan: Plan, chunks: list[tuple[int, int]], *, threads: int | None =
                     threads=threads, rate=rate, rate_source=source, seconds=seconds,
                     memory_bytes=memory, output_bytes=output, output_seconds=outputs_s,
                     disk_bytes=disk_bytes(plan, len(chunks)),
-                    worst_seconds=seconds - outputs_s + output_seconds(plan, len(chunks), True))
+                    worst_seconds=seconds - outputs_s + output_seconds(plan, len(chunks), True),
+                    workers=workers)
 
 
 def check_limits(est: Estimate, where: str, limits: Limits | None = None,
