@@ -232,10 +232,11 @@ def small_chunk_note(plan: Plan, requested: int | None, threads: int | None = No
     lane-sweeps runs mostly empty blocks. (With ``--workers`` it was not said, and the chunks
     were priced at this process's cost: 40,000 cases in chunks of 64 estimated at 3.7 s took
     8.7 s; an outside tester.) The size it advises keeps the overhead under
-    ``OVERHEAD_SHARE`` of a chunk's kernel time. (It advised one round of blocks, 64 cases on 2 cores: the 300,000-case cut
-    of the 1e6-case study took 34.5 s in chunks of 64 cases, 4,688 of them, where its 4 runner's
-    chunks take 5-6 s; an outside tester. A continued 1e6-case study in chunks of 2,000 cases,
-    2 lanes of 1,000 speeds, took 58 s against 5.5 s by default.)"""
+    ``OVERHEAD_SHARE`` of a chunk's kernel time. (It advised one round of blocks, 64 cases
+    on 2 cores: the 300,000-case cut of the 1e6-case study took 34.5 s in chunks of 64
+    cases, 4,688 of them, where its 4 runner's chunks take 5-6 s; an outside tester. A
+    continued 1e6-case study in chunks of 2,000 cases, 2 lanes of 1,000 speeds, took 58 s
+    against 5.5 s by default.)"""
     if requested is None or plan.device != "cpu":
         return None
     threads = threads or kernel_threads()  # the kernel's (cores() warned of a round of blocks
