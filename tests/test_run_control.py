@@ -189,6 +189,52 @@ def test_chunks_of_another_study_at_the_same_path_are_refused(tmp_path, capsys):
     assert (folder / "chunk_0_10.npys").exists() and not out.exists()
 
 
+def test_a_chunk_folder_holding_the_user_s_files_is_refused_and_never_removed(tmp_path, capsys):
+    """OUT.nc.chunks of the user's files (notes.txt, sub/data.csv) was deleted whole at the end
+    of a run (shutil.rmtree; an outside tester). The run now refuses beside it, one line, exit
+    2, and the removal of checkpoints takes only the study folders gearsweep made."""
+    from gearsweep.study.checkpoint import remove_checkpoints
+
+    out = tmp_path / "out.nc"
+    root = chunk_folder(out)
+    (root / "sub").mkdir(parents=True)
+    (root / "notes.txt").write_text("mine\n", encoding="utf-8")
+    (root / "sub" / "data.csv").write_text("1,2\n", encoding="utf-8")
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"gearsweep: error: {out}: {root} holds 'notes.txt' and 1 more, not made by"
+                   " gearsweep: the run keeps its checkpoints in that folder and removes it at"
+                   " its end; move what is yours elsewhere, or choose another output\n"), err
+    ours = root / ("a" * 64)
+    ours.mkdir()
+    (ours / "manifest.json").write_text("{}", encoding="utf-8")
+    (ours / "chunk_0_4.npys").write_bytes(b"x")
+    remove_checkpoints(out)
+    assert not ours.exists()
+    assert (root / "notes.txt").is_file() and (root / "sub" / "data.csv").is_file()
+    (root / "notes.txt").unlink()
+    (root / "sub" / "data.csv").unlink()
+    (root / "sub").rmdir()
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 0  # nothing of the user's: runs
+    assert out.is_file() and not root.exists()
+
+
+def test_a_file_in_the_way_of_the_chunk_folder_is_named(tmp_path, capsys):
+    """A plain file named OUT.nc.chunks said "cannot write the result here (Not a
+    directory)"; the line names the file in the way and what to do."""
+    out = tmp_path / "cf.nc"
+    chunk_folder(out).write_text("x", encoding="utf-8")
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"gearsweep: error: {out}: {out}.chunks is a file, where the run keeps its"
+                   " checkpoint folder: move or remove it, or choose another output\n"), err
+    assert chunk_folder(out).read_text(encoding="utf-8") == "x" and not out.exists()
+
+
 def test_an_unwritable_output_is_refused_before_computing(tmp_path, capsys):
     study = tmp_path / "s.yaml"
     study.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")

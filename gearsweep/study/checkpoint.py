@@ -30,8 +30,10 @@ The result file itself is written as the chunks finish (``resultfile.ResultFile`
 that saves the chunk files. An HDF5 file cut off mid-write is not trusted: a re-run of the same
 study to the same output checks the chunk files that are there (``ChunkStore.records``: shapes
 and dtypes from the headers, without reading the data), computes only the missing chunks, writes
-the saved ones into a new result file while those compute, and finally removes the whole
-``OUT.nc.chunks`` folder.
+the saved ones into a new result file while those compute, and finally removes the study
+folders gearsweep made in ``OUT.nc.chunks``, and the folder if nothing else is in it
+(``remove_checkpoints``; a run refuses to start beside what it did not make:
+``checkpoint_problem``).
 
 Every run also appends to ``runs.jsonl`` in that folder (``RunLog``) one JSON line per chunk it
 saved: the chunk and the run's chunk phase and kernel seconds so far, the first line of a run
@@ -48,11 +50,13 @@ tests use it to check that a resumed run computes no chunk twice.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import io
 import json
 import math
 import os
+import re
 import secrets
 import shutil
 from collections.abc import Callable
@@ -366,6 +370,71 @@ class Record:
         return np.asarray(self)[key]
 
 
+_OURS = re.compile(rf"{re.escape(MANIFEST)}|{re.escape(RUNS)}|writing\.nc|chunk_\d+_\d+"
+                   rf"{re.escape(SUFFIX)}|shared-[0-9a-f]+|\..+\.partial")
+"""The files gearsweep makes in a study's checkpoint folder: its manifest, its runs' record, the
+result file being written, the chunk files, the workers' mark (``execute.SHARED_MARK``) and
+``files.atomic_write``'s temporary files."""
+
+_KEY = re.compile(r"[0-9a-f]{64}")
+"""A study's key (``Plan.study_key``), the name of its folder."""
+
+
+def _ours(entry: Path) -> bool:
+    """Whether ``entry`` of a checkpoint root is a study's folder as gearsweep makes it: a
+    folder (not a link) of gearsweep's files only (``_OURS``), with its manifest, or named by a
+    study's key and empty (a run killed before its manifest)."""
+    try:
+        if entry.is_symlink() or not entry.is_dir():
+            return False
+        inside = list(entry.iterdir())
+    except OSError:
+        return False
+    if any(f.is_symlink() or not f.is_file() or not _OURS.fullmatch(f.name) for f in inside):
+        return False
+    return (entry / MANIFEST).is_file() or (not inside and _KEY.fullmatch(entry.name) is not None)
+
+
+def foreign_entries(output: str | Path) -> list[Path]:
+    """What ``OUT.nc.chunks`` holds that gearsweep did not make (``_ours``), sorted: a run
+    refuses to start beside it (``checkpoint_problem``) and never removes it. (A folder of the
+    user's, notes.txt and sub/data.csv, was deleted whole at the end of a run; an outside
+    tester.)"""
+    root = chunk_folder(output)
+    try:
+        return sorted(e for e in root.iterdir() if not _ours(e)) if root.is_dir() else []
+    except OSError:
+        return []
+
+
+def checkpoint_problem(output: str | Path) -> str | None:
+    """Why a run cannot keep its checkpoints beside ``output`` (one line, after ``output: ``),
+    or ``None``: a file in the way of ``OUT.nc.chunks`` (it said only "cannot write the result
+    here (Not a directory)"), or that folder holding what gearsweep did not make."""
+    root = chunk_folder(output)
+    if root.exists() and not root.is_dir():
+        return (f"{root} is a file, where the run keeps its checkpoint folder: move or remove"
+                " it, or choose another output")
+    foreign = foreign_entries(output)
+    if foreign:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        return (f"{root} holds {foreign[0].name!r}{more}, not made by gearsweep: the run keeps"
+                " its checkpoints in that folder and removes it at its end; move what is yours"
+                " elsewhere, or choose another output")
+    return None
+
+
 def remove_checkpoints(output: str | Path) -> None:
-    """Remove every checkpoint of ``output`` (its study's and stale ones of other studies)."""
-    shutil.rmtree(chunk_folder(output), ignore_errors=True)
+    """Remove the checkpoints of ``output`` (its study's and stale ones of other studies: every
+    folder gearsweep made there, ``_ours``), and ``OUT.nc.chunks`` itself if nothing else is in
+    it; what gearsweep did not make is left."""
+    root = chunk_folder(output)
+    try:
+        entries = list(root.iterdir()) if root.is_dir() and not root.is_symlink() else []
+    except OSError:
+        return
+    for entry in entries:
+        if _ours(entry):
+            shutil.rmtree(entry, ignore_errors=True)
+    with contextlib.suppress(OSError):  # (not empty: what is not ours stays)
+        root.rmdir()

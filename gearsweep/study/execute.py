@@ -64,6 +64,7 @@ from gearsweep.model import HILL_CYCLE_MAX, MeshModel
 from gearsweep.study.checkpoint import (
     ChunkStore,
     RunLog,
+    checkpoint_problem,
     header_bytes,
     remove_checkpoints,
     saved_layout,
@@ -1478,6 +1479,9 @@ def stream_to_file(plan: Plan, output: str | Path, *,
     """``run_to_file`` without opening the written file: what was written, counted on the
     way."""
     check_replaceable(output)  # before any computing
+    problem = checkpoint_problem(output)
+    if problem is not None:
+        raise ResultError(f"{output}: {problem}")
     chunks = chunks_to_run(plan, output, chunk_cases)
     try:
         store, done = _open_store(plan, output, chunks)
