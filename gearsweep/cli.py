@@ -96,6 +96,7 @@ from gearsweep.study.workspace import (
     reads_output,
     replaced_result,
     saved_chunks,
+    writing_run,
 )
 
 
@@ -709,6 +710,11 @@ def describe(path: str | Path) -> str:
             saved = len(list(folder.glob(f"*/chunk_*{SUFFIX}"))) if folder.is_dir() else 0
         except OSError:  # the folder's name is too long too, say
             saved = 0
+        pid = writing_run(path)
+        if pid is not None:  # a run going on (was "an interrupted run saved ...")
+            raise ResultError(f"{path}: no result file there yet: a run (PID {pid}) is writing"
+                              f" it now: {saved} chunk{'s' if saved != 1 else ''} saved so far"
+                              f" in {folder}; inspect it once that run has finished") from None
         if saved:  # an interrupted run's output: say where its work is (was "no result file")
             raise ResultError(f"{path}: no result file there yet: an interrupted run saved"
                               f" {saved} chunk{'s' if saved != 1 else ''} in {folder}; run the"

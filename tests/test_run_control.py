@@ -189,6 +189,33 @@ def test_chunks_of_another_study_at_the_same_path_are_refused(tmp_path, capsys):
     assert (folder / "chunk_0_10.npys").exists() and not out.exists()
 
 
+def test_inspect_of_an_output_a_run_is_writing_says_so(tmp_path, capsys):
+    """``inspect`` during a live run said "an interrupted run saved 6 chunks ... run the same
+    command" (an outside tester); it asks the run's lock as the run does and names the run."""
+    out = tmp_path / "out.nc"
+    folder = chunk_folder(out) / ("a" * 64)
+    folder.mkdir(parents=True)
+    for a in range(3):
+        (folder / f"chunk_{a}_{a + 1}.npys").write_bytes(b"x")
+    code = ("import sys; from gearsweep.study.workspace import OutputLock;"
+            f" lock = OutputLock({str(out)!r}); lock.__enter__(); print('held', flush=True);"
+            " sys.stdin.read(); lock.__exit__()")
+    holder = subprocess.Popen([sys.executable, "-c", code], env=_env(), stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "held\n"
+        assert main(["inspect", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err == (f"gearsweep: error: {out}: no result file there yet: a run (PID"
+                       f" {holder.pid}) is writing it now: 3 chunks saved so far in"
+                       f" {chunk_folder(out)}; inspect it once that run has finished\n"), err
+    finally:
+        holder.communicate("", timeout=60)
+    assert main(["inspect", str(out)]) == 2  # the run gone: its saved chunks, as before
+    assert "an interrupted run saved 3 chunks in" in capsys.readouterr().err
+    assert not (tmp_path / "out.nc.lock").exists()
+
+
 def test_a_chunk_folder_holding_the_user_s_files_is_refused_and_never_removed(tmp_path, capsys):
     """OUT.nc.chunks of the user's files (notes.txt, sub/data.csv) was deleted whole at the end
     of a run (shutil.rmtree; an outside tester). The run now refuses beside it, one line, exit

@@ -74,6 +74,35 @@ def lock_path(out: str | Path) -> Path:
     return out.with_name(out.name + ".lock")
 
 
+def _owner(lock: Path) -> str:
+    """The PID a run holding ``lock`` wrote beside it (``?`` where it cannot be read)."""
+    try:
+        return lock.with_name(lock.name + ".pid").read_text(encoding="utf-8").strip() or "?"
+    except OSError:
+        return "?"
+
+
+def writing_run(out: str | Path) -> str | None:
+    """The PID of the run writing ``out`` now (``?`` where it is not known), or ``None``: the
+    run's own check (``OutputLock``), the OS lock on ``OUT.nc.lock`` tried at once and let go,
+    nothing made where there is no lock file. ``gearsweep inspect`` said "an interrupted run
+    saved 6 chunks ... run the same command" of a run going on (an outside tester)."""
+    from filelock import FileLock, Timeout
+
+    path = lock_path(out)
+    if not path.is_file():
+        return None
+    lock = FileLock(str(path), timeout=0)
+    try:
+        lock.acquire()
+    except Timeout:
+        return _owner(path)
+    except OSError:  # not ours to open (another user's run, a read-only folder): not known
+        return None
+    lock.release()
+    return None
+
+
 class OutputLock:
     """Exclusive lock on an output path for one run (refuses at once, never waits)."""
 
@@ -98,10 +127,7 @@ class OutputLock:
                     fd = os.open(self.path, os.O_WRONLY | os.O_CREAT, 0o644)  # (/proc, a
                     os.close(fd)  # read-only folder: the OSError that says why, below)
                     self.path.unlink(missing_ok=True)
-                try:
-                    pid = self.owner.read_text(encoding="utf-8").strip() or "?"
-                except OSError:
-                    pid = "?"
+                pid = _owner(self.path)
                 raise BusyError(f"{self.out}: another gearsweep run (PID {pid}) is writing this"
                                 " output; wait for it, or choose another -o") from None
             try:
