@@ -749,7 +749,10 @@ def describe(path: str | Path) -> str:
                          f"{ds.attrs.get('transient_periods', '?')} transient + "
                          f"{ds.attrs.get('record_periods', ds.attrs.get('recorded_periods', '?'))}"
                          " recorded periods"
-                         + (f", on {ds.attrs['device']} in {ds.attrs.get('precision', '?')}"
+                         + (f", on {ds.attrs['device']}"
+                            + (f" ({ds.attrs['device_name']})" if "device_name" in ds.attrs
+                               else "")
+                            + f" in {ds.attrs.get('precision', '?')}"
                             if "device" in ds.attrs else ""))
         history = str(ds.attrs.get("history", "?")).splitlines() or ["?"]
         lines.append("  history: " + "\n           ".join(history))  # a line per run

@@ -313,6 +313,20 @@ def test_float32_is_float32(gpu_results, cpu_results):
 
 
 @needs_numba_cuda
+def test_a_result_of_the_simulator_says_so(gpu_results):
+    """A result computed under the CUDA simulator was labelled ``device: cuda`` alone, and
+    ``inspect`` said "on cuda", as of a GPU (an outside tester): it records ``device_name``,
+    the GPU's model or ``CUDA simulator``, and ``inspect`` shows it."""
+    import xarray as xr
+
+    from gearsweep.cli import describe
+
+    with xr.open_dataset(gpu_results["study_nc"]) as ds:
+        assert ds.attrs["device"] == "cuda" and ds.attrs["device_name"] == "CUDA simulator"
+    assert ", on cuda (CUDA simulator) in float64" in describe(gpu_results["study_nc"])
+
+
+@needs_numba_cuda
 def test_device_cuda_resolves_on_simulator(gpu_results):
     assert gpu_results["cuda_resolves"]
 

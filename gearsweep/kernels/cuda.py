@@ -117,6 +117,20 @@ def _cuda():
     return module
 
 
+def device_name() -> str:
+    """The GPU a CUDA run computes on, as its result records it (``device_name``): its model
+    (``numba.cuda.get_current_device().name``), or ``CUDA simulator`` under numba's simulator
+    (``NUMBA_ENABLE_CUDASIM=1``), whose results were labelled ``cuda`` alone, as a GPU's (an
+    outside tester); ``?`` where the device cannot be asked."""
+    if simulator():
+        return "CUDA simulator"
+    try:
+        name = _cuda().get_current_device().name
+    except Exception:  # noqa: BLE001 - a broken driver: the result still says 'cuda'
+        return "?"
+    return name.decode("utf-8", "replace") if isinstance(name, bytes) else str(name)
+
+
 @functools.cache
 def gpu_present() -> bool:
     """True when numba-cuda is installed and sees a real CUDA GPU (the simulator does not count).

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from gearsweep.files import ordinary_mode
+from gearsweep.kernels.cuda import device_name
 from gearsweep.model import SWEEPABLE, MeshModel, mesh_frequency, model_record
 from gearsweep.study.filelayout import file_chunks
 from gearsweep.study.gearscene import gear_pair, warned_once
@@ -344,6 +345,7 @@ def describe(plan: Any, elapsed: float | None = None, kernel: float | None = Non
         "step_guard": s.step_guard,
         "device": plan.device,  # where the kernel ran (auto resolved), and in what precision:
         "precision": s.precision,  # float32 on a GPU differs from float64 by 5e-5 relative
+        **({"device_name": device_name()} if plan.device == "cuda" else {}),  # which GPU
         "cases": plan.n_cases,
         **initial_state_attrs(plan),
     }
