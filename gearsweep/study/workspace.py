@@ -90,7 +90,10 @@ def writing_run(out: str | Path) -> str | None:
     from filelock import FileLock, Timeout
 
     path = lock_path(out)
-    if not path.is_file():
+    try:
+        if not path.is_file():
+            return None
+    except OSError:  # a name the file system cannot hold (too long): no run writes it
         return None
     lock = FileLock(str(path), timeout=0)
     try:
