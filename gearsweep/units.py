@@ -241,12 +241,20 @@ drops it, leaving a bare number (``0.004"`` was told "has no unit; write e.g. '0
 
 
 def _mark_refusal(value: str, mark: str, kind: str) -> UnitParseError:
-    inch = mark in ('"', "''", "\u2033")
-    unit, what = ("in", "an inch mark") if inch else ("ft", "a foot mark")
-    number = _NUMBER.match(value)
     k = KINDS[kind]
-    hint = (f"write {unit}, e.g. '{number.group().strip() if number else '1'} {unit}'"
-            if k.si == "m" else f"{article(kind)} is written e.g. '1 {k.examples[0]}'")
+    number = _NUMBER.match(value)
+    written = number.group().strip() if number else "1"
+    if mark == "'" and re.search(r"\d'\d", value):  # 2'000: a digit-group mark (Swiss)
+        grouped = re.sub(r"(?<=\d)'(?=\d)", "", value.strip())
+        return UnitParseError(f"{mark!r} between digits (a digit-group mark) is not read; write"
+                              f" the number without it, e.g. '{grouped}'")
+    inch = mark in ('"', "''", "\u2033")
+    if k.si == "rad":  # in an angle, the marks are the arcsecond and the arcminute
+        unit, what = ("arcsec", "an arcsecond mark") if inch else ("arcmin", "an arcminute mark")
+    else:
+        unit, what = ("in", "an inch mark") if inch else ("ft", "a foot mark")
+    hint = (f"write {unit}, e.g. '{written} {unit}'" if k.si in ("m", "rad")
+            else f"{article(kind)} is written e.g. '1 {k.examples[0]}'")
     return UnitParseError(f"{mark!r} ({what}) is not read as a unit; {hint}")
 
 
@@ -254,7 +262,7 @@ def _mil_refusal(value: str, kind: str) -> UnitParseError:
     """``4 mil`` is pint's angular mil (an angle, pi/32000 rad: a plain number to pint), not a
     thousandth of an inch: it was told "is a plain number (no dimension)"."""
     k = KINDS[kind]
-    m = re.fullmatch(rf"\s*({_NUM})\s*mils?\s*", value)
+    m = re.match(rf"\s*({_NUM})", value)
     if k.si == "m":
         n = float(m.group(1).replace("_", "")) if m else 1.0
         hint = f"write '{n:g} thou' or '{n / 1000:g} in'"

@@ -565,6 +565,29 @@ def test_an_inch_or_foot_mark_is_told_to_write_its_unit(text, kind, message):
     assert message in str(e.value) and "mm'" not in str(e.value)
 
 
+@pytest.mark.parametrize(("text", "kind", "message", "meant"), [
+    ("3\"", "angle", "'\"' (an arcsecond mark) is not read as a unit; write arcsec, e.g. '3 arcsec'",
+     "3 arcsec"),
+    ("2'", "angle", "\"'\" (an arcminute mark) is not read as a unit; write arcmin, e.g. '2 arcmin'",
+     "2 arcmin"),
+    ("2'000 rpm", "speed", ("\"'\" between digits (a digit-group mark) is not read; write the number"
+                           " without it, e.g. '2000 rpm'"), "2000 rpm")])
+def test_a_mark_is_named_for_what_it_means_in_its_field(text, kind, message, meant):
+    """In an angle the marks are the arcsecond and the arcminute (they were told inch and foot),
+    and an apostrophe between digits is a digit-group mark (``2'000 rpm`` was told "a foot
+    mark"); the spelling the message asks for is read (a reviewer's finding)."""
+    with pytest.raises(UnitParseError) as e:
+        to_si(text, kind)
+    assert str(e.value) == message
+    to_si(meant, kind)
+
+
+def test_mil_in_a_compound_unit_keeps_the_number_written():
+    """``2 mil/s`` was told to write '1 thou': the number written is kept in the hint."""
+    with pytest.raises(UnitParseError, match="write '2 thou' or '0.002 in'"):
+        to_si("2 mil/s", "length")
+
+
 @pytest.mark.parametrize(("text", "kind", "hint"), [
     ("4 mil", "length", "write '4 thou' or '0.004 in'"),
     ("2.5 mils", "displacement", "write '2.5 thou' or '0.0025 in'"),
