@@ -1072,3 +1072,23 @@ def test_a_sweep_that_never_settles_has_no_verdict_of_no_jump():
     # the same sweeps settled: judged, no loop
     js = jump_summary(_sweeps(speed, np.array(up) / 2, np.array(down) / 2, 0 * status, 0 * np.array(err)))
     assert int(js.jump_unsupported) == 0 and float(js.hysteresis_width) == 0.0
+
+
+def test_a_sweep_of_diverged_or_skipped_cases_has_no_verdict_of_no_jump():
+    """A reviewer: "no jump" needs most of the sweep settled, but the share was taken of the
+    finite points only, so a sweep with none or one was never marked. jump_summary of two sweeps
+    every case skipped (status 3, p_pp and settle_error NaN) said width 0, jump_unsupported 0;
+    find_jumps with 39 of 40 points NaN, width 0. NaN amplitudes count as not settled."""
+    from gearsweep.study.jumps import jump_summary
+
+    speed = np.linspace(1000.0, 2000.0, 40)
+    nan = np.full(40, np.nan)
+    js = jump_summary(_sweeps(speed, nan, nan, np.full((2, 40), 3), np.full((2, 40), np.nan)))
+    assert int(js.jump_unsupported) == 3 and np.isnan(float(js.hysteresis_width))
+    one = nan.copy()
+    one[7] = 5.0
+    jp = jumps.find_jumps(speed, one, one)
+    assert bool(jp.up_unsupported) and bool(jp.down_unsupported) and np.isnan(jp.width)
+    # half of the sweep NaN, the rest settled: still judged
+    half = np.where(np.arange(40) < 20, 5.0, np.nan)
+    assert jumps.find_jumps(speed, half, half).width == 0.0

@@ -59,8 +59,10 @@ one settled point of a sweep 85% of whose case-speeds did not settle (7.9 um bet
 step size.
 
 That a sweep has *no* jump is a verdict on all of it: it is made only where at most half of
-its finite points did not settle (``MOSTLY_UNSETTLED``). Where more did not, the sweep is marked
-unsupported (below) unless it has a supported jump: an undamped scene (the Fig. 8 scene at
+its points did not settle (``MOSTLY_UNSETTLED``), a NaN amplitude (diverged or skipped) counted
+as not settled (a sweep of skipped cases, or of one finite point among 40, read "no jump").
+Where more did not, the sweep is marked unsupported (below) unless it has a supported jump:
+an undamped scene (the Fig. 8 scene at
 c = 0, 7,000-9,000 rpm) never settles (40 of 42 case-speeds status 2, p_pp 1,237-1,617 um, each
 settle_error under 0.12: known by the measure above, but a transient's), and the two sweeps
 agreeing there says nothing of a loop.
@@ -98,8 +100,8 @@ KNOWN_ERROR = 0.5
 ``settle_error``) is at most this fraction of the threshold (module docstring, Support)."""
 
 MOSTLY_UNSETTLED = 0.5
-"""A sweep with no jump is judged to have none only where at most this share of its finite
-points did not settle (module docstring, Support)."""
+"""A sweep with no jump is judged to have none only where at most this share of its points
+(NaN amplitudes among them) did not settle (module docstring, Support)."""
 
 
 def relative_steps(amplitude: np.ndarray) -> np.ndarray:
@@ -305,8 +307,9 @@ def find_jumps(speed, amp_up, amp_down, threshold: float = 0.25, settled_up=True
         low = np.where(found, _take(s, np.maximum(prev, 0)), np.nan)
         high = np.where(found, _take(s, i), np.nan)
         # no jump is a verdict on the whole sweep: not where most of it did not settle
-        finite = np.isfinite(a)
-        unsettled = (finite & ~settled).sum(axis=-1) > MOSTLY_UNSETTLED * finite.sum(axis=-1)
+        # (over all its points: a NaN amplitude, diverged or skipped, did not settle either)
+        unsettled = ((~(np.isfinite(a) & settled)).sum(axis=-1)
+                     > MOSTLY_UNSETTLED * a.shape[-1])
         return (low, high, np.where(found, size, np.nan),
                 ~found & (seen1 | seen2 | unsettled))
 
