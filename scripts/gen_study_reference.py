@@ -206,6 +206,10 @@ DRIVE = ("{inertia_1: 1e-3 kg m^2, inertia_2: 1e-3 kg m^2, base_radius_1: 30 mm,
          " base_radius_2: 30 mm}")
 PLAN_VARIABLES = {"beyond_step_limit": "(step_guard: warn)"}
 """Variables the plan adds, not an output: the study setting that adds them."""
+SCENE_NEEDS = {"transient_left": "driven"}
+"""Variables whose scene the first scene they appear in misnames: ``transient_left`` needs a
+driven scene, with or without backlash (``outputs.Stats.variables``), and first appears in the
+driven one without."""
 
 
 def output_variants(name: str) -> list[tuple[dict[str, bool], str]]:
@@ -247,8 +251,8 @@ def _variable_rows() -> list[str]:
                     if name in PLAN_VARIABLES:
                         seen[name] = (PLAN_VARIABLES[name], spec)
                         continue
-                    needs = ([scene] if i else []) + [f"{n}: {str(v).lower()}"
-                                                      for n, v in changed.items()]
+                    needs = ([SCENE_NEEDS.get(name, scene)] if i else []) + [
+                        f"{n}: {str(v).lower()}" for n, v in changed.items()]
                     seen[name] = (f"{output} ({', '.join(needs)})" if needs else output, spec)
     plan_rows = [n for n in seen if n in PLAN_VARIABLES]
     for name in [n for n in seen if n not in PLAN_VARIABLES] + plan_rows:

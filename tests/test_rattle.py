@@ -1092,3 +1092,27 @@ def test_a_sweep_of_diverged_or_skipped_cases_has_no_verdict_of_no_jump():
     # half of the sweep NaN, the rest settled: still judged
     half = np.where(np.arange(40) < 20, 5.0, np.nan)
     assert jumps.find_jumps(speed, half, half).width == 0.0
+
+
+def test_a_transient_that_cannot_have_decayed_is_no_known_amplitude():
+    """A reviewer: status 2 also marks a case whose damping (or map) leaves more than the settle
+    tolerance of the start's free vibration after the transient, however alike the record's
+    halves are. Both sweeps all such cases (settle_error 1e-4, transient_left 0.5) with
+    amplitudes that jump were judged a jump: settle_error alone made every point known. The
+    result records transient_left, and the larger of the two is the point's error: the sweeps
+    cannot be judged. A result without transient_left (older files) is judged as before."""
+    from gearsweep.study.jumps import jump_summary
+
+    speed = np.linspace(7000.0, 9000.0, 12)
+    up = [300.0] * 6 + [100.0] * 6
+    down = [300.0] * 3 + [100.0] * 9
+    status = np.full((2, 12), 2)
+    ds = _sweeps(speed, up, down, status, np.full((2, 12), 1e-4))
+    assert int(jump_summary(ds).jump_unsupported) == 0  # an older file: settle_error alone
+    ds["transient_left"] = (("direction", "speed"), np.full((2, 12), 0.5))
+    js = jump_summary(ds)
+    assert int(js.jump_unsupported) == 3 and np.isnan(float(js.hysteresis_width))
+    ds["transient_left"] = (("direction", "speed"), np.full((2, 12), 0.02))  # within 12.5 %
+    js = jump_summary(ds)
+    assert int(js.jump_unsupported) == 0
+    assert (float(js.jump_up_low), float(js.jump_up_high)) == (speed[5], speed[6])

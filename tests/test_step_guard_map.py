@@ -710,3 +710,9 @@ def test_a_transient_the_map_has_not_decayed_is_not_settled():
     assert int(early.status.values.ravel()[0]) == 2
     assert int(enough.status.values.ravel()[0]) == 0
     assert abs(float(enough.p_rms.values.ravel()[0]) / rms - 1) < 0.01
+    # the result records the residual the rule judged (a reviewer: the jump criterion could not
+    # tell this status 2 from a record that did not settle), with its unit and meaning
+    left = early.transient_left
+    assert float(left.values.ravel()[0]) == pytest.approx(mu**200, rel=1e-6)
+    assert float(enough.transient_left.values.ravel()[0]) <= 0.01
+    assert left.attrs["units"] == "1" and "free vibration left" in left.attrs["long_name"]

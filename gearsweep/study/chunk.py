@@ -294,6 +294,8 @@ def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchRe
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         left = transient_left(plan, params, len(status))[0]
     unsettled |= (status == 0) & (left > s.settle_tolerance) & ~quiet
+    if "transient_left" in plan.specs:  # the residual the rule judged, recorded beside status
+        out["transient_left"] = np.array(np.broadcast_to(left, status.shape), float)
     if plan.driven:  # an undriven scene decays or grows: nothing to settle into (Plan.driven)
         status[unsettled] = STATUS_NOT_SETTLED
     return res, out, status

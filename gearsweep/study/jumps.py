@@ -5,10 +5,15 @@ its module docstring) to the amplitude ``p_pp / 2`` of the ``up`` and ``down`` s
 case and returns the speeds where each sweep jumps, the two grid speeds between which each jump
 lies, and the hysteresis band between them, on the study's other dims; ``jump_unsupported``
 marks the sweeps whose jumps cannot be judged. A case-speed's amplitude is known (supports a
-jump) where its ``settle_error`` is at most half the jump threshold, whatever its ``status``
-(the settle tolerance, 1e-2, is for the recorded statistics; a diverged or skipped one, status 1
-or 3, is unknown); the search across the speeds that did not settle and the verdict "no jump"
-go by ``status`` (``find_jumps``'s ``settled_up`` / ``settled_down``).
+jump) where its error, the larger of its ``settle_error`` and its ``transient_left`` (the share
+of the start's free vibration the transient left, recorded since 27 Nov 2026: a result without
+it is judged by ``settle_error`` alone), is at most half the jump threshold, whatever its
+``status`` (the settle tolerance, 1e-2, is for the recorded statistics; a diverged or skipped
+one, status 1 or 3, is unknown). A case whose transient cannot have decayed is status 2 with
+record halves that may agree closely (a beat slower than the record): its ``transient_left``,
+not its ``settle_error``, says how far its amplitude may be from the steady one. The search
+across the speeds that did not settle and the verdict "no jump" go by ``status``
+(``find_jumps``'s ``settled_up`` / ``settled_down``).
 """
 
 from __future__ import annotations
@@ -19,8 +24,9 @@ import xarray as xr
 from gearsweep.analysis.jumps import find_jumps
 
 UNSUPPORTED_WHY = ("steps that meet the jump criterion but none with points of both branches"
-                   " beside it whose amplitude is known (settle_error at most half the"
-                   " threshold), or no jump while most of its case-speeds did not settle")
+                   " beside it whose amplitude is known (settle_error and transient_left at"
+                   " most half the threshold), or no jump while most of its case-speeds did not"
+                   " settle")
 """Why a sweep's jump cannot be judged (``find_jumps``'s unsupported): the one wording of the
 ``jump_unsupported`` variable and of the analyses' notes."""
 
@@ -51,11 +57,15 @@ JUMP_VARIABLES = {
 
 
 def _amplitude_error(ds: xr.Dataset, settled: xr.DataArray) -> xr.DataArray:
-    """Relative uncertainty of each case-speed's amplitude: its ``settle_error``, NaN (unknown)
-    where it diverged or was skipped (status 1, 3), 0 where the study took it as settled above
-    its settle tolerance (only a response that has died away is: its settle_error is round-off
-    over round-off; ``STATUS_CODES`` 2)."""
+    """Relative uncertainty of each case-speed's amplitude: the larger of its ``settle_error``
+    and its ``transient_left`` (where the result has it: module docstring), NaN (unknown) where
+    it diverged or was skipped (status 1, 3), 0 where the study took it as settled above its
+    settle tolerance (only a response that has died away is: its settle_error is round-off over
+    round-off; ``STATUS_CODES`` 2)."""
     err = ds["settle_error"]
+    if "transient_left" in ds:  # (a NaN of either is unknown)
+        err = xr.where(err >= ds["transient_left"], err, ds["transient_left"])
+        err = err.where(ds["settle_error"].notnull())
     tol = float(ds.attrs.get("settle_tolerance", np.inf))
     quiet = settled & (err > tol)
     status = ds["status"] if "status" in ds else xr.zeros_like(err, dtype=np.int8)

@@ -166,6 +166,8 @@ class Stats:
         specs = {n: VarSpec(kind="displacement" if n.startswith("p_") else None) for n in names}
         if separation_flagged(plan):
             specs["contact_lost"] = VarSpec(dtype="bool")
+        if plan.driven:  # where the status rule judges the transient (chunk._outputs fills it)
+            specs["transient_left"] = VarSpec()
         return specs
 
     def compute(self, plan: Plan, params: dict[str, np.ndarray],

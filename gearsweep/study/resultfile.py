@@ -86,6 +86,8 @@ VARIABLES = {
                            " a real pair's teeth would separate")),
     "impacts_per_period": ("1", "entries into contact from the gap per mesh period"),
     "settle_error": ("1", "change of the extremes of p between the halves of the window / p_pp"),
+    "transient_left": ("1", ("share of the start's free vibration left after the transient"
+                             " (damping or the step's map; above settle_tolerance: status 2)")),
     "spectrum": (UM, "single-sided amplitude spectrum of p over whole mesh periods"),
     "floquet_multiplier": ("1", ("largest |mu| of the monodromy matrix of the linear equation,"
                                  " teeth in contact (no backlash, no forcing)")),
