@@ -1391,6 +1391,31 @@ def test_history_command_of_another_program_is_not_called_gearsweep(monkeypatch,
     assert command_line() == expected
 
 
+def test_identity_names_the_code_loaded_not_a_later_commit(monkeypatch):
+    """``identity`` read ``.git`` at every call: a ``git commit`` during a ``--workers`` or
+    ``--scheduler`` run made every later chunk a worker's of "another gearsweep", though the
+    client and its workers ran the same loaded code (a reviewer's finding), and it cost file
+    reads per chunk. It is read once per process, at its first call."""
+    from gearsweep.study import provenance
+
+    heads = iter(["0123456789ab", "ba9876543210", "fedcba987654"])  # a commit after each read
+    calls = []
+
+    def head(root=None):
+        calls.append(root)
+        return next(heads)
+
+    monkeypatch.setattr(provenance, "source_commit", head)
+    provenance.identity.cache_clear()
+    try:
+        first = provenance.identity()
+        assert first.endswith(" commit 0123456789ab")
+        assert provenance.identity() == first and provenance.identity() == first
+        assert len(calls) == 1
+    finally:
+        provenance.identity.cache_clear()  # the real checkout's for the other tests
+
+
 def test_history_names_the_commit_of_a_git_checkout(tmp_path):
     """The version was 0.1.0 for every commit: a result did not name the code that made it (an
     outside data steward's finding). From a git checkout, ``history`` names the commit, read

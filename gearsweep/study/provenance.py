@@ -86,12 +86,18 @@ def source_commit(root: Path | None = None) -> str | None:
     return head[:12] if len(head) >= 12 and all(c in "0123456789abcdef" for c in head) else None
 
 
+@functools.cache
 def identity() -> str:
     """The gearsweep that runs in this process as a result's history names it: ``gearsweep
     0.1.0 commit 0123456789ab`` (the commit where it runs from a git checkout:
     ``source_commit``). A dask worker's is compared with the client's before it computes a
     chunk (``execute.DaskBackend``): a worker importing another gearsweep computed other
-    numbers under the client's history line (an outside tester)."""
+    numbers under the client's history line (an outside tester).
+
+    Read once per process, at its first call: it names the code this process loaded. Read
+    from ``.git`` at every call, a ``git commit`` or checkout during a ``--workers`` or
+    ``--scheduler`` run made every later chunk a worker's of "another gearsweep" (the client
+    and its workers had both loaded the same code), and cost file reads per chunk."""
     commit = source_commit()
     return f"gearsweep {__version__}" + (f" commit {commit}" if commit else "")
 
