@@ -340,9 +340,13 @@ def _stop_line(n: int = 1) -> str:
     """What the first Ctrl-C does, in words (``_stoppable``), ``n`` chunks being computed: a
     one-chunk run stopped in its compile was told "stopping after the chunk being computed",
     then ran to its end and wrote its file, exit 0; with several workers it said "the chunk
-    being computed" and dropped the others in flight (outside testers)."""
+    being computed" and dropped the others in flight (outside testers). ``n`` 0 (a cluster's
+    stop that found no chunk begun) is said so: it was told "the chunk being computed, which
+    is kept" (a reviewer)."""
     if _left is None:
         return "stopping before the first chunk begins"
+    if n == 0:
+        return "stopping now: no chunk is being computed"
     n = max(1, min(_left, n))
     chunks = "chunk" if n == 1 else f"{n} chunks"
     if _left <= n:
@@ -352,7 +356,8 @@ def _stop_line(n: int = 1) -> str:
 
 
 def _say_stopping(n: int = 1) -> None:
-    print(f"gearsweep: {_stop_line(n)} (Ctrl-C again to stop at once)", file=sys.stderr)
+    again = " (Ctrl-C again to stop at once)" if n or _left is None else ""
+    print(f"gearsweep: {_stop_line(n)}{again}", file=sys.stderr)
 
 
 def _on_sigint(signum, frame) -> None:

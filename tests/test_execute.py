@@ -1439,3 +1439,60 @@ def test_history_names_the_commit_of_a_git_checkout(tmp_path):
     assert source_commit(tmp_path) is None
     here = source_commit()  # this test's own checkout, if it is one
     assert (f" commit {here}," in provenance()) == (here is not None)
+
+
+class _StubFuture:
+    def __init__(self, key: str, done: bool = False) -> None:
+        self.key, self._done = key, done
+
+    def done(self) -> bool:
+        return self._done
+
+
+class _StubClient:
+    def __init__(self, answers) -> None:
+        self.answers, self.cancelled = answers, []
+
+    def run(self, function, on_error="raise"):
+        if isinstance(self.answers, BaseException):
+            raise self.answers
+        if on_error == "raise":
+            for got in self.answers.values():
+                if isinstance(got, BaseException):
+                    raise got
+        return dict(self.answers)
+
+    def cancel(self, futures) -> None:
+        self.cancelled.extend(f.key for f in futures)
+
+
+def _stop_drain(answers, done=(), after=(-1, -1)):
+    """``DaskBackend._cancel_not_begun`` over chunks k1..k4 (lanes 0-10, ..., 30-40) with a
+    stub client whose workers say ``answers``: (kept, cancelled)."""
+    from gearsweep.study.execute import DaskBackend
+
+    backend = DaskBackend(workers=1)
+    backend.client = _StubClient(answers)
+    where = {f"k{i}": (10 * (i - 1), 10 * i) for i in range(1, 5)}
+    futures = {k: _StubFuture(k, k in done) for k in where}
+    backend._cancel_not_begun(futures, where, after)
+    return sorted(futures), sorted(backend.client.cancelled)
+
+
+def test_a_cluster_s_stop_keeps_every_chunk_up_to_the_last_begun_or_finished():
+    """A Ctrl-C on a dask cluster keeps the chunks up to the last one begun and cancels the
+    later ones, so that the chunks saved have no hole. A chunk already finished after the
+    last begun was kept while an earlier one not begun was cancelled (a hole), and one worker
+    that did not answer made every chunk "not computing": the chunks computing on the healthy
+    workers were cancelled too (a reviewer's stubs)."""
+    # k1 computing, k3 finished, k2 waiting: k2 is kept (and k4 cancelled)
+    assert _stop_drain({"w1": ["k1"], "w2": []}, done={"k3"}) == (["k1", "k2", "k3"], ["k4"])
+    # a chunk already yielded (k2: not in futures any more) after one waiting (k1)
+    assert _stop_drain({"w1": []}, after=(10, 20)) == (["k1", "k2"], ["k3", "k4"])
+    # one worker gone: the chunk computing on the other is kept, with those before it
+    gone = OSError("Timed out trying to connect to tcp://10.0.0.2:4242")
+    assert _stop_drain({"w1": gone, "w2": ["k2"]}) == (["k1", "k2"], ["k3", "k4"])
+    # nothing begun: every chunk is cancelled
+    assert _stop_drain({"w1": [], "w2": []}) == ([], ["k1", "k2", "k3", "k4"])
+    # the scheduler not answering: which compute is not known, every chunk is kept
+    assert _stop_drain(OSError("scheduler gone")) == (["k1", "k2", "k3", "k4"], [])

@@ -1260,3 +1260,17 @@ def test_a_ctrl_c_during_the_last_chunk_says_the_run_finishes(tmp_path, monkeypa
             " once)") in err, err
     assert "stopping after" not in err
     assert xr.open_dataset(out).sizes["speed"] == 7
+
+
+def test_a_cluster_s_stop_with_no_chunk_computing_says_so(capsys, monkeypatch):
+    """A cluster's stop that cancelled every chunk in flight (none begun) calls ``stopping(0)``:
+    the line said "stopping after the chunk being computed, which is kept" (n clamped to 1; a
+    reviewer). It says that no chunk is being computed, with nothing to Ctrl-C again for."""
+    from gearsweep import cli
+
+    monkeypatch.setattr(cli, "_left", 5)
+    cli._say_stopping(0)
+    assert capsys.readouterr().err == "gearsweep: stopping now: no chunk is being computed\n"
+    cli._say_stopping(2)
+    assert capsys.readouterr().err == ("gearsweep: stopping after the 2 chunks being computed,"
+                                       " which are kept (Ctrl-C again to stop at once)\n")

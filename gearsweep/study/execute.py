@@ -991,19 +991,25 @@ class DaskBackend:
             if mark is not None:
                 (store.folder / mark).unlink(missing_ok=True)
 
-    def _cancel_not_begun(self, futures: dict[str, object],
-                          where: dict[str, tuple[int, int]]) -> None:
+    def _cancel_not_begun(self, futures: dict[str, object], where: dict[str, tuple[int, int]],
+                          after: tuple[int, int] = (-1, -1)) -> None:
         """A stop: cancel the chunks of ``futures`` (by key) after, in lane order, every chunk
-        a worker has begun (the workers are asked which they execute); the others are kept and
-        waited for, so that the chunks saved are the first ones, with no hole (the scheduler
-        may begin a chunk before an earlier one that waits on another worker)."""
-        executing = set()
-        with contextlib.suppress(Exception):  # a worker gone: its chunks are not computing
-            for keys in self.client.run(_executing).values():
-                executing.update(keys)
-        begun = [where[k] for k in executing if k in futures]
-        last = max(begun, default=(-1, -1))
-        waiting = [f for k, f in futures.items() if where[k] > last and not f.done()]
+        a worker has begun (the workers are asked which they execute), every chunk finished
+        (a future done) and ``after`` (the last chunk already yielded); the others are kept
+        and waited for, so that the chunks saved are the first ones, with no hole (the
+        scheduler may begin a chunk before an earlier one that waits on another worker, and
+        finish it first). A worker that does not answer is skipped (its chunks are not
+        computing); where the scheduler does not answer, which chunks compute is not known and
+        every one is kept (a second Ctrl-C stops at once)."""
+        try:
+            answers = self.client.run(_executing, on_error="return")
+        except Exception:  # noqa: BLE001 - the scheduler gone: the chunks fail when yielded
+            return
+        executing = {key for keys in answers.values() if not isinstance(keys, BaseException)
+                     for key in keys}
+        begun = [where[k] for k, f in futures.items() if k in executing or f.done()]
+        last = max([after, *begun])
+        waiting = [f for k, f in futures.items() if where[k] > last]
         for f in waiting:
             del futures[f.key]
         if waiting:
@@ -1023,6 +1029,7 @@ class DaskBackend:
         futures: dict[str, object] = {}  # submitted, not yet yielded or cancelled
         queue = as_completed()
         stopping = False
+        yielded = (-1, -1)  # the last chunk yielded, in lane order
 
         def submit() -> bool:
             chunk = None if stopping else next(pending, None)
@@ -1042,7 +1049,7 @@ class DaskBackend:
             while True:
                 if not stopping and self.stop():
                     stopping = True
-                    self._cancel_not_begun(futures, where)
+                    self._cancel_not_begun(futures, where, yielded)
                     self.stopping(len(futures))
                 if queue.has_ready():
                     yield next(queue)
@@ -1076,6 +1083,7 @@ class DaskBackend:
                 raise other_gearsweep(got[1], got[2], mine)
             arrays, seconds = got
             self.kernel_seconds += seconds
+            yielded = max(yielded, (a, b))
             yield a, b, arrays if arrays is not None else SavedChunk(store, a, b)
             submit()
 
