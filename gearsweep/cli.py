@@ -549,7 +549,7 @@ def _run_chunked(args: argparse.Namespace, study, text: str, plan, out: Path, na
         print(f"gearsweep: note: {name}: --chunk-size {args.chunk_size}: {small}", file=sys.stderr)
     if capped and args.chunk_size is not None and not args.quiet:
         print(f"gearsweep: note: {name}: --chunk-size {args.chunk_size} gives"
-              f" {capped_chunk_note(plan)}; using {chunk} cases per chunk", file=sys.stderr)
+              f" {capped_chunk_note(plan, threads)}; using {chunk} cases per chunk", file=sys.stderr)
     # From arithmetic: no grid of cases, no compilation (any size answers at once). Whether the
     # kernel is compiled already (Numba's cache asked: 7-8 ms the first time in a process, of
     # which the warm-up, which asks too, then repeats most: 2-4 ms net, medians 43.9 against

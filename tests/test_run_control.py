@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import re
 import shlex
@@ -1274,3 +1275,47 @@ def test_a_cluster_s_stop_with_no_chunk_computing_says_so(capsys, monkeypatch):
     cli._say_stopping(2)
     assert capsys.readouterr().err == ("gearsweep: stopping after the 2 chunks being computed,"
                                        " which are kept (Ctrl-C again to stop at once)\n")
+
+
+def test_a_cluster_s_capped_chunk_is_for_one_worker(tmp_path, monkeypatch, capsys):
+    """With --scheduler the cap of a chunk counted the whole cluster's cores for it, though a
+    chunk runs on one worker: scale_1e7 asked in one chunk on 16 workers of 4 threads was cut
+    into a chunk of 8,749,056 cases (87 % of the study, ~16 s on one worker, the others idle;
+    a reviewer). A chunk's rounds are of one worker's cores, the cap in seconds the cluster's;
+    the note names the cluster's numbers, not this machine's cores."""
+    from gearsweep import cli
+    from gearsweep.kernels import LANES
+    from gearsweep.study.estimate import (
+        _longest_chunk_seconds,
+        capped_chunk_note,
+        chunk_cases,
+        shortest_chunk_seconds,
+    )
+    from gearsweep.study.plan import make_plan
+    from gearsweep.study.schema import parse_study
+
+    study = Path(__file__).parents[1] / "studies/heavy/scale_1e7.yaml"
+    text = study.read_text(encoding="utf-8")
+    plan = make_plan(parse_study(text), text)
+    n = plan.n_lanes * plan.cases_per_lane
+    chunk, capped = chunk_cases(plan, n, threads=64, workers=16)
+    assert capped and chunk <= n // 16, chunk  # every worker has a chunk
+    rounds = math.ceil(chunk / (LANES * 4 * plan.cases_per_lane))  # of blocks on a worker's 4
+    limit = _longest_chunk_seconds(plan, 64)[0]  # cores; the cap: the cluster's (1 s here)
+    assert limit - shortest_chunk_seconds(plan) < rounds * shortest_chunk_seconds(plan) <= limit
+    assert chunk_cases(plan, n, threads=64, workers=1) == chunk_cases(plan, n, threads=64)
+
+    class Cluster:  # an existing cluster of 16 workers of 4 threads, as DaskBackend counts it
+        n_workers, threads = 16, 64
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return None
+
+    monkeypatch.setattr(cli, "_backend", lambda args: Cluster())
+    assert main(["run", str(study), "-o", str(tmp_path / "o.nc"), "--estimate", "--scheduler",
+                 "tcp://10.0.0.5:8786", "--chunk-size", str(n)]) == 0
+    err = capsys.readouterr().err
+    assert f"gives {capped_chunk_note(plan, 64)}; using {chunk} cases per chunk" in err, err

@@ -280,7 +280,8 @@ def _longest_chunk_seconds(plan: Plan, threads: int, seconds: float = CHUNK_SECO
 def capped_chunk_note(plan: Plan, threads: int | None = None) -> str:
     """Why ``chunk_cases`` cut a requested chunk size, in words, with this study's numbers: the
     runner's longest chunk (it said "longer than the runner's", taken for its default chunks,
-    and the help and docs/scale.md spoke of no cap)."""
+    and the help and docs/scale.md spoke of no cap). ``threads``: those ``chunk_cases`` was
+    given (a cluster's; default this machine's cores)."""
     if plan.device == "cuda":
         return (f"chunks longer than the runner allows: at most about {CHUNK_SECONDS:.0f} s each"
                 " at the GPU's stated rate, so that progress is shown and an interruption loses"
@@ -304,6 +305,12 @@ def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
     A lane (one case, or one continued sweep along speed) is never split, so a chunk is at
     least one round of kernel blocks over the cores (``LANES x threads`` lane-sweeps): smaller
     chunks would leave cores idle.
+
+    With ``workers``, ``threads`` are the cluster's (the study's kernel time, and so the cap in
+    seconds, is theirs) but a chunk runs on one worker, with its share of them: its rounds are
+    of ``threads // workers`` cores. (Counted with the whole cluster's, scale_1e7 asked in one
+    chunk on 16 workers of 4 threads was cut into a chunk of 8,749,056 cases, 87 % of the
+    study, about 16 s on one worker while the others idled; a reviewer.)
     """
     threads = threads or cores()
     ways = max(len(plan.directions), 1)
@@ -321,7 +328,8 @@ def chunk_cases(plan: Plan, requested: int | None, threads: int | None = None,
                  else plan.default_lanes_per_chunk())
         return (requested, False) if lanes <= lanes_max else (lanes_max * per_lane, True)
     round_s = shortest_chunk_seconds(plan)  # one round of blocks [s]
-    round_lanes = max(LANES * threads // ways, 1)
+    chunk_threads = max(1, threads // workers) if workers else threads  # a chunk's cores
+    round_lanes = max(LANES * chunk_threads // ways, 1)
     target = _longest_chunk_seconds(plan, threads, seconds)[0]
     lanes_max = max(int(target // round_s), 1) * round_lanes
     lanes = (lanes_per_chunk(plan, requested) if requested is not None
