@@ -6,6 +6,7 @@ from __future__ import annotations
 import errno
 import mmap
 import os
+import re
 import tempfile
 import threading
 import time
@@ -65,6 +66,17 @@ def ordinary_mode() -> int:
     return 0o666 & ~umask
 
 
+PARTIAL = re.compile(r"\..+\.[a-z0-9_]+\.partial")
+"""The name of a temporary file of ``temp_beside`` (``.NAME.XXXXXXXX.partial``, the random part
+``tempfile.mkstemp``'s): what a process killed while writing a file whole leaves next to it."""
+
+
+def temp_beside(path: Path) -> tuple[int, str]:
+    """A new temporary file next to ``path`` (``PARTIAL``), to be written and renamed to
+    ``path``: its open descriptor and its path (``tempfile.mkstemp``)."""
+    return tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+
+
 def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: bool = True,
                  direct: bool = False) -> None:
     """Call ``write(file_object)`` on a temporary file next to ``path``, then rename it to
@@ -77,7 +89,7 @@ def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: b
     may then only call ``file_object.write``). On any error the temporary file is removed and
     the error raised (an ``OSError`` that names no file, as ``os.write``'s, names ``path``).
     The file gets the permissions of an ordinary new one (``ordinary_mode``)."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    fd, tmp = temp_beside(path)
     try:
         if direct and DirectFile.usable(tmp):
             os.close(fd)

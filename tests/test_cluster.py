@@ -254,7 +254,7 @@ def test_workers_of_a_scheduler_save_their_chunks_where_they_see_the_folder(
             shared = tmp_path / "shared.nc"
             execute.stream_to_file(plan, shared, backend=backend, chunk_cases=48)
             assert saved_here == []  # every chunk saved by its worker
-            monkeypatch.setattr(execute, "_mark_folder", lambda store: "shared-not-there")
+            monkeypatch.setattr(execute, "shared_mark", lambda folder: "shared-not-there")
             apart = tmp_path / "apart.nc"
             execute.stream_to_file(plan, apart, backend=backend, chunk_cases=48)
             assert len(saved_here) == 6  # every chunk sent here and saved here

@@ -249,6 +249,51 @@ def test_a_chunk_folder_holding_the_user_s_files_is_refused_and_never_removed(tm
     assert out.is_file() and not root.exists()
 
 
+def test_a_study_folder_killed_while_writing_its_manifest_is_gearsweep_s(tmp_path, capsys):
+    """A run SIGKILLed inside the manifest's atomic write left <key>/.manifest.json.XXXX.partial
+    and no manifest: the folder was taken for the user's, the next run refused beside it ("holds
+    '<key>', not made by gearsweep") and no removal cleared it (a reviewer). A folder named by a
+    study's key of gearsweep's files only is gearsweep's; the names of those files (the result
+    being written, the workers' mark, the temporary files) are the ones the runs make."""
+    import os
+
+    from gearsweep.files import temp_beside
+    from gearsweep.study import execute
+    from gearsweep.study.checkpoint import (
+        MANIFEST,
+        WRITING,
+        checkpoint_problem,
+        foreign_entries,
+        remove_checkpoints,
+        shared_mark,
+    )
+
+    assert execute.WRITING is WRITING and execute.shared_mark is shared_mark  # one place
+    out = tmp_path / "out.nc"
+    root = chunk_folder(out)
+    killed = root / ("b" * 64)
+    killed.mkdir(parents=True)
+    fd, _ = temp_beside(killed / MANIFEST)  # what atomic_write leaves when killed
+    os.close(fd)
+    assert foreign_entries(out) == [] and checkpoint_problem(out) is None
+    study = tmp_path / "s.yaml"
+    study.write_text(STUDY.replace("NUM", "20"), encoding="utf-8")
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 0, capsys.readouterr().err
+    assert out.is_file() and not root.exists()  # the killed run's folder removed with the run's
+    killed.mkdir(parents=True)  # and every file a run makes there is its own
+    (killed / WRITING).write_bytes(b"x")
+    shared_mark(killed)
+    fd, _ = temp_beside(killed / WRITING)
+    os.close(fd)
+    theirs = root / "notes"  # not a study's key: a folder of such files alone is the user's
+    theirs.mkdir()
+    fd, _ = temp_beside(theirs / MANIFEST)
+    os.close(fd)
+    assert foreign_entries(out) == [theirs]
+    remove_checkpoints(out)
+    assert not killed.exists() and theirs.is_dir()
+
+
 def test_a_file_in_the_way_of_the_chunk_folder_is_named(tmp_path, capsys):
     """A plain file named OUT.nc.chunks said "cannot write the result here (Not a
     directory)"; the line names the file in the way and what to do."""

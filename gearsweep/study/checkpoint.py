@@ -66,7 +66,7 @@ import numpy as np
 import numpy.lib.format as fmt
 
 from gearsweep._version import __version__
-from gearsweep.files import atomic_write
+from gearsweep.files import PARTIAL, atomic_write
 from gearsweep.study.resultfile import EarlierRun
 
 MANIFEST = "manifest.json"
@@ -74,6 +74,22 @@ RUNS = "runs.jsonl"
 """The record of the runs that saved chunks in a study's folder (``RunLog``)."""
 SUFFIX = ".npys"
 """Chunk files: ``chunk_<lane0>_<lane1>.npys``."""
+WRITING = "writing.nc"
+"""The result file while a run writes it, in its study's folder (renamed to ``OUT.nc`` once
+complete: ``execute.stream_to_file``)."""
+SHARED_MARK = "shared-"
+"""Prefix of the file a run puts into its study's folder for dask workers to look for
+(``shared_mark``, ``execute.DaskBackend.run``): a worker that finds it saves its chunks there
+itself."""
+
+
+def shared_mark(folder: Path) -> str:
+    """Put a file of a random name (``SHARED_MARK`` and hex digits) into ``folder``; return its
+    name."""
+    name = f"{SHARED_MARK}{secrets.token_hex(8)}"
+    (folder / name).write_text("gearsweep: workers that see this file save their chunks"
+                               " here\n", encoding="utf-8")
+    return name
 FORMAT = 3
 """Version of the folder layout (bump when chunk files change meaning; 3: folders named by the
 study's key, no longer by the sha256 of its text)."""
@@ -370,11 +386,11 @@ class Record:
         return np.asarray(self)[key]
 
 
-_OURS = re.compile(rf"{re.escape(MANIFEST)}|{re.escape(RUNS)}|writing\.nc|chunk_\d+_\d+"
-                   rf"{re.escape(SUFFIX)}|shared-[0-9a-f]+|\..+\.partial")
+_OURS = re.compile(rf"{re.escape(MANIFEST)}|{re.escape(RUNS)}|{re.escape(WRITING)}|chunk_\d+_\d+"
+                   rf"{re.escape(SUFFIX)}|{re.escape(SHARED_MARK)}[0-9a-f]+|{PARTIAL.pattern}")
 """The files gearsweep makes in a study's checkpoint folder: its manifest, its runs' record, the
-result file being written, the chunk files, the workers' mark (``execute.SHARED_MARK``) and
-``files.atomic_write``'s temporary files."""
+result file being written, the chunk files, the workers' mark (``shared_mark``) and the
+temporary files of ``files.atomic_write`` (``files.PARTIAL``)."""
 
 _KEY = re.compile(r"[0-9a-f]{64}")
 """A study's key (``Plan.study_key``), the name of its folder."""
@@ -383,7 +399,9 @@ _KEY = re.compile(r"[0-9a-f]{64}")
 def _ours(entry: Path) -> bool:
     """Whether ``entry`` of a checkpoint root is a study's folder as gearsweep makes it: a
     folder (not a link) of gearsweep's files only (``_OURS``), with its manifest, or named by a
-    study's key and empty (a run killed before its manifest)."""
+    study's key (a run killed before its manifest, or while writing it: the folder empty, or
+    with the manifest's temporary file alone; that one was taken for the user's, the next run
+    refused beside it and no removal cleared it, a reviewer)."""
     try:
         if entry.is_symlink() or not entry.is_dir():
             return False
@@ -392,7 +410,7 @@ def _ours(entry: Path) -> bool:
         return False
     if any(f.is_symlink() or not f.is_file() or not _OURS.fullmatch(f.name) for f in inside):
         return False
-    return (entry / MANIFEST).is_file() or (not inside and _KEY.fullmatch(entry.name) is not None)
+    return (entry / MANIFEST).is_file() or _KEY.fullmatch(entry.name) is not None
 
 
 def foreign_entries(output: str | Path) -> list[Path]:

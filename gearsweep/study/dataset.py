@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from gearsweep.files import check_replaceable
+from gearsweep.files import check_replaceable, temp_beside
 from gearsweep.study.resultfile import (
     COORDS,
     VARIABLES,
@@ -162,7 +161,7 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, codec: str | None = None) -> 
     path = Path(path)
     check_replaceable(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    fd, tmp = temp_beside(path)
     os.close(fd)
     try:
         ds = ds.copy(deep=False)  # the caller's Dataset keeps its own chunks

@@ -62,12 +62,14 @@ from gearsweep.kernels import LANES
 from gearsweep.kernels.batch import compiled
 from gearsweep.model import HILL_CYCLE_MAX, MeshModel
 from gearsweep.study.checkpoint import (
+    WRITING,
     ChunkStore,
     RunLog,
     checkpoint_problem,
     header_bytes,
     remove_checkpoints,
     saved_layout,
+    shared_mark,
 )
 from gearsweep.study.chunk import (
     KERNEL_CLOCK,
@@ -978,13 +980,13 @@ class DaskBackend:
         written by the workers side by side, not one after another here. (The 1e6-case study
         with two local workers on two cores: this process's CPU in the chunk phase 0.39 s
         before, 0.32 s after.) A worker sees the folder where it finds there the file this run
-        marks it with (``SHARED_MARK`` and a random name); one that does not (another machine,
+        marks it with (``checkpoint.shared_mark``); one that does not (another machine,
         another file system) sends its arrays, as before."""
         if self.client is None:
             raise RuntimeError("enter the backend first: with DaskBackend(...) as backend: ...")
         if store is not None:
             store = store.absolute()
-        mark = _mark_folder(store) if store is not None else None
+        mark = shared_mark(store.folder) if store is not None else None
         try:
             yield from self._run(plan, todo, store, mark)
         finally:
@@ -1095,21 +1097,6 @@ STOP_POLL_SECONDS = 0.05
 def _executing(dask_worker) -> list[str]:
     """The keys of the tasks a dask worker is executing (``client.run``)."""
     return [ts.key for ts in dask_worker.state.executing]
-
-
-SHARED_MARK = "shared-"
-"""Prefix of the file a run puts into its checkpoint folder for the workers to look for
-(``DaskBackend.run``): a worker that finds it saves its chunks there itself."""
-
-
-def _mark_folder(store: ChunkStore) -> str:
-    """Put a file of a random name into ``store``'s folder; return its name."""
-    import secrets
-
-    name = f"{SHARED_MARK}{secrets.token_hex(8)}"
-    (store.folder / name).write_text("gearsweep: workers that see this file save their chunks"
-                                     " here\n", encoding="utf-8")
-    return name
 
 
 # ------------------------------------------------------------------------------------ runs
@@ -1502,7 +1489,7 @@ def stream_to_file(plan: Plan, output: str | Path, *,
     try:
         elapsed, kernel, file = _compute(
             plan, todo, sum(b - a for a, b in done) * per_lane, backend, store, progress,
-            open_file=lambda: _result_file(plan, output, store.folder / "writing.nc", codec),
+            open_file=lambda: _result_file(plan, output, store.folder / WRITING, codec),
             done=done)
         file.close(elapsed, kernel, earlier, len(todo))
     except KeyboardInterrupt as stop:  # (the chunks computed are saved by now: ``_compute``)

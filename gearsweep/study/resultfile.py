@@ -24,7 +24,6 @@ import json
 import math
 import os
 import shutil
-import tempfile
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -32,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from gearsweep.files import ordinary_mode
+from gearsweep.files import ordinary_mode, temp_beside
 from gearsweep.kernels.cuda import device_name
 from gearsweep.model import SWEEPABLE, MeshModel, mesh_frequency, model_record
 from gearsweep.study.filelayout import file_chunks
@@ -680,8 +679,7 @@ class ResultFile:
         self.plan, self.path = plan, Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         if tmp is None:
-            fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".partial",
-                                       dir=self.path.parent)
+            fd, tmp = temp_beside(self.path)
             os.close(fd)
         self.tmp = Path(tmp)
         desc = describe(plan, elapsed=0.0, kernel=0.0)
