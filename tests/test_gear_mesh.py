@@ -526,6 +526,11 @@ def test_plots_draw_the_computed_data():
         handles, labels = axes[1].get_legend_handles_labels()
         assert labels == ["the other pairs in contact", "one tooth pair"]
         assert len(axes[1].lines) == 3 + 2  # three curves (two thin), the LPSTC and HPSTC lines
+        # a thin line ends before the end of the path: the next pair's step to the whole load as
+        # ours leaves was drawn on the right edge, a grey tick above ours (0.6 -> 1.0 at 12.6 mm)
+        for ln in axes[1].lines[:2]:
+            x, y = (np.asarray(a, float) for a in ln.get_data())
+            assert x[np.isfinite(y)].max() < path_mm  # no segment crosses the right edge
         # gear 1's points of single contact (the contact climbs gear 1's flank from its root)
         eps, pb_mm = mc.pair.contact_ratio, mc.pair.base_pitch * 1e3
         marks = {t.get_text().strip(): t.get_position()[0] for t in axes[1].texts}

@@ -202,8 +202,10 @@ def plot_load_sharing(ax: Axes, cycle: MeshCycle | xr.Dataset) -> Figure:
     to_mm = pb * MM
     others = [k for k in range(-n_slot + 1, n_slot) if k]  # every pair that meets [0, eps]
     for i, shift in enumerate(others):  # one legend entry for all (Fig. 2's were unexplained)
-        ax.plot((pos + shift) * to_mm, share, color="0.6", lw=0.8,
-                label=OTHER_PAIRS if i == 0 else None)
+        # up to where ours leaves: the next pair's step to the whole load at that instant is the
+        # next cycle's (drawn on the edge, it was a grey tick above the end of ours)
+        ax.plot((pos + shift) * to_mm, np.where(pos + shift < eps, share, np.nan), color="0.6",
+                lw=0.8, label=OTHER_PAIRS if i == 0 else None)
     ax.plot(pos * to_mm, share, color="C0", lw=2.0, label="one tooth pair")
     bounds, pairs = contact_zones(eps)
     for mark in bounds[1:-1]:
