@@ -234,6 +234,31 @@ def test_unreadable_or_foreign_chunks_are_recomputed(rattle_reference, tmp_path,
     assert list(ds.attrs["run_chunks"]) == [1, 5]  # what each run computed of the result
 
 
+def test_a_chunk_saved_by_an_older_gearsweep_without_a_newer_variable_is_recomputed(
+        rattle_reference, tmp_path, monkeypatch):
+    """The version in the manifest stays 0.1.0 between commits: a chunk an earlier gearsweep
+    saved before ``transient_left`` was recorded (27 Nov 2026) has every other array right. It
+    is computed again, not written with a hole where the new variable is; the intact ones are
+    reused."""
+    log = tmp_path / "chunks.log"
+    monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
+    out = tmp_path / "r.nc"
+    plan = plan_of(RATTLE)
+    chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
+    with pytest.raises(Crash):
+        run_plan(plan, backend=CrashAfter(3), checkpoint=out, chunk_cases=CHUNK)
+    store = ChunkStore(out, plan.study_key, plan.n_lanes, chunks)
+    old = store.load(*chunks[1])
+    assert "transient_left" in old
+    del old["transient_left"]
+    store.save(*chunks[1], old)
+    log.unlink()
+    ds = run_plan(plan, checkpoint=out, chunk_cases=CHUNK)
+    assert read_log(log) == chunks[1:2] + chunks[3:]  # chunks 0 and 2 reused
+    assert_same(ds, rattle_reference, resumed=True)
+    assert np.isfinite(ds["transient_left"]).all()
+
+
 def test_a_resumed_run_keeps_the_saved_chunk_layout(rattle_reference, tmp_path, monkeypatch):
     """Resumed with another chunk size (another --chunk-size or --workers count), a run
     keeps the interrupted run's layout and computes only the chunks not saved; with nothing saved,
