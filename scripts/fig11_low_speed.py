@@ -133,9 +133,10 @@ ax_r.set_title(f"ratios of order lines over the speeds, {labels[0]}\nconsistent 
                f" {apart:.1g} of their mean\nprofile-shift reading (dash-dot, {t_shift:g} N m):"
                f" {ranges(xs / xs.sel(order=1.0))}", fontsize=8)
 fig.suptitle(f"Fig. 11 counterpart. {base_title}, {top:g} N m on the gear shaft: what the"
-             " pinion's sensors see (θ2, Eq. 4), not p.\nA magnetic pick-up's own tooth-passing"
-             " line (order 1) grows in proportion to speed even for a rigid pinion: it cannot"
-             " test the model; demodulated θ2 can.", fontsize=9)
+             " pinion's sensors see (θ2, Eq. 4), not p.\nRead as θ2 (the paper: \"torsional"
+             " vibration\"), the paper's growth of orders 1-2 disagrees with these lines; read as"
+             " a pick-up's raw voltage, whose\ntooth-passing line grows with speed even for a"
+             " rigid pinion, it cannot test the model (which reading: our choice)", fontsize=9)
 print(save(fig, args.figures / "fig11_low_speed.png", dpi=140))
 
 # numbers quoted in docs/REPRODUCTION.md
