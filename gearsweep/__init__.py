@@ -3,12 +3,13 @@
     import gearsweep
     ds = gearsweep.run("studies/whine_speed_sweep.yaml")   # validate, run in-process -> Dataset
     ds = gearsweep.open_result("results/fig08_rattle.nc")
+    print(gearsweep.advise("studies/fig08_rattle.yaml", target=1e-4))  # steps for an accuracy
 
 Layers, each importing only from those below it (``docs/architecture.md``; import-linter checks):
 
 * ``gearsweep.cli``      -- the command line over ``api``.
-* ``gearsweep.api``      -- ``run``, ``estimate``, ``open_result``, ``result_model``,
-  ``result_study``.
+* ``gearsweep.api``      -- ``run``, ``estimate``, ``advise``, ``open_result``,
+  ``result_model``, ``result_study``.
 * ``gearsweep.study``    -- YAML -> schema -> plan -> chunks -> kernel -> Dataset -> netCDF.
   ``gearsweep.plot``     -- plot functions that draw Datasets (never import ``study``).
 * ``gearsweep.analysis`` -- harmonic balance, Floquet, spectra, references, the step advisor.
@@ -20,7 +21,7 @@ Layers, each importing only from those below it (``docs/architecture.md``; impor
 
 from gearsweep._version import __version__
 
-_API = ("run", "estimate", "open_result", "result_model", "result_study")
+_API = ("run", "estimate", "advise", "open_result", "result_model", "result_study")
 _MODULES = ("analysis", "api", "errors", "gear", "kernels", "model", "plot", "study", "units")
 """Subpackages and modules reachable as attributes after ``import gearsweep`` alone
 (``gearsweep.units.si_values(da)``, as the README writes it, raised AttributeError until some

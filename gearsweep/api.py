@@ -6,6 +6,7 @@
     ds = gearsweep.open_result("results/fig08_rattle.nc")
     gearsweep.result_model(ds)                                  # the MeshModel the kernel ran
     gearsweep.result_model(ds, mean_force=833)                  # ... at a swept value (N)
+    print(gearsweep.advise("studies/fig08_rattle.yaml", target=1e-4))  # steps for an accuracy
 
 Every problem with the input raises a :class:`gearsweep.errors.GearsweepError` whose message is the
 one line the command line prints; cases beyond the integrator's step limit (``solver.step_guard:
@@ -29,6 +30,7 @@ import numpy as np
 import xarray as xr
 import yaml
 
+from gearsweep.analysis.advise import Advice
 from gearsweep.errors import (
     DICT_STUDY,
     NO_VALUE,
@@ -39,6 +41,7 @@ from gearsweep.errors import (
 )
 from gearsweep.files import user_path
 from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, mean_mesh_force, model_from_record
+from gearsweep.study.advice import DEFAULT_TARGET, study_advice
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.analysis_cost import AnalysisEstimate
 from gearsweep.study.analysis_cost import check_limits as check_analysis
@@ -386,6 +389,31 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     return ds
 
 
+def advise(study: StudyLike, *, target: float = DEFAULT_TARGET) -> Advice:
+    """The step advisor on a dynamic study of a gear scene, before anything runs: the steps per
+    mesh period its integration needs for a trajectory error of ``target`` (relative to the
+    amplitude, at the lowest speed), their cost, the error of the study's own steps, and the
+    warnings (a step beyond the method's stability limit, light damping, a parametric resonance
+    of k(t), the step guard's map check), as ``gearsweep advise`` gives them.
+
+    Returns
+    -------
+    gearsweep.analysis.advise.Advice
+        ``.steps_per_period`` (advised), ``.expected_error``, ``.msteps`` (the study's cost in
+        millions of steps), ``.chosen`` and ``.chosen_error`` (the steps as written),
+        ``.kink_steps_per_period``, ``.warnings``; ``print(advice)``: the text `gearsweep
+        advise` prints (``.report()``: without the study's name).
+
+    Raises
+    ------
+    StudyError
+        For a ``target`` outside (0, 1), a mesh or analysis study (nothing is integrated), a
+        Mathieu scene (no accuracy model), and as ``run``: the line the CLI prints.
+    """
+    st, text, name = _load(study)
+    return study_advice(st, text, name, target)
+
+
 def open_result(path: str | Path) -> xr.Dataset:
     """Open a result file in memory; one line (``ResultError``) if it is missing or not ours."""
     path = _user_path(path)
@@ -502,4 +530,4 @@ def result_study(ds: xr.Dataset | str | Path) -> Study | MeshStudy:
     return parse_study(ds.attrs["study"], "<result>", base=ds.attrs.get("study_folder"))
 
 
-__all__ = ["estimate", "load", "open_result", "result_model", "result_study", "run", "run_study"]
+__all__ = ["advise", "estimate", "load", "open_result", "result_model", "result_study", "run", "run_study"]

@@ -780,8 +780,8 @@ def test_every_study_here_is_below_the_accuracy_note_as_the_docs_say():
     largest expected error of its own steps: they named whine_speed_sweep.yaml at 0.71 %, and
     rattle_table1_pair.yaml has 0.75 %."""
     from gearsweep.analysis import advise as adv
-    from gearsweep.cli import _advice
     from gearsweep.model import MeshModel
+    from gearsweep.study.advice import plan_advice
     from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
@@ -792,7 +792,7 @@ def test_every_study_here_is_below_the_accuracy_note_as_the_docs_say():
             continue
         plan = make_plan(study, text, path.name)
         if isinstance(plan.model, MeshModel):
-            errors[path.name] = _advice(plan, adv.ACCURACY_NOTE).chosen_error
+            errors[path.name] = plan_advice(plan, adv.ACCURACY_NOTE).chosen_error
     name = max(errors, key=errors.get)
     most = f"{errors[name]:.2%}".replace("%", " %")
     assert errors[name] < 0.01 < adv.ACCURACY_NOTE
@@ -941,6 +941,7 @@ def test_validate_s_accuracy_note_does_not_pay_for_the_free_vibration_scan(monke
     rig_low_speed.yaml went from 3.0 to 5.3 s) is for ``advise``'s warnings alone."""
     from gearsweep import cli
     from gearsweep.analysis import advise as adv
+    from gearsweep.study.advice import plan_advice
     from gearsweep.study.plan import make_plan
     from gearsweep.study.schema import load_study
 
@@ -951,9 +952,9 @@ def test_validate_s_accuracy_note_does_not_pay_for_the_free_vibration_scan(monke
     path = ROOT / "studies" / "whine_gear_table1.yaml"
     study, text = load_study(path)
     plan = make_plan(study, text, str(path))
-    a = cli._advice(plan, cli.ACCURACY_NOTE, free_vibration=False)
+    a = plan_advice(plan, adv.ACCURACY_NOTE, free_vibration=False)
     assert a.chosen_error is not None and calls == []
-    cli._advice(plan, cli.ACCURACY_NOTE)  # advise's own path does scan
+    plan_advice(plan, adv.ACCURACY_NOTE)  # advise's own path does scan
     assert len(calls) == 1
     adv._free_decay.cache_clear()
     assert cli.main(["validate", str(path)]) == 0

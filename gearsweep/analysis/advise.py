@@ -277,6 +277,18 @@ class Advice:
     """The damping ratio that the slowest free decay among the speeds corresponds to (zeta
     itself unless k(t) slows it, near a parametric resonance: ``free_decay``); the light-damping
     warning compares this one with the calibration's."""
+    scene: str | None = None
+    """What ``report`` names the case by default (``"full scene with backlash"``: a study's
+    advice, ``study.advice``); None: the calibration class (``"rattle case"``)."""
+    study_name: str | None = None
+    """The study advised on (its path, ``<dict>``, ...), which ``str`` heads the report with."""
+
+    def __str__(self) -> str:
+        """The report as ``gearsweep advise`` prints it: the study's name and a colon, then the
+        report indented by two spaces (the report alone where no study is named)."""
+        if self.study_name is None:
+            return self.report()
+        return f"{self.study_name}:\n" + textwrap.indent(self.report(), "  ")
 
     def _knee_text(self) -> str:
         return (f" min(1, ({self.highest_order:g} r / {self.knee:g})^2)" if self.knee
@@ -290,9 +302,10 @@ class Advice:
 
     def report(self, scene: str | None = None, width: int = 96) -> str:
         """A few lines of at most ``width`` characters for a person. ``scene`` names the case
-        (e.g. ``"full scene with backlash"``; default: the calibration class, whine or rattle)."""
+        (e.g. ``"full scene with backlash"``; default: ``self.scene``, else the calibration
+        class, whine or rattle)."""
         name = self.method + (" kink-aware" if self.kink_aware else "")
-        what = scene or f"{self.scene_kind} case"
+        what = scene or self.scene or f"{self.scene_kind} case"
         lines = [
             (f"{what}, {name} (error constants of the {self.scene_kind} calibration): at the"
              f" largest stiffness k0 + sum |k_n|, omega_n = {self.omega_n:.4g} rad/s and damping"
