@@ -936,3 +936,31 @@ def test_the_small_chunk_note_counts_one_case_in_the_singular(small_whine):
 
     note = small_chunk_note(make_plan(Study.model_validate(small_whine)), 1, threads=2)
     assert note.startswith("chunks of 1 case hold 1 case each, where"), note
+
+
+@pytest.mark.parametrize(("study", "target", "flag"), [
+    ("fig01_02_mesh_cycle.yaml", None, None),  # a mesh study: nothing is integrated
+    ("stability_artifact_map.yaml", None, None),  # an analysis study
+    ("strutt_mathieu.yaml", None, None),  # a Mathieu scene: no accuracy model
+    ("fig08_rattle.yaml", 2.0, "2"),
+    ("fig08_rattle.yaml", 0.0, "0"),
+    ("fig08_rattle.yaml", float("nan"), "nan"),
+])
+def test_advise_refuses_what_gearsweep_advise_refuses(study, target, flag, capsys):
+    """``gearsweep.advise`` refuses a study or target `gearsweep advise` refuses with the same
+    one line, a ``StudyError`` (the target named as the keyword, ``target``, where the command
+    line names ``--target``)."""
+    path = str(ROOT / "studies" / study)
+    assert cli(["advise", path, *(["--target", flag] if flag else [])]) == 2
+    said = capsys.readouterr().err.strip().removeprefix("gearsweep: error: ")
+    with pytest.raises(StudyError) as exc:
+        gearsweep.advise(path, **({} if target is None else {"target": target}))
+    assert str(exc.value) == said.replace(": --target: ", ": target: ")
+
+
+@pytest.mark.parametrize("target", ["1e-4", True, None, 1])
+def test_advise_refuses_a_target_that_is_not_a_number_between_0_and_1(target):
+    """A target given as text, True or None is no relative error (``math.isfinite`` of a string
+    raises TypeError, a traceback), nor is 1: one line naming ``target``, as for 2."""
+    with pytest.raises(StudyError, match=r"target: .* -- a relative error between 0 and 1"):
+        gearsweep.advise(str(ROOT / "studies" / "fig08_rattle.yaml"), target=target)

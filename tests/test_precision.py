@@ -580,6 +580,16 @@ solver:
 outputs: [stats]
 """
 
+# The same tester's varying scene (k1 = 500 of k0 = 1073 kN/mm, zeta 1.29 at k0 + k1), RK5 at 6
+# steps per period: near 11000 rpm the fixed-step map misses a parametric resonance of k(t),
+# which raises the steps advised for 0.3 (``study.advice.resonance_advice``).
+_VARYING_OVERDAMPED = _OVERDAMPED.replace(
+    "  ste:\n", "  stiffness_harmonics:\n    - {amplitude: 500 kN/mm}\n  ste:\n").replace(
+    "speed: [3000 rpm, 6000 rpm, 12000 rpm]",
+    "speed: [11000 rpm, 11150 rpm, 16000 rpm, 17200 rpm, 18000 rpm, 25000 rpm]").replace(
+    "steps_per_period: 64", "steps_per_period: 6").replace(
+    "transient_periods: 200", "transient_periods: 3000")
+
 
 def test_rk5_real_axis_interval_from_the_tableau():
     """The independent truth below: Butcher's RK5 is stable on the negative real axis up to
@@ -969,12 +979,7 @@ def test_cli_advise_warns_of_a_written_step_beyond_the_over_damped_limit(tmp_pat
     from gearsweep.api import run
     from gearsweep.cli import main
 
-    text = _OVERDAMPED.replace("  ste:\n", "  stiffness_harmonics:\n    - {amplitude: 500 kN/mm}\n"
-                               "  ste:\n").replace(
-        "speed: [3000 rpm, 6000 rpm, 12000 rpm]",
-        "speed: [11000 rpm, 11150 rpm, 16000 rpm, 17200 rpm, 18000 rpm, 25000 rpm]").replace(
-        "steps_per_period: 64", "steps_per_period: 6").replace(
-        "transient_periods: 200", "transient_periods: 3000")
+    text = _VARYING_OVERDAMPED
     path = tmp_path / "over6.yaml"
     path.write_text(text, encoding="utf-8")
     assert main(["advise", str(path), "--target", "0.3"]) == 0
@@ -988,6 +993,55 @@ def test_cli_advise_warns_of_a_written_step_beyond_the_over_damped_limit(tmp_pat
     spp = int(re.search(r"For a target of [\d.e+-]+: (\d+) steps per mesh period", flat)[1])
     ds = run(text.replace("steps_per_period: 6", f"steps_per_period: {spp}"))
     np.testing.assert_array_equal(ds.status.values.ravel(), 0)
+
+
+def _printed_advice(text: str) -> tuple[int, list[str]]:
+    """The advised steps and the warnings, read from the text `gearsweep advise` printed."""
+    flat = " ".join(text.split())
+    steps = int(re.search(r"For a target of [\d.e+-]+: (\d+) steps per mesh period", flat)[1])
+    paragraphs: list[str] = []
+    for line in text.splitlines()[1:]:  # after "STUDY:", each paragraph at 2 spaces, then 4
+        if line.startswith("  ") and not line.startswith("    "):
+            paragraphs.append(line.strip())
+        else:
+            paragraphs[-1] += " " + line.strip()
+    return steps, [p.removeprefix("WARNING: ") for p in paragraphs if p.startswith("WARNING: ")]
+
+
+@pytest.mark.parametrize(("study", "target"), [
+    ("fig08_rattle.yaml", "1e-4"),  # a study file of studies/: the kink-aware advice too
+    ("varying.yaml", "0.3"),  # _VARYING_OVERDAMPED: steps raised by a parametric resonance
+])
+def test_the_api_advises_what_the_cli_prints(study, target, tmp_path, capsys):
+    """``gearsweep.advise`` (a notebook had no way to the study's advice: it lived in the CLI)
+    gives the advice `gearsweep advise` prints: its ``str`` is the printed text, and its steps
+    and warnings are the ones read back from that text; a dict or a Study of the same study is
+    advised the same."""
+    import yaml
+
+    import gearsweep
+    from gearsweep.api import load
+    from gearsweep.cli import main
+
+    path = ROOT / "studies" / study
+    if study == "varying.yaml":
+        path = tmp_path / study
+        path.write_text(_VARYING_OVERDAMPED, encoding="utf-8")
+    assert main(["advise", str(path), "--target", target]) == 0
+    printed = capsys.readouterr().out
+    steps, warned = _printed_advice(printed)
+    a = gearsweep.advise(str(path), target=float(target))
+    assert str(a) + "\n" == printed
+    assert a.steps_per_period == steps
+    assert [" ".join(w.split()) for w in a.warnings] == warned
+    if study == "varying.yaml":  # the resonance's advice, carried through
+        (raised,) = [w for w in warned if w.startswith("near a parametric resonance of k(t)")]
+        assert f" {steps} steps bring it to " in raised
+    else:
+        assert a.kink_steps_per_period is not None
+    for same in (yaml.safe_load(path.read_text(encoding="utf-8")), load(path)[0]):
+        b = gearsweep.advise(same, target=float(target))
+        assert (b.steps_per_period, b.warnings, b.report()) == (steps, a.warnings, a.report())
 
 
 def test_cli_advise_takes_the_limit_at_every_swept_stiffness(tmp_path, capsys):
