@@ -10,6 +10,9 @@ Pure numerics on plain arrays (SI units, speeds in rpm where named so): no study
   integration (*) on the same speeds, branch by branch.
 * ``excitation_budget``: the force amplitudes the gear pair itself can supply at the mesh
   frequency (``k e_n``, ``m w^2 e_n``, the mean force) beside the one Fig. 8 needs.
+* ``opening_force``, ``first_harmonic_opening``: the harmonic force that opens the mesh at each
+  frequency (linear response), and the band of frequencies where the first STE harmonic's
+  ``m w^2 e_1`` reaches it; ``contact_loss_threshold`` is its least value, at resonance only.
 """
 
 from __future__ import annotations
@@ -112,15 +115,59 @@ def eq15_distance(speed, amplitude, *, omega_per_rpm: float, force_amp: float,
         drop_eq15=math.sqrt(stiffness / mass) / omega_per_rpm)
 
 
-def contact_loss_threshold(*, mass: float, stiffness: float, damping: float,
-                           force_mean: float) -> float:
-    """Smallest harmonic force amplitude [N] that opens the mesh at all (linear response).
+def opening_force(omega, *, mass: float, stiffness: float, damping: float,
+                  force_mean: float) -> np.ndarray:
+    """Harmonic force amplitude [N] at angular frequency omega [rad/s] that opens the mesh
+    (linear response): ``F_m |k - m w^2 + i c w| / k``.
 
     In permanent contact the mesh is linear: ``p = F_m / k + A cos(w t - phi)`` with
-    ``A = F0 / |k - m w^2 + i c w|``; the teeth first separate when ``A = F_m / k``. The
-    smallest F0 over all frequencies is at the minimum of ``|k - m w^2 + i c w|``:
+    ``A = F0 / |k - m w^2 + i c w|``; the teeth first separate when ``A = F_m / k``, the static
+    deflection. The force that does it depends on the frequency: ``F_m`` at w -> 0, its least
+    value ``contact_loss_threshold`` near resonance, and ``F_m m w^2 / k`` far above it.
+    """
+    w = np.asarray(omega, float)
+    return force_mean * np.abs(stiffness - mass * w**2 + 1j * damping * w) / stiffness
+
+
+def first_harmonic_opening(*, mass: float, stiffness: float, damping: float,
+                           force_mean: float, ste_amplitude: float) -> tuple[float, float]:
+    """Band of angular frequencies (low, high) [rad/s] where the force ``m w^2 e_1`` of an STE
+    harmonic ``e_1`` [m] at w alone opens the mesh: ``m w^2 e_1 >= opening_force(w)``
+    (linear response; ``high`` is inf where it stays open at every higher w, both NaN where
+    it opens at none).
+
+    Closed form: with ``x = m w^2 / k``, ``zeta = c / (2 sqrt(k m))`` and ``E = k e_1 / F_m``
+    the condition is ``E^2 x^2 >= (1 - x)^2 + 4 zeta^2 x``, i.e.
+    ``q(x) = (E^2 - 1) x^2 + (2 - 4 zeta^2) x - 1 >= 0``; ``q(0) = -1``, so for ``E > 1`` it
+    holds above q's one positive root, for ``E < 1`` between its two roots (if real and
+    positive), and for ``E = 1`` above ``1 / (2 - 4 zeta^2)`` (where ``zeta^2 < 1/2``).
+    """
+    zeta = damping / (2.0 * math.sqrt(stiffness * mass))
+    e2 = (stiffness * ste_amplitude / force_mean) ** 2
+    a, b = e2 - 1.0, 2.0 - 4.0 * zeta**2
+    if a == 0.0:
+        x = (1.0 / b, math.inf) if b > 0.0 else (math.nan, math.nan)
+    elif a > 0.0:  # roots of opposite sign: the positive one
+        x = ((-b + math.sqrt(b * b + 4.0 * a)) / (2.0 * a), math.inf)
+    else:
+        disc = b * b + 4.0 * a
+        if b <= 0.0 or disc < 0.0:  # no positive root: q < 0 for every x > 0
+            x = (math.nan, math.nan)
+        else:  # two positive roots (product -1 / a > 0, sum -b / a > 0); q >= 0 between
+            r = math.sqrt(disc)
+            x = ((-b + r) / (2.0 * a), (-b - r) / (2.0 * a))
+            x = (min(x), max(x))
+    wn = math.sqrt(stiffness / mass)
+    return (wn * math.sqrt(x[0]), wn * math.sqrt(x[1]))
+
+
+def contact_loss_threshold(*, mass: float, stiffness: float, damping: float,
+                           force_mean: float) -> float:
+    """Smallest harmonic force amplitude [N] that opens the mesh at any frequency: the least
+    ``opening_force`` (linear response), ``F_m min_w |k - m w^2 + i c w| / k``,
     ``F0 = F_m c sqrt(4 k m - c^2) / (2 k m)`` (``= 2 zeta sqrt(1 - zeta^2) F_m``) for
-    ``zeta < 1/sqrt(2)``, else ``F_m``.
+    ``zeta < 1/sqrt(2)``, else ``F_m``. It holds near resonance only: at any other frequency the
+    force that opens the mesh is ``opening_force(w)``, larger.
     """
     zeta = damping / (2.0 * math.sqrt(stiffness * mass))
     if zeta >= 1.0 / math.sqrt(2.0):
