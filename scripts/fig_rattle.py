@@ -135,10 +135,16 @@ def fig8_out_of_sample(ds8, results, budget, figures):
     thr = [(str(b.scene_name.values), round(float(t)))
            for sc in budget["scene"].values for b in [budget.sel(scene=sc)]
            for t in b.threshold.values if np.isfinite(t)]
+    first = [(str(b.scene_name.values), f"c = {c:g}", "never" if np.isnan(lo) else
+              f"{lo:.0f}-{float(b.first_harmonic_opens_to.sel(damping=c)):.0f} rpm")
+             for sc in budget["scene"].values for b in [budget.sel(scene=sc)]
+             for c, lo in zip(b["damping"].values, b.first_harmonic_opens_from.values,
+                              strict=True) if np.isfinite(float(b.threshold.sel(damping=c)))]
     print(f"budget: F0 {f0:.0f} N, F_m {float(budget.mean_force):.0f} N, e1"
           f" {float(budget.ste_1):.4g} m, k e1 {float(budget.k_e1_fitted):.0f} N (paper k), m w^2 e1"
           f" at {'/'.join(f'{s:.0f}' for s in budget.at_speed.values)} rpm"
-          f" {'/'.join(f'{x:.0f}' for x in at)} N; thresholds {thr}")
+          f" {'/'.join(f'{x:.0f}' for x in at)} N; least opening forces (at resonance) {thr};"
+          f" m w^2 e1 alone opens the mesh (linear response) {first}")
 
 
 def fig9(bal, figures):

@@ -661,6 +661,71 @@ def test_rattle_budget_marks_a_scene_whose_jumps_cannot_be_judged(tmp_path):
         f"jump at {0.5 * (speed[3] + speed[4]):.0f} rpm", "no jump"]
 
 
+def test_rattle_budget_compares_m_w2_e1_with_the_force_that_opens_the_mesh_at_each_speed(
+        tmp_path):
+    """rattle_budget gave one "least force that opens the mesh" per scene and damping (its
+    value at resonance), and fig08_out_of_sample drew it flat across all speeds against
+    m_eq w^2 e_1: the purple curve crossed it where the mesh does not open (an outside tester's
+    finding). Now opening_force is that force at each budget speed, (F_m / k) / |P_1| of the
+    package's harmonic balance for a unit order-1 force (``periodic_response``), and
+    first_harmonic_opens_from / _to the band where the linear response to m w^2 e_1 reaches
+    the static deflection F_m / k (Brent's method on ``periodic_response``; at k = 1073 kN/mm:
+    from 10,554 rpm at c = 4.92 N s/mm, 10,314 at 0.492, on to the last speed). The figure
+    draws one opening-force curve per scene and damping, each in its own line style and
+    labelled with its c, where the two dampings' legend entries were identical."""
+    import matplotlib
+    import xarray as xr
+    from scipy.optimize import brentq
+
+    from gearsweep.analysis.linear_response import periodic_response, ste_force
+    from gearsweep.model import RPM
+    from gearsweep.plot.rattle import plot_rattle_budget
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    e1 = 1.33524e-6
+    xr.Dataset({"ste_harmonic": ("harmonic", [4.3, e1 * 1e6], {"units": "um"})},
+               coords={"harmonic": [0, 1]}).to_netcdf(tmp_path / "m.nc")
+    scene = {**RATTLE, "sweep": {"speed": {"start": "9000 rpm", "stop": "12000 rpm", "num": 4},
+                                 "damping": ["4.92 N s/mm", "0.492 N s/mm"]},
+             "solver": {**RATTLE["solver"], "transient_periods": 2, "record_periods": 2}}
+    gearsweep.run(scene, output=tmp_path / "s.nc")
+    gearsweep.run({"type": "analysis", "title": "b", "analysis": {
+        "kind": "rattle_budget", "fitted": "s", "scenes": ["s"], "names": ["s1"], "mesh": "m",
+        "points": 7}}, output=tmp_path / "b.nc")
+    b = xr.load_dataset(tmp_path / "b.nc")
+    m, k, fm = 0.1527, 1073e6, 50.0 / 56.38e-3
+    w = b["budget_speed"].values * 48 * RPM
+    for c_disp, c, first in ((4.92, 4920.0, 10554.0), (0.492, 492.0, 10314.0)):
+        s = b.sel(scene="s", damping=c_disp)
+        unit = periodic_response(m, c, k, w, f_amplitudes=[1.0], f_orders=[1], harmonics=2)
+        assert_allclose(s.opening_force.values, (fm / k) / np.abs(unit[:, 1]), rtol=1e-9)
+        assert np.all(s.opening_force.values > float(s.threshold))  # off resonance: more
+
+        def ratio(rpm, c=c):
+            wv = np.array([rpm * 48 * RPM])
+            p = periodic_response(m, c, k, wv, mean_force=fm, harmonics=2,
+                                  f_amplitudes=ste_force(m, wv, [e1], [1]), f_orders=[1])
+            return float(np.abs(p[0, 1]) / np.abs(p[0, 0])) - 1.0
+
+        assert_allclose(float(s.first_harmonic_opens_from), brentq(ratio, 9000.0, 12000.0,
+                                                                   xtol=1e-9), rtol=1e-9)
+        assert_allclose(float(s.first_harmonic_opens_from), first, atol=1.0)
+        assert float(s.first_harmonic_opens_to) == 12000.0  # open on to the last speed
+    assert b.first_harmonic_opens_from.attrs["units"] == "rpm"
+    fig, ax = plt.subplots()
+    plot_rattle_budget(ax, b)
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert len(labels) == len(set(labels))  # no two identical legend entries
+    drawn = {ln.get_label(): ln for ln in ax.get_lines() if "opens the mesh" in ln.get_label()}
+    assert len(drawn) == 2 and len({ln.get_linestyle() for ln in drawn.values()}) == 2
+    for c_disp in (4.92, 0.492):
+        (ln,) = [v for lab, v in drawn.items() if f"c = {c_disp:g} N s/mm" in lab]
+        assert_allclose(ln.get_ydata(), b.opening_force.sel(scene="s", damping=c_disp).values)
+    plt.close(fig)
+
+
 def test_rattle_balance_says_which_jumps_cannot_be_judged_and_its_box_says_so(tmp_path):
     """rattle_balance carried the jump speeds but not jump_unsupported (rattle_budget and
     jump_map do), and Fig. 8's Eq. (15) box read a NaN jump as "the integration has no such

@@ -431,11 +431,18 @@ def plot_rattle_graphical(ax: Axes, ds: xr.Dataset, *, p_range: float = 0.75e-3)
     return ax.figure
 
 
+DAMPING_STYLES = ("--", "-.")
+"""Line style of the opening force at each damping of a ``rattle_budget`` Dataset (its order:
+the largest first); the scene is the colour."""
+
+
 def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | None = None
                        ) -> Figure:
     """The force budget of a ``rattle_budget`` Dataset over its speeds: the fitted force, the
-    mean force, m_eq w^2 e_1, and per scene k e_1 and the least force that opens the mesh."""
-    require(ds, ("budget_speed", "inertia_force"), "plot_rattle_budget",
+    mean force, m_eq w^2 e_1, and per scene k e_1 and, per damping, the force that opens the
+    mesh at each speed (``opening_force``: where m_eq w^2 e_1 crosses it, the first harmonic
+    alone opens the mesh, ``first_harmonic_opens_from``)."""
+    require(ds, ("budget_speed", "inertia_force", "opening_force"), "plot_rattle_budget",
             "studies/fig08_rattle_budget.yaml (analysis kind rattle_budget)")
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     colors = colors or {0: "tab:blue", 1: "tab:orange"}
@@ -446,7 +453,7 @@ def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | Non
              {"x": sp, "y": np.full(sp.shape, fm), "color": "k", "ls": "-.",
               "label": f"mean mesh force F_m = {fm:.0f} N"},
              {"x": sp, "y": ds.inertia_force.values, "color": "tab:purple",
-              "label": f"m_eq w² e_1 (e_1 = {e1 * 1e6:.2f} µm, the pair's 1st STE harmonic)"}]
+              "label": f"m_eq ω² e_1 (e_1 = {e1 * 1e6:.2f} µm, the pair's 1st STE harmonic)"}]
     for j, scene in enumerate(ds["scene"].values):
         s = ds.sel(scene=scene)
         cs = [c for c in s["damping"].values if np.isfinite(float(s.threshold.sel(damping=c)))]
@@ -455,16 +462,25 @@ def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | Non
             if c == max(cs):
                 lines.append({"x": sp, "y": np.full(sp.shape, k * e1), "color": colors[j],
                               "ls": ":", "label": f"k e_1, k = {k / 1e6:.0f} kN/mm"})
-            lines.append({"x": sp, "y": np.full(sp.shape, float(s.threshold.sel(damping=c))),
-                          "color": colors[j], "ls": "--", "lw": 0.9,
-                          "label": f"least force that opens the mesh, k = {k / 1e6:.0f}"
-                                   f" kN/mm, c = {c:g} N s/mm"})
+            sc = s.sel(damping=c)
+            lo, hi = float(sc.first_harmonic_opens_from), float(sc.first_harmonic_opens_to)
+            opens = ("m_eq ω² e_1 below it at every speed" if np.isnan(lo) else
+                     f"m_eq ω² e_1 above it {lo:.0f}-{hi:.0f} rpm")
+            style = DAMPING_STYLES[list(ds["damping"].values).index(c) % len(DAMPING_STYLES)]
+            lines.append({"x": sp, "y": sc.opening_force.values, "color": colors[j],
+                          "ls": style, "lw": 1.1,
+                          "label": f"force that opens the mesh, k = {k / 1e6:.0f} kN/mm,"
+                                   f" c = {c:g} N s/mm (ζ = {float(sc.zeta):.3f})\n   (least"
+                                   f" {float(sc.threshold):.0f} N, at resonance): {opens}"})
     plot_lines(ax, None, lines, xlabel=_speed_label(ds["budget_speed"]),
                ylabel="force amplitude at mesh order 1 [N]")
     ax.legend(fontsize=6.5, loc="lower right")
-    ax.set_title("Mesh order 1 only (the order of the fitted force). Not drawn: the STE's higher"
-                 " orders n, forces m_eq (n w)² e_n,\nresonant where n x the mesh frequency meets"
-                 " f_n, which can open the mesh at speeds where m_eq w² e_1 cannot", fontsize=8)
+    ax.set_title("Mesh order 1 only (the order of the fitted force). The force that opens the mesh"
+                 " at each speed, F_m |k - m ω² + i c ω| / k,\nis the one whose linear response"
+                 " reaches the static deflection F_m / k: where m_eq ω² e_1 exceeds it, the"
+                 " first harmonic alone opens the mesh.\nNot drawn: the STE's higher orders n,"
+                 " forces m_eq (n ω)² e_n, resonant where n x the mesh frequency meets f_n,\n"
+                 "which can open the mesh at speeds where m_eq ω² e_1 cannot", fontsize=8)
     return ax.figure
 
 

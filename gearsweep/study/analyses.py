@@ -579,7 +579,8 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
     ns, nc = len(o.scenes), len(dampings)
     per = {v: np.full((ns, nc), np.nan) for v in (
         "stiffness", "zeta", "threshold", "jump_up", "jump_down", "open_low", "open_high",
-        "p_pp_max", "backside_max", "unsupported")}
+        "p_pp_max", "backside_max", "unsupported", "first_from", "first_to")}
+    opening = np.full((ns, nc, sp.size), np.nan)
     per["not_settled"] = np.zeros(ns, int)
     for i, name in enumerate(o.scenes):
         ds = inputs[name]
@@ -592,9 +593,14 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
             per["stiffness"][i, j] = model.stiffness
             c_si = float(from_display(float(c), "damping"))  # the file: display unit
             per["zeta"][i, j] = c_si / (2.0 * math.sqrt(model.stiffness * model.mass))
-            per["threshold"][i, j] = rfit.contact_loss_threshold(
-                mass=model.mass, stiffness=model.stiffness, damping=c_si,
-                force_mean=model.mean_force)
+            linear = {"mass": model.mass, "stiffness": model.stiffness, "damping": c_si,
+                      "force_mean": model.mean_force}
+            per["threshold"][i, j] = rfit.contact_loss_threshold(**linear)
+            w_rpm = model.teeth * RPM  # mesh order 1 [rad/s per rpm]
+            opening[i, j] = rfit.opening_force(sp * w_rpm, **linear)
+            lo, hi = (x / w_rpm for x in rfit.first_harmonic_opening(**linear, ste_amplitude=e1))
+            if lo <= sp[-1] and hi >= sp[0]:  # (NaN: never) the band within the speeds
+                per["first_from"][i, j], per["first_to"][i, j] = max(lo, sp[0]), min(hi, sp[-1])
             per["jump_up"][i, j] = float(js.jump_up_speed.sel(damping=c))
             per["jump_down"][i, j] = float(js.jump_down_speed.sel(damping=c))
             per["unsupported"][i, j] = int(js.jump_unsupported.sel(damping=c))
@@ -614,7 +620,10 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         "inertia_force_at": (("at_speed",), m8.mass * (at * w8) ** 2 * e1),
         "scene_stiffness": (sc, per["stiffness"]), "zeta": (sc, per["zeta"]),
         "k_e1": (sc, per["stiffness"] * e1),
-        "threshold": (sc, per["threshold"]), "jump_up_speed": (sc, per["jump_up"]),
+        "threshold": (sc, per["threshold"]),
+        "opening_force": (("scene", "damping", "budget_speed"), opening),
+        "first_harmonic_opens_from": (sc, per["first_from"]),
+        "first_harmonic_opens_to": (sc, per["first_to"]), "jump_up_speed": (sc, per["jump_up"]),
         "jump_down_speed": (sc, per["jump_down"]),
         "jump_unsupported": (sc, per["unsupported"]), "contact_loss_from": (sc, per["open_low"]),
         "contact_loss_to": (sc, per["open_high"]), "p_pp_max": (sc, per["p_pp_max"]),
@@ -643,7 +652,17 @@ def rattle_budget(o: RattleBudget, inputs: dict) -> tuple[dict, dict, dict, dict
         "zeta": {"units": "1", "long_name": "damping ratio c / (2 sqrt(k m))"},
         "k_e1": {"units": "N", "long_name": "k e_1 at the scene's k"},
         "threshold": {"units": "N", "long_name": "least force amplitude that opens the mesh"
-                      " (linear response)"},
+                      " at any speed (linear response): the least opening_force, at resonance"
+                      " only"},
+        "opening_force": {"units": "N", "long_name": "force amplitude at mesh order 1 that opens"
+                          " the mesh at this speed (linear response reaches the static"
+                          " deflection): F_m |k - m w^2 + i c w| / k"},
+        "first_harmonic_opens_from": {**rpm, "long_name": "lowest speed where m_eq w^2 e_1"
+                                      " alone reaches opening_force (linear response; NaN:"
+                                      " at no budget speed)"},
+        "first_harmonic_opens_to": {**rpm, "long_name": "highest speed where m_eq w^2 e_1"
+                                    " alone reaches opening_force (the last budget speed where"
+                                    " it stays open; NaN: at no budget speed)"},
         "jump_up_speed": {**rpm, "long_name": "run-up jump (NaN: none, or cannot be judged:"
                           " see jump_unsupported)"},
         "jump_down_speed": {**rpm, "long_name": "run-down jump (NaN: none, or cannot be"

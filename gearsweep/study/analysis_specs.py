@@ -174,8 +174,9 @@ class RattleBalance(ReadsResults):
 class RattleBudget(ReadsResults):
     """The force budget of a fitted rattle scene against scenes driven by the pair's own STE:
     the fitted force, the mean force, what the pair's first STE harmonic supplies (k e_1 and
-    m w^2 e_1), the least force that opens the mesh of each scene and damping, and each scene's
-    jumps, contact-loss span and largest response."""
+    m w^2 e_1), the force that opens the mesh of each scene and damping at each speed (linear
+    response), its least value (at resonance), the speeds where m w^2 e_1 alone reaches it, and
+    each scene's jumps, contact-loss span and largest response."""
 
     kind: Literal["rattle_budget"]
     fitted: ResultName
