@@ -431,9 +431,10 @@ def plot_rattle_graphical(ax: Axes, ds: xr.Dataset, *, p_range: float = 0.75e-3)
     return ax.figure
 
 
-DAMPING_STYLES = ("--", "-.")
+DAMPING_STYLES = ("--", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 1)))
 """Line style of the opening force at each damping of a ``rattle_budget`` Dataset (its order:
-the largest first); the scene is the colour."""
+the largest first; past four they repeat, told apart by their labels); the scene is the
+colour."""
 
 
 def plot_rattle_budget(ax: Axes, ds: xr.Dataset, *, colors: dict[int, str] | None = None
