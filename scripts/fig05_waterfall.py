@@ -27,12 +27,25 @@ from gearsweep.plot.common import save
 from gearsweep.plot.whine import (
     PHASE_FLOOR,
     damping_text,
+    lost_speeds,
     natural_frequency,
     plot_campbell,
     plot_order_lines,
     plot_ste_phase_lags,
     plot_waterfall,
+    shade_contact_lost,
 )
+
+
+def lost_text(ds: xr.Dataset) -> str:
+    """``p < 0 (contact_lost) at N of M speeds, from S rpm up`` from the result (``from``: the
+    lowest such speed; empty where no speed lost contact): what the grey of the figures marks."""
+    lost = lost_speeds(ds)
+    if lost is None or not lost.any():
+        return ""
+    speed = ds["speed"].values[lost]
+    return (f"p < 0, teeth would part (contact_lost), at {int(lost.sum())} of {lost.size} speeds,"
+            f" from {speed.min():,.0f} rpm up")
 
 
 def mesh_orders(ds: xr.Dataset) -> tuple[int, ...]:
@@ -60,7 +73,8 @@ def draw(ds: xr.Dataset, figures: Path, suffix: str = "") -> None:
     ax.view_init(elev=28, azim=-62)
     ax.set_title(f"{ds.attrs['title']}\np of Eq. (9): r1 theta1 - r2 theta2 - e(t) (docs/data-format.md)"
                  f"\n{damping_text(ds)}; 40 of {ds.sizes['speed']} speeds drawn; mesh orders"
-                 f" {orders[0]}-{orders[-1]} (order 0, the mean of p, left out)",
+                 f" {orders[0]}-{orders[-1]} (order 0, the mean of p, left out)"
+                 + (f"\ngrey floor: {lost_text(ds)}" if lost_text(ds) else ""),
                  fontsize=9)
     print(save(fig, figures / f"fig05_waterfall{suffix}.png", dpi=150))
 
@@ -125,6 +139,7 @@ def draw_phase(results: Path, figures: Path) -> None:
         plot_ste_phase_lags(ax, flat, orders=(n,), color="C1", linestyle="--",
                             label=": ripple off")
         ax.axvline(60 * f_n / (teeth * n), color="0.4", ls=":", lw=0.8)
+        shade_contact_lost(ax, study)  # (the study's: the solid lines)
         ax.set_xscale("log")
         ax.set_title(f"order {n}: 60 f_n / ({teeth} x {n}) = {60 * f_n / (teeth * n):,.0f} rpm",
                      fontsize=8.5)
@@ -144,7 +159,9 @@ def draw_phase(results: Path, figures: Path) -> None:
                  f" off\ndotted: 60 f_n / ({teeth} n), where a resonance of a force in phase with e"
                  " passes -90 deg (-m e'' or the ripple under F_m: not told apart); a speed where"
                  f" the order's line is below {PHASE_FLOOR:.0%} of the largest mesh-order line is"
-                 " left blank", fontsize=9.5)
+                 " left blank"
+                 + (f"\ngrey: the study's {lost_text(study)}" if lost_text(study) else ""),
+                 fontsize=9.5)
     print(save(fig, figures / "fig05_phase.png", dpi=150))
 
 

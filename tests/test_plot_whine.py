@@ -320,6 +320,43 @@ def test_order_lines_shade_the_speeds_where_contact_is_lost(ds):
     assert not ax.patches
 
 
+def test_waterfall_marks_the_speeds_where_contact_is_lost_on_its_floor(ds):
+    """fig05_waterfall.png drew 1,922 of 2,000 speeds whose p fell below 0 (``contact_lost``)
+    with nothing to say so, while README says plots over speed mark them grey and
+    plot_order_lines shades them (an outside reviewer): the waterfall's floor is grey under
+    those speeds, across the frequency axis, with one legend entry that counts them; a result
+    with none gets no grey and no entry."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    one = ds.sel(torque=25.0)
+    lost = one.contact_lost.values
+    assert lost.any() and not lost.all()
+    fig = plt.figure()
+    ax = fig.add_subplot(projection="3d")
+    plot_waterfall(ax, one, traces=5, natural_frequency_hz=natural_frequency(one))
+    floors = [c for c in ax.collections if isinstance(c, Poly3DCollection)]
+    assert len(floors) == 1
+    speed = one.speed.values
+    covered = np.zeros(speed.size, bool)
+    for verts in np.asarray(floors[0]._faces):  # (the 3-D corners: matplotlib keeps no public
+        # accessor; each strip is (x, speed, 0) around a run of lost speeds)
+        assert_allclose(verts[:, 2], 0.0)  # on the floor
+        assert verts[:, 0].min() <= one.frequency.values[:, 1].min() * 1e-3
+        assert verts[:, 0].max() >= one.frequency.values.max() * 1e-3 * (1 - 1e-12)
+        covered |= (speed >= verts[:, 1].min()) & (speed <= verts[:, 1].max())
+    assert np.array_equal(covered, lost)
+    texts = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert texts[0].startswith("f_n = ")
+    assert texts[1] == (f"grey: p < 0: teeth would part (contact_lost),\n{int(lost.sum())} of"
+                        f" {speed.size} speeds")
+    fig = plt.figure()
+    ax = fig.add_subplot(projection="3d")
+    plot_waterfall(ax, one.assign(contact_lost=one.contact_lost & False), traces=5)
+    assert not [c for c in ax.collections if isinstance(c, Poly3DCollection)]
+    assert ax.get_legend() is None
+    plt.close("all")
+
+
 def test_the_phase_figure_draws_every_kept_order_and_blanks_a_negligible_line(tmp_path,
                                                                               monkeypatch):
     """fig05_phase.png drew orders 1-4 only while Fig. 5's verdict reads orders 1-10: it draws

@@ -21,6 +21,7 @@ from matplotlib.axes import Axes
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from gearsweep.analysis.spectrum import wrap_phase
 from gearsweep.model import model_from_record
@@ -37,6 +38,7 @@ from gearsweep.units import si_data_vars, si_values
 __all__ = [
     "damping_labels",
     "driven_speed",
+    "lost_speeds",
     "lowest_in_contact",
     "natural_frequency",
     "plot_campbell",
@@ -45,6 +47,7 @@ __all__ = [
     "plot_order_by_variant",
     "plot_waterfall",
     "result_natural_frequency",
+    "shade_contact_lost",
     "stiffness_label",
 ]
 
@@ -144,6 +147,11 @@ def _known_orders(ds: xr.Dataset, orders: Sequence[float], what: str) -> None:
                          " study's spectrum max_order)")
 
 
+_ABOVE_FLOOR = 10
+"""zorder of a waterfall's lines: a 3-D axes draws its collections (the grey floor) above the
+axis, at its zorder + 1 and up, and its lines at their own zorder (2 by default: under it)."""
+
+
 def plot_waterfall(
     ax: Axes,
     ds: xr.Dataset,
@@ -182,6 +190,11 @@ def plot_waterfall(
 
     Only settled cases (``status == 0``) are drawn: a trace of a case that has not settled is
     left empty, and the number of such traces is written in the axes' lower left corner.
+
+    Speeds where the result marks ``contact_lost`` (p below 0 in the steady state: the drive
+    flanks part, and the linear scene stands for a pair with no backlash) are grey on the floor
+    of the plot, across the frequency axis, with one legend entry that counts them (the grey
+    spans of ``plot_order_lines``).
     """
     if not hasattr(ax, "set_zlabel"):  # else it drew, then failed on the z label
         raise TypeError("plot_waterfall draws on a 3-D axes: fig.add_subplot(projection='3d')")
@@ -203,16 +216,29 @@ def plot_waterfall(
     for q, i in enumerate(pick):
         amp = da.values[i, cols] * scale
         xs = (ds["frequency"].values[i, cols] * f_scale if x == "frequency" else orders[cols])
-        ax.plot(xs, np.full(xs.shape, speed[i]), amp, lw=0.8,
+        ax.plot(xs, np.full(xs.shape, speed[i]), amp, lw=0.8, zorder=_ABOVE_FLOOR,
                 color=cmap(0.9 * q / max(len(pick) - 1, 1)))
+    x_lo, x_hi = ((float(ds["frequency"].min()) * f_scale, f_max * f_scale) if x == "frequency"
+                  else (float(orders[cols][0]), float(orders[cols][-1])))
+    lost = lost_speeds(ds)
+    handles = []
+    if lost is not None and lost.any():  # grey floor strips, as plot_order_lines's spans
+        strips = [[(x_lo, lo, 0.0), (x_hi, lo, 0.0), (x_hi, hi, 0.0), (x_lo, hi, 0.0)]
+                  for lo, hi in _lost_spans(speed, lost)]
+        ax.add_collection3d(Poly3DCollection(strips, facecolor="0.75", edgecolor="none",
+                                             alpha=0.6))
+        handles.append(Patch(facecolor="0.75", alpha=0.6, label=contact_lost_label(
+            int(lost.sum()), speed.size, "speeds")))
     if natural_frequency_hz is not None:
         f_line = (np.full(speed.shape, natural_frequency_hz * f_scale) if x == "frequency"
                   else natural_frequency_hz / ds["mesh_frequency"].values)
         keep = f_line <= (float(ds["frequency"].max()) * f_scale if x == "frequency"
                           else float(orders[-1]))
-        ax.plot(f_line[keep], speed[keep], np.zeros(int(keep.sum())), color="tab:red", ls="--",
-                lw=1.0, label=f"f_n = {natural_frequency_hz / 1e3:.2f} kHz")
-        ax.legend(loc="upper left", fontsize=8)
+        handles.insert(0, ax.plot(f_line[keep], speed[keep], np.zeros(int(keep.sum())),
+                                  color="tab:red", ls="--", lw=1.0, zorder=_ABOVE_FLOOR,
+                                  label=f"f_n = {natural_frequency_hz / 1e3:.2f} kHz")[0])
+    if handles:
+        ax.legend(handles=handles, loc="upper left", fontsize=8)
     if n_bad:
         ax.text2D(0.02, 0.02, f"{n_bad} of {len(pick)} speeds drawn not settled (masked: no"
                   " trace)", transform=ax.transAxes, fontsize=8)
@@ -469,21 +495,35 @@ def plot_order_by_variant(ax: Axes, variants: Sequence[tuple[str, xr.Dataset]], 
     return ax.figure
 
 
-def _shade_contact_lost(ax: Axes, ds: xr.Dataset, driven_teeth: int | None) -> None:
-    """Grey spans over the speeds where any case of ``ds`` has ``contact_lost``, one legend
-    entry (none where no case has)."""
+def lost_speeds(ds: xr.Dataset) -> np.ndarray | None:
+    """Bool over ``ds``'s speeds: did some case at that speed lose contact (``contact_lost``:
+    p < 0 in the steady state)? None where the result has no ``contact_lost``."""
     if "contact_lost" not in ds:
-        return
+        return None
     lost = ds["contact_lost"].astype(bool)
-    lost = lost.any([d for d in lost.dims if d != "speed"]).values if lost.dims else lost.values
-    if not lost.any():
-        return
-    speed, _ = _speed_axis(ds, driven_teeth)
+    lost = lost.any([d for d in lost.dims if d != "speed"]) if lost.dims else lost
+    return np.asarray(lost.broadcast_like(ds["speed"]).values, bool)
+
+
+def _lost_spans(speed: np.ndarray, lost: np.ndarray) -> list[tuple[float, float]]:
+    """The speed intervals (edges: midpoints between speeds, and the ends) of the runs of
+    ``lost``, in the order of ``speed``."""
     edges = np.concatenate([[speed[0]], (speed[1:] + speed[:-1]) / 2, [speed[-1]]])
     change = np.flatnonzero(np.diff(np.concatenate([[0], lost.astype(int), [0]])))
-    for k, (i, j) in enumerate(zip(change[::2], change[1::2], strict=True)):
-        ax.axvspan(edges[i], edges[j], color="0.88", zorder=0, lw=0,
-                   label=None if k else CONTACT_LOST)
+    return [(float(edges[i]), float(edges[j]))
+            for i, j in zip(change[::2], change[1::2], strict=True)]
+
+
+def shade_contact_lost(ax: Axes, ds: xr.Dataset, driven_teeth: int | None = None) -> int:
+    """Grey spans over the speeds where any case of ``ds`` has ``contact_lost``, one legend
+    entry (none where no case has), as ``plot_order_lines``; the number of speeds shaded."""
+    lost = lost_speeds(ds)
+    if lost is None or not lost.any():
+        return 0
+    speed, _ = _speed_axis(ds, driven_teeth)
+    for k, (lo, hi) in enumerate(_lost_spans(speed, lost)):
+        ax.axvspan(lo, hi, color="0.88", zorder=0, lw=0, label=None if k else CONTACT_LOST)
+    return int(lost.sum())
 
 
 def plot_order_lines(
@@ -518,7 +558,7 @@ def plot_order_lines(
     """
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
     _known_orders(ds, orders, "plot_order_lines")  # (was xarray's KeyError)
-    _shade_contact_lost(ax, ds, driven_teeth)
+    shade_contact_lost(ax, ds, driven_teeth)
     speed, speed_label = _speed_axis(ds, driven_teeth)
     scale, unit, what = {0: (UM, "µm", "displacement"), 1: (1e3, "mm/s", "velocity"),
                          2: (1.0, "m/s^2", "acceleration")}[derivative]
