@@ -94,6 +94,25 @@ def test_campbell_map_and_natural_frequency_curve(ds):
         assert c.get_ydata()[0] == n
 
 
+def test_campbell_marks_where_order_n_meets_f_n_on_a_decreasing_speed_sweep():
+    """A study may list its speeds from high to low; np.interp needs increasing abscissae, and
+    with decreasing mesh frequencies it gave NaN (left/right) or nonsense, so plot_campbell
+    silently dropped the circles where order n meets f_n (an outside reviewer). They sit at
+    60 f_n / (48 n) whichever way the speeds run."""
+    up = _spectrum_result()
+    down = up.isel(speed=slice(None, None, -1))
+    assert np.all(np.diff(down.speed.values) < 0)
+    f_n = 2400.0  # order 1 at 3,000 rpm, order 2 at 1,500 rpm, order 3 at 1,000 rpm
+    for one in (up, down):
+        fig, ax = plt.subplots()
+        plot_campbell(ax, one, natural_frequency_hz=f_n, orders=(1, 2, 3), floor=1e-3)
+        circles = [ln for ln in ax.get_lines() if ln.get_marker() == "o"]
+        assert [c.get_ydata()[0] for c in circles] == [1, 2, 3]
+        for n, c in zip((1, 2, 3), circles, strict=True):
+            assert c.get_xdata()[0] == pytest.approx(60 * f_n / (48 * n), rel=1e-12)
+        plt.close(fig)
+
+
 def test_campbell_leaves_out_the_mean_and_marks_the_results_own_natural_frequency(ds):
     """plot_campbell drew no f_n curve unless ``natural_frequency_hz`` was given, though the
     result carries k0 and m_eq (its resolved model), and drew order 0, the mean of p, as the

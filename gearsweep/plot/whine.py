@@ -318,8 +318,11 @@ def plot_campbell(
         f_mesh = ds["mesh_frequency"].values
         ax.plot(speed, natural_frequency_hz / f_mesh, color="tab:cyan", lw=1.0, ls="--",
                 label=f"f_n / f_mesh, f_n = {natural_frequency_hz / 1e3:.2f} kHz")
+        rising = np.argsort(f_mesh, kind="stable")  # np.interp needs increasing abscissae: a
+        # study may list its speeds from high to low (the circles were dropped)
         for n in orders:
-            s_n = np.interp(natural_frequency_hz / n, f_mesh, speed, left=np.nan, right=np.nan)
+            s_n = np.interp(natural_frequency_hz / n, f_mesh[rising], speed[rising], left=np.nan,
+                            right=np.nan)
             if np.isfinite(s_n):
                 ax.plot(s_n, n, "o", mfc="none", mec="tab:cyan", ms=9, mew=1.2)
     handles = ax.get_legend_handles_labels()[0]
