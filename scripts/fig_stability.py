@@ -60,6 +60,16 @@ def _blank(ax, flag: np.ndarray, why: str) -> None:
                 bbox=dict(fc="white", ec="0.6", alpha=0.9))
 
 
+def _thin_log_ticks(ax, decades: float = 0.25) -> None:
+    """Leave out the speed ticks closer than ``decades`` to the one before (on a narrow panel
+    "200" and "300" ran together)."""
+    kept: list[float] = []
+    for t in ax.get_xticks():
+        if not kept or np.log10(t / kept[-1]) >= decades:
+            kept.append(float(t))
+    ax.set_xticks(kept)
+
+
 def fig71() -> None:
     ds = _open("strutt_mathieu")
     alpha, beta = ds.alpha.values, ds.beta.values
@@ -123,6 +133,9 @@ def fig72() -> None:
                            zeta_per_damping=zeta_per_damping, teeth=rig.teeth)
         if why:
             _blank(ax, flag, why)
+        if np.any(flag):  # the lower right held the map's edge at c = 0 and the step limit's
+            # undamped end: the middle right is clear of both
+            ax.get_legend().set_loc("center right")
         paper = damping_row(damping, 5500.0)
         ax.axhline(paper, color="0.3", lw=0.8, ls=":")
         ax.annotate(f"paper's c = 5.5 N s/mm (ζ = {5500 * zeta_per_damping:.3f})",
@@ -181,6 +194,7 @@ def fig72_methods() -> None:
                                     else "NOT the paper's shape"),
                            zeta_per_damping=zeta_per_damping, teeth=teeth)
         ax.axhline(damping_row(damping, 5500.0), color="0.3", lw=0.8, ls=":")
+        _thin_log_ticks(ax)
     floquet = (f"the equation is stable at all {n_grid} cases of the grid (Floquet,"
                " results/stability_rig.nc): what the criterion flags is the fixed step's artifact"
                if n_floquet == 0 else f"the equation is unstable at {n_floquet} of {n_grid}"
