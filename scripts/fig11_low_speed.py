@@ -55,7 +55,9 @@ plot_lines(ax, n_driven, lines, xlabel=xlab, scale=1e6,
                   f" this [µm] / r2 [m], r2 = {r2:.4f} m)")
 ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))  # beside: inside it hid
 # the 8.9 N m dashed curve (an outside reader)
-ax.set_title("rms of the doubly integrated tangential acceleration of the pinion", fontsize=9)
+ax.set_title("the doubly integrated accelerometer signal, taken as r2 θ2 (our choice: the model's"
+             " bearings are rigid,\nwhere an accelerometer would read nothing; the pinion's"
+             " tangential motion at its base circle, Eq. 4)", fontsize=9)
 plot_lines(ax2, n_driven, per_load, xlabel=xlab, scale=1e6,
            ylabel="the same divided by the load [µm / (N m)]")
 # how far the loads' curves lie apart, read from the curves drawn (the verdict was typed)
