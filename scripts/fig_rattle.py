@@ -153,6 +153,19 @@ def fig9(bal, figures):
     print(save(fig, figures / "fig09_graphical.png"))
 
 
+def unjudged_text(ds) -> str:
+    """What the map's grey cells are, in words, and how many (``jump_unsupported`` > 0, the
+    cases whose hysteresis width is NaN); empty where there are none."""
+    bad = ds["jump_unsupported"] > 0
+    n = int(bad.sum())
+    if not n:
+        return ""
+    return (f"\ngrey (bottom): {n} of {bad.size} cells whose jump cannot be judged"
+            " (jump_unsupported): a sweep has a step that meets the jump criterion but no settled"
+            "\npoints of both branches beside it, or no jump while most of its speeds did not"
+            " settle")
+
+
 def rattle_map(ds, scene, figures):
     """The design map of the jump summary ``ds``; ``scene``: the map's own result (for its
     excitation, named in the title as the result holds it)."""
@@ -162,6 +175,8 @@ def rattle_map(ds, scene, figures):
     width = ds["hysteresis_width"].transpose(*dims)
     nb = ds.sizes["backlash"]
     fig, axes = plt.subplots(2, nb, figsize=(3.0 * nb + 1.5, 7.5), sharey=True, sharex=True)
+    if unjudged_text(ds):  # two more title lines: the panels' titles ran into them (before the
+        fig.subplots_adjust(top=0.84)  # colour bars, which take the panels' places)
     rplot.plot_rattle_map(list(axes[0]), list(axes[1]),  # the plot takes SI (the file: display)
                           from_display(ds["damping"].values, "damping"), ds["torque"].values,
                           from_display(ds["backlash"].values, "length"), frac.values, width.values,
@@ -170,7 +185,8 @@ def rattle_map(ds, scene, figures):
                  f"rpm, the fitted scene of Fig. 8 (F0 = {force.amplitude / 1e3:.3g} kN at mesh"
                  f" order {force.order:g}, fitted; the Table 1 pair's own STE gives no rattle):\n"
                  "top: share of speeds with contact loss (either sweep); bottom: width of the jump"
-                 " hysteresis band", fontsize=9)
+                 " hysteresis band" + unjudged_text(ds), fontsize=9)
+
     fig.savefig(figures / "rattle_map.png", dpi=130, bbox_inches="tight")
     plt.close(fig)
     print(figures / "rattle_map.png")

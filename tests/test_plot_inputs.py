@@ -183,6 +183,28 @@ def test_rattle_array_plots_read_a_results_units():
     plt.close("all")
 
 
+def test_rattle_map_says_what_its_grey_cells_are_and_how_many():
+    """rattle_map.png explained its grey cells only as "cannot be judged, see jump_unsupported"
+    (an outside reviewer): the colour bar's label says what a grey cell is (the jump cannot be
+    judged) and how many of the map's cells are grey (NaN widths); scripts/fig_rattle.py's title
+    says why in words."""
+    from gearsweep.plot.rattle import plot_rattle_map
+
+    share = np.linspace(0, 1, 12).reshape(2, 2, 3)
+    width = share * 100
+    width[0, 1, 2] = width[1, 0, 0] = width[1, 1, 1] = np.nan
+    fig, axes = plt.subplots(2, 2)
+    plot_rattle_map(list(axes[0]), list(axes[1]), [500.0, 5000.0], [10.0, 20.0, 30.0],
+                    [1e-4, 2e-4], share, width)
+    label = fig.axes[-1].get_ylabel()  # the hysteresis colour bar
+    assert label.endswith("\n(grey: 3 of 12 cells, the jump cannot be judged)"), label
+    fig, axes = plt.subplots(2, 2)
+    plot_rattle_map(list(axes[0]), list(axes[1]), [500.0, 5000.0], [10.0, 20.0, 30.0],
+                    [1e-4, 2e-4], share, share * 100)
+    assert "grey" not in fig.axes[-1].get_ylabel()
+    plt.close("all")
+
+
 def test_ste_vs_load_says_which_line_is_which(mesh):
     """plot_ste_vs_load drew a solid and a dashed line with no legend (the tester's figure:
     two lines unexplained), and its labels ended in a space without ``label``."""

@@ -227,7 +227,8 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     rattle_fraction : array_like (n_b, n_c, n_t)
         Share of swept speeds at which either sweep loses contact [1].
     hysteresis_width : array_like (n_b, n_c, n_t)
-        Width of the jump hysteresis band [rpm] (NaN: cannot be judged, grey).
+        Width of the jump hysteresis band [rpm] (NaN: cannot be judged, grey, counted in the
+        colour bar's label).
     hysteresis_open : array_like (n_b, n_c, n_t) or None
         Non-zero where the band reaches an end of the swept speeds (its width a lower bound):
         hatched.
@@ -263,8 +264,8 @@ def plot_rattle_map(axes, axes_hyst, damping, torque, backlash, rattle_fraction,
     cbh = fig.colorbar(imh, ax=list(axes_hyst), shrink=0.9)
     cbh.set_label("hysteresis band width [rpm]" + ("\n(hatched: open at an end of the sweep,"
                                                    " at least this wide)" if opened.any() else "")
-                  + ("\n(grey: cannot be judged, see jump_unsupported)" if unjudged.any()
-                     else ""))
+                  + (f"\n(grey: {int(unjudged.sum())} of {unjudged.size} cells, the jump cannot be"
+                     " judged)" if unjudged.any() else ""))
     return fig
 
 
