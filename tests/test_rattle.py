@@ -8,6 +8,8 @@ c = 4.9 N s/mm); its constants are repeated here so the tests stand alone.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -17,6 +19,7 @@ import gearsweep
 from gearsweep.analysis import hb, jumps
 from gearsweep.kernels.batch import simulate
 from gearsweep.kernels.tables import fourier_table
+from gearsweep.units import si_values
 
 M, K, B = 0.1527, 1073e6, 0.25e-3
 C, F0, FM = 4900.0, 72e3, 50.0 / (0.060 * np.cos(np.radians(20.0)))
@@ -1116,3 +1119,59 @@ def test_a_transient_that_cannot_have_decayed_is_no_known_amplitude():
     js = jump_summary(ds)
     assert int(js.jump_unsupported) == 0
     assert (float(js.jump_up_low), float(js.jump_up_high)) == (speed[5], speed[6])
+
+
+def _back_flank_rattle(fm: float) -> str:
+    """A ``full`` scene with 4 um of backlash driven by a mean force ``fm`` [N] and 300 N at the
+    mesh order (19,000 rpm, 48 teeth; zeta 0.05): one contact loss per mesh period."""
+    return f"""
+title: back-flank rattle
+scene:
+  kind: full
+  mass: 0.1527 kg
+  teeth: 48
+  stiffness: 1.073e9 N/m
+  damping: 1280 N*s/m
+  mean_force: {fm} N
+  backlash: 4 um
+  fluctuation: [{{amplitude: 300 N, order: 1}}]
+sweep:
+  speed: [19000 rpm]
+solver: {{method: rk5, steps_per_period: 256, transient_periods: 200, record_periods: 20,
+          initial_displacement: static}}
+outputs: [stats]
+"""
+
+
+def test_backlash_statistics_under_a_negative_mean_force_against_scipy():
+    """F_m < 0 presses the back flank: the rattle happens there, p below -b, and the result's
+    statistics are those of a DOP853 integration of m p'' + c p' + k0 f(p) = F_m + F cos(W t)
+    (f the dead zone of half width b) from the same start (-b + F_m / k0, the back flank's
+    static point), sampled at the kernel's recorded steps: contact_loss_fraction counts |p| < b
+    on either side, backside_contact_fraction p < -b (here most of the time), impacts the
+    entries into contact. A ``full`` scene has no ``contact_lost`` (backlash models the gap)."""
+    from scipy.integrate import solve_ivp
+
+    m, k0, c, fm, fv, b, spp = 0.1527, 1.073e9, 1280.0, -833.0, 300.0, 2e-6, 256
+    w = 48 * 19000 * 2 * math.pi / 60
+    ds = gearsweep.run(_back_flank_rattle(fm))
+    assert "contact_lost" not in ds and int(ds.status.item()) == 0
+
+    def rhs(t, y):
+        f = y[0] - min(max(y[0], -b), b)
+        return [y[1], (fm + fv * math.cos(w * t) - c * y[1] - k0 * f) / m]
+
+    t = (200 * spp + np.arange(0, 20 * spp + 1)) * (2 * math.pi / w) / spp
+    p = solve_ivp(rhs, (0, t[-1]), [-b + fm / k0, 0.0], method="DOP853", rtol=1e-11, atol=1e-18,
+                  t_eval=t, max_step=2 * math.pi / w / 64).y[0]
+    before, p = p[0], p[1:]  # the kernel records the end of each step of the window
+    region = np.where(np.abs(p) < b, 0, np.sign(p))
+    entries = np.sum((region != 0) & (region != np.r_[region[-1], region[:-1]]))
+    assert_allclose(si_values(ds.p_min).item(), p.min(), rtol=1e-6)
+    assert_allclose(si_values(ds.p_max).item(), p.max(), rtol=1e-6)
+    assert float(ds.contact_loss_fraction.item()) == pytest.approx((np.abs(p) < b).mean(),
+                                                                   abs=1 / p.size)
+    assert float(ds.backside_contact_fraction.item()) == pytest.approx((p < -b).mean(),
+                                                                       abs=1 / p.size)
+    assert float(ds.impacts_per_period.item()) == entries / 20 == 1.0
+    assert 0.05 < (np.abs(p) < b).mean() < 0.5 and p.max() < 0 and before < 0

@@ -11,7 +11,7 @@ import numpy as np
 
 from gearsweep.kernels import STATUS_DIVERGED, BatchResult
 from gearsweep.kernels.cuda import kernel_for
-from gearsweep.model import kernel_inputs, mean_mesh_force
+from gearsweep.model import kernel_inputs
 from gearsweep.study.outputs import OUTPUTS, Floquet
 from gearsweep.study.plan import (
     STATUS_NOT_SETTLED,
@@ -177,10 +177,7 @@ def _static_terms(plan: Plan, params: dict[str, np.ndarray], n: int) -> tuple:
         k0 = np.array([plan.model_for_load(float(t)).stiffness for t in torques])
     else:
         k0 = case("stiffness", model.stiffness)
-    if "torque" in params:
-        fm = mean_mesh_force(np.asarray(params["torque"], float), model.base_radius)
-    else:
-        fm = case("mean_force", model.mean_force)
+    fm = plan.case_mean_forces(params, n)
     return case("backlash", model.backlash) / 2.0, fm, k0
 
 

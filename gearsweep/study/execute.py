@@ -1553,14 +1553,28 @@ def contact_lost_warning(plan: Plan, ds: xr.Dataset, where: str | Path
 
 
 def contact_lost_text(plan: Plan, n: int, where: str | Path) -> ContactLossWarning | None:
-    """The line about ``n`` cases whose p fell below 0 (``None`` when ``n`` is 0)."""
+    """The line about ``n`` cases whose loaded flank left contact (``None`` when ``n`` is 0),
+    naming the flank by the sign of the plan's mean forces (``outputs.loaded_flank_lost``)."""
     if not n:
         return None
+    signs = plan.load_signs
+    if signs == {1}:
+        what, other = "leave drive-flank contact (p below 0", "the back flanks"
+    elif signs == {-1}:
+        what = ("leave back-flank contact, the flank their negative mean force presses (p"
+                " above 0")
+        other = "the drive flanks"
+    elif signs == {0}:
+        what, other = ("change flank without a mean force (p of both signs", "the other flanks")
+    else:
+        what = ("leave the flank their mean force presses (p below 0 under F_m > 0, above 0"
+                " under F_m < 0, of both signs under F_m = 0")
+        other = "the other flanks"
     return ContactLossWarning(
-        f"{where}: {n} of {plan.n_cases} case(s) leave drive-flank contact (p below 0 in the"
-        " steady state, variable 'contact_lost'): a scene without backlash takes the back flanks"
-        " into contact at once (a pair with no backlash), where a real pair's teeth would"
-        " separate; a full scene with scene.backlash models that")
+        f"{where}: {n} of {plan.n_cases} case(s) {what} in the steady state, variable"
+        f" 'contact_lost'): a scene without backlash takes {other} into contact at once (a pair"
+        " with no backlash), where a real pair's teeth would separate; a full scene with"
+        " scene.backlash models that")
 
 
 def step_limit_text(plan: Plan, n: int, where: str | Path, *, before: bool = False

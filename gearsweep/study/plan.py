@@ -304,6 +304,25 @@ class Plan:
             return np.asarray(params["torque"], float)
         return np.asarray(params["mean_force"], float) * self.model.base_radius
 
+    def case_mean_forces(self, params: dict[str, np.ndarray], n: int) -> np.ndarray:
+        """Mean mesh force F_m [N] of each of the ``n`` cases ``params`` of a gear-mesh scene:
+        its swept ``mean_force``, or its swept ``torque`` by Eq. (7), else the scene's. Its sign
+        says which flank the load presses: the drive flank for F_m > 0, the back flank for
+        F_m < 0 (``outputs.loaded_flank_lost``, ``chunk._start``)."""
+        if "torque" in params:
+            return mean_mesh_force(np.asarray(params["torque"], float), self.model.base_radius)
+        if "mean_force" in params:
+            return np.asarray(params["mean_force"], float)
+        return np.full(n, float(self.model.mean_force))
+
+    @property
+    def load_signs(self) -> set[int]:
+        """The signs (-1, 0, 1) of the mean mesh forces of the cases of a gear-mesh scene: of its
+        swept ``mean_force`` or ``torque`` (F_m = T / r1, r1 > 0), else of the scene's F_m."""
+        g = self.grids
+        vals = g.get("mean_force", g.get("torque", [self.model.mean_force]))
+        return {int(v) for v in np.sign(np.asarray(vals, float))}
+
     @property
     def dimensionless(self) -> bool:
         return isinstance(self.model, MathieuModel)
