@@ -195,9 +195,10 @@ class ContactLossWarning(UserWarning):
     """Cases of a driven scene without backlash whose loaded flanks part in the steady state (p
     below 0 under a positive mean force, above 0 under a negative one, of both signs under none:
     ``gearsweep.study.outputs.loaded_flank_lost``), and the scene's linear mesh force k(t) p puts
-    the other flanks into contact at once (a pair with no backlash), where a real pair's teeth would separate (the result marks
-    them in ``contact_lost``; a ``full`` or ``rattle`` scene with ``backlash`` models it).
-    ``gearsweep.run`` warns it; the CLI prints the same line. Its text:
+    the other flanks into contact at once (a pair with no backlash), where a real pair's teeth
+    would separate (the result marks them in ``contact_lost``; a ``full`` or ``rattle`` scene
+    with ``backlash`` models it). ``gearsweep.run`` warns it; the CLI prints the same line. Its
+    text:
     ``gearsweep.study.execute.contact_lost_text``."""
 
 
