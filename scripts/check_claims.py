@@ -2,6 +2,9 @@
 
     python scripts/check_claims.py [--claims docs/claims.yaml] [--results results] [--root .]
 
+``--claims`` takes docs/claims.yaml's form (checked with every docs/claims/*.yaml) or one
+per-figure file of docs/claims/ (checked alone); any other file is refused with one line, exit 2.
+
 Each claim names a quote (text that must appear verbatim in its doc), the number as quoted, the
 result file that produces it and an expression that computes the number from that result; the
 check fails when the quote is missing from the doc, the quote does not contain the number, the
@@ -94,12 +97,74 @@ def check_claim(claim: dict, *, root: Path, results: Path, cache: dict | None = 
     return None
 
 
+class ClaimsFileError(ValueError):
+    """A claims file that cannot be read as either format: one line naming the file."""
+
+
+ALLOWED_FORMS = ("a mapping with a list of claims under 'claims:' (docs/claims.yaml) or a list"
+                 " of per-figure claims (docs/claims/*.yaml, docs/claims/README.md)")
+
+
+def claims_form(path: Path) -> tuple[str, list[dict]]:
+    """(``"claims"`` or ``"figure"``, the claims) of the claims file ``path``: docs/claims.yaml's
+    form (a mapping, its claims under ``claims:``) or a per-figure file's (a list of claims).
+    Anything else raises ``ClaimsFileError`` with one line naming the file and the forms allowed
+    (a per-figure file passed as ``--claims`` crashed with AttributeError: 'list' object has no
+    attribute 'get')."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ClaimsFileError(f"{path}: cannot read it ({exc.strerror or exc})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}: " if mark is not None else ""
+        what = getattr(exc, "problem", None) or type(exc).__name__
+        raise ClaimsFileError(f"{path}: {where}not YAML ({what})") from None
+    if path.name == NOT_RESULTS:
+        raise ClaimsFileError(f"{path}: the list of numbers that are not results, no claims file;"
+                              f" allowed: {ALLOWED_FORMS}")
+    if data is None:
+        return "claims", []
+    if isinstance(data, dict):
+        form, claims, field = "claims", data.get("claims") or [], "'claims'"
+    elif isinstance(data, list):
+        form, claims, field = "figure", data, "the file"
+    else:
+        raise ClaimsFileError(f"{path}: line {_line(text)}: the file holds {str(data)[:40]!r}"
+                              f" ({type(data).__name__}); allowed: {ALLOWED_FORMS}")
+    if not isinstance(claims, list):
+        raise ClaimsFileError(f"{path}: line {_line(text, 'claims')}: 'claims' holds"
+                              f" {str(claims)[:40]!r} ({type(claims).__name__}); allowed: a list"
+                              " of mappings")
+    for i, c in enumerate(claims):
+        if not isinstance(c, dict):
+            key = "claims" if form == "claims" else None
+            raise ClaimsFileError(f"{path}: line {_line(text, key, i)}: {field}, entry {i}"
+                                  f" holds {str(c)[:40]!r} ({type(c).__name__}); allowed: a"
+                                  " mapping (one claim)")
+    return form, claims
+
+
+def _line(text: str, key: str | None = None, index: int | None = None) -> int:
+    """The 1-based line of the YAML ``text``'s top node, or of its mapping's ``key``, or of item
+    ``index`` of that list (of the top list without ``key``)."""
+    node = yaml.compose(text)
+    if key is not None:
+        node = next(v for k, v in node.value if k.value == key)
+    if index is not None:
+        node = node.value[index]
+    return node.start_mark.line + 1
+
+
 def load_claims(path: Path) -> list[dict]:
-    """The claims of a claims file (a YAML list under ``claims:``)."""
-    data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    claims = data.get("claims") or []
-    if not isinstance(claims, list) or not all(isinstance(c, dict) for c in claims):
-        raise ValueError(f"{path}: 'claims' must be a list of mappings")
+    """The claims of a claims file in docs/claims.yaml's form (a YAML list under ``claims:``);
+    ``ClaimsFileError`` (a ``ValueError``) for a per-figure file or anything else."""
+    form, claims = claims_form(path)
+    if form != "claims":
+        raise ClaimsFileError(f"{path}: a list of per-figure claims, not docs/claims.yaml's form"
+                              " (a mapping with 'claims:'); check_files reads it")
     return claims
 
 
@@ -146,16 +211,21 @@ def _namespace(results: Path, cache: dict):
 
 def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, list[str]]:
     """(claims checked, reasons of the failed ones) of every ``folder/*.yaml`` in the
-    per-figure format of docs/claims/README.md (``tol``, ``scale``, names ``js``, ``model``...)."""
+    per-figure format of docs/claims/README.md (``tol``, ``scale``, names ``js``, ``model``...),
+    but the list of numbers that are not results (nothing to evaluate)."""
+    return check_files([p for p in sorted(folder.glob("*.yaml")) if p.name != NOT_RESULTS],
+                       results, root)
+
+
+def check_files(paths: list[Path], results: Path, root: Path = ROOT) -> tuple[int, list[str]]:
+    """``check_folder`` for the per-figure claims files ``paths``."""
     from gearsweep.analysis import hb, precision, rattle, sensor, spectrum, stability
 
     cache: dict = {}
     docs: dict = {}
     load, names = _namespace(results, cache)
     n, out = 0, []
-    for path in sorted(folder.glob("*.yaml")):
-        if path.name == NOT_RESULTS:
-            continue  # the reviewed list of numbers that are not results: nothing to evaluate
+    for path in paths:
         for i, c in enumerate(yaml.safe_load(path.read_text(encoding="utf-8")) or []):
             n += 1
             cid = f"{path.name}[{i}]"
@@ -193,17 +263,27 @@ def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, l
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--claims", type=Path, default=ROOT / "docs" / "claims.yaml")
+    p.add_argument("--claims", type=Path, default=ROOT / "docs" / "claims.yaml",
+                   help="docs/claims.yaml's form (checked with docs/claims/*.yaml), or one"
+                        " per-figure file of docs/claims/ (checked alone)")
     p.add_argument("--results", type=Path, default=ROOT / "results")
     p.add_argument("--root", type=Path, default=ROOT)
     args = p.parse_args(argv)
-    n = len(load_claims(args.claims))
-    failed = check_all(args.claims, args.results, args.root)
-    folder = args.root / "docs" / "claims"
-    if folder.is_dir():
-        m, more = check_folder(folder, args.results, args.root)
-        n += m
-        failed += more
+    try:
+        form, claims = claims_form(args.claims)
+    except ClaimsFileError as exc:
+        print(f"check_claims.py: error: {exc}", file=sys.stderr)
+        return 2
+    if form == "figure":
+        n, failed = check_files([args.claims], args.results, args.root)
+    else:
+        n = len(claims)
+        failed = check_all(args.claims, args.results, args.root)
+        folder = args.root / "docs" / "claims"
+        if folder.is_dir():
+            m, more = check_folder(folder, args.results, args.root)
+            n += m
+            failed += more
     for why in failed:
         print(f"   FAIL {why}")
     print(f"== {n} quoted numbers checked against results: "

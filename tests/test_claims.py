@@ -4,6 +4,7 @@ docs/claims.yaml. The real check against results/ runs in the main job."""
 from __future__ import annotations
 
 import importlib.util
+import re
 from pathlib import Path
 
 import numpy as np
@@ -144,3 +145,58 @@ def test_a_per_figure_expression_may_use_a_generator(tmp_path):
     path = tmp_path / "docs" / "claims" / "c.yaml"
     path.write_text(yaml.safe_dump([claim]), encoding="utf-8")
     assert cc.check_folder(tmp_path / "docs" / "claims", tmp_path / "results", tmp_path) == (1, [])
+
+
+def _main(*argv: str, capsys) -> tuple[int, str, str]:
+    rc = cc.main(list(argv))
+    got = capsys.readouterr()
+    return rc, got.out, got.err
+
+
+def test_a_per_figure_file_as_claims_is_checked_alone(tmp_path, capsys):
+    """``--claims docs/claims/fig05.yaml`` (a list: the per-figure form) crashed with
+    AttributeError: 'list' object has no attribute 'get'. It is checked alone, in its form; a
+    file in docs/claims.yaml's form (a mapping) still is, with the folder."""
+    (tmp_path / "docs" / "claims").mkdir(parents=True)
+    (tmp_path / "docs" / "page.md").write_text("at most 2.0 µm, and 3.0 µm\n")
+    (tmp_path / "results").mkdir()
+    xr.Dataset({"x": ("speed", [1.0, 2.0])}).to_netcdf(tmp_path / "results" / "r.nc")
+    fig = tmp_path / "docs" / "claims" / "c.yaml"
+    fig.write_text(yaml.safe_dump([{"doc": "docs/page.md", "result": "r", "tol": 0,
+                                    "quote": "at most 2.0 µm", "expr": "float(ds.x.max())",
+                                    "value": 2.0}]), encoding="utf-8")
+    top = tmp_path / "docs" / "claims.yaml"
+    top.write_text(yaml.safe_dump({"claims": [{"id": "a", "doc": "docs/page.md", "abs": 0,
+                                               "quote": "and 3.0 µm", "value": 3.0,
+                                               "result": "results/r.nc",
+                                               "expr": "float(ds.x.sum())"}]}), encoding="utf-8")
+    where = ("--results", str(tmp_path / "results"), "--root", str(tmp_path))
+    rc, out, err = _main("--claims", str(fig), *where, capsys=capsys)
+    assert (rc, err) == (0, "") and "== 1 quoted numbers checked against results: all hold" in out
+    rc, out, err = _main("--claims", str(top), *where, capsys=capsys)
+    assert (rc, err) == (0, "") and "== 2 quoted numbers checked against results: all hold" in out
+    with pytest.raises(ValueError, match=r"c\.yaml: a list of per-figure claims"):
+        cc.load_claims(fig)
+
+
+@pytest.mark.parametrize(("text", "says"), [
+    ("3\n", (r"line 1: the file holds '3' \(int\); allowed: a mapping with a list of claims"
+            r" under 'claims:' \(docs/claims\.yaml\) or a list of per-figure claims")),
+    ("claims: 3\n", r"line 1: 'claims' holds '3' \(int\); allowed: a list of mappings"),
+    ("# c\nclaims:\n  - {id: a}\n  - 7\n", (r"line 4: 'claims', entry 1 holds '7' \(int\);"
+                                           r" allowed: a mapping \(one claim\)")),
+    ("- 1\n", r"line 1: the file, entry 0 holds '1' \(int\); allowed: a mapping"),
+    ("a: [\n", r"line 2: not YAML"),
+])
+def test_a_claims_file_of_neither_form_is_refused_in_one_line(tmp_path, capsys, text, says):
+    """Exit 2 and one line naming the file, its line, what it holds and what is allowed."""
+    path = tmp_path / "bad.yaml"
+    path.write_text(text, encoding="utf-8")
+    rc, out, err = _main("--claims", str(path), capsys=capsys)
+    assert rc == 2 and out == "" and err.count("\n") == 1, err
+    assert re.fullmatch(rf"check_claims\.py: error: {re.escape(str(path))}: {says}.*\n", err), err
+
+
+def test_the_not_results_list_is_no_claims_file(capsys):
+    rc, _, err = _main("--claims", str(ROOT / "docs" / "claims" / cc.NOT_RESULTS), capsys=capsys)
+    assert rc == 2 and "the list of numbers that are not results, no claims file" in err
