@@ -12,6 +12,7 @@ References, independent of the time stepping:
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 import warnings
@@ -648,6 +649,53 @@ def test_periodic_response_refuses_a_fractional_order_naming_the_value_typed(k_o
                                       f_amplitudes=[100.0], f_orders=[1.0]),
                     periodic_response(M, C, K0, w, k_amplitudes=[0.1 * K0], k_orders=[2],
                                       f_amplitudes=[100.0], f_orders=[1]), rtol=0, atol=0)
+
+
+# An outside tester: f_amplitudes=[1., 2.] with f_orders=[1] raised numpy's broadcast message,
+# k_orders longer than k_amplitudes a bare "zip() argument 2 is longer than argument 1".
+@pytest.mark.parametrize(("kwargs", "says"), [
+    ({"f_amplitudes": [1.0, 2.0], "f_orders": [1]},
+     ("f_amplitudes and f_orders must have the same length (one order per amplitude); got"
+     " f_amplitudes 2, f_orders 1")),
+    ({"k_amplitudes": [0.1 * K0], "k_orders": [1, 2]},
+     ("k_amplitudes and k_orders must have the same length (one order per amplitude); got"
+     " k_amplitudes 1, k_orders 2")),
+    ({"k_amplitudes": [0.1 * K0, 0.01 * K0], "k_orders": [1, 2], "k_phases": [0.0]},
+     ("k_amplitudes, k_orders and k_phases must have the same length (one order and phase per"
+     " amplitude); got k_amplitudes 2, k_orders 2, k_phases 1")),
+    ({"f_amplitudes": [[1.0, 2.0, 3.0]] * 2, "f_orders": [1, 2]},
+     ("f_amplitudes' columns and f_orders must have the same length (one order per amplitude);"
+     " got f_amplitudes' columns 3, f_orders 2")),
+    ({"f_amplitudes": [1.0, 2.0], "f_orders": [1, 2], "f_phases": [0.0, 1.0, 2.0]},
+     ("f_amplitudes, f_orders and f_phases must have the same length (one order and phase per"
+     " amplitude); got f_amplitudes 2, f_orders 2, f_phases 3")),
+    ({"f_amplitudes": [[1.0]] * 3, "f_orders": [1]},
+     ("f_amplitudes has 3 rows and omega 2 values; allowed: one row per value of omega, or a"
+     " 1-D array")),
+])
+def test_periodic_response_refuses_mismatched_lengths_naming_the_arguments(kwargs, says):
+    with pytest.raises(ValueError, match=f"^periodic_response: {re.escape(says)}$"):
+        periodic_response(M, C, K0, mesh_omega([3000.0, 5000.0]), **kwargs)
+
+
+def test_ste_force_refuses_mismatched_lengths_naming_the_arguments():
+    """One order per STE amplitude: [5 um, 1 um] with orders [1] broadcast in silence to two
+    lines of order 1."""
+    with pytest.raises(ValueError, match=r"^ste_force: amplitudes and orders must have the same"
+                                         r" length \(one order per amplitude\); got amplitudes 2,"
+                                         r" orders 1$"):
+        ste_force(M, mesh_omega([3000.0]), [5e-6, 1e-6], [1])
+
+
+def test_a_scalar_force_amplitude_is_every_orders_against_the_closed_form():
+    """A scalar f_amplitudes is still each order's (numpy's broadcast, kept): constant stiffness,
+    F cos(n W t) at n = 1, 2 gives P_n = F / (k0 - m (n W)^2 + i c n W)."""
+    w = mesh_omega([3000.0])
+    got = periodic_response(M, C, K0, w, f_amplitudes=100.0, f_orders=[1, 2], harmonics=4)
+    n = np.array([1, 2])
+    assert_allclose(got[0, 1:3], 100.0 / (K0 - M * (n * w[0]) ** 2 + 1j * C * n * w[0]),
+                    rtol=1e-12)
+    assert_allclose(got[0, [0, 3, 4]], 0.0, atol=1e-25)
 
 
 def _multiplier_ivp(mass, damping, k0, k1, omega):

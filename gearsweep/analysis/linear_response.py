@@ -50,6 +50,26 @@ def _two_sided(mean: float, amplitudes: Sequence[float], orders: Sequence[int],
     return c
 
 
+def _same_lengths(func: str, *named: tuple[str, int | None]) -> None:
+    """ValueError naming the arguments of ``func`` and their lengths unless all the given
+    (``None``: not given) lengths agree: one order (and phase) per amplitude. Mismatched ones
+    raised numpy's broadcast message or zip()'s, naming no argument."""
+    given = [(name, n) for name, n in named if n is not None]
+    if len({n for _, n in given}) > 1:
+        names = [name for name, _ in given]
+        lengths = ", ".join(f"{name} {n}" for name, n in given)
+        raise ValueError(f"{func}: {', '.join(names[:-1])} and {names[-1]} must have the same"
+                         f" length (one order{' and phase' if len(names) > 2 else ''} per"
+                         f" amplitude); got {lengths}")
+
+
+def _length(values) -> int | None:
+    """len of a sequence argument (``None`` for ``None``; a 0-d value counts as 1)."""
+    if values is None:
+        return None
+    return 1 if np.ndim(values) == 0 else len(values)
+
+
 def ste_force(mass: float, omega: np.ndarray, amplitudes: Sequence[float],
               orders: Sequence[int]) -> np.ndarray:
     """Amplitudes of the STE force ``-m e''`` of Eq. (9): ``m (n W)^2 e_n`` [N].
@@ -67,6 +87,7 @@ def ste_force(mass: float, omega: np.ndarray, amplitudes: Sequence[float],
     -------
     ndarray (s, len(amplitudes)) [N]
     """
+    _same_lengths("ste_force", ("amplitudes", _length(amplitudes)), ("orders", _length(orders)))
     w = np.asarray(omega, dtype=float)[:, None]
     n = np.asarray(orders, dtype=float)[None, :]
     return mass * (n * w) ** 2 * np.asarray(amplitudes, dtype=float)[None, :]
@@ -101,13 +122,15 @@ def periodic_response(
         Mesh angular frequencies W [rad/s], one response per value.
     k_amplitudes, k_orders, k_phases :
         Stiffness harmonics k_n [N/m], whole orders n (1..``harmonics``; a fractional or out
-        of range one is refused, ValueError naming it), phases a_n [rad] (default 0).
+        of range one is refused, ValueError naming it), phases a_n [rad] (default 0); of one
+        length (else ValueError naming them and their lengths).
     mean_force : float
         F0 [N].
     f_amplitudes : array_like (m,) or (s, m)
         Force harmonics F_n [N], the same for every W or one row per W (e.g. ``ste_force``).
     f_orders, f_phases :
-        Their whole orders (as ``k_orders``) and phases b_n [rad] (default 0).
+        Their whole orders (as ``k_orders``) and phases b_n [rad] (default 0), one per
+        amplitude (per column of a 2-D ``f_amplitudes``; else ValueError as ``k_orders``).
     harmonics : int
         Truncation J [-]; the response is returned for orders 0..J.
 
@@ -126,10 +149,23 @@ def periodic_response(
     """
     w = np.atleast_1d(np.asarray(omega, dtype=float))
     J = int(harmonics)
+    fa = np.asarray(f_amplitudes, dtype=float)
+    if fa.ndim > 2:
+        raise ValueError(f"periodic_response: f_amplitudes has {fa.ndim} dimensions (shape"
+                         f" {fa.shape}); allowed: (m,) or (s, m), s the {w.size} values of omega")
+    if fa.ndim == 2 and fa.shape[0] not in (1, w.size):
+        raise ValueError(f"periodic_response: f_amplitudes has {fa.shape[0]} rows and omega"
+                         f" {w.size} values; allowed: one row per value of omega, or a 1-D array")
+    _same_lengths("periodic_response", ("k_amplitudes", _length(k_amplitudes)),
+                  ("k_orders", _length(k_orders)), ("k_phases", _length(k_phases)))
+    _same_lengths("periodic_response",  # (a scalar F_n is every order's, as numpy broadcasts)
+                  ("f_amplitudes" if fa.ndim < 2 else "f_amplitudes' columns",
+                   int(fa.shape[-1]) if fa.ndim else None),
+                  ("f_orders", _length(f_orders)), ("f_phases", _length(f_phases)))
     k_phases = np.zeros(len(k_orders)) if k_phases is None else k_phases
     f_phases = np.zeros(len(f_orders)) if f_phases is None else f_phases
     kc = _two_sided(0.0, k_amplitudes, k_orders, k_phases, J, "k_orders")
-    fa = np.broadcast_to(np.asarray(f_amplitudes, dtype=float), (w.size, len(f_orders)))
+    fa = np.broadcast_to(fa, (w.size, len(f_orders)))
     j = np.arange(-J, J + 1)
     # Convolution matrix of the stiffness harmonics: A[r, s] = K_{j_r - j_s}.
     diff = j[:, None] - j[None, :]
