@@ -80,10 +80,9 @@ VARIABLES = {
     "p_mean": (UM, "mean of p, steady state"),
     "contact_loss_fraction": ("1", "fraction of steady-state time with |p| < backlash/2"),
     "backside_contact_fraction": ("1", "fraction of steady-state time on the back flank"),
-    "contact_lost": ("1", ("the loaded flanks part in the steady state: p_min < 0 under"
-                           " F_m > 0 (drive flanks), p_max > 0 under F_m < 0 (back flanks), p of"
-                           " both signs under F_m = 0; without backlash the other flanks take"
-                           " the load at once, where a real pair's teeth would separate")),
+    "contact_lost": ("1", ("loaded flanks part in the steady state: p_min < 0 under F_m > 0"
+                           " (drive flanks), p_max > 0 under F_m < 0 (back flanks), p of both"
+                           " signs at F_m = 0 (data-format.md)")),
     "impacts_per_period": ("1", "entries into contact from the gap per mesh period"),
     "settle_error": ("1", "change of the extremes of p between the halves of the window / p_pp"),
     "transient_left": ("1", ("share of the start's free vibration left after the transient"
