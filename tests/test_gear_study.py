@@ -795,3 +795,70 @@ def test_a_relief_from_single_contact_is_refused_where_there_is_none(tmp_path, c
             f" is {math.ceil(low * 100) / 100:g} to 105 mm") in line, line
     path.write_text(text.replace("52.5 mm", "51.5 mm").replace("102.5 mm", "101.5 mm"))
     assert main(["validate", str(path)]) == 0
+
+
+GEAR_FILE_SCENES = {  # extra scene lines, kind: what the gear_* variables hold
+    "typed k0 and k_n": (("  torque: 50 N*m\n  harmonics: 4\n  stiffness: 1073 kN/mm\n"
+                          "  stiffness_harmonics: [{amplitude: 179 kN/mm},"
+                          " {amplitude: 40 kN/mm}]\n"), "whine"),
+    "typed k0": ("  torque: 50 N*m\n  harmonics: 4\n  stiffness: 1073 kN/mm\n", "whine"),
+    "the pair's": ("  torque: 50 N*m\n  harmonics: 4\n", "whine"),
+    "rattle": ("  torque: 50 N*m\n  harmonics: 4\n", "rattle"),
+}
+
+
+@pytest.mark.parametrize("name", list(GEAR_FILE_SCENES))
+def test_the_gear_variables_of_the_file_say_whose_k_and_e_they_hold(tmp_path, capsys, name):
+    """Fig. 5's scene types the paper's k0 = 1073 kN/mm beside a pair whose own k0 is 219 kN/mm;
+    its file called the typed value "mean mesh stiffness k0 of the gear pair at the load" and its
+    loaded STE "(loaded STE with constant k0; STE - F/k(t) with k(t))" (an outside tester). The
+    values against the pair's static mesh (``mesh_cycle``: k0 and k_n its stiffness', e_n its
+    loaded STE's or those of STE - F/k(t)) or the typed numbers, and each long_name naming which
+    of them the file holds."""
+    extra, kind = GEAR_FILE_SCENES[name]
+    study, out = tmp_path / "g.yaml", tmp_path / "g.nc"
+    study.write_text(whine("table1_consistent", extra, kind=kind)
+                     + "solver: {transient_periods: 5, record_periods: 2}\n", encoding="utf-8")
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 0, capsys.readouterr().err
+    mesh = mesh_cycle(table1_consistent(), 50.0, harmonics=4).as_arrays()
+    with xr.open_dataset(out) as ds:
+        k0, k_n, e_n = (np.asarray(si_values(ds[v])) for v in
+                        ("gear_stiffness", "gear_stiffness_harmonic", "gear_ste_harmonic"))
+        said = {v: ds[v].attrs["long_name"] for v in
+                ("gear_stiffness", "gear_stiffness_harmonic", "gear_ste_harmonic")}
+        units = {v: ds[v].attrs["units"] for v in said}
+    assert units == {"gear_stiffness": "kN mm-1", "gear_stiffness_harmonic": "kN mm-1",
+                     "gear_ste_harmonic": "um"}
+    typed = name.startswith("typed")
+    if typed:
+        assert k0 == pytest.approx(1.073e9, rel=1e-12) and k0 > 4 * mesh["k_harmonic"][0]
+        assert said["gear_stiffness"] == ("mean mesh stiffness k0 the kernel used: typed in the"
+                                          " scene's stiffness beside the gear pair, not the"
+                                          " pair's own k0")
+    else:
+        assert k0 == pytest.approx(mesh["k_harmonic"][0], rel=1e-12)
+        assert said["gear_stiffness"] == ("mean mesh stiffness k0 of the gear pair at the load,"
+                                          " the kernel's")
+    if name == "typed k0 and k_n":
+        assert_allclose(k_n, [1.79e8, 4.0e7, 0.0, 0.0], rtol=1e-12)
+        assert "typed in the scene's stiffness_harmonics beside the gear pair" in said[
+            "gear_stiffness_harmonic"]
+    elif name == "the pair's":
+        assert_allclose(k_n, mesh["k_harmonic"][1:], rtol=1e-12)
+        assert said["gear_stiffness_harmonic"].startswith("amplitude of the gear pair's mesh"
+                                                          " stiffness harmonic k_n at the load")
+    else:
+        assert not k_n.any()
+        assert said["gear_stiffness_harmonic"].endswith("none (zeros), the stiffness is constant"
+                                                        " k0")
+    if name == "the pair's":  # e(t) = STE - F / k(t): about zero for unmodified teeth
+        assert_allclose(e_n, mesh["e_harmonic"][1:], rtol=1e-9, atol=1e-9 * mesh["ste"].mean())
+        assert said["gear_ste_harmonic"].startswith("amplitude of the harmonic e_n of STE - F_m /"
+                                                    " k(t) with the gear pair's k(t) at the load")
+    else:  # the loaded STE (1.335 um at order 1 here)
+        assert_allclose(e_n, mesh["ste_harmonic"][1:], rtol=1e-12)
+        assert said["gear_ste_harmonic"].startswith("amplitude of the harmonic e_n of the gear"
+                                                    " pair's loaded STE at the load")
+        assert said["gear_ste_harmonic"].endswith(
+            "with the typed stiffness" if typed else "with constant k0")
+    assert "STE - F/k(t) with k(t)" not in said["gear_ste_harmonic"]

@@ -115,18 +115,15 @@ def build_model(study: Study, torque: float | None = None) -> MeshModel | Mathie
                 amp = math.nan
         fluct.append(Harmonic(amp, f.order, f.phase))
 
-    if gear is not None and sc.stiffness is not None:
-        # k(t) typed in beside the gear (e.g. the paper's printed k0, k1): e(t) is the pair's
-        # loaded STE at the load, as the paper drives Eq. (9) by its computed STE (Figs. 1-2);
+    if gear is not None:  # k(t), e(t) of the gear pair at the mean load (gearscene.py)
+        k_from, kh_from, e_from = gear_sources(sc)
+        teeth = gear.teeth
+        k0 = sc.stiffness if k_from == "typed" else gear.stiffness
         # a typed k_n without a phase keeps the pair's phase of its order
-        teeth, k0, e_h = gear.teeth, sc.stiffness, gear.ste_harmonics
-        k_h = typed_harmonics(getattr(sc, "stiffness_harmonics", []),
-                              {h.order: h.phase for h in gear.stiffness_harmonics})
-    elif gear is not None:  # k(t), e(t) of the gear pair at the mean load (gearscene.py)
-        teeth, k0, k_h, e_h = (gear.teeth, gear.stiffness, gear.stiffness_harmonics,
-                               gear.no_load_te_harmonics)
-        if sc.kind == "rattle":  # Eq. (13): constant k0, so e(t) is the loaded STE
-            k_h, e_h = (), gear.ste_harmonics
+        k_h = {"typed": typed_harmonics(getattr(sc, "stiffness_harmonics", []),
+                                        {h.order: h.phase for h in gear.stiffness_harmonics}),
+               "pair": gear.stiffness_harmonics, "none": ()}[kh_from]
+        e_h = gear.ste_harmonics if e_from == "loaded_ste" else gear.no_load_te_harmonics
     else:
         teeth, k0 = sc.teeth, sc.stiffness
         k_h = typed_harmonics(getattr(sc, "stiffness_harmonics", []))
@@ -154,6 +151,23 @@ def build_model(study: Study, torque: float | None = None) -> MeshModel | Mathie
         ste_harmonics=e_h,
         force_harmonics=tuple(fluct),
     )
+
+
+def gear_sources(scene: Any) -> tuple[str, str, str]:
+    """Where the k0, the k_n and the e_n of a gear scene's model come from (``build_model``; the
+    result's ``gear_*`` variables say it, ``resultfile.gear_variables``): k0 ``"typed"`` (a
+    ``stiffness`` typed in beside the gear, e.g. the paper's printed k0) or ``"pair"`` (the gear
+    pair's at the load); the k_n ``"typed"`` (``stiffness_harmonics`` beside a typed k0),
+    ``"pair"`` or ``"none"`` (constant stiffness: a typed k0 without k_n, or a rattle scene,
+    Eq. 13); the e_n ``"loaded_ste"`` (the pair's loaded STE at the load, where k(t) is typed or
+    constant, as the paper drives Eq. (9) by its computed STE, Figs. 1-2) or ``"no_load_te"``
+    (e(t) = STE - F_m / k(t) with the pair's own k(t))."""
+    if scene.stiffness is not None:
+        typed_kn = bool(getattr(scene, "stiffness_harmonics", []))
+        return "typed", "typed" if typed_kn else "none", "loaded_ste"
+    if scene.kind == "rattle":
+        return "pair", "none", "loaded_ste"
+    return "pair", "pair", "no_load_te"
 
 
 @dataclass
@@ -230,6 +244,11 @@ class Plan:
             out += [] if typed_k else ["stiffness", "stiffness_harmonics"]
             out += ["ste_harmonics"]
         return list(dict.fromkeys(out))
+
+    @property
+    def gear_sources(self) -> tuple[str, str, str]:
+        """``gear_sources`` of the plan's scene (a gear scene)."""
+        return gear_sources(self.study.scene)
 
     @property
     def driven(self) -> bool:

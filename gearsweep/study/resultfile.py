@@ -425,6 +425,7 @@ def gear_variables(plan: Any) -> dict[str, Var]:
     def amplitudes(harmonics) -> list[float]:
         return [h.amplitude for h in harmonics] + [0.0] * (nh - len(harmonics))
 
+    k_from, kh_from, e_from = plan.gear_sources
     with warned_once():
         pair = gear_pair(plan.study.scene.gear).check()  # geometry: the same at every load
     return {
@@ -438,17 +439,40 @@ def gear_variables(plan: Any) -> dict[str, Var]:
         "harmonic": Var(("harmonic",), np.arange(1, nh + 1), {
             "units": "1", "long_name": "harmonic order in mesh orders"}, coord=True),
         "gear_stiffness": display_variable(lead, stack([m.stiffness for m in models]),
-                                           "stiffness", long_name="mean mesh stiffness k0 of the"
-                                           " gear pair at the load"),
+                                           "stiffness", long_name=GEAR_LABELS["k0", k_from]),
         "gear_stiffness_harmonic": display_variable(
             (*lead, "harmonic"), stack([amplitudes(m.stiffness_harmonics) for m in models]),
-            "stiffness", long_name="amplitude of the mesh stiffness harmonic k_n the kernel used"
-            " (none: constant stiffness)"),
+            "stiffness", long_name=GEAR_LABELS["k_n", kh_from]),
         "gear_ste_harmonic": display_variable(
             (*lead, "harmonic"), stack([amplitudes(m.ste_harmonics) for m in models]),
-            "displacement", long_name="amplitude of the transmission-error harmonic e_n the"
-            " kernel used (loaded STE with constant k0; STE - F/k(t) with k(t))"),
+            "displacement", long_name=GEAR_LABELS["e_n", e_from, k_from == "typed"]),
     }
+
+
+GEAR_LABELS = {
+    ("k0", "pair"): "mean mesh stiffness k0 of the gear pair at the load, the kernel's",
+    ("k0", "typed"): ("mean mesh stiffness k0 the kernel used: typed in the scene's stiffness"
+                      " beside the gear pair, not the pair's own k0"),
+    ("k_n", "pair"): ("amplitude of the gear pair's mesh stiffness harmonic k_n at the load, the"
+                      " kernel's"),
+    ("k_n", "typed"): ("amplitude of the mesh stiffness harmonic k_n the kernel used: typed in"
+                       " the scene's stiffness_harmonics beside the gear pair, not the pair's"),
+    ("k_n", "none"): ("amplitude of the mesh stiffness harmonic k_n the kernel used: none"
+                      " (zeros), the stiffness is constant k0"),
+    ("e_n", "loaded_ste", True): ("amplitude of the harmonic e_n of the gear pair's loaded STE"
+                                  " at the load: the excitation e(t) the kernel used with the"
+                                  " typed stiffness"),
+    ("e_n", "loaded_ste", False): ("amplitude of the harmonic e_n of the gear pair's loaded STE"
+                                   " at the load: the excitation e(t) the kernel used with"
+                                   " constant k0"),
+    ("e_n", "no_load_te", False): ("amplitude of the harmonic e_n of STE - F_m / k(t) with the"
+                                   " gear pair's k(t) at the load: the excitation e(t) the"
+                                   " kernel used"),
+}
+"""The ``long_name`` of a gear scene's ``gear_*`` variables by where the model's k0, k_n and e_n
+came from (``plan.gear_sources``): the pair's at the load or typed in beside it. Fig. 5's scene
+types the paper's k0 = 1073 kN/mm beside a pair whose own k0 is 219 kN/mm, and its file named
+the typed value "mean mesh stiffness k0 of the gear pair at the load" (an outside tester)."""
 
 
 EXCITATION_SOURCES = {
