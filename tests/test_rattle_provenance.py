@@ -115,6 +115,15 @@ def test_the_first_harmonic_opens_the_mesh_where_its_linear_response_reaches_the
     ratio = _linear_ratio(np.linspace(500.0, 2e5, 4000), k=218.8587e6, c=4920.0)
     assert ratio.max() < 1.0
     assert_allclose(ratio[-1], 218.8587e6 * E1 / FM, rtol=0.01)
+def test_contact_loss_threshold_under_a_negative_mean_force_is_an_amplitude():
+    """F_m < 0 presses the back flank: p = F_m / k + A cos(w t - phi) reaches 0 when
+    A = |F_m| / k, the least F0 doing so F_m's magnitude times min_w |k - m w^2 + i c w| / k
+    (brute force); it returned -F0, a negative amplitude."""
+    w = np.linspace(1.0, 3.0 * math.sqrt(K / M), 2_000_001)
+    for c in (492.0, 30e3):
+        brute = FM * np.min(np.abs(K - M * w**2 + 1j * c * w)) / K
+        got = rattle.contact_loss_threshold(mass=M, stiffness=K, damping=c, force_mean=-FM)
+        assert_allclose(got, brute, rtol=1e-6)
 
 
 def test_eq15_distance_picks_the_nearest_root():

@@ -125,8 +125,8 @@ def opening_force(omega, *, mass: float, stiffness: float, damping: float,
     deflection. The force that does it depends on the frequency: ``F_m`` at w -> 0, its least
     value ``contact_loss_threshold`` near resonance, and ``F_m m w^2 / k`` far above it.
     """
-    w = np.asarray(omega, float)
-    return force_mean * np.abs(stiffness - mass * w**2 + 1j * damping * w) / stiffness
+    w = np.asarray(omega, float)  # (|F_m|: a negative one presses the back flank, as above)
+    return abs(force_mean) * np.abs(stiffness - mass * w**2 + 1j * damping * w) / stiffness
 
 
 def first_harmonic_opening(*, mass: float, stiffness: float, damping: float,
@@ -167,12 +167,14 @@ def contact_loss_threshold(*, mass: float, stiffness: float, damping: float,
     ``opening_force`` (linear response), ``F_m min_w |k - m w^2 + i c w| / k``,
     ``F0 = F_m c sqrt(4 k m - c^2) / (2 k m)`` (``= 2 zeta sqrt(1 - zeta^2) F_m``) for
     ``zeta < 1/sqrt(2)``, else ``F_m``. It holds near resonance only: at any other frequency the
-    force that opens the mesh is ``opening_force(w)``, larger.
+    force that opens the mesh is ``opening_force(w)``, larger. A negative F_m presses the back
+    flank, which parts at the same amplitude: the threshold is that of ``|F_m|`` (an amplitude,
+    never negative).
     """
     zeta = damping / (2.0 * math.sqrt(stiffness * mass))
     if zeta >= 1.0 / math.sqrt(2.0):
-        return float(force_mean)
-    return float(2.0 * zeta * math.sqrt(1.0 - zeta**2) * force_mean)
+        return abs(float(force_mean))
+    return float(2.0 * zeta * math.sqrt(1.0 - zeta**2) * abs(force_mean))
 
 
 def excitation_budget(omega, *, mass: float, stiffness: float, ste_amplitude: float
