@@ -240,7 +240,7 @@ class Plan:
         as if every case had run with ``damping: 0.0`` (an outside tester's finding)."""
         out = [("mean_force" if d == "torque" else d) for d in self.dims if d != "speed"]
         if self.gear_load_swept:
-            typed_k = getattr(self.study.scene, "stiffness", None) is not None
+            typed_k = self.gear_sources[0] == "typed"
             out += [] if typed_k else ["stiffness", "stiffness_harmonics"]
             out += ["ste_harmonics"]
         return list(dict.fromkeys(out))
