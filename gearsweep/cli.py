@@ -282,9 +282,13 @@ def cmd_validate(args: argparse.Namespace) -> int:
     left = transient_residual(plan)
     if left is not None:
         residual, speed, need, mu = left
-        how = ("exp(-c / (2 m) periods x T) at {:g} rpm, the least damped case" if mu is None
-               else f"|mu|^periods, the fixed-step map's largest Floquet multiplier {mu:.4g} per"
-               " mesh period (the step guard's map check), at {:g} rpm, the slowest to decay")
+        how = ("exp(Re(lambda) periods x T), lambda the slower pole of m s^2 + c s + k"
+               " (Re -c / (2 m) below critical damping), at {:g} rpm, the least damped case"
+               if mu is None else
+               f"|mu|^periods, the fixed-step map's largest Floquet multiplier {mu:.4g} per"
+               " mesh period (" + ("the step guard's map check" if plan.model.stiffness_harmonics
+                                   else "the method's R(h lambda) at the poles, constant stiffness")
+               + "), at {:g} rpm, the slowest to decay")
         shown = f"{residual:.{0 if residual >= 0.1 else 1}%}"
         print(f"gearsweep: note: {name}: solver.transient_periods"
               f" {study.solver.transient_periods} leave up to {shown} of the start's free"

@@ -716,3 +716,93 @@ def test_a_transient_the_map_has_not_decayed_is_not_settled():
     assert float(left.values.ravel()[0]) == pytest.approx(mu**200, rel=1e-6)
     assert float(enough.transient_left.values.ravel()[0]) <= 0.01
     assert left.attrs["units"] == "1" and "free vibration left" in left.attrs["long_name"]
+
+
+def constant_k_whine(c: str, rpm: float, method: str, spp: int, transient: int,
+                     outputs=("stats",), x0: str | None = None) -> dict:
+    """A whine scene with constant stiffness (an outside tester's tl50.yaml and od.yaml)."""
+    study = {"title": "constant k", "outputs": list(outputs), "scene": {
+        "kind": "whine", "mass": "0.1527 kg", "teeth": TEETH, "stiffness": "1073 kN/mm",
+        "damping": c, "mean_force": "833 N", "ste": [{"amplitude": "5 um"}]},
+        "sweep": {"speed": [f"{rpm} rpm"]},
+        "solver": {"method": method, "steps_per_period": spp, "transient_periods": transient,
+                   "record_periods": 10}}
+    if x0 is not None:
+        study["solver"]["initial_displacement"] = x0
+    return study
+
+
+def constant_k_abg(c: float, rpm: float) -> tuple[float, float, float]:
+    w = TEETH * rpm / 60 * 2 * math.pi
+    return K0 / (MASS * w * w), 0.0, c / (MASS * w)
+
+
+def test_a_constant_stiffness_transient_decays_by_the_steps_map():
+    """Constant stiffness, c = 0.5 N s/mm (zeta 0.02), RK5 at 8 steps per period, 6549 rpm:
+    this test's own RK5 map (the tableau above) decays the free vibration by mu = 0.921 a
+    period, while damping alone says exp(-c T / 2m) = 0.73; 50 transient periods leave
+    mu^50 = 1.6 %, above the settle tolerance, where transient_left said 1.6e-7 (only a varying
+    stiffness's map was judged) and the case had status 0 with p_max 1.4 % of p_pp off its
+    steady value. transient_left is now mu^50, the floquet output's discrete_multiplier is the
+    same mu, the case is status 2, and settled from the periods mu needs to reach 1 %."""
+    rpm = 6549.0
+    a, b, g = constant_k_abg(500.0, rpm)
+    mu = own_map("rk5", a, b, g, 8)
+    assert mu == pytest.approx(0.921, abs=1e-3) and math.exp(-math.pi * g) < 0.74
+    need = math.ceil(math.log(100) / -math.log(mu))
+    assert mu**50 > 0.01 >= mu**need
+    # the closed form against this test's map, at other steps and methods too
+    for method, spp in (("rk5", 8), ("rk5", 12), ("rk4", 8), ("rk4", 32)):
+        w = TEETH * rpm / 60 * 2 * math.pi
+        got = st.frozen_map_multiplier(method, K0 / MASS, 500.0 / MASS, 2 * math.pi / w / spp, spp)
+        assert float(got) == pytest.approx(own_map(method, a, b, g, spp), rel=1e-9)
+    residual, speed, periods, at = transient_residual(plan_of(constant_k_whine(
+        "0.5 N*s/mm", rpm, "rk5", 8, 50)))
+    assert residual == pytest.approx(mu**50, rel=1e-9) and at == pytest.approx(mu, rel=1e-9)
+    assert periods == need and speed == pytest.approx(rpm)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (contact loss: no backlash)
+        early = gearsweep.run(constant_k_whine("0.5 N*s/mm", rpm, "rk5", 8, 50,
+                                               ("stats", "floquet")))
+        enough = gearsweep.run(constant_k_whine("0.5 N*s/mm", rpm, "rk5", 8, need + 5))
+        steady = gearsweep.run(constant_k_whine("0.5 N*s/mm", rpm, "rk5", 8, 3000))
+
+    def one(ds, name):
+        return float(ds[name].values.ravel()[0])
+
+    assert one(early, "discrete_multiplier") == pytest.approx(mu, rel=1e-9)
+    assert one(early, "transient_left") == pytest.approx(mu**50, rel=1e-9)
+    assert int(early.status.values.ravel()[0]) == 2
+    assert int(steady.status.values.ravel()[0]) == 0 == int(enough.status.values.ravel()[0])
+    pp = one(steady, "p_max") - one(steady, "p_min")
+    assert abs(one(early, "p_max") - one(steady, "p_max")) > 0.01 * pp  # what status 0 hid
+    assert abs(one(enough, "p_max") - one(steady, "p_max")) < 0.01 * pp
+
+
+def test_an_over_damped_transient_decays_by_the_slow_pole():
+    """zeta = 20 (c = 512 N s/mm), RK4 at 256 steps, 6250 rpm: the free vibration decays by the
+    slow real pole, -omega_n (zeta - sqrt(zeta^2 - 1)) = -2097 1/s, 0.657 a mesh period (scipy's
+    monodromy of the equation), not by c / 2m (exp(-335) a period): 12 transient periods leave
+    0.0065 where transient_left said 0, and 10 leave 1.5 %, above the settle tolerance, which
+    validate now notes."""
+    c, rpm = 512e3, 6250.0
+    a, b, g = constant_k_abg(c, rpm)
+    mu = own_equation(a, b, g)  # scipy
+    wn = math.sqrt(K0 / MASS)
+    zeta = c / (2 * math.sqrt(K0 * MASS))
+    T = 60 / (TEETH * rpm)
+    assert zeta == pytest.approx(19.99, abs=0.01)
+    assert mu == pytest.approx(math.exp(-wn * (zeta - math.sqrt(zeta * zeta - 1)) * T), rel=1e-8)
+    slow, fast = st.frozen_poles(K0 / MASS, c / MASS)
+    assert slow.real * T == pytest.approx(math.log(mu), rel=1e-8)
+    assert slow.real * fast.real == pytest.approx(K0 / MASS, rel=1e-12)
+    plan = plan_of(constant_k_whine("512 N*s/mm", rpm, "rk4", 256, 12, x0="20 um"))
+    left = plan_mod.transient_left(plan, {"speed": np.array([rpm])}, 1)[0]
+    assert float(left[0]) == pytest.approx(mu**12, rel=1e-6)  # 0.0065
+    need = math.ceil(math.log(100) / -math.log(mu))
+    residual, speed, periods, at = transient_residual(
+        plan_of(constant_k_whine("512 N*s/mm", rpm, "rk4", 256, 10)))
+    assert residual == pytest.approx(mu**10, rel=1e-6) and periods == need == 11
+    # below critical damping the pole's decay is c / 2m, as before
+    slow, _ = st.frozen_poles(K0 / MASS, 500.0 / MASS)
+    assert -slow.real == pytest.approx(0.5 * 500.0 / MASS, rel=1e-15)

@@ -72,6 +72,8 @@ __all__ = [
     "UnstableStepError",
     "amplification",
     "check_step",
+    "frozen_map_multiplier",
+    "frozen_poles",
     "frozen_step_ok",
     "integrator_edge",
     "integrator_unstable",
@@ -275,6 +277,58 @@ def max_stable_step(method: str, k_over_m, c_over_m=0.0) -> np.ndarray:
     with np.errstate(divide="ignore"):
         out = np.where(~osc & (neg < 0), real_lim / np.abs(neg), out)
     return out
+
+
+def frozen_poles(k_over_m, c_over_m) -> tuple[np.ndarray, np.ndarray]:
+    """The two poles of p'' + (c/m) p' + (k/m) p = 0 (the roots of s^2 + (c/m) s + k/m).
+
+    Parameters
+    ----------
+    k_over_m, c_over_m : array_like
+        Stiffness / mass [1/s^2] and viscous damping / mass [1/s].
+
+    Returns
+    -------
+    slow, fast : complex ndarray
+        The pole with the larger real part (the slower to decay) and the other one. Below
+        critical damping a conjugate pair, -c / 2m +- i sqrt(k/m - (c/2m)^2); above it two real
+        poles, slow = -(k/m) / (c/2m + sqrt((c/2m)^2 - k/m)) = -omega_n (zeta - sqrt(zeta^2 - 1))
+        (the product of the roots, k/m, over the fast one: no cancellation at large zeta) and
+        fast = -(c/2m + sqrt((c/2m)^2 - k/m)).
+    """
+    k, c = np.broadcast_arrays(np.asarray(k_over_m, float), np.asarray(c_over_m, float))
+    half = 0.5 * c
+    d = half * half - k
+    root = np.sqrt(np.abs(d))
+    big = half + np.where(d >= 0, root, 0.0)  # -fast, for real poles
+    with np.errstate(divide="ignore", invalid="ignore"):
+        real_slow = np.where(big != 0, -k / np.where(big != 0, big, 1.0), 0.0)
+    slow = np.where(d < 0, -half + 1j * root, real_slow + 0j)
+    fast = np.where(d < 0, -half - 1j * root, -big + 0j)
+    return slow, fast
+
+
+def frozen_map_multiplier(method: str, k_over_m, c_over_m, h, steps) -> np.ndarray:
+    """Largest |multiplier| of ``steps`` fixed steps ``h`` [s] of ``method`` on
+    p'' + (c/m) p' + (k/m) p = 0 with constant coefficients: the map of one step is R(h A), whose
+    eigenvalues are the stability polynomial at the poles (``frozen_poles``), so this is
+    max |R(h lambda)|^steps over the two poles (exact; the floquet output's
+    ``discrete_multiplier`` where the stiffness is constant, over ``steps`` = steps_per_period).
+
+    Parameters
+    ----------
+    method : str
+        A name in ``TABLEAUX``.
+    k_over_m, c_over_m, h : array_like
+        Stiffness / mass [1/s^2], damping / mass [1/s] and the step [s], per case.
+    steps : int or array_like
+        Steps the multiplier covers (steps_per_period: per mesh period).
+    """
+    slow, fast = frozen_poles(k_over_m, c_over_m)
+    h = np.asarray(h, float)
+    r = np.maximum(np.abs(amplification(method, h * slow)), np.abs(amplification(method, h * fast)))
+    with np.errstate(over="ignore"):
+        return r ** np.asarray(steps, float)
 
 
 def check_step(method: str, steps_per_period, mesh_period, k_max_over_m, c_over_m=0.0,
