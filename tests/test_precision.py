@@ -6,12 +6,14 @@ import math
 import re
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 
 from gearsweep.analysis import precision as pr
 from gearsweep.analysis.advise import advise, stability_limit, stability_polynomial
 from gearsweep.analysis.reference import reference_exact, reference_ivp
+from gearsweep.kernels import kink, rk
 from gearsweep.kernels.batch import simulate
 from gearsweep.model import Scene
 
@@ -91,18 +93,41 @@ def test_kink_aware_rk5_keeps_order_5_on_rattle():
     assert 4.5 <= order <= 5.5, order
 
 
-def test_kink_equals_plain_without_backlash():
-    """No backlash: the kink-aware kernel takes exactly the plain steps (bit for bit)."""
+@pytest.mark.parametrize("method", ["rk4", "rk5"])
+def test_kink_equals_plain_without_backlash(method, monkeypatch):
+    """No backlash: the kink-aware kernel (its path with ``half_gap=None``, the detection
+    compiled out) takes exactly the plain steps (bit for bit), with no substep.
+
+    ``simulate(..., kink_aware=True)`` sends a call without backlash to the plain kernel
+    (``batch._driver_call``), so comparing it with a plain call compared the plain kernel with
+    itself: the test passed with ``kink.INTEGRATE`` replaced by Nones (an outside tester). Here
+    the plain drivers are replaced by the kink-aware ones (with their ``sub_blocks`` argument)
+    for the second call, so it fails if the kink-aware kernel differs."""
     sc = pr.whine_scene(6000.0)
     kw = sc.kernel_kwargs(64)
     kw["h"] = np.repeat(kw["h"], 40) * np.linspace(0.9, 1.1, 40)
-    args = dict(method="rk4", n_transient=640, n_record=640, signal_stride=8, **kw)
+    args = dict(method=method, n_transient=640, n_record=640, signal_stride=8, **kw)
+    assert kw.get("half_gap") is None and kw.get("k_table") is not None
     a = simulate(**args)
+    used = []
+
+    def kink_driver(m):
+        def call(*xs):
+            used.append(m)
+            n = xs[0].shape[0]
+            return kink.INTEGRATE[m](*xs, kink.sub_blocks(n, numba.get_num_threads()))
+        return call
+
+    monkeypatch.setattr(rk, "INTEGRATE", {m: kink_driver(m) for m in rk.INTEGRATE})
     b = simulate(**args, kink_aware=True)
+    assert used == [rk.METHODS[method]]  # the kink-aware kernel ran
+    assert b.substeps is not None and not b.substeps.any()
     np.testing.assert_array_equal(a.signal, b.signal)
     for k in a.stats:
         np.testing.assert_array_equal(a.stats[k], b.stats[k])
     np.testing.assert_array_equal(a.x_final, b.x_final)
+    np.testing.assert_array_equal(a.v_final, b.v_final)
+    np.testing.assert_array_equal(a.status, b.status)
 
 
 @pytest.mark.slow  # compiles kink-kernel specialisations: 1-3 min on a cold cache
