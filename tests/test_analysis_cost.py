@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import time
@@ -25,7 +26,7 @@ import yaml
 import gearsweep
 from gearsweep.analysis import precision as pr
 from gearsweep.cli import main
-from gearsweep.errors import LimitError
+from gearsweep.errors import LimitError, StudyError
 from gearsweep.study import analysis_cost as ac
 from gearsweep.study.analyses import run_analysis_study
 from gearsweep.study.execute import BASELINE_FILE_MEMORY, LIMITS
@@ -300,15 +301,23 @@ def test_a_work_precision_speed_beyond_a_scenes_is_refused_in_one_line(tmp_path,
 
 def test_a_study_of_ages_is_said_in_a_few_digits(tmp_path, capsys):
     """whine_speed 1e-300 rpm: its reference solution was priced as a number of 300 digits
-    followed by ' h' in the refusal line (and its memory, counted since, as 'inf GB')."""
-    _, text = _study("work_precision.yaml", whine_speed="1e-300 rpm")
+    followed by ' h' in the refusal line (and its memory, counted since, as 'inf GB'). Such a
+    speed is refused now (below ``MIN_SPEED``, 1e-3 rpm: one line); at that lowest speed the
+    refusal is said in a few digits, and so is a duration of 1e300 hours."""
+    from gearsweep.study.execute import _duration
+
+    _, text = _study("work_precision.yaml", whine_speed="1e-3 rpm")
     (tmp_path / "wp.yaml").write_text(text, encoding="utf-8")
     assert main(["validate", str(tmp_path / "wp.yaml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "refused (time > 10.0 min, memory > 2 GB)" in err[0]
-    assert "2 reference solutions 1.92e+300 h" in err[0]
-    assert "peak memory without bound; run with --yes" in err[0]
+    assert re.search(r"2 reference solutions \d+\.\d h", err[0]), err
     assert max(len(w) for w in err[0].split("refused")[1].split()) < 20, err
+    assert _duration(1.92e300 * 3600) == "1.92e+300 h"
+    with pytest.raises(StudyError, match=r"analysis\.whine_speed: '1e-300 rpm' -- a speed of at"
+                       r" least 0\.001 rpm"):
+        _study("work_precision.yaml", whine_speed="1e-300 rpm")
+    assert not [p for p in tmp_path.iterdir() if p.name != "wp.yaml"]
 
 
 def test_the_harmonic_balance_holds_its_matrices_in_the_memory_estimate():

@@ -477,6 +477,46 @@ def test_a_speed_beyond_1e6_rpm_is_refused_in_the_scene_and_the_sweep():
     parse_study(text.replace("mean_force: 100 N", "mean_force: 100 N\n  speed: 1e6 rpm"), "s.yaml")
 
 
+def test_a_speed_below_1e_3_rpm_is_refused_by_the_cli_in_one_line(tmp_path, capsys):
+    """speed: [1e-300 rpm] ran (an outside tester): every case diverged (status 1, all NaN) and
+    the aliasing warning printed an integer of 300 digits. Below 1e-3 rpm a mesh period lasts
+    over a minute even with 1000 teeth, and a 1 kHz mesh needs more steps per period than a study
+    takes to be stable: refused, swept (a list or a range's start) or given, in one line naming
+    the file, line, field, value and what is allowed, exit 2, nothing written; 1e-3 rpm runs."""
+    said = ("a speed of at least 0.001 rpm (below it a mesh period lasts over a minute even with"
+            " 1000 teeth, and a 1 kHz mesh needs more than the 65536 steps per period a study"
+            " takes to be stable)")
+    # the bound against the code's own numbers: at 1e-3 rpm and 1000 teeth the mesh period is
+    # 60 s, and no method's largest stable h omega_n (over every damping ratio) reaches the
+    # steps a 1 kHz mesh needs within 65536 steps per period
+    from gearsweep.study.plan import _solve_hw_table
+    from gearsweep.study.quantities import MAX_STEPS_PER_PERIOD, MAX_TEETH, MIN_SPEED
+    period = 60.0 / (MAX_TEETH * MIN_SPEED)
+    assert period == pytest.approx(60.0)
+    for method in ("rk4", "rk5"):
+        hw_max = float(np.max(_solve_hw_table(method)[1]))
+        assert period * 2 * math.pi * 1000.0 / hw_max > MAX_STEPS_PER_PERIOD
+    sweep = "{start: 5000 rpm, stop: 6000 rpm, num: 3}"
+    no_sweep = GOOD.replace(f"sweep:\n  speed: {sweep}\n", "")
+    cases = [(GOOD.replace(sweep, "[1e-300 rpm]"), 10, "sweep.speed[0]: '1e-300 rpm'"),
+             (GOOD.replace(sweep, "[0.0009 rpm, 1 rpm]"), 10, "sweep.speed[0]: '0.0009 rpm'"),
+             (GOOD.replace(sweep, "{start: 1e-4 rpm, stop: 10 rpm, num: 3}"), 10,
+              "sweep.speed.start: '1e-4 rpm'"),
+             (no_sweep.replace("mean_force: 100 N", "mean_force: 100 N\n  speed: 1e-300 rpm"), 9,
+              "scene.speed: '1e-300 rpm'")]
+    for i, (text, line, field) in enumerate(cases):
+        path = tmp_path / f"s{i}.yaml"
+        path.write_text(text, encoding="utf-8")
+        for argv in (["validate", str(path)], ["run", str(path), "-o", str(tmp_path / "r.nc")]):
+            assert main(argv) == 2
+            err = capsys.readouterr().err
+            assert err == f"gearsweep: error: {path}:{line}: {field} -- {said}\n", err
+        assert not (tmp_path / "r.nc").exists()
+    path = tmp_path / "ok.yaml"
+    path.write_text(GOOD.replace(sweep, "[1e-3 rpm]"), encoding="utf-8")
+    assert main(["validate", str(path)]) == 0
+
+
 def test_a_continued_sweep_over_speeds_out_of_order_is_refused():
     """A continued sweep runs up the list of speeds and back down it: with [8000, 6000, 7000]
     "up" stepped 8000 -> 6000 -> 7000, silently (found by a new-user test). Refused at the first

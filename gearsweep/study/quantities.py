@@ -56,6 +56,13 @@ def _whole(value: Any) -> Any:
     return value
 
 
+MAX_STEPS_PER_PERIOD = 65536
+"""The most steps per mesh period a study takes (``solver.steps_per_period``, an analysis'
+``steps_per_period``; a spectrum's ``samples_per_period`` divides it)."""
+
+MAX_TEETH = 1000
+"""The most teeth of a scene's driving gear (``scene.teeth``)."""
+
 MAX_SPEED = 1e6
 """The highest driving-gear speed a study takes [rpm]: ten times the fastest gears' 1e5 rpm. At
 1e10 rpm and beyond the whole run lasts nanoseconds and p cannot move in it (at 1e160 rpm not a
@@ -65,9 +72,25 @@ SPEED_BEYOND = (f"a speed of at most {MAX_SPEED:.0e} rpm (ten times the fastest 
                 " the whole run lasts nanoseconds and p cannot move in it)")
 
 
+MIN_SPEED = 1e-3
+"""The lowest driving-gear speed a study takes [rpm]. Below it a mesh period lasts over a minute
+even with the most teeth a scene takes (``MAX_TEETH``: 60 / (1000 x 1e-3 rpm) = 60 s), and a mesh
+whose natural frequency is 1 kHz or more needs T omega_n / (h omega_n)* > 60 x 2 pi x 1000 / 3.46
+= 1.1e5 steps per period to be stable (3.46: the largest stable h omega_n of RK5 over every
+damping ratio, RK4's 2.96), beyond the most a study takes (``MAX_STEPS_PER_PERIOD``): no run
+there can be stable (at 1e-300 rpm one ran, diverged, and the aliasing warning printed an
+integer of 300 digits; an outside tester)."""
+
+SPEED_BELOW = (f"a speed of at least {MIN_SPEED:g} rpm (below it a mesh period lasts over a"
+               f" minute even with {MAX_TEETH} teeth, and a 1 kHz mesh needs more than the"
+               f" {MAX_STEPS_PER_PERIOD} steps per period a study takes to be stable)")
+
+
 def speed_bound(v: float) -> float:
     if v > MAX_SPEED:
         raise ValueError(SPEED_BEYOND)
+    if v < MIN_SPEED:
+        raise ValueError(SPEED_BELOW)
     return v
 
 
@@ -79,10 +102,6 @@ validated and ran to p_rms 6e28 um with status 0; an outside tester's finding)."
 
 STE_BEYOND = (f"an STE of at most {MAX_STE * 1e3:g} mm (STEs are micrometres to tens of"
               " micrometres: a unit slip?)")
-
-MAX_STEPS_PER_PERIOD = 65536
-"""The most steps per mesh period a study takes (``solver.steps_per_period``, an analysis'
-``steps_per_period``; a spectrum's ``samples_per_period`` divides it)."""
 
 Count = Annotated[int, BeforeValidator(_whole)]
 """An integer field of a study (teeth, steps, periods, harmonics, ...): YAML's ``true`` and

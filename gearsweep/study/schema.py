@@ -94,7 +94,10 @@ from gearsweep.study.quantities import (
     MAX_SPEED,
     MAX_STE,
     MAX_STEPS_PER_PERIOD,
+    MAX_TEETH,
+    MIN_SPEED,
     SEL_APART,
+    SPEED_BELOW,
     SPEED_BEYOND,
     STE_BEYOND,
     Angle,
@@ -284,7 +287,7 @@ class _Driven(Strict):
 
     mass: Mass | None = Field(None, gt=0, description="equivalent mass m_eq")
     drive: Drive | None = None
-    teeth: Count | None = Field(None, gt=0, le=1000, description="teeth of the driving gear N1")
+    teeth: Count | None = Field(None, gt=0, le=MAX_TEETH, description="teeth of the driving gear N1")
     stiffness: Stiffness | None = Field(None, gt=0, description="mean mesh stiffness k0")
     gear: GearField | None = Field(None, description="gear pair giving k(t), e(t), N1, r1;"
                                    " with 'stiffness' (and 'stiffness_harmonics') typed in beside"
@@ -811,6 +814,8 @@ def value_problems(name: str, items: list[tuple[str | int, Any]],
             out.append(Problem(where, v, f"{name} must be > 0"))
         elif name == "speed" and val > MAX_SPEED:
             out.append(Problem(where, v, SPEED_BEYOND))
+        elif name == "speed" and val < MIN_SPEED:
+            out.append(Problem(where, v, SPEED_BELOW))
         elif name in ("damping", "gamma") and val < 0:
             out.append(Problem(where, v, f"{name} must be >= 0"))
         else:
