@@ -25,10 +25,12 @@ import numpy as np
 from gearsweep import __version__
 from gearsweep.analysis.advise import ACCURACY_NOTE
 from gearsweep.errors import (
+    EXIT_HUNG_UP,
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
     EXIT_USAGE,
     NO_VALUE,
+    STOP_SIGNALS,
     DeviceError,
     GearsweepError,
     ResultError,
@@ -367,19 +369,59 @@ def _on_sigint(signum, frame) -> None:
         _say_stopping()  # to CHUNK_SECONDS)
 
 
-_TERMINATED = threading.Event()
-"""Set by SIGTERM during ``gearsweep run``."""
+_signalled: int | None = None
+"""The signal that stopped ``gearsweep run`` at once (``_on_sigterm``), its exit code's
+(``_exit_code``); ``None``: a Ctrl-C of the chunked run's own."""
 
 
 def _on_sigterm(signum, frame) -> None:
     """SIGTERM (``kill``, ``docker stop``, a batch system's time limit, each followed by SIGKILL
-    after a grace period): stop now, as a second Ctrl-C does, once the main thread is back from
-    its current range of the kernel. The chunks already computed are saved first: under the
-    default action they died with the process while waiting for the saver thread (up to two
-    chunks, each up to ``CHUNK_SECONDS`` of computing)."""
-    _TERMINATED.set()
+    after a grace period), or SIGHUP (the terminal closed): stop now, as a second Ctrl-C does,
+    once the main thread is back from its current range of the kernel. The chunks already
+    computed are saved first: under the default action they died with the process while
+    waiting for the saver thread (up to two chunks, each up to ``CHUNK_SECONDS`` of computing).
+    A mesh or analysis study (computed in one piece) takes Ctrl-C too this way."""
+    global _signalled
+    _signalled = signum
     _STOP.set()
     raise KeyboardInterrupt
+
+
+def _stopped_how() -> str:
+    """How the run was stopped, in its line: ``interrupted``, ``terminated (SIGTERM)``, ..."""
+    if _signalled in (None, signal.SIGINT):
+        return "interrupted"
+    return f"terminated ({signal.Signals(_signalled).name})"
+
+
+def _exit_code() -> int:
+    """The exit code of a run stopped by ``_signalled`` (128 + the signal, as a shell says)."""
+    codes = {signal.SIGINT: EXIT_INTERRUPTED, signal.SIGTERM: EXIT_TERMINATED}
+    if hasattr(signal, "SIGHUP"):  # (not on Windows)
+        codes[signal.SIGHUP] = EXIT_HUNG_UP
+    return codes.get(_signalled, EXIT_INTERRUPTED)
+
+
+@contextlib.contextmanager
+def _stop_handlers(on_sigint):
+    """``on_sigint`` for SIGINT and ``_on_sigterm`` for SIGTERM and SIGHUP while the block runs
+    (in the main thread; elsewhere none can be set), and the unraisable hook of a stop
+    (``_quiet_once_stopping``); a signal ignored when the run began stays ignored (``nohup``, a
+    background job of a shell without job control: the terminal's Ctrl-C or hang-up stopped
+    it)."""
+    previous, unraisable = {}, sys.unraisablehook
+    try:
+        if threading.current_thread() is threading.main_thread():
+            for signum in STOP_SIGNALS:
+                if signal.getsignal(signum) != signal.SIG_IGN:
+                    handler = on_sigint if signum == signal.SIGINT else _on_sigterm
+                    previous[signum] = signal.signal(signum, handler)
+            sys.unraisablehook = _quiet_once_stopping(unraisable)
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        sys.unraisablehook = unraisable
 
 
 def _stoppable(backend):
@@ -491,12 +533,22 @@ def cmd_run(args: argparse.Namespace) -> int:
         from gearsweep.study.dataset import write_netcdf
 
         t0 = time.perf_counter()
-        with OutputLock(out):
-            try:
-                ds = run_unchunked(study, text, out.parent)
-            except StudyError as exc:
-                raise _in_file(exc, text, args.study) from None
-            write_netcdf(ds, out, codec=args.codec)
+        written = False  # The handlers are the chunked run's SIGTERM's for every signal: a stop
+        try:  # now, the file's write let finish and then removed (``write_netcdf``); they
+            with _stop_handlers(_on_sigterm), OutputLock(out):  # ran without: Ctrl-C in the
+                try:  # write hung for ever, SIGTERM left the lock and the partial file
+                    ds = run_unchunked(study, text, out.parent)  # (an outside tester)
+                except StudyError as exc:
+                    raise _in_file(exc, text, args.study) from None
+                write_netcdf(ds, out, codec=args.codec)
+                written = True
+        except KeyboardInterrupt:
+            if not written:  # (else the result is in place: a stop as the lock was let go)
+                raise Interrupted(f"{_stopped_how()}: nothing written ({article(study.type)}"
+                                  " study is computed in one piece: run the same command to"
+                                  " compute it)") from None
+        finally:
+            _STOP.clear()
         for key in sorted(k for k in ds.attrs if k.endswith("_note")):  # (what is NaN, why)
             print(f"gearsweep: note: {name}: {ds.attrs[key]}", file=sys.stderr)
         if not args.quiet:
@@ -591,15 +643,11 @@ def _run_chunked(args: argparse.Namespace, study, text: str, plan, out: Path, na
     # signal while a local cluster starts is held until its workers are up, then handled here
     # (``execute._starting_workers``; SIGTERM then ended the run without a word), and the run
     # stops before its first chunk.
-    ours = threading.current_thread() is threading.main_thread()
-    previous, unraisable, written = None, sys.unraisablehook, None
+    written = None
     try:
-        if ours:
-            previous = (signal.signal(signal.SIGINT, _on_sigint),
-                        signal.signal(signal.SIGTERM, _on_sigterm))
-            sys.unraisablehook = _quiet_once_stopping(unraisable)
-        with OutputLock(out), (contextlib.nullcontext(cluster) if cluster is not None
-                               else _backend(args)) as backend:
+        with _stop_handlers(_on_sigint), OutputLock(out), (
+                contextlib.nullcontext(cluster) if cluster is not None
+                else _backend(args)) as backend:
             check_partial(plan, out)
             if not args.quiet and est.seconds > SHOW_ESTIMATE_SECONDS:
                 print(f"{name}: {est.line()}", file=sys.stderr)
@@ -622,10 +670,6 @@ def _run_chunked(args: argparse.Namespace, study, text: str, plan, out: Path, na
                 raise
             raise Interrupted(_interrupted_line(plan, out, chunk)) from None
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous[0])
-            signal.signal(signal.SIGTERM, previous[1])
-        sys.unraisablehook = unraisable
         _STOP.clear()
         _COMPUTING.clear()
         _left, _drains = None, False
@@ -680,7 +724,7 @@ def _quiet_once_stopping(default):
 def _interrupted_line(plan, out: Path, chunk: int | None) -> str:
     """What an interrupted run says; a chunk folder left with no chunk in it is removed."""
     done, total = saved_chunks(plan, out, chunk)
-    how = "terminated (SIGTERM)" if _TERMINATED.is_set() else "interrupted"
+    how = _stopped_how()
     if done == 0 and not any(chunk_folder(out).glob(f"*/*{SUFFIX}")):
         remove_checkpoints(out)  # (it held the manifest only)
         return f"{how} before the first chunk was saved: nothing to continue from"
@@ -990,6 +1034,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str]) -> int:
+    global _signalled
+    _signalled = None  # (a stop of an earlier command in this process is not this one's)
     debug = "--debug" in argv  # accepted anywhere on the command line
     argv = [a for a in argv if a != "--debug"]
     parser = build_parser()
@@ -1014,11 +1060,10 @@ def _main(argv: list[str]) -> int:
               " (chunks already saved are kept)", file=sys.stderr)
         return EXIT_USAGE
     except Interrupted as exc:
-        print(f"gearsweep: {exc}", file=sys.stderr)
-        if _TERMINATED.is_set():
-            _TERMINATED.clear()
-            return EXIT_TERMINATED
-        return EXIT_INTERRUPTED
+        code, _signalled = _exit_code(), None
+        with contextlib.suppress(OSError):  # (a terminal hung up: its line goes nowhere)
+            print(f"gearsweep: {exc}", file=sys.stderr)
+        return code
     except KeyboardInterrupt:
         if debug:
             raise
@@ -1065,7 +1110,7 @@ def entry() -> None:
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
-        except (BrokenPipeError, ValueError):  # a reader that left, a stream already closed
+        except (OSError, ValueError):  # a reader that left, a terminal gone, a stream closed
             pass
     atexit._run_exitfuncs()
     os._exit(code)

@@ -19,6 +19,14 @@ EXIT_TERMINATED = 143
 """Exit code of ``gearsweep run`` stopped by SIGTERM (128 + SIGTERM: ``kill``, ``docker stop``,
 a batch system's time limit), the chunks it had computed saved first."""
 
+EXIT_HUNG_UP = 129
+"""Exit code of ``gearsweep run`` stopped by SIGHUP (128 + SIGHUP: its terminal closed), as by
+SIGTERM."""
+
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
+                     if hasattr(signal, name))
+"""The signals that stop a run (no SIGHUP on Windows)."""
+
 
 @contextlib.contextmanager
 def signals_held(*signums: int):
@@ -29,20 +37,31 @@ def signals_held(*signums: int):
     validator in Rust, which turned a ``KeyboardInterrupt`` raised in it into a ``SchemaError``
     (a traceback of 40 lines, exit 1: an outside tester, 3 in about 85 Ctrl-C while a study of
     20,000 speeds was parsed); a local dask cluster starting its processes. Outside the main
-    thread, where signals cannot be set, nothing is changed."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+    thread, where signals cannot be set, nothing is changed. The block is given the list of the
+    signals held so far (it may look: a temporary file then removed before the signal's own
+    action, which may end the process)."""
     held: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield held
+        return
     previous = {s: signal.signal(s, lambda signum, frame: held.append(signum)) for s in signums}
     try:
-        yield
+        yield held
     finally:
         for s, handler in previous.items():  # (None: a handler not set from Python; Python's)
             signal.signal(s, handler if handler is not None else signal.default_int_handler
                           if s == signal.SIGINT else signal.SIG_DFL)
         for s in dict.fromkeys(held):
             signal.raise_signal(s)
+
+
+def stops_held():
+    """``signals_held`` of the ``STOP_SIGNALS`` that have a handler of Python's (which raises: a
+    ``KeyboardInterrupt``, the CLI's stop), for xarray's netCDF reads and writes: raised while
+    xarray held its HDF5 lock, the interrupt left the lock taken and the file's close then waited
+    for it forever (a Ctrl-C while a mesh study's result was written hung; an outside tester).
+    A signal ignored or of the default action is left as it is: nothing of Python's runs then."""
+    return signals_held(*(s for s in STOP_SIGNALS if callable(signal.getsignal(s))))
 
 
 def article(word: str) -> str:

@@ -77,6 +77,30 @@ def temp_beside(path: Path) -> tuple[int, str]:
     return tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
 
 
+def remove_temps_beside(path: str | Path) -> list[Path]:
+    """Remove the temporary files of ``temp_beside(path)`` that a process killed while writing
+    ``path`` left next to it (``.NAME.XXXXXXXX.partial``, exactly: the 8 characters of
+    ``tempfile``'s names; a user's file of any other name is never touched), and return them.
+    For a caller that holds ``path``'s run lock (``workspace.OutputLock``): no other run writes
+    ``path`` then. Each interrupted write of a mesh or analysis result left one more of them
+    (an outside tester's SIGKILL then rerun)."""
+    path = Path(path)
+    name = re.compile(re.escape(f".{path.name}.") + r"[a-z0-9_]{8}" + re.escape(".partial"))
+    removed = []
+    try:
+        entries = list(os.scandir(path.parent))
+    except OSError:  # no folder yet, or not ours to read
+        return removed
+    for entry in entries:
+        try:
+            if name.fullmatch(entry.name) and entry.is_file(follow_symlinks=False):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:  # gone meanwhile, or not ours to remove: left as it is
+            continue
+    return removed
+
+
 def atomic_write(path: Path, write: Callable[[IO[bytes]], object], *, durable: bool = True,
                  direct: bool = False) -> None:
     """Call ``write(file_object)`` on a temporary file next to ``path``, then rename it to

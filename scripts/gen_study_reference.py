@@ -347,7 +347,7 @@ def render() -> str:
     lines += ["", "## Status codes (variable `status`)", "", "| code | meaning |", "|---|---|"]
     for code, meaning in STATUS_CODES.items():
         lines.append(f"| {code} | {_cell(meaning)} |")
-    from gearsweep.errors import EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USAGE
+    from gearsweep.errors import EXIT_HUNG_UP, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USAGE
 
     lines += ["", "## Exit codes of `gearsweep`", "", "| code | meaning |", "|---|---|",
               "| 0 | done |",
@@ -356,6 +356,7 @@ def render() -> str:
                " that cannot be run (nothing computed), an output that cannot be written, a full"
                " disk, no more memory, a lost dask scheduler or a failed chunk (the chunks"
                " computed so far are kept; the same command continues) |"),
+              (f"| {EXIT_HUNG_UP} | terminated (SIGHUP: the terminal closed), as by SIGTERM |"),
               (f"| {EXIT_INTERRUPTED} | interrupted (Ctrl-C): the chunks computed so far are kept;"
                " the same command continues |"),
               (f"| {EXIT_TERMINATED} | terminated (SIGTERM: `kill`, a batch system's time limit):"

@@ -44,25 +44,32 @@ def _cmd(study: Path, out: Path) -> list[str]:
             "--chunk-size", "500"]
 
 
-def _signalled_after_two_chunks(tmp_path, sig) -> tuple[Path, Path, Path, int, str]:
-    """A 20-chunk run of ``gearsweep run`` sent ``sig`` once it has saved two chunks: (study,
-    output, chunk log, return code, stderr). Its chunks take about 40 ms each (transient 1000
-    periods): the signal after the second lands well before the last, whose kernel calls follow
-    one another with nothing between."""
+def _signalled_after_two_chunks(tmp_path, sig, ignored=()) -> tuple[Path, Path, Path, int, str]:
+    """A 20-chunk run of ``gearsweep run`` sent ``sig`` (or each of a tuple) once it has saved
+    two chunks: (study, output, chunk log, return code, stderr). Its chunks take about 40 ms
+    each (transient 1000 periods): the signal after the second lands well before the last,
+    whose kernel calls follow one another with nothing between. ``ignored``: signals the run
+    inherits ignored (``nohup``, a background job of a shell without job control)."""
     study = tmp_path / "s.yaml"
     study.write_text(STUDY.replace("NUM", "10000").replace("transient_periods: 200",
                                                            "transient_periods: 1000"),
                      encoding="utf-8")
     out = tmp_path / "out.nc"
     log = tmp_path / "chunks.log"
+    def ignore() -> None:
+        for signum in ignored:
+            signal.signal(signum, signal.SIG_IGN)
+
     proc = subprocess.Popen(_cmd(study, out), cwd=tmp_path, env=_env(log),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=ignore if ignored else None)
     t0 = time.time()
     while not (log.exists() and len(log.read_text().splitlines()) >= 2):
         assert proc.poll() is None, proc.communicate()
         assert time.time() - t0 < 300
         time.sleep(0.05)
-    proc.send_signal(sig)
+    for each in sig if isinstance(sig, tuple) else (sig,):
+        proc.send_signal(each)
     _, err = proc.communicate(timeout=120)
     return study, out, log, proc.returncode, err
 
@@ -119,14 +126,18 @@ def test_sigint_saves_the_chunks_and_the_same_command_completes_the_file(tmp_pat
         assert "\n" not in b.attrs["history"] and "run_chunks" not in b.attrs
 
 
-def test_sigterm_saves_the_chunks_computed_and_exits_143(tmp_path):
+@pytest.mark.parametrize("name, code", [("SIGTERM", 143), ("SIGHUP", 129)])
+def test_sigterm_saves_the_chunks_computed_and_exits_143(tmp_path, name, code):
     """SIGTERM (``kill``, ``docker stop``, a batch system's time limit) stops the run at once,
     as a second Ctrl-C does, after saving every chunk already computed; one line, exit 143; the
-    same command completes the file."""
-    study, out, log, returncode, err = _signalled_after_two_chunks(tmp_path, signal.SIGTERM)
-    assert returncode == 143, err
+    same command completes the file. SIGHUP (the terminal closed) alike, exit 129: it ended the
+    run under its default action, no line, the lock files left, the chunks computed unsaved (an
+    outside tester)."""
+    study, out, log, returncode, err = _signalled_after_two_chunks(tmp_path,
+                                                                   getattr(signal, name))
+    assert returncode == code, err
     assert "Traceback" not in err and err.count("\n") == 1, err
-    found = re.fullmatch(r"gearsweep: terminated \(SIGTERM\): (\d+) of 20 chunks saved in"
+    found = re.fullmatch(rf"gearsweep: terminated \({name}\): (\d+) of 20 chunks saved in"
                          r" .*out.nc.chunks; run the same command to continue\n", err)
     assert found, err
     done = int(found[1])
@@ -139,6 +150,101 @@ def test_sigterm_saves_the_chunks_computed_and_exits_143(tmp_path):
     assert len(log.read_text().splitlines()) == 20  # only the missing chunks computed
     with xr.open_dataset(out) as ds:
         assert int(ds.sizes["speed"]) == 10000
+    assert not list(tmp_path.glob("out.nc.lock*"))
+
+
+def test_signals_ignored_when_the_run_began_stay_ignored(tmp_path):
+    """A run that inherits SIGINT and SIGHUP ignored (``nohup``, ``gearsweep run ... &`` in a
+    script: a background job of a shell without job control) leaves them so: a Ctrl-C or a
+    hang-up of that terminal does not stop it. The run set its own handler over them, and the
+    terminal's Ctrl-C stopped a background run (an outside tester)."""
+    _, out, log, returncode, err = _signalled_after_two_chunks(
+        tmp_path, (signal.SIGINT, signal.SIGHUP), ignored=(signal.SIGINT, signal.SIGHUP))
+    assert returncode == 0, err
+    assert len(log.read_text().splitlines()) == 20
+    with xr.open_dataset(out) as ds:
+        assert int(ds.sizes["speed"]) == 10000
+
+
+MESH_STUDY = """\
+type: mesh
+title: a mesh study to stop
+gears: {plain: table1_consistent}
+sweep:
+  torque: {start: 2 N*m, stop: 150 N*m, num: 20}
+positions: 40
+"""
+
+_SIGNAL_AS_XARRAY_WRITES = """\
+import os, signal, sys
+from xarray.backends import locks
+
+SIG = getattr(signal, sys.argv[1])
+real = locks.CombinedLock.release
+calls = [0]
+
+def release(self):  # the signal as xarray lets go of its HDF5 lock, in the result's write: an
+    calls[0] += 1  # interrupt raised in there left the lock held; the file's close waited for
+    if calls[0] == 6:  # it for ever
+        os.kill(os.getpid(), SIG)
+    return real(self)
+
+locks.CombinedLock.release = release
+if len(sys.argv) > 2:
+    signal.signal(SIG, signal.SIG_IGN)  # as the run inherits it ignored (nohup)
+from gearsweep.__main__ import entry
+sys.argv = ["gearsweep", "run", "m.yaml", "-o", "out/m.nc", "-q"]
+entry()
+"""
+
+
+@pytest.mark.parametrize("name, code, how", [("SIGINT", 130, "interrupted"),
+                                             ("SIGTERM", 143, "terminated (SIGTERM)"),
+                                             ("SIGHUP", 129, "terminated (SIGHUP)")])
+def test_a_signal_while_a_mesh_result_is_written_is_one_line_and_leaves_nothing(tmp_path, name,
+                                                                                code, how):
+    """A mesh study (computed in one piece, its result written by xarray) stopped while its
+    file is written: one line, the exit code of the signal, no temporary file, no lock files.
+    Ctrl-C there hung for ever (xarray's lock taken, the close waiting for it); SIGTERM and
+    SIGHUP ended it under their default action, the ``.m.nc.XXXXXXXX.partial`` and the lock
+    files left (an outside tester)."""
+    (tmp_path / "m.yaml").write_text(MESH_STUDY, encoding="utf-8")
+    proc = subprocess.Popen([sys.executable, "-c", _SIGNAL_AS_XARRAY_WRITES, name],
+                            cwd=tmp_path, env=_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        _, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        _, err = proc.communicate()
+        pytest.fail(f"hung after {name} in the result's write: {err[-2000:]}")
+    line = (f"gearsweep: {how}: nothing written (a mesh study is computed in one piece: run"
+            " the same command to compute it)\n")
+    assert (proc.returncode, err) == (code, line), err[-3000:]
+    assert sorted(os.listdir(tmp_path / "out")) == []
+    # inherited ignored, the signal is left so: the run writes its result
+    r = subprocess.run([sys.executable, "-c", _SIGNAL_AS_XARRAY_WRITES, name, "ignored"],
+                       cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=120)
+    assert (r.returncode, r.stderr) == (0, ""), r.stderr[-3000:]
+    assert sorted(os.listdir(tmp_path / "out")) == ["m.nc"]
+
+
+def test_the_next_run_removes_the_temporary_file_a_killed_write_left(tmp_path):
+    """A run killed (SIGKILL, a power loss) while it wrote a mesh or analysis result leaves its
+    temporary file beside the output; the next run to that output removes it (each killed run
+    left one more), and never a file of another name."""
+    study = tmp_path / "m.yaml"
+    study.write_text(MESH_STUDY, encoding="utf-8")
+    out = tmp_path / "out" / "m.nc"
+    out.parent.mkdir()
+    left = [out.parent / ".m.nc.k2_x9q0a.partial", out.parent / ".m.nc.0123abcd.partial"]
+    mine = [out.parent / ".m.nc.backup.partial", out.parent / ".m.nc.0123abcd.partial.old",
+            out.parent / ".x.nc.0123abcd.partial", out.parent / "m.nc.0123abcd.partial"]
+    for path in left + mine:
+        path.write_bytes(b"\x89HDF\r\n\x1a\n")
+    assert main(["run", str(study), "-o", str(out), "-q"]) == 0
+    assert sorted(p.name for p in out.parent.iterdir()) == sorted(["m.nc", *(p.name
+                                                                             for p in mine)])
 
 
 def test_a_second_run_on_the_same_output_is_refused_naming_the_first(tmp_path, capsys):

@@ -21,7 +21,7 @@ from gearsweep.analysis import hb
 from gearsweep.analysis import precision as pr
 from gearsweep.analysis import rattle as rfit
 from gearsweep.analysis import stability as st
-from gearsweep.errors import ResultError, StudyError
+from gearsweep.errors import ResultError, StudyError, stops_held
 from gearsweep.model import PAPER_RIG, RPM, MeshModel, model_from_record
 from gearsweep.study.analysis_specs import (
     AnalysisStudy,
@@ -753,7 +753,8 @@ def _open_inputs(study: AnalysisStudy, results: Path) -> tuple[dict, dict]:
     for name in names:
         path = Path(results) / f"{name}.nc"
         try:
-            ds = xr.load_dataset(path)
+            with stops_held():  # (a Ctrl-C inside xarray's HDF5 lock hung the run)
+                ds = xr.load_dataset(path)
         except (OSError, ValueError) as exc:  # (a file that is no netCDF: xarray's traceback)
             raise _unreadable(study, path, name, exc) from None
         inputs[name] = ds

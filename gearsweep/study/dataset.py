@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from gearsweep.errors import stops_held
 from gearsweep.files import check_replaceable, temp_beside
 from gearsweep.study.resultfile import (
     COORDS,
@@ -156,7 +157,9 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, codec: str | None = None) -> 
 
     A reader never sees a half-written file at ``path``; a crash leaves the old file (if any).
     Variables backed by dask arrays are written block by block (each block one chunk of the
-    file), so the whole Dataset need not fit in memory.
+    file), so the whole Dataset need not fit in memory. A stop (Ctrl-C, or a signal the caller
+    handles) while xarray writes is held until the file is closed (``errors.stops_held``), then
+    raised here: the temporary file is removed and nothing is renamed.
     """
     path = Path(path)
     check_replaceable(path)
@@ -182,12 +185,13 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, codec: str | None = None) -> 
             cache = netCDF4.get_chunk_cache()
             netCDF4.set_chunk_cache(CHUNK_CACHE_BYTES)
             try:
-                with dask.config.set(scheduler="synchronous"):
+                with dask.config.set(scheduler="synchronous"), stops_held():
                     ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
             finally:
                 netCDF4.set_chunk_cache(*cache)
         else:
-            ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+            with stops_held():  # a Ctrl-C lands once the file is closed, then removes it
+                ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
         finish(Path(tmp), path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -3,7 +3,8 @@
 * ``OutputLock(out)``: an OS file lock (``filelock``) on ``OUT.nc.lock`` held for the whole run;
   a second ``gearsweep run`` on the same output is refused in one line naming the first's PID.
   The lock is the kernel's (``flock``), so a run that was killed leaves no stale lock: the OS
-  releases it with the process.
+  releases it with the process. Taking it removes the temporary files a killed run's write
+  left beside the output (``files.remove_temps_beside``).
 * ``check_partial(plan, out)``: chunks of a *different* study left in ``OUT.nc.chunks`` (an
   interrupted run of another study to the same path) are refused, never mixed or silently
   deleted.
@@ -22,7 +23,7 @@ import warnings
 from pathlib import Path
 
 from gearsweep.errors import GearsweepError, ResultError
-from gearsweep.files import replace_problem
+from gearsweep.files import remove_temps_beside, replace_problem
 from gearsweep.study.checkpoint import SUFFIX, chunk_folder
 from gearsweep.study.execute import chunks_to_run
 from gearsweep.study.schema import parse_study
@@ -135,6 +136,7 @@ class OutputLock:
                                 " output; wait for it, or choose another -o") from None
             try:
                 self.owner.write_text(f"{os.getpid()}\n", encoding="utf-8")
+                remove_temps_beside(self.out)  # what a killed run's write left beside it
             except BaseException:
                 self.__exit__()
                 raise
