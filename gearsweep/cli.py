@@ -808,9 +808,12 @@ def describe(path: str | Path) -> str:
         if resumed:
             lines.append(f"  {resumed}")
         lines.append("  dimensions:")
+        damaged: list[str] = []  # variables whose data cannot be read (the header can)
         for d in ds.dims:
             c = ds[d] if d in ds.coords else None
-            if c is not None and c.size and c.dtype.kind in "fi":
+            if c is not None and _read(c, damaged) is None:
+                lines.append(f"    {d:<14} {c.size:>6} values, damaged: cannot be read")
+            elif c is not None and c.size and c.dtype.kind in "fi":
                 units = c.attrs.get("units", "")  # '1': dimensionless, no unit to print
                 lines.append(f"    {d:<14} {c.size:>6} values from {float(c.min()):.6g} to "
                              f"{float(c.max()):.6g}" + (f" {units}" if units not in ("", "1")
@@ -824,7 +827,9 @@ def describe(path: str | Path) -> str:
         uw = max([6, *(len(str(v.attrs.get("units", ""))) for v in ds.data_vars.values())])
         for name, v in ds.data_vars.items():
             rng = ""
-            if v.dtype.kind == "f" and v.size:
+            if v.dtype.kind in "fb" and v.size and _read(v, damaged) is None:
+                rng = "  damaged: cannot be read"
+            elif v.dtype.kind == "f" and v.size:
                 vals = v.values
                 finite = vals[vals == vals]
                 if finite.size:
@@ -834,12 +839,62 @@ def describe(path: str | Path) -> str:
                 # a step beyond the limit stood beside 'status: 300 x code 0' with no count)
             lines.append(f"    {name:<{width}} {v.attrs.get('units', ''):<{uw}} ({', '.join(v.dims)})"
                          f" {v.attrs.get('long_name', '')}{rng}")
-        if "status" in ds:
+        if "status" in ds and _read(ds["status"], damaged) is not None:
             st = ds["status"].values
             counts = {int(k): int((st == k).sum()) for k in sorted(set(st.ravel().tolist()))}
             lines.append("  status: " + ", ".join(f"{n} x code {k}" for k, n in counts.items())
                          + f"  ({ds['status'].attrs.get('codes', '')})")
+    if damaged:  # the rest described, then one line naming what cannot be read
+        names = ", ".join(dict.fromkeys(damaged))
+        raise DamagedResult("\n".join(lines), f"{path}: damaged: the data of {names} cannot be"
+                            " read (the file was changed or cut after it was written); run its"
+                            " study again")
     return "\n".join(lines)
+
+
+class DamagedResult(ResultError):
+    """A result whose header can be read but not the data of some variables: ``text``, what
+    ``describe`` could say of it (those variables marked damaged)."""
+
+    def __init__(self, text: str, message: str) -> None:
+        super().__init__(message)
+        self.text = text
+
+
+def _read(v, damaged: list[str]):
+    """The values of the variable ``v`` (loaded once, kept by xarray), or ``None`` where its
+    data cannot be read (a damaged file: ``NetCDF: HDF error``), its name then added to
+    ``damaged``. What the HDF5 filters print of it on the process's stderr (``zstd: Data
+    corruption detected``) is not shown: the line that names the variable says it."""
+    try:
+        with _c_stderr_to_devnull():
+            return v.values
+    except (RuntimeError, OSError, ValueError):
+        damaged.append(str(v.name))
+        return None
+
+
+@contextlib.contextmanager
+def _c_stderr_to_devnull():
+    """File descriptor 2 sent to the null device while the block runs (the C libraries' own
+    messages), Python's ``sys.stderr`` flushed first."""
+    with contextlib.suppress(OSError, ValueError):
+        sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr to redirect
+        yield
+        return
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, 2)
+        finally:
+            os.close(null)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def _resumed_line(attrs) -> str | None:
@@ -940,7 +995,12 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         raise ResultError(f"{path}: a study file, not a result: check it with 'gearsweep validate"
                           f" {path}', run it with 'gearsweep run {path}', then inspect the .nc it"
                           " writes")
-    print(describe(args.result))
+    try:
+        text = describe(args.result)
+    except DamagedResult as exc:  # what can be read is said, then the error's one line
+        print(exc.text)
+        raise
+    print(text)
     return 0
 
 

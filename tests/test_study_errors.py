@@ -2103,3 +2103,33 @@ def test_a_scene_s_ste_written_by_another_name_is_pointed_at_ste(written):
         parse_study(text, "s.yaml")
     assert str(err.value).startswith(f"s.yaml:9: scene.{written}: '{written}' is not a"
                                       " field of a rattle scene -- did you mean 'ste'?"), err.value
+
+
+def test_inspect_of_a_result_with_damaged_data_names_the_variable_in_one_line(tmp_path):
+    """A result whose header is whole but whose data was overwritten (zeroed blocks: a disk
+    error, a copy cut and patched): the rest described, then one line naming the variable that
+    cannot be read, exit 2. It was 40 lines of traceback ending in ``RuntimeError: NetCDF: HDF
+    error`` after the HDF5 filter's own ``zstd: ...`` line, exit 1 (an outside tester)."""
+    import numpy as np
+    import xarray as xr
+
+    path = tmp_path / "zero.nc"
+    rng = np.random.default_rng(1)
+    xr.Dataset({"p_rms": (("speed",), np.ones(4)), "p_pp": (("case",), rng.random(400_000))},
+               coords={"speed": ("speed", [1.0, 2.0, 3.0, 4.0], {"units": "rpm"})},
+               attrs={"study": "title: z", "title": "z"}).to_netcdf(
+        path, encoding={"p_pp": {"zlib": True}})
+    data = bytearray(path.read_bytes())
+    middle = len(data) // 2  # inside p_pp's compressed data, far from the header
+    data[middle - 100_000:middle + 100_000] = bytes(200_000)
+    path.write_bytes(bytes(data))
+    r = subprocess.run([sys.executable, "-m", "gearsweep", "inspect", str(path)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r.stderr[-3000:]
+    assert r.stderr == (f"gearsweep: error: {path}: damaged: the data of p_pp cannot be read (the"
+                        " file was changed or cut after it was written); run its study"
+                        " again\n"), r.stderr[-3000:]
+    out = r.stdout.splitlines()
+    assert any(line.startswith("    p_rms ") and line.endswith("[1 .. 1]") for line in out), out
+    assert any(line.startswith("    p_pp ") and line.endswith("damaged: cannot be read")
+               for line in out), out
