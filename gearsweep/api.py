@@ -303,10 +303,11 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
         count in the memory.
     overwrite : bool
         Replace an ``output`` that holds another study's result (or a netCDF file that is not a
-        gearsweep result, or one that cannot be read as netCDF); without it that raises
-        ``ResultError`` before anything runs, as ``gearsweep run`` without ``--overwrite``
-        refuses it. The same study's result (the same values; comments, spacing and device
-        aside) is replaced without it.
+        gearsweep result, or a damaged one: it starts as netCDF does but cannot be read);
+        without it that raises ``ResultError`` before anything runs, as ``gearsweep run``
+        without ``--overwrite`` refuses it. The same study's result (the same values; comments,
+        spacing and device aside) is replaced without it. A file that is not netCDF at all (a
+        study, a text) is never replaced: ``ResultError``, with ``overwrite=True`` too.
 
     Returns
     -------

@@ -1058,9 +1058,11 @@ def build_parser() -> argparse.ArgumentParser:
                         " cases in chunks of 1000 are 22 chunks on 2 cores; a resumed run keeps"
                         " its first run's chunks)")
     r.add_argument("--overwrite", action="store_true",
-                   help="replace an existing output that holds another study's result or a file"
-                        " that cannot be read as a netCDF result (the same study's result is"
-                        " replaced without it)")
+                   help="replace an existing output that holds another study's result, a"
+                        " netCDF file that is not a gearsweep result, or a damaged one (it"
+                        " starts as netCDF does but cannot be read: cut short, say); the same"
+                        " study's result is replaced without it. A file that is not netCDF at"
+                        " all (a study, a text) is never replaced: remove it first")
     r.add_argument("--codec", choices=("zstd", "zlib", "none"),
                    help="compression of the result (default zstd, fastest to write; zlib for"
                         " readers whose HDF5 lacks the zstd filter, docs/data-format.md)")

@@ -1470,3 +1470,22 @@ def test_a_cluster_s_capped_chunk_is_for_one_worker(tmp_path, monkeypatch, capsy
                  "tcp://10.0.0.5:8786", "--chunk-size", str(n)]) == 0
     err = capsys.readouterr().err
     assert f"gives {capped_chunk_note(plan, 64)}; using {chunk} cases per chunk" in err, err
+
+
+def test_overwrite_says_what_it_replaces_and_refuses_a_file_that_is_not_netcdf(tmp_path, capsys):
+    """``--overwrite``'s help said it replaces "a file that cannot be read as a netCDF result",
+    but a file that is not netCDF at all is refused with it too (it may be the user's: the safe
+    way); the help now says so, and what it does replace (an outside tester)."""
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "a damaged one (it starts as netCDF does but cannot be read" in help_text, help_text
+    assert "A file that is not netCDF at all (a study, a text) is never replaced" in help_text
+    study = tmp_path / "s.yaml"
+    study.write_text(MESH_STUDY, encoding="utf-8")
+    text = tmp_path / "txt.nc"
+    text.write_text("hello\n", encoding="utf-8")
+    assert main(["run", str(study), "-o", str(text), "-q", "--overwrite"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "remove it first" in err, err
+    assert text.read_text(encoding="utf-8") == "hello\n"
