@@ -1489,3 +1489,30 @@ def test_overwrite_says_what_it_replaces_and_refuses_a_file_that_is_not_netcdf(t
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "remove it first" in err, err
     assert text.read_text(encoding="utf-8") == "hello\n"
+
+
+_API_INTERRUPTED_AS_XARRAY_WRITES = _SIGNAL_AS_XARRAY_WRITES.split("if len(sys.argv)")[0] + """
+import gearsweep
+try:
+    gearsweep.run("m.yaml", output="out/m.nc")
+except KeyboardInterrupt:
+    print("KeyboardInterrupt")
+"""
+
+
+def test_a_ctrl_c_while_the_api_writes_a_mesh_result_raises_and_leaves_nothing(tmp_path):
+    """``gearsweep.run(mesh_study, output=...)``: a Ctrl-C in xarray's write raises
+    ``KeyboardInterrupt`` once the file is closed, and removes it, the lock files too (it hung
+    for ever, as the CLI did)."""
+    (tmp_path / "m.yaml").write_text(MESH_STUDY, encoding="utf-8")
+    proc = subprocess.Popen([sys.executable, "-c", _API_INTERRUPTED_AS_XARRAY_WRITES, "SIGINT"],
+                            cwd=tmp_path, env=_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        pytest.fail(f"hung after a Ctrl-C in the result's write: {err[-2000:]}")
+    assert (proc.returncode, out) == (0, "KeyboardInterrupt\n"), err[-3000:]
+    assert sorted(os.listdir(tmp_path / "out")) == []
