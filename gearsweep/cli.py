@@ -533,11 +533,15 @@ def cmd_run(args: argparse.Namespace) -> int:
         from gearsweep.study.dataset import write_netcdf
 
         t0 = time.perf_counter()
-        written = False  # The handlers are the chunked run's SIGTERM's for every signal: a stop
-        try:  # now, the file's write let finish and then removed (``write_netcdf``); they
-            with _stop_handlers(_on_sigterm), OutputLock(out):  # ran without: Ctrl-C in the
-                try:  # write hung for ever, SIGTERM left the lock and the partial file
-                    ds = run_unchunked(study, text, out.parent)  # (an outside tester)
+        # Nothing to save: every stop signal stops at once (``_on_sigterm``); one that comes
+        # while xarray writes the file is taken once the file is closed, which is then removed
+        # (``write_netcdf``). Without handlers, a Ctrl-C in the write hung for ever, and SIGTERM
+        # left the lock files and the partial file (an outside tester).
+        written = False
+        try:
+            with _stop_handlers(_on_sigterm), OutputLock(out):
+                try:
+                    ds = run_unchunked(study, text, out.parent)
                 except StudyError as exc:
                     raise _in_file(exc, text, args.study) from None
                 write_netcdf(ds, out, codec=args.codec)
