@@ -219,7 +219,7 @@ def check_folder(folder: Path, results: Path, root: Path = ROOT) -> tuple[int, l
 
 def check_files(paths: list[Path], results: Path, root: Path = ROOT) -> tuple[int, list[str]]:
     """``check_folder`` for the per-figure claims files ``paths``."""
-    from gearsweep.analysis import hb, precision, rattle, sensor, spectrum, stability
+    from gearsweep.analysis import hb, linear_response, precision, rattle, sensor, spectrum, stability
 
     cache: dict = {}
     docs: dict = {}
@@ -244,7 +244,8 @@ def check_files(paths: list[Path], results: Path, root: Path = ROOT) -> tuple[in
                            " (a number said in words: give `worded`)")
                 continue
             try:
-                env = {"np": np, "math": math, "hb": hb, "rattle": rattle, "sensor": sensor,
+                env = {"np": np, "math": math, "hb": hb, "linear_response": linear_response,
+                       "rattle": rattle, "sensor": sensor,
                        "stability": stability, "spectrum": spectrum, "precision": precision,
                        **names(load(str(c["result"])))}
                 # the names as globals: a generator expression or lambda of the expression
