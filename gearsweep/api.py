@@ -66,7 +66,7 @@ from gearsweep.study.execute import (
     step_limit_warning,
 )
 from gearsweep.study.mesh import check_memory, run_mesh_study
-from gearsweep.study.outputs import spectrum_aliasing
+from gearsweep.study.outputs import impact_aliasing, parted_cases, spectrum_aliasing
 from gearsweep.study.plan import make_plan
 from gearsweep.study.schema import MeshStudy, Study, load_study, parse_study, study_text
 from gearsweep.study.workspace import (
@@ -206,6 +206,9 @@ def _warn_result(plan, ds: xr.Dataset, where: str | Path) -> None:
     for found in (step_limit_warning(plan, ds, where), contact_lost_warning(plan, ds, where)):
         if found is not None:
             warnings.warn(found, stacklevel=3)
+    impacts = impact_aliasing(plan, parted_cases(ds))  # (None where no case parted)
+    if impacts is not None:
+        warnings.warn(f"{where}: {impacts}", SpectrumAliasingWarning, stacklevel=3)
 
 
 def estimate(study: StudyLike, *, chunk_cases: int | None = None,

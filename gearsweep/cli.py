@@ -67,7 +67,7 @@ from gearsweep.study.execute import (
     step_limit_text,
     stream_to_file,
 )
-from gearsweep.study.outputs import spectrum_aliasing
+from gearsweep.study.outputs import impact_aliasing, spectrum_aliasing
 from gearsweep.study.plan import (
     cases_beyond_step_limit,
     make_plan,
@@ -275,6 +275,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
                   " bound, which can overestimate far below resonance: docs/precision.md);"
                   f" `gearsweep advise {name}` gives the steps a target needs", file=sys.stderr)
     _aliasing_warning(plan, name)
+    impacts = impact_aliasing(plan)  # (run says it after the cases, where flanks parted)
+    if impacts is not None:
+        print(f"gearsweep: warning: {name}: {impacts}", file=sys.stderr)
     fast = _pitch_line_note(plan)
     if fast is not None:
         print(f"gearsweep: note: {name}: {fast}", file=sys.stderr)
@@ -682,6 +685,9 @@ def _run_chunked(args: argparse.Namespace, study, text: str, plan, out: Path, na
                  contact_lost_text(plan, written.contact_lost, out)):
         if line is not None:  # the text gearsweep.run warns, as one line
             print(f"gearsweep: warning: {line}", file=sys.stderr)
+    impacts = impact_aliasing(plan, written.parted)  # (None where no case parted)
+    if impacts is not None:  # the line gearsweep.run warns
+        print(f"gearsweep: warning: {out}: {impacts}", file=sys.stderr)
     if not args.quiet:
         # The file's elapsed_seconds is the chunk phase; the wall time adds the one-time
         # loading (or compiling) of the kernel and the writing of the file: say both. A

@@ -1428,6 +1428,8 @@ class Written:
     """Cases beyond the step limit (``beyond_step_limit``; 0 where it is not stored)."""
     contact_lost: int = 0
     """Cases whose teeth would separate (``contact_lost``; 0 where it is not stored)."""
+    parted: int | None = None
+    """Cases whose flanks parted (``outputs.parted_cases``; ``None`` where not stored)."""
     chunks: int = 0
     """Chunks of the study."""
     earlier_chunks: int = 0
@@ -1519,7 +1521,7 @@ def stream_to_file(plan: Plan, output: str | Path, *,
         # adversarial test): the run is done; the caller ends it as a run that finished
     return Written(path=Path(output), cases=plan.n_cases,
                    elapsed=float(file.written["elapsed_seconds"]), flagged=file.flagged,
-                   beyond=file.beyond, contact_lost=file.contact_lost,
+                   beyond=file.beyond, contact_lost=file.contact_lost, parted=file.parted,
                    chunks=len(chunks), earlier_chunks=len(done),
                    earlier_runs=len(earlier), run_elapsed=round(elapsed, 3))
 

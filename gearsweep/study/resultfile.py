@@ -37,7 +37,7 @@ from gearsweep.model import SWEEPABLE, MeshModel, mesh_frequency, model_record
 from gearsweep.study.filelayout import file_chunks
 from gearsweep.study.gearscene import gear_pair, warned_once
 from gearsweep.study.measured import scene_measured
-from gearsweep.study.outputs import VarSpec, status_attrs
+from gearsweep.study.outputs import VarSpec, parted_cases, status_attrs
 from gearsweep.study.provenance import provenance
 from gearsweep.units import KINDS, decimal_coordinates, to_display
 
@@ -716,6 +716,9 @@ class ResultFile:
         """Cases written so far that are beyond the step limit (``beyond_step_limit``)."""
         self.contact_lost = 0
         """Cases written so far whose teeth would separate (``contact_lost``)."""
+        self.parted: int | None = 0 if "contact_loss_fraction" in self.dims else None
+        """Cases written so far whose flanks parted (``outputs.parted_cases``; ``None`` where
+        the stats that say so are not stored)."""
         self.written: dict[str, Any] = {}
         """The global attributes as ``close`` wrote them."""
         self.nc = netCDF4.Dataset(str(self.tmp), mode="w", format="NETCDF4")
@@ -763,6 +766,9 @@ class ResultFile:
             self.beyond += int(np.count_nonzero(arrays["beyond_step_limit"]))
         if "contact_lost" in arrays:
             self.contact_lost += int(np.count_nonzero(arrays["contact_lost"]))
+        parted = parted_cases(arrays)
+        if parted is not None and self.parted is not None:
+            self.parted += parted
         lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
         for lo, hi, box in boxes(lane0, lane1, lane_shape):
             for name, arr in arrays.items():
