@@ -244,8 +244,11 @@ def _run_kernel(plan: Plan, call: dict) -> BatchResult:
     return res
 
 
-def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchResult) -> tuple:
-    """(BatchResult, per-output arrays, status) of a kernel call's result."""
+def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchResult,
+             left: np.ndarray | None = None) -> tuple:
+    """(BatchResult, per-output arrays, status) of a kernel call's result; ``left``: the cases'
+    ``transient_left`` residual where it was looked up (``plan._transient_table``), else
+    computed here."""
     s = plan.study.solver
     out: dict[str, np.ndarray] = {}
     for o in plan.outputs:
@@ -288,8 +291,9 @@ def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchRe
     # however alike the record's halves are: a beat slower than the record passed the test
     # (whine_gear_table1, 0.55 N s/mm at 14,429 rpm: mu = 0.9998 per period, 98 % left after
     # 100 transient periods, p_rms 3.01 um with status 0 where the steady state is 0.26 um).
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        left = transient_left(plan, params, len(status))[0]
+    if left is None:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            left = transient_left(plan, params, len(status))[0]
     unsettled |= (status == 0) & (left > s.settle_tolerance) & ~quiet
     if "transient_left" in plan.specs:  # the residual the rule judged, recorded beside status
         out["transient_left"] = np.array(np.broadcast_to(left, status.shape), float)
@@ -300,12 +304,13 @@ def _outputs(plan: Plan, params: dict[str, np.ndarray], call: dict, res: BatchRe
 
 @dataclasses.dataclass(frozen=True)
 class Prepared:
-    """A chunk's swept values, step-guard verdicts and kernel call, made before its turn
-    (``prepare``)."""
+    """A chunk's swept values, step-guard verdicts, kernel call and ``transient_left`` residual
+    (looked up; ``None``: computed with the outputs), made before its turn (``prepare``)."""
 
     params: dict[str, np.ndarray]
     ok: np.ndarray
     call: dict
+    left: np.ndarray | None = None
 
 
 def prepare(plan: Plan, lane0: int, lane1: int) -> Prepared | None:
@@ -317,7 +322,7 @@ def prepare(plan: Plan, lane0: int, lane1: int) -> Prepared | None:
         return None
     guard = plan.study.solver.step_guard
     n = lane1 - lane0
-    params, ok = _lanes(plan, lane0, lane1, guard != "off")
+    params, ok, left = _lanes(plan, lane0, lane1, guard != "off", transient=True)
     if guard == "off":
         ok = np.ones(n, bool)
     elif ok is None:
@@ -325,7 +330,7 @@ def prepare(plan: Plan, lane0: int, lane1: int) -> Prepared | None:
     if guard == "skip" and not ok.all():
         return None
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # as run_chunk's caller
-        return Prepared(params, ok, _kernel_call(plan, params, n, None, None))
+        return Prepared(params, ok, _kernel_call(plan, params, n, None, None), left)
 
 
 def run_prepared(plan: Plan, prep: Prepared):
@@ -338,7 +343,7 @@ def run_prepared(plan: Plan, prep: Prepared):
 
     def arrays() -> dict[str, np.ndarray]:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            _, out, status = _outputs(plan, prep.params, prep.call, res)
+            _, out, status = _outputs(plan, prep.params, prep.call, res, prep.left)
         if plan.study.solver.step_guard == "warn":
             out["beyond_step_limit"] = ~prep.ok
         out["status"] = status
@@ -355,7 +360,7 @@ def run_chunk(plan: Plan, lane0: int, lane1: int) -> dict[str, np.ndarray]:
     n = lane1 - lane0
     if not plan.continued:
         guard = plan.study.solver.step_guard != "off"
-        params, ok = _lanes(plan, lane0, lane1, guard)
+        params, ok, _ = _lanes(plan, lane0, lane1, guard)
         _, out, status = _integrate(plan, params, n, None, None, ok)
         out["status"] = status
         return out
