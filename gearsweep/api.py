@@ -214,7 +214,8 @@ def _warn_result(plan, ds: xr.Dataset, where: str | Path) -> None:
 def estimate(study: StudyLike, *, chunk_cases: int | None = None,
              in_memory: bool = False) -> Estimate | AnalysisEstimate:
     """What running a dynamic study in this process would take, before anything runs: the
-    estimate ``gearsweep run --estimate`` prints (``.line()``: its text; ``.seconds``,
+    estimate ``gearsweep run --estimate`` prints, less the start of a new process that a run in
+    this one does not pay (``.start_seconds``: 0) (``.line()``: its text; ``.seconds``,
     ``.memory_bytes``, ``.output_bytes``, ``.disk_bytes``: wall time with any one-time
     compile, peak memory, the file's upper bound and the disk the run needs at its peak, the
     file with the chunks' checkpoints beside it; ``.over()``: the limits it passes).
@@ -239,7 +240,7 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None,
         raise StudyError(name, "type", st.type, "a dynamic or analysis study (a mesh study is"
                          " computed in one piece, with no estimate of its time)")
     plan = make_plan(st, text, name)
-    est = quick_estimate(plan, chunk_size(plan, chunk_cases)[0])[0]
+    est = quick_estimate(plan, chunk_size(plan, chunk_cases)[0], new_process=False)[0]
     return _held(est) if in_memory else est
 
 
@@ -273,10 +274,10 @@ def _within_limits(plan, chunk_cases: int | None, in_memory: bool, where: str) -
     (no ``output``) counts its arrays in the peak memory, and has no file to limit."""
     chunk = chunk_size(plan, chunk_cases)[0]
     held = _held if in_memory else (lambda e: e)
-    est = quick_estimate(plan, chunk, ask_cache=False)[0]  # as the CLI: Numba's cache is asked
-    if not held(est).over():  # (1.3 ms a call) only where the answer can matter
+    est = quick_estimate(plan, chunk, ask_cache=False, new_process=False)[0]  # as the CLI:
+    if not held(est).over():  # Numba's cache is asked (1.3 ms a call) only where it can matter
         return
-    est, _ = before_refusing(plan, quick_estimate(plan, chunk)[0], chunk)
+    est, _ = before_refusing(plan, quick_estimate(plan, chunk, new_process=False)[0], chunk)
     check_limits(held(est), where, ahead="pass yes=True to go ahead")
 
 

@@ -377,16 +377,44 @@ def _scale(speeds: int) -> str:
 def test_estimate_from_python_is_the_clis(small_whine, write_study, capsys):
     """``gearsweep.estimate``: the estimate ``run --estimate`` prints, from Python (it needed
     ``quick_estimate(make_plan(...))``; an outside tester's finding)."""
+    import dataclasses
+
+    from gearsweep.study.execute import FIXED_SECONDS
+
     path = write_study(small_whine)
     est = gearsweep.estimate(path)
     assert cli(["run", str(path), "--estimate"]) == 0
-    assert capsys.readouterr().out.strip() == f"{path}: {est.line()}"
+    as_cli = dataclasses.replace(est, seconds=est.seconds + FIXED_SECONDS,  # a new process's
+                                 start_seconds=FIXED_SECONDS)  # start, which this one paid
+    assert capsys.readouterr().out.strip() == f"{path}: {as_cli.line()}"
     assert est.cases == 7 and not est.over()
     with pytest.raises(StudyError, match="type: 'mesh' -- a dynamic or analysis study"):
         gearsweep.estimate(ROOT / "studies" / "mesh_ste_vs_load.yaml")
     analysis = ROOT / "studies" / "method_stability.yaml"  # the line run --estimate prints too
     assert cli(["run", str(analysis), "--estimate"]) == 0
     assert capsys.readouterr().out.strip().endswith(gearsweep.estimate(analysis).line())
+
+
+def test_an_estimate_in_this_process_leaves_out_the_start_of_a_new_one(small_whine):
+    """``gearsweep.estimate`` is of a run in this running process, which never starts Python or
+    imports the libraries: it added ``FIXED_SECONDS`` (1 s) all the same, and a 3-case study
+    estimated at 1.00 s took 0.005 s (an outside tester). ``gearsweep run --estimate``, of a
+    process still to start, keeps it; ``run``'s limits are checked on the in-process one."""
+    from gearsweep.api import _load
+    from gearsweep.study.estimate import before_refusing, quick_estimate
+    from gearsweep.study.execute import FIXED_SECONDS
+    from gearsweep.study.plan import make_plan
+
+    gearsweep.run(small_whine)  # warm: the kernel compiled or loaded, as in a notebook
+    for in_memory in (False, True):
+        est = gearsweep.estimate(small_whine, in_memory=in_memory)
+        assert est.seconds < 0.5 and est.start_seconds == 0.0
+    plan = make_plan(*_load(small_whine))
+    new = quick_estimate(plan)[0]  # the CLI's
+    assert new.start_seconds == FIXED_SECONDS
+    assert new.seconds == pytest.approx(gearsweep.estimate(small_whine).seconds + FIXED_SECONDS)
+    here = quick_estimate(plan, new_process=False)[0]
+    assert before_refusing(plan, here)[0] is here  # within the limits: as it is
 
 
 def test_estimate_refuses_the_chunk_sizes_run_refuses(small_whine):

@@ -82,12 +82,16 @@ def _not_compiled(plan: Plan, ask_cache: bool) -> set[tuple]:
 
 def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | None = None,
                    rate: float | None = None, ask_cache: bool = True,
-                   workers: int | None = None) -> tuple[Estimate, float]:
+                   workers: int | None = None, new_process: bool = True
+                   ) -> tuple[Estimate, float]:
     """(estimate at the stated rate, or at ``rate`` [Msteps/s per core] measured, of which
     seconds to compile the kernel on a cold cache). ``ask_cache=False``: an upper bound, with
     every specialisation the run calls counted as compiled on the spot (``compile_seconds``).
     ``workers``: the dask worker processes that run the chunks on ``threads`` cores in all
-    (``None``: this process)."""
+    (``None``: this process). ``new_process``: of a run in a process still to start (``gearsweep
+    run``), which pays ``FIXED_SECONDS``; ``False``: of a run in this running process
+    (``gearsweep.run``, ``gearsweep.estimate``), which does not (it estimated a 3-case study
+    run in a notebook at 1.00 s that took 0.005 s; an outside tester)."""
     threads = threads or kernel_threads()  # (NUMBA_NUM_THREADS=1 was estimated on every core)
     s = plan.study.solver
     per = lanes_per_chunk(plan, chunk_cases) or plan.default_lanes_per_chunk()
@@ -115,7 +119,8 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
     output = float(output_bound(plan))
     compile_s = compile_seconds(plan, ask_cache)
     compile_b = compile_bytes(plan, ask_cache)
-    seconds = kernel_s + loads_s + FIXED_SECONDS + output / WRITE_RATE + compile_s
+    start_s = FIXED_SECONDS if new_process else 0.0
+    seconds = kernel_s + loads_s + start_s + output / WRITE_RATE + compile_s
     biggest = min(per, n) * plan.cases_per_lane
     signal = min(per, n) * plan.samples_per_period() * s.record_periods * 8
     memory = BASELINE_MEMORY + chunks_held(plan) * biggest * per_case + signal + compile_b
@@ -131,7 +136,7 @@ def quick_estimate(plan: Plan, chunk_cases: int | None = None, threads: int | No
                    seconds=seconds + count * chunk_overhead(workers) + outputs_s,
                    memory_bytes=memory, output_bytes=output, device=plan.device,
                    compile_seconds=compile_s, compile_bytes=compile_b, output_seconds=outputs_s,
-                   disk_bytes=disk_bytes(plan, count),
+                   disk_bytes=disk_bytes(plan, count), start_seconds=start_s,
                    worst_seconds=(seconds + count * chunk_overhead(workers)
                                   + output_seconds(plan, count, worst=True)),
                    workers=workers)
@@ -176,14 +181,15 @@ def before_refusing(plan: Plan, est: Estimate, chunk_cases: int | None = None,
     if over != [o for o in over if o.startswith("time")] or not over or est.device == "cuda":
         return est, est.compile_seconds  # within the limits, refused for memory or output
         # whatever the rate, or on the GPU (the CPU kernel's rate says nothing of it)
-    kernel = (est.seconds - FIXED_SECONDS - est.output_bytes / WRITE_RATE - est.compile_seconds
+    kernel = (est.seconds - est.start_seconds - est.output_bytes / WRITE_RATE - est.compile_seconds
               - est.output_seconds - est.chunks * chunk_overhead(est.workers))
     if kernel / MAX_SPEEDUP > execute.LIMITS.seconds:
         return est, est.compile_seconds  # no machine is that much faster: refused at once,
         # nothing compiled
     rate = measure_rate(plan, min(threads or cores(), cores()))  # measured here, per core (a
     # cluster's cores are not this machine's)
-    return quick_estimate(plan, chunk_cases, threads, rate=rate, workers=workers)
+    return quick_estimate(plan, chunk_cases, threads, rate=rate, workers=workers,
+                          new_process=bool(est.start_seconds))
 
 
 CHUNK_SECONDS = 30.0

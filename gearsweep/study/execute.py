@@ -145,7 +145,8 @@ FIXED_SECONDS = 1.0
 loading the compiled kernel, the file's set-up [s]. An 8-case study took 0.38 s from process start
 to exit on the 2-core VM (``scripts/bench_startup.py``, 26 Nov 2026); 1 s allows for a slower
 disk or CPU. (It was 3 s, from before the start was made fast: a 3-case study was estimated at
-3.0 s and ran in 0.4 s.)"""
+3.0 s and ran in 0.4 s.) Only a new process pays it: the estimate of a run in a running process
+(``gearsweep.run``, ``gearsweep.estimate``) leaves it out (``quick_estimate(new_process=False)``)."""
 
 CHUNK_OVERHEAD_SECONDS = 4e-3
 """Wall time each chunk costs beyond its kernel rounds [s]: the kernel call's set-up, its
@@ -310,6 +311,9 @@ class Estimate:
     """``seconds`` at most where an output's work depends on the motion (``period``: every
     case without a period), said beside it where it is more. The limit is held to ``seconds``,
     the typical time."""
+    start_seconds: float = FIXED_SECONDS
+    """Of ``seconds``, the start of a new process (0 for a run in this running process:
+    ``gearsweep.run``, ``gearsweep.estimate``)."""
     workers: int | None = None
     """Dask worker processes the chunks run on (``--workers``, or an existing cluster's as its
     scheduler counts them: ``DaskBackend``), said beside the cores; ``None``: this process."""
