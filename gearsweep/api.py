@@ -39,7 +39,7 @@ from gearsweep.errors import (
     SpectrumAliasingWarning,
     StudyError,
 )
-from gearsweep.files import user_path
+from gearsweep.files import RESULT_NAME, STUDY_SUFFIXES, study_named, user_path
 from gearsweep.model import SWEEPABLE, Harmonic, MathieuModel, MeshModel, mean_mesh_force, model_from_record
 from gearsweep.study.advice import DEFAULT_TARGET, study_advice
 from gearsweep.study.analyses import run_analysis_study
@@ -115,7 +115,7 @@ def _load(study: StudyLike) -> tuple[Study | MeshStudy | AnalysisStudy, str, str
         study = study.strip()  # a form ('s.yaml\n'): found by _is_file stripped, then opened
         # unstripped ("No such file"), or said "no such study file" with a newline after it
     if isinstance(study, Path) or (isinstance(study, str) and "\n" not in study and (
-            study.strip().endswith((".yaml", ".yml")) or _is_file(study))):
+            study.strip().endswith(STUDY_SUFFIXES) or _is_file(study))):
         study = _user_path(study)
         return (*load_study(study), str(study))  # (a file named otherwise was read as YAML
         # text: "the file holds a single value 'studies/s.txt'"; an API test)
@@ -339,6 +339,8 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     """
     if output is not None and not isinstance(output, str | Path):
         raise StudyError("<study>", "output", repr(output)[:60], "a file path (str or Path)")
+    if output is not None and study_named(output):  # before anything runs
+        raise StudyError("<study>", "output", str(output)[:60], RESULT_NAME)
     if output is not None:
         output = output_path(_user_path(output))
     chunk_cases = _chunk_cases(chunk_cases)
@@ -424,7 +426,7 @@ def open_result(path: str | Path) -> xr.Dataset:
     path = _user_path(path)
     if not path.exists():
         raise ResultError(f"{path}: no such result file (run the study first)")
-    if path.suffix in (".yaml", ".yml"):
+    if study_named(path):
         raise ResultError(f"{path}: this is a study, not a result; try `gearsweep validate {path}`"
                           " or run it")
     try:

@@ -37,7 +37,7 @@ from gearsweep.errors import (
     StudyError,
     article,
 )
-from gearsweep.files import replace_problem, user_path
+from gearsweep.files import RESULT_NAME, replace_problem, study_named, user_path
 from gearsweep.gear import GeometryWarning
 from gearsweep.jit import set_up_runtime_in_background
 from gearsweep.kernels.cuda import kernel_for
@@ -209,6 +209,8 @@ def _check_output_arg(output: str | None, name: str) -> None:
         folder = False
     if folder:
         raise StudyError(name, "--output", output, "a file path, not a folder")
+    if study_named(output):
+        raise StudyError(name, "--output", output, RESULT_NAME)
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -1001,7 +1003,7 @@ def cmd_advise(args: argparse.Namespace) -> int:
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     path = Path(args.result)
-    if path.suffix.lower() in (".yaml", ".yml") or _looks_like_study(path):
+    if study_named(path) or _looks_like_study(path):
         raise ResultError(f"{path}: a study file, not a result: check it with 'gearsweep validate"
                           f" {path}', run it with 'gearsweep run {path}', then inspect the .nc it"
                           " writes")

@@ -28,6 +28,22 @@ def user_path(path: str | os.PathLike[str]) -> str:
     return os.path.expanduser(path)
 
 
+STUDY_SUFFIXES = (".yaml", ".yml")
+"""The endings of a study file's name: a file so named is read as a study (``gearsweep.run``,
+``open_result``, ``inspect``), never as a result."""
+
+RESULT_NAME = ("a result file name such as out.nc (a .yaml or .yml name is read as a study, not a"
+               " result)")
+"""What a run's output may be named, said where a study's name is refused: a run wrote its
+netCDF result under it, which ``open_result``, ``inspect`` and ``result_model`` then refused as
+a study (an outside tester)."""
+
+
+def study_named(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` has a study file's name (``STUDY_SUFFIXES``, in any case)."""
+    return Path(path).suffix.lower() in STUDY_SUFFIXES
+
+
 def cache_folder(module_file: str | Path) -> Path:
     """Where a module keeps its small on-disk caches (the unit factors, the step-limit tables):
     beside Numba's cache. In ``NUMBA_CACHE_DIR`` where that is set (a read-only installation

@@ -285,6 +285,27 @@ def test_every_path_of_every_subcommand_expands_a_tilde(small_whine, write_study
     assert not (tmp_path / "~").exists()
 
 
+def test_a_study_files_name_is_refused_as_the_output_before_running(small_whine, write_study,
+                                                                    tmp_path, monkeypatch,
+                                                                    capsys):
+    """``gearsweep run s.yaml -o y.yaml`` and ``run(s, output="x.yml")`` wrote the netCDF result
+    under a study's name, which ``open_result``, ``inspect`` and ``result_model`` then refused as
+    "a study, not a result" (an outside tester). Refused before anything runs: one line naming
+    the output (exit 2 from the CLI), and no file written."""
+    monkeypatch.chdir(tmp_path)
+    path = write_study(small_whine)
+    for out in ("y.yaml", "sub/y.YML"):
+        assert cli(["run", str(path), "-o", out, "-q"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"--output: '{out}' -- a result file name" in err, err
+        with pytest.raises(StudyError, match=r"^<study>: output: 'x\.yml' -- a result file name"
+                                             r" .*read as a study, not a result\)$"):
+            gearsweep.run(small_whine, output="x.yml")
+    assert cli(["validate", str(path), "-o", "y.yaml"]) == 2  # as run refuses it
+    assert "a result file name" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["study.yaml"]
+
+
 def test_an_excitation_file_under_the_home_of_no_such_user_is_one_line(tmp_path, capsys):
     """A study's excitation file is read as every path a user gives (``files.user_path``): a
     ``~user`` of no such user is a missing file, one line and exit 2 (``Path.expanduser``

@@ -718,7 +718,7 @@ def test_an_output_that_is_not_a_regular_file_or_is_the_study_is_refused(tmp_pat
     FIFO (like /dev/null, which ``-o /dev/null`` replaced with a file when run as root), the
     study file itself (replaced by the netCDF) and an empty ``-o`` are refused in one line before
     any computing, and left as they were; from Python, ``run_to_file`` refuses the FIFO too."""
-    study = tmp_path / "big.yaml"
+    study = tmp_path / "big.study"  # (a .yaml output is refused for its name: another test)
     study.write_text(BIG, encoding="utf-8")
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)
@@ -739,9 +739,9 @@ def test_an_output_that_holds_something_else_than_netcdf_is_refused(tmp_path, ca
     any computing, from Python and from the CLI, and the file is left as it was."""
     import gearsweep
 
-    study = tmp_path / "rattle.yaml"
-    study.write_text(RATTLE, encoding="utf-8")
-    other = tmp_path / "other.yaml"
+    study = tmp_path / "rattle.study"  # (a .yaml output is refused for its name, before this
+    study.write_text(RATTLE, encoding="utf-8")  # check: test_api)
+    other = tmp_path / "other.txt"
     other.write_text("title: mine\n", encoding="utf-8")
     with pytest.raises(ResultError, match="a new path or a netCDF file"):
         gearsweep.run(str(study), output=study)
@@ -778,8 +778,8 @@ def test_outputs_that_would_replace_inputs_or_cannot_be_named_are_one_line(tmp_p
     text = (root / "studies/whine_measured_ste.yaml").read_text(encoding="utf-8")
     Path("s.yaml").write_text(text, encoding="utf-8")
     Path("lnk").symlink_to(tmp_path / "data")  # lnk/new/../../s.yaml is data/../s.yaml
-    for out, says in (("new/../s.yaml", "the study file's"),
-                      ("lnk/new/../../s.yaml", "the study file's"),
+    for out, says in (("new/../s.yaml", "a .yaml or .yml name is read as a study"),
+                      ("lnk/new/../../s.yaml", "a .yaml or .yml name is read as a study"),
                       ("data/ste_table1.csv", "ste_table1.csv, which the study reads"),
                       ("new/../data/ste_table1.csv", "ste_table1.csv, which the study reads"),
                       ("x" * 300 + ".nc", "names of at most 255 bytes"),
