@@ -664,3 +664,65 @@ def test_response_vs_speed_of_no_settled_case_says_so_without_an_empty_legend():
     assert ax.get_legend() is None
     assert [t.get_text() for t in ax.texts] == ["2 of 2 cases not settled (masked)"]
     plt.close("all")
+
+
+def _swept_three(direction: bool = False) -> xr.Dataset:
+    """A whine result's shape: p_rms [um] over speed x mean_force x damping (x direction)."""
+    dims = ("speed", "mean_force", "damping") + (("direction",) if direction else ())
+    shape = (3, 2, 2) + ((2,) if direction else ())
+    coords = {"speed": ("speed", [1000.0, 2000.0, 3000.0], {"units": "rpm"}),
+              "mean_force": ("mean_force", [400.0, 833.0], {"units": "N"}),
+              "damping": ("damping", [5.5, 2.0], {"units": "N s mm-1"})}
+    if direction:
+        coords["direction"] = ("direction", ["up", "down"])
+    return xr.Dataset({"p_rms": (dims, np.arange(1.0, 1 + math.prod(shape)).reshape(shape),
+                                 {"units": "um", "long_name": "rms of p"}),
+                       "status": (dims, np.zeros(shape, np.int8))}, coords=coords)
+
+
+def test_response_by_load_draws_another_swept_dim_at_its_first_value_and_says_so():
+    """On a speed x mean_force x damping sweep, ``by="mean_force"`` drew 4 lines, "400 N" and
+    "833 N" twice each, the damping named nowhere; with a continued sweep's ``direction`` it was
+    a matplotlib shape error; the default ``by="torque"`` on a mean_force sweep a KeyError (an
+    outside tester). Now as ``plot_response_vs_speed``: the other dim at its first value, in the
+    title; each direction drawn; a ``by`` not swept one line naming those that are."""
+    ds = _swept_three()
+    fig, ax = plt.subplots()
+    plot_response_by_load(ax, ds, by="mean_force", variable="p_rms")
+    lines = [ln for ln in ax.get_lines() if not ln.get_label().startswith(("_", "grey"))]
+    assert [ln.get_label() for ln in lines] == ["mean force = 400 N", "mean force = 833 N"]
+    for i, ln in enumerate(lines):
+        assert_allclose(ln.get_ydata(), ds.p_rms.values[:, i, 0])  # um, at c = 5.5 N s/mm
+    assert ax.get_title() == "rms of p at c = 5.5 N s/mm (select others with ds.sel)"
+    fig, ax = plt.subplots()
+    both = _swept_three(direction=True)
+    plot_response_by_load(ax, both, by="damping", relative=True)
+    lines = [ln for ln in ax.get_lines() if not ln.get_label().startswith(("_", "grey"))]
+    assert [ln.get_label() for ln in lines] == [
+        "c = 5.5 N s/mm, run-up", "c = 5.5 N s/mm, run-down", "c = 2 N s/mm, run-up",
+        "c = 2 N s/mm, run-down"]
+    p = both.p_rms.values[:, 0]  # at 400 N
+    assert_allclose(lines[3].get_ydata(), p[:, 1, 1] / p[:, 0, 1])  # down over down
+    assert lines[0].get_color() == lines[1].get_color() != lines[2].get_color()
+    assert "mean force = 400 N" in ax.get_title()
+    with pytest.raises(ValueError, match=r"^by='torque': one of the dims 'p_rms' sweeps besides"
+                                         r" speed: mean_force, damping$"):
+        plot_response_by_load(ax, ds)
+    plt.close("all")
+
+
+def test_a_variable_alone_is_refused_naming_the_dataset_expected():
+    """``plot_response_vs_speed(ds.p_rms)``, a natural notebook slip, said the result had "no
+    'p_pp'"; ``plot_response_by_load(ax, ds.p_rms)`` failed inside. One line naming ``ds`` and
+    the call to make (a variable alone has no ``status`` to mask the cases not settled)."""
+    from gearsweep.plot.sweep import plot_response_vs_speed
+
+    ds = _swept_three()
+    with pytest.raises(ValueError, match=r"^ds: a result's Dataset, with the variable named apart"
+                                         r" \(plot_response_vs_speed\(ds, 'p_rms'\)\), not a"
+                                         r" DataArray \('p_rms'\)$"):
+        plot_response_vs_speed(ds.p_rms)
+    fig, ax = plt.subplots()
+    with pytest.raises(ValueError, match=r"^ds: .*variable='p_rms'\)\), not a DataArray"):
+        plot_response_by_load(ax, ds.p_rms, by="mean_force")
+    plt.close("all")

@@ -83,6 +83,37 @@ def contact_lost_label(n_lost: int, n_all: int, what: str = "cases drawn") -> st
     return f"grey: {CONTACT_LOST},\n{n_lost} of {n_all} {what}"
 
 
+DIRECTION_STYLE = {"up": dict(ls="-", marker="^", ms=3), "down": dict(ls="--", marker="v", ms=3)}
+"""How a line of a continued sweep's run-up and run-down is drawn (``direction``)."""
+
+
+def check_dataset(ds, call: str, var: str) -> None:
+    """One line (``ValueError``) where ``ds`` is not a result's Dataset: a variable alone
+    (``ds.p_rms``, a natural notebook slip) lacks the ``status`` that masks the cases not
+    settled, and gave an error of another argument. ``call``: the call to advise, with ``{}``
+    for the variable's name (the DataArray's own, else ``var``)."""
+    if not isinstance(ds, xr.Dataset):
+        name = ds.name if isinstance(ds, xr.DataArray) and ds.name else var
+        given = f" ({ds.name!r})" if isinstance(ds, xr.DataArray) and ds.name else ""
+        raise ValueError(f"ds: a result's Dataset, with the variable named apart"
+                         f" ({call.format(repr(str(name)))}), not a {type(ds).__name__}{given}")
+
+
+def hold_first(ds: xr.Dataset, dims) -> tuple[xr.Dataset, list[str]]:
+    """``ds`` at the first value of each of ``dims`` (dims a plot draws no line per value of),
+    and a ``value_label`` of each, for ``at_title``."""
+    fixed = []
+    for d in dims:
+        fixed.append(value_label(ds, d, ds[d].values[0]))
+        ds = ds.isel({d: 0})
+    return ds, fixed
+
+
+def at_title(name: str, fixed: list[str]) -> str:
+    """A title that names the values ``hold_first`` drew the other swept dims at."""
+    return name + (f" at {', '.join(fixed)} (select others with ds.sel)" if fixed else "")
+
+
 def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = None,
                            hue: str | None = None, secondary_mesh_axis: bool = True,
                            hue_labels: list[str] | None = None) -> Figure:
@@ -106,6 +137,7 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     hue_labels : list of str, optional
         Legend labels of the ``hue`` values (default: name = value unit).
     """
+    check_dataset(ds, "plot_response_vs_speed(ds, {})", var)
     if "speed" not in ds.dims or var not in ds.data_vars or "speed" not in ds[var].dims:
         raise ValueError(f"plot_response_vs_speed draws a variable over a 'speed' sweep: this"
                          f" result has {'no ' + repr(var) if var not in ds.data_vars else ''}"
@@ -119,11 +151,7 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
                                               if others else f"{var!r} has no other swept dim"))
     if hue is None and others:
         hue = others[0]
-    fixed = []
-    for d in others:
-        if d != hue:  # drawn at its first value, and said so in the title
-            fixed.append(value_label(ds, d, ds[d].values[0]))
-            ds = ds.isel({d: 0})
+    ds, fixed = hold_first(ds, [d for d in others if d != hue])  # said so in the title
     # masked and counted among the cases drawn (it counted those of the dims held fixed too)
     da, n_masked, n_all = settled(ds[var], ds)
     lost_all = contact_lost(da, ds)
@@ -143,8 +171,7 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
             if dv is not None:
                 sel, lost = sel.sel(direction=dv), lost.sel(direction=dv)
             bands.append((sel.values * scale, lost.values))
-            style = {"up": dict(ls="-", marker="^", ms=3), "down": dict(ls="--", marker="v", ms=3)
-                     }.get(dv, dict(ls="-"))
+            style = DIRECTION_STYLE.get(dv, dict(ls="-"))
             lab = (hue_labels[i] if hue_labels else value_label(ds, hue, hv)) if hue else ""
             label = ", ".join(x for x in (lab,
                                           f"run-{dv}" if dv else "") if x)
@@ -156,8 +183,7 @@ def plot_response_vs_speed(ds: xr.Dataset, var: str = "p_pp", ax: Axes | None = 
     name = ds[var].attrs.get("long_name", var)
     ax.set_xlabel(speed_label(ds["speed"]))
     ax.set_ylabel(f"{name} [{unit}]" if unit else name)
-    ax.set_title(name + (f" at {', '.join(fixed)} (select others with ds.sel)" if fixed else ""),
-                 fontsize=10)
+    ax.set_title(at_title(name, fixed), fontsize=10)
     ax.grid(True, alpha=0.3)
     note = f"{n_masked} of {n_all} cases not settled (masked)" if n_masked else None
     if ax.get_legend_handles_labels()[0]:

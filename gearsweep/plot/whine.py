@@ -27,8 +27,12 @@ from gearsweep.analysis.spectrum import wrap_phase
 from gearsweep.model import model_from_record
 from gearsweep.plot.sweep import (
     CONTACT_LOST,
+    DIRECTION_STYLE,
+    at_title,
+    check_dataset,
     contact_lost,
     contact_lost_label,
+    hold_first,
     mark_contact_lost_lines,
     settled,
     value_label,
@@ -364,9 +368,12 @@ def plot_response_by_load(
     ----------
     ax : Axes
     ds : Dataset
-        A result with ``variable`` on ``(speed, by)``.
+        A result with ``variable`` on ``(speed, by)``; any further swept dim is drawn at its
+        first value, named in the title (``ds.sel`` another first); a continued sweep's run-up
+        and run-down are both drawn (``direction``).
     by : str
-        The other swept dim (``torque`` [N m], ``mean_force`` [N], ``damping`` ...).
+        The other swept dim (``torque`` [N m], ``mean_force`` [N], ``damping`` ...); one that
+        ``variable`` does not sweep is a ``ValueError`` naming those it does.
     variable : str
         A statistic (docs/data-format.md) of p (µm in a result file; drawn in µm), e.g.
         ``p_rms`` or ``p_pp``.
@@ -386,23 +393,40 @@ def plot_response_by_load(
     with no backlash) lie on a grey band, counted in its legend entry; with ``relative`` a ratio
     is marked where either of its two cases lost contact (the baseline's too).
     """
+    check_dataset(ds, "plot_response_by_load(ax, ds, by=..., variable={})", variable)
+    if variable not in ds.data_vars or "speed" not in ds[variable].dims:
+        why = "not over speed" if variable in ds.data_vars else f"it has no {variable!r}"
+        raise ValueError(f"variable={variable!r}: a statistic of this result over speed ({why})")
+    swept = [d for d in ds[variable].dims if d not in ("speed", "direction")]
+    if by not in swept:  # (the default 'torque' on a mean_force sweep was a KeyError)
+        raise ValueError(f"by={by!r}: " + (f"one of the dims {variable!r} sweeps besides speed:"
+                                            f" {', '.join(swept)}" if swept else
+                                            f"{variable!r} sweeps nothing besides speed"))
     ds = si_data_vars(ds)  # a result stores display units (p in um): here SI
+    # any other swept dim at its first value, said in the title (a speed x mean_force x damping
+    # sweep drew each force's line once per damping, with the same label; an outside tester)
+    ds, fixed = hold_first(ds, [d for d in swept if d != by])
     da, n_bad, n_all = settled(ds[variable], ds)  # a case that has not settled is no point
     lost = contact_lost(da, ds)
     speed = ds["speed"].values
     first = float(ds[by].values[0]) if baseline is None else float(baseline)
-    base = da.sel({by: first}).values
-    lost_base = lost.sel({by: first}).values
+    dirs = list(ds["direction"].values) if "direction" in da.dims else [None]  # each drawn
     bands, n_lost, n_drawn = [], 0, 0
     for v in ds[by].values:
-        y = da.sel({by: v}).values
-        y = y / base if relative else y * UM
-        mark = lost.sel({by: v}).values | (lost_base if relative else False)
-        ax.plot(speed, y, lw=1.2, zorder=2,
-                label=value_label(ds, by, v))  # (said "N s mm-1", the CF unit)
-        bands.append((y, mark))
-        n_lost += int((mark & np.isfinite(y)).sum())
-        n_drawn += int(np.isfinite(y).sum())
+        color = None  # a value's run-up and run-down in one colour
+        for dv in dirs:
+            way = {} if dv is None else {"direction": dv}
+            y = da.sel({by: v, **way}).values
+            y = y / da.sel({by: first, **way}).values if relative else y * UM
+            mark = lost.sel({by: v, **way}).values | (
+                lost.sel({by: first, **way}).values if relative else False)
+            label = value_label(ds, by, v) + (f", run-{dv}" if dv is not None else "")
+            (line,) = ax.plot(speed, y, lw=1.2, zorder=2, color=color, label=label,
+                              **DIRECTION_STYLE.get(dv, {}))  # (said "N s mm-1", the CF unit)
+            color = line.get_color()
+            bands.append((y, mark))
+            n_lost += int((mark & np.isfinite(y)).sum())
+            n_drawn += int(np.isfinite(y).sum())
     mark_contact_lost_lines(ax, speed, bands, contact_lost_label(
         n_lost, n_drawn, "ratios drawn (in the line's\ncase or the baseline's)" if relative
         else "cases drawn"))
@@ -421,6 +445,8 @@ def plot_response_by_load(
     name = da.attrs.get("long_name", variable)
     ax.set_ylabel(f"{variable} / {variable} at {value_label(ds, by, first)} [-]" if relative
                   else f"{name} [µm]")
+    if fixed:
+        ax.set_title(at_title(name, fixed), fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, title=f"{n_bad} of {n_all} cases not settled (masked)" if n_bad else None,
               title_fontsize=8)
