@@ -22,6 +22,7 @@ import dataclasses
 import json
 import math
 import numbers
+import os
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -189,6 +190,7 @@ def run_study(study: Study | MeshStudy | AnalysisStudy, text: str = "",
     YAML for the result's ``study`` attribute; by default the text it was read from, or
     ``schema.study_text`` of it (an empty attribute made ``result_study`` say "the file holds
     nothing"; an outside tester's finding)."""
+    _check_progress(progress)
     if not text:
         study, text, _ = _load(study)
     if isinstance(study, MeshStudy | AnalysisStudy):
@@ -233,6 +235,7 @@ def estimate(study: StudyLike, *, chunk_cases: int | None = None,
         For a mesh study (computed in one piece, with no estimate of its time), and as ``run``.
     """
     chunk_cases = _chunk_cases(chunk_cases)
+    _check_flags(in_memory=in_memory)
     st, text, name = _load(study)
     if isinstance(st, AnalysisStudy):
         return estimate_analysis(st, "results")
@@ -265,6 +268,22 @@ def _chunk_cases(chunk_cases) -> int | None:
         raise StudyError("<study>", "chunk_cases", repr(chunk_cases)[:60],
                          "a positive whole number of cases")
     return None if chunk_cases is None else int(chunk_cases)
+
+
+def _check_flags(**flags) -> None:
+    """Each of ``flags`` (a keyword argument's name: its value) checked as True or False: a
+    string or a number was taken as its truth (``yes="no"`` went ahead, ``in_memory="yes"``
+    was True; outside testers)."""
+    for flag, value in flags.items():
+        if not isinstance(value, bool):
+            raise StudyError("<study>", flag, value, "True or False")
+
+
+def _check_progress(progress) -> None:
+    """``progress`` of ``run`` and ``run_study`` checked: ``progress="yes"`` and ``progress=5``
+    showed a bar without a word (an outside tester)."""
+    if not (isinstance(progress, bool) or (isinstance(progress, str) and progress == "log")):
+        raise StudyError("<study>", "progress", progress, "True, False or 'log'")
 
 
 def _within_limits(plan, chunk_cases: int | None, in_memory: bool, where: str) -> None:
@@ -344,9 +363,8 @@ def run(study: StudyLike, *, output: str | Path | None = None, progress: bool = 
     if output is not None:
         output = output_path(_user_path(output))
     chunk_cases = _chunk_cases(chunk_cases)
-    for flag, value in (("yes", yes), ("overwrite", overwrite)):  # yes="no" went ahead
-        if not isinstance(value, bool):
-            raise StudyError("<study>", flag, value, "True or False")
+    _check_flags(yes=yes, overwrite=overwrite)  # yes="no" went ahead
+    _check_progress(progress)
     st, text, name = _load(study)
     if output is not None and (read := reads_output(st, output)) is not None:
         raise ResultError(f"{output}: not a place for the result: it is {read.name}, which the"
@@ -423,6 +441,9 @@ def advise(study: StudyLike, *, target: float = DEFAULT_TARGET) -> Advice:
 
 def open_result(path: str | Path) -> xr.Dataset:
     """Open a result file in memory; one line (``ResultError``) if it is missing or not ours."""
+    if not isinstance(path, str | os.PathLike):  # (3 raised os.fspath's TypeError)
+        raise ResultError(f"path: a result file's path (str or Path), not {type(path).__name__}"
+                          f" {repr(path)[:40]}")
     path = _user_path(path)
     if not path.exists():
         raise ResultError(f"{path}: no such result file (run the study first)")

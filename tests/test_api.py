@@ -591,6 +591,31 @@ def test_the_small_chunk_note_counts_the_kernels_threads(small_whine, monkeypatc
     assert f"computes {LANES} at a time on 1 core:" in est_mod.small_chunk_note(plan, LANES // 2)
 
 
+def test_flags_progress_and_a_path_of_another_type_are_one_line(small_whine, tmp_path,
+                                                                 monkeypatch):
+    """``run(progress="yes")`` and ``progress=5`` showed a bar without a word (the docstring
+    allows True, False or "log"), ``estimate(in_memory="yes")`` was True, as ``yes="no"``
+    once went ahead; ``open_result(3)`` raised os.fspath's TypeError (outside testers). Each is
+    one line naming the argument, before anything runs."""
+    from gearsweep.api import run_study
+
+    monkeypatch.chdir(tmp_path)
+    for bad in ("yes", 5, None):
+        with pytest.raises(StudyError, match=rf"^<study>: progress: {bad!r} -- True, False or"
+                                             r" 'log'$"):
+            gearsweep.run(small_whine, progress=bad)
+        with pytest.raises(StudyError, match=r"progress: .* -- True, False or 'log'$"):
+            run_study(small_whine, progress=bad)
+    for bad in ("yes", 1, None):
+        with pytest.raises(StudyError, match=rf"^<study>: in_memory: {bad!r} -- True or False$"):
+            gearsweep.estimate(small_whine, in_memory=bad)
+    for bad in (3, None, b"r.nc"):
+        with pytest.raises(ResultError, match=r"^path: a result file's path \(str or Path\),"
+                                              rf" not {type(bad).__name__} "):
+            gearsweep.open_result(bad)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_open_result_of_a_file_that_is_not_netcdf_is_one_line(tmp_path):
     """A folder or a PNG gave xarray's four-line engine advice inside the ResultError (the CLI's
     ``inspect`` says "not a netCDF file"); one line, as every GearsweepError (an outside
