@@ -513,8 +513,15 @@ def result_model(ds: xr.Dataset | str | Path, **case: float) -> MeshModel | Math
         elif isinstance(value, bool) or not isinstance(value, int | float | np.number):
             raise ResultError(f"{name}={value!r}: a number in the result's unit"
                               f" ({coord.attrs.get('units', '?')}) or a string with a unit")
-        at = np.flatnonzero(np.isclose(coord.values, float(value), rtol=1e-9, atol=0.0))
-        if at.size != 1:  # the file's value to 9 digits (5.0 finds 4.99999999999 of a range)
+        rtol = 1e-9  # the file's value to 9 digits (5.0 finds 4.99999999999 of a range)
+        if isinstance(value, np.floating) and np.finfo(value.dtype).eps > rtol:  # np.float32(0.1)
+            rtol = float(np.finfo(value.dtype).eps)  # is 0.1 to its own precision only (it said
+            # "not one of the result's values; the nearest is 0.1"; an outside tester)
+        at = np.flatnonzero(np.isclose(coord.values, float(value), rtol=rtol, atol=0.0))
+        if at.size > 1 and isinstance(value, np.floating):
+            raise ResultError(f"{name}={value!r}: {at.size} of the result's values are within"
+                              f" {value.dtype}'s precision of it: give it as a float (64-bit)")
+        if at.size != 1:
             near = coord.values[int(np.argmin(np.abs(coord.values - float(value))))]
             raise ResultError(f"{name}={value!r} is not one of the result's {coord.size} values"
                               f" ({coord.values.min():g} to {coord.values.max():g}"

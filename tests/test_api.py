@@ -819,6 +819,25 @@ def test_result_model_gives_a_swept_field_only_where_it_is_selected(small_whine)
         gearsweep.result_model(ds, damping=[5.5])
 
 
+def test_result_model_takes_a_float32_to_its_own_precision(small_whine):
+    """``result_model(ds, damping=np.float32(2.2))`` said "not one of the result's 2 values
+    (...; the nearest is 2.2)": the match (9 digits) is tighter than a float32's. A float32
+    finds the one stored value within its own precision; two within it are one line saying
+    float32 is the cause."""
+    small_whine["sweep"]["damping"] = ["2.2 N s/mm", "5.5 N s/mm"]
+    ds = gearsweep.run(small_whine)
+    assert gearsweep.result_model(ds, damping=np.float32(2.2)).damping == 2200.0
+    with pytest.raises(ResultError, match=r"not one of the result's 2 values"):
+        gearsweep.result_model(ds, damping=np.float32(2.3))
+    small_whine["sweep"]["damping"] = ["5.5 N s/mm", "5.5000001 N s/mm"]
+    near = gearsweep.run(small_whine)
+    assert gearsweep.result_model(near, damping=5.5).damping == 5500.0
+    with pytest.raises(ResultError, match=r"^damping=np.float32\(5.5\): 2 of the result's values"
+                                          r" are within float32's precision of it: give it as a"
+                                          r" float \(64-bit\)$"):
+        gearsweep.result_model(near, damping=np.float32(5.5))
+
+
 def test_result_model_of_a_result_selected_with_sel_or_isel(small_whine):
     """``ds.sel``/``ds.isel`` make a swept dim a scalar coordinate: ``result_model`` of that
     Dataset gave the scene's unswept values (mean_force 0.0, damping of the scene), a model the
