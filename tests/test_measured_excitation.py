@@ -945,3 +945,56 @@ def test_a_mesh_phase_without_a_unit_is_mesh_cycles_and_one_in_degrees_is_told(t
     assert "span 17.72 mesh cycles" in line and ("mesh_phase is in mesh cycles (0 to 1); an angle"
                                                   " of the driving gear is an 'angle [deg]'"
                                                   " column") in line, line
+
+
+def _unit_slip_files(tmp_path: Path, unit: str) -> Path:
+    """0.5 um of STE and 300 kN/mm of stiffness written in N/mm, under the header's ``unit``."""
+    phi = np.arange(64) / 64
+    return write_csv(tmp_path / "ltca.csv", f"mesh_phase [1], ste [um], mesh_stiffness [{unit}]",
+                     zip(phi, 0.5 + 0.1 * np.cos(TWO_PI * phi), 3e5 + 5e4 * np.cos(TWO_PI * phi),
+                         strict=True))
+
+
+@pytest.mark.parametrize(("unit", "force", "message"), [
+    ("N/m", F_M, ("scene.excitation.file: 'ltca.csv' -- the fitted mean of column 'mesh_stiffness'"
+     " [N/m] is 3e+05 N/m: at the scene's mean mesh force 900 N it gives a static mesh deflection"
+     " F_m/k0 = 3000 um, beyond 1 mm")),
+    ("N/m", 240.0, ("F_m/k0 = 800 um, 1.33e+03 times the file's largest STE sample (0.6 um), which"
+     " holds it (at most 1000): a unit slip, N/mm data labelled N/m?")),
+    ("kN/mm", F_M, ("the fitted mean of column 'mesh_stiffness' [kN/mm] is 3e+05 kN/mm (3e+11 N/m),"
+     " stiffer than any spur mesh")),
+])
+def test_a_stiffness_column_in_the_wrong_unit_is_refused(tmp_path, capsys, unit, force, message):
+    """N/mm data labelled N/m ran with status 0 and no warning, p_mean 4208 um (an outside
+    tester), as did N/mm data labelled kN/mm (3e11 N/m): the mean stiffness's static deflection
+    against the largest STE and the file's STE, and a stiffness beyond any spur mesh, are
+    refused in one line naming the column, the value in its unit and the likely slip."""
+    _unit_slip_files(tmp_path, unit)
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine().replace(str(F_M), f"{force:g}")
+                       + "  excitation: {file: ltca.csv, harmonics: 3}\n"), encoding="utf-8")
+    assert main(["validate", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(f) in err and message in err, err
+    if unit == "N/m" and force == F_M:
+        assert "a unit slip, N/mm data labelled N/m?" in err
+
+
+def test_a_borderline_stiffness_deflection_is_warned_and_a_plausible_one_is_not(tmp_path, capsys):
+    """A deflection F_m/k0 100 to 1000 times the file's largest STE runs, with a warning; the
+    same samples in their own unit (N/mm) run without one."""
+    _unit_slip_files(tmp_path, "N/m")
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine().replace(str(F_M), "50")
+                       + "  excitation: {file: ltca.csv, harmonics: 3}\n"), encoding="utf-8")
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")  # shown as one line by the CLI
+        assert main(["validate", str(f)]) == 0
+    err = capsys.readouterr().err
+    assert ("gearsweep: warning: ltca.csv: the fitted mean of column 'mesh_stiffness' [N/m] is"
+            " 3e+05 N/m") in err and "278 times the file's largest STE sample" in err, err
+    _unit_slip_files(tmp_path, "N/mm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["validate", str(f)]) == 0
+    assert "warning" not in capsys.readouterr().err

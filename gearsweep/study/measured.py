@@ -42,6 +42,7 @@ import difflib
 import math
 import re
 import stat
+import warnings
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -52,6 +53,7 @@ from pydantic import Field, ValidationInfo, field_validator
 
 from gearsweep.errors import NO_VALUE, article
 from gearsweep.files import NotUtf8, user_path, utf8_text
+from gearsweep.gear import GeometryWarning
 from gearsweep.gear.measured import (
     FitError,
     MeasuredExcitation,
@@ -121,6 +123,9 @@ class Samples:
     integrated: Integrated | None = None
     """A mesh study's integrated harmonics of k and the STE (``None``: the file has samples
     only)."""
+    stiffness_unit: tuple[str, str, float] | None = None
+    """The stiffness column's name, its unit as written and N/m per that unit (``None``: no
+    stiffness), to say a value in the unit written."""
 
     def mesh_phase(self, teeth: int) -> np.ndarray:
         return self.at if self.position == "mesh_phase" else self.at * teeth / (2.0 * math.pi)
@@ -392,7 +397,10 @@ def _samples(names: list[tuple[str, str]], data: np.ndarray, stated: dict,
         where = (f"line {rows_at[row][0]}: {rows_at[row][1][index['ste']].strip()!r}"
                  if rows_at is not None else f"a sample of {names[index['ste']][0]!r}")
         raise ValueError(f"{where} is beyond {STE_BEYOND}")
-    return Samples(position, si["position"], si.get("ste"), si.get("stiffness"), **stated)
+    k_unit = ((*names[index["stiffness"]], factor["stiffness"]) if "stiffness" in index
+              else None)
+    return Samples(position, si["position"], si.get("ste"), si.get("stiffness"), **stated,
+                   stiffness_unit=k_unit)
 
 
 class LoadNotHeld(ValueError):
@@ -558,10 +566,78 @@ def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
                  f" over a {span}{f' of {scene.teeth} teeth' if period > 1 else ''};"
                  f" excitation.file has {n}"))]
     try:
-        scene_measured(scene, scene_mean_force(scene))
+        fit = scene_measured(scene, scene_mean_force(scene))
     except FitError as exc:
         return [("scene.excitation.file", Path(ex.file).name, str(exc))]
+    return [("scene.excitation.file", Path(ex.file).name, m)
+            for m in _stiffness_problems(s, fit.stiffness, scene_mean_force(scene), ex.file)]
+
+
+STIFFEST_MESH = 1e11
+"""The largest mean mesh stiffness k0 [N/m] an excitation file may give: ISO 6336-1's c_gamma of
+steel spur teeth is about 20 N/(mm um) per face width, 2e10 N/m for a face a metre wide, and the
+stiffest gear material (cemented carbide, ``geometry.GEAR_MODULUS``) is 3.4 times steel: 1e11
+N/m is beyond any spur mesh, and N/mm data labelled kN/mm (3e11 N/m for 300 kN/mm) is caught."""
+
+DEFLECTION_OVER_STE = (100.0, 1000.0)
+"""Warned and refused ratios of the static mesh deflection F_m / k0 to the excitation file's
+largest |STE| sample: a loaded STE holds the deflection (STE = F_m / k + e), so it is of the
+deflection's size (with its mean), or at least a tip relief's remainder of its variation (mean
+removed, hardly less than 1 % of it); 1000 times is a unit slip of the stiffness (N/mm data
+labelled N/m: 4.2 mm against 6.6 um, an outside tester)."""
+
+STIFFNESS_UNITS = {"N/m": 1.0, "N/mm": 1e3, "kN/mm": 1e6, "kN/um": 1e9}
+"""Stiffness units a slip of a factor 1000 is said in (``_stiffness_problems``)."""
+
+
+def _slip(unit: str, factor: float, times: float) -> str:
+    """The likely slip of a stiffness column in ``unit`` (``factor`` N/m) whose values are
+    ``times`` too small (1000) or too large (1e-3)."""
+    other = next((u for u, f in STIFFNESS_UNITS.items()
+                  if math.isclose(f, factor * times, rel_tol=1e-9)), None)
+    if other is None:
+        return f"data in a unit {max(times, 1 / times):g} times {'larger' if times > 1 else 'smaller'}"
+    return f"{other} data labelled {unit}"
+
+
+def _stiffness_problems(s: Samples, k0: float | None, mean_force: float, file: str
+                        ) -> list[str]:
+    """A fitted mean stiffness no spur mesh has (``STIFFEST_MESH``), or whose static deflection
+    F_m / k0 is beyond ``MAX_STE`` or ``DEFLECTION_OVER_STE`` of the file's own STE (refused;
+    warned from the lower ratio): N/mm data labelled N/m ran with status 0, p_mean 4208 um (an
+    outside tester)."""
+    if k0 is None or s.stiffness_unit is None:
+        return []
+    name, unit, factor = s.stiffness_unit
+    said = (f"the fitted mean of column {name!r} [{unit}] is {k0 / factor:.4g} {unit}"
+            + (f" ({k0:.4g} N/m)" if factor != 1.0 else ""))
+    if k0 > STIFFEST_MESH:
+        return [(f"{said}, stiffer than any spur mesh (at most {STIFFEST_MESH:g} N/m: ISO 6336-1's"
+                f" c_gamma is about 2e10 N/m per metre of face width for steel): a unit slip,"
+                f" {_slip(unit, factor, 1e-3)}?")]
+    if not mean_force > 0:
+        return []
+    d = mean_force / k0
+    peak = float(np.max(np.abs(s.ste))) if s.ste is not None else 0.0
+    ratio = d / peak if peak > 0 else 0.0
+    slip = f"a unit slip, {_slip(unit, factor, 1e3)}?"
+    deflects = (f"{said}: at the scene's mean mesh force {mean_force:.4g} N it gives a static"
+                f" mesh deflection F_m/k0 = {d * 1e6:.4g} um")
+    of_ste = f", {ratio:.3g} times the file's largest STE sample ({peak * 1e6:.4g} um), which holds it"
+    if d > MAX_STE:
+        return [(f"{deflects}, beyond {MAX_STE * 1e3:g} mm (teeth deflect micrometres to tens of"
+                f" micrometres){of_ste if peak > 0 else ''}: {slip}")]
+    if ratio > DEFLECTION_OVER_STE[1]:
+        return [f"{deflects}{of_ste} (at most {DEFLECTION_OVER_STE[1]:g}): {slip}"]
+    if ratio > DEFLECTION_OVER_STE[0]:
+        warnings.warn(MeasuredWarning(f"{Path(file).name}: {deflects}{of_ste} (more than"
+                                      f" {DEFLECTION_OVER_STE[0]:g}): {slip}"), stacklevel=2)
     return []
+
+
+class MeasuredWarning(GeometryWarning):
+    """An excitation file's values that run but look like a unit slip (one ``gearsweep:
+    warning:`` line, as a gear pair's)."""
 
 
 def _stated_load_problems(scene: Any, swept: dict, file_torque: float | None
