@@ -998,3 +998,33 @@ def test_a_borderline_stiffness_deflection_is_warned_and_a_plausible_one_is_not(
         warnings.simplefilter("error")
         assert main(["validate", str(f)]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("header", "positions", "message"), [
+    ("angle [deg]", np.arange(64) * 360.0 / 25 / 64,
+     ("scene.teeth: 20 -- the 64 evenly spaced samples of excitation.file cover 14.4 deg, less than"
+     " the 18 deg of one mesh cycle of 20 teeth, leaving 17 spacings between the last and the"
+     " first a period later (at most 1.5): samples of a 25-tooth gear's mesh cycle, not the"
+     " scene's 20 teeth, or the angle's unit?")),
+    ("mesh_phase [1]", np.arange(64) * 0.9 / 64,
+     "cover 0.9 mesh cycles, less than the 1 of one mesh cycle of 20 teeth, leaving 8.11 spacings"),
+])
+def test_evenly_spaced_samples_over_less_than_the_period_are_refused(tmp_path, capsys, header,
+                                                                      positions, message):
+    """A cycle of a 25-tooth gear written in degrees for a scene of 23 teeth spans 0.92 of its
+    cycle, and was fitted as if periodic (order 3 off by 32 %: an outside tester): evenly spaced
+    samples whose closing gap is several spacings are refused, naming the span, the period and
+    the likely cause; unevenly spaced ones over the whole cycle still run."""
+    phi = np.arange(64) / 64
+    write_csv(tmp_path / "ltca.csv", f"{header}, ste [um]",
+              zip(positions, series(3.0, [(1.0, 1, 0.2)], phi), strict=True))
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  stiffness: 200 kN/mm\n  excitation: {file: ltca.csv,"
+                                   " harmonics: 3}\n")), encoding="utf-8")
+    assert main(["validate", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(f) in err and message in err, err
+    uneven = np.sort(np.random.default_rng(3).uniform(0.0, 1.0, 64))
+    write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um]",
+              zip(uneven, series(3.0, [(1.0, 1, 0.2)], uneven), strict=True))
+    assert main(["validate", str(f)]) == 0
