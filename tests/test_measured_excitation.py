@@ -1028,3 +1028,30 @@ def test_evenly_spaced_samples_over_less_than_the_period_are_refused(tmp_path, c
     write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um]",
               zip(uneven, series(3.0, [(1.0, 1, 0.2)], uneven), strict=True))
     assert main(["validate", str(f)]) == 0
+
+
+@pytest.mark.parametrize(("last", "message"), [
+    ([(0.140625, 5.5), (0.140625, 6.0)], ("lines 12 and 13: two samples at mesh_phase 0.140625 with"
+     " ste 5.5 and 6 um: keep one")),
+    ([(1.0, 6.0)], "line 67, a period after line 3, repeats it with ste 6 and 3 um"),
+])
+def test_conflicting_samples_at_one_position_or_a_period_apart_are_refused(tmp_path, capsys,
+                                                                           last, message):
+    """Two samples at one mesh phase with different STE were averaged by the fit, and a closing
+    sample (mesh phase 1) 3 um above the first was dropped without a word (an outside tester):
+    both are refused, naming the lines. A closing sample equal to the first still runs."""
+    phi = np.arange(64) / 64
+    rows = [(p, v) for p, v in zip(phi, series(3.0, [(1.0, 1, 0.0)], phi + 0.25), strict=True)]
+    rows = sorted(rows + last) if last[0][0] < 1 else rows + last
+    if last[0][0] < 1:
+        rows.remove((0.140625, float(series(3.0, [(1.0, 1, 0.0)], 0.140625 + 0.25))))
+    write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um]", rows)
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  stiffness: 200 kN/mm\n  excitation: {file: ltca.csv,"
+                                   " harmonics: 3}\n")), encoding="utf-8")
+    assert main(["validate", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(f) in err and message in err, err
+    clean = list(zip(phi, series(3.0, [(1.0, 1, 0.0)], phi + 0.25), strict=True))
+    write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um]", [*clean, (1.0, clean[0][1])])
+    assert main(["validate", str(f)]) == 0

@@ -123,6 +123,8 @@ class Samples:
     integrated: Integrated | None = None
     """A mesh study's integrated harmonics of k and the STE (``None``: the file has samples
     only)."""
+    lines: tuple[int, ...] | None = None
+    """The CSV line of each sample (``None``: a netCDF file, whose samples are said by index)."""
     stiffness_unit: tuple[str, str, float] | None = None
     """The stiffness column's name, its unit as written and N/m per that unit (``None``: no
     stiffness), to say a value in the unit written."""
@@ -399,8 +401,61 @@ def _samples(names: list[tuple[str, str]], data: np.ndarray, stated: dict,
         raise ValueError(f"{where} is beyond {STE_BEYOND}")
     k_unit = ((*names[index["stiffness"]], factor["stiffness"]) if "stiffness" in index
               else None)
-    return Samples(position, si["position"], si.get("ste"), si.get("stiffness"), **stated,
-                   stiffness_unit=k_unit)
+    lines = tuple(line for line, _ in rows_at) if rows_at is not None else None
+    samples = Samples(position, si["position"], si.get("ste"), si.get("stiffness"), **stated,
+                      stiffness_unit=k_unit, lines=lines)
+    twins = _twin_problem(samples, *names[index["position"]], data[:, index["position"]])
+    if twins:
+        raise ValueError(twins)
+    return samples
+
+
+AGREE = 1e-2
+"""How far two samples at one position (or a closing one and the first, a period apart) may
+differ, as a share of their column's peak-to-peak, before they are refused as conflicting."""
+
+
+def _where(s: Samples, i: int) -> str:
+    return f"line {s.lines[i]}" if s.lines is not None else f"sample {i}"
+
+
+def _disagree(s: Samples, i: int, j: int) -> str:
+    """How samples ``i`` and ``j`` differ beyond ``AGREE`` (``""``: they agree)."""
+    for which, values, unit, scale in (("ste", s.ste, "um", 1e6),
+                                       ("mesh_stiffness", s.stiffness, "kN/mm", 1e-6)):
+        if values is None:
+            continue
+        if abs(values[i] - values[j]) > AGREE * float(np.ptp(values)):
+            return (f"{which} {values[i] * scale:.6g} and {values[j] * scale:.6g} {unit}")
+    return ""
+
+
+def _twin_problem(s: Samples, position: str, unit: str, written: np.ndarray) -> str:
+    """Two samples at the same position (``written``: in the file's ``unit``) whose values
+    disagree (the fit averaged them: an outside tester), or ``""``."""
+    order = np.argsort(written, kind="stable")
+    same = np.flatnonzero(np.diff(written[order]) == 0)
+    for k in same:
+        i, j = int(order[k]), int(order[k + 1])
+        differ = _disagree(s, i, j)
+        if differ:
+            both = (f"lines {s.lines[i]} and {s.lines[j]}" if s.lines is not None
+                    else f"samples {i} and {j}")
+            return (f"{both}: two samples at {position} {written[i]:.10g}"
+                    f"{'' if unit.strip().lower() in DIMENSIONLESS else f' {unit}'} with {differ}: keep one")
+    return ""
+
+
+def _closing_problem(s: Samples, phi: np.ndarray, period: float) -> str:
+    """A last sample a period after the first (dropped by ``_one_period``) whose values are not
+    the first's (3 um above it was dropped without a word: an outside tester), or ``""``."""
+    if _one_period(phi, period).size == phi.size:
+        return ""
+    differ = _disagree(s, phi.size - 1, 0)
+    if not differ:
+        return ""
+    return (f"{_where(s, phi.size - 1)}, a period after {_where(s, 0)}, repeats it with"
+            f" {differ} (a period later a sample must be the same; one of them is wrong)")
 
 
 class LoadNotHeld(ValueError):
@@ -565,6 +620,9 @@ def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
         return [("scene.excitation.harmonics", ex.harmonics, (f"needs at least {need} samples"
                  f" over a {span}{f' of {scene.teeth} teeth' if period > 1 else ''};"
                  f" excitation.file has {n}"))]
+    closing = _closing_problem(s, phi, period)
+    if closing:
+        return [("scene.excitation.file", Path(ex.file).name, closing)]
     short = _short_span(s, phi, period, scene.teeth, span)
     if short:
         return [("scene.excitation.span" if ex.span == "revolution" else "scene.teeth",
