@@ -1055,3 +1055,27 @@ def test_conflicting_samples_at_one_position_or_a_period_apart_are_refused(tmp_p
     clean = list(zip(phi, series(3.0, [(1.0, 1, 0.0)], phi + 0.25), strict=True))
     write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um]", [*clean, (1.0, clean[0][1])])
     assert main(["validate", str(f)]) == 0
+
+
+def test_a_negative_constant_stiffness_and_a_nan_in_netcdf_are_said_where(tmp_path, capsys):
+    """A rattle scene's negative stiffness samples were refused 'at mesh phase nan', and a NaN in
+    a netCDF file as 'every sample must be a finite number' (an outside tester): the mean, the
+    least sample and its mesh phase; the variable and the index."""
+    phi = np.arange(64) / 64
+    k = -series(K0, K_H, phi)
+    with pytest.raises(FitError, match=r"not positive \(a mean of -2e\+08 N/m; the least sample"
+                                       r" -2.306e\+08 N/m at mesh phase 0.766\)"):
+        measured_excitation(phi, None, k, fit_orders(2, 48, False), time_varying=False,
+                            mean_force=F_M)
+    path = _ltca_netcdf(tmp_path / "ltca.nc", {"ste": "ste", "stiffness": "mesh_stiffness"})
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    ds["ste"][5] = np.nan
+    ds.to_netcdf(path)
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  excitation: {file: ltca.nc, harmonics: 3}\n")),
+                 encoding="utf-8")
+    assert main(["validate", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(f) in err and ("variable 'ste': its value at index"
+                                                            " 5 is nan, not a finite number") in err, err

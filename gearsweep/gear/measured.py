@@ -119,6 +119,19 @@ def positive_minimum(mean: float, harmonics, period: float = 1.0) -> tuple[float
     return best
 
 
+def _least(low: float, where: float, phi, stiffness) -> str:
+    """Where a stiffness is not positive: the least value of its series and the mesh phase of
+    it, or where that is the mean alone (constant stiffness: ``positive_minimum`` gives no
+    phase), the mean and the least sample and its mesh phase ("at mesh phase nan" was said: an
+    outside tester)."""
+    if not math.isnan(where):
+        return f"{low:.4g} N/m at mesh phase {where:.3g}"
+    k = np.asarray(stiffness, dtype=float)
+    i = int(np.argmin(k))
+    return (f"a mean of {low:.4g} N/m; the least sample {k[i]:.4g} N/m at mesh phase"
+            f" {float(np.asarray(phi, dtype=float)[i]):.3g}")
+
+
 def fit_fourier(phi, values, orders) -> FourierFit:
     """Least-squares fit of ``values`` sampled at mesh phases ``phi`` with Eq. (1) at ``orders``.
 
@@ -232,8 +245,9 @@ def measured_excitation(phi, ste, stiffness, orders, *, time_varying: bool, mean
         low, where = positive_minimum(k_fit.mean, k_fit.harmonics if time_varying else (),
                                       1.0 / np.min(orders))
         if not low > 0:
-            raise FitError(f"the fitted mesh stiffness is not positive ({low:.4g} N/m at mesh"
-                           f" phase {where:.3g}): check the samples and their unit")
+            least = _least(low, where, phi, stiffness)
+            raise FitError(f"the fitted mesh stiffness is not positive ({least}): check the"
+                           " samples and their unit")
     k0 = k_fit.mean if k_fit is not None else None
     k_h = k_fit.harmonics if (k_fit is not None and time_varying) else ()
     e_fit, rms, mx = None, math.nan, math.nan
@@ -317,8 +331,8 @@ def integrated_excitation(phi, ste, stiffness, k, ste_series, e_series, harmonic
     k_fit = _held(phi, stiffness, *_series_of(*k, harmonics))
     low, where = positive_minimum(k_fit.mean, k_fit.harmonics if time_varying else ())
     if not low > 0:
-        raise FitError(f"the mesh stiffness's series is not positive ({low:.4g} N/m at mesh"
-                       f" phase {where:.3g})")
+        raise FitError(f"the mesh stiffness's series is not positive"
+                       f" ({_least(low, where, phi, stiffness)})")
     ste = np.asarray(ste, dtype=float)
     if with_k:
         e_fit = _held(phi, ste - mean_force / stiffness, *_series_of(*e_series, harmonics))

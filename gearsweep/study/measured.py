@@ -382,7 +382,9 @@ def _samples(names: list[tuple[str, str]], data: np.ndarray, stated: dict,
             line, cells = rows_at[row]
             raise ValueError(f"line {line}: {cells[used[col]].strip()!r} is not a finite"
                              " number (every sample must be one)")
-        raise ValueError("every sample must be a finite number")
+        raise ValueError(f"variable {names[used[col]][0]!r}: its value at index {row} is"
+                         f" {data[row, used[col]]:g}, not a finite number (every sample must"
+                         " be one)")
 
     with np.errstate(over="ignore"):  # 1e308 N/mm is 1e311 N/m: said below, in one line
         si = {which: data[:, i] * factor[which] for which, i in index.items()}
