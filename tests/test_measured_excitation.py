@@ -1079,3 +1079,21 @@ def test_a_negative_constant_stiffness_and_a_nan_in_netcdf_are_said_where(tmp_pa
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(f) in err and ("variable 'ste': its value at index"
                                                             " 5 is nan, not a finite number") in err, err
+
+
+@pytest.mark.parametrize("sweep", ["  mean_force: [900 N, 1800 N]\n",
+                                   "  torque: [40 N*m, 80 N*m]\n"])
+def test_a_rattle_scene_with_a_measured_ste_sweeps_no_load(tmp_path, capsys, sweep):
+    """A rattle scene swept torque or mean_force keeping one load's measured STE, where a whine
+    scene refuses the sweep (an outside tester): refused the same way; its stiffness (a
+    typed-in k0, which e = STE does not depend on) may still be swept."""
+    whine_files(tmp_path)
+    f = tmp_path / "s.yaml"
+    scene = ("  kind: rattle\n  teeth: 20\n  mass: 0.2 kg\n  damping: 2 N*s/mm\n"
+             "  backlash: 100 um\n  base_radius: 40 mm\n  excitation: {file: ltca.csv, harmonics: 3}\n")
+    f.write_text(study(scene, "sweep:\n  speed: [1000 rpm]\n" + sweep), encoding="utf-8")
+    assert main(["validate", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    name = sweep.split(":")[0].strip()
+    assert len(err.splitlines()) == 1 and str(f) in err and (
+        f"sweep.{name}: a measured STE holds for its load: one study per load") in err, err

@@ -584,12 +584,17 @@ def excitation_problems(scene: Any, swept, swept_loads: dict | None = None
         if getattr(scene, "ste", None):
             out.append(("scene.ste", NO_VALUE, "excitation.file gives the STE: remove it"))
         out += _stated_load_problems(scene, swept_loads or {}, s.torque)
-        if scene.kind != "rattle":
-            for name in ("torque", "mean_force", "stiffness"):
-                if name in swept and not (name == "stiffness" and s.stiffness is not None):
-                    out.append((f"sweep.{name}", NO_VALUE, ("with k(t) the excitation e = STE -"
-                                " F_m / k is fitted for one load and stiffness, and a measured"
-                                " STE holds for its load: one study per load")))
+        # A measured STE holds for its load with constant stiffness too (rattle: e = STE, a
+        # sweep of mean_force kept one load's STE for all: an outside tester); with k(t) e is
+        # also fitted for one stiffness.
+        for name in ("torque", "mean_force", "stiffness"):
+            if name not in swept or (name == "stiffness"
+                                     and (s.stiffness is not None or scene.kind == "rattle")):
+                continue
+            why = ("with k(t) the excitation e = STE - F_m / k is fitted for one load and"
+                   " stiffness, and " if scene.kind != "rattle" else "")
+            out.append((f"sweep.{name}", NO_VALUE, (f"{why}a measured STE holds for its load:"
+                        " one study per load")))
     out += _stated_pair_problems(scene, s)
     if out:
         return out
