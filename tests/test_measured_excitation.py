@@ -1006,6 +1006,7 @@ def test_a_borderline_stiffness_deflection_is_warned_and_a_plausible_one_is_not(
      " the 18 deg of one mesh cycle of 20 teeth, leaving 17 spacings between the last and the"
      " first a period later (at most 1.5): samples of a 25-tooth gear's mesh cycle, not the"
      " scene's 20 teeth, or the angle's unit?")),
+    ("angle [deg]", np.radians(np.arange(64) * 18.0 / 64), "radians written as deg?"),
     ("mesh_phase [1]", np.arange(64) * 0.9 / 64,
      "cover 0.9 mesh cycles, less than the 1 of one mesh cycle of 20 teeth, leaving 8.11 spacings"),
 ])

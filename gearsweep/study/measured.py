@@ -738,9 +738,15 @@ def _short_span(s: Samples, phi: np.ndarray, period: float, teeth: int, span: st
         deg = math.degrees(covered * 2 * math.pi / teeth)
         whole = 360.0 if period != 1 else 360.0 / teeth
         what = f"{deg:.4g} deg, less than the {whole:.4g} deg of one {span}"
-        cause = (f"samples of a {360.0 / deg:.3g}-tooth gear's mesh cycle, not the scene's"
-                 f" {teeth} teeth, or the angle's unit?" if span == "mesh cycle"
-                 else "the angle's unit?")
+        if math.isclose(math.degrees(deg), whole, rel_tol=0.02):
+            cause = "radians written as deg?"
+        elif span == "mesh cycle":
+            cause = (f"samples of a {360.0 / deg:.3g}-tooth gear's mesh cycle, not the scene's"
+                     f" {teeth} teeth, or the angle's unit?")
+        elif math.isclose(deg, 360.0 / teeth, rel_tol=0.02):
+            cause = "samples over a mesh cycle: span: mesh_cycle?"
+        else:
+            cause = "the angle's unit?"
     return (f"the {p.size} evenly spaced samples of excitation.file cover {what} of"
             f" {teeth} teeth, leaving {gap / spacing:.3g} spacings between the last and the"
             f" first a period later (at most {CLOSING_GAP:g}): {cause}")
