@@ -726,3 +726,17 @@ def test_a_variable_alone_is_refused_naming_the_dataset_expected():
     with pytest.raises(ValueError, match=r"^ds: .*variable='p_rms'\)\), not a DataArray"):
         plot_response_by_load(ax, ds.p_rms, by="mean_force")
     plt.close("all")
+
+
+def test_a_baseline_that_is_not_one_of_the_loads_is_named_in_one_line():
+    """``baseline=`` not among the values of ``by`` was a raw KeyError from ``sel`` (an outside
+    tester's note); now one line naming the values there are, in the result's unit, and a value
+    given to within round-off (25.000000001 for 25 N m) is that value."""
+    ds = _three_loads()
+    fig, ax = plt.subplots()
+    with pytest.raises(ValueError, match=r"^baseline=30\.0: one of the result's values of "
+                                         r"'torque' \[N m\]: 12\.5, 25, 50$"):
+        plot_response_by_load(ax, ds, by="torque", relative=True, baseline=30.0)
+    plot_response_by_load(ax, ds, by="torque", relative=True, baseline=25.000000001)
+    assert ax.get_ylabel() == "p_rms / p_rms at torque = 25 N m [-]"
+    plt.close("all")

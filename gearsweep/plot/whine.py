@@ -350,6 +350,24 @@ def _edges(c: np.ndarray) -> np.ndarray:
     return np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])
 
 
+def _baseline_value(ds: xr.Dataset, by: str, baseline) -> float:
+    """The stored value of ``by`` that ``baseline`` names (to 1e-9 relative, in the unit the
+    result stores ``by`` in); one line naming the values there are where none matches (a value
+    not among them was a raw KeyError from ``sel``)."""
+    values = np.asarray(ds[by].values, float)
+    try:
+        want = float(baseline)
+    except (TypeError, ValueError):
+        want = math.nan
+    match = np.flatnonzero(np.isclose(values, want, rtol=1e-9, atol=0.0))
+    if match.size != 1:
+        unit = ds[by].attrs.get("units", "")
+        raise ValueError(f"baseline={baseline!r}: one of the result's values of {by!r}"
+                         f"{f' [{unit}]' if unit else ''}: "
+                         + ", ".join(f"{v:g}" for v in values))
+    return float(values[match[0]])
+
+
 def plot_response_by_load(
     ax: Axes,
     ds: xr.Dataset,
@@ -409,7 +427,7 @@ def plot_response_by_load(
     da, n_bad, n_all = settled(ds[variable], ds)  # a case that has not settled is no point
     lost = contact_lost(da, ds)
     speed = ds["speed"].values
-    first = float(ds[by].values[0]) if baseline is None else float(baseline)
+    first = float(ds[by].values[0]) if baseline is None else _baseline_value(ds, by, baseline)
     dirs = list(ds["direction"].values) if "direction" in da.dims else [None]  # each drawn
     bands, n_lost, n_drawn = [], 0, 0
     for v in ds[by].values:
