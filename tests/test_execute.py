@@ -240,13 +240,7 @@ def test_a_chunk_saved_by_an_older_gearsweep_without_a_newer_variable_is_recompu
     saved before ``transient_left`` was recorded (27 Nov 2026) has every other array right. It
     is computed again, not written with a hole where the new variable is; the intact ones are
     reused."""
-    log = tmp_path / "chunks.log"
-    monkeypatch.setenv("GEARSWEEP_CHUNK_LOG", str(log))
-    out = tmp_path / "r.nc"
-    plan = plan_of(RATTLE)
-    chunks = plan.chunks(execute.lanes_per_chunk(plan, CHUNK))
-    with pytest.raises(Crash):
-        run_plan(plan, backend=CrashAfter(3), checkpoint=out, chunk_cases=CHUNK)
+    log, out, plan, chunks = _interrupted(tmp_path, monkeypatch, 3)
     store = ChunkStore(out, plan.study_key, plan.n_lanes, chunks)
     old = store.load(*chunks[1])
     assert "transient_left" in old

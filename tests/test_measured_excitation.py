@@ -1000,6 +1000,18 @@ def test_a_borderline_stiffness_deflection_is_warned_and_a_plausible_one_is_not(
     assert "warning" not in capsys.readouterr().err
 
 
+def _refused_in_one_line(tmp_path, capsys, message: str) -> Path:
+    """A whine study on ``ltca.csv`` (typed stiffness, 3 harmonics), which ``gearsweep
+    validate`` refuses in one line naming the study and holding ``message``; the study's path."""
+    f = tmp_path / "s.yaml"
+    f.write_text(study(typed_whine("  stiffness: 200 kN/mm\n  excitation: {file: ltca.csv,"
+                                   " harmonics: 3}\n")), encoding="utf-8")
+    assert main(["validate", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(f) in err and message in err, err
+    return f
+
+
 @pytest.mark.parametrize(("header", "positions", "message"), [
     ("angle [deg]", np.arange(64) * 360.0 / 25 / 64,
      ("scene.teeth: 20 -- the 64 evenly spaced samples of excitation.file cover 14.4 deg, less than"
@@ -1019,12 +1031,7 @@ def test_evenly_spaced_samples_over_less_than_the_period_are_refused(tmp_path, c
     phi = np.arange(64) / 64
     write_csv(tmp_path / "ltca.csv", f"{header}, ste [um]",
               zip(positions, series(3.0, [(1.0, 1, 0.2)], phi), strict=True))
-    f = tmp_path / "s.yaml"
-    f.write_text(study(typed_whine("  stiffness: 200 kN/mm\n  excitation: {file: ltca.csv,"
-                                   " harmonics: 3}\n")), encoding="utf-8")
-    assert main(["validate", str(f)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and str(f) in err and message in err, err
+    f = _refused_in_one_line(tmp_path, capsys, message)
     uneven = np.sort(np.random.default_rng(3).uniform(0.0, 1.0, 64))
     write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um]",
               zip(uneven, series(3.0, [(1.0, 1, 0.2)], uneven), strict=True))
@@ -1047,12 +1054,7 @@ def test_conflicting_samples_at_one_position_or_a_period_apart_are_refused(tmp_p
     if last[0][0] < 1:
         rows.remove((0.140625, float(series(3.0, [(1.0, 1, 0.0)], 0.140625 + 0.25))))
     write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um]", rows)
-    f = tmp_path / "s.yaml"
-    f.write_text(study(typed_whine("  stiffness: 200 kN/mm\n  excitation: {file: ltca.csv,"
-                                   " harmonics: 3}\n")), encoding="utf-8")
-    assert main(["validate", str(f)]) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and str(f) in err and message in err, err
+    f = _refused_in_one_line(tmp_path, capsys, message)
     clean = list(zip(phi, series(3.0, [(1.0, 1, 0.0)], phi + 0.25), strict=True))
     write_csv(tmp_path / "ltca.csv", "mesh_phase [1], ste [um]", [*clean, (1.0, clean[0][1])])
     assert main(["validate", str(f)]) == 0

@@ -198,6 +198,22 @@ entry()
 """
 
 
+def _mesh_write_interrupted(tmp_path, script: str, name: str):
+    """Run ``script`` (which writes the mesh study ``m.yaml`` and signals itself with ``name``
+    as xarray writes the result) in a new process; its (process, stdout, stderr), the test
+    failed where it hangs (it did, for ever, before the write held the stop signals)."""
+    (tmp_path / "m.yaml").write_text(MESH_STUDY, encoding="utf-8")
+    proc = subprocess.Popen([sys.executable, "-c", script, name], cwd=tmp_path, env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        pytest.fail(f"hung after {name} in the result's write: {err[-2000:]}")
+    return proc, out, err
+
+
 @pytest.mark.parametrize("name, code, how", [("SIGINT", 130, "interrupted"),
                                              ("SIGTERM", 143, "terminated (SIGTERM)"),
                                              ("SIGHUP", 129, "terminated (SIGHUP)")])
@@ -208,16 +224,7 @@ def test_a_signal_while_a_mesh_result_is_written_is_one_line_and_leaves_nothing(
     Ctrl-C there hung for ever (xarray's lock taken, the close waiting for it); SIGTERM and
     SIGHUP ended it under their default action, the ``.m.nc.XXXXXXXX.partial`` and the lock
     files left (an outside tester)."""
-    (tmp_path / "m.yaml").write_text(MESH_STUDY, encoding="utf-8")
-    proc = subprocess.Popen([sys.executable, "-c", _SIGNAL_AS_XARRAY_WRITES, name],
-                            cwd=tmp_path, env=_env(), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    try:
-        _, err = proc.communicate(timeout=120)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        _, err = proc.communicate()
-        pytest.fail(f"hung after {name} in the result's write: {err[-2000:]}")
+    proc, _, err = _mesh_write_interrupted(tmp_path, _SIGNAL_AS_XARRAY_WRITES, name)
     line = (f"gearsweep: {how}: nothing written (a mesh study is computed in one piece: run"
             " the same command to compute it)\n")
     assert (proc.returncode, err) == (code, line), err[-3000:]
@@ -1504,15 +1511,7 @@ def test_a_ctrl_c_while_the_api_writes_a_mesh_result_raises_and_leaves_nothing(t
     """``gearsweep.run(mesh_study, output=...)``: a Ctrl-C in xarray's write raises
     ``KeyboardInterrupt`` once the file is closed, and removes it, the lock files too (it hung
     for ever, as the CLI did)."""
-    (tmp_path / "m.yaml").write_text(MESH_STUDY, encoding="utf-8")
-    proc = subprocess.Popen([sys.executable, "-c", _API_INTERRUPTED_AS_XARRAY_WRITES, "SIGINT"],
-                            cwd=tmp_path, env=_env(), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    try:
-        out, err = proc.communicate(timeout=120)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, err = proc.communicate()
-        pytest.fail(f"hung after a Ctrl-C in the result's write: {err[-2000:]}")
+    proc, out, err = _mesh_write_interrupted(tmp_path, _API_INTERRUPTED_AS_XARRAY_WRITES,
+                                             "SIGINT")
     assert (proc.returncode, out) == (0, "KeyboardInterrupt\n"), err[-3000:]
     assert sorted(os.listdir(tmp_path / "out")) == []
