@@ -716,9 +716,11 @@ class ResultFile:
         """Cases written so far that are beyond the step limit (``beyond_step_limit``)."""
         self.contact_lost = 0
         """Cases written so far whose teeth would separate (``contact_lost``)."""
-        self.parted: int | None = 0 if "contact_loss_fraction" in self.dims else None
-        """Cases written so far whose flanks parted (``outputs.parted_cases``; ``None`` where
-        the stats that say so are not stored)."""
+        self.parted: int | None = 0 if "contact_loss_fraction" in self.dims and (
+            "spectrum" in plan.outputs) else None
+        """Cases written so far whose flanks parted (``outputs.parted_cases``), counted only for
+        a spectrum's warning (``outputs.impact_aliasing``); ``None`` where the stats that say so
+        are not stored, or there is no spectrum to warn of (no pass over every case then)."""
         self.written: dict[str, Any] = {}
         """The global attributes as ``close`` wrote them."""
         self.nc = netCDF4.Dataset(str(self.tmp), mode="w", format="NETCDF4")
@@ -766,9 +768,8 @@ class ResultFile:
             self.beyond += int(np.count_nonzero(arrays["beyond_step_limit"]))
         if "contact_lost" in arrays:
             self.contact_lost += int(np.count_nonzero(arrays["contact_lost"]))
-        parted = parted_cases(arrays)
-        if parted is not None and self.parted is not None:
-            self.parted += parted
+        if self.parted is not None:
+            self.parted += parted_cases(arrays) or 0
         lane_shape = [len(plan.grids[d]) for d in plan.lane_dims]
         for lo, hi, box in boxes(lane0, lane1, lane_shape):
             for name, arr in arrays.items():
